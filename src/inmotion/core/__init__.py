@@ -1,0 +1,1 @@
+"""Math and physics: rotations, Earth model, SINS mechanization, dead reckoning."""

@@ -1,0 +1,185 @@
+"""One drive in memory: the sensors' data and, where known, the truth, all in SI units.
+
+This is the in-memory twin of the bundle folder of ``shared/DESIGN.md``. Files (degrees,
+CSV/Parquet, validation) are the business of :mod:`inmotion.io.bundle`; here every angle is
+in rad, latitude and longitude in rad, and every array is float64 on one time base ``t`` [s].
+
+Methods take a :class:`Bundle` and never read files.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from typing import Optional
+
+import numpy as np
+
+from . import rotations
+
+__all__ = ["ImuData", "SpeedData", "BaroData", "Truth", "Bundle", "VELOCITY_SENSORS"]
+
+#: the forward-velocity sensors a bundle may carry, by file name
+VELOCITY_SENSORS = ("radar", "ldv", "odometer")
+
+
+def _as_1d(name, x):
+    x = np.ascontiguousarray(x, dtype=float)
+    if x.ndim != 1:
+        raise ValueError(f"{name} must be 1-D, got shape {x.shape}")
+    return x
+
+
+def _as_n3(name, x, n):
+    x = np.ascontiguousarray(x, dtype=float)
+    if x.shape != (n, 3):
+        raise ValueError(f"{name} must have shape ({n}, 3), got {x.shape}")
+    return x
+
+
+@dataclass
+class ImuData:
+    """Angle increments ``dtheta`` [rad] and velocity increments ``dvel`` [m/s] in b, (N, 3),
+    each over the interval ending at ``t`` [s] (N,)."""
+
+    t: np.ndarray
+    dtheta: np.ndarray
+    dvel: np.ndarray
+
+    def __post_init__(self):
+        self.t = _as_1d("imu.t", self.t)
+        self.dtheta = _as_n3("imu.dtheta", self.dtheta, len(self.t))
+        self.dvel = _as_n3("imu.dvel", self.dvel, len(self.t))
+
+    @property
+    def dt(self) -> float:
+        """Median sample period [s]."""
+        return float(np.median(np.diff(self.t)))
+
+    def window(self, start=None, end=None) -> "ImuData":
+        m = _mask(self.t, start, end)
+        return ImuData(self.t[m], self.dtheta[m], self.dvel[m])
+
+
+@dataclass
+class SpeedData:
+    """A forward-velocity sensor: speed ``v`` [m/s] at ``t``, or distance increments ``ds`` [m]
+    over the interval ending at ``t``; at least one of the two is given."""
+
+    t: np.ndarray
+    v: Optional[np.ndarray] = None
+    ds: Optional[np.ndarray] = None
+
+    def __post_init__(self):
+        self.t = _as_1d("t", self.t)
+        if self.v is None and self.ds is None:
+            raise ValueError("a velocity sensor needs 'v' or 'ds'")
+        if self.v is not None:
+            self.v = _as_1d("v", self.v)
+        if self.ds is not None:
+            self.ds = _as_1d("ds", self.ds)
+
+    def speed(self) -> np.ndarray:
+        """Speed [m/s]: ``v`` if given, else ``ds`` over its interval (first interval: the next)."""
+        if self.v is not None:
+            return self.v
+        dt = np.diff(self.t)
+        dt = np.concatenate([dt[:1], dt]) if len(dt) else np.ones(1)
+        return self.ds / dt
+
+    def window(self, start=None, end=None) -> "SpeedData":
+        m = _mask(self.t, start, end)
+        return SpeedData(self.t[m], None if self.v is None else self.v[m],
+                         None if self.ds is None else self.ds[m])
+
+
+@dataclass
+class BaroData:
+    """Barometric altitude ``h`` [m] at ``t`` [s]."""
+
+    t: np.ndarray
+    h: np.ndarray
+
+    def __post_init__(self):
+        self.t = _as_1d("baro.t", self.t)
+        self.h = _as_1d("baro.h", self.h)
+
+    def window(self, start=None, end=None) -> "BaroData":
+        m = _mask(self.t, start, end)
+        return BaroData(self.t[m], self.h[m])
+
+
+@dataclass
+class Truth:
+    """Reference trajectory: ``lat, lon`` [rad], ``h`` [m], ``vel_n`` ENU [m/s] (N, 3),
+    ``euler`` = [pitch, roll, yaw] [rad] (N, 3), at ``t`` [s]."""
+
+    t: np.ndarray
+    lat: np.ndarray
+    lon: np.ndarray
+    h: np.ndarray
+    vel_n: np.ndarray
+    euler: np.ndarray
+
+    def __post_init__(self):
+        self.t = _as_1d("truth.t", self.t)
+        n = len(self.t)
+        self.lat, self.lon, self.h = (_as_1d(k, getattr(self, k)) for k in ("lat", "lon", "h"))
+        self.vel_n = _as_n3("truth.vel_n", self.vel_n, n)
+        self.euler = _as_n3("truth.euler", self.euler, n)
+
+    @property
+    def C_nb(self) -> np.ndarray:
+        return rotations.dcm_from_euler(self.euler)
+
+    def window(self, start=None, end=None) -> "Truth":
+        m = _mask(self.t, start, end)
+        return Truth(self.t[m], self.lat[m], self.lon[m], self.h[m], self.vel_n[m], self.euler[m])
+
+    def at(self, t: float) -> dict:
+        """The truth row at time ``t`` (nearest sample); used by ``--init truth``."""
+        i = int(np.clip(np.searchsorted(self.t, t), 0, len(self.t) - 1))
+        return dict(t=self.t[i], lat=self.lat[i], lon=self.lon[i], h=self.h[i],
+                    vel_n=self.vel_n[i].copy(), euler=self.euler[i].copy())
+
+
+@dataclass
+class Bundle:
+    """One drive. ``meta`` is the content of ``meta.yaml`` (human units, as in the file)."""
+
+    imu: ImuData
+    meta: dict = field(default_factory=dict)
+    radar: Optional[SpeedData] = None
+    ldv: Optional[SpeedData] = None
+    odometer: Optional[SpeedData] = None
+    baro: Optional[BaroData] = None
+    truth: Optional[Truth] = None
+
+    @property
+    def name(self) -> str:
+        return str(self.meta.get("name", "unnamed"))
+
+    def velocity_sensor(self, which: Optional[str] = None) -> tuple[str, SpeedData]:
+        """The named forward-velocity sensor, or the first present of radar, ldv, odometer."""
+        names = [which] if which else list(VELOCITY_SENSORS)
+        for n in names:
+            if n not in VELOCITY_SENSORS:
+                raise ValueError(f"unknown velocity sensor {n!r}; choose from {VELOCITY_SENSORS}")
+            if getattr(self, n) is not None:
+                return n, getattr(self, n)
+        raise ValueError(f"bundle {self.name!r} has no velocity sensor"
+                         + (f" {which!r}" if which else f" (looked for {', '.join(names)})"))
+
+    def window(self, start=None, end=None) -> "Bundle":
+        """The same drive cut to ``start <= t <= end`` [s] (None: open)."""
+        def cut(x):
+            return None if x is None else x.window(start, end)
+        return Bundle(self.imu.window(start, end), dict(self.meta), cut(self.radar), cut(self.ldv),
+                      cut(self.odometer), cut(self.baro), cut(self.truth))
+
+
+def _mask(t, start, end):
+    m = np.ones(len(t), dtype=bool)
+    if start is not None:
+        m &= t >= start
+    if end is not None:
+        m &= t <= end
+    return m

@@ -1,0 +1,60 @@
+"""The list of methods: stable names, what they are, where they live.
+
+A method is a function ``run(bundle, config, init) -> Solution`` in ``inmotion.align`` or
+``inmotion.navigate``, with ``bundle`` an :class:`inmotion.core.bundle.Bundle`, ``config`` an
+instance of the method's pydantic configuration class (human units in field names, converted
+to SI inside the method, echoed back in ``Solution.info['config']``), and ``init`` a
+:class:`inmotion.core.solution.NavState` or ``None`` (methods with ``needs_attitude=False``
+use only its position and velocity, or nothing). An optional keyword ``progress`` takes a
+callable ``progress(fraction)`` for long work. Methods never read files and never print.
+
+Each method module adds itself to ``_SPECS`` below, one line per method; entries are imported
+lazily, so listing methods imports nothing heavy.
+"""
+from __future__ import annotations
+
+import importlib
+from dataclasses import dataclass
+
+__all__ = ["MethodSpec", "methods", "get"]
+
+
+@dataclass(frozen=True)
+class MethodSpec:
+    name: str            #: stable lower-case hyphenated name
+    kind: str            #: "align" or "navigate"
+    entry: str           #: "module:function" of ``run(bundle, config, init, progress=None)``
+    config: str          #: "module:Class" of the pydantic configuration
+    needs_attitude: bool  #: False: the method finds the attitude itself and ignores init's
+    summary: str         #: one line for ``inmotion methods``
+
+    def load(self):
+        """``(run, ConfigClass)``, imported now."""
+        return _resolve(self.entry), _resolve(self.config)
+
+
+def _resolve(path):
+    mod, _, attr = path.partition(":")
+    return getattr(importlib.import_module(mod), attr)
+
+
+_SPECS = [
+    MethodSpec("sins", "navigate", "inmotion.navigate.pure:run_sins",
+               "inmotion.navigate.pure:SinsConfig", True,
+               "pure strapdown inertial navigation (optional barometric height damping)"),
+    MethodSpec("dr", "navigate", "inmotion.navigate.pure:run_dr",
+               "inmotion.navigate.pure:DrConfig", True,
+               "pure dead reckoning: gyro attitude + forward-velocity sensor (paper 002)"),
+]
+
+
+def methods(kind: str | None = None) -> list[MethodSpec]:
+    """All registered methods (of one kind if given), in registration order."""
+    return [s for s in _SPECS if kind is None or s.kind == kind]
+
+
+def get(name: str) -> MethodSpec:
+    for s in _SPECS:
+        if s.name == name:
+            return s
+    raise KeyError(f"unknown method {name!r}; known: {', '.join(s.name for s in _SPECS)}")
