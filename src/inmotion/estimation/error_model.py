@@ -1,0 +1,328 @@
+"""The one shared SINS / dead-reckoning error model (continuous ``F``, ``G q G^T``, ``H`` rows).
+
+Every Kalman method of the package composes its model here instead of writing its own ``F``:
+the method picks a :class:`~inmotion.estimation.layout.Layout` (which blocks exist) and
+:class:`ErrorModel` fills the rows of the blocks present.
+
+State (blocks of :mod:`inmotion.estimation.layout`; all SI)
+    ``phi``   SINS misalignment, ENU, with ``C_b^n(computed) = (I - [phi x]) C_b^n(true)``
+    ``dv``    SINS velocity error (computed minus true), ENU
+    ``dp``    SINS position error ``[dlat, dlon, dh]`` in rad, rad, m (paper 000 eq. 15-21;
+              chosen over metres so that rows match the paper and ``Strapdown.correct``)
+    ``eps``   gyro drift in b [rad/s];  ``nabla`` accelerometer bias in b [m/s^2]
+    ``phi_D``, ``dp_D``  the dead reckoner's misalignment and position error
+    ``mount`` velocity-sensor mounting angles ``A = [alpha, beta, gamma]`` about b's x, y, z
+    ``dk``    velocity-sensor scale-factor error, ``v_measured = (1 + dk) v``
+    ``lever`` velocity-sensor lever-arm error in b (paper 003 hook)
+
+SINS error equations (phi-angle model in ENU, derived for the DESIGN convention)::
+
+    phi_dot = -[w_in x] phi + dw_in(dv, dp) - C_b^n eps - C_b^n w_g
+    dv_dot  = [f_n x] phi + [v x](2 dw_ie + dw_en) - [(2 w_ie + w_en) x] dv + dg(dh)
+              + C_b^n nabla + C_b^n w_a
+    dp_dot  = M_pv dv + M_pp dp                                (paper 000 eq. 15-17 form)
+
+These reproduce paper 000's printed SINS rows F(1..9, .) (a test compares them entry by
+entry) plus one term the paper drops: the gravity gradient ``dg_U = 2 g / R dh`` (the
+vertical channel's instability; kept because the truth has it, and harmless under baro).
+
+Dead reckoning (paper 000 sec. 3): the DR's velocity error is algebraic in the state,
+eq. 11, ``dv_D = [v x] phi_D + [v x] C_b^n A + dk v``, where ``A`` is the rotation of the
+sensor frame m from b: the vehicle moves along m's forward (y) axis, ``C_m^b = I + [A x]``,
+and the DR assumes ``C_m^b = I``. The DR attitude shares the SINS gyros, so
+
+    phi_D_dot = -[w_in x] phi_D + dw_in(dv_D, dp_D) - C_b^n eps - C_b^n w_g
+
+**The printed F of paper 000 has no ``-C_b^n eps`` in the phi_D rows** (F(16..18, 10..12)
+are absent) although G gives them the same gyro noise. ``dr_sees_gyro_drift=True`` (the
+default) keeps the derived term; ``False`` gives the printed form. A test propagates an
+injected gyro drift through the nonlinear SINS and DR and shows the drift does tilt the DR
+platform at the rate ``-C_b^n eps``, as derived; the printed form is kept only for comparison.
+
+Process noise is ``Q_c = G diag(q) G^T`` with the *same* gyro noise driving ``phi`` and
+``phi_D`` (paper 000's G), so their cross-covariance is built in.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from ..core import earth
+from ..core.rotations import skew
+
+__all__ = ["LinPoint", "ProcessNoise", "ErrorModel", "transport_jacobians",
+           "dr_velocity_rows", "euler_rows", "nhc_rows", "sensor_velocity_rows",
+           "height_rows", "EULER_ROW_NAMES"]
+
+#: order of the attitude-difference measurement rows of paper 000 eq. 23: heading, pitch, roll
+EULER_ROW_NAMES = ("yaw", "pitch", "roll")
+
+
+@dataclass
+class LinPoint:
+    """Where the model is linearized: the computed navigation state.
+
+    Parameters
+    ----------
+    lat : rad;  h : m
+    vel_n : (3,) m/s ENU
+    C_nb : (3, 3) ``C_b^n``
+    f_n : (3,) specific force in n [m/s^2] (``C_b^n f_b``), mean over the last step
+    omega_nb_b : (3,) body rate w.r.t. n in b [rad/s] (lever-arm rows only)
+    """
+
+    lat: float
+    h: float
+    vel_n: np.ndarray
+    C_nb: np.ndarray
+    f_n: np.ndarray
+    omega_nb_b: np.ndarray | None = None
+
+
+@dataclass
+class ProcessNoise:
+    """White-noise densities, SI.
+
+    Parameters
+    ----------
+    gyro_arw : rad/sqrt(s), angle random walk (white noise on rate), per axis
+    accel_vrw : m/s/sqrt(s), velocity random walk (white noise on specific force)
+    gyro_bias_rw : rad/s/sqrt(s), random walk of the gyro drift (0: random constant)
+    accel_bias_rw : m/s^2/sqrt(s), random walk of the accelerometer bias (0: constant)
+    dk_sigma : steady-state 1-sigma of the first-order Markov scale factor ``dk``
+    dk_tau : s, its correlation time (paper 000 eq. 3; ``q_k = 2 sigma^2 / tau``);
+        ``inf`` makes ``dk`` a random constant
+    mount_rw : rad/sqrt(s), random walk of the mounting angles (0: constants, eq. 4-6)
+    lever_rw : m/sqrt(s), random walk of the lever arm (0: constant)
+    """
+
+    gyro_arw: float = 0.0
+    accel_vrw: float = 0.0
+    gyro_bias_rw: float = 0.0
+    accel_bias_rw: float = 0.0
+    dk_sigma: float = 0.0
+    dk_tau: float = np.inf
+    mount_rw: float = 0.0
+    lever_rw: float = 0.0
+
+
+def transport_jacobians(lat, h, vel_n):
+    """Rates and their Jacobians for the error equations.
+
+    Returns
+    -------
+    w_ie, w_en : (3,) Earth and transport rate in n [rad/s]
+    Wie_p : (3, 3) ``d w_ie / d[lat, lon, h]``
+    Wen_v : (3, 3) ``d w_en / d v_n``
+    Wen_p : (3, 3) ``d w_en / d[lat, lon, h]`` (radii held constant: their variation with
+        latitude is 1e-3 of the terms kept)
+    Mpv : (3, 3) ``d p_dot / d v``;  Mpp : (3, 3) ``d p_dot / d p`` (paper 000 eq. 15-17)
+    """
+    ve, vn, _ = vel_n
+    r_m, r_n = earth.radii(lat)
+    rm, rn = r_m + h, r_n + h
+    s, c = np.sin(lat), np.cos(lat)
+    t, sec = s / c, 1.0 / c
+    w = earth.OMEGA_IE
+    w_ie = np.array([0.0, w * c, w * s])
+    w_en = np.array([-vn / rm, ve / rn, ve * t / rn])
+    Wie_p = np.array([[0.0, 0.0, 0.0], [-w * s, 0.0, 0.0], [w * c, 0.0, 0.0]])
+    Wen_v = np.array([[0.0, -1.0 / rm, 0.0], [1.0 / rn, 0.0, 0.0], [t / rn, 0.0, 0.0]])
+    Wen_p = np.array([[0.0, 0.0, vn / rm ** 2],
+                      [0.0, 0.0, -ve / rn ** 2],
+                      [ve * sec ** 2 / rn, 0.0, -ve * t / rn ** 2]])
+    Mpv = np.array([[0.0, 1.0 / rm, 0.0], [sec / rn, 0.0, 0.0], [0.0, 0.0, 1.0]])
+    Mpp = np.array([[0.0, 0.0, -vn / rm ** 2],
+                    [ve * t * sec / rn, 0.0, -ve * sec / rn ** 2],
+                    [0.0, 0.0, 0.0]])
+    return w_ie, w_en, Wie_p, Wen_v, Wen_p, Mpv, Mpp
+
+
+def dr_velocity_rows(layout, pt: LinPoint):
+    """(3, n) matrix ``D`` with ``dv_D = D x``: paper 000 eq. 11-14.
+
+    ``dv_D = [v x] phi_D + [v x] C_b^n A + dk v`` (DR velocity computed minus true).
+    Blocks missing from ``layout`` contribute nothing.
+    """
+    D = np.zeros((3, layout.n))
+    V = skew(pt.vel_n)
+    if "phi_D" in layout:
+        D[:, layout["phi_D"]] = V
+    if "mount" in layout:
+        D[:, layout["mount"]] = V @ pt.C_nb
+    if "dk" in layout:
+        D[:, layout["dk"]] = pt.vel_n[:, None]
+    return D
+
+
+class ErrorModel:
+    """Continuous error model ``x_dot = F x + G w`` on a layout (see the module docstring).
+
+    Parameters
+    ----------
+    layout : Layout, must contain ``phi``, ``dv``, ``dp``; the other blocks are optional
+    noise : ProcessNoise
+    dr_sees_gyro_drift : bool, keep ``-C_b^n eps`` in the DR attitude rows (derived, default)
+        or drop it as paper 000's printed F does
+    gravity_gradient : bool, keep ``dg_U = 2 g / R dh`` in the up-velocity row
+    """
+
+    def __init__(self, layout, noise: ProcessNoise, *, dr_sees_gyro_drift=True,
+                 gravity_gradient=True):
+        for name in ("phi", "dv", "dp"):
+            if name not in layout:
+                raise ValueError(f"the error model needs block {name!r} in the layout")
+        self.layout = layout
+        self.noise = noise
+        self.dr_sees_gyro_drift = dr_sees_gyro_drift
+        self.gravity_gradient = gravity_gradient
+
+    # -- F -----------------------------------------------------------------------------
+    def F(self, pt: LinPoint) -> np.ndarray:
+        """Continuous system matrix at ``pt`` [1/s, in the units of the states]."""
+        lay = self.layout
+        F = np.zeros((lay.n, lay.n))
+        w_ie, w_en, Wie_p, Wen_v, Wen_p, Mpv, Mpp = transport_jacobians(pt.lat, pt.h, pt.vel_n)
+        self._sins_rows(F, pt, w_ie, w_en, Wie_p, Wen_v, Wen_p, Mpv, Mpp)
+        if "phi_D" in lay:
+            self._dr_rows(F, pt, w_ie + w_en, Wie_p, Wen_v, Wen_p, Mpv, Mpp)
+        if "dk" in lay:
+            F[lay["dk"], lay["dk"]] = -1.0 / self.noise.dk_tau
+        return F
+
+    def _sins_rows(self, F, pt, w_ie, w_en, Wie_p, Wen_v, Wen_p, Mpv, Mpp):
+        lay = self.layout
+        phi, dv, dp = lay["phi"], lay["dv"], lay["dp"]
+        C = pt.C_nb
+        F[phi, phi] = -skew(w_ie + w_en)
+        F[phi, dv] = Wen_v
+        F[phi, dp] = Wie_p + Wen_p
+        V = skew(pt.vel_n)
+        F[dv, phi] = skew(pt.f_n)
+        F[dv, dv] = V @ Wen_v - skew(2.0 * w_ie + w_en)
+        F[dv, dp] = V @ (2.0 * Wie_p + Wen_p)
+        if self.gravity_gradient:
+            r_m, r_n = earth.radii(pt.lat)
+            F[lay.index("dv_U"), lay.index("dp_h")] += 2.0 * earth.gravity(pt.lat, pt.h) / (
+                np.sqrt(r_m * r_n) + pt.h)
+        F[dp, dv] = Mpv
+        F[dp, dp] = Mpp
+        if "eps" in lay:
+            F[phi, lay["eps"]] = -C
+        if "nabla" in lay:
+            F[dv, lay["nabla"]] = C
+
+    def _dr_rows(self, F, pt, w_in, Wie_p, Wen_v, Wen_p, Mpv, Mpp):
+        lay = self.layout
+        phi_D, dp_D = lay["phi_D"], lay["dp_D"]
+        D = dr_velocity_rows(lay, pt)           # dv_D = D x
+        F[phi_D, phi_D] = -skew(w_in)
+        F[phi_D, :] += Wen_v @ D
+        F[phi_D, dp_D] += Wie_p + Wen_p
+        F[dp_D, :] += Mpv @ D
+        F[dp_D, dp_D] += Mpp
+        if "eps" in lay and self.dr_sees_gyro_drift:
+            F[phi_D, lay["eps"]] = -pt.C_nb
+
+    # -- Q -----------------------------------------------------------------------------
+    def Qc(self, pt: LinPoint) -> np.ndarray:
+        """``G diag(q) G^T`` [state^2 / s] (paper 000's G, plus bias random walks)."""
+        lay, q = self.layout, self.noise
+        Q = np.zeros((lay.n, lay.n))
+        C = pt.C_nb
+        Qg = (q.gyro_arw ** 2) * (C @ C.T)
+        att = [lay["phi"]] + ([lay["phi_D"]] if "phi_D" in lay else [])
+        for a in att:                          # one gyro noise drives both platforms
+            for b in att:
+                Q[a, b] = Qg
+        Q[lay["dv"], lay["dv"]] = (q.accel_vrw ** 2) * (C @ C.T)
+        for name, dens in (("eps", q.gyro_bias_rw), ("nabla", q.accel_bias_rw),
+                           ("mount", q.mount_rw), ("lever", q.lever_rw)):
+            if name in lay:
+                Q[lay[name], lay[name]] = dens ** 2 * np.eye(3)
+        if "dk" in lay and np.isfinite(q.dk_tau):
+            Q[lay["dk"], lay["dk"]] = 2.0 * q.dk_sigma ** 2 / q.dk_tau
+        return Q
+
+
+# -- measurement rows ---------------------------------------------------------------------
+
+def euler_rows(C_nb):
+    """(3, 3) ``d[yaw, pitch, roll] / d phi`` for ``C_computed = (I - [phi x]) C_true``.
+
+    Paper 000 eq. 25-27 with ``T = C_b^n`` (DESIGN Euler convention ``pitch = asin(T32)``,
+    ``roll = atan2(-T31, T33)``, ``yaw = atan2(T12, T22)``)::
+
+        d yaw   = -(T12 T32 phi_E + T32 T22 phi_N) / (T12^2 + T22^2) + phi_U
+        d pitch = (-T22 phi_E + T12 phi_N) / sqrt(1 - T32^2)
+        d roll  = ((T21 T33 - T23 T31) phi_E + (T13 T31 - T11 T33) phi_N) / (T31^2 + T33^2)
+
+    The rows of the DR attitude are the same function of the DR's ``R = C_bD^n`` with the
+    opposite sign (the measurement is SINS minus DR).
+    """
+    T = C_nb
+    h2 = T[0, 1] ** 2 + T[1, 1] ** 2
+    cp = np.sqrt(max(1.0 - T[2, 1] ** 2, 1e-12))
+    r2 = T[2, 0] ** 2 + T[2, 2] ** 2
+    return np.array([
+        [-T[0, 1] * T[2, 1] / h2, -T[2, 1] * T[1, 1] / h2, 1.0],
+        [-T[1, 1] / cp, T[0, 1] / cp, 0.0],
+        [(T[1, 0] * T[2, 2] - T[1, 2] * T[2, 0]) / r2,
+         (T[0, 2] * T[2, 0] - T[0, 0] * T[2, 2]) / r2, 0.0]])
+
+
+def nhc_rows(layout, pt: LinPoint, with_mount=True):
+    """(2, n) rows of the non-holonomic measurement ``z = [v_x, v_z]`` (paper 000 eq. 32-38).
+
+    ``z`` is the SINS velocity projected on the lateral and vertical axes (``v_b = C_n^b v``
+    with the computed attitude). Linearized, eq. 36:
+    ``d v_b = C_n^b dv - C_n^b [v x] phi`` (eq. 37 as printed, with ``T = C_b^n``).
+
+    ``with_mount``: the vehicle moves along the velocity sensor's forward axis, which the
+    mounting angles ``A`` rotate away from b's (the same geometry that makes eq. 11 true).
+    Its lateral and vertical velocity in b are then ``A x [0, V, 0]`` = ``[-gamma V, 0,
+    alpha V]``, not zero, and the rows gain ``-[v_b x]`` in the ``mount`` columns. Paper 000's
+    eq. 37 leaves them out (``with_mount=False``); with them the NHC also observes alpha and
+    gamma, and does not bias the misalignment by the mounting (a test checks the rows
+    against the nonlinear measurement).
+    """
+    lay = layout
+    H = np.zeros((2, lay.n))
+    C_bn = pt.C_nb.T
+    rows = [0, 2]
+    H[:, lay["dv"]] = C_bn[rows]
+    H[:, lay["phi"]] = -(C_bn @ skew(pt.vel_n))[rows]
+    if with_mount and "mount" in lay:
+        v_b = C_bn @ pt.vel_n
+        H[:, lay["mount"]] = -skew(v_b)[rows]
+    return H
+
+
+def sensor_velocity_rows(layout, pt: LinPoint):
+    """(3, n) rows of ``z = v_SINS - C_b^n(SINS) C_m^b v_sensor`` (velocity matching).
+
+    The classic SINS / velocity-sensor measurement (baseline ``od-velocity-kf``, paper 003
+    eq. 23-24 form). The projected sensor velocity has error ``[v x] phi + [v x] C A + dk v``
+    (eq. 11 with the SINS attitude), so ``H = [dv: I, phi: -[v x], mount: -[v x] C,
+    dk: -v]``, plus, with a ``lever`` block, ``-C_b^n [w_nb^b x]`` for the lever-arm error.
+    """
+    lay = layout
+    H = np.zeros((3, lay.n))
+    V = skew(pt.vel_n)
+    H[:, lay["dv"]] = np.eye(3)
+    H[:, lay["phi"]] = -V
+    if "mount" in lay:
+        H[:, lay["mount"]] = -V @ pt.C_nb
+    if "dk" in lay:
+        H[:, lay["dk"]] = -pt.vel_n[:, None]
+    if "lever" in lay and pt.omega_nb_b is not None:
+        H[:, lay["lever"]] = -pt.C_nb @ skew(pt.omega_nb_b)
+    return H
+
+
+def height_rows(layout):
+    """(1, n) row of ``z = h_SINS - h_baro`` (barometric height; paper 000 sec. 2)."""
+    H = np.zeros((1, layout.n))
+    H[0, layout.index("dp_h")] = 1.0
+    return H
