@@ -1,0 +1,142 @@
+"""Errors of a solution against truth, and the ``errors`` block of ``summary.json``.
+
+Errors are estimate minus truth (``shared/DESIGN.md``, "The result"):
+
+- attitude: Euler differences ``[pitch, roll, yaw]`` wrapped to [-180, 180) deg (so yaw 359 deg
+  against truth 1 deg is -2 deg), and the misalignment ``phi`` = ``[phi_E, phi_N, phi_U]`` of
+  the DESIGN convention ``C_b^n(computed) = (I - [phi x]) C_b^n(true)``, computed exactly by
+  :func:`inmotion.core.rotations.misalignment`;
+- velocity: ENU differences [m/s];
+- position: north and east offsets [m] on the local radii of curvature at the truth point
+  (:func:`inmotion.core.earth.local_ne_offsets`), horizontal = their norm (>= 0), vertical =
+  height difference (signed);
+- distance travelled: the truth's 3-D path length [m] from the first compared epoch.
+
+Truth is interpolated linearly to the solution's times (positions, velocities and unwrapped
+Euler angles). Truth is normally at the IMU rate (100 Hz) and solutions at IMU epochs, so the
+interpolation is exact there; between truth samples 10 ms apart its error is far below what
+any method here resolves. Solution epochs outside the truth's time span are dropped.
+
+Summary statistics over the "last 100 s" use the epochs with ``t >= t_end - 100 s`` (all of
+them for shorter runs).
+"""
+from __future__ import annotations
+
+import numpy as np
+import pandas as pd
+
+from ..core import rotations
+from ..core.bundle import Truth
+from ..core.earth import radii
+from ..core.solution import Solution
+from ..errors import BadInput
+
+__all__ = ["ERROR_KEYS", "error_series", "errors_block", "interpolate_truth"]
+
+ARCMIN_PER_RAD = 180.0 * 60.0 / np.pi
+
+#: the keys of each statistic in the ``errors`` block, in DESIGN order
+ERROR_KEYS = ("pitch_arcmin", "roll_arcmin", "yaw_arcmin",
+              "phi_E_arcmin", "phi_N_arcmin", "phi_U_arcmin",
+              "vE_m_s", "vN_m_s", "vU_m_s", "horizontal_m", "vertical_m")
+
+LAST_WINDOW_S = 100.0
+
+
+def interpolate_truth(truth: Truth, t) -> Truth:
+    """Truth linearly interpolated to times ``t`` [s] (inside the truth's span).
+
+    Euler angles are unwrapped before interpolation and yaw re-wrapped to [0, 2 pi), so
+    interpolation across north (359 -> 1 deg) stays near north.
+    """
+    t = np.asarray(t, dtype=float)
+
+    def lin(y):
+        return np.interp(t, truth.t, y)
+
+    eul = np.unwrap(truth.euler, axis=0)
+    euler = np.column_stack([lin(eul[:, i]) for i in range(3)])
+    euler[:, 2] = rotations.wrap_2pi(euler[:, 2])
+    vel = np.column_stack([lin(truth.vel_n[:, i]) for i in range(3)])
+    return Truth(t, lin(truth.lat), lin(np.unwrap(truth.lon)), lin(truth.h), vel, euler)
+
+
+def error_series(solution: Solution, truth: Truth) -> pd.DataFrame:
+    """Error time series of ``solution`` against ``truth``, estimate minus truth.
+
+    Parameters
+    ----------
+    solution : Solution
+    truth : Truth
+
+    Returns
+    -------
+    pandas.DataFrame
+        Columns ``t`` [s], ``pitch_arcmin, roll_arcmin, yaw_arcmin`` (Euler differences wrapped
+        to +-180 deg), ``phi_E_arcmin, phi_N_arcmin, phi_U_arcmin`` (misalignment),
+        ``vE_m_s, vN_m_s, vU_m_s``, ``north_m, east_m, horizontal_m, vertical_m`` and
+        ``distance_m`` (truth distance travelled since the first row); one row per solution
+        epoch inside the truth's time span.
+    """
+    inside = (solution.t >= truth.t[0]) & (solution.t <= truth.t[-1])
+    if not inside.any():
+        raise BadInput(f"solution ({solution.t[0]:.6g} .. {solution.t[-1]:.6g} s) and truth "
+                       f"({truth.t[0]:.6g} .. {truth.t[-1]:.6g} s) do not overlap in time")
+    t = solution.t[inside]
+    tr = interpolate_truth(truth, t)
+    d_euler = rotations.wrap_pi(solution.euler[inside] - tr.euler) * ARCMIN_PER_RAD
+    phi = rotations.misalignment(rotations.dcm_from_euler(solution.euler[inside]),
+                                 rotations.dcm_from_euler(tr.euler)) * ARCMIN_PER_RAD
+    d_vel = solution.vel_n[inside] - tr.vel_n
+    d_north, d_east = _ne_offsets(solution.lat[inside], solution.lon[inside], tr)
+    cols = {"t": t}
+    cols.update(zip(ERROR_KEYS[0:3], d_euler.T))
+    cols.update(zip(ERROR_KEYS[3:6], phi.T))
+    cols.update(zip(ERROR_KEYS[6:9], d_vel.T))
+    cols["north_m"], cols["east_m"] = d_north, d_east
+    cols["horizontal_m"] = np.hypot(d_north, d_east)
+    cols["vertical_m"] = solution.h[inside] - tr.h
+    cols["distance_m"] = _path_length(truth, t)
+    return pd.DataFrame(cols)
+
+
+def _ne_offsets(lat, lon, tr: Truth):
+    """North and east offsets [m] of (lat, lon) [rad] from the truth points, local radii."""
+    r_m, r_n = radii(tr.lat)
+    d_lon = rotations.wrap_pi(lon - tr.lon)
+    return (lat - tr.lat) * (r_m + tr.h), d_lon * (r_n + tr.h) * np.cos(tr.lat)
+
+
+def _path_length(truth: Truth, t) -> np.ndarray:
+    """Truth's cumulative 3-D path length [m] at times ``t`` (from ``t[0]``)."""
+    r_m, r_n = radii(truth.lat[:-1])
+    step = np.sqrt((np.diff(truth.lat) * (r_m + truth.h[:-1])) ** 2
+                   + (rotations.wrap_pi(np.diff(truth.lon)) * (r_n + truth.h[:-1])
+                      * np.cos(truth.lat[:-1])) ** 2
+                   + np.diff(truth.h) ** 2)
+    cum = np.concatenate([[0.0], np.cumsum(step)])
+    s = np.interp(t, truth.t, cum)
+    return s - s[0]
+
+
+def errors_block(errors: pd.DataFrame, window_s: float = LAST_WINDOW_S) -> dict:
+    """The ``errors`` block of ``summary.json`` from an :func:`error_series` table.
+
+    Returns
+    -------
+    dict
+        ``final``, ``rms_last_100s``, ``max_abs_last_100s`` (each a dict over exactly
+        :data:`ERROR_KEYS`), ``distance_m`` (truth distance over the run) and ``duration_s``.
+        ``horizontal_m`` is a magnitude (>= 0); every other key is signed in ``final``.
+    """
+    t = errors["t"].to_numpy()
+    last = t >= t[-1] - window_s
+    block = {"final": {}, "rms_last_100s": {}, "max_abs_last_100s": {}}
+    for k in ERROR_KEYS:
+        x = errors[k].to_numpy()
+        block["final"][k] = float(x[-1])
+        block["rms_last_100s"][k] = float(np.sqrt(np.mean(x[last] ** 2)))
+        block["max_abs_last_100s"][k] = float(np.max(np.abs(x[last])))
+    block["distance_m"] = float(errors["distance_m"].to_numpy()[-1])
+    block["duration_s"] = float(t[-1] - t[0])
+    return block

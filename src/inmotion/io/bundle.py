@@ -1,0 +1,491 @@
+"""Bundle folders on disk: read with validation, write in CSV or Parquet.
+
+A bundle is a folder holding one drive (``shared/DESIGN.md``, "The bundle")::
+
+    meta.yaml                 name, initial position, sensor specs (human units), faults, files
+    imu.csv|imu.parquet       t, dtheta_x, dtheta_y, dtheta_z [rad], dvel_x, dvel_y, dvel_z [m/s]
+    radar.*                   t, v [m/s]
+    ldv.*, odometer.*         t and ds [m] or v [m/s]
+    baro.*                    t, h [m]
+    truth.*                   t, lat, lon [deg], h [m], vE, vN, vU [m/s], pitch, roll, yaw [deg]
+
+In memory (:class:`inmotion.core.bundle.Bundle`) everything is SI; the only unit conversion
+at this edge is degrees <-> rad for the truth's latitude, longitude and Euler angles.
+
+``meta.yaml`` layout (what :func:`write_bundle` writes and :func:`read_bundle` understands;
+keys not listed are kept as they are)::
+
+    name: paper002_drive
+    initial_position: {lat_deg: 34.2, lon_deg: 108.9, h_m: 400.0}    # needed if no truth
+    initial_attitude: {pitch_deg: 0, roll_deg: 0, yaw_deg: 45}       # optional (--init meta)
+    initial_velocity: {vE_m_s: 0, vN_m_s: 0, vU_m_s: 0}              # optional, default rest
+    sensors:                                # human units, with the unit in every key
+      imu: {rate_hz: 100, gyro_drift_deg_h: 0.01, ...}
+      radar: {rate_hz: 10, lever_arm_m: [0, 1.2, -0.5], mounting_deg: [0.1, 0, 0.2], ...}
+    faults: [...]                           # as the simulator lists them
+    files: {imu: imu.csv, radar: radar.csv, truth: truth.csv}
+
+Validation (each failure is one :class:`inmotion.errors.BadInput` naming file, row and time)
+----------------------------------------------------------------------------------------------
+- missing folder, ``meta.yaml``, ``imu`` table, a file that ``meta.yaml`` lists, or a required
+  column; a table present as both CSV and Parquet; malformed YAML;
+- non-numeric, NaN or infinite values in a used column; an empty table;
+- time not strictly increasing;
+- values that cannot be in the declared units (limits in :data:`LIMITS`): an angular rate
+  from ``dtheta`` above 50 rad/s (no vehicle gyro measures that), a specific force from
+  ``dvel`` above 100 g, a speed above 150 m/s, a barometric height outside -1 km .. 20 km,
+  truth latitude beyond +-90 deg or pitch beyond +-90 deg.
+
+Gaps (a time step longer than ``max_gap_periods`` = 5 median sample periods):
+
+- in the IMU table a gap is an **error**: IMU row k is the increment over ``(t[k-1], t[k]]``,
+  and a missing stretch of increments is motion the mechanization can never recover; silently
+  integrating across it would corrupt attitude and velocity. Pass ``allow_imu_gaps=True`` to
+  accept such data (the row after the gap is then taken as the increment over the whole gap).
+- in velocity-sensor, barometer and truth tables a gap is a **warning**
+  (:class:`BundleGapWarning`): sensor dropouts are a normal event (and a simulated fault); the
+  aiding methods simply have no measurement during the gap, dead reckoning holds the last speed
+  (see :mod:`inmotion.core.deadreckoning`). :func:`find_gaps` lists them for ``inmotion info``.
+
+CSV is written with the shortest repr that round-trips float64 exactly (pandas' default), so a
+CSV write -> read is exact up to the degrees <-> rad conversion (about 1e-16 relative); Parquet
+is exact.
+"""
+from __future__ import annotations
+
+import math
+import os
+import tempfile
+import warnings
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+import pandas as pd
+import yaml
+
+from ..core.bundle import (BaroData, Bundle, ImuData, SpeedData, Truth, VELOCITY_SENSORS)
+from ..core.earth import G0
+from ..errors import BadInput
+
+__all__ = ["read_bundle", "write_bundle", "find_gaps", "Gap", "BundleGapWarning", "LIMITS",
+           "TABLES", "read_meta"]
+
+#: the tables a bundle may hold, in write order
+TABLES = ("imu",) + VELOCITY_SENSORS + ("baro", "truth")
+#: table file suffixes understood, and the format name each means
+SUFFIXES = {".csv": "csv", ".parquet": "parquet", ".pq": "parquet"}
+
+IMU_COLUMNS = ("t", "dtheta_x", "dtheta_y", "dtheta_z", "dvel_x", "dvel_y", "dvel_z")
+TRUTH_COLUMNS = ("t", "lat", "lon", "h", "vE", "vN", "vU", "pitch", "roll", "yaw")
+
+#: physical limits beyond which a value cannot be in the declared unit
+LIMITS = {
+    "gyro_rate_rad_s": 50.0,            # ~2900 deg/s: beyond any vehicle gyro's range
+    "specific_force_m_s2": 100.0 * G0,  # 100 g
+    "speed_m_s": 150.0,                 # 540 km/h: no land vehicle
+    "baro_h_m": (-1000.0, 20000.0),
+}
+
+#: a step longer than this many median sample periods is a gap
+MAX_GAP_PERIODS = 5.0
+
+
+class BundleGapWarning(UserWarning):
+    """A velocity-sensor, barometer or truth table has a gap (reported, not an error)."""
+
+
+@dataclass(frozen=True)
+class Gap:
+    """A time step longer than the gap threshold: ``table`` rows ``row - 1`` -> ``row``
+    (1-based data rows), from ``t_start`` to ``t_end`` [s], ``periods`` median periods long."""
+
+    table: str
+    row: int
+    t_start: float
+    t_end: float
+    periods: float
+
+    @property
+    def duration_s(self) -> float:
+        return self.t_end - self.t_start
+
+
+# --------------------------------------------------------------------------- reading
+
+def read_bundle(path, *, max_gap_periods: float = MAX_GAP_PERIODS,
+                allow_imu_gaps: bool = False) -> Bundle:
+    """Read and validate a bundle folder.
+
+    Parameters
+    ----------
+    path : str or Path
+        The bundle folder.
+    max_gap_periods : float
+        A time step longer than this many median sample periods is a gap.
+    allow_imu_gaps : bool
+        Accept gaps in the IMU table instead of raising (see the module docstring).
+
+    Returns
+    -------
+    Bundle
+        SI inside; ``meta`` is the content of ``meta.yaml``.
+
+    Raises
+    ------
+    BadInput
+        On the first problem found, naming the file, the row and the time.
+    """
+    folder = Path(path)
+    if not folder.exists():
+        raise BadInput("bundle folder does not exist", file=folder)
+    if not folder.is_dir():
+        raise BadInput("a bundle must be a folder", file=folder)
+    meta = read_meta(folder)
+    files = _locate_tables(folder, meta)
+    if "imu" not in files:
+        raise BadInput("missing IMU table (imu.csv or imu.parquet)", file=folder)
+    tables = {name: _read_table(p) for name, p in files.items()}
+
+    imu = _imu_from(tables["imu"], files["imu"])
+    _check_gaps("imu", imu.t, files["imu"], max_gap_periods, error=not allow_imu_gaps)
+    speeds = {}
+    for name in VELOCITY_SENSORS:
+        if name in tables:
+            speeds[name] = _speed_from(tables[name], files[name], need_v=(name == "radar"))
+            _check_gaps(name, speeds[name].t, files[name], max_gap_periods, error=False)
+    baro = truth = None
+    if "baro" in tables:
+        baro = _baro_from(tables["baro"], files["baro"])
+        _check_gaps("baro", baro.t, files["baro"], max_gap_periods, error=False)
+    if "truth" in tables:
+        truth = _truth_from(tables["truth"], files["truth"])
+        _check_gaps("truth", truth.t, files["truth"], max_gap_periods, error=False)
+    if truth is None:
+        _check_initial_position(meta, folder / "meta.yaml")
+    return Bundle(imu=imu, meta=meta, baro=baro, truth=truth, **speeds)
+
+
+def read_meta(folder) -> dict:
+    """The parsed ``meta.yaml`` of a bundle folder (a mapping), or :class:`BadInput`."""
+    p = Path(folder) / "meta.yaml"
+    if not p.is_file():
+        raise BadInput("missing meta.yaml (a bundle needs at least 'name')", file=p)
+    try:
+        meta = yaml.safe_load(p.read_text())
+    except yaml.YAMLError as e:
+        mark = getattr(e, "problem_mark", None)
+        where = f" at line {mark.line + 1}, column {mark.column + 1}" if mark else ""
+        problem = getattr(e, "problem", None) or str(e).splitlines()[0]
+        raise BadInput(f"malformed YAML{where}: {problem}", file=p) from None
+    if meta is None:
+        meta = {}
+    if not isinstance(meta, dict):
+        raise BadInput(f"must be a YAML mapping (key: value), got {type(meta).__name__}", file=p)
+    return meta
+
+
+def _locate_tables(folder: Path, meta: dict) -> dict:
+    """``{table: path}`` of the tables present; checks files listed in meta exist."""
+    found = {}
+    for name in TABLES:
+        cands = [folder / f"{name}{s}" for s in SUFFIXES if (folder / f"{name}{s}").is_file()]
+        if len(cands) > 1:
+            raise BadInput(f"table {name!r} present twice ({', '.join(c.name for c in cands)}); "
+                           "keep one", file=folder)
+        if cands:
+            found[name] = cands[0]
+    listed = meta.get("files") or {}
+    if isinstance(listed, (list, tuple)):
+        listed = {Path(str(f)).stem: f for f in listed}
+    if not isinstance(listed, dict):
+        raise BadInput("'files' must map table names to file names", file=folder / "meta.yaml")
+    for name, fname in listed.items():
+        p = folder / str(fname)
+        if not p.is_file():
+            raise BadInput(f"missing file {fname!r} that meta.yaml lists for {name!r}", file=p)
+        if name in TABLES:
+            found[name] = p
+    return found
+
+
+def _read_table(path: Path) -> pd.DataFrame:
+    fmt = SUFFIXES.get(path.suffix)
+    try:
+        if fmt == "parquet":
+            df = pd.read_parquet(path)
+        else:
+            df = pd.read_csv(path, skipinitialspace=True)
+    except (pd.errors.ParserError, pd.errors.EmptyDataError, ValueError, OSError) as e:
+        msg = str(e).strip().splitlines()[0] if str(e).strip() else type(e).__name__
+        raise BadInput(f"cannot read table: {msg}", file=path) from None
+    except Exception as e:  # pyarrow raises its own exception types on corrupt files
+        raise BadInput(f"cannot read table: {type(e).__name__}: {e}", file=path) from None
+    df.columns = [str(c).strip() for c in df.columns]
+    if len(df) == 0:
+        raise BadInput("table has no data rows", file=path)
+    return df
+
+
+def _columns(df: pd.DataFrame, names, path: Path) -> dict:
+    """The named columns as float64 arrays, validated finite and numeric."""
+    missing = [c for c in names if c not in df.columns]
+    if missing:
+        raise BadInput(f"missing column{'s' if len(missing) > 1 else ''} "
+                       f"{', '.join(missing)} (has: {', '.join(df.columns)})", file=path)
+    t = _numeric(df, "t", path, None)
+    out = {"t": t}
+    for c in names:
+        if c != "t":
+            out[c] = _numeric(df, c, path, t)
+    _check_increasing(t, path)
+    return out
+
+
+def _numeric(df, col, path, t):
+    """Column ``col`` as finite float64, or BadInput at the first bad row."""
+    s = df[col]
+    x = pd.to_numeric(s, errors="coerce").to_numpy(dtype=float)
+    bad = ~np.isfinite(x)
+    if bad.any():
+        i = int(np.argmax(bad))
+        raw = s.iloc[i]
+        what = ("NaN or empty" if raw is None or (isinstance(raw, float) and math.isnan(raw))
+                or str(raw).strip() == "" else repr(raw))
+        kind = "not a finite number" if _is_number(raw) else "not a number"
+        tt = None if t is None or not np.isfinite(t[i]) else float(t[i])
+        raise BadInput(f"column {col!r}: value {what} is {kind}", file=path, row=i + 1, time=tt)
+    return x
+
+
+def _is_number(raw):
+    try:
+        float(raw)
+        return True
+    except (TypeError, ValueError):
+        return False
+
+
+def _check_increasing(t, path):
+    if len(t) > 1:
+        bad = np.diff(t) <= 0
+        if bad.any():
+            i = int(np.argmax(bad)) + 1
+            raise BadInput(f"time not strictly increasing (previous row t={t[i - 1]:.9g} s)",
+                           file=path, row=i + 1, time=float(t[i]))
+
+
+def _row_dt(t):
+    """Per-row interval length [s]; row 0 takes the median period."""
+    if len(t) < 2:
+        return np.ones_like(t)
+    d = np.diff(t)
+    return np.concatenate([[np.median(d)], d])
+
+
+def _check_limit(values, limit, what, unit, path, t):
+    over = ~(np.abs(values) <= limit)
+    if over.any():
+        i = int(np.argmax(over))
+        raise BadInput(f"{what} {values[i]:.6g} {unit} is physically impossible "
+                       f"(limit {limit:.6g} {unit}); check the units", file=path, row=i + 1,
+                       time=float(t[i]))
+
+
+def _imu_from(df, path) -> ImuData:
+    c = _columns(df, IMU_COLUMNS, path)
+    dtheta = np.column_stack([c["dtheta_x"], c["dtheta_y"], c["dtheta_z"]])
+    dvel = np.column_stack([c["dvel_x"], c["dvel_y"], c["dvel_z"]])
+    dt = _row_dt(c["t"])
+    _check_limit(np.linalg.norm(dtheta, axis=1) / dt, LIMITS["gyro_rate_rad_s"],
+                 "angular rate |dtheta|/dt =", "rad/s", path, c["t"])
+    _check_limit(np.linalg.norm(dvel, axis=1) / dt, LIMITS["specific_force_m_s2"],
+                 "specific force |dvel|/dt =", "m/s^2", path, c["t"])
+    return ImuData(c["t"], dtheta, dvel)
+
+
+def _speed_from(df, path, need_v) -> SpeedData:
+    if need_v:
+        has = ["v"]                       # radar: speed only; a missing 'v' is reported below
+    else:
+        has = [k for k in ("v", "ds") if k in df.columns]
+        if not has:
+            raise BadInput(f"missing column: needs 'ds' or 'v' (has: {', '.join(df.columns)})",
+                           file=path)
+    c = _columns(df, ("t",) + tuple(has), path)
+    t = c["t"]
+    if "v" in c:
+        _check_limit(c["v"], LIMITS["speed_m_s"], "speed v =", "m/s", path, t)
+    if "ds" in c:
+        _check_limit(c["ds"] / _row_dt(t), LIMITS["speed_m_s"], "speed ds/dt =", "m/s", path, t)
+    return SpeedData(t, v=c.get("v"), ds=c.get("ds"))
+
+
+def _baro_from(df, path) -> BaroData:
+    c = _columns(df, ("t", "h"), path)
+    lo, hi = LIMITS["baro_h_m"]
+    bad = (c["h"] < lo) | (c["h"] > hi)
+    if bad.any():
+        i = int(np.argmax(bad))
+        raise BadInput(f"barometric height {c['h'][i]:.6g} m outside {lo:g} .. {hi:g} m; "
+                       "check the units", file=path, row=i + 1, time=float(c["t"][i]))
+    return BaroData(c["t"], c["h"])
+
+
+def _truth_from(df, path) -> Truth:
+    c = _columns(df, TRUTH_COLUMNS, path)
+    t = c["t"]
+    _check_limit(c["lat"], 90.0, "latitude", "deg", path, t)
+    _check_limit(c["pitch"], 90.0, "pitch", "deg", path, t)
+    vel_n = np.column_stack([c["vE"], c["vN"], c["vU"]])
+    _check_limit(np.linalg.norm(vel_n, axis=1), LIMITS["speed_m_s"], "speed |v| =", "m/s",
+                 path, t)
+    euler = np.radians(np.column_stack([c["pitch"], c["roll"], c["yaw"]]))
+    return Truth(t, np.radians(c["lat"]), np.radians(c["lon"]), c["h"], vel_n, euler)
+
+
+def _check_initial_position(meta, path):
+    pos = meta.get("initial_position")
+    if not isinstance(pos, dict) or not all(k in pos for k in ("lat_deg", "lon_deg", "h_m")):
+        raise BadInput("no truth table, so meta.yaml needs initial_position with lat_deg, "
+                       "lon_deg, h_m", file=path)
+    for k in ("lat_deg", "lon_deg", "h_m"):
+        if not _is_number(pos[k]) or not math.isfinite(float(pos[k])):
+            raise BadInput(f"initial_position.{k} = {pos[k]!r} is not a number", file=path)
+    if abs(float(pos["lat_deg"])) > 90:
+        raise BadInput(f"initial_position.lat_deg = {pos['lat_deg']} beyond +-90", file=path)
+
+
+# --------------------------------------------------------------------------- gaps
+
+def find_gaps(table: str, t, max_gap_periods: float = MAX_GAP_PERIODS) -> list[Gap]:
+    """Steps of ``t`` [s] longer than ``max_gap_periods`` median periods, as :class:`Gap`."""
+    t = np.asarray(t, dtype=float)
+    if len(t) < 3:
+        return []
+    d = np.diff(t)
+    period = float(np.median(d))
+    idx = np.flatnonzero(d > max_gap_periods * period)
+    return [Gap(table, int(i) + 2, float(t[i]), float(t[i + 1]), float(d[i] / period))
+            for i in idx]
+
+
+def _check_gaps(table, t, path, max_gap_periods, error):
+    gaps = find_gaps(table, t, max_gap_periods)
+    if not gaps:
+        return
+    g = gaps[0]
+    msg = (f"gap of {g.duration_s:.6g} s ({g.periods:.1f} sample periods) from t={g.t_start:.9g} s"
+           + (f"; {len(gaps)} gaps in all" if len(gaps) > 1 else ""))
+    if error:
+        raise BadInput(msg + " (IMU increments are missing; read with allow_imu_gaps=True to "
+                       "integrate across it)", file=path, row=g.row, time=g.t_end)
+    warnings.warn(f"{path}: row {g.row}, t={g.t_end:.6g} s: {msg}", BundleGapWarning,
+                  stacklevel=3)
+
+
+# --------------------------------------------------------------------------- writing
+
+def _frames(bundle: Bundle) -> dict:
+    """``{table: DataFrame}`` in file units (degrees for the truth's angles)."""
+    imu = bundle.imu
+    out = {"imu": pd.DataFrame({
+        "t": imu.t, "dtheta_x": imu.dtheta[:, 0], "dtheta_y": imu.dtheta[:, 1],
+        "dtheta_z": imu.dtheta[:, 2], "dvel_x": imu.dvel[:, 0], "dvel_y": imu.dvel[:, 1],
+        "dvel_z": imu.dvel[:, 2]})}
+    for name in VELOCITY_SENSORS:
+        s = getattr(bundle, name)
+        if s is not None:
+            cols = {"t": s.t}
+            if s.v is not None:
+                cols["v"] = s.v
+            if s.ds is not None:
+                cols["ds"] = s.ds
+            out[name] = pd.DataFrame(cols)
+    if bundle.baro is not None:
+        out["baro"] = pd.DataFrame({"t": bundle.baro.t, "h": bundle.baro.h})
+    tr = bundle.truth
+    if tr is not None:
+        e = np.degrees(tr.euler)
+        out["truth"] = pd.DataFrame({
+            "t": tr.t, "lat": np.degrees(tr.lat), "lon": np.degrees(tr.lon), "h": tr.h,
+            "vE": tr.vel_n[:, 0], "vN": tr.vel_n[:, 1], "vU": tr.vel_n[:, 2],
+            "pitch": e[:, 0], "roll": e[:, 1], "yaw": np.mod(e[:, 2], 360.0)})
+    return out
+
+
+def write_bundle(bundle: Bundle, path, fmt: str = "csv") -> Path:
+    """Write ``bundle`` as a bundle folder (created if missing).
+
+    Parameters
+    ----------
+    bundle : Bundle
+        SI inside; written with the truth's angles in degrees, yaw in [0, 360).
+    path : str or Path
+        The folder. Existing tables of the same names are replaced.
+    fmt : {"csv", "parquet"}
+
+    Returns
+    -------
+    Path
+        The folder. ``meta.yaml`` gets ``files`` set to the tables written.
+
+    Each file is written to a temporary name and renamed into place, so an interrupted write
+    never leaves a half-written table under its real name.
+    """
+    if fmt not in ("csv", "parquet"):
+        raise BadInput(f"unknown bundle format {fmt!r}; choose csv or parquet")
+    folder = Path(path)
+    folder.mkdir(parents=True, exist_ok=True)
+    suffix = ".csv" if fmt == "csv" else ".parquet"
+    files = {}
+    for name, df in _frames(bundle).items():
+        for s in SUFFIXES:           # a stale table in the other format would be ambiguous
+            other = folder / f"{name}{s}"
+            if s != suffix and other.exists():
+                other.unlink()
+        target = folder / f"{name}{suffix}"
+        atomic_write(target, lambda p, df=df: _write_table(df, p, fmt))
+        files[name] = target.name
+    meta = _plain(dict(bundle.meta))
+    meta.setdefault("name", bundle.name)
+    meta["files"] = files
+    text = yaml.safe_dump(meta, sort_keys=False, default_flow_style=None)
+    atomic_write(folder / "meta.yaml", lambda p: Path(p).write_text(text))
+    return folder
+
+
+def _write_table(df, p, fmt):
+    if fmt == "csv":
+        df.to_csv(p, index=False)          # shortest round-trip repr of every float64
+    else:
+        df.to_parquet(p, index=False, engine="pyarrow")
+
+
+def atomic_write(target: Path, write) -> None:
+    """Call ``write(tmp_path)`` then rename ``tmp_path`` onto ``target`` (atomic on POSIX)."""
+    target = Path(target)
+    fd, tmp = tempfile.mkstemp(prefix=f".{target.name}.", suffix=".tmp", dir=target.parent)
+    os.close(fd)
+    try:
+        write(tmp)
+        os.replace(tmp, target)
+    except BaseException:
+        if os.path.exists(tmp):
+            os.unlink(tmp)
+        raise
+
+
+def _plain(x):
+    """``x`` with numpy scalars/arrays turned into plain Python, for YAML and JSON."""
+    if isinstance(x, dict):
+        return {str(k): _plain(v) for k, v in x.items()}
+    if isinstance(x, (list, tuple)):
+        return [_plain(v) for v in x]
+    if isinstance(x, np.ndarray):
+        return _plain(x.tolist())
+    if isinstance(x, np.generic):
+        return x.item()
+    if isinstance(x, Path):
+        return str(x)
+    return x

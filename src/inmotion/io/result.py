@@ -1,0 +1,205 @@
+"""Result folders: what a run writes, and reading it back (``shared/DESIGN.md``, "The result").
+
+::
+
+    solution.csv   t [s], lat, lon [deg], h [m], vE, vN, vU [m/s], pitch, roll, yaw [deg],
+                   yaw in [0, 360), and sigma_* columns (1-sigma, same units as the
+                   value they belong to: sigma_north, sigma_east, sigma_h [m];
+                   sigma_vE, sigma_vN, sigma_vU [m/s]; sigma_phi_E, sigma_phi_N,
+                   sigma_phi_U [deg] (misalignment); empty where a method has none)
+    states.csv     t [s] and each estimated state by name with its unit in the column name,
+                   e.g. mount_x_arcmin, dk_ppm (unit and scale from Solution.state_units;
+                   states without one are written in SI as name_si)
+    summary.json   method, config, timing, final values (human units), info, the state
+                   columns map, and with truth the ``errors`` block
+    errors.csv     with truth: the error series of inmotion.evaluate.metrics.error_series
+
+Every file is written to a temporary file in the folder and renamed into place, solution
+first and ``summary.json`` last: a crash never leaves a half-written file under its real name
+and never loses files already written.
+"""
+from __future__ import annotations
+
+import json
+import math
+from pathlib import Path
+
+import numpy as np
+import pandas as pd
+
+from ..core import rotations
+from ..core.bundle import Truth
+from ..core.solution import Solution, StateUnit
+from ..errors import BadInput
+from ..evaluate.metrics import error_series, errors_block
+from .bundle import _plain, atomic_write
+
+__all__ = ["write_result", "read_result", "write_errors", "SOLUTION_COLUMNS", "SIGMA_UNITS",
+           "read_summary"]
+
+SOLUTION_COLUMNS = ("t", "lat", "lon", "h", "vE", "vN", "vU", "pitch", "roll", "yaw")
+
+#: sigma names of Solution.sigma and the factor from SI to the file unit
+SIGMA_UNITS = {"north": 1.0, "east": 1.0, "h": 1.0, "vE": 1.0, "vN": 1.0, "vU": 1.0,
+               "phi_E": 180.0 / np.pi, "phi_N": 180.0 / np.pi, "phi_U": 180.0 / np.pi}
+
+
+def _solution_frame(sol: Solution) -> pd.DataFrame:
+    e = np.degrees(sol.euler)
+    cols = {"t": sol.t, "lat": np.degrees(sol.lat), "lon": np.degrees(sol.lon), "h": sol.h,
+            "vE": sol.vel_n[:, 0], "vN": sol.vel_n[:, 1], "vU": sol.vel_n[:, 2],
+            "pitch": e[:, 0], "roll": e[:, 1], "yaw": np.mod(e[:, 2], 360.0)}
+    for name, x in sol.sigma.items():
+        cols[f"sigma_{name}"] = np.asarray(x, dtype=float) * SIGMA_UNITS.get(name, 1.0)
+    return pd.DataFrame(cols)
+
+
+def _state_columns(sol: Solution) -> dict:
+    """``{state: {"column", "unit", "scale"}}`` for states.csv."""
+    out = {}
+    for name in sol.states:
+        su = sol.state_units.get(name, StateUnit("si", 1.0))
+        out[name] = {"column": f"{name}_{su.unit}", "unit": su.unit, "scale": float(su.scale)}
+    return out
+
+
+def _final_values(sol: Solution) -> dict:
+    e = np.degrees(sol.euler[-1])
+    v = sol.vel_n[-1]
+    return {"t_s": float(sol.t[-1]), "lat_deg": float(np.degrees(sol.lat[-1])),
+            "lon_deg": float(np.degrees(sol.lon[-1])), "h_m": float(sol.h[-1]),
+            "vE_m_s": float(v[0]), "vN_m_s": float(v[1]), "vU_m_s": float(v[2]),
+            "pitch_deg": float(e[0]), "roll_deg": float(e[1]),
+            "yaw_deg": float(np.mod(e[2], 360.0))}
+
+
+def write_result(solution: Solution, path, truth: Truth | None = None,
+                 summary_extra: dict | None = None) -> dict:
+    """Write a result folder; return the summary written to ``summary.json``.
+
+    Parameters
+    ----------
+    solution : Solution
+        SI inside; written in degrees / m / m/s.
+    path : str or Path
+        The folder (created if missing).
+    truth : Truth, optional
+        If given, ``errors.csv`` and the ``errors`` block are written too.
+    summary_extra : dict, optional
+        Merged into the summary (e.g. ``{"bundle": ..., "timing": {...}, "init": ...}``).
+    """
+    if len(solution) == 0:
+        raise BadInput("the solution has no epochs; nothing to write")
+    folder = Path(path)
+    folder.mkdir(parents=True, exist_ok=True)
+    _write_csv(_solution_frame(solution), folder / "solution.csv")
+    states = _state_columns(solution)
+    if states:
+        df = pd.DataFrame({"t": solution.t, **{s["column"]: np.asarray(solution.states[n]) *
+                                                s["scale"] for n, s in states.items()}})
+        _write_csv(df, folder / "states.csv")
+    info = dict(solution.info)
+    summary = {"method": info.pop("method", None), "config": info.pop("config", None),
+               "timing": info.pop("timing", {}), "epochs": len(solution),
+               "final": _final_values(solution), "states": states, "info": info}
+    summary.update(summary_extra or {})
+    if truth is not None:
+        summary["errors"] = write_errors(solution, truth, folder)
+    write_summary(summary, folder)
+    return summary
+
+
+def write_errors(solution: Solution, truth: Truth, folder) -> dict:
+    """Write ``errors.csv`` into ``folder`` and return the ``errors`` block."""
+    err = error_series(solution, truth)
+    _write_csv(err, Path(folder) / "errors.csv")
+    return errors_block(err)
+
+
+def write_summary(summary: dict, folder) -> None:
+    """``summary.json`` (NaN and inf written as null), atomically."""
+    text = json.dumps(_json_safe(summary), indent=2, allow_nan=False)
+    atomic_write(Path(folder) / "summary.json", lambda p: Path(p).write_text(text + "\n"))
+
+
+def _json_safe(x):
+    x = _plain(x)
+    if isinstance(x, dict):
+        return {k: _json_safe(v) for k, v in x.items()}
+    if isinstance(x, list):
+        return [_json_safe(v) for v in x]
+    if isinstance(x, float) and not math.isfinite(x):
+        return None
+    if isinstance(x, (str, int, float, bool)) or x is None:
+        return x
+    return str(x)
+
+
+def _write_csv(df: pd.DataFrame, target: Path) -> None:
+    atomic_write(target, lambda p: df.to_csv(p, index=False))
+
+
+def read_summary(path) -> dict:
+    """The parsed ``summary.json`` of a result folder."""
+    p = Path(path) / "summary.json"
+    if not p.is_file():
+        raise BadInput("missing summary.json (not a result folder, or the run did not finish)",
+                       file=p)
+    try:
+        return json.loads(p.read_text())
+    except json.JSONDecodeError as e:
+        raise BadInput(f"malformed JSON at line {e.lineno}: {e.msg}", file=p) from None
+
+
+def read_result(path) -> Solution:
+    """Read a result folder back into a :class:`Solution` (SI inside).
+
+    ``info`` gets the summary's ``info`` plus ``method``, ``config``, ``timing`` and, if
+    present, ``errors``; ``state_units`` come from the summary's ``states`` map.
+    """
+    folder = Path(path)
+    if not folder.is_dir():
+        raise BadInput("result folder does not exist", file=folder)
+    summary = read_summary(folder)
+    p = folder / "solution.csv"
+    if not p.is_file():
+        raise BadInput("missing solution.csv", file=p)
+    df = pd.read_csv(p)
+    missing = [c for c in SOLUTION_COLUMNS if c not in df.columns]
+    if missing:
+        raise BadInput(f"missing columns {', '.join(missing)}", file=p)
+    vals = df[list(SOLUTION_COLUMNS)].to_numpy(dtype=float)
+    bad = ~np.isfinite(vals).all(axis=1)
+    if bad.any():
+        i = int(np.argmax(bad))
+        raise BadInput("non-finite value in the solution", file=p, row=i + 1, time=vals[i, 0])
+    sigma = {c[len("sigma_"):]: df[c].to_numpy(dtype=float) / SIGMA_UNITS.get(c[6:], 1.0)
+             for c in df.columns if c.startswith("sigma_")}
+    states, units = _read_states(folder, summary.get("states") or {}, len(df))
+    info = dict(summary.get("info") or {})
+    for k in ("method", "config", "timing", "errors"):
+        if k in summary:
+            info[k] = summary[k]
+    euler = np.radians(vals[:, 7:10])
+    euler[:, 2] = rotations.wrap_2pi(euler[:, 2])
+    return Solution(vals[:, 0], np.radians(vals[:, 1]), np.radians(vals[:, 2]), vals[:, 3],
+                    vals[:, 4:7], euler, sigma=sigma, states=states, state_units=units,
+                    info=info)
+
+
+def _read_states(folder: Path, smap: dict, n: int):
+    if not smap:
+        return {}, {}
+    p = folder / "states.csv"
+    if not p.is_file():
+        raise BadInput("missing states.csv that summary.json lists", file=p)
+    df = pd.read_csv(p)
+    if len(df) != n:
+        raise BadInput(f"{len(df)} rows but solution.csv has {n}", file=p)
+    states, units = {}, {}
+    for name, s in smap.items():
+        if s["column"] not in df.columns:
+            raise BadInput(f"missing column {s['column']}", file=p)
+        states[name] = df[s["column"]].to_numpy(dtype=float) / s["scale"]
+        units[name] = StateUnit(s["unit"], s["scale"])
+    return states, units

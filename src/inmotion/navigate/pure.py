@@ -1,0 +1,176 @@
+"""Pure navigation, the two references every aided method is measured against.
+
+``sins``
+    Pure strapdown inertial navigation: :func:`inmotion.core.mechanization.strapdown` from the
+    initial state, with optional barometric damping of the (unstable) vertical channel.
+``dr``
+    Pure dead reckoning (paper 002, sec. 2): the same gyro attitude update and a forward-velocity
+    sensor, :func:`inmotion.core.deadreckoning.dead_reckon`; the sensor's mounting and lever arm
+    come from the configuration or, if absent there, from ``meta.yaml``.
+
+Both are ``run(bundle, config, init, progress=None) -> Solution`` methods of
+:mod:`inmotion.registry`; neither reads files nor prints.
+"""
+from __future__ import annotations
+
+import time
+from typing import Callable, Literal, Optional
+
+import numpy as np
+from pydantic import BaseModel, ConfigDict, Field
+
+from ..core import rotations
+from ..core.bundle import Bundle
+from ..core.solution import NavState, Solution
+from ..errors import BadInput
+
+__all__ = ["SinsConfig", "DrConfig", "run_sins", "run_dr", "mounting_from_meta"]
+
+
+class SinsConfig(BaseModel):
+    """Configuration of ``sins``.
+
+    Attributes
+    ----------
+    height_damping : {"auto", "none", "baro"}
+        ``baro`` damps the vertical channel with the barometer (the bundle must have one),
+        ``none`` leaves it free (it diverges with the time constant ``sqrt(R / 2 g)`` ~ 570 s),
+        ``auto`` uses the barometer when the bundle has one.
+    out_stride : int
+        Output every ``out_stride``-th IMU epoch (1: every epoch).
+    """
+
+    model_config = ConfigDict(extra="forbid")
+    height_damping: Literal["auto", "none", "baro"] = "auto"
+    out_stride: int = Field(1, ge=1)
+
+
+class DrConfig(BaseModel):
+    """Configuration of ``dr``.
+
+    Attributes
+    ----------
+    sensor : {"radar", "ldv", "odometer"} or None
+        The forward-velocity sensor; None takes the first present of radar, ldv, odometer.
+    speed_scale : float
+        Multiplies the sensor's speed (1 + a known scale-factor correction; dimensionless).
+    mounting_deg : [x, y, z] or None
+        Small mounting angles of the sensor frame m relative to b [deg], Euler
+        ``[pitch, roll, yaw]`` of the DESIGN convention giving ``C_m^b``; None: from
+        ``meta.yaml`` (``sensors.<sensor>.mounting_deg``) if there, else aligned with b.
+    lever_arm_m : [x, y, z] or None
+        The sensor's position in b relative to the IMU [m]; None: from ``meta.yaml``
+        (``sensors.<sensor>.lever_arm_m``) if there, else zero.
+    """
+
+    model_config = ConfigDict(extra="forbid")
+    sensor: Optional[Literal["radar", "ldv", "odometer"]] = None
+    speed_scale: float = Field(1.0, gt=0)
+    mounting_deg: Optional[tuple[float, float, float]] = None
+    lever_arm_m: Optional[tuple[float, float, float]] = None
+
+
+def _require_init(init: Optional[NavState], method: str) -> NavState:
+    if init is None:
+        raise BadInput(f"method {method!r} needs an initial state (position, velocity, "
+                       "attitude): use --init truth, --init RESULT or initial_* in meta.yaml")
+    return init
+
+
+def run_sins(bundle: Bundle, config: SinsConfig, init: NavState,
+             progress: Optional[Callable[[float], None]] = None) -> Solution:
+    """Pure strapdown inertial navigation from ``init``.
+
+    Parameters
+    ----------
+    bundle : Bundle
+        Uses ``imu`` and, for height damping, ``baro``.
+    config : SinsConfig
+    init : NavState
+        The starting state; rows with ``t > init.t`` are processed.
+    progress : callable, optional
+        ``progress(fraction)``; called at the end (the mechanization is one fast pass).
+
+    Returns
+    -------
+    Solution
+        ``info`` holds ``method``, ``config`` (echo) and ``timing`` (``run_s``).
+    """
+    from ..core.mechanization import strapdown
+    init = _require_init(init, "sins")
+    damping = config.height_damping
+    if damping == "auto":
+        damping = "baro" if bundle.baro is not None else "none"
+    if damping == "baro" and bundle.baro is None:
+        raise BadInput("height_damping='baro' but the bundle has no barometer (baro table)")
+    t0 = time.perf_counter()
+    sol = strapdown(bundle.imu, init, bundle.baro if damping == "baro" else None,
+                    damping=damping, out_stride=config.out_stride)
+    run_s = time.perf_counter() - t0
+    if progress is not None:
+        progress(1.0)
+    sol.info.update(method="sins", config=config.model_dump(mode="json"),
+                    timing={"run_s": run_s}, height_damping=damping)
+    return sol
+
+
+def mounting_from_meta(meta: dict, sensor: str):
+    """``(mounting_deg, lever_arm_m)`` of ``sensor`` from ``meta['sensors'][sensor]``.
+
+    Either may be None when absent. Raises :class:`BadInput` if present but not 3 numbers.
+    """
+    spec = ((meta or {}).get("sensors") or {}).get(sensor) or {}
+    out = []
+    for key in ("mounting_deg", "lever_arm_m"):
+        v = spec.get(key) if isinstance(spec, dict) else None
+        if v is not None:
+            try:
+                v = np.asarray(v, dtype=float).reshape(3)
+            except (TypeError, ValueError):
+                raise BadInput(f"meta.yaml sensors.{sensor}.{key} must be 3 numbers, got "
+                               f"{v!r}") from None
+        out.append(v)
+    return tuple(out)
+
+
+def run_dr(bundle: Bundle, config: DrConfig, init: NavState,
+           progress: Optional[Callable[[float], None]] = None) -> Solution:
+    """Pure dead reckoning from ``init`` with the gyros and one forward-velocity sensor.
+
+    Parameters
+    ----------
+    bundle : Bundle
+        Uses ``imu`` and the chosen velocity sensor.
+    config : DrConfig
+    init : NavState
+        The starting state (its velocity is not used after the first speed sample).
+    progress : callable, optional
+        ``progress(fraction)``; called at the end.
+
+    Returns
+    -------
+    Solution
+        ``info`` holds ``method``, ``config``, ``timing`` and ``sensor`` (the one used).
+    """
+    from ..core.deadreckoning import dead_reckon
+    init = _require_init(init, "dr")
+    try:
+        name, speed = bundle.velocity_sensor(config.sensor)
+    except ValueError as e:
+        raise BadInput(str(e)) from None
+    meta_mount, meta_lever = mounting_from_meta(bundle.meta, name)
+    mount = config.mounting_deg if config.mounting_deg is not None else meta_mount
+    lever = config.lever_arm_m if config.lever_arm_m is not None else meta_lever
+    C_bm = None if mount is None else rotations.dcm_from_euler(np.radians(mount))
+    lever_arm_b = None if lever is None else np.asarray(lever, dtype=float)
+    t0 = time.perf_counter()
+    sol = dead_reckon(bundle.imu, speed, init, C_bm=C_bm, lever_arm_b=lever_arm_b,
+                      scale=config.speed_scale)
+    run_s = time.perf_counter() - t0
+    if progress is not None:
+        progress(1.0)
+    sol.info.update(method="dr", config=config.model_dump(mode="json"), timing={"run_s": run_s},
+                    sensor=name,
+                    mounting_deg=None if mount is None else [float(x) for x in mount],
+                    lever_arm_m=None if lever is None else [float(x) for x in lever])
+    return sol
