@@ -1,0 +1,149 @@
+"""The segment layout of comma2k19 (Schafer et al., arXiv:1812.05752), as in
+``shared/data/real/comma2k19_rav4_60s``.
+
+Layout: every signal is a folder holding two NumPy ``.npy`` files without extension, ``t``
+(float64 s on the device boot clock) and ``value``.
+
+``processed_log/IMU/accelerometer``, ``.../gyro``
+    Phone IMU, specific force [m/s^2] and angular rate [rad/s] (``gyro`` is bias-corrected by
+    the phone; ``gyro_uncalibrated`` is also there), axes :data:`IMU_AXES` = [forward, right,
+    down], about 104 Hz with jitter, both on the same time stamps. Turned into increments over
+    each real interval by :func:`inmotion.io.resample.rates_to_increments` (trapezoid by
+    default); the first sample only opens the first interval.
+``processed_log/CAN/speed``
+    Vehicle speed [m/s], about 89 Hz, on its own clock: the odometer ``v``. It reads about 0.6 %
+    low against the reference (a real scale error, left in: estimating it is a method's job).
+``global_pose/frame_times, frame_positions, frame_velocities, frame_orientations``
+    The reference at 20 Hz: ECEF position [m] and velocity [m/s] of the camera and the Hamilton
+    quaternion ``[w, x, y, z]`` rotating camera axes :data:`CAMERA_AXES` = [forward, right, down]
+    into ECEF. It becomes the truth at the frame times: ``lat, lon, h`` from
+    :func:`inmotion.core.earth.ecef_to_lla`, ``vel_n = C_n^e v_e``, and
+    ``C_b^n = C_n^e C_e^cam C_cam^b`` with b = Right-Forward-Up.
+
+The IMU axes agree with the camera axes (data README), so the truth attitude is the IMU's; the
+camera/IMU is mounted about 0.8 deg (yaw) and 3.8 deg (pitch) off the direction of travel, so
+the truth yaw differs from the course over ground by about that much.
+"""
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+
+from ...core import earth, rotations
+from ...core.bundle import Bundle, ImuData, SpeedData, Truth
+from ...errors import BadInput
+from ..resample import check_times, find_gaps, rates_to_increments
+from .axes import C_b_src, FRD
+from .tables import check_finite, existing_dir
+
+__all__ = ["IMU_AXES", "CAMERA_AXES", "import_comma2k19", "read_signal"]
+
+#: phone IMU axes of the comma2k19 processed logs
+IMU_AXES = FRD
+#: camera axes of ``global_pose/frame_orientations``
+CAMERA_AXES = FRD
+
+
+def _load_npy(path, what):
+    if not path.is_file():
+        raise BadInput(f"{what}: file not found (comma2k19 segment layout expected)", path)
+    try:
+        return np.load(path, allow_pickle=False)
+    except (ValueError, OSError) as exc:
+        raise BadInput(f"{what}: not a NumPy .npy file ({exc})", path) from None
+
+
+def read_signal(folder, ncols=None):
+    """``(t, value)`` of one signal folder; ``value`` reshaped to (N, ncols) when given."""
+    folder = Path(folder)
+    t = _load_npy(folder / "t", folder.name + " t").astype(float).reshape(-1)
+    value = _load_npy(folder / "value", folder.name + " value").astype(float)
+    if value.shape[0] != len(t) or (ncols is not None and value.size != len(t) * ncols):
+        raise BadInput(f"value has shape {value.shape} for {len(t)} times"
+                       + (f" (expected ({len(t)}, {ncols}))" if ncols else ""), folder)
+    t = check_times(t, folder / "t", "time")
+    if ncols is not None:
+        value = value.reshape(len(t), ncols)
+    check_finite(value, folder / "value", folder.name, t=t)
+    return t, value
+
+
+def _imu(root, gyro, order):
+    t_f, f_src = read_signal(root / "processed_log/IMU/accelerometer", 3)
+    t_w, w_src = read_signal(root / "processed_log/IMU" / gyro, 3)
+    if len(t_f) != len(t_w) or np.any(t_f != t_w):
+        raise BadInput("accelerometer and gyro time stamps differ", root / "processed_log/IMU")
+    C = C_b_src(IMU_AXES)
+    gaps = find_gaps(t_f)
+    t, dtheta = rates_to_increments(t_f, w_src @ C.T, order=order, gaps=gaps)
+    _, dvel = rates_to_increments(t_f, f_src @ C.T, order=order, gaps=gaps)
+    return ImuData(t, dtheta, dvel), gaps
+
+
+def _truth(root):
+    pose = root / "global_pose"
+    t = check_times(_load_npy(pose / "frame_times", "frame_times").astype(float).reshape(-1),
+                    pose / "frame_times", "frame time")
+    arrays = {}
+    for key, width in (("frame_positions", 3), ("frame_velocities", 3),
+                       ("frame_orientations", 4)):
+        a = _load_npy(pose / key, key).astype(float)
+        if a.shape != (len(t), width):
+            raise BadInput(f"shape {a.shape}, expected ({len(t)}, {width})", pose / key)
+        check_finite(a, pose / key, key, t=t)
+        arrays[key] = a
+    lat, lon, h = earth.ecef_to_lla(arrays["frame_positions"])
+    C_ne = earth.enu_from_ecef_matrix(lat, lon)
+    vel_n = np.einsum("kij,kj->ki", C_ne, arrays["frame_velocities"])
+    C_e_cam = rotations.dcm_from_quat(arrays["frame_orientations"])
+    C_cam_b = C_b_src(CAMERA_AXES).T
+    euler = rotations.euler_from_dcm(C_ne @ C_e_cam @ C_cam_b)
+    gps = _load_npy(pose / "frame_gps_times", "frame_gps_times") \
+        if (pose / "frame_gps_times").is_file() else None
+    return Truth(t, lat, lon, h, vel_n, euler), gps
+
+
+def import_comma2k19(source, *, gyro="gyro", order=2, name=None) -> Bundle:
+    """Read a comma2k19 segment folder into a :class:`Bundle` (SI, DESIGN frames).
+
+    Parameters
+    ----------
+    source : the segment folder (holding ``processed_log`` and ``global_pose``)
+    gyro : ``"gyro"`` (bias-corrected by the phone) or ``"gyro_uncalibrated"``
+    order : 2 (trapezoid) or 4 (cubic) integration of rates to increments
+    name : bundle name (default: the folder name)
+
+    Raises
+    ------
+    BadInput
+        Missing folder or file, arrays of the wrong shape, non-finite values, times not
+        increasing.
+    """
+    root = existing_dir(source, "comma2k19 segment folder")
+    if gyro not in ("gyro", "gyro_uncalibrated"):
+        raise BadInput(f"gyro must be 'gyro' or 'gyro_uncalibrated', got {gyro!r}")
+    imu, gaps = _imu(root, gyro, order)
+    t_can, v_can = read_signal(root / "processed_log/CAN/speed", 1)
+    truth, gps = _truth(root)
+    meta = {
+        "name": name or root.name,
+        "source": {"format": "comma2k19", "folder": str(root), "gyro": gyro,
+                   "rates_to_increments": "trapezoid" if order == 2 else "cubic"},
+        "imu_axes": {"source": list(IMU_AXES), "to": "b = [right, forward, up]"},
+        "time": "device boot clock [s]",
+        "lat_deg": float(np.rad2deg(truth.lat[0])), "lon_deg": float(np.rad2deg(truth.lon[0])),
+        "h_m": float(truth.h[0]),
+        "odometer": {"signal": "CAN speed", "note": "reads about 0.6 % low against the "
+                     "reference; not corrected"},
+        "truth": {"source": "global_pose (offline INS/GNSS/vision fusion by the dataset "
+                  "authors, no accuracy stated)", "frame": "camera = IMU axes; mounted about "
+                  "0.8 deg yaw and 3.8 deg pitch off the direction of travel"},
+        "license": "MIT (comma.ai, comma2k19)",
+    }
+    if gps is not None:
+        meta["truth"]["gps_week"] = int(gps[0, 0])
+        meta["truth"]["gps_tow_first_s"] = float(gps[0, 1])
+    if len(gaps):
+        meta["gaps"] = {"imu": gaps.as_list(), "threshold_s": gaps.threshold_s}
+    return Bundle(imu=imu, meta=meta, odometer=SpeedData(t_can, v=v_can[:, 0]), truth=truth)
