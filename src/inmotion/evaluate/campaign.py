@@ -1,0 +1,219 @@
+"""One Monte Carlo run as a picklable task, its seed, and the per-run result files.
+
+Seeding
+-------
+Run ``k`` of a campaign with seed ``s`` draws every random number from::
+
+    numpy.random.default_rng(numpy.random.SeedSequence(s, spawn_key=(k,)))
+
+which is the ``k``-th child of ``SeedSequence(s).spawn(...)``: statistically independent streams
+for different runs, and a value that depends on ``(s, k)`` only, never on the worker, the order
+of completion or the number of workers. All points of a sweep share the run's stream (common
+random numbers): run ``k`` of every method sees the same simulated drive, so differences between
+methods are not masked by drive-to-drive scatter. :func:`execute_task` run alone reproduces any
+run exactly.
+
+Files
+-----
+``DIR/results/point-PPPP/run-RRRRRR.parquet`` holds one row per finished run: ``point_id``,
+``run_index``, ``seed``, ``status`` (``ok`` / ``error``), ``error``, ``traceback``, ``label``, the
+point's grid values as ``param.<dotted path>``, the run function's scalars (nested dicts
+flattened with ``.``), and ``elapsed_s`` (wall time of the run; with ``worker``, the only columns
+that may differ between two executions of the same run). Each file is written to a temporary
+name and renamed, so a killed campaign leaves only whole files. Optional arrays a run returns
+under the key ``"arrays"`` go to ``DIR/arrays/point-PPPP/run-RRRRRR.npz``.
+"""
+from __future__ import annotations
+
+import importlib
+import json
+import os
+import socket
+import time
+import traceback
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Iterable, Optional
+
+import numpy as np
+import pyarrow as pa
+import pyarrow.parquet as pq
+
+__all__ = ["Task", "run_seed_sequence", "run_generator", "execute_task", "error_record",
+           "flatten", "ResultStore"]
+
+TIMING_COLUMNS = ("elapsed_s", "worker")
+
+
+def run_seed_sequence(campaign_seed: int, run_index: int) -> np.random.SeedSequence:
+    """The seed sequence of run ``run_index``: ``SeedSequence(campaign_seed, spawn_key=(run_index,))``."""
+    return np.random.SeedSequence(int(campaign_seed), spawn_key=(int(run_index),))
+
+
+def run_generator(campaign_seed: int, run_index: int) -> np.random.Generator:
+    """The ``numpy.random.Generator`` (PCG64) of one run; see the module notes."""
+    return np.random.default_rng(run_seed_sequence(campaign_seed, run_index))
+
+
+@dataclass(frozen=True)
+class Task:
+    """Everything a worker needs for one run: picklable, no file access.
+
+    ``run`` is ``"module:function"`` of ``f(spec: dict, rng: Generator) -> dict``.
+    """
+
+    campaign_seed: int
+    run_index: int
+    point_id: int
+    params: dict
+    spec: dict
+    run: str
+    label: str = ""
+
+
+def _resolve(path: str):
+    mod, _, attr = path.partition(":")
+    return getattr(importlib.import_module(mod), attr)
+
+
+def _scalar(v):
+    """A Parquet-friendly scalar: numpy scalars to Python, other objects to JSON text."""
+    if isinstance(v, np.generic):
+        return v.item()
+    if v is None or isinstance(v, (bool, int, float, str)):
+        return v
+    if isinstance(v, np.ndarray) and v.ndim == 0:
+        return v.item()
+    return json.dumps(v, default=lambda o: np.asarray(o).tolist())
+
+
+def flatten(d: dict, prefix: str = "") -> dict:
+    """``{"final": {"yaw_arcmin": 1.0}} -> {"final.yaw_arcmin": 1.0}``; leaves become scalars."""
+    out = {}
+    for k, v in d.items():
+        key = f"{prefix}{k}"
+        if isinstance(v, dict):
+            out.update(flatten(v, key + "."))
+        else:
+            out[key] = _scalar(v)
+    return out
+
+
+def _base_record(task: Task) -> dict:
+    record = {"point_id": task.point_id, "run_index": task.run_index, "seed": task.campaign_seed,
+              "status": "ok", "error": "", "traceback": "", "label": task.label}
+    record.update({f"param.{k}": _scalar(v) for k, v in task.params.items()})
+    return record
+
+
+def error_record(task: Task, exc: BaseException, tb: str = "") -> dict:
+    """The row of a run that failed with ``exc`` (its seed and point are kept)."""
+    record = _base_record(task)
+    record.update(status="error", error=f"{type(exc).__name__}: {exc}", traceback=tb,
+                  elapsed_s=float("nan"), worker="")
+    return record
+
+
+def execute_task(task: Task) -> tuple:
+    """Run one task; never raises for the run's own failure.
+
+    Returns
+    -------
+    record : dict
+        The row for the results table (see the module notes).
+    arrays : dict or None
+        Arrays the run function returned under ``"arrays"``.
+    """
+    t0 = time.perf_counter()
+    arrays = None
+    try:
+        out = dict(_resolve(task.run)(task.spec, run_generator(task.campaign_seed, task.run_index)))
+        arrays = out.pop("arrays", None)
+        record = _base_record(task)
+        scalars = flatten(out)
+        clash = sorted(set(scalars) & set(record))
+        if clash:
+            raise ValueError(f"run function returned reserved column names {clash}")
+        record.update(scalars)
+    except Exception as exc:  # the campaign goes on; the error is a result
+        record = error_record(task, exc, traceback.format_exc(limit=20))
+    record["elapsed_s"] = time.perf_counter() - t0
+    record["worker"] = f"{socket.gethostname()}:{os.getpid()}"
+    return record, arrays
+
+
+def _stem(point_id: int, run_index: int) -> tuple:
+    return f"point-{point_id:04d}", f"run-{run_index:06d}"
+
+
+class ResultStore:
+    """The per-run result files of one campaign directory (see the module notes)."""
+
+    def __init__(self, root):
+        self.root = Path(root)
+        self.results = self.root / "results"
+        self.arrays = self.root / "arrays"
+
+    def _atomic_write(self, path: Path, write) -> None:
+        path.parent.mkdir(parents=True, exist_ok=True)
+        tmp = path.with_name(f".{path.name}.{os.getpid()}.tmp")
+        write(tmp)
+        os.replace(tmp, path)
+
+    def write(self, record: dict, arrays: Optional[dict] = None) -> None:
+        """Write one run's row (and arrays) atomically."""
+        part, run = _stem(record["point_id"], record["run_index"])
+        if arrays:
+            def save(tmp):
+                with open(tmp, "wb") as f:
+                    np.savez(f, **{k: np.asarray(v) for k, v in arrays.items()})
+            self._atomic_write(self.arrays / part / f"{run}.npz", save)
+        table = pa.Table.from_pylist([record])
+        self._atomic_write(self.results / part / f"{run}.parquet",
+                           lambda tmp: pq.write_table(table, tmp, compression="zstd"))
+
+    def files(self) -> Iterable[Path]:
+        if not self.results.is_dir():
+            return []
+        return sorted(p for p in self.results.glob("point-*/run-*.parquet"))
+
+    def done(self) -> set:
+        """``{(point_id, run_index)}`` of every run with a result file (from names only)."""
+        keys = set()
+        for p in self.files():
+            keys.add((int(p.parent.name[6:]), int(p.stem[4:])))
+        return keys
+
+    def remove_partial(self) -> int:
+        """Delete temporary files a killed campaign left behind; returns how many."""
+        n = 0
+        for sub in (self.results, self.arrays):
+            if sub.is_dir():
+                for p in sub.glob("point-*/.*.tmp"):
+                    p.unlink(missing_ok=True)
+                    n += 1
+        return n
+
+    def remove(self, keys: Iterable[tuple]) -> None:
+        """Delete the result files of ``keys`` (used to re-run failed runs)."""
+        for pid, idx in keys:
+            part, run = _stem(pid, idx)
+            (self.results / part / f"{run}.parquet").unlink(missing_ok=True)
+            (self.arrays / part / f"{run}.npz").unlink(missing_ok=True)
+
+    def read_arrays(self, point_id: int, run_index: int) -> Optional[dict]:
+        part, run = _stem(point_id, run_index)
+        path = self.arrays / part / f"{run}.npz"
+        if not path.exists():
+            return None
+        with np.load(path) as z:
+            return {k: z[k] for k in z.files}
+
+    def table(self):
+        """All rows as a pandas DataFrame sorted by ``(point_id, run_index)``."""
+        import pandas as pd
+        tables = [pq.read_table(p) for p in self.files()]
+        if not tables:
+            return pd.DataFrame(columns=["point_id", "run_index", "seed", "status", "error"])
+        df = pa.concat_tables(tables, promote_options="permissive").to_pandas()
+        return df.sort_values(["point_id", "run_index"], kind="stable").reset_index(drop=True)

@@ -1,0 +1,269 @@
+"""The Monte Carlo campaign engine: runs a sweep's tasks on Dask and writes each result as it lands.
+
+One code path for a laptop and a cluster: by default a ``distributed.LocalCluster`` with one
+single-threaded worker process per core is started (no server to run); ``scheduler=ADDRESS``
+connects to an existing Dask scheduler instead, and ``client=`` uses a ``distributed.Client``
+the caller already holds. The client process keeps the campaign directory; workers only compute
+(:func:`inmotion.evaluate.campaign.execute_task`), so no shared file system is needed.
+
+Guarantees
+----------
+- A run's numbers depend on the campaign seed and its index only
+  (:func:`inmotion.evaluate.campaign.run_seed_sequence`): same results on 1, 2 or 200 workers;
+  :func:`rerun` reproduces one run alone.
+- Each finished run is written at once (one Parquet file per run); an interrupted campaign loses
+  only the runs in flight, and ``resume=True`` runs only the missing ones.
+- A run that raises is a result (``status='error'``, its error text, traceback and seed); the
+  campaign goes on.
+- At most ``max_in_flight`` tasks are submitted at a time, so the client's memory does not grow
+  with the number of runs.
+"""
+from __future__ import annotations
+
+import contextlib
+import json
+import logging
+import os
+import platform
+import sys
+import time
+import uuid
+from pathlib import Path
+from typing import Optional
+
+from ..errors import BadInput
+from .campaign import ResultStore, Task, _resolve, error_record, execute_task
+from .sweep import Sweep
+
+__all__ = ["run_campaign", "iter_tasks", "rerun", "read_results", "versions", "open_client"]
+
+MANIFEST = "campaign.json"
+TABLE = "table.parquet"
+#: environment of local workers: one BLAS thread each, the cores are the workers
+WORKER_ENV = {"OPENBLAS_NUM_THREADS": "1", "MKL_NUM_THREADS": "1", "OMP_NUM_THREADS": "1",
+              "NUMBA_NUM_THREADS": "1"}
+
+
+def versions() -> dict:
+    """Versions of the package, Python and the libraries that shape the numbers."""
+    import importlib.metadata as md
+    out = {"python": sys.version.split()[0], "platform": platform.platform()}
+    for name in ("inmotion", "numpy", "scipy", "numba", "pandas", "pyarrow", "dask",
+                 "distributed", "matplotlib", "pydantic"):
+        try:
+            out[name] = md.version(name)
+        except md.PackageNotFoundError:
+            out[name] = "not installed"
+    return out
+
+
+def iter_tasks(sweep: Sweep, skip=frozenset()):
+    """The tasks of ``sweep``, run-major (run 0 of every point, then run 1, ...), so a partial
+    campaign is balanced across points; keys in ``skip`` = ``{(point_id, run_index)}`` are left out."""
+    for k in range(sweep.runs):
+        for p in sweep.points:
+            if (p.point_id, k) not in skip:
+                yield Task(sweep.seed, k, p.point_id, p.params, p.spec, sweep.run, p.label)
+
+
+def rerun(out_dir, point_id: int, run_index: int) -> dict:
+    """Re-run one run of the campaign in ``out_dir`` alone, in this process; returns its record."""
+    manifest = _read_manifest(Path(out_dir))
+    points = {p["point_id"]: p for p in manifest["points"]}
+    if point_id not in points:
+        raise BadInput(f"no point {point_id} in this campaign", file=Path(out_dir) / MANIFEST)
+    p = points[point_id]
+    task = Task(manifest["seed"], run_index, point_id, p["params"], p["spec"], manifest["run"],
+                p["label"])
+    return execute_task(task)[0]
+
+
+def read_results(out_dir):
+    """The campaign's results table (pandas), from the per-run files."""
+    return ResultStore(out_dir).table()
+
+
+def _read_manifest(out: Path) -> dict:
+    path = out / MANIFEST
+    try:
+        return json.loads(path.read_text())
+    except FileNotFoundError:
+        raise BadInput("not a campaign directory (no campaign.json)", file=out) from None
+    except json.JSONDecodeError as exc:
+        raise BadInput(f"corrupt campaign manifest: {exc}", file=path) from None
+
+
+def _identity(manifest: dict) -> dict:
+    """What must not change for a resumed campaign to be the same campaign (runs may grow)."""
+    return {"seed": manifest["seed"], "run": manifest["run"],
+            "points": [(p["point_id"], p["params"], p["spec"]) for p in manifest["points"]]}
+
+
+def _prepare_dir(out: Path, sweep: Sweep, store: ResultStore, resume: bool) -> None:
+    manifest = json.loads(json.dumps(sweep.manifest(), default=str))
+    if (out / MANIFEST).exists():
+        old = _read_manifest(out)
+        if not resume and store.done():
+            raise BadInput("the directory already holds campaign results; pass --resume to "
+                           "complete them, or choose a new directory", file=out)
+        if resume and _identity(old) != _identity(manifest):
+            raise BadInput("the directory holds a different campaign (seed, run function or "
+                           "points differ); resume it with its own sweep, or use a new "
+                           "directory", file=out)
+    out.mkdir(parents=True, exist_ok=True)
+    manifest["versions"] = versions()
+    manifest["written_utc"] = time.strftime("%Y-%m-%dT%H:%M:%SZ", time.gmtime())
+    tmp = out / f".{MANIFEST}.tmp"
+    tmp.write_text(json.dumps(manifest, indent=1, default=str))
+    os.replace(tmp, out / MANIFEST)
+
+
+def _validate(sweep: Sweep) -> None:
+    """Call the run function's ``validate_spec(spec)`` attribute on every point (if it has one),
+    so a typo in a sweep fails before the campaign starts rather than in every run."""
+    check = getattr(_resolve(sweep.run), "validate_spec", None)
+    if check is None:
+        return
+    for p in sweep.points:
+        try:
+            check(p.spec)
+        except BadInput as exc:
+            raise BadInput(f"point {p.point_id} ({p.label}): {exc}", file=sweep.source) from None
+
+
+@contextlib.contextmanager
+def open_client(workers: Optional[int] = None, scheduler: Optional[str] = None, client=None):
+    """A ``distributed.Client``: the one given, one connected to ``scheduler``, or one on a new
+    ``LocalCluster`` of ``workers`` single-threaded processes (default: all cores)."""
+    if client is not None:
+        yield client
+        return
+    from distributed import Client, LocalCluster
+    if scheduler:
+        with Client(scheduler) as c:
+            yield c
+        return
+    n = workers or os.cpu_count() or 1
+    if n < 1:
+        raise BadInput(f"--workers must be at least 1, got {workers}")
+    with LocalCluster(n_workers=n, threads_per_worker=1, processes=True,
+                      dashboard_address=None, silence_logs=logging.ERROR,
+                      env=WORKER_ENV) as cluster, Client(cluster) as c:
+        yield c
+
+
+def _progress(total, initial, quiet, desc):
+    from tqdm.auto import tqdm
+    return tqdm(total=total, initial=initial, unit="run", desc=desc, disable=quiet,
+                dynamic_ncols=True, file=sys.stderr, smoothing=0.1)
+
+
+def _failed_keys(store: ResultStore) -> set:
+    df = store.table()
+    if df.empty or "status" not in df:
+        return set()
+    bad = df[df["status"] != "ok"]
+    return set(zip(bad["point_id"].astype(int), bad["run_index"].astype(int)))
+
+
+def run_campaign(sweep: Sweep, out_dir, *, workers: Optional[int] = None,
+                 scheduler: Optional[str] = None, client=None, resume: bool = False,
+                 retry_failed: bool = False, quiet: bool = False,
+                 max_in_flight: Optional[int] = None, validate: bool = True):
+    """Run every (point, run) of ``sweep`` not yet in ``out_dir``; return the full results table.
+
+    Parameters
+    ----------
+    sweep : Sweep
+        From :func:`inmotion.evaluate.sweep.load_sweep`.
+    out_dir : path
+        The campaign directory: ``campaign.json``, ``results/``, ``arrays/``, ``table.parquet``.
+    workers : int, optional
+        Local worker processes (default: all cores); ignored with ``scheduler`` or ``client``.
+    scheduler : str, optional
+        Address of an existing Dask scheduler (``tcp://host:8786``).
+    client : distributed.Client, optional
+        A client to use as is (not closed here).
+    resume : bool
+        Complete a campaign already in ``out_dir``: only missing runs are run. Without it a
+        directory holding results is refused (:class:`BadInput`).
+    retry_failed : bool
+        With ``resume``: also re-run the runs recorded as errors.
+    quiet : bool
+        No progress bar.
+    max_in_flight : int, optional
+        Tasks submitted at a time (default ``max(16, 4 * workers)``).
+
+    Returns
+    -------
+    pandas.DataFrame
+        One row per run, sorted by ``(point_id, run_index)``; also written to ``table.parquet``.
+    """
+    out = Path(out_dir)
+    store = ResultStore(out)
+    _prepare_dir(out, sweep, store, resume)
+    if validate:
+        _validate(sweep)
+    store.remove_partial()
+    if resume and retry_failed:
+        store.remove(_failed_keys(store))
+    done = store.done()
+    total = sweep.runs * len(sweep.points)
+    todo = iter_tasks(sweep, skip=done)
+    n_todo = total - len(done & {(p.point_id, k) for p in sweep.points for k in range(sweep.runs)})
+    if n_todo > 0:
+        with open_client(workers, scheduler, client) as c:
+            _drive(c, todo, store, total, total - n_todo, quiet, max_in_flight, sweep.name)
+    df = store.table()
+    df.to_parquet(out / TABLE, index=False)
+    return df
+
+
+def _drive(client, tasks, store, total, initial, quiet, max_in_flight, name):
+    """Submit tasks with a bounded window, write each result as it completes."""
+    from distributed import as_completed
+    n_workers = max(1, len(client.scheduler_info(n_workers=-1).get("workers", {})))
+    window = max_in_flight or max(16, 4 * n_workers)
+    token = uuid.uuid4().hex[:8]
+
+    def submit(task):
+        return client.submit(execute_task, task, pure=False,
+                             key=f"inmotion-run-{token}-p{task.point_id}-r{task.run_index}")
+
+    pending, in_flight = as_completed(), {}
+    for task in _take(tasks, window):
+        fut = submit(task)
+        in_flight[fut.key] = task
+        pending.add(fut)
+    n_err = 0
+    with _progress(total, initial, quiet, name) as bar:
+        for fut in pending:
+            record, arrays = _outcome(fut, in_flight.pop(fut.key))
+            store.write(record, arrays)
+            n_err += record["status"] != "ok"
+            bar.update(1)
+            if n_err:
+                bar.set_postfix(errors=n_err, refresh=False)
+            fut.release()
+            for task in _take(tasks, 1):
+                nxt = submit(task)
+                in_flight[nxt.key] = task
+                pending.add(nxt)
+
+
+def _outcome(fut, task):
+    """The task's result; a worker lost while running it (KilledWorker) is recorded as an error."""
+    try:
+        return fut.result()
+    except Exception as exc:
+        return error_record(task, exc), None
+
+
+def _take(it, n):
+    out = []
+    for _ in range(n):
+        try:
+            out.append(next(it))
+        except StopIteration:
+            break
+    return out
