@@ -132,21 +132,21 @@ def quat_from_dcm(C):
     piv = np.stack([tr, C[..., 0, 0], C[..., 1, 1], C[..., 2, 2]], axis=-1)
     k = np.argmax(piv, axis=-1)
     q = np.empty(C.shape[:-2] + (4,))
-    # candidate quaternions, each exact where its pivot is the largest
-    cands = []
-    s = np.sqrt(np.maximum(1.0 + tr, 0.0)) * 2
-    cands.append(np.stack([s / 4, (C[..., 2, 1] - C[..., 1, 2]) / s,
-                           (C[..., 0, 2] - C[..., 2, 0]) / s, (C[..., 1, 0] - C[..., 0, 1]) / s], -1))
-    s = np.sqrt(np.maximum(1.0 + C[..., 0, 0] - C[..., 1, 1] - C[..., 2, 2], 0.0)) * 2
-    cands.append(np.stack([(C[..., 2, 1] - C[..., 1, 2]) / s, s / 4,
-                           (C[..., 0, 1] + C[..., 1, 0]) / s, (C[..., 0, 2] + C[..., 2, 0]) / s], -1))
-    s = np.sqrt(np.maximum(1.0 - C[..., 0, 0] + C[..., 1, 1] - C[..., 2, 2], 0.0)) * 2
-    cands.append(np.stack([(C[..., 0, 2] - C[..., 2, 0]) / s, (C[..., 0, 1] + C[..., 1, 0]) / s,
-                           s / 4, (C[..., 1, 2] + C[..., 2, 1]) / s], -1))
-    s = np.sqrt(np.maximum(1.0 - C[..., 0, 0] - C[..., 1, 1] + C[..., 2, 2], 0.0)) * 2
-    cands.append(np.stack([(C[..., 1, 0] - C[..., 0, 1]) / s, (C[..., 0, 2] + C[..., 2, 0]) / s,
-                           (C[..., 1, 2] + C[..., 2, 1]) / s, s / 4], -1))
     with np.errstate(divide="ignore", invalid="ignore"):
+        # candidate quaternions, each exact where its pivot is the largest
+        cands = []
+        s = np.sqrt(np.maximum(1.0 + tr, 0.0)) * 2
+        cands.append(np.stack([s / 4, (C[..., 2, 1] - C[..., 1, 2]) / s,
+                               (C[..., 0, 2] - C[..., 2, 0]) / s, (C[..., 1, 0] - C[..., 0, 1]) / s], -1))
+        s = np.sqrt(np.maximum(1.0 + C[..., 0, 0] - C[..., 1, 1] - C[..., 2, 2], 0.0)) * 2
+        cands.append(np.stack([(C[..., 2, 1] - C[..., 1, 2]) / s, s / 4,
+                               (C[..., 0, 1] + C[..., 1, 0]) / s, (C[..., 0, 2] + C[..., 2, 0]) / s], -1))
+        s = np.sqrt(np.maximum(1.0 - C[..., 0, 0] + C[..., 1, 1] - C[..., 2, 2], 0.0)) * 2
+        cands.append(np.stack([(C[..., 0, 2] - C[..., 2, 0]) / s, (C[..., 0, 1] + C[..., 1, 0]) / s,
+                               s / 4, (C[..., 1, 2] + C[..., 2, 1]) / s], -1))
+        s = np.sqrt(np.maximum(1.0 - C[..., 0, 0] - C[..., 1, 1] + C[..., 2, 2], 0.0)) * 2
+        cands.append(np.stack([(C[..., 1, 0] - C[..., 0, 1]) / s, (C[..., 0, 2] + C[..., 2, 0]) / s,
+                               (C[..., 1, 2] + C[..., 2, 1]) / s, s / 4], -1))
         for i, cand in enumerate(cands):
             q = np.where((k == i)[..., None], cand, q)
     return quat_normalize(q)
