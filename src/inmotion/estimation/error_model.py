@@ -299,25 +299,29 @@ def nhc_rows(layout, pt: LinPoint, with_mount=True):
     return H
 
 
-def sensor_velocity_rows(layout, pt: LinPoint):
-    """(3, n) rows of ``z = v_SINS - C_b^n(SINS) C_m^b v_sensor`` (velocity matching).
+def sensor_velocity_rows(layout, pt: LinPoint, vel_sensor_n=None):
+    """(3, n) rows of ``z = v_SINS - C_b^n(SINS) (C_m^b [0, v, 0] - w_nb^b x l)``.
 
-    The classic SINS / velocity-sensor measurement (baseline ``od-velocity-kf``, paper 003
-    eq. 23-24 form). The projected sensor velocity has error ``[v x] phi + [v x] C A + dk v``
-    (eq. 11 with the SINS attitude), so ``H = [dv: I, phi: -[v x], mount: -[v x] C,
-    dk: -v]``, plus, with a ``lever`` block, ``-C_b^n [w_nb^b x]`` for the lever-arm error.
+    The classic SINS / velocity-sensor velocity matching (baseline ``od-velocity-kf``, paper
+    003 eq. 23-24 form): the sensor's speed ``v`` along its forward axis, mapped to the IMU
+    point with the lever arm ``l`` and to n with the SINS attitude. Its error is
+    ``[v x] phi + [v_s x] C A + dk v_s - C [w_nb^b x] dl`` (eq. 11 with the SINS attitude;
+    ``dl`` the lever-arm error, computed minus true), so
+    ``H = [dv: I, phi: -[v x], mount: -[v_s x] C, dk: -v_s, lever: C [w_nb^b x]]``,
+    with ``v`` the IMU's and ``v_s`` (``vel_sensor_n``, default ``v``) the sensor point's
+    velocity in n.
     """
     lay = layout
     H = np.zeros((3, lay.n))
-    V = skew(pt.vel_n)
+    vs = pt.vel_n if vel_sensor_n is None else np.asarray(vel_sensor_n, dtype=float)
     H[:, lay["dv"]] = np.eye(3)
-    H[:, lay["phi"]] = -V
+    H[:, lay["phi"]] = -skew(pt.vel_n)
     if "mount" in lay:
-        H[:, lay["mount"]] = -V @ pt.C_nb
+        H[:, lay["mount"]] = -skew(vs) @ pt.C_nb
     if "dk" in lay:
-        H[:, lay["dk"]] = -pt.vel_n[:, None]
+        H[:, lay["dk"]] = -vs[:, None]
     if "lever" in lay and pt.omega_nb_b is not None:
-        H[:, lay["lever"]] = -pt.C_nb @ skew(pt.omega_nb_b)
+        H[:, lay["lever"]] = pt.C_nb @ skew(pt.omega_nb_b)
     return H
 
 
