@@ -147,7 +147,7 @@ def open_client(workers: Optional[int] = None, scheduler: Optional[str] = None, 
     if n < 1:
         raise BadInput(f"--workers must be at least 1, got {workers}")
     with LocalCluster(n_workers=n, threads_per_worker=1, processes=True,
-                      dashboard_address=None, silence_logs=logging.ERROR,
+                      dashboard_address="127.0.0.1:0", silence_logs=logging.ERROR,
                       env=WORKER_ENV) as cluster, Client(cluster) as c:
         yield c
 
