@@ -1,0 +1,227 @@
+"""Dead reckoning from the gyros and a forward-velocity sensor (paper 002, "DRS").
+
+Attitude by the same equivalent-rotation-vector update as the SINS (two-sample coning, the
+navigation frame's rotation from the DR's own position and velocity; the kernel is shared,
+:func:`inmotion.core._kernels.attitude_update`). Velocity, paper 002 eq. 8 (paper 000 eq. 8)::
+
+    v_n = C_b^n (C_m^b [0, v, 0] - omega_ib_b x l_b)
+
+and position from distance increments (paper 002 eq. 12-19: the distance travelled over the
+interval, resolved in n with the attitude, moves latitude, longitude and height)::
+
+    dS_n = C_b^n(k-1/2) C_m^b [0, ds, 0] - (C_b^n(k) - C_b^n(k-1)) l_b
+
+``m`` is the sensor's frame (forward axis y), ``C_bm = C_m^b`` its mounting matrix, ``l_b`` the
+lever arm from the IMU to the sensor in b. The sensor point, not the IMU, is the one that moves
+along the sensor's forward axis (the non-holonomic assumption is made where the wheel or the
+beam is); the state is the IMU's position, obtained from the sensor's path minus the rotated
+lever arm (exact for a rigid body). The velocity uses ``omega_ib`` for ``omega_eb`` (the Earth
+rate times a metre lever arm is 7e-5 m/s).
+
+Distance increments: a sensor that gives ``ds`` is used as such (its cumulative distance is
+interpolated linearly to the IMU epochs); one that gives only ``v`` is integrated by the
+trapezoid first. The sensor runs on its own rate; its distance is interpolated to the IMU
+epochs, never extrapolated: IMU rows before the sensor's first sample or after its last get no
+distance and zero speed (the position is held) and are counted in ``Solution.info``. Across a
+gap in the sensor's data (longer than ``max_gap``) the distance is interpolated between the
+samples on either side (the distance a ``ds`` sensor reports after a gap covers the gap) and the
+rows are counted too.
+
+``scale`` multiplies the sensor's output (``ds`` and ``v``): with a sensor reading
+``(1 + dk)`` times the truth, ``scale = 1 / (1 + dk)`` corrects it.
+"""
+from __future__ import annotations
+
+import numpy as np
+
+from . import _kernels as K
+from .bundle import ImuData, SpeedData
+from .mechanization import _correct, _first_row, _intervals, _state_vector, _to_solution
+from .solution import NavState, Solution
+from ..errors import BadInput
+
+__all__ = ["dead_reckon", "DeadReckoner", "speed_on_epochs"]
+
+
+def _check_mounting(C_bm, lever_arm_b, scale):
+    C = np.eye(3) if C_bm is None else np.asarray(C_bm, dtype=float)
+    if C.shape != (3, 3) or not np.all(np.isfinite(C)):
+        raise BadInput(f"C_bm (sensor-to-body mounting matrix) must be a finite 3x3 matrix, "
+                       f"got shape {C.shape}")
+    if np.abs(C @ C.T - np.eye(3)).max() > 1e-6 or np.linalg.det(C) < 0:
+        raise BadInput("C_bm (sensor-to-body mounting matrix) is not a rotation matrix "
+                       f"(|C C^T - I| = {np.abs(C @ C.T - np.eye(3)).max():.3g}, "
+                       f"det = {np.linalg.det(C):.6g})")
+    l_b = np.zeros(3) if lever_arm_b is None else np.asarray(lever_arm_b, dtype=float)
+    if l_b.shape != (3,) or not np.all(np.isfinite(l_b)):
+        raise BadInput(f"lever_arm_b must be 3 finite numbers [m], got {l_b!r}")
+    if not (np.isfinite(scale) and scale > 0):
+        raise BadInput(f"scale must be a finite number > 0, got {scale}")
+    return np.ascontiguousarray(C), np.ascontiguousarray(l_b), float(scale)
+
+
+def _check_speed(speed: SpeedData, what: str):
+    if len(speed.t) < 2:
+        raise BadInput(f"need at least 2 samples, got {len(speed.t)}", file=what)
+    bad = np.flatnonzero(~(np.diff(speed.t) > 0))
+    if bad.size:
+        k = int(bad[0]) + 1
+        raise BadInput(f"time not strictly increasing (previous t={speed.t[k - 1]:.6g} s)",
+                       file=what, row=k + 1, time=float(speed.t[k]))
+    for name in ("v", "ds"):
+        val = getattr(speed, name)
+        if val is not None:
+            bad = np.flatnonzero(~np.isfinite(val))
+            if bad.size:
+                k = int(bad[0])
+                raise BadInput(f"{name} is not a finite number ({val[k]})", file=what,
+                               row=k + 1, time=float(speed.t[k]))
+
+
+def speed_on_epochs(speed: SpeedData, t: np.ndarray, max_gap: float | None = None,
+                    what: str = "speed"):
+    """A velocity sensor's distance increments and speed on the IMU epochs.
+
+    Parameters
+    ----------
+    speed : SpeedData
+        ``ds`` [m] over the interval ending at each ``t``, or speed ``v`` [m/s] at ``t``.
+    t : (M + 1,) s
+        IMU epochs: ``t[0]`` is the start, ``t[1:]`` the ends of the M intervals.
+    max_gap : float, optional
+        Sensor intervals longer than this [s] are gaps; default 5 median sensor periods.
+
+    Returns
+    -------
+    ds : (M,) m, distance over each IMU interval (0 where not covered by the sensor)
+    v : (M,) m/s, speed at each interval's end (0 where not covered)
+    uncovered : (M,) bool, intervals not (entirely) inside the sensor's span
+    in_gap : (M,) bool, intervals that overlap a sensor gap (distance interpolated across it)
+    """
+    _check_speed(speed, what)
+    ts = speed.t
+    if speed.ds is not None:
+        dist = np.concatenate([[0.0], np.cumsum(speed.ds[1:])])
+    else:
+        dist = np.concatenate([[0.0], np.cumsum(0.5 * (speed.v[1:] + speed.v[:-1]) * np.diff(ts))])
+    s_at = np.interp(t, ts, dist)
+    ds = np.diff(s_at)
+    if speed.v is not None:
+        v = np.interp(t[1:], ts, speed.v)
+    else:                                   # the speed of the sensor interval holding t
+        j = np.clip(np.searchsorted(ts, t[1:], side="left"), 1, len(ts) - 1)
+        v = speed.ds[j] / (ts[j] - ts[j - 1])
+    uncovered = (t[:-1] < ts[0] - 1e-9) | (t[1:] > ts[-1] + 1e-9)
+    ds[uncovered] = 0.0
+    v[uncovered] = 0.0
+    if max_gap is None:
+        max_gap = 5.0 * float(np.median(np.diff(ts)))
+    gap_ends = np.flatnonzero(np.diff(ts) > max_gap) + 1       # sensor rows ending a gap
+    in_gap = np.zeros(len(ds), dtype=bool)
+    for j in gap_ends:
+        in_gap |= (t[1:] > ts[j - 1]) & (t[:-1] < ts[j])
+    return ds, v, uncovered, in_gap
+
+
+class DeadReckoner:
+    """Streaming dead reckoning: advance over chunks, read the state, feed back corrections.
+
+    Parameters
+    ----------
+    init : NavState
+        Starting state of the IMU point at ``init.t`` (its velocity seeds only the first
+        transport-rate evaluation; afterwards the velocity comes from the sensor).
+    C_bm : (3, 3), optional
+        ``C_m^b``: sensor frame (forward y) to body. Identity by default.
+    lever_arm_b : (3,), optional
+        IMU-to-sensor lever arm [m] in b. Zero by default.
+    scale : float
+        Multiplies the sensor's output.
+    """
+
+    def __init__(self, init: NavState, C_bm=None, lever_arm_b=None, scale: float = 1.0):
+        self.C_bm, self.l_b, self.scale = _check_mounting(C_bm, lever_arm_b, scale)
+        self._x = _state_vector(init)
+        self._mem = K.new_memory()
+        self.t = float(init.t)
+
+    def run(self, dtheta, t, ds, v, out_stride: int = 0):
+        """Advance over M rows: gyro increments ``dtheta`` (M, 3) [rad] over the intervals
+        ending at ``t`` (M,) [s], the sensor's distance ``ds`` (M,) [m] over the same intervals
+        and its speed ``v`` (M,) [m/s] at ``t`` (see :func:`speed_on_epochs`). With
+        ``out_stride > 0`` returns ``(t_out, x_out)`` as :meth:`Strapdown.run` does."""
+        dtheta = np.ascontiguousarray(dtheta, dtype=float).reshape(-1, 3)
+        t = np.ascontiguousarray(t, dtype=float).reshape(-1)
+        ds = np.ascontiguousarray(ds, dtype=float).reshape(-1) * self.scale
+        v = np.ascontiguousarray(v, dtype=float).reshape(-1) * self.scale
+        if not (len(dtheta) == len(t) == len(ds) == len(v)):
+            raise BadInput(f"dead-reckoning chunk: dtheta ({len(dtheta)}), t ({len(t)}), "
+                           f"ds ({len(ds)}) and v ({len(v)}) must have the same number of rows")
+        dt = _intervals(t, self.t, "imu")
+        n_max = len(t) // out_stride + 1 if out_stride > 0 else 0
+        out_x = np.empty((n_max, K.NX))
+        out_rows = np.empty(n_max, dtype=np.int64)
+        n = K.dr_run(self._x, self._mem, dtheta, ds, v, dt, self.C_bm, self.l_b,
+                     int(out_stride), out_rows, out_x)
+        if len(t):
+            self.t = float(t[-1])
+        if out_stride > 0:
+            return t[out_rows[:n]], out_x[:n]
+        return None
+
+    def state(self) -> NavState:
+        """The current dead-reckoning state (a copy)."""
+        x = self._x
+        return NavState(self.t, x[K.LAT], x[K.LON], x[K.H], x[K.VE:K.VU + 1].copy(),
+                        x[K.Q0:K.Q3 + 1].copy())
+
+    @property
+    def x(self) -> np.ndarray:
+        return self._x.copy()
+
+    @property
+    def omega_ib_b(self) -> np.ndarray:
+        """Mean body rate [rad/s] over the last row."""
+        return self._mem[K.M_WIB:K.M_WIB + 3].copy()
+
+    def correct(self, phi=None, dpos=None):
+        """Feedback of estimated DR errors (computed minus true): ``phi`` [rad] misalignment
+        (DESIGN convention; ``q <- q(phi) (x) q``), ``dpos = [dlat rad, dlon rad, dh m]``
+        subtracted from the position. The velocity follows from the sensor at the next row."""
+        _correct(self._x, self._mem, phi, None, dpos)
+
+
+def dead_reckon(imu: ImuData, speed: SpeedData, init: NavState, *, C_bm=None,
+                lever_arm_b=None, scale: float = 1.0, out_stride: int = 1,
+                max_gap: float | None = None) -> Solution:
+    """Pure dead reckoning over a log.
+
+    Parameters
+    ----------
+    imu : ImuData
+        Gyro increments (``dvel`` is not used); rows with ``t > init.t`` are processed.
+    speed : SpeedData
+        The forward-velocity sensor (``ds`` preferred when given, else ``v``).
+    init : NavState
+        Start of the IMU point at ``init.t``.
+    C_bm, lever_arm_b, scale : see :class:`DeadReckoner`.
+    out_stride : int
+        Output the initial state and then every ``out_stride``-th state.
+    max_gap : float, optional
+        Sensor gap threshold [s] (default 5 sensor periods).
+
+    Returns
+    -------
+    Solution; ``info`` counts the IMU rows with no sensor coverage and inside sensor gaps.
+    """
+    if int(out_stride) < 1:
+        raise BadInput(f"out_stride must be >= 1, got {out_stride}")
+    k0 = _first_row(imu.t, init.t)
+    t = imu.t[k0:]
+    ds, v, uncovered, in_gap = speed_on_epochs(speed, np.concatenate([[init.t], t]), max_gap)
+    dr = DeadReckoner(init, C_bm=C_bm, lever_arm_b=lever_arm_b, scale=scale)
+    x0 = dr.x
+    t_out, x_out = dr.run(imu.dtheta[k0:], t, ds, v, out_stride=int(out_stride))
+    info = {"method": "dead_reckon", "scale": float(scale), "rows": int(len(t)),
+            "rows_without_speed": int(uncovered.sum()), "rows_in_speed_gaps": int(in_gap.sum())}
+    return _to_solution(init.t, x0, t_out, x_out, info)
