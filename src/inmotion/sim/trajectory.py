@@ -1,0 +1,223 @@
+"""The truth: position, velocity, attitude and exact IMU increments of a simulated drive.
+
+Given the motion of :mod:`inmotion.sim.profile` (Euler angles ``e(t)`` and body velocity
+``v_b(t)`` as smooth functions with analytic derivatives), everything else follows from the
+navigation equations, so that an error-free mechanization reproduces the truth:
+
+- attitude ``C_b^n = R_z(-psi) R_x(theta) R_y(gamma)`` (DESIGN convention);
+- velocity ``v_n = C_b^n v_b``;
+- position by integrating ``[dL, dlambda, dh]/dt = [vN/(R_M+h), vE/((R_N+h) cos L), vU]``
+  (radii from :mod:`inmotion.core.earth`): per IMU interval by Gauss-Legendre quadrature of the
+  rates, with ``L`` and ``h`` inside the interval from cubic Hermite interpolation and ``L``
+  iterated to a fixed point (three Picard sweeps, each shrinking the error by ~1e-5);
+- body rate relative to n from the Euler rates (differentiate ``C_b^n``):
+  ``omega_nb_b = [cg th' + sg cth psi', g' - sth psi', sg th' - cg cth psi']``;
+- ``omega_ib_b = omega_nb_b + C_n^b (omega_ie_n + omega_en_n)``;
+- ``f_b = omega_nb_b x v_b + dv_b/dt + C_n^b ((2 omega_ie_n + omega_en_n) x v_n - g_n)``,
+  which is ``C_n^b (dv_n/dt + (2 omega_ie_n + omega_en_n) x v_n - g_n)`` since
+  ``dv_n/dt = C_b^n (omega_nb_b x v_b + dv_b/dt)``;
+- increments ``dtheta_k = int omega_ib_b dt``, ``dvel_k = int f_b dt`` over ``(t_{k-1}, t_k]``
+  with ``n`` Gauss-Legendre nodes (exact for polynomials of degree ``2n - 1``; the motion is
+  C3 or smoother, so 4 nodes are exact to round-off at 100 Hz).
+
+``dvel`` is the integral of the specific force resolved in the *instantaneous* body frame, what an
+accelerometer triad integrates; turning it into n-frame velocity (rotation and sculling
+compensation) is the mechanization's job.
+
+Row ``k`` of the IMU covers ``(t_{k-1}, t_k]``; row 0 covers ``(-dt, 0]`` (the motion is
+extended backwards, see :mod:`inmotion.sim.profile`). Truth rows are at the IMU times.
+
+The work is done in chunks of rows, so memory stays at the output arrays.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from ..core import earth, rotations
+
+__all__ = ["Trajectory", "generate", "omega_nb_b_from_euler", "SensorGeometry"]
+
+CHUNK_ROWS = 8192
+
+
+@dataclass
+class SensorGeometry:
+    """Where a velocity sensor sits: ``C_mb`` (= ``C_b^m``, takes b to the sensor frame m) and
+    ``lever_arm_b`` [m] from the IMU."""
+
+    C_mb: np.ndarray
+    lever_arm_b: np.ndarray
+
+
+@dataclass
+class Trajectory:
+    """Truth at the IMU times and exact, error-free IMU increments (all SI).
+
+    ``sensor_speed[name]`` (N,) is the forward (m-frame y) component of the velocity over ground
+    of the point where sensor ``name`` sits, at ``t``; ``sensor_distance[name]`` (N,) its integral
+    over each row's interval ``(t_{k-1}, t_k]`` [m].
+    """
+
+    t: np.ndarray
+    lat: np.ndarray
+    lon: np.ndarray
+    h: np.ndarray
+    vel_n: np.ndarray
+    euler: np.ndarray
+    dtheta: np.ndarray
+    dvel: np.ndarray
+    sensor_speed: dict = field(default_factory=dict)
+    sensor_distance: dict = field(default_factory=dict)
+
+    @property
+    def distance_m(self) -> float:
+        """Length of the path driven [m] (horizontal and vertical)."""
+        return float(np.sum(np.linalg.norm(np.diff(self._ecef(), axis=0), axis=1)))
+
+    def _ecef(self):
+        return earth.lla_to_ecef(self.lat, self.lon, self.h)
+
+
+def omega_nb_b_from_euler(euler, euler_dot):
+    """Body rate relative to n [rad/s] (N, 3) from ``[pitch, roll, yaw]`` and their rates.
+
+    From ``[omega_nb_b x] = C_n^b dC_b^n/dt`` with ``C_b^n = R_z(-psi) R_x(theta) R_y(gamma)``:
+    ``R_y(g)^T (R_x(th)^T [0, 0, -psi'] + [th', 0, 0]) + [0, g', 0]``.
+    """
+    th, g = euler[..., 0], euler[..., 1]
+    dth, dg, dpsi = euler_dot[..., 0], euler_dot[..., 1], euler_dot[..., 2]
+    sg, cg, sth, cth = np.sin(g), np.cos(g), np.sin(th), np.cos(th)
+    return np.stack([cg * dth + sg * cth * dpsi,
+                     dg - sth * dpsi,
+                     sg * dth - cg * cth * dpsi], -1)
+
+
+def _mv(C, v):
+    return np.einsum("...ij,...j->...i", C, v)
+
+
+def _mtv(C, v):
+    return np.einsum("...ji,...j->...i", C, v)
+
+
+def _hermite(y0, y1, d0, d1, x, dt):
+    """Cubic Hermite between (y0, d0) and (y1, d1) at fractions ``x`` (n,) of a step ``dt``.
+    ``y0 ...`` are (m,); returns (m, n)."""
+    x = x[None, :]
+    h00 = 2 * x ** 3 - 3 * x ** 2 + 1
+    h10 = x ** 3 - 2 * x ** 2 + x
+    h01 = -2 * x ** 3 + 3 * x ** 2
+    h11 = x ** 3 - x ** 2
+    return (h00 * y0[:, None] + h10 * dt * d0[:, None] + h01 * y1[:, None]
+            + h11 * dt * d1[:, None])
+
+
+def generate(profile, start_lat, start_lon, start_h, rate_hz, n_rows, *, nodes=4,
+             sensors=None) -> Trajectory:
+    """Simulate the truth and error-free increments.
+
+    Parameters
+    ----------
+    profile : :class:`inmotion.sim.profile.Profile`
+    start_lat, start_lon : float [rad];  start_h : float [m]  (position at ``t = 0``)
+    rate_hz : float, IMU rate [Hz];  n_rows : int, rows at ``t_k = k / rate_hz``
+    nodes : int, Gauss-Legendre nodes per interval
+    sensors : dict name -> :class:`SensorGeometry`, velocity sensors to evaluate
+
+    Returns
+    -------
+    Trajectory
+    """
+    sensors = sensors or {}
+    dt = 1.0 / rate_hz
+    t = np.arange(n_rows) / rate_hz
+    xi, wi = np.polynomial.legendre.leggauss(nodes)
+    frac, wts = (xi + 1.0) / 2.0, wi / 2.0          # node fractions of an interval, weights
+    out = _allocate(t, sensors)
+    pos = None                                       # (lat, lon, h) at t_{k0-1}
+    for k0 in range(0, n_rows, CHUNK_ROWS):
+        k1 = min(n_rows, k0 + CHUNK_ROWS)
+        pos = _chunk(profile, out, k0, k1, dt, frac, wts, pos,
+                     (start_lat, start_lon, start_h), sensors)
+    return out
+
+
+def _allocate(t, sensors):
+    n = len(t)
+    z1, z3 = (lambda: np.empty(n)), (lambda: np.empty((n, 3)))
+    return Trajectory(t, z1(), z1(), z1(), z3(), z3(), z3(), z3(),
+                      {k: z1() for k in sensors}, {k: z1() for k in sensors})
+
+
+def _chunk(profile, out, k0, k1, dt, frac, wts, pos_prev, start, sensors):
+    """Fill rows k0..k1-1; returns the position at t_{k1-1}."""
+    m = k1 - k0
+    t_grid = np.arange(k0 - 1, k1) * dt                     # t_{k0-1} .. t_{k1-1}
+    t_nodes = t_grid[:-1, None] + dt * frac[None, :]          # (m, n)
+    e_g, ed_g, vb_g, ab_g = profile.kinematics(t_grid)
+    e_q, ed_q, vb_q, ab_q = (x.reshape(m, len(frac), 3)
+                             for x in profile.kinematics(t_nodes.ravel()))
+    C_g, C_q = rotations.dcm_from_euler(e_g), rotations.dcm_from_euler(e_q)
+    vn_g, vn_q = _mv(C_g, vb_g), _mv(C_q, vb_q)
+
+    lat_g, lon_g, h_g, lat_q, h_q = _integrate_position(vn_g, vn_q, dt, frac, wts, pos_prev,
+                                                        start, k0)
+    win_q = earth.omega_ie_n(lat_q)
+    wen_q = earth.omega_en_n(lat_q, h_q, vn_q)
+    wnb_q = omega_nb_b_from_euler(e_q, ed_q)
+    w_ib_q = wnb_q + _mtv(C_q, win_q + wen_q)
+    g_q = earth.gravity_n(lat_q, h_q)
+    f_q = np.cross(wnb_q, vb_q) + ab_q + _mtv(C_q, np.cross(2 * win_q + wen_q, vn_q) - g_q)
+
+    rows = slice(k0, k1)
+    wdt = (wts * dt)[None, :, None]
+    out.dtheta[rows] = np.sum(w_ib_q * wdt, axis=1)
+    out.dvel[rows] = np.sum(f_q * wdt, axis=1)
+    out.lat[rows], out.lon[rows], out.h[rows] = lat_g[1:], lon_g[1:], h_g[1:]
+    out.vel_n[rows] = vn_g[1:]
+    euler = e_g[1:].copy()
+    euler[:, 2] = rotations.wrap_2pi(euler[:, 2])
+    out.euler[rows] = euler
+
+    if sensors:
+        wen_g = earth.omega_en_n(lat_g, h_g, vn_g)
+        web_g = omega_nb_b_from_euler(e_g, ed_g) + _mtv(C_g, wen_g)
+        web_q = wnb_q + _mtv(C_q, wen_q)
+        for name, geo in sensors.items():
+            u_g = _mv(geo.C_mb, vb_g + np.cross(web_g, geo.lever_arm_b))[:, 1]
+            u_q = _mv(geo.C_mb, vb_q + np.cross(web_q, geo.lever_arm_b))[..., 1]
+            out.sensor_speed[name][rows] = u_g[1:]
+            out.sensor_distance[name][rows] = np.sum(u_q * wts[None, :], axis=1) * dt
+    return lat_g[-1], lon_g[-1], h_g[-1]
+
+
+def _integrate_position(vn_g, vn_q, dt, frac, wts, pos_prev, start, k0):
+    """Latitude, longitude, height on the grid (m+1,) and latitude, height at the nodes (m, n).
+
+    In the first chunk the grid starts at t_{-1} and the constants are fixed by the start
+    position at t_0 (grid index 1); later chunks continue from ``pos_prev`` at grid index 0.
+    """
+    def anchor(increments, value):
+        c = np.concatenate([[0.0], np.cumsum(increments)])
+        return value - c[1] + c if k0 == 0 else value + c
+
+    lat0, lon0, h0 = start if k0 == 0 else pos_prev
+    h_g = anchor(np.sum(vn_q[..., 2] * wts, axis=1) * dt, h0)
+    h_q = _hermite(h_g[:-1], h_g[1:], vn_g[:-1, 2], vn_g[1:, 2], frac, dt)
+
+    lat_g = np.full(len(h_g), lat0)
+    for _ in range(3):                                    # Picard sweeps on R_M(L)
+        r_m_g, _ = earth.radii(lat_g)
+        dlat_g = vn_g[:, 1] / (r_m_g + h_g)
+        lat_q = _hermite(lat_g[:-1], lat_g[1:], dlat_g[:-1], dlat_g[1:], frac, dt)
+        r_m_q, _ = earth.radii(lat_q)
+        lat_g = anchor(np.sum(vn_q[..., 1] / (r_m_q + h_q) * wts, axis=1) * dt, lat0)
+    r_m_g, r_n_g = earth.radii(lat_g)
+    dlat_g = vn_g[:, 1] / (r_m_g + h_g)
+    lat_q = _hermite(lat_g[:-1], lat_g[1:], dlat_g[:-1], dlat_g[1:], frac, dt)
+    _, r_n_q = earth.radii(lat_q)
+    lon_rate_q = vn_q[..., 0] / ((r_n_q + h_q) * np.cos(lat_q))
+    lon_g = anchor(np.sum(lon_rate_q * wts, axis=1) * dt, lon0)
+    return lat_g, lon_g, h_g, lat_q, h_q
