@@ -132,8 +132,8 @@ def import_comma2k19(source, *, gyro="gyro", order=2, name=None) -> Bundle:
                    "rates_to_increments": "trapezoid" if order == 2 else "cubic"},
         "imu_axes": {"source": list(IMU_AXES), "to": "b = [right, forward, up]"},
         "time": "device boot clock [s]",
-        "lat_deg": float(np.rad2deg(truth.lat[0])), "lon_deg": float(np.rad2deg(truth.lon[0])),
-        "h_m": float(truth.h[0]),
+        "initial_position": {"lat_deg": float(np.rad2deg(truth.lat[0])),
+                             "lon_deg": float(np.rad2deg(truth.lon[0])), "h_m": float(truth.h[0])},
         "odometer": {"signal": "CAN speed", "note": "reads about 0.6 % low against the "
                      "reference; not corrected"},
         "truth": {"source": "global_pose (offline INS/GNSS/vision fusion by the dataset "

@@ -99,8 +99,8 @@ def import_ems(source, *, var="ems_data", order=2, name=None) -> Bundle:
         "imu_axes": {"source": list(IMU_AXES), "to": "b = [right, forward, up]",
                      "note": "data set states z down; x forward, y right assumed and checked "
                              "against the reference attitude rates"},
-        "lat_deg": float(np.rad2deg(truth.lat[0])), "lon_deg": float(np.rad2deg(truth.lon[0])),
-        "h_m": float(truth.h[0]),
+        "initial_position": {"lat_deg": float(np.rad2deg(truth.lat[0])),
+                             "lon_deg": float(np.rad2deg(truth.lon[0])), "h_m": float(truth.h[0])},
         "truth": {"h": "placeholder constant, not a measured height",
                   "vU": "identically 0 in the source"},
         "license": "LGPL-3.0 (EMS-SymINSGNSS)",

@@ -124,15 +124,17 @@ def import_kf_gins(source, *, odo=None, gnss=None, nav=None, name=None) -> Bundl
         meta["source"]["odometer"] = str(odo) if odo is not None else "IMU file column 8"
     if truth is not None:
         meta["source"]["truth"] = str(nav)
-        meta.update(lat_deg=float(np.rad2deg(truth.lat[0])),
-                    lon_deg=float(np.rad2deg(truth.lon[0])), h_m=float(truth.h[0]))
+        meta["initial_position"] = {"lat_deg": float(np.rad2deg(truth.lat[0])),
+                                    "lon_deg": float(np.rad2deg(truth.lon[0])),
+                                    "h_m": float(truth.h[0])}
     if gnss is not None:
         g = read_gnss(gnss)
         meta["gnss"] = {"file": str(gnss), "rows": len(g), "t_first_s": float(g.t.iloc[0]),
                         "note": "not used by inmotion (no GNSS aiding)"}
         if truth is None:
-            meta.update(lat_deg=float(g.lat_deg.iloc[0]), lon_deg=float(g.lon_deg.iloc[0]),
-                        h_m=float(g.h_m.iloc[0]))
+            meta["initial_position"] = {"lat_deg": float(g.lat_deg.iloc[0]),
+                                        "lon_deg": float(g.lon_deg.iloc[0]),
+                                        "h_m": float(g.h_m.iloc[0])}
     return Bundle(imu=imu, meta=meta, odometer=odometer, truth=truth)
 
 
