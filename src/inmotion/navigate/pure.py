@@ -24,7 +24,8 @@ from ..core.bundle import Bundle
 from ..core.solution import NavState, Solution
 from ..errors import BadInput
 
-__all__ = ["SinsConfig", "DrConfig", "run_sins", "run_dr", "mounting_from_meta"]
+__all__ = ["SinsConfig", "DrConfig", "run_sins", "run_dr", "mounting_from_meta",
+           "mounting_matrix"]
 
 
 class SinsConfig(BaseModel):
@@ -36,12 +37,16 @@ class SinsConfig(BaseModel):
         ``baro`` damps the vertical channel with the barometer (the bundle must have one),
         ``none`` leaves it free (it diverges with the time constant ``sqrt(R / 2 g)`` ~ 570 s),
         ``auto`` uses the barometer when the bundle has one.
+    baro_tau_s : float
+        Time constant of the critically damped barometric loop [s]
+        (:mod:`inmotion.core.mechanization`).
     out_stride : int
-        Output every ``out_stride``-th IMU epoch (1: every epoch).
+        Output the initial state and then every ``out_stride``-th IMU epoch.
     """
 
     model_config = ConfigDict(extra="forbid")
     height_damping: Literal["auto", "none", "baro"] = "auto"
+    baro_tau_s: float = Field(10.0, gt=0)
     out_stride: int = Field(1, ge=1)
 
 
@@ -53,21 +58,29 @@ class DrConfig(BaseModel):
     sensor : {"radar", "ldv", "odometer"} or None
         The forward-velocity sensor; None takes the first present of radar, ldv, odometer.
     speed_scale : float
-        Multiplies the sensor's speed (1 + a known scale-factor correction; dimensionless).
-    mounting_deg : [x, y, z] or None
-        Small mounting angles of the sensor frame m relative to b [deg], Euler
-        ``[pitch, roll, yaw]`` of the DESIGN convention giving ``C_m^b``; None: from
-        ``meta.yaml`` (``sensors.<sensor>.mounting_deg``) if there, else aligned with b.
+        Multiplies the sensor's output (dimensionless): a sensor reading ``(1 + dk)`` times
+        the truth is corrected by ``1 / (1 + dk)``.
+    mounting_arcmin : [alpha, beta, gamma] or None
+        Mounting angles of the sensor frame m about its x, y, z axes [arcmin]
+        (paper 000 eq. 4-6; :func:`mounting_matrix`); None: from ``meta.yaml``
+        (``sensors.<sensor>.mounting_arcmin``) if there, else aligned with b.
     lever_arm_m : [x, y, z] or None
         The sensor's position in b relative to the IMU [m]; None: from ``meta.yaml``
         (``sensors.<sensor>.lever_arm_m``) if there, else zero.
+    max_gap_s : float or None
+        Sensor gap threshold [s] (None: 5 sensor periods); see
+        :mod:`inmotion.core.deadreckoning` for how gaps are bridged.
+    out_stride : int
+        Output the initial state and then every ``out_stride``-th IMU epoch.
     """
 
     model_config = ConfigDict(extra="forbid")
     sensor: Optional[Literal["radar", "ldv", "odometer"]] = None
     speed_scale: float = Field(1.0, gt=0)
-    mounting_deg: Optional[tuple[float, float, float]] = None
+    mounting_arcmin: Optional[tuple[float, float, float]] = None
     lever_arm_m: Optional[tuple[float, float, float]] = None
+    max_gap_s: Optional[float] = Field(None, gt=0)
+    out_stride: int = Field(1, ge=1)
 
 
 def _require_init(init: Optional[NavState], method: str) -> NavState:
@@ -105,7 +118,7 @@ def run_sins(bundle: Bundle, config: SinsConfig, init: NavState,
         raise BadInput("height_damping='baro' but the bundle has no barometer (baro table)")
     t0 = time.perf_counter()
     sol = strapdown(bundle.imu, init, bundle.baro if damping == "baro" else None,
-                    damping=damping, out_stride=config.out_stride)
+                    damping=damping, out_stride=config.out_stride, baro_tau=config.baro_tau_s)
     run_s = time.perf_counter() - t0
     if progress is not None:
         progress(1.0)
@@ -114,14 +127,25 @@ def run_sins(bundle: Bundle, config: SinsConfig, init: NavState,
     return sol
 
 
+def mounting_matrix(angles_rad) -> np.ndarray:
+    """``C_m^b`` of a velocity sensor from its mounting angles [alpha, beta, gamma] [rad].
+
+    PROVISIONAL: ``C_b^m = R_z(gamma) R_y(beta) R_x(alpha)`` transposed; to be aligned with the
+    simulator's convention (:mod:`inmotion.sim.sensors`).
+    """
+    a, b, g = np.asarray(angles_rad, dtype=float).reshape(3)
+    C_mb = rotations.rot_z(g) @ rotations.rot_y(b) @ rotations.rot_x(a)
+    return C_mb.T
+
+
 def mounting_from_meta(meta: dict, sensor: str):
-    """``(mounting_deg, lever_arm_m)`` of ``sensor`` from ``meta['sensors'][sensor]``.
+    """``(mounting_arcmin, lever_arm_m)`` of ``sensor`` from ``meta['sensors'][sensor]``.
 
     Either may be None when absent. Raises :class:`BadInput` if present but not 3 numbers.
     """
     spec = ((meta or {}).get("sensors") or {}).get(sensor) or {}
     out = []
-    for key in ("mounting_deg", "lever_arm_m"):
+    for key in ("mounting_arcmin", "lever_arm_m"):
         v = spec.get(key) if isinstance(spec, dict) else None
         if v is not None:
             try:
@@ -159,18 +183,19 @@ def run_dr(bundle: Bundle, config: DrConfig, init: NavState,
     except ValueError as e:
         raise BadInput(str(e)) from None
     meta_mount, meta_lever = mounting_from_meta(bundle.meta, name)
-    mount = config.mounting_deg if config.mounting_deg is not None else meta_mount
+    mount = config.mounting_arcmin if config.mounting_arcmin is not None else meta_mount
     lever = config.lever_arm_m if config.lever_arm_m is not None else meta_lever
-    C_bm = None if mount is None else rotations.dcm_from_euler(np.radians(mount))
+    C_bm = None if mount is None else mounting_matrix(np.radians(np.asarray(mount) / 60.0))
     lever_arm_b = None if lever is None else np.asarray(lever, dtype=float)
     t0 = time.perf_counter()
     sol = dead_reckon(bundle.imu, speed, init, C_bm=C_bm, lever_arm_b=lever_arm_b,
-                      scale=config.speed_scale)
+                      scale=config.speed_scale, out_stride=config.out_stride,
+                      max_gap=config.max_gap_s)
     run_s = time.perf_counter() - t0
     if progress is not None:
         progress(1.0)
     sol.info.update(method="dr", config=config.model_dump(mode="json"), timing={"run_s": run_s},
                     sensor=name,
-                    mounting_deg=None if mount is None else [float(x) for x in mount],
+                    mounting_arcmin=None if mount is None else [float(x) for x in mount],
                     lever_arm_m=None if lever is None else [float(x) for x in lever])
     return sol

@@ -1,0 +1,659 @@
+"""The ``inmotion`` command line (``shared/DESIGN.md``, "The command line").
+
+::
+
+    inmotion simulate SCENARIO.yaml|NAME -o BUNDLE [--seed N] [--format csv|parquet]
+    inmotion info BUNDLE
+    inmotion align    BUNDLE --method NAME [--config FILE] -o RESULT [options]
+    inmotion navigate BUNDLE --method NAME [--config FILE] -o RESULT [options]
+    inmotion evaluate RESULT --truth BUNDLE [--json]
+    inmotion methods
+    inmotion demo
+
+``align`` / ``navigate`` options: ``--init truth|meta|RESULT`` (default: truth if the bundle
+has it, else meta), ``--init-error 'pitch=1deg,roll=1deg,yaw=30arcmin,vE=0.1m/s,north=5m'``
+(angles in deg, arcmin, arcsec, rad or mrad; velocities in m/s; positions north/east/up in m),
+``--start`` / ``--end`` [s], ``--mode M`` (sets the configuration field ``mode``) and
+``--set key=value`` (any configuration field; the value is read as YAML, so ``--set
+out_stride=10`` gives an int and ``--set mounting_deg=[0,0.1,0]`` a list).
+
+Global options ``--quiet`` (no progress, no notes), ``--json`` (print the command's summary as
+JSON on stdout), ``--debug`` (tracebacks on internal failures). Exit status 0 on success, 2 on
+bad input (one line ``inmotion: error: ...`` on stderr), 1 on an internal failure.
+
+The CLI is the only place that reads files and prints; methods get a :class:`Bundle`, a
+configuration object and a :class:`NavState`.
+"""
+from __future__ import annotations
+
+import contextlib
+import json
+import math
+import re
+import sys
+import tempfile
+import time
+import traceback
+import warnings
+from pathlib import Path
+
+import click
+
+from .. import registry
+from ..errors import BadInput
+
+__all__ = ["cli", "main", "parse_init_error"]
+
+
+# --------------------------------------------------------------------------- plumbing
+
+class _Cli(click.Group):
+    """A group that maps exceptions to exit statuses: BadInput -> 2, anything else -> 1."""
+
+    def main(self, args=None, prog_name=None, complete_var=None, standalone_mode=True, **extra):
+        try:
+            rv = super().main(args=args, prog_name=prog_name or "inmotion",
+                              complete_var=complete_var, standalone_mode=False, **extra)
+        except BadInput as e:
+            click.echo(f"inmotion: error: {e}", err=True)
+            sys.exit(2)
+        except click.exceptions.Exit as e:
+            sys.exit(e.exit_code)
+        except click.ClickException as e:
+            e.show()
+            sys.exit(e.exit_code)
+        except click.exceptions.Abort:
+            click.echo("inmotion: aborted", err=True)
+            sys.exit(1)
+        except Exception as e:  # an internal failure: say so, in one line unless --debug
+            if "--debug" in (args if args is not None else sys.argv[1:]):
+                traceback.print_exc()
+            click.echo(f"inmotion: internal error: {type(e).__name__}: {e} "
+                       "(rerun with --debug for the traceback)", err=True)
+            sys.exit(1)
+        sys.exit(rv if isinstance(rv, int) else 0)
+
+
+class _Opts:
+    def __init__(self, quiet=False, as_json=False, debug=False):
+        self.quiet, self.json, self.debug = quiet, as_json, debug
+
+
+def _opts(ctx) -> _Opts:
+    return ctx.find_root().obj or _Opts()
+
+
+def _json_option(f):
+    return click.option("--json", "as_json", is_flag=True,
+                        help="Print the summary as JSON on stdout.")(f)
+
+
+def _emit(ctx, data: dict, text: str, as_json: bool) -> None:
+    """Print ``data`` as JSON if asked (here or globally), else ``text``."""
+    from ..io.result import _json_safe
+    if as_json or _opts(ctx).json:
+        click.echo(json.dumps(_json_safe(data), indent=2))
+    else:
+        click.echo(text)
+
+
+def _note(ctx, msg: str) -> None:
+    if not _opts(ctx).quiet:
+        click.echo(f"inmotion: {msg}", err=True)
+
+
+@contextlib.contextmanager
+def _progress(ctx, desc: str):
+    """A ``progress(fraction)`` callable drawing a tqdm bar on stderr (none with --quiet)."""
+    if _opts(ctx).quiet:
+        yield None
+        return
+    from tqdm import tqdm
+    bar = tqdm(total=1000, desc=desc, file=sys.stderr, leave=False,
+               bar_format="{desc}: {percentage:3.0f}%|{bar}| {elapsed}<{remaining}")
+
+    def progress(fraction):
+        bar.update(max(0, int(round(1000 * min(max(fraction, 0.0), 1.0))) - bar.n))
+    try:
+        yield progress
+    finally:
+        bar.close()
+
+
+def _read_bundle(ctx, path):
+    """Read a bundle, turning gap warnings into notes on stderr."""
+    from ..io.bundle import read_bundle
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        bundle = read_bundle(path)
+    for w in caught:
+        _note(ctx, f"warning: {w.message}")
+    return bundle
+
+
+# --------------------------------------------------------------------------- the group
+
+@click.group(cls=_Cli, context_settings={"help_option_names": ["-h", "--help"]})
+@click.option("--quiet", "-q", is_flag=True, help="No progress bars or notes.")
+@click.option("--json", "as_json", is_flag=True, help="Print summaries as JSON.")
+@click.option("--debug", is_flag=True, help="Show tracebacks of internal failures.")
+@click.version_option(package_name="inmotion")
+@click.pass_context
+def cli(ctx, quiet, as_json, debug):
+    """In-motion alignment and navigation of land vehicles (SINS + radar / LDV / odometer)."""
+    ctx.obj = _Opts(quiet, as_json, debug)
+
+
+def main():
+    """Console-script entry point."""
+    cli.main()
+
+
+# --------------------------------------------------------------------------- simulate
+
+def _load_scenario(name_or_path: str):
+    from ..sim.scenario import find_scenario, load_scenario
+    p = Path(name_or_path)
+    if not p.is_file():
+        try:
+            p = find_scenario(name_or_path)
+        except BadInput:
+            raise
+        except (KeyError, FileNotFoundError, ValueError) as e:
+            raise BadInput(f"no scenario file or shipped scenario named {name_or_path!r} "
+                           f"({e})") from None
+    if not isinstance(p, (str, Path)):
+        return p                       # find_scenario returned the scenario itself
+    try:
+        return load_scenario(p)
+    except BadInput:
+        raise
+    except Exception as e:             # yaml / pydantic errors: the user's file is wrong
+        first = str(e).strip().splitlines()
+        raise BadInput(f"invalid scenario: {' '.join(first[:3])}", file=p) from None
+
+
+@cli.command()
+@click.argument("scenario")
+@click.option("-o", "--output", required=True, type=click.Path(file_okay=False),
+              help="Bundle folder to write.")
+@click.option("--seed", type=int, default=0, show_default=True, help="Random seed.")
+@click.option("--format", "fmt", type=click.Choice(["csv", "parquet"]), default="csv",
+              show_default=True)
+@_json_option
+@click.pass_context
+def simulate(ctx, scenario, output, seed, fmt, as_json):
+    """Simulate SCENARIO (a YAML file or a shipped scenario name) into a bundle."""
+    import numpy as np
+    from ..io.bundle import write_bundle
+    from ..sim import simulate as sim
+    scen = _load_scenario(scenario)
+    t0 = time.perf_counter()
+    with _progress(ctx, "simulate") as progress:
+        bundle = sim(scen, np.random.default_rng(seed))
+        if progress:
+            progress(1.0)
+    sim_s = time.perf_counter() - t0
+    write_bundle(bundle, output, fmt=fmt)
+    info = _bundle_info(bundle)
+    info.update(bundle=str(output), seed=seed, simulate_s=sim_s)
+    _emit(ctx, info, f"wrote {output}: {_info_text(info)}", as_json)
+
+
+# --------------------------------------------------------------------------- info
+
+def _distance(bundle):
+    """Distance travelled [m] and where it comes from (truth, else a velocity sensor)."""
+    import numpy as np
+    if bundle.truth is not None:
+        from ..evaluate.metrics import _path_length
+        return float(_path_length(bundle.truth, bundle.truth.t[[0, -1]])[-1]), "truth"
+    for name in ("odometer", "ldv", "radar"):
+        s = getattr(bundle, name)
+        if s is not None:
+            if s.ds is not None:
+                return float(np.sum(np.abs(s.ds))), name
+            return float(np.sum(np.abs(s.v[1:]) * np.diff(s.t))), name
+    return None, None
+
+
+def _bundle_info(bundle) -> dict:
+    import numpy as np
+    from ..io.bundle import TABLES, find_gaps
+    tables = {}
+    for name in TABLES:
+        x = getattr(bundle, name)
+        if x is None:
+            continue
+        t = x.t
+        tables[name] = {"rows": int(len(t)), "start_s": float(t[0]), "end_s": float(t[-1]),
+                        "rate_hz": float(1.0 / np.median(np.diff(t))) if len(t) > 1 else None,
+                        "gaps": [{"row": g.row, "t_start_s": g.t_start, "t_end_s": g.t_end,
+                                  "duration_s": g.duration_s} for g in find_gaps(name, t)]}
+        if name in ("radar", "ldv", "odometer"):
+            tables[name]["columns"] = [c for c in ("v", "ds") if getattr(x, c) is not None]
+    dist, src = _distance(bundle)
+    return {"name": bundle.name, "duration_s": float(bundle.imu.t[-1] - bundle.imu.t[0]),
+            "distance_m": dist, "distance_from": src, "tables": tables,
+            "faults": bundle.meta.get("faults") or []}
+
+
+def _info_text(info: dict) -> str:
+    d = info["distance_m"]
+    lines = [f"{info['name']}: {info['duration_s']:.1f} s"
+             + (f", {d / 1000:.3f} km (from {info['distance_from']})" if d is not None else "")]
+    for name, tb in info["tables"].items():
+        rate = f"{tb['rate_hz']:.4g} Hz" if tb["rate_hz"] else "-"
+        extra = f" [{', '.join(tb['columns'])}]" if "columns" in tb else ""
+        gaps = tb["gaps"]
+        g = (f", {len(gaps)} gap(s), longest {max(x['duration_s'] for x in gaps):.3g} s "
+             f"at t={gaps[0]['t_start_s']:.6g} s" if gaps else "")
+        lines.append(f"  {name:9s} {tb['rows']:8d} rows  {rate:>10s}  "
+                     f"{tb['start_s']:.6g} .. {tb['end_s']:.6g} s{extra}{g}")
+    if info["faults"]:
+        lines.append(f"  faults: {len(info['faults'])}")
+        for f in info["faults"]:
+            lines.append(f"    {f}")
+    return "\n".join(lines)
+
+
+@cli.command()
+@click.argument("bundle", type=click.Path())
+@_json_option
+@click.pass_context
+def info(ctx, bundle, as_json):
+    """Show what BUNDLE holds: duration, sensors and rates, distance, gaps, faults."""
+    b = _read_bundle(ctx, bundle)
+    data = _bundle_info(b)
+    _emit(ctx, data, _info_text(data), as_json)
+
+
+# --------------------------------------------------------------------------- init
+
+_ANGLE_UNITS = {"deg": math.pi / 180, "arcmin": math.pi / 180 / 60,
+                "arcsec": math.pi / 180 / 3600, "rad": 1.0, "mrad": 1e-3}
+_INIT_ERROR_KEYS = {"pitch": _ANGLE_UNITS, "roll": _ANGLE_UNITS, "yaw": _ANGLE_UNITS,
+                    "vE": {"m/s": 1.0}, "vN": {"m/s": 1.0}, "vU": {"m/s": 1.0},
+                    "north": {"m": 1.0}, "east": {"m": 1.0}, "up": {"m": 1.0}}
+_ITEM = re.compile(r"^\s*([A-Za-z]+)\s*=\s*([-+]?(?:\d+\.?\d*|\.\d+)(?:[eE][-+]?\d+)?)"
+                   r"\s*([A-Za-z/]+)\s*$")
+
+
+def parse_init_error(text: str) -> dict:
+    """Parse ``--init-error`` into SI perturbations ``{key: value}``.
+
+    ``'pitch=1deg,roll=-30arcmin,yaw=0.01rad,vE=0.1m/s,north=5m'``: keys pitch, roll, yaw
+    (Euler angles; units deg, arcmin, arcsec, rad, mrad), vE, vN, vU (m/s), north, east, up
+    (m). Every value needs its unit. Returns rad, m/s, m.
+    """
+    out = {}
+    for item in filter(None, (s.strip() for s in text.split(","))):
+        m = _ITEM.match(item)
+        if not m:
+            raise BadInput(f"--init-error: cannot read {item!r}; write e.g. "
+                           "'pitch=1deg,roll=1deg,yaw=30arcmin'")
+        key, value, unit = m.group(1), float(m.group(2)), m.group(3)
+        if key not in _INIT_ERROR_KEYS:
+            raise BadInput(f"--init-error: unknown key {key!r}; known: "
+                           f"{', '.join(_INIT_ERROR_KEYS)}")
+        units = _INIT_ERROR_KEYS[key]
+        if unit not in units:
+            raise BadInput(f"--init-error: {key} needs a unit in {', '.join(units)}, "
+                           f"got {unit!r}")
+        out[key] = value * units[unit]
+    if not out:
+        raise BadInput("--init-error: empty; write e.g. 'pitch=1deg,roll=1deg,yaw=1deg'")
+    return out
+
+
+def perturb(state, err: dict):
+    """``state`` (NavState) with the SI perturbations of :func:`parse_init_error` added."""
+    import numpy as np
+    from ..core.earth import radii
+    from ..core.solution import NavState
+    euler = state.euler + np.array([err.get(k, 0.0) for k in ("pitch", "roll", "yaw")])
+    vel = state.vel_n + np.array([err.get(k, 0.0) for k in ("vE", "vN", "vU")])
+    r_m, r_n = radii(state.lat)
+    lat = state.lat + err.get("north", 0.0) / (r_m + state.h)
+    lon = state.lon + err.get("east", 0.0) / ((r_n + state.h) * np.cos(state.lat))
+    return NavState.from_euler(state.t, lat, lon, state.h + err.get("up", 0.0), vel, euler)
+
+
+def _init_from_meta(bundle, t0, needs_attitude):
+    """Initial state from ``meta.yaml``: initial_position (+ initial_attitude, _velocity)."""
+    import numpy as np
+    from ..core.solution import NavState
+    m = bundle.meta
+    pos = m.get("initial_position")
+    if not isinstance(pos, dict):
+        raise BadInput("--init meta: meta.yaml has no initial_position {lat_deg, lon_deg, h_m}")
+    att = m.get("initial_attitude")
+    if att is None and needs_attitude:
+        raise BadInput("--init meta: the method needs an initial attitude but meta.yaml has no "
+                       "initial_attitude {pitch_deg, roll_deg, yaw_deg}; use --init truth or "
+                       "--init RESULT (e.g. a coarse alignment's)")
+    att = att or {}
+    vel = m.get("initial_velocity") or {}
+    try:
+        euler = np.radians([float(att.get(k, 0.0)) for k in ("pitch_deg", "roll_deg", "yaw_deg")])
+        vel_n = [float(vel.get(k, 0.0)) for k in ("vE_m_s", "vN_m_s", "vU_m_s")]
+        return NavState.from_euler(t0, math.radians(float(pos["lat_deg"])),
+                                   math.radians(float(pos["lon_deg"])), float(pos["h_m"]),
+                                   vel_n, euler)
+    except (KeyError, TypeError, ValueError) as e:
+        raise BadInput(f"--init meta: bad initial_* entry in meta.yaml ({e})") from None
+
+
+def _initial_state(ctx, bundle, init, start, needs_attitude):
+    """``(NavState or None, description)`` for ``--init truth|meta|RESULT``."""
+    from ..core.solution import NavState
+    if init == "truth":
+        if bundle.truth is None:
+            raise BadInput("--init truth: the bundle has no truth table")
+        tr = bundle.truth.at(start if start is not None else bundle.truth.t[0])
+        return NavState.from_euler(tr["t"], tr["lat"], tr["lon"], tr["h"], tr["vel_n"],
+                                   tr["euler"]), "truth"
+    if init == "meta":
+        t0 = start if start is not None else float(bundle.imu.t[0])
+        return _init_from_meta(bundle, t0, needs_attitude), "meta"
+    p = Path(init)
+    if not p.exists():
+        raise BadInput(f"--init must be truth, meta or a result folder; {init!r} is none "
+                       "of them", file=p)
+    from ..io.result import read_result
+    sol = read_result(p)
+    if start is None:
+        return sol.final_state(), f"result {p}"
+    if start < sol.t[0] or start > sol.t[-1]:
+        raise BadInput(f"--start {start:g} s is outside the result's time span "
+                       f"({sol.t[0]:.6g} .. {sol.t[-1]:.6g} s)", file=p)
+    return sol.state_at(start), f"result {p}"
+
+
+# --------------------------------------------------------------------------- run a method
+
+def _parse_sets(sets) -> dict:
+    import yaml
+    out = {}
+    for s in sets:
+        key, eq, value = s.partition("=")
+        if not eq or not key.strip():
+            raise BadInput(f"--set {s!r}: write key=value")
+        try:
+            v = yaml.safe_load(value)
+        except yaml.YAMLError:
+            v = value
+        node = out
+        parts = key.strip().split(".")
+        for k in parts[:-1]:
+            node = node.setdefault(k, {})
+        node[parts[-1]] = v
+    return out
+
+
+def _merge(a: dict, b: dict) -> dict:
+    out = dict(a)
+    for k, v in b.items():
+        out[k] = _merge(out[k], v) if isinstance(v, dict) and isinstance(out.get(k), dict) else v
+    return out
+
+
+def build_config(spec, config_file=None, mode=None, sets=()):
+    """The method's pydantic configuration from a YAML/JSON file, ``--mode`` and ``--set``."""
+    import pydantic
+    import yaml
+    _, Config = spec.load()
+    data = {}
+    if config_file:
+        p = Path(config_file)
+        if not p.is_file():
+            raise BadInput("configuration file does not exist", file=p)
+        try:
+            data = yaml.safe_load(p.read_text()) or {}
+        except yaml.YAMLError as e:
+            raise BadInput(f"malformed YAML: {str(e).splitlines()[0]}", file=p) from None
+        if not isinstance(data, dict):
+            raise BadInput("configuration must be a mapping (key: value)", file=p)
+    if mode is not None:
+        data["mode"] = mode
+    data = _merge(data, _parse_sets(sets))
+    try:
+        return Config.model_validate(data)
+    except pydantic.ValidationError as e:
+        errs = "; ".join(f"{'.'.join(map(str, er['loc'])) or 'config'}: {er['msg']}"
+                         for er in e.errors()[:3])
+        raise BadInput(f"configuration of {spec.name!r}: {errs}",
+                       file=config_file) from None
+
+
+def _spec(method, kind=None):
+    try:
+        spec = registry.get(method)
+    except KeyError:
+        known = ", ".join(s.name for s in registry.methods(kind))
+        raise BadInput(f"unknown method {method!r}; known {kind or ''} methods: "
+                       f"{known}") from None
+    if kind is not None and spec.kind != kind:
+        raise BadInput(f"{method!r} is a{'n' if spec.kind == 'align' else ''} {spec.kind} "
+                       f"method; use 'inmotion {spec.kind}'")
+    return spec
+
+
+def run_method(ctx, bundle, spec, config, init_state, window):
+    """Run ``spec`` on ``bundle`` cut to ``window`` = (start, end); return the Solution."""
+    start, end = window
+    b = bundle.window(start, end)
+    if len(b.imu.t) < 2:
+        raise BadInput(f"the window {start} .. {end} s holds fewer than 2 IMU rows")
+    run, _ = spec.load()
+    t0 = time.perf_counter()
+    with _progress(ctx, spec.name) as progress:
+        sol = run(b, config, init_state, progress=progress)
+    wall = time.perf_counter() - t0
+    sol.info.setdefault("method", spec.name)
+    sol.info.setdefault("config", config.model_dump(mode="json"))
+    timing = dict(sol.info.get("timing") or {})
+    timing["wall_s"] = wall
+    sol.info["timing"] = timing
+    return sol, b
+
+
+def _run_command(ctx, kind, bundle_path, method, config_file, output, init, init_error,
+                 start, end, mode, sets, as_json):
+    from ..io.result import write_result
+    spec = _spec(method, kind)
+    config = build_config(spec, config_file, mode, sets)
+    err = parse_init_error(init_error) if init_error else None
+    bundle = _read_bundle(ctx, bundle_path)
+    if init is None:
+        init = "truth" if bundle.truth is not None else "meta"
+    state, init_desc = _initial_state(ctx, bundle, init, start, spec.needs_attitude)
+    if err:
+        state = perturb(state, err)
+    if start is None and init_desc.startswith("result"):
+        start = state.t
+    sol, b = run_method(ctx, bundle, spec, config, state, (start, end))
+    extra = {"bundle": str(bundle_path), "bundle_name": bundle.name,
+             "init": {"from": init_desc, "error": init_error, "t_s": state.t},
+             "window": {"start_s": start, "end_s": end}}
+    summary = write_result(sol, output, truth=b.truth, summary_extra=extra)
+    _emit(ctx, summary, _run_text(summary, output), as_json)
+
+
+def _run_text(summary: dict, output) -> str:
+    f = summary["final"]
+    lines = [f"{summary['method']}: {summary['epochs']} epochs, wrote {output}",
+             f"  final t={f['t_s']:.3f} s  lat={f['lat_deg']:.8f} lon={f['lon_deg']:.8f} deg "
+             f"h={f['h_m']:.2f} m  yaw={f['yaw_deg']:.4f} deg"]
+    if "errors" in summary:
+        lines.append(_errors_text(summary["errors"]))
+    return "\n".join(lines)
+
+
+def _errors_text(block: dict) -> str:
+    from ..evaluate.metrics import ERROR_KEYS
+    d = block["distance_m"]
+    lines = [f"  errors over {block['duration_s']:.1f} s, {d / 1000:.3f} km "
+             f"(estimate - truth):",
+             f"  {'':14s} {'final':>12s} {'rms 100s':>12s} {'max 100s':>12s}"]
+    for k in ERROR_KEYS:
+        lines.append(f"  {k:14s} {block['final'][k]:12.4g} {block['rms_last_100s'][k]:12.4g} "
+                     f"{block['max_abs_last_100s'][k]:12.4g}")
+    if d > 0:
+        lines.append(f"  horizontal error {100 * block['final']['horizontal_m'] / d:.4g} % "
+                     "of distance")
+    return "\n".join(lines)
+
+
+def _method_options(f):
+    opts = [
+        click.argument("bundle", type=click.Path()),
+        click.option("--method", "-m", required=True, help="Method name (inmotion methods)."),
+        click.option("--config", "config_file", type=click.Path(),
+                     help="YAML/JSON configuration of the method."),
+        click.option("-o", "--output", required=True, type=click.Path(file_okay=False),
+                     help="Result folder to write."),
+        click.option("--init", default=None,
+                     help="truth | meta | RESULT folder (default: truth if present, else meta)."),
+        click.option("--init-error", default=None,
+                     help="Perturbation, e.g. 'pitch=1deg,roll=1deg,yaw=30arcmin'."),
+        click.option("--start", type=float, default=None, help="Window start [s]."),
+        click.option("--end", type=float, default=None, help="Window end [s]."),
+        click.option("--mode", default=None, help="Sets the configuration field 'mode'."),
+        click.option("--set", "sets", multiple=True, metavar="KEY=VALUE",
+                     help="Set a configuration field (repeatable)."),
+        _json_option,
+    ]
+    for o in reversed(opts):
+        f = o(f)
+    return f
+
+
+@cli.command()
+@_method_options
+@click.pass_context
+def align(ctx, bundle, method, config_file, output, init, init_error, start, end, mode, sets,
+          as_json):
+    """Run an alignment method on BUNDLE and write a result folder."""
+    _run_command(ctx, "align", bundle, method, config_file, output, init, init_error, start, end,
+                 mode, sets, as_json)
+
+
+@cli.command()
+@_method_options
+@click.pass_context
+def navigate(ctx, bundle, method, config_file, output, init, init_error, start, end, mode, sets,
+             as_json):
+    """Run a navigation method on BUNDLE and write a result folder."""
+    _run_command(ctx, "navigate", bundle, method, config_file, output, init, init_error, start,
+                 end, mode, sets, as_json)
+
+
+# --------------------------------------------------------------------------- evaluate
+
+@cli.command()
+@click.argument("result", type=click.Path())
+@click.option("--truth", "truth_bundle", required=True, type=click.Path(),
+              help="Bundle with the truth table.")
+@_json_option
+@click.pass_context
+def evaluate(ctx, result, truth_bundle, as_json):
+    """Compare RESULT with the truth of a bundle; write errors.csv and the errors block."""
+    from ..io.result import read_result, read_summary, write_errors, write_summary
+    sol = read_result(result)
+    bundle = _read_bundle(ctx, truth_bundle)
+    if bundle.truth is None:
+        raise BadInput("the bundle has no truth table", file=truth_bundle)
+    block = write_errors(sol, bundle.truth, result)
+    summary = read_summary(result)
+    summary["errors"] = block
+    write_summary(summary, result)
+    _emit(ctx, {"errors": block},
+          f"{summary.get('method')} on {bundle.name}:\n{_errors_text(block)}", as_json)
+
+
+# --------------------------------------------------------------------------- methods
+
+@cli.command()
+@_json_option
+@click.pass_context
+def methods(ctx, as_json):
+    """List every method: name, kind, what it is."""
+    specs = registry.methods()
+    data = [{"name": s.name, "kind": s.kind, "needs_attitude": s.needs_attitude,
+             "summary": s.summary} for s in specs]
+    text = "\n".join(f"{s.name:20s} {s.kind:9s} {s.summary}" for s in specs)
+    if as_json or _opts(ctx).json:
+        click.echo(json.dumps(data, indent=2))
+    else:
+        click.echo(text)
+
+
+# --------------------------------------------------------------------------- demo
+
+DEMO_SCENARIO = "demo"
+
+
+@cli.command()
+@click.option("--seed", type=int, default=0, show_default=True, help="Random seed.")
+@click.option("--keep", type=click.Path(file_okay=False), default=None,
+              help="Keep the bundle and results in this folder instead of a temporary one.")
+@_json_option
+@click.pass_context
+def demo(ctx, seed, keep, as_json):
+    """Simulate the built-in drive, run every navigation method, print their errors."""
+    import numpy as np
+    from ..io.bundle import write_bundle
+    from ..io.result import write_result
+    from ..sim import simulate as sim
+    with contextlib.ExitStack() as stack:
+        root = Path(keep) if keep else Path(stack.enter_context(
+            tempfile.TemporaryDirectory(prefix="inmotion-demo-")))
+        root.mkdir(parents=True, exist_ok=True)
+        t0 = time.perf_counter()
+        scen = _load_scenario(DEMO_SCENARIO)
+        with _progress(ctx, "simulate") as progress:
+            bundle = sim(scen, np.random.default_rng(seed))
+            if progress:
+                progress(1.0)
+        _note(ctx, f"simulated {DEMO_SCENARIO!r} in {time.perf_counter() - t0:.1f} s")
+        write_bundle(bundle, root / "bundle")
+        bundle = _read_bundle(ctx, root / "bundle")
+        rows = []
+        for spec in registry.methods("navigate"):
+            try:
+                config = build_config(spec)
+                state, _ = _initial_state(ctx, bundle, "truth", None, spec.needs_attitude)
+                sol, b = run_method(ctx, bundle, spec, config, state, (None, None))
+            except BadInput as e:
+                _note(ctx, f"{spec.name}: skipped ({e})")
+                continue
+            summary = write_result(sol, root / spec.name, truth=b.truth,
+                                   summary_extra={"bundle": str(root / "bundle")})
+            rows.append(_demo_summary(spec.name, summary))
+    _emit(ctx, {"scenario": DEMO_SCENARIO, "seed": seed, "methods": rows},
+          _demo_table(rows), as_json)
+
+
+def _demo_summary(name, summary) -> dict:
+    e = summary["errors"]
+    f = e["final"]
+    d = e["distance_m"]
+    return {"method": name, "duration_s": e["duration_s"], "distance_m": d,
+            "horizontal_m": f["horizontal_m"],
+            "horizontal_pct": 100 * f["horizontal_m"] / d if d > 0 else None,
+            "heading_arcmin": f["yaw_arcmin"],
+            "level_arcmin": math.hypot(f["phi_E_arcmin"], f["phi_N_arcmin"]),
+            "run_s": summary["timing"].get("wall_s")}
+
+
+def _demo_table(rows) -> str:
+    head = (f"{'method':12s} {'duration s':>10s} {'distance km':>11s} {'horiz. m':>10s} "
+            f"{'% dist':>8s} {'heading arcmin':>14s} {'level arcmin':>12s} {'run s':>7s}")
+    lines = [head, "-" * len(head)]
+    for r in rows:
+        pct = f"{r['horizontal_pct']:8.3f}" if r["horizontal_pct"] is not None else f"{'-':>8s}"
+        lines.append(f"{r['method']:12s} {r['duration_s']:10.1f} {r['distance_m'] / 1000:11.3f} "
+                     f"{r['horizontal_m']:10.2f} {pct} {r['heading_arcmin']:14.3f} "
+                     f"{r['level_arcmin']:12.3f} {r['run_s']:7.2f}")
+    return "\n".join(lines)
