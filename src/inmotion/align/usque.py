@@ -1,0 +1,400 @@
+"""Unscented quaternion alignment of paper 001: ``usque``, ``ausque``, ``usque-hinf``, ``ausquhe``.
+
+In-motion alignment from an unknown attitude with a forward-velocity sensor (the paper's LDV).
+The state is the attitude error as generalized Rodrigues parameters (GRP, eq. 20-22; a and f
+configurable, :func:`inmotion.core.rotations.grp_from_quat`) around the quaternion of
+``C_{n(t)}^i`` (``i`` = the body frame frozen at the start), optionally plus the LDV
+scale-factor error ``dk``. Models: :mod:`inmotion.align.usque_model` (process eq. 9,
+measurement eq. 13-14, 19, 23).
+
+One filter cycle at each update epoch (the paper's sec. 3):
+
+1. time update (eq. 24-33): sigma points of the error state (:class:`ScaledSigmaPoints`),
+   turned into quaternions ``delta_q (x) q`` (eq. 28-29), all propagated at once through
+   eq. 9, averaged (Markley, :func:`quat_average`), expressed again as GRP about the average
+   (eq. 30), mean and covariance plus ``Q`` (eq. 32-33). The predicted mean GRP is folded
+   into the reference quaternion and reset to zero.
+2. measurement update (eq. 34-38): sigma points regenerated from the predicted covariance,
+   through the measurement model; ``Y``, ``P_y``, ``P_xy``, innovation ``e``.
+3. ``ausque``/``ausquhe``: adaptive ``R`` (eq. 42-45, :func:`adapt_noise`); ``P_y`` is
+   recomputed with the new ``R`` before the gain.
+4. state update ``X = X- + P_xy P_y^-1 e`` (eq. 50); covariance by Kalman (``usque``,
+   ``ausque``), H-infinity with fixed gamma (``usque-hinf``) or adaptive gamma with bounds
+   (``ausquhe``, eq. 53-56) (:mod:`inmotion.estimation.hinf`).
+5. attitude update (eq. 57-59): ``q = delta_q(X) (x) mean(chi*_q)``, GRP reset.
+
+Fixed gamma below the existence floor (``gamma^2 <= max eig(M^-1)``, eq. 54) would give a
+covariance that is not positive definite; there the filter uses ``1.1 gamma_a`` instead and
+counts these events in ``info['hinf_floor_hits']``.
+
+The start attitude is the paper's ``q = [1 0 0 0]`` for ``C_{n(0)}^i``, i.e. ``C_b^n(0) = I``
+(pitch, roll, yaw zero); the method needs no initial attitude. The initial position comes from
+``init`` (position only), else ``meta['initial_position']``, else the first truth row.
+Outputs, at each update epoch: attitude ``C_b^n = (C_n^i)^T C_b^i``, the sensor velocity
+``C_b^n [0, v, 0]``, dead-reckoned position, and the 1-sigma misalignment ``phi_E/N/U``
+(``phi = -C_i^n dR``, the DESIGN convention; GRP with ``f = 2 (a + 1)`` equals the rotation
+angle to first order).
+"""
+from __future__ import annotations
+
+import time
+from typing import Callable, Literal, Optional
+
+import numpy as np
+from pydantic import BaseModel, ConfigDict, Field
+
+from ..core import rotations
+from ..core.bundle import Bundle
+from ..core.solution import NavState, Solution
+from ..errors import BadInput
+from ..estimation import hinf
+from ..estimation.adaptive_noise import adapt_noise
+from ..estimation.layout import Block, Layout, block
+from ..core.solution import StateUnit
+from ..estimation.quat_average import quat_average
+from ..estimation.sigma_points import ScaledSigmaPoints
+from . import usque_model as model
+
+__all__ = ["UsqueConfig", "AusqueConfig", "UsqueHinfConfig", "AusquheConfig",
+           "run_usque", "run_ausque", "run_usque_hinf", "run_ausquhe", "run", "LAYOUT_ATT"]
+
+_DEG = np.pi / 180.0
+
+#: attitude error block: GRP about the reference quaternion of C_{n(t)}^i, resolved in i
+ATT = Block("dR", ("x", "y", "z"), tuple(StateUnit("arcmin", 180.0 / np.pi * 60.0)
+                                        for _ in range(3)))
+LAYOUT_ATT = Layout([ATT])
+
+
+class UsqueConfig(BaseModel):
+    """Configuration of ``usque`` (and, with other defaults, its three variants).
+
+    Attributes
+    ----------
+    sensor : {"ldv", "radar", "odometer"}
+        The forward-velocity sensor (paper: LDV).
+    update_rate_hz : float
+        Filter update rate [Hz]; the paper's IMU and LDV run at 100 Hz and the paper states no
+        other rate, so 100 Hz (an update at every IMU row of a 100 Hz bundle).
+    sigma0_deg : (3,)
+        Initial 1-sigma of the attitude error about i's x, y, z [deg] (paper: 3, 3, 12).
+    process_noise_deg : float
+        1-sigma process noise per update and axis [deg] (paper: 1e-7).
+    meas_noise_m_s : float
+        Initial 1-sigma measurement noise per axis [m/s] (paper: 0.07).
+    grp_a, grp_f : float
+        GRP parameters of eq. 20 (``f`` None: ``2 (a + 1)``).
+    ut_sigma, ut_kappa, ut_zeta : float
+        Sigma-point parameters of eq. 24-26.
+    estimate_scale : bool
+        Add the LDV scale-factor error ``dk`` to the state (paper: not estimated).
+    scale_sigma0_ppm : float
+        Its initial 1-sigma [ppm].
+    adaptive_r : bool
+        Adaptive measurement noise (eq. 42-45).
+    fading_factor : float
+        ``c`` of eq. 43 (paper: 0.9 to 0.999).
+    r_min_m_s, r_max_m_s : float
+        Bounds of the adaptive R, as 1-sigma [m/s] (the paper gives none; chosen: 0.01 m/s,
+        about the LDV's 0.1 % at 10 m/s, and 30 m/s, beyond any credible LDV disturbance).
+    hinf : {"none", "fixed", "adaptive"}
+        Covariance update: Kalman, H-infinity with fixed gamma, adaptive gamma (eq. 55-56).
+    gamma_deg : float
+        Fixed gamma [deg] (``hinf="fixed"``).
+    k0 : float
+        Coefficient of the adaptive gamma (eq. 55).
+    gamma_min_deg, gamma_max_deg : float
+        Bounds of the adaptive gamma [deg] (eq. 55-56).
+    """
+
+    model_config = ConfigDict(extra="forbid")
+    sensor: Literal["ldv", "radar", "odometer"] = "ldv"
+    update_rate_hz: float = Field(100.0, gt=0)
+    sigma0_deg: tuple[float, float, float] = (3.0, 3.0, 12.0)
+    process_noise_deg: float = Field(1e-7, ge=0)
+    meas_noise_m_s: float = Field(0.07, gt=0)
+    grp_a: float = Field(1.0, ge=0, le=1)
+    grp_f: Optional[float] = Field(None, gt=0)
+    ut_sigma: float = Field(1.0, gt=0, le=1)
+    ut_kappa: float = Field(0.0, ge=0)
+    ut_zeta: float = 2.0
+    estimate_scale: bool = False
+    scale_sigma0_ppm: float = Field(1000.0, gt=0)
+    adaptive_r: bool = False
+    fading_factor: float = Field(0.99, gt=0, lt=1)
+    r_min_m_s: float = Field(0.01, gt=0)
+    r_max_m_s: float = Field(30.0, gt=0)
+    hinf: Literal["none", "fixed", "adaptive"] = "none"
+    gamma_deg: float = Field(2.0, gt=0)
+    k0: float = Field(1.0, gt=0)
+    gamma_min_deg: float = Field(0.1, gt=0)
+    gamma_max_deg: float = Field(30.0, gt=0)
+
+
+class AusqueConfig(UsqueConfig):
+    """``ausque``: USQUE with the adaptive measurement noise (eq. 38-45)."""
+    adaptive_r: bool = True
+
+
+class UsqueHinfConfig(UsqueConfig):
+    """``usque-hinf``: USQUE with the H-infinity covariance update, fixed gamma (eq. 46-52)."""
+    hinf: Literal["none", "fixed", "adaptive"] = "fixed"
+
+
+class AusquheConfig(UsqueConfig):
+    """``ausquhe``: adaptive R and adaptive-gamma H-infinity update (eq. 38-56)."""
+    adaptive_r: bool = True
+    hinf: Literal["none", "fixed", "adaptive"] = "adaptive"
+
+
+# ----------------------------------------------------------------------------- inputs
+def _initial_position(bundle: Bundle, init: Optional[NavState]):
+    if init is not None:
+        return float(init.lat), float(init.lon), float(init.h)
+    pos = bundle.meta.get("initial_position") if isinstance(bundle.meta, dict) else None
+    if isinstance(pos, dict) and all(k in pos for k in ("lat_deg", "lon_deg", "h_m")):
+        return (float(pos["lat_deg"]) * _DEG, float(pos["lon_deg"]) * _DEG, float(pos["h_m"]))
+    if bundle.truth is not None:
+        return float(bundle.truth.lat[0]), float(bundle.truth.lon[0]), float(bundle.truth.h[0])
+    raise BadInput(f"bundle {bundle.name!r}: no initial position (give --init, or "
+                   "initial_position in meta.yaml)")
+
+
+def _speed_at_imu(bundle: Bundle, sensor: str):
+    """The sensor's speed interpolated to the IMU times (held at the ends, never beyond)."""
+    try:
+        _, sp = bundle.velocity_sensor(sensor)
+    except ValueError as exc:
+        raise BadInput(str(exc)) from None
+    t_imu = bundle.imu.t
+    if sp.t[0] > t_imu[0] + 1.0 or sp.t[-1] < t_imu[-1] - 1.0:
+        raise BadInput(f"{sensor} covers t = {sp.t[0]:.3f} .. {sp.t[-1]:.3f} s but the IMU "
+                       f"runs {t_imu[0]:.3f} .. {t_imu[-1]:.3f} s", file=sensor)
+    v = sp.speed()
+    if not np.all(np.isfinite(v)):
+        i = int(np.flatnonzero(~np.isfinite(v))[0])
+        raise BadInput(f"{sensor} speed is not finite", file=sensor, row=i + 1, time=sp.t[i])
+    return np.interp(t_imu, sp.t, v)
+
+
+# ----------------------------------------------------------------------------- the filter
+class _Filter:
+    """State, covariance and the cycle of the module docstring (one instance per run)."""
+
+    def __init__(self, cfg: UsqueConfig):
+        self.cfg = cfg
+        self.layout = Layout([ATT] + ([block("dk")] if cfg.estimate_scale else []))
+        self.att = self.layout["dR"]
+        self.a = cfg.grp_a
+        self.f = 2.0 * (cfg.grp_a + 1.0) if cfg.grp_f is None else cfg.grp_f
+        self.scheme = ScaledSigmaPoints(self.layout.n, cfg.ut_sigma, cfg.ut_kappa, cfg.ut_zeta)
+        p0 = {"dR": (np.asarray(cfg.sigma0_deg) * _DEG) ** 2}
+        q = {"dR": (cfg.process_noise_deg * _DEG) ** 2}
+        if cfg.estimate_scale:
+            p0["dk"] = (cfg.scale_sigma0_ppm * 1e-6) ** 2
+        self.P = self.layout.diag(p0)
+        self.Q = self.layout.diag(q)
+        self.x = self.layout.zeros()
+        self.q = np.array([1.0, 0.0, 0.0, 0.0])      # C_{n(0)}^i, the paper's start
+        self.R = np.full(3, cfg.meas_noise_m_s ** 2)
+        self.R_min = np.full(3, cfg.r_min_m_s ** 2)
+        self.R_max = np.full(3, cfg.r_max_m_s ** 2)
+        self.eta = 1.0
+        self.gamma = np.inf
+        self.floor_hits = 0
+
+    # manifold operations of the attitude block
+    def _quats(self, chi, q_ref):
+        """Sigma-point quaternions ``delta_q(chi_dR) (x) q_ref`` (eq. 28-29)."""
+        dq = rotations.quat_from_grp(chi[:, self.att], self.a, self.f)
+        return rotations.quat_multiply(dq, q_ref)
+
+    def _grp_about(self, chi_q, q_ref):
+        """GRP of ``chi_q (x) q_ref^-1`` (eq. 30 and 20)."""
+        dq = rotations.quat_multiply(chi_q, rotations.quat_conjugate(q_ref))
+        return rotations.grp_from_quat(dq, self.a, self.f)
+
+    def _extra(self, chi):
+        return chi[:, self.layout["dk"]][:, 0] if self.cfg.estimate_scale else None
+
+    def predict(self, dq_n):
+        """Time update through eq. 9 (eq. 24-33)."""
+        Wm, Wc = self.scheme.Wm, self.scheme.Wc
+        chi = self.scheme.points(self.x, self.P)
+        chi_q = model.propagate(self._quats(chi, self.q), dq_n)
+        q_bar = quat_average(chi_q, Wm)
+        chi = chi.copy()
+        chi[:, self.att] = self._grp_about(chi_q, q_bar)
+        x = Wm @ chi
+        dev = chi - x
+        self.P = (dev * Wc[:, None]).T @ dev + self.Q
+        # fold the mean attitude error into the reference quaternion, reset it
+        self.q = rotations.quat_normalize(rotations.quat_multiply(
+            rotations.quat_from_grp(x[self.att], self.a, self.f), q_bar))
+        x[self.att] = 0.0
+        self.x = x
+
+    def update(self, obs):
+        """Measurement update (eq. 34-38, 42-45, 50-59)."""
+        cfg = self.cfg
+        Wm, Wc = self.scheme.Wm, self.scheme.Wc
+        chi = self.scheme.points(self.x, self.P)
+        chi_q = self._quats(chi, self.q)
+        Z = model.predict_measurement(chi_q, self._extra(chi), obs)
+        Y = Wm @ Z
+        dZ = Z - Y
+        dX = chi - self.x
+        Py0 = (dZ * Wc[:, None]).T @ dZ
+        Pxy = (dX * Wc[:, None]).T @ dZ
+        e = obs["y"] - Y
+        if cfg.adaptive_r:
+            self.R, self.eta = adapt_noise(self.R, self.eta, e, np.diag(Py0) + self.R,
+                                           cfg.fading_factor, self.R_min, self.R_max)
+        R = np.diag(self.R)
+        Py = Py0 + R
+        K = np.linalg.solve(Py, Pxy.T).T
+        x = self.x + K @ e
+        self.P = self._covariance(Pxy, Py, R, e)
+        q_star = quat_average(chi_q, Wm)
+        self.q = rotations.quat_normalize(rotations.quat_multiply(
+            rotations.quat_from_grp(x[self.att], self.a, self.f), q_star))
+        x[self.att] = 0.0
+        self.x = x
+        return e
+
+    def _covariance(self, Pxy, Py, R, e):
+        cfg, P = self.cfg, self.P
+        if cfg.hinf == "none":
+            return hinf.kalman_covariance(P, Pxy, Py)
+        g_a = hinf.gamma_floor(P, Pxy, R)
+        if cfg.hinf == "fixed":
+            gamma = cfg.gamma_deg * _DEG
+            if gamma <= g_a:
+                gamma = 1.1 * g_a
+                self.floor_hits += 1
+            self.gamma = gamma
+            return hinf.hinf_covariance(P, Pxy, Py, gamma)
+        self.gamma = hinf.adaptive_gamma(g_a, Py, e, cfg.k0, cfg.gamma_min_deg * _DEG)
+        if self.gamma <= g_a:                     # gamma_min below the floor
+            self.gamma = 1.1 * g_a
+            self.floor_hits += 1
+        return hinf.hinf_update(P, Pxy, Py, self.gamma, cfg.gamma_max_deg * _DEG)
+
+
+def run(bundle: Bundle, config: UsqueConfig, init: Optional[NavState] = None,
+        progress: Optional[Callable[[float], None]] = None, *, method: str = "usque"
+        ) -> Solution:
+    """Run the unscented quaternion alignment over the whole bundle.
+
+    Parameters
+    ----------
+    bundle : Bundle
+        IMU and a forward-velocity sensor (``config.sensor``).
+    config : UsqueConfig (or a subclass)
+    init : NavState or None
+        Only its position is used (the attitude starts at the paper's ``[1 0 0 0]``).
+    progress : callable(fraction) or None
+    method : str
+        Name echoed in ``info``.
+
+    Returns
+    -------
+    Solution at the update epochs (the first row is the start, before any update).
+    """
+    t_start = time.perf_counter()
+    imu = bundle.imu
+    if len(imu.t) < 3:
+        raise BadInput(f"bundle {bundle.name!r}: too few IMU rows ({len(imu.t)}) to align")
+    speed = _speed_at_imu(bundle, config.sensor)
+    lat, lon, h = _initial_position(bundle, init)
+    stride = max(1, int(round(1.0 / (config.update_rate_hz * imu.dt))))
+    flt = _Filter(config)
+    acc = model.new_accumulator(lat, lon, h, speed[0])
+    dt_rows = np.diff(imu.t)
+    epochs = np.arange(stride, len(imu.t), stride)
+    n_out = len(epochs) + 1
+    out = _Outputs(n_out, flt.layout)
+    obs = model.observation(acc)
+    out.record(0, imu.t[0], flt, obs, acc, speed[0])
+    q_n0n_prev = obs["q_n0n"]
+    k_prev = 0
+    for j, k in enumerate(epochs, start=1):
+        q_bn = model.attitude_bn(flt.q, acc[model.ACC.Q_IB:model.ACC.Q_IB + 4])
+        model.accumulate(acc, imu.dtheta[k_prev + 1:k + 1], imu.dvel[k_prev + 1:k + 1],
+                         dt_rows[k_prev:k], speed[k_prev + 1:k + 1], q_bn)
+        obs = model.observation(acc)
+        flt.predict(model.nav_increment(q_n0n_prev, obs["q_n0n"]))
+        flt.update(obs)
+        out.record(j, imu.t[k], flt, obs, acc, speed[k])
+        q_n0n_prev = obs["q_n0n"]
+        k_prev = k
+        if progress is not None and j % 1000 == 0:
+            progress(j / len(epochs))
+    if progress is not None:
+        progress(1.0)
+    info = {"method": method, "config": config.model_dump(),
+            "timing_s": time.perf_counter() - t_start, "update_stride_rows": stride,
+            "final_R_m_s": np.sqrt(flt.R).tolist(), "hinf_floor_hits": flt.floor_hits,
+            "start_attitude": "q = [1 0 0 0] (C_b^n = I), the paper's start"}
+    return out.solution(flt.layout, info)
+
+
+class _Outputs:
+    """Preallocated output arrays (memory grows only with the output)."""
+
+    def __init__(self, n, layout):
+        self.t = np.empty(n)
+        self.lla = np.empty((n, 3))
+        self.vel = np.empty((n, 3))
+        self.q_bn = np.empty((n, 4))
+        self.sig = np.empty((n, 3))
+        self.R = np.empty((n, 3))
+        self.gamma = np.empty(n)
+        self.x = np.empty((n, layout.n))
+
+    def record(self, j, t, flt, obs, acc, v):
+        ACC = model.ACC
+        q_bn = model.attitude_bn(flt.q, obs["q_ib"])
+        C_ni = rotations.dcm_from_quat(flt.q).T
+        P_phi = C_ni @ flt.P[flt.att, flt.att] @ C_ni.T
+        self.t[j] = t
+        self.lla[j] = acc[ACC.LAT], acc[ACC.LON], acc[ACC.H]
+        self.vel[j] = rotations.quat_rotate(q_bn, np.array([0.0, v, 0.0]))
+        self.q_bn[j] = q_bn
+        self.sig[j] = np.sqrt(np.maximum(np.diag(P_phi), 0.0))
+        self.R[j] = np.sqrt(flt.R)
+        self.gamma[j] = flt.gamma
+        self.x[j] = flt.x
+        self.x[j, flt.att] = 0.0
+
+    def solution(self, layout, info):
+        sigma = {"phi_E": self.sig[:, 0], "phi_N": self.sig[:, 1], "phi_U": self.sig[:, 2]}
+        states = {"R_x": self.R[:, 0], "R_y": self.R[:, 1], "R_z": self.R[:, 2],
+                  "gamma": self.gamma}
+        units = {"R_x": StateUnit("m/s"), "R_y": StateUnit("m/s"), "R_z": StateUnit("m/s"),
+                 "gamma": StateUnit("deg", 180.0 / np.pi)}
+        if "dk" in layout:
+            states["dk"] = self.x[:, layout.index("dk")]
+            units["dk"] = layout.unit_map()["dk"]
+        return Solution.from_arrays(self.t, self.lla, self.vel, self.q_bn, sigma=sigma,
+                                    states=states, state_units=units, info=info)
+
+
+def run_usque(bundle, config: UsqueConfig, init=None, progress=None) -> Solution:
+    """``usque``: unscented quaternion estimator (paper 001 scheme 3)."""
+    return run(bundle, config, init, progress, method="usque")
+
+
+def run_ausque(bundle, config: AusqueConfig, init=None, progress=None) -> Solution:
+    """``ausque``: USQUE + adaptive R (paper 001 scheme 4)."""
+    return run(bundle, config, init, progress, method="ausque")
+
+
+def run_usque_hinf(bundle, config: UsqueHinfConfig, init=None, progress=None) -> Solution:
+    """``usque-hinf``: USQUE + H-infinity update with fixed gamma (paper 001 scheme 5)."""
+    return run(bundle, config, init, progress, method="usque-hinf")
+
+
+def run_ausquhe(bundle, config: AusquheConfig, init=None, progress=None) -> Solution:
+    """``ausquhe``: adaptive R + adaptive-gamma H-infinity USQUE (paper 001 scheme 1)."""
+    return run(bundle, config, init, progress, method="ausquhe")

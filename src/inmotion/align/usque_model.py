@@ -1,0 +1,263 @@
+"""Process and measurement models of paper 001's unscented alignment (eq. 6-19, 23).
+
+Frames: ``i`` is the body frame frozen at the start, ``b(0)`` (non-rotating); ``n(0)`` the
+navigation frame frozen at the start. The filter's attitude is the quaternion of
+``C_{n(t)}^i`` (eq. 7), and the vehicle attitude is ``C_b^n(t) = (C_{n(t)}^i)^T C_{b(t)}^i``.
+
+Process model (eq. 9): ``C_{n(t_k)}^i = C_{n(t_{k-1})}^i C_{n(t_k)}^{n(t_{k-1})}``: every
+sigma-point quaternion is right-multiplied by the same navigation-frame increment, computed
+from ``omega_in^n`` (:func:`propagate`).
+
+Measurement model (eq. 12-14, 23). Integrating the velocity equation (eq. 11) gives
+
+    C_{b(t)}^i v^b(t) - v^b(0) + int C_b^i (omega_ie^b x v^b) - int C_b^i f^b
+        = C_{n(t)}^i beta(t),       beta(t) = C_{n(0)}^{n(t)} int C_{n(tau)}^{n(0)} g^n dtau.
+
+The Earth-rate integral (paper eq. 15-16) needs the attitude. We use an exact identity
+instead of eq. 16's approximation: the Earth rate in the inertial frame i is a constant
+vector ``w^i = C_{n(t)}^i omega_ie^{n(t)}`` (any t), and
+``C_b^i (omega_ie^b x v^b) = w^i x (C_b^i v^b)``, so the integral is ``w^i x D^i(t)`` with
+``D^i(t) = int C_b^i v^b dtau`` the displacement resolved in i. Since ``w^i`` depends only on
+the attitude state, it moves into ``h``. The measurement and its model are then
+
+    y   = C_{b(t)}^i v_m^b(t) - v_m^b(0) - int C_b^i f^b                      (computed)
+    h(X) = C_{n(t)}^i beta(t) - (1 - dk) (C_{n(t)}^i omega_ie^{n(t)}) x D_m^i(t)
+           + dk (C_{b(t)}^i v_m^b(t) - v_m^b(0))
+
+where ``v_m = [0, v_LDV, 0]`` is the measured body velocity and ``dk`` the optional LDV
+scale-factor error state, defined by ``v_true = (1 - dk) v_m`` (so ``dk`` equals the
+relative scale error ``v_m / v_true - 1`` to first order); without the ``dk`` state it is 0.
+
+THE ALPHA/BETA ACCUMULATION HERE IS A MINIMAL STAND-IN. The optimization-based-alignment
+vectors belong in the coarse-alignment module ``inmotion.align.obs_vectors`` (issue 5); it had
+not landed when this filter was written, so :func:`accumulate` integrates what the filter
+needs, in discrete form after paper 001 eq. 15-19:
+
+- ``C_{b(t)}^i`` by the rotation-vector update with the two-sample (previous interval)
+  coning correction;
+- ``int C_b^i f^b`` as ``sum_k C_{b(t_{k-1})}^i dv^{b(t_{k-1})}`` with the rotation and
+  two-sample sculling corrections of eq. 18 (previous-interval form:
+  ``dv + dth x dv / 2 + (dth_prev x dv + dv_prev x dth) / 12``);
+- ``D^i`` by the trapezoid rule on ``C_b^i v_m^b``;
+- ``int C_{n(tau)}^{n(0)} g^n`` as in eq. 19, ``sum_k C_{n(t_k)}^{n(0)} (T I + T^2/2 [omega_in x]) g^n``,
+  and ``C_{n(t)}^{n(0)}`` from ``omega_in^n`` (eq. 10);
+- the position (for ``g``, ``omega_ie``, ``omega_en``) by dead reckoning with the filter's
+  current attitude estimate and the LDV speed, starting from the given initial position.
+
+All of it runs row by row in one numba kernel per chunk of IMU rows between filter updates.
+"""
+from __future__ import annotations
+
+import math
+
+import numba
+import numpy as np
+
+from ..core import _kernels as kn
+
+__all__ = ["ACC", "new_accumulator", "accumulate", "observation", "propagate",
+           "predict_measurement", "attitude_bn"]
+
+
+# Named slots of the flat accumulator state (module constants, so numba sees them).
+Q_IB = 0        #: 4, quaternion of C_{b(t)}^i
+Q_N0N = 4       #: 4, quaternion of C_{n(t)}^{n(0)}
+ALPHA_F = 8     #: 3, int C_b^i f^b dtau [m/s], in i
+D_I = 11        #: 3, int C_b^i v_m^b dtau [m], in i
+BETA_N0 = 14    #: 3, int C_{n(tau)}^{n(0)} g^n dtau [m/s], in n(0)
+LAT = 17        #: rad
+LON = 18        #: rad
+H = 19          #: m
+DTH_PREV = 20   #: 3, previous angle increment [rad]
+DV_PREV = 23    #: 3, previous velocity increment [m/s]
+V_PREV = 26     #: previous LDV speed [m/s]
+V0 = 27         #: LDV speed at the start [m/s]
+SIZE = 28
+
+
+class ACC:
+    """The accumulator's slots by name, for Python callers."""
+    Q_IB, Q_N0N, ALPHA_F, D_I, BETA_N0 = Q_IB, Q_N0N, ALPHA_F, D_I, BETA_N0
+    LAT, LON, H, DTH_PREV, DV_PREV, V_PREV, V0, SIZE = (LAT, LON, H, DTH_PREV, DV_PREV,
+                                                        V_PREV, V0, SIZE)
+
+
+def new_accumulator(lat, lon, h, v0):
+    """A fresh accumulator at the start: identity rotations, zero integrals.
+
+    Parameters
+    ----------
+    lat, lon : float, rad;  h : float, m
+        Initial position.
+    v0 : float, m/s
+        LDV speed at the start time.
+    """
+    a = np.zeros(ACC.SIZE)
+    a[ACC.Q_IB] = 1.0
+    a[ACC.Q_N0N] = 1.0
+    a[ACC.LAT], a[ACC.LON], a[ACC.H] = lat, lon, h
+    a[ACC.V_PREV] = v0
+    a[ACC.V0] = v0
+    return a
+
+
+@numba.njit(cache=True)
+def _vec(a, i):
+    return (a[i], a[i + 1], a[i + 2])
+
+
+@numba.njit(cache=True)
+def _quat(a, i):
+    return (a[i], a[i + 1], a[i + 2], a[i + 3])
+
+
+@numba.njit(cache=True)
+def _put(a, i, v):
+    for j in range(len(v)):
+        a[i + j] = v[j]
+
+
+@numba.njit(cache=True)
+def _step(acc, dth, dv, dt, v, q_bn):
+    """Advance the accumulator over one IMU row (see the module docstring)."""
+    q_ib = _quat(acc, Q_IB)
+    dth_p = _vec(acc, DTH_PREV)
+    dv_p = _vec(acc, DV_PREV)
+    # specific-force integral with rotation and sculling corrections (eq. 17-18)
+    c1 = kn.cross(dth, dv)
+    c2 = kn.cross(dth_p, dv)
+    c3 = kn.cross(dv_p, dth)
+    dvb = (dv[0] + 0.5 * c1[0] + (c2[0] + c3[0]) / 12.0,
+           dv[1] + 0.5 * c1[1] + (c2[1] + c3[1]) / 12.0,
+           dv[2] + 0.5 * c1[2] + (c2[2] + c3[2]) / 12.0)
+    dvi = kn.qrotate(q_ib, dvb)
+    af = _vec(acc, ALPHA_F)
+    _put(acc, ALPHA_F, (af[0] + dvi[0], af[1] + dvi[1], af[2] + dvi[2]))
+    # displacement in i (trapezoid)
+    u_old = kn.qrotate(q_ib, (0.0, acc[V_PREV], 0.0))
+    q_ib = kn.qnormalize(kn.qmul(q_ib, kn.quat_from_rotvec(kn.coning_rotvec(dth, dth_p))))
+    u_new = kn.qrotate(q_ib, (0.0, v, 0.0))
+    d = _vec(acc, D_I)
+    _put(acc, D_I, (d[0] + 0.5 * dt * (u_old[0] + u_new[0]),
+                        d[1] + 0.5 * dt * (u_old[1] + u_new[1]),
+                        d[2] + 0.5 * dt * (u_old[2] + u_new[2])))
+    _put(acc, Q_IB, q_ib)
+    # navigation frame: velocity from the current attitude estimate, rates, gravity (eq. 19)
+    lat, h = acc[LAT], acc[H]
+    vn = kn.qrotate(q_bn, (0.0, v, 0.0))
+    wie = kn.omega_ie_n(lat)
+    wen = kn.omega_en_n(lat, h, vn)
+    win = (wie[0] + wen[0], wie[1] + wen[1], wie[2] + wen[2])
+    g = kn.gravity(lat, h)
+    gn = (0.0, 0.0, -g)
+    wg = kn.cross(win, gn)
+    inc = (dt * gn[0] + 0.5 * dt * dt * wg[0], dt * gn[1] + 0.5 * dt * dt * wg[1],
+           dt * gn[2] + 0.5 * dt * dt * wg[2])
+    q_n0n = _quat(acc, Q_N0N)
+    inc0 = kn.qrotate(q_n0n, inc)
+    b = _vec(acc, BETA_N0)
+    _put(acc, BETA_N0, (b[0] + inc0[0], b[1] + inc0[1], b[2] + inc0[2]))
+    q_n0n = kn.qnormalize(kn.qmul(q_n0n, kn.quat_from_rotvec(
+        (win[0] * dt, win[1] * dt, win[2] * dt))))
+    _put(acc, Q_N0N, q_n0n)
+    # position by dead reckoning
+    r_m, r_n = kn.radii(lat)
+    acc[LAT] = lat + vn[1] * dt / (r_m + h)
+    acc[LON] = acc[LON] + vn[0] * dt / ((r_n + h) * math.cos(lat))
+    acc[H] = h + vn[2] * dt
+    _put(acc, DTH_PREV, dth)
+    _put(acc, DV_PREV, dv)
+    acc[V_PREV] = v
+
+
+@numba.njit(cache=True)
+def accumulate(acc, dtheta, dvel, dt, v, q_bn):
+    """Advance the accumulator over IMU rows (M, 3), (M, 3), periods ``dt`` (M,) [s] and LDV
+    speeds ``v`` (M,) [m/s] at the rows' end times, with the attitude estimate ``q_bn`` (4,)
+    (quaternion of ``C_b^n``... see :func:`attitude_bn`) held over the chunk for the
+    velocity used in the transport rate and dead reckoning. Modifies ``acc`` in place."""
+    q = (q_bn[0], q_bn[1], q_bn[2], q_bn[3])
+    for k in range(dtheta.shape[0]):
+        _step(acc, (dtheta[k, 0], dtheta[k, 1], dtheta[k, 2]),
+              (dvel[k, 0], dvel[k, 1], dvel[k, 2]), dt[k], v[k], q)
+
+
+def observation(acc):
+    """What the measurement model needs at the current epoch, from the accumulator.
+
+    Returns
+    -------
+    dict with
+        ``y``      (3,) the computed measurement [m/s] (in i);
+        ``beta_n`` (3,) ``beta(t)`` in n(t) [m/s];
+        ``D_i``    (3,) displacement in i [m];
+        ``V_i``    (3,) ``C_b^i v_m^b(t) - v_m^b(0)`` [m/s] (the scale-factor sensitivity);
+        ``wie_n``  (3,) Earth rate in n(t) [rad/s];
+        ``q_ib``   (4,) quaternion of ``C_{b(t)}^i``;
+        ``q_n0n``  (4,) quaternion of ``C_{n(t)}^{n(0)}``.
+    """
+    q_ib = acc[ACC.Q_IB:ACC.Q_IB + 4].copy()
+    q_n0n = acc[ACC.Q_N0N:ACC.Q_N0N + 4].copy()
+    C_ib = _dcm(q_ib)
+    V_i = C_ib @ np.array([0.0, acc[ACC.V_PREV], 0.0]) - np.array([0.0, acc[ACC.V0], 0.0])
+    beta_n = _dcm(q_n0n).T @ acc[ACC.BETA_N0:ACC.BETA_N0 + 3]
+    lat = acc[ACC.LAT]
+    return dict(y=V_i - acc[ACC.ALPHA_F:ACC.ALPHA_F + 3], beta_n=beta_n,
+                D_i=acc[ACC.D_I:ACC.D_I + 3].copy(), V_i=V_i,
+                wie_n=np.array([0.0, kn.OMEGA_IE * np.cos(lat), kn.OMEGA_IE * np.sin(lat)]),
+                q_ib=q_ib, q_n0n=q_n0n)
+
+
+def _dcm(q):
+    q0, q1, q2, q3 = q
+    return np.array([
+        [q0 * q0 + q1 * q1 - q2 * q2 - q3 * q3, 2 * (q1 * q2 - q0 * q3), 2 * (q1 * q3 + q0 * q2)],
+        [2 * (q1 * q2 + q0 * q3), q0 * q0 - q1 * q1 + q2 * q2 - q3 * q3, 2 * (q2 * q3 - q0 * q1)],
+        [2 * (q1 * q3 - q0 * q2), 2 * (q2 * q3 + q0 * q1), q0 * q0 - q1 * q1 - q2 * q2 + q3 * q3]])
+
+
+def nav_increment(q_n0n_old, q_n0n_new):
+    """``C_{n(t_k)}^{n(t_{k-1})}`` as a quaternion: ``q_old^* (x) q_new`` (eq. 9 increment)."""
+    from ..core.rotations import quat_conjugate, quat_multiply
+    return quat_multiply(quat_conjugate(q_n0n_old), q_n0n_new)
+
+
+def propagate(q_in, dq_n):
+    """Process model (eq. 9): ``C_{n(t_k)}^i = C_{n(t_{k-1})}^i C_{n(t_k)}^{n(t_{k-1})}``.
+
+    Parameters
+    ----------
+    q_in : (m, 4) array, sigma-point quaternions of ``C_{n(t_{k-1})}^i``.
+    dq_n : (4,) array, quaternion of ``C_{n(t_k)}^{n(t_{k-1})}``.
+    """
+    from ..core.rotations import quat_multiply
+    return quat_multiply(q_in, dq_n)
+
+
+def predict_measurement(q_in, dk, obs):
+    """Measurement model ``h`` (module docstring) for each sigma point, vectorized.
+
+    Parameters
+    ----------
+    q_in : (m, 4) array, sigma-point quaternions of ``C_{n(t)}^i``.
+    dk : (m,) array or None, LDV scale-factor error of each sigma point [-].
+    obs : dict from :func:`observation`.
+
+    Returns
+    -------
+    (m, 3) array [m/s].
+    """
+    from ..core.rotations import dcm_from_quat
+    C_in = dcm_from_quat(q_in)                               # (m, 3, 3)
+    Z = C_in @ obs["beta_n"]
+    w_i = C_in @ obs["wie_n"]
+    earth = np.cross(w_i, obs["D_i"])
+    if dk is None:
+        return Z - earth
+    return Z - (1.0 - dk)[:, None] * earth + dk[:, None] * obs["V_i"]
+
+
+def attitude_bn(q_in, q_ib):
+    """Vehicle attitude quaternion of ``C_b^n = (C_n^i)^T C_b^i``: ``q_in^* (x) q_ib``."""
+    from ..core.rotations import quat_conjugate, quat_multiply
+    return quat_multiply(quat_conjugate(q_in), q_ib)

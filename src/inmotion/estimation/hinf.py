@@ -1,0 +1,115 @@
+"""H-infinity covariance update with a fixed or adaptive bound gamma (paper 001 eq. 46-56).
+
+The extended / unscented H-infinity filter (paper 001 after refs. 26-27) keeps the Kalman state
+update ``x+ = x- + P_xy P_y^-1 e`` (eq. 50) but updates the covariance as
+
+    P+ = P- - [P_xy  P-] R_e^-1 [P_xy  P-]^T,    R_e = [[P_y, P_xy^T], [P_xy, P- - gamma^2 I]]
+                                                                              (eq. 51-52)
+
+which, by the matrix inversion lemma, is (eq. 53)
+
+    P+^-1 = P-^-1 + P-^-1 P_xy R^-1 P_xy^T P-^-1 - gamma^-2 I.
+
+``gamma`` bounds the energy gain from disturbances to estimation error (eq. 46-47): the smaller
+it is, the more ``P+`` is inflated (robust, less accurate); ``gamma -> inf`` gives the Kalman
+update. ``P+`` stays positive definite only if ``gamma^2 > max eig(M^-1)`` with
+``M = P-^-1 + P-^-1 P_xy R^-1 P_xy^T P-^-1`` (eq. 54); :func:`gamma_floor` returns
+``gamma_a = sqrt(max eig(M^-1))``.
+
+Reading of eq. 54-55: the printed definition of ``gamma_a`` lost its inverse and square root in
+extraction; we take ``gamma_a = sqrt(max eig(M^-1))`` so that ``gamma > gamma_a`` is exactly the
+existence condition (54) and ``gamma`` has the unit of the state (rad for attitude).
+
+Adaptive gamma (eq. 55-56): ``gamma = (1 + k0 sqrt(trace(P_y) / e^T e)) gamma_a``, floored at
+``gamma_min``; above ``gamma_max`` the Kalman covariance update is used instead. A large
+innovation (an outlier) brings ``gamma`` down towards ``gamma_a`` (more robust, larger ``P+``);
+a small one raises it (more accurate).
+
+All functions use only ``numpy`` operations that ``numba`` also compiles.
+"""
+from __future__ import annotations
+
+import numpy as np
+
+__all__ = ["hinf_covariance", "kalman_covariance", "gamma_floor", "adaptive_gamma",
+           "hinf_update"]
+
+
+def kalman_covariance(P_pred, P_xy, P_y):
+    """Kalman covariance update ``P- - K P_y K^T`` with ``K = P_xy P_y^-1`` (eq. 56, lower)."""
+    K = np.linalg.solve(P_y.T, P_xy.T).T
+    P = P_pred - K @ P_y @ K.T
+    return 0.5 * (P + P.T)
+
+
+def hinf_covariance(P_pred, P_xy, P_y, gamma):
+    """H-infinity covariance update of eq. 51-52.
+
+    Parameters
+    ----------
+    P_pred : (n, n) array
+        Predicted state covariance ``P_{x,k+1|k}``.
+    P_xy : (n, m) array
+        State-measurement cross covariance (eq. 37).
+    P_y : (m, m) array
+        Innovation covariance including ``R`` (eq. 36).
+    gamma : float
+        The H-infinity bound, in the unit of the state. Must exceed :func:`gamma_floor`.
+
+    Returns
+    -------
+    (n, n) array, the updated covariance ``P_{x,k+1}`` (symmetrized).
+    """
+    n = P_pred.shape[0]
+    m = P_y.shape[0]
+    Re = np.empty((m + n, m + n))
+    Re[:m, :m] = P_y
+    Re[:m, m:] = P_xy.T
+    Re[m:, :m] = P_xy
+    Re[m:, m:] = P_pred - gamma * gamma * np.eye(n)
+    A = np.empty((n, m + n))
+    A[:, :m] = P_xy
+    A[:, m:] = P_pred
+    P = P_pred - A @ np.linalg.solve(Re, A.T)
+    return 0.5 * (P + P.T)
+
+
+def gamma_floor(P_pred, P_xy, R):
+    """``gamma_a = sqrt(max eig(M^-1))``, the smallest admissible gamma (eq. 53-54).
+
+    ``M = P-^-1 + P-^-1 P_xy R^-1 (P-^-1 P_xy)^T``; returns ``1 / sqrt(min eig(M))``.
+    """
+    Pinv = np.linalg.inv(P_pred)
+    G = Pinv @ P_xy
+    M = Pinv + G @ np.linalg.solve(R, G.T)
+    M = 0.5 * (M + M.T)
+    return 1.0 / np.sqrt(np.linalg.eigvalsh(M)[0])
+
+
+def adaptive_gamma(gamma_a, P_y, e, k0, gamma_min):
+    """Adaptive bound of eq. 55: ``(1 + k0 sqrt(trace(P_y) / e^T e)) gamma_a``, >= ``gamma_min``.
+
+    Parameters
+    ----------
+    gamma_a : float
+        :func:`gamma_floor` of this update.
+    P_y : (m, m) array
+        Innovation covariance.
+    e : (m,) array
+        Innovation (eq. 38).
+    k0 : float
+        The paper's correlation coefficient ``k0 > 0``.
+    gamma_min : float
+        Lower bound (same unit as the state).
+    """
+    ee = float(np.sum(e * e))
+    ratio = np.trace(P_y) / max(ee, 1e-300)
+    gamma = (1.0 + k0 * np.sqrt(ratio)) * gamma_a
+    return max(gamma, gamma_min)
+
+
+def hinf_update(P_pred, P_xy, P_y, gamma, gamma_max=np.inf):
+    """Covariance update of eq. 56: H-infinity (eq. 51) below ``gamma_max``, Kalman above."""
+    if gamma > gamma_max:
+        return kalman_covariance(P_pred, P_xy, P_y)
+    return hinf_covariance(P_pred, P_xy, P_y, gamma)
