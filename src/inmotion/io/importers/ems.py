@@ -40,7 +40,8 @@ _FIELDS_N = ("time", "roll", "pitch", "heading", "lat", "lon", "h")
 def _load_struct(path, var):
     try:
         mat = scipy.io.loadmat(path, squeeze_me=True, struct_as_record=False)
-    except (ValueError, OSError, NotImplementedError, TypeError) as exc:
+    except (ValueError, OSError, NotImplementedError, TypeError,
+            scipy.io.matlab.MatReadError) as exc:
         raise BadInput(f"not a readable MATLAB file ({exc})", path) from None
     if var not in mat:
         raise BadInput(f"no variable {var!r} in the MATLAB file "
