@@ -159,7 +159,7 @@ def default_run(spec: dict, rng: np.random.Generator) -> dict:
            "init_error": {f"{n}_arcmin": float(d) * 10800.0 / np.pi
                           for n, d in zip(INIT_ANGLES, delta)}}
     if spec.get("save_arrays"):
-        out["arrays"] = error_arrays(series, solution)
+        out["arrays"] = {**error_arrays(series, solution), **track_arrays(bundle.truth)}
     return out
 
 
@@ -191,6 +191,16 @@ def error_arrays(series, solution) -> dict:
     return arrays
 
 
+def track_arrays(truth, max_points: int = 2000) -> dict:
+    """The truth's plan view, ``track.north_m`` / ``track.east_m`` from its first point (local
+    radii, :func:`inmotion.core.earth.local_ne_offsets`), thinned to at most ``max_points``."""
+    from ..core.earth import local_ne_offsets
+    step = max(1, -(-len(truth.t) // max_points))
+    north, east = local_ne_offsets(truth.lat[::step], truth.lon[::step], truth.lat[0],
+                                   truth.lon[0], truth.h[0])
+    return {"track.t": truth.t[::step], "track.north_m": north, "track.east_m": east}
+
+
 # ---------------------------------------------------------------------------- engine checks
 def empty_run(spec: dict, rng: np.random.Generator) -> dict:
     """Does nothing: measures the engine's own cost per run."""
@@ -211,7 +221,7 @@ def synthetic_run(spec: dict, rng: np.random.Generator) -> dict:
     if spec.get("sleep_s"):
         time.sleep(float(spec["sleep_s"]))
     if "fail_value" in spec and x[0] > float(spec["fail_value"]):
-        raise RuntimeError(f"synthetic failure: first draw {x[0]!r} > {spec['fail_value']}")
+        raise RuntimeError(f"synthetic failure: first draw {float(x[0]):.6g} > {spec['fail_value']}")
     out = {"mean": float(x.mean()), "std": float(x.std()), "max": float(x.max()),
            "stats": {"first": float(x[0])}}
     if spec.get("save_arrays"):
