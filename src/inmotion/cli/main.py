@@ -657,3 +657,7 @@ def _demo_table(rows) -> str:
                      f"{r['horizontal_m']:10.2f} {pct} {r['heading_arcmin']:14.3f} "
                      f"{r['level_arcmin']:12.3f} {r['run_s']:7.2f}")
     return "\n".join(lines)
+
+
+from .import_cmds import export_cmd, import_cmd  # noqa: E402  (issue 9: real logs in and out)
+cli.add_command(import_cmd); cli.add_command(export_cmd)
