@@ -52,6 +52,12 @@ def parse_options(pairs, importer) -> dict:
     return out
 
 
+def _group_flag(name) -> bool:
+    """The main group's ``--json`` / ``--quiet`` (``ctx.obj`` of ``inmotion.cli.main``)."""
+    ctx = click.get_current_context(silent=True)
+    return bool(getattr(getattr(ctx, "obj", None), name, False))
+
+
 def _summary(bundle, out) -> dict:
     sensors = [s for s in ("odometer", "radar", "ldv", "baro") if getattr(bundle, s) is not None]
     t = bundle.imu.t
@@ -87,9 +93,9 @@ def import_cmd(fmt, source, out, mapping, options, bundle_format, as_json, quiet
     bundle = importer(source, **opts)
     write_bundle(bundle, out, bundle_format)
     s = _summary(bundle, out)
-    if as_json:
+    if as_json or _group_flag("json"):
         click.echo(json.dumps(s))
-    elif not quiet:
+    elif not (quiet or _group_flag("quiet")):
         click.echo(f"{s['name']}: {s['imu_rows']} IMU rows at {s['imu_rate_hz']:.2f} Hz over "
                    f"{s['duration_s']:.1f} s; sensors: {', '.join(s['sensors']) or 'none'}; "
                    f"truth rows: {s['truth_rows']}; IMU gaps: {s['imu_gaps']} -> {out}")
@@ -109,5 +115,5 @@ def export_cmd(fmt, result, out, gps_week, quiet):
     if str(fmt).lower().replace("_", "-") not in EXPORT_FORMATS:
         raise BadInput(f"unknown export format {fmt!r}; choose from {', '.join(EXPORT_FORMATS)}")
     path = export_kf_gins(result, out, gps_week=gps_week)
-    if not quiet:
+    if not (quiet or _group_flag("quiet")):
         click.echo(f"wrote {path}")
