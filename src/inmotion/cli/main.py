@@ -661,3 +661,6 @@ def _demo_table(rows) -> str:
 
 from .import_cmds import export_cmd, import_cmd  # noqa: E402  (issue 9: real logs in and out)
 cli.add_command(import_cmd); cli.add_command(export_cmd)
+
+from .campaign_cmds import montecarlo, report  # noqa: E402  (issue 8: campaigns and reports)
+cli.add_command(montecarlo); cli.add_command(report)
