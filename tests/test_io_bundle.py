@@ -264,3 +264,28 @@ def test_bad_parquet(bundle_dir, rng):
     write_bundle(make_bundle(rng), bundle_dir, fmt="parquet")
     (bundle_dir / "baro.parquet").write_bytes(b"not parquet at all")
     _expect(bundle_dir, "cannot read table", "baro.parquet")
+
+
+def test_simulator_meta_spelling(tmp_path, rng):
+    """``files`` as a list of table names and a top-level initial position (the simulator's)."""
+    import yaml
+    a = make_bundle(rng, with_truth=False)
+    a.meta.pop("initial_position")
+    a.meta.update(lat_deg=34.0, lon_deg=108.0, h_m=10.0,
+                  initial_attitude_deg={"pitch": 1.0, "roll": 0.0, "yaw": 90.0})
+    d = write_bundle(a, tmp_path / "b")
+    meta = yaml.safe_load((d / "meta.yaml").read_text())
+    meta["files"] = ["imu", "radar", "odometer", "baro"]
+    (d / "meta.yaml").write_text(yaml.safe_dump(meta))
+    from inmotion.io.bundle import meta_initial
+    ini = meta_initial(read_bundle(d).meta)
+    assert (ini["lat_deg"], ini["h_m"], ini["euler_deg"]) == (34.0, 10.0, [1.0, 0.0, 90.0])
+    (d / "baro.csv").unlink()
+    _expect(d, "missing table 'baro'", "baro.csv")
+
+
+def test_meta_initial_not_a_number(tmp_path, rng):
+    a = make_bundle(rng, with_truth=False)
+    a.meta["initial_position"]["lat_deg"] = "north-ish"
+    d = write_bundle(a, tmp_path / "b")
+    _expect(d, "lat_deg = 'north-ish' is not a finite number", "meta.yaml")

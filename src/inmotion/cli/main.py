@@ -276,7 +276,7 @@ _INIT_ERROR_KEYS = {"pitch": _ANGLE_UNITS, "roll": _ANGLE_UNITS, "yaw": _ANGLE_U
                     "vE": {"m/s": 1.0}, "vN": {"m/s": 1.0}, "vU": {"m/s": 1.0},
                     "north": {"m": 1.0}, "east": {"m": 1.0}, "up": {"m": 1.0}}
 _ITEM = re.compile(r"^\s*([A-Za-z]+)\s*=\s*([-+]?(?:\d+\.?\d*|\.\d+)(?:[eE][-+]?\d+)?)"
-                   r"\s*([A-Za-z/]+)\s*$")
+                   r"\s*([A-Za-z/]*)\s*$")
 
 
 def parse_init_error(text: str) -> dict:
@@ -320,28 +320,25 @@ def perturb(state, err: dict):
 
 
 def _init_from_meta(bundle, t0, needs_attitude):
-    """Initial state from ``meta.yaml``: initial_position (+ initial_attitude, _velocity)."""
+    """Initial state from ``meta.yaml`` (:func:`inmotion.io.bundle.meta_initial`).
+
+    Velocity defaults to rest; a method that needs attitude needs ``initial_attitude``
+    (methods that find the attitude themselves get level, north-pointing and ignore it).
+    """
     import numpy as np
     from ..core.solution import NavState
-    m = bundle.meta
-    pos = m.get("initial_position")
-    if not isinstance(pos, dict):
-        raise BadInput("--init meta: meta.yaml has no initial_position {lat_deg, lon_deg, h_m}")
-    att = m.get("initial_attitude")
-    if att is None and needs_attitude:
+    from ..io.bundle import meta_initial
+    ini = meta_initial(bundle.meta, "meta.yaml")
+    if any(ini[k] is None for k in ("lat_deg", "lon_deg", "h_m")):
+        raise BadInput("--init meta: meta.yaml has no initial position "
+                       "(initial_position: {lat_deg, lon_deg, h_m})")
+    if ini["euler_deg"] is None and needs_attitude:
         raise BadInput("--init meta: the method needs an initial attitude but meta.yaml has no "
                        "initial_attitude {pitch_deg, roll_deg, yaw_deg}; use --init truth or "
                        "--init RESULT (e.g. a coarse alignment's)")
-    att = att or {}
-    vel = m.get("initial_velocity") or {}
-    try:
-        euler = np.radians([float(att.get(k, 0.0)) for k in ("pitch_deg", "roll_deg", "yaw_deg")])
-        vel_n = [float(vel.get(k, 0.0)) for k in ("vE_m_s", "vN_m_s", "vU_m_s")]
-        return NavState.from_euler(t0, math.radians(float(pos["lat_deg"])),
-                                   math.radians(float(pos["lon_deg"])), float(pos["h_m"]),
-                                   vel_n, euler)
-    except (KeyError, TypeError, ValueError) as e:
-        raise BadInput(f"--init meta: bad initial_* entry in meta.yaml ({e})") from None
+    euler = np.radians(ini["euler_deg"] or [0.0, 0.0, 0.0])
+    return NavState.from_euler(t0, math.radians(ini["lat_deg"]), math.radians(ini["lon_deg"]),
+                               ini["h_m"], ini["vel_n_m_s"] or [0.0, 0.0, 0.0], euler)
 
 
 def _initial_state(ctx, bundle, init, start, needs_attitude):

@@ -25,6 +25,10 @@ keys not listed are kept as they are)::
     faults: [...]                           # as the simulator lists them
     files: {imu: imu.csv, radar: radar.csv, truth: truth.csv}
 
+The simulator's spelling is understood too (:func:`meta_initial`): top-level ``lat_deg,
+lon_deg, h_m``, ``initial_attitude_deg: {pitch, roll, yaw}`` and ``files`` as a list of table
+names (``[imu, truth, radar]``: each must exist in one format).
+
 Validation (each failure is one :class:`inmotion.errors.BadInput` naming file, row and time)
 ----------------------------------------------------------------------------------------------
 - missing folder, ``meta.yaml``, ``imu`` table, a file that ``meta.yaml`` lists, or a required
@@ -69,7 +73,7 @@ from ..core.earth import G0
 from ..errors import BadInput
 
 __all__ = ["read_bundle", "write_bundle", "find_gaps", "Gap", "BundleGapWarning", "LIMITS",
-           "TABLES", "read_meta"]
+           "TABLES", "read_meta", "meta_initial", "atomic_write"]
 
 #: the tables a bundle may hold, in write order
 TABLES = ("imu",) + VELOCITY_SENSORS + ("baro", "truth")
@@ -197,15 +201,22 @@ def _locate_tables(folder: Path, meta: dict) -> dict:
             found[name] = cands[0]
     listed = meta.get("files") or {}
     if isinstance(listed, (list, tuple)):
-        listed = {Path(str(f)).stem: f for f in listed}
+        listed = {Path(str(f)).stem: str(f) for f in listed}
     if not isinstance(listed, dict):
-        raise BadInput("'files' must map table names to file names", file=folder / "meta.yaml")
+        raise BadInput("'files' must list table names or map them to file names",
+                       file=folder / "meta.yaml")
     for name, fname in listed.items():
-        p = folder / str(fname)
-        if not p.is_file():
-            raise BadInput(f"missing file {fname!r} that meta.yaml lists for {name!r}", file=p)
-        if name in TABLES:
-            found[name] = p
+        fname = str(fname)
+        if Path(fname).suffix:                 # a file name: that file must be there
+            p = folder / fname
+            if not p.is_file():
+                raise BadInput(f"missing file {fname!r} that meta.yaml lists for {name!r}",
+                               file=p)
+            if name in TABLES:
+                found[name] = p
+        elif name not in found:                # a table name: any format will do
+            raise BadInput(f"missing table {name!r} ({name}.csv or {name}.parquet) that "
+                           "meta.yaml lists", file=folder / f"{name}.csv")
     return found
 
 
@@ -344,16 +355,51 @@ def _truth_from(df, path) -> Truth:
     return Truth(t, np.radians(c["lat"]), np.radians(c["lon"]), c["h"], vel_n, euler)
 
 
-def _check_initial_position(meta, path):
+def meta_initial(meta: dict, path=None) -> dict:
+    """The initial state ``meta.yaml`` gives, in its human units.
+
+    Two spellings are understood: ``initial_position: {lat_deg, lon_deg, h_m}`` or top-level
+    ``lat_deg, lon_deg, h_m`` (as the simulator writes); ``initial_attitude: {pitch_deg,
+    roll_deg, yaw_deg}`` or ``initial_attitude_deg: {pitch, roll, yaw}``;
+    ``initial_velocity: {vE_m_s, vN_m_s, vU_m_s}``.
+
+    Returns
+    -------
+    dict
+        ``lat_deg, lon_deg, h_m`` (None if absent), ``euler_deg`` ([pitch, roll, yaw] or None)
+        and ``vel_n_m_s`` ([vE, vN, vU] or None). Values present but not numbers raise
+        :class:`BadInput`.
+    """
     pos = meta.get("initial_position")
-    if not isinstance(pos, dict) or not all(k in pos for k in ("lat_deg", "lon_deg", "h_m")):
-        raise BadInput("no truth table, so meta.yaml needs initial_position with lat_deg, "
-                       "lon_deg, h_m", file=path)
-    for k in ("lat_deg", "lon_deg", "h_m"):
-        if not _is_number(pos[k]) or not math.isfinite(float(pos[k])):
-            raise BadInput(f"initial_position.{k} = {pos[k]!r} is not a number", file=path)
-    if abs(float(pos["lat_deg"])) > 90:
-        raise BadInput(f"initial_position.lat_deg = {pos['lat_deg']} beyond +-90", file=path)
+    pos = pos if isinstance(pos, dict) else meta
+    out = {k: _meta_number(pos, k, path) for k in ("lat_deg", "lon_deg", "h_m")}
+    if out["lat_deg"] is not None and abs(out["lat_deg"]) > 90:
+        raise BadInput(f"initial latitude {out['lat_deg']} deg is beyond +-90", file=path)
+    att, keys = meta.get("initial_attitude"), ("pitch_deg", "roll_deg", "yaw_deg")
+    if not isinstance(att, dict):
+        att, keys = meta.get("initial_attitude_deg"), ("pitch", "roll", "yaw")
+    out["euler_deg"] = ([_meta_number(att, k, path, 0.0) for k in keys]
+                        if isinstance(att, dict) else None)
+    vel = meta.get("initial_velocity")
+    out["vel_n_m_s"] = ([_meta_number(vel, k, path, 0.0) for k in ("vE_m_s", "vN_m_s", "vU_m_s")]
+                        if isinstance(vel, dict) else None)
+    return out
+
+
+def _meta_number(d, key, path, default=None):
+    v = d.get(key, default)
+    if v is None:
+        return None
+    if isinstance(v, bool) or not _is_number(v) or not math.isfinite(float(v)):
+        raise BadInput(f"meta.yaml: {key} = {v!r} is not a finite number", file=path)
+    return float(v)
+
+
+def _check_initial_position(meta, path):
+    ini = meta_initial(meta, path)
+    if any(ini[k] is None for k in ("lat_deg", "lon_deg", "h_m")):
+        raise BadInput("no truth table, so meta.yaml needs the initial position: "
+                       "initial_position: {lat_deg, lon_deg, h_m}", file=path)
 
 
 # --------------------------------------------------------------------------- gaps

@@ -128,14 +128,15 @@ def run_sins(bundle: Bundle, config: SinsConfig, init: NavState,
 
 
 def mounting_matrix(angles_rad) -> np.ndarray:
-    """``C_m^b`` of a velocity sensor from its mounting angles [alpha, beta, gamma] [rad].
+    """``C_m^b`` of a velocity sensor from its mounting angles ``A = [alpha, beta, gamma]``.
 
-    PROVISIONAL: ``C_b^m = R_z(gamma) R_y(beta) R_x(alpha)`` transposed; to be aligned with the
-    simulator's convention (:mod:`inmotion.sim.sensors`).
+    Paper 000 eq. 4-9 writes the installed sensor as ``C_m^b = I + [A x]`` to first order
+    (residual angles about the measuring frame's x, y, z axes). We take the exact rotation
+    ``C_m^b = exp([A x])`` (rotation vector ``A`` [rad]), the convention the simulator uses
+    (:func:`inmotion.sim.sensors.mounting_C_mb` returns its transpose ``C_b^m``); it has no
+    rotation order and agrees with every Euler order of the three angles to second order.
     """
-    a, b, g = np.asarray(angles_rad, dtype=float).reshape(3)
-    C_mb = rotations.rot_z(g) @ rotations.rot_y(b) @ rotations.rot_x(a)
-    return C_mb.T
+    return rotations.dcm_from_rotvec(np.asarray(angles_rad, dtype=float).reshape(3))
 
 
 def mounting_from_meta(meta: dict, sensor: str):

@@ -1,0 +1,106 @@
+"""Result folders: round trip of a Solution, units in files, errors block, atomic writes."""
+import json
+
+import numpy as np
+import pandas as pd
+import pytest
+
+from inmotion.core.solution import Solution, StateUnit
+from inmotion.errors import BadInput
+from inmotion.io.result import read_result, write_result
+
+from test_metrics import DESIGN_KEYS, as_solution, straight_truth
+
+
+def make_solution(rng, n=200):
+    t = 10.0 + 0.1 * np.arange(n)
+    euler = np.column_stack([rng.normal(0, 0.01, n), rng.normal(0, 0.01, n),
+                             rng.uniform(0, 2 * np.pi, n)])
+    sigma = {"north": np.abs(rng.normal(1, 0.1, n)), "phi_U": np.full(n, np.radians(0.5))}
+    states = {"mount_x": rng.normal(0, 1e-3, n), "dk": rng.normal(0, 1e-4, n),
+              "eps_x": rng.normal(0, 1e-7, n)}
+    units = {"mount_x": StateUnit("arcmin", 180 * 60 / np.pi), "dk": StateUnit("ppm", 1e6)}
+    return Solution(t, np.radians(34.1) + rng.normal(0, 1e-6, n),
+                    np.radians(108.9) + rng.normal(0, 1e-6, n), 400 + rng.normal(0, 1, n),
+                    rng.normal(0, 10, (n, 3)), euler, sigma=sigma, states=states,
+                    state_units=units, info={"method": "test", "config": {"a_deg": 1.0},
+                                             "events": [{"t_s": 11.0, "what": "fault"}]})
+
+
+def test_round_trip(tmp_path):
+    a = make_solution(np.random.default_rng(1))
+    write_result(a, tmp_path / "r")
+    b = read_result(tmp_path / "r")
+    for k in ("t", "lat", "lon", "h", "vel_n", "euler"):
+        np.testing.assert_allclose(getattr(b, k), getattr(a, k), rtol=1e-12, atol=1e-15)
+    for k in a.sigma:
+        np.testing.assert_allclose(b.sigma[k], a.sigma[k], rtol=1e-12)
+    for k in a.states:
+        np.testing.assert_allclose(b.states[k], a.states[k], rtol=1e-12)
+    assert b.state_units["dk"] == StateUnit("ppm", 1e6)
+    assert b.info["method"] == "test" and b.info["config"] == {"a_deg": 1.0}
+    assert b.info["events"] == [{"t_s": 11.0, "what": "fault"}]
+
+
+def test_files_in_human_units(tmp_path):
+    a = make_solution(np.random.default_rng(2))
+    write_result(a, tmp_path / "r")
+    sol = pd.read_csv(tmp_path / "r" / "solution.csv")
+    assert list(sol.columns[:10]) == ["t", "lat", "lon", "h", "vE", "vN", "vU",
+                                      "pitch", "roll", "yaw"]
+    np.testing.assert_allclose(sol["lat"], np.degrees(a.lat), rtol=1e-15)
+    assert sol["yaw"].min() >= 0 and sol["yaw"].max() < 360
+    np.testing.assert_allclose(sol["sigma_phi_U"], 0.5, rtol=1e-12)     # degrees
+    st = pd.read_csv(tmp_path / "r" / "states.csv")
+    assert set(st.columns) == {"t", "mount_x_arcmin", "dk_ppm", "eps_x_si"}
+    np.testing.assert_allclose(st["dk_ppm"], a.states["dk"] * 1e6, rtol=1e-12)
+    summary = json.loads((tmp_path / "r" / "summary.json").read_text())
+    assert summary["method"] == "test"
+    assert summary["final"]["lat_deg"] == pytest.approx(np.degrees(a.lat[-1]), rel=1e-15)
+    assert "errors" not in summary and not (tmp_path / "r" / "errors.csv").exists()
+
+
+def test_with_truth_writes_errors(tmp_path):
+    tr = straight_truth(n=101, dt=1.0)
+    sol = as_solution(tr, h=tr.h + 2.0)
+    summary = write_result(sol, tmp_path / "r", truth=tr)
+    on_disk = json.loads((tmp_path / "r" / "summary.json").read_text())
+    assert on_disk["errors"] == summary["errors"]
+    for k in ("final", "rms_last_100s", "max_abs_last_100s"):
+        assert set(on_disk["errors"][k]) == DESIGN_KEYS
+    assert on_disk["errors"]["final"]["vertical_m"] == pytest.approx(2.0)
+    err = pd.read_csv(tmp_path / "r" / "errors.csv")
+    np.testing.assert_allclose(err["vertical_m"], 2.0, rtol=1e-12)
+
+
+def test_nan_sigma_and_info_written_as_null(tmp_path):
+    a = make_solution(np.random.default_rng(3))
+    a.sigma["east"] = np.full(len(a), np.nan)
+    a.info["quality"] = float("inf")
+    write_result(a, tmp_path / "r")
+    summary = json.loads((tmp_path / "r" / "summary.json").read_text())
+    assert summary["info"]["quality"] is None
+    b = read_result(tmp_path / "r")
+    assert np.isnan(b.sigma["east"]).all()
+
+
+def test_crash_keeps_written_files(tmp_path, monkeypatch):
+    """A failure while writing a later file leaves earlier files whole and no temp files."""
+    a = make_solution(np.random.default_rng(4))
+    import inmotion.io.result as result
+
+    def boom(*args, **kw):
+        raise RuntimeError("disk full")
+    monkeypatch.setattr(result, "write_summary", boom)
+    with pytest.raises(RuntimeError):
+        write_result(a, tmp_path / "r")
+    assert len(pd.read_csv(tmp_path / "r" / "solution.csv")) == len(a)
+    assert not list((tmp_path / "r").glob(".*tmp"))
+
+
+def test_read_missing_result(tmp_path):
+    with pytest.raises(BadInput, match="does not exist"):
+        read_result(tmp_path / "none")
+    (tmp_path / "r").mkdir()
+    with pytest.raises(BadInput, match="summary.json"):
+        read_result(tmp_path / "r")
