@@ -265,9 +265,11 @@ class Odometer(_SpeedSensor):
 
 
 class Baro(_Model):
-    """Barometric altimeter: ``h = h_true + bias_m + noise``."""
+    """Barometric altimeter: ``h = h_true + bias + noise``; ``bias = bias_m`` plus, if
+    ``bias_sigma_m > 0``, a per-run random constant of that 1-sigma."""
     rate_hz: float = Field(gt=0.0, le=10000.0)
     bias_m: float = 0.0
+    bias_sigma_m: float = Field(0.0, ge=0.0)
     noise_m: float = Field(0.0, ge=0.0)
 
 

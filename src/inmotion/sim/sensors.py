@@ -96,12 +96,14 @@ def simulate_speed_sensor(name, spec, traj, imu_rate_hz, faults, rng):
     return data, {"scale_factor_ppm": float(k * 1e6)}
 
 
-def simulate_baro(spec, traj, imu_rate_hz, faults, rng) -> BaroData:
-    """Barometric altitude samples with bias, noise and faults."""
+def simulate_baro(spec, traj, imu_rate_hz, faults, rng):
+    """``(BaroData, truth_meta)``: barometric altitude samples with bias, noise and faults;
+    ``truth_meta`` holds the bias of this run [m]."""
     s = _step(imu_rate_hz, spec.rate_hz)
     idx = np.arange(0, len(traj.t), s)
     t = traj.t[idx]
-    h = traj.h[idx] + spec.bias_m + spec.noise_m * rng.standard_normal(len(t))
+    bias = spec.bias_m + spec.bias_sigma_m * rng.standard_normal()
+    h = traj.h[idx] + bias + spec.noise_m * rng.standard_normal(len(t))
     h = faults_mod.apply_value_faults(t, h, faults, rng=rng)
     t, h = faults_mod.apply_stream_faults(t, h, faults)
-    return BaroData(t, h)
+    return BaroData(t, h), {"bias_m": float(bias)}

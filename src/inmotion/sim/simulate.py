@@ -65,7 +65,7 @@ def simulate(scenario, rng: np.random.Generator) -> Bundle:
         spec = getattr(sc.sensors, name)
         own = [f for f in sc.faults if f.sensor == name]
         if name == "baro":
-            bundle.baro = simulate_baro(spec, traj, rate, own, rng)
+            bundle.baro, drawn[name] = simulate_baro(spec, traj, rate, own, rng)
         else:
             data, info = simulate_speed_sensor(name, spec, traj, rate, own, rng)
             setattr(bundle, name, data)
