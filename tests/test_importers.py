@@ -124,6 +124,18 @@ def test_kf_gins_eighth_column_odometer_gnss_position_and_week_rollover(tmp_path
     assert b.meta["initial_position"]["lat_deg"] == pytest.approx(LAT / D + 1e-5)
 
 
+def test_kf_gins_binary_imu_file(tmp_path):
+    imu = write_kf_gins(tmp_path)
+    text = np.loadtxt(imu)
+    text.astype("<f8").tofile(tmp_path / "imu.bin")
+    b_txt, b_bin = import_kf_gins(imu), import_kf_gins(tmp_path / "imu.bin")
+    np.testing.assert_array_equal(b_bin.imu.dtheta, b_txt.imu.dtheta)
+    np.testing.assert_array_equal(b_bin.imu.t, b_txt.imu.t)
+    np.zeros(10).tofile(tmp_path / "bad.bin")
+    with pytest.raises(BadInput, match="not a multiple of 7"):
+        import_kf_gins(tmp_path / "bad.bin")
+
+
 def test_kf_gins_export_round_trip(tmp_path):
     rng = np.random.default_rng(3)
     n = 20
@@ -521,6 +533,18 @@ def test_real_comma2k19_imports_and_agrees_with_its_reference():
     v_can = np.interp(b.truth.t, b.odometer.t, b.odometer.speed())
     # README: CAN reads "about 0.6 % low"; against the 3-D reference speed it is 0.86 % low
     assert np.median(v_can / speed_ref) == pytest.approx(0.994, abs=0.005)
+
+
+@needs_real
+@pytest.mark.parametrize("fmt, source", [("comma2k19", COMMA), ("ems", EMS)])
+def test_real_bundles_survive_write_and_read(tmp_path, fmt, source):
+    from inmotion.io.bundle import read_bundle, write_bundle
+
+    b = import_log(fmt, source)
+    back = read_bundle(write_bundle(b, tmp_path / fmt))
+    np.testing.assert_array_equal(back.imu.dtheta, b.imu.dtheta)
+    np.testing.assert_allclose(back.truth.euler, b.truth.euler, atol=1e-12)
+    assert back.meta["imu_axes"]["source"] == ["forward", "right", "down"]
 
 
 @needs_real

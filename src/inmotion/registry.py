@@ -45,6 +45,8 @@ _SPECS = [
     MethodSpec("dr", "navigate", "inmotion.navigate.pure:run_dr",
                "inmotion.navigate.pure:DrConfig", True,
                "pure dead reckoning: gyro attitude + forward-velocity sensor (paper 002)"),
+    MethodSpec("dr-kf", "align", "inmotion.align.dr_kalman:run_dr_kf", "inmotion.align.dr_kalman:DrKfConfig", True, "SINS / radar dead-reckoning fine alignment in motion, attitude + velocity + NHC, 25-state KF (paper 000)"),
+    MethodSpec("od-velocity-kf", "align", "inmotion.align.dr_kalman:run_od_velocity_kf", "inmotion.align.dr_kalman:OdVelocityKfConfig", True, "SINS / velocity-sensor velocity-matching fine alignment, 19-state KF (baseline for dr-kf)"),
 ]
 
 

@@ -3,7 +3,8 @@
 Formats (from the KF-GINS README and the awesome-gins-datasets README; columns separated by
 spaces, tabs or commas, no header):
 
-IMU file, 7 columns (8 in the OB_GINS IMU/odometer variant)
+IMU file, 7 columns (8 in the OB_GINS IMU/odometer variant); or ``*.bin``: the same 7 values
+as little-endian float64 records (awesome-gins-datasets)
     ``t`` GNSS seconds of week [s]; ``dtheta_x, dtheta_y, dtheta_z`` [rad];
     ``dvel_x, dvel_y, dvel_z`` [m/s]; increments over the interval ending at ``t``, in the IMU
     frame Forward-Right-Down (:data:`IMU_AXES`); optional 8th column: odometer forward speed
@@ -38,7 +39,7 @@ from ...core.solution import Solution
 from ...errors import BadInput
 from ..resample import check_times, find_gaps
 from .axes import C_b_src, FRD, design_euler_from_ned_rpy, ned_rpy_from_design_euler, ned_to_enu
-from .tables import existing_file, read_text_table
+from .tables import check_finite, existing_file, read_text_table
 
 __all__ = ["IMU_AXES", "SECONDS_PER_WEEK", "import_kf_gins", "export_kf_gins", "read_gnss",
            "read_nav"]
@@ -54,8 +55,21 @@ def _unwrap_week(t):
     return t + SECONDS_PER_WEEK * np.concatenate([[0], np.cumsum(jumps)])
 
 
+def _read_imu_bin(path):
+    """The binary IMU file: records of 7 little-endian float64."""
+    raw = np.fromfile(path, dtype="<f8")
+    if raw.size == 0 or raw.size % 7:
+        raise BadInput(f"binary IMU file holds {raw.size} doubles, not a multiple of 7", path)
+    data = raw.reshape(-1, 7)
+    check_finite(data, path, "KF-GINS IMU file", t=data[:, 0])
+    return data
+
+
 def _read_imu(path):
-    data = read_text_table(path, (7, 8), "KF-GINS IMU file")
+    if Path(path).suffix.lower() == ".bin":
+        data = _read_imu_bin(path)
+    else:
+        data = read_text_table(path, (7, 8), "KF-GINS IMU file")
     t = check_times(_unwrap_week(data[:, 0]), path, "IMU time")
     C = C_b_src(IMU_AXES)
     imu = ImuData(t, data[:, 1:4] @ C.T, data[:, 4:7] @ C.T)
@@ -98,7 +112,7 @@ def import_kf_gins(source, *, odo=None, gnss=None, nav=None, name=None) -> Bundl
 
     Parameters
     ----------
-    source : path of the IMU text file (7 or 8 columns, see the module docstring)
+    source : path of the IMU file: text (7 or 8 columns) or ``.bin`` (module docstring)
     odo : optional path of a 2-column odometer file (overrides an 8th IMU column)
     gnss : optional path of the GNSS position file (initial position, ``meta['gnss']``)
     nav : optional path of the ``.nav`` reference (becomes the truth)
