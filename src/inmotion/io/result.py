@@ -32,7 +32,7 @@ from ..core.bundle import Truth
 from ..core.solution import Solution, StateUnit
 from ..errors import BadInput
 from ..evaluate.metrics import error_series, errors_block
-from .bundle import _plain, atomic_write
+from .bundle import _plain, atomic_write, write_csv
 
 __all__ = ["write_result", "read_result", "write_errors", "SOLUTION_COLUMNS", "SIGMA_UNITS",
            "read_summary"]
@@ -136,7 +136,7 @@ def _json_safe(x):
 
 
 def _write_csv(df: pd.DataFrame, target: Path) -> None:
-    atomic_write(target, lambda p: df.to_csv(p, index=False))
+    atomic_write(target, lambda p: write_csv(df, p))
 
 
 def read_summary(path) -> dict:
