@@ -221,7 +221,8 @@ def test_arrays_are_written_per_run_and_a_small_window_still_finishes(tmp_path, 
     assert len(df) == 12
     arr = ResultStore(tmp_path / "c").read_arrays(2, 1)
     x = run_generator(sweep.seed, 1).normal(0.0, 3.0, 8)
-    assert np.array_equal(arr["x"], np.cumsum(x))
+    assert np.array_equal(arr["err.north_m"], np.cumsum(x))
+    assert np.allclose(arr["sigma.north_m"], 3.0 * np.sqrt(np.arange(1, 9)))
 
 
 def test_partial_files_of_a_killed_write_are_ignored_and_cleaned(tmp_path):

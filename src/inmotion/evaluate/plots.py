@@ -145,7 +145,7 @@ def final_distributions(values: dict, columns, title: str = "") -> Figure:
         data = [np.asarray(values[lab].get(col, []), dtype=float) for lab in labels]
         data = [d[np.isfinite(d)] for d in data]
         pos = np.arange(1, len(labels) + 1)
-        ax.boxplot([d if len(d) else [np.nan] for d in data], positions=pos, vert=False,
+        ax.boxplot([d if len(d) else [np.nan] for d in data], positions=pos, orientation="horizontal",
                    widths=0.6, showfliers=False)
         for p, d in zip(pos, data):
             ax.plot(d, p + rng.uniform(-0.18, 0.18, len(d)), ".", ms=3, alpha=0.6, color="C0")

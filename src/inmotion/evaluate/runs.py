@@ -212,7 +212,7 @@ def synthetic_run(spec: dict, rng: np.random.Generator) -> dict:
 
     Spec keys: ``n`` (draws, default 64), ``scale`` (default 1), ``sleep_s`` (wall time to
     spend, default 0), ``fail_value`` (the run raises when its first draw exceeds it),
-    ``save_arrays``.
+    ``save_arrays`` (the draws' cumulative sum as ``err.north_m`` with its 1-sigma).
 
     Returns the mean, standard deviation and maximum of the draws (exactly reproducible from the
     Generator), so two executions of one run can be compared bit for bit.
@@ -225,7 +225,10 @@ def synthetic_run(spec: dict, rng: np.random.Generator) -> dict:
     out = {"mean": float(x.mean()), "std": float(x.std()), "max": float(x.max()),
            "stats": {"first": float(x[0])}}
     if spec.get("save_arrays"):
-        out["arrays"] = {"t": np.arange(len(x), dtype=float), "x": np.cumsum(x)}
+        # a random walk standing in for a position error, with its exact 1-sigma
+        k = np.arange(1, len(x) + 1, dtype=float)
+        out["arrays"] = {"t": k - 1.0, "err.north_m": np.cumsum(x),
+                         "sigma.north_m": float(spec.get("scale", 1.0)) * np.sqrt(k)}
     return out
 
 
