@@ -36,7 +36,8 @@ import numpy as np
 
 from . import _kernels as K
 from .bundle import ImuData, SpeedData
-from .mechanization import _correct, _first_row, _intervals, _state_vector, _to_solution
+from .mechanization import (CHUNK_ROWS, _correct, _first_row, _intervals, _SolutionBuilder,
+                            _state_vector)
 from .solution import NavState, Solution
 from ..errors import BadInput
 
@@ -78,6 +79,46 @@ def _check_speed(speed: SpeedData, what: str):
                                row=k + 1, time=float(speed.t[k]))
 
 
+class _SpeedOnEpochs:
+    """A velocity sensor resampled to IMU epochs; see :func:`speed_on_epochs`.
+
+    The sensor's cumulative distance is built once (one array the size of the sensor's data);
+    each call then handles one chunk of IMU epochs.
+    """
+
+    def __init__(self, speed: SpeedData, max_gap: float | None = None, what: str = "speed"):
+        _check_speed(speed, what)
+        self.speed = speed
+        ts = speed.t
+        if speed.ds is not None:
+            self.dist = np.concatenate([[0.0], np.cumsum(speed.ds[1:])])
+        else:
+            self.dist = np.concatenate(
+                [[0.0], np.cumsum(0.5 * (speed.v[1:] + speed.v[:-1]) * np.diff(ts))])
+        if max_gap is None:
+            max_gap = 5.0 * float(np.median(np.diff(ts)))
+        # gaps_upto[j]: how many of the sensor intervals (ts[i-1], ts[i]], i = 1..j, are gaps
+        self.gaps_upto = np.concatenate([[0], np.cumsum(np.diff(ts) > max_gap)])
+
+    def __call__(self, t):
+        ts, sp = self.speed.t, self.speed
+        ds = np.diff(np.interp(t, ts, self.dist))
+        if sp.v is not None:
+            v = np.interp(t[1:], ts, sp.v)
+        else:                               # the speed of the sensor interval holding t
+            j = np.clip(np.searchsorted(ts, t[1:], side="left"), 1, len(ts) - 1)
+            v = sp.ds[j] / (ts[j] - ts[j - 1])
+        uncovered = (t[:-1] < ts[0] - 1e-9) | (t[1:] > ts[-1] + 1e-9)
+        ds[uncovered] = 0.0
+        v[uncovered] = 0.0
+        # sensor intervals overlapping the IMU interval (ta, tb]: j_a..j_b
+        last = len(ts) - 1
+        j_a = np.clip(np.searchsorted(ts, t[:-1], side="right"), 1, last)
+        j_b = np.clip(np.searchsorted(ts, t[1:], side="left"), 1, last)
+        in_gap = (j_b >= j_a) & (self.gaps_upto[j_b] - self.gaps_upto[j_a - 1] > 0)
+        return ds, v, uncovered, in_gap
+
+
 def speed_on_epochs(speed: SpeedData, t: np.ndarray, max_gap: float | None = None,
                     what: str = "speed"):
     """A velocity sensor's distance increments and speed on the IMU epochs.
@@ -90,6 +131,8 @@ def speed_on_epochs(speed: SpeedData, t: np.ndarray, max_gap: float | None = Non
         IMU epochs: ``t[0]`` is the start, ``t[1:]`` the ends of the M intervals.
     max_gap : float, optional
         Sensor intervals longer than this [s] are gaps; default 5 median sensor periods.
+    what : str
+        The sensor's name for error messages (``radar``, ``ldv``, ``odometer``).
 
     Returns
     -------
@@ -98,29 +141,7 @@ def speed_on_epochs(speed: SpeedData, t: np.ndarray, max_gap: float | None = Non
     uncovered : (M,) bool, intervals not (entirely) inside the sensor's span
     in_gap : (M,) bool, intervals that overlap a sensor gap (distance interpolated across it)
     """
-    _check_speed(speed, what)
-    ts = speed.t
-    if speed.ds is not None:
-        dist = np.concatenate([[0.0], np.cumsum(speed.ds[1:])])
-    else:
-        dist = np.concatenate([[0.0], np.cumsum(0.5 * (speed.v[1:] + speed.v[:-1]) * np.diff(ts))])
-    s_at = np.interp(t, ts, dist)
-    ds = np.diff(s_at)
-    if speed.v is not None:
-        v = np.interp(t[1:], ts, speed.v)
-    else:                                   # the speed of the sensor interval holding t
-        j = np.clip(np.searchsorted(ts, t[1:], side="left"), 1, len(ts) - 1)
-        v = speed.ds[j] / (ts[j] - ts[j - 1])
-    uncovered = (t[:-1] < ts[0] - 1e-9) | (t[1:] > ts[-1] + 1e-9)
-    ds[uncovered] = 0.0
-    v[uncovered] = 0.0
-    if max_gap is None:
-        max_gap = 5.0 * float(np.median(np.diff(ts)))
-    gap_ends = np.flatnonzero(np.diff(ts) > max_gap) + 1       # sensor rows ending a gap
-    in_gap = np.zeros(len(ds), dtype=bool)
-    for j in gap_ends:
-        in_gap |= (t[1:] > ts[j - 1]) & (t[:-1] < ts[j])
-    return ds, v, uncovered, in_gap
+    return _SpeedOnEpochs(speed, max_gap, what)(np.asarray(t, dtype=float))
 
 
 class DeadReckoner:
@@ -217,11 +238,18 @@ def dead_reckon(imu: ImuData, speed: SpeedData, init: NavState, *, C_bm=None,
     if int(out_stride) < 1:
         raise BadInput(f"out_stride must be >= 1, got {out_stride}")
     k0 = _first_row(imu.t, init.t)
-    t = imu.t[k0:]
-    ds, v, uncovered, in_gap = speed_on_epochs(speed, np.concatenate([[init.t], t]), max_gap)
+    resample = _SpeedOnEpochs(speed, max_gap)
     dr = DeadReckoner(init, C_bm=C_bm, lever_arm_b=lever_arm_b, scale=scale)
-    x0 = dr.x
-    t_out, x_out = dr.run(imu.dtheta[k0:], t, ds, v, out_stride=int(out_stride))
-    info = {"method": "dead_reckon", "scale": float(scale), "rows": int(len(t)),
-            "rows_without_speed": int(uncovered.sum()), "rows_in_speed_gaps": int(in_gap.sum())}
-    return _to_solution(init.t, x0, t_out, x_out, info)
+    out = _SolutionBuilder(len(imu.t) - k0, int(out_stride), init.t, dr.x)
+    n_uncovered, n_gap = 0, 0
+    for a in range(k0, len(imu.t), CHUNK_ROWS):        # chunks: temporaries stay small
+        b = min(a + CHUNK_ROWS, len(imu.t))
+        t = imu.t[a:b]
+        t_prev = init.t if a == k0 else imu.t[a - 1]
+        ds, v, uncovered, in_gap = resample(np.concatenate([[t_prev], t]))
+        n_uncovered += int(uncovered.sum())
+        n_gap += int(in_gap.sum())
+        out.add(*dr.run(imu.dtheta[a:b], t, ds, v, out_stride=int(out_stride)))
+    info = {"method": "dead_reckon", "scale": float(scale), "rows": int(len(imu.t) - k0),
+            "rows_without_speed": n_uncovered, "rows_in_speed_gaps": n_gap}
+    return out.solution(info)

@@ -37,7 +37,7 @@ import numpy as np
 from . import _kernels as K
 from . import earth
 from .bundle import BaroData, ImuData
-from .rotations import quat_from_rotvec, quat_multiply
+from .rotations import euler_from_quat, quat_from_rotvec, quat_multiply
 from .solution import NavState, Solution
 from ..errors import BadInput
 
@@ -45,6 +45,8 @@ __all__ = ["strapdown", "Strapdown", "baro_gains", "BARO_TAU_S"]
 
 #: default time constant [s] of the barometric height-damping loop
 BARO_TAU_S = 10.0
+#: rows per chunk in the batch functions (bounds the temporaries; outputs are what grows)
+CHUNK_ROWS = 65536
 
 
 def baro_gains(tau: float, lat: float = 0.0) -> tuple[float, float]:
@@ -195,23 +197,44 @@ def _first_row(t, init_t):
 
 
 def _baro_on_imu(baro: BaroData, t: np.ndarray, max_gap: float) -> np.ndarray:
-    """Barometric height interpolated to the IMU times; NaN outside the baro's span and
-    inside gaps longer than ``max_gap`` [s] (never extrapolated)."""
-    h = np.interp(t, baro.t, baro.h)
-    j = np.searchsorted(baro.t, t, side="left")
-    inside = (t >= baro.t[0]) & (t <= baro.t[-1])
-    jc = np.clip(j, 1, len(baro.t) - 1)
-    gap = (baro.t[jc] - baro.t[jc - 1]) > max_gap
-    exact = np.isin(t, baro.t)
-    h[~inside | (gap & ~exact)] = np.nan
+    """Barometric height interpolated to the IMU times ``t``; NaN outside the baro's span and
+    strictly inside gaps longer than ``max_gap`` [s] (never extrapolated)."""
+    ts = baro.t
+    h = np.interp(t, ts, baro.h)
+    j = np.searchsorted(ts, t, side="left")              # ts[j-1] < t <= ts[j]
+    inside = (t >= ts[0]) & (t <= ts[-1])
+    jc = np.clip(j, 1, len(ts) - 1)
+    on_sample = ts[np.clip(j, 0, len(ts) - 1)] == t
+    in_gap = (ts[jc] - ts[jc - 1]) > max_gap
+    h[~inside | (in_gap & ~on_sample)] = np.nan
     return h
 
 
-def _to_solution(t0, x0, t_out, x_out, info) -> Solution:
-    t = np.concatenate([[t0], t_out])
-    x = np.vstack([x0[None, :], x_out])
-    return Solution.from_arrays(t, x[:, [K.LAT, K.LON, K.H]], x[:, K.VE:K.VU + 1],
-                                x[:, K.Q0:K.Q3 + 1], info=info)
+class _SolutionBuilder:
+    """Output arrays of a batch run, filled chunk by chunk (the chunk's quaternions are turned
+    into Euler angles as they come, so only the output arrays grow with the log)."""
+
+    def __init__(self, n_rows: int, out_stride: int, t0: float, x0: np.ndarray):
+        n = n_rows // out_stride + 1
+        self.t = np.empty(n)
+        self.lla = np.empty((n, 3))
+        self.vel_n = np.empty((n, 3))
+        self.euler = np.empty((n, 3))
+        self.n = 0
+        self.add(np.array([t0]), x0[None, :])
+
+    def add(self, t, x):
+        i, m = self.n, len(t)
+        self.t[i:i + m] = t
+        self.lla[i:i + m] = x[:, [K.LAT, K.LON, K.H]]
+        self.vel_n[i:i + m] = x[:, K.VE:K.VU + 1]
+        self.euler[i:i + m] = euler_from_quat(x[:, K.Q0:K.Q3 + 1])
+        self.n += m
+
+    def solution(self, info) -> Solution:
+        n = self.n
+        return Solution(self.t[:n], self.lla[:n, 0], self.lla[:n, 1], self.lla[:n, 2],
+                        self.vel_n[:n], self.euler[:n], info=info)
 
 
 def strapdown(imu: ImuData, init: NavState, baro: BaroData | None = None, *,
@@ -246,16 +269,18 @@ def strapdown(imu: ImuData, init: NavState, baro: BaroData | None = None, *,
     if int(out_stride) < 1:
         raise BadInput(f"out_stride must be >= 1, got {out_stride}")
     k0 = _first_row(imu.t, init.t)
-    t = imu.t[k0:]
-    h_ref = None
-    if damping == "baro":
-        max_gap = 5.0 * float(np.median(np.diff(baro.t))) if len(baro.t) > 1 else np.inf
-        h_ref = _baro_on_imu(baro, t, max_gap)
+    max_gap = np.inf
+    if damping == "baro" and len(baro.t) > 1:
+        max_gap = 5.0 * float(np.median(np.diff(baro.t)))
     nav = Strapdown(init, baro_tau=baro_tau)
-    x0 = nav.x
-    t_out, x_out = nav.run(imu.dtheta[k0:], imu.dvel[k0:], t, h_baro=h_ref,
-                           out_stride=int(out_stride))
+    out = _SolutionBuilder(len(imu.t) - k0, int(out_stride), init.t, nav.x)
+    for a in range(k0, len(imu.t), CHUNK_ROWS):        # chunks: temporaries stay small
+        b = min(a + CHUNK_ROWS, len(imu.t))
+        t = imu.t[a:b]
+        h_ref = _baro_on_imu(baro, t, max_gap) if damping == "baro" else None
+        out.add(*nav.run(imu.dtheta[a:b], imu.dvel[a:b], t, h_baro=h_ref,
+                         out_stride=int(out_stride)))
     info = {"method": "strapdown", "damping": damping,
             "baro_tau_s": baro_tau if damping == "baro" else None,
-            "rows": int(len(t))}
-    return _to_solution(init.t, x0, t_out, x_out, info)
+            "rows": int(len(imu.t) - k0)}
+    return out.solution(info)

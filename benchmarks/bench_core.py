@@ -1,0 +1,83 @@
+"""Speed and memory of the core loops: SINS mechanization and dead reckoning.
+
+One hour of 100 Hz increments (360,000 rows) of a vehicle driving with turns, climbs and speed
+changes (plausible increments, not a truth-consistent trajectory: only the time is measured).
+JIT compilation is excluded (a short warm-up run first). Prints seconds per run (best of 3) and
+the peak of Python/numpy allocations during a run (tracemalloc), with every state written out
+(``out_stride=1``) and decimated to 1 Hz (``out_stride=100``).
+
+    OPENBLAS_NUM_THREADS=1 .venv/bin/python benchmarks/bench_core.py [--hours H]
+"""
+from __future__ import annotations
+
+import argparse
+import time
+import tracemalloc
+
+import numpy as np
+
+from inmotion.core import earth
+from inmotion.core.bundle import BaroData, ImuData, SpeedData
+from inmotion.core.deadreckoning import dead_reckon
+from inmotion.core.mechanization import strapdown
+from inmotion.core.solution import NavState
+
+
+def synthetic_drive(hours: float, rate_hz: float = 100.0):
+    """Increments of a drive: yaw rate, pitch and speed oscillations on a resting-Earth base."""
+    n = int(hours * 3600 * rate_hz)
+    dt = 1.0 / rate_hz
+    t = np.arange(n) * dt
+    lat = np.radians(34.0)
+    w_ie_b = earth.omega_ie_n(lat)
+    g = earth.gravity(lat, 0.0)
+    yaw_rate = np.radians(5.0) * np.sin(2 * np.pi * t / 97.0)
+    pitch_rate = np.radians(0.3) * np.cos(2 * np.pi * t / 41.0)
+    accel = 0.8 * np.sin(2 * np.pi * t / 300.0)
+    dtheta = np.stack([pitch_rate + w_ie_b[0], np.full(n, w_ie_b[1]), -yaw_rate + w_ie_b[2]], -1) * dt
+    dvel = np.stack([10.0 * yaw_rate, accel, np.full(n, g)], -1) * dt
+    speed = 12.0 + 6.0 * np.sin(2 * np.pi * t / 300.0)
+    init = NavState.from_euler(0.0, lat, np.radians(108.0), 400.0, [0, 12.0, 0], [0, 0, 0.3])
+    return ImuData(t, dtheta, dvel), SpeedData(t, v=speed), BaroData(t, np.full(n, 400.0)), init
+
+
+def measure(fn, repeat=3):
+    best = np.inf
+    for _ in range(repeat):
+        t0 = time.perf_counter()
+        fn()
+        best = min(best, time.perf_counter() - t0)
+    tracemalloc.start()
+    fn()
+    _, peak = tracemalloc.get_traced_memory()
+    tracemalloc.stop()
+    return best, peak / 2 ** 20
+
+
+def main():
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--hours", type=float, default=1.0)
+    args = ap.parse_args()
+    imu, speed, baro, init = synthetic_drive(args.hours)
+    warm = synthetic_drive(0.001)
+    strapdown(warm[0], warm[3], warm[2], damping="baro")
+    dead_reckon(warm[0], warm[1], warm[3])
+    n = len(imu.t)
+    input_mib = (imu.dtheta.nbytes + imu.dvel.nbytes + imu.t.nbytes) / 2 ** 20
+    print(f"{n} rows of 100 Hz increments ({args.hours:g} h); input arrays {input_mib:.1f} MiB")
+    cases = [
+        ("strapdown, baro damping, every row out", lambda: strapdown(imu, init, baro, damping="baro")),
+        ("strapdown, baro damping, 1 Hz out", lambda: strapdown(imu, init, baro, damping="baro",
+                                                               out_stride=100)),
+        ("strapdown, free, every row out", lambda: strapdown(imu, init)),
+        ("dead reckoning, every row out", lambda: dead_reckon(imu, speed, init)),
+        ("dead reckoning, 1 Hz out", lambda: dead_reckon(imu, speed, init, out_stride=100)),
+    ]
+    for name, fn in cases:
+        sec, peak = measure(fn)
+        print(f"{name:42s} {sec:6.3f} s   peak alloc {peak:7.1f} MiB   "
+              f"{sec / n * 1e9:5.0f} ns/row")
+
+
+if __name__ == "__main__":
+    main()
