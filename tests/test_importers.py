@@ -124,6 +124,16 @@ def test_kf_gins_eighth_column_odometer_gnss_position_and_week_rollover(tmp_path
     assert b.meta["initial_position"]["lat_deg"] == pytest.approx(LAT / D + 1e-5)
 
 
+def test_kf_gins_comment_lines_and_commas(tmp_path):
+    imu = write_kf_gins(tmp_path)
+    rows = np.loadtxt(imu)
+    text = "# sow, dtheta [rad], dvel [m/s]\n" + "\n".join(", ".join(f"{x:.12e}" for x in r)
+                                                          for r in rows) + "\n"
+    (tmp_path / "c.txt").write_text(text)
+    np.testing.assert_array_equal(import_kf_gins(tmp_path / "c.txt").imu.dvel,
+                                  import_kf_gins(imu).imu.dvel)
+
+
 def test_kf_gins_binary_imu_file(tmp_path):
     imu = write_kf_gins(tmp_path)
     text = np.loadtxt(imu)

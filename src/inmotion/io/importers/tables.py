@@ -42,25 +42,66 @@ def read_text_table(path, ncols, what="table") -> np.ndarray:
 
     Returns
     -------
-    (N, ncols) float64; lines starting with ``#`` or ``%`` are comments.
+    (N, ncols) float64; text after ``#`` is a comment.
+
+    The table is parsed by pandas' C reader straight into float64 (memory: the output array);
+    only when that fails is the file walked line by line to name the first bad row.
     """
     p = existing_file(path, what)
     allowed = (ncols,) if isinstance(ncols, int) else tuple(ncols)
-    lines = [ln.replace(",", " ").split() for ln in p.read_text().splitlines()]
-    rows = [ln for ln in lines if ln and not ln[0].startswith(("#", "%"))]
-    if not rows:
-        raise BadInput(f"{what} has no data rows", p)
-    width = len(rows[0])
-    if width not in allowed:
-        raise BadInput(f"{what} must have {' or '.join(map(str, allowed))} columns, "
-                       f"got {width}", p, row=1)
-    for i, r in enumerate(rows):
-        if len(r) != width:
-            raise BadInput(f"{what} row has {len(r)} columns, expected {width}", p, row=i + 1)
-    frame = pd.DataFrame(np.array(rows, dtype=str))
-    data = frame.apply(pd.to_numeric, errors="coerce").to_numpy(dtype=float)
-    check_finite(data, p, what, t=data[:, 0])
+    data = _fast_parse(p)
+    if data is None or data.shape[1] not in allowed or not np.isfinite(data).all():
+        _diagnose(p, allowed, what)           # raises with the file, row and time
+        raise BadInput(f"{what} could not be read as a numeric table", p)
     return data
+
+
+def _first_data_line(p):
+    with open(p) as f:
+        for line in f:
+            if line.strip() and not line.lstrip().startswith("#"):
+                return line
+    return ""
+
+
+def _fast_parse(p):
+    """float64 array, or None if the C reader cannot parse the file cleanly."""
+    first = _first_data_line(p)
+    if not first:
+        return None
+    sep = "," if "," in first else r"\s+"
+    try:
+        df = pd.read_csv(p, sep=sep, header=None, comment="#", dtype=float,
+                         skipinitialspace=True, engine="c")
+    except (ValueError, pd.errors.ParserError, pd.errors.EmptyDataError):
+        return None
+    return df.to_numpy(dtype=float)
+
+
+def _diagnose(p, allowed, what):
+    """Walk the file and raise BadInput at the first malformed row."""
+    width, row = None, 0
+    with open(p) as f:
+        for line in f:
+            fields = line.split("#", 1)[0].replace(",", " ").split()
+            if not fields:
+                continue
+            row += 1
+            if width is None:
+                width = len(fields)
+                if width not in allowed:
+                    raise BadInput(f"{what} must have {' or '.join(map(str, allowed))} "
+                                   f"columns, got {width}", p, row=row)
+            if len(fields) != width:
+                raise BadInput(f"{what} row has {len(fields)} columns, expected {width}", p,
+                               row=row)
+            values = pd.to_numeric(pd.Series(fields), errors="coerce").to_numpy(dtype=float)
+            if not np.isfinite(values).all():
+                time = float(values[0]) if np.isfinite(values[0]) else None
+                raise BadInput(f"{what}: value that is not a finite number", p, row=row,
+                               time=time)
+    if row == 0:
+        raise BadInput(f"{what} has no data rows", p)
 
 
 def check_finite(data, file, what, t=None, first_row=1):
