@@ -153,3 +153,35 @@ def test_markov_process_variance_reaches_steady_state():
 def test_filter_rejects_wrong_covariance_shape():
     with pytest.raises(ValueError, match="P0 must be"):
         kalman.KalmanFilter(np.zeros(3), np.eye(2))
+
+
+def test_numba_kernels_match_the_numpy_forms():
+    rng = np.random.default_rng(5)
+    n, m = 9, 3
+    F = 0.05 * rng.standard_normal((n, n))
+    G = rng.standard_normal((n, 2))
+    Qc = G @ G.T
+    P0 = _spd(rng, n)
+    x0 = rng.standard_normal(n)
+    kf = kalman.KalmanFilter(x0, P0)
+    kf.set_model(F, Qc)
+    kf.predict(0.1)
+    xp, Pp = kalman.predict(x0, P0, *kalman.discretize(F, Qc, 0.1))
+    assert np.allclose(kf.x, xp) and np.allclose(kf.P, Pp)
+    H = rng.standard_normal((m, n))
+    r = rng.uniform(0.5, 1.0, m)
+    z = rng.standard_normal(m)
+    xb, Pb, nu, S = kalman.joseph_update(kf.x.copy(), kf.P.copy(), z, H, np.diag(r))
+    ok, nis = kf.update_sequential(z, H, r)
+    assert ok and nis == pytest.approx(nu @ np.linalg.solve(S, nu))
+    assert np.allclose(kf.x, xb, atol=1e-10) and np.allclose(kf.P, Pb, atol=1e-10)
+
+
+def test_gate_rejects_an_outlier_and_leaves_the_state():
+    kf = kalman.KalmanFilter(np.zeros(2), np.eye(2))
+    H = np.array([[1.0, 0.0]])
+    ok, nis = kf.update_sequential(np.array([10.0]), H, np.array([1.0]), threshold=9.0)
+    assert not ok and nis == pytest.approx(50.0)          # 10^2 / (1 + 1)
+    assert np.all(kf.x == 0) and np.allclose(kf.P, np.eye(2))
+    ok, _ = kf.update_sequential(np.array([1.0]), H, np.array([1.0]), threshold=9.0)
+    assert ok and kf.x[0] == pytest.approx(0.5)

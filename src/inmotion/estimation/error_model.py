@@ -49,7 +49,6 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..core import earth
-from ..core.rotations import skew
 
 __all__ = ["LinPoint", "ProcessNoise", "ErrorModel", "transport_jacobians",
            "dr_velocity_rows", "euler_rows", "nhc_rows", "sensor_velocity_rows",
@@ -105,6 +104,11 @@ class ProcessNoise:
     dk_tau: float = np.inf
     mount_rw: float = 0.0
     lever_rw: float = 0.0
+
+
+def skew(v):
+    """``[v x]`` of one 3-vector (the hot-loop twin of :func:`inmotion.core.rotations.skew`)."""
+    return np.array([[0.0, -v[2], v[1]], [v[2], 0.0, -v[0]], [-v[1], v[0], 0.0]])
 
 
 def transport_jacobians(lat, h, vel_n):

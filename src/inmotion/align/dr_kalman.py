@@ -1,0 +1,439 @@
+"""In-motion fine alignment aided by a forward-velocity sensor (paper 000): ``dr-kf`` and the
+velocity-matching baseline ``od-velocity-kf``.
+
+``dr-kf`` (paper 000 sec. 4)
+    A SINS and a gyro / Doppler-radar dead reckoner (DR) run side by side on the same gyros.
+    The 25-state Kalman filter (eq. 21: ``phi, dv, dp, eps, nabla, phi_D, dp_D, mount, dk``,
+    model from :mod:`inmotion.estimation.error_model`) uses
+
+    * Z1 (eq. 23-31): SINS minus DR heading, pitch, roll and E, N, U velocity; the attitude
+      rows are eq. 25-27 in the DESIGN Euler convention (:func:`error_model.euler_rows`), the
+      velocity rows eq. 28-30 (``dv - dv_D``, :func:`error_model.dr_velocity_rows`);
+    * Z2 (eq. 32-38): the SINS velocity on the body x and z axes, zero for a vehicle that
+      neither slips nor jumps (:func:`error_model.nhc_rows`);
+    * optionally the barometric height (sec. 2: "the altitude output of the barometric
+      altimeter replaces the SINS's"), as the measurement ``h_SINS - h_baro``.
+
+    Each measurement group can be switched off. A chi-square gate on each group's innovation
+    (probability ``gate_probability``) rejects slips and jumps instead of letting them pull
+    the misalignment; every rejection is counted in ``Solution.info``.
+
+``od-velocity-kf``
+    The classic alignment by velocity matching: SINS velocity minus the sensor's speed mapped
+    to n with the SINS attitude (:func:`error_model.sensor_velocity_rows`), 19 states
+    ``phi, dv, dp, eps, nabla, mount, dk``, the same NHC and baro options, no DR.
+
+Filter loop (both): the mechanizations run in numba over the IMU rows between two filter
+epochs; per epoch the model is linearized at the current SINS state, discretized
+(:func:`kalman.discretize`), and, at measurement epochs, updated in Joseph form. Closed loop
+(default): the estimated SINS (and DR) attitude, velocity and position errors are fed back into
+the mechanizations and reset to zero, the gyro drift and accelerometer bias are accumulated
+into the IMU compensation subtracted from the increments. The mounting angles and the scale
+factor are only estimated (the DR keeps its nominal mounting, identity, and scale 1): they are
+arc-minutes and 1e-3, well inside the linear model, and feeding a Markov state back would
+break its model. Open loop (``closed_loop=False``): nothing is fed back, the output is the
+SINS corrected by the current estimate.
+
+The filter rate and measurement rate are set in the configuration, independent of the IMU
+rate (rounded to a whole number of IMU rows).
+
+Initial covariance: the DR starts from the same attitude and position as the SINS (paper 000
+sec. 5: "the initial errors of the dead reckoning system were the same"), so ``phi_D(0) =
+phi(0)`` and ``dp_D(0) = dp(0)`` exactly: the prior puts full correlation between them. The
+SINS and DR attitudes are started identical.
+"""
+from __future__ import annotations
+
+import time
+from typing import Callable, Literal, Optional
+
+import numpy as np
+from pydantic import BaseModel, ConfigDict, Field, ValidationError
+from scipy.stats import chi2
+
+from ..core import earth, rotations
+from ..core.bundle import Bundle
+from ..core.deadreckoning import DeadReckoner, speed_on_epochs
+from ..core.mechanization import Strapdown, _first_row
+from ..core.solution import NavState, Solution
+from ..errors import BadInput
+from ..estimation import error_model as em
+from ..estimation.kalman import KalmanFilter
+from ..estimation.layout import Layout, position_units
+
+__all__ = ["DrKfConfig", "OdVelocityKfConfig", "run_dr_kf", "run_od_velocity_kf",
+           "LAYOUT_DR_KF", "LAYOUT_OD_KF"]
+
+ARCMIN = np.pi / 180.0 / 60.0
+DEG_H = np.pi / 180.0 / 3600.0
+UG = earth.G0 * 1e-6
+
+#: paper 000 eq. 21: the 25 states of ``dr-kf``
+LAYOUT_DR_KF = Layout(["phi", "dv", "dp", "eps", "nabla", "phi_D", "dp_D", "mount", "dk"])
+#: the 19 states of ``od-velocity-kf``
+LAYOUT_OD_KF = Layout(["phi", "dv", "dp", "eps", "nabla", "mount", "dk"])
+
+
+class OdVelocityKfConfig(BaseModel):
+    """Configuration of ``od-velocity-kf`` (and the common part of ``dr-kf``).
+
+    Rates: ``filter_rate_hz`` (prediction, model relinearization), ``measurement_rate_hz``
+    (updates); both rounded to whole IMU rows. Priors (1-sigma) and noise densities carry
+    their unit in the name; the defaults are paper 000 sec. 5.
+    """
+
+    model_config = ConfigDict(extra="forbid")
+    velocity_sensor: Optional[Literal["radar", "ldv", "odometer"]] = None
+    filter_rate_hz: float = Field(10.0, gt=0)
+    measurement_rate_hz: float = Field(10.0, gt=0)
+    use_nhc: bool = True
+    use_baro: bool = True
+    nhc_mount_terms: bool = False
+    closed_loop: bool = True
+    feedback_rate_hz: float = Field(1.0, gt=0)
+    gate_probability: float = Field(0.9999, gt=0.5, le=1.0)
+    # priors
+    init_tilt_sigma_deg: float = Field(1.0, gt=0)
+    init_heading_sigma_deg: float = Field(1.0, gt=0)
+    init_velocity_sigma_m_s: float = Field(0.1, gt=0)
+    init_position_sigma_m: float = Field(15.0, gt=0)
+    gyro_drift_deg_h: float = Field(0.03, ge=0)
+    accel_bias_ug: float = Field(100.0, ge=0)
+    mount_sigma_arcmin: float = Field(20.0, ge=0)
+    dk_sigma_ppm: float = Field(1000.0, ge=0)
+    dk_tau_s: float = Field(300.0, gt=0)
+    # noise
+    gyro_arw_deg_sqrt_h: float = Field(0.003, ge=0)
+    accel_vrw_ug_sqrt_hz: float = Field(10.0, ge=0)
+    gyro_bias_rw_deg_h_sqrt_h: float = Field(0.0, ge=0)
+    accel_bias_rw_ug_sqrt_h: float = Field(0.0, ge=0)
+    velocity_noise_m_s: float = Field(0.1, gt=0)
+    nhc_noise_m_s: float = Field(0.1, gt=0)
+    baro_noise_m: float = Field(2.0, gt=0)
+
+
+class DrKfConfig(OdVelocityKfConfig):
+    """Configuration of ``dr-kf``: the common fields plus the switches of Z1's two halves,
+    the attitude-difference noise and the DR gyro-drift coupling of the error model."""
+
+    use_attitude: bool = True
+    use_velocity: bool = True
+    attitude_noise_arcmin: float = Field(0.2, gt=0)
+    dr_sees_gyro_drift: bool = True
+
+
+def _process_noise(cfg) -> em.ProcessNoise:
+    return em.ProcessNoise(
+        gyro_arw=np.deg2rad(cfg.gyro_arw_deg_sqrt_h) / 60.0,
+        accel_vrw=cfg.accel_vrw_ug_sqrt_hz * UG,
+        gyro_bias_rw=cfg.gyro_bias_rw_deg_h_sqrt_h * DEG_H / 60.0,
+        accel_bias_rw=cfg.accel_bias_rw_ug_sqrt_h * UG / 60.0,
+        dk_sigma=cfg.dk_sigma_ppm * 1e-6, dk_tau=cfg.dk_tau_s)
+
+
+def _initial_covariance(lay: Layout, cfg, lat, h):
+    """Diagonal priors; the DR's attitude and position errors equal the SINS's at start."""
+    r_m, r_n = earth.radii(lat)
+    pos = cfg.init_position_sigma_m
+    tilt, head = np.deg2rad(cfg.init_tilt_sigma_deg), np.deg2rad(cfg.init_heading_sigma_deg)
+    var = {"phi": np.array([tilt, tilt, head]) ** 2,
+           "dv": cfg.init_velocity_sigma_m_s ** 2,
+           "dp": np.array([pos / (r_m + h), pos / ((r_n + h) * np.cos(lat)), pos]) ** 2,
+           "eps": (cfg.gyro_drift_deg_h * DEG_H) ** 2,
+           "nabla": (cfg.accel_bias_ug * UG) ** 2,
+           "mount": (cfg.mount_sigma_arcmin * ARCMIN) ** 2,
+           "dk": (cfg.dk_sigma_ppm * 1e-6) ** 2}
+    P = lay.diag({k: v for k, v in var.items() if k in lay})
+    if "phi_D" in lay:
+        for own, dr in (("phi", "phi_D"), ("dp", "dp_D")):
+            P[lay[dr], lay[dr]] = P[lay[own], lay[own]]
+            P[lay[own], lay[dr]] = P[lay[own], lay[own]]
+            P[lay[dr], lay[own]] = P[lay[own], lay[own]]
+    return P
+
+
+def _dcm(q):
+    """``C_b^n`` of a unit quaternion (scalar helper, no checks: the hot loop's)."""
+    q0, q1, q2, q3 = q
+    return np.array([
+        [q0 * q0 + q1 * q1 - q2 * q2 - q3 * q3, 2 * (q1 * q2 - q0 * q3), 2 * (q1 * q3 + q0 * q2)],
+        [2 * (q1 * q2 + q0 * q3), q0 * q0 - q1 * q1 + q2 * q2 - q3 * q3, 2 * (q2 * q3 - q0 * q1)],
+        [2 * (q1 * q3 - q0 * q2), 2 * (q2 * q3 + q0 * q1), q0 * q0 - q1 * q1 - q2 * q2 + q3 * q3]])
+
+
+def _ypr(C):
+    """``[yaw, pitch, roll]`` [rad] of ``C_b^n`` (DESIGN convention; the order of eq. 23)."""
+    return np.array([np.arctan2(C[0, 1], C[1, 1]), np.arcsin(min(1.0, max(-1.0, C[2, 1]))),
+                     np.arctan2(-C[2, 0], C[2, 2])])
+
+
+def _wrap(a):
+    return (a + np.pi) % (2 * np.pi) - np.pi
+
+
+def _baro_on_epochs(bundle: Bundle, t):
+    """Barometric height at the times ``t`` (NaN outside its span)."""
+    b = bundle.baro
+    h = np.interp(t, b.t, b.h)
+    h[(t < b.t[0]) | (t > b.t[-1])] = np.nan
+    return h
+
+
+class _Gate:
+    """Chi-square gate per measurement group (probability ``p``; ``p = 1``: never rejects)
+    and the counts of used and rejected updates."""
+
+    def __init__(self, p):
+        self.thresholds = {m: (float(chi2.ppf(p, m)) if p < 1.0 else 0.0) for m in (1, 2, 3)}
+        self.rejected = {}
+        self.used = {}
+
+    def update(self, kf, name, z, H, r):
+        ok, _ = kf.update_sequential(z, H, r, self.thresholds[len(z)])
+        book = self.used if ok else self.rejected
+        book[name] = book.get(name, 0) + 1
+        self.used.setdefault(name, 0)
+        self.rejected.setdefault(name, 0)
+        return ok
+
+
+def _rotate_small(phi, q):
+    """``q(phi) (x) q``: the attitude ``q`` corrected by the misalignment ``phi`` [rad]."""
+    a = np.sqrt(phi @ phi)
+    k = 0.5 - a * a / 48.0 if a < 1e-4 else np.sin(0.5 * a) / a
+    p0, p1, p2, p3 = np.cos(0.5 * a), k * phi[0], k * phi[1], k * phi[2]
+    q0, q1, q2, q3 = q
+    return np.array([p0 * q0 - p1 * q1 - p2 * q2 - p3 * q3, p0 * q1 + p1 * q0 + p2 * q3 - p3 * q2,
+                     p0 * q2 - p1 * q3 + p2 * q0 + p3 * q1, p0 * q3 + p1 * q2 - p2 * q1 + p3 * q0])
+
+
+class _AlignmentFilter:
+    """The shared filter loop of ``dr-kf`` and ``od-velocity-kf``."""
+
+    def __init__(self, bundle: Bundle, cfg, init: NavState, with_dr: bool):
+        if init is None:
+            raise BadInput("this method needs an initial attitude (--init truth, a coarse "
+                           "alignment result, or meta.yaml)")
+        try:
+            self.sensor_name, self.speed = bundle.velocity_sensor(cfg.velocity_sensor)
+        except ValueError as exc:
+            raise BadInput(str(exc)) from None
+        self.cfg = cfg
+        self.with_dr = with_dr
+        self.lay = LAYOUT_DR_KF if with_dr else LAYOUT_OD_KF
+        imu = bundle.imu
+        k0 = _first_row(imu.t, init.t)
+        if len(imu.t) - k0 < 2:
+            raise BadInput(f"no IMU rows after the start t={init.t:.6g} s", file="imu")
+        self.t = imu.t[k0:]
+        self.dtheta = imu.dtheta[k0:]
+        self.dvel = imu.dvel[k0:]
+        ds, v, _, _ = speed_on_epochs(self.speed, np.concatenate([[init.t], self.t]),
+                                      what=self.sensor_name)
+        self.ds, self.v = ds, v
+        imu_dt = float(np.median(np.diff(imu.t)))
+        self.step = max(1, int(round(1.0 / (cfg.filter_rate_hz * imu_dt))))
+        self.meas_every = max(1, int(round(cfg.filter_rate_hz / cfg.measurement_rate_hz)))
+        self.feedback_every = max(1, int(round(cfg.measurement_rate_hz / cfg.feedback_rate_hz)))
+        self.dt = np.diff(np.concatenate([[init.t], self.t]))
+        self.h_baro = None
+        if cfg.use_baro and bundle.baro is not None:
+            self.h_baro = _baro_on_epochs(bundle, self.t)
+        self.init = init
+        self.model = em.ErrorModel(self.lay, _process_noise(cfg),
+                                   dr_sees_gyro_drift=getattr(cfg, "dr_sees_gyro_drift", True))
+        self.kf = KalmanFilter(self.lay.zeros(), _initial_covariance(self.lay, cfg, init.lat, init.h))
+        self.sins = Strapdown(init)
+        self.dr = DeadReckoner(init) if with_dr else None
+        self.bias_g = np.zeros(3)        # accumulated gyro drift compensation [rad/s]
+        self.bias_a = np.zeros(3)        # accumulated accelerometer bias compensation [m/s^2]
+        self.fed_back = self.lay.zeros()  # everything fed back so far, per state
+        self.gate = _Gate(cfg.gate_probability)
+        self._r = {      # diagonal measurement noise variances per group
+            "attitude": np.full(3, (getattr(cfg, "attitude_noise_arcmin", 1.0) * ARCMIN) ** 2),
+            "velocity": np.full(3, cfg.velocity_noise_m_s ** 2),
+            "nhc": np.full(2, cfg.nhc_noise_m_s ** 2),
+            "baro": np.full(1, cfg.baro_noise_m ** 2)}
+
+    # -- one epoch -------------------------------------------------------------------------
+    def _advance(self, a, b):
+        dt = self.dt[a:b]
+        dth = self.dtheta[a:b] - self.bias_g * dt[:, None]
+        dvl = self.dvel[a:b] - self.bias_a * dt[:, None]
+        self.sins.run(dth, dvl, self.t[a:b])
+        if self.dr is not None:
+            self.dr.run(dth, self.t[a:b], self.ds[a:b], self.v[a:b])
+        return dvl.sum(axis=0) / dt.sum(), dt.sum()
+
+    def _point(self, x, f_b):
+        C = _dcm(x[6:10])
+        return em.LinPoint(lat=x[0], h=x[2], vel_n=x[3:6].copy(), C_nb=C, f_n=C @ f_b)
+
+    def _corrected(self, x):
+        """The SINS state corrected by the current estimate (open loop output; identity
+        when the estimate has just been fed back)."""
+        lay, xs = self.lay, self.kf.x
+        q = _rotate_small(xs[lay["phi"]], x[6:10])
+        return (x[0] - xs[lay.index("dp_lat")], x[1] - xs[lay.index("dp_lon")],
+                x[2] - xs[lay.index("dp_h")], x[3:6] - xs[lay["dv"]], q)
+
+    def _measure(self, k, pt, xs, xd):
+        """Stack the enabled measurement groups at IMU row ``k`` and update group by group."""
+        lay, cfg, kf = self.lay, self.cfg, self.kf
+        groups = []
+        if self.with_dr:
+            C_D = _dcm(xd[6:10])
+            pt_D = em.LinPoint(lat=xd[0], h=xd[2], vel_n=xd[3:6], C_nb=C_D, f_n=pt.f_n)
+            if cfg.use_attitude:
+                H = np.zeros((3, lay.n))
+                H[:, lay["phi"]] = em.euler_rows(pt.C_nb)
+                H[:, lay["phi_D"]] = -em.euler_rows(C_D)
+                z = _wrap(_ypr(pt.C_nb) - _ypr(C_D))
+                groups.append(("attitude", z, H))
+            if cfg.use_velocity:
+                H = -em.dr_velocity_rows(lay, pt_D)
+                H[:, lay["dv"]] += np.eye(3)
+                groups.append(("velocity", xs[3:6] - xd[3:6], H))
+        else:
+            v_s = pt.C_nb @ np.array([0.0, self.v[k], 0.0])
+            groups.append(("velocity", xs[3:6] - v_s,
+                           em.sensor_velocity_rows(lay, pt, vel_sensor_n=v_s)))
+        if cfg.use_nhc:
+            z = (pt.C_nb.T @ xs[3:6])[[0, 2]]
+            groups.append(("nhc", z, em.nhc_rows(lay, pt, with_mount=cfg.nhc_mount_terms)))
+        if self.h_baro is not None and np.isfinite(self.h_baro[k]):
+            groups.append(("baro", np.array([xs[2] - self.h_baro[k]]), em.height_rows(lay)))
+        for name, z, H in groups:
+            self.gate.update(kf, name, z, H, self._r[name])
+
+    def _feed_back(self):
+        lay, x = self.lay, self.kf.x
+        self.sins.correct(phi=x[lay["phi"]], dvel_n=x[lay["dv"]], dpos=x[lay["dp"]])
+        done = [lay["phi"], lay["dv"], lay["dp"], lay["eps"], lay["nabla"]]
+        if self.dr is not None:
+            self.dr.correct(phi=x[lay["phi_D"]], dpos=x[lay["dp_D"]])
+            done += [lay["phi_D"], lay["dp_D"]]
+        self.bias_g += x[lay["eps"]]
+        self.bias_a += x[lay["nabla"]]
+        for s in done:
+            self.fed_back[s] += x[s]
+        self.kf.reset(done)
+
+    # -- the run ---------------------------------------------------------------------------
+    def run(self, progress=None):
+        n_rows = len(self.t)
+        ends = list(range(self.step, n_rows, self.step))
+        if not ends or ends[-1] != n_rows:
+            ends.append(n_rows)
+        n_out = len(ends) + 1
+        lay = self.lay
+        out_t = np.empty(n_out)
+        out_lla = np.empty((n_out, 3))
+        out_vel = np.empty((n_out, 3))
+        out_q = np.empty((n_out, 4))
+        out_sig = np.empty((n_out, lay.n))
+        out_states = np.empty((n_out, lay.n))
+        out_cov_phi = np.empty((n_out, 3, 3))
+        phi = lay["phi"]
+
+        def record(i, t):
+            lat, lon, h, vel, q = self._corrected(self.sins.x)
+            out_t[i] = t
+            out_lla[i] = lat, lon, h
+            out_vel[i] = vel
+            out_q[i] = q
+            out_sig[i] = self.kf.sigma()
+            out_states[i] = self.fed_back + self.kf.x
+            out_cov_phi[i] = self.kf.P[phi, phi]
+
+        record(0, self.init.t)
+        a = 0
+        report_every = max(1, len(ends) // 100)
+        for i, b in enumerate(ends, start=1):
+            f_b, dt = self._advance(a, b)
+            xs = self.sins.x
+            pt = self._point(xs, f_b)
+            self.kf.set_model(self.model.F(pt), self.model.Qc(pt))
+            self.kf.predict(dt)
+            if i % self.meas_every == 0:
+                xd = self.dr.x if self.dr is not None else None
+                self._measure(b - 1, pt, xs, xd)
+                if self.cfg.closed_loop and (i // self.meas_every) % self.feedback_every == 0:
+                    self._feed_back()
+            record(i, self.t[b - 1])
+            a = b
+            if progress is not None and i % report_every == 0:
+                progress(i / len(ends))
+        return out_t, out_lla, out_vel, out_q, out_sig, out_states, out_cov_phi
+
+
+def _solution(filt: _AlignmentFilter, arrays, method, cfg, wall) -> Solution:
+    out_t, out_lla, out_vel, out_q, out_sig, out_states, out_cov_phi = arrays
+    lay = filt.lay
+    sig = lay.as_dict(out_sig)
+    r_m, r_n = earth.radii(out_lla[:, 0])
+    sigma = {"phi_E": sig["phi_E"], "phi_N": sig["phi_N"], "phi_U": sig["phi_U"],
+             "vE": sig["dv_E"], "vN": sig["dv_N"], "vU": sig["dv_U"],
+             "north": sig["dp_lat"] * (r_m + out_lla[:, 2]),
+             "east": sig["dp_lon"] * (r_n + out_lla[:, 2]) * np.cos(out_lla[:, 0]),
+             "h": sig["dp_h"]}
+    for name in ("mount_x", "mount_y", "mount_z", "dk"):
+        sigma[name] = sig[name]
+    info = {"method": method, "config": cfg.model_dump(), "velocity_sensor": filt.sensor_name,
+            "layout": list(lay.names), "filter_step_rows": filt.step,
+            "measurement_every_filter_steps": filt.meas_every,
+            "measurements_used": dict(filt.gate.used),
+            "measurements_rejected": dict(filt.gate.rejected),
+            "nis_mean_per_dof": filt.kf.nis_sum / max(filt.kf.nis_dof, 1),
+            "cov_phi": out_cov_phi, "wall_time_s": wall}
+    return Solution.from_arrays(out_t, out_lla, out_vel, out_q, sigma=sigma,
+                                states=lay.as_dict(out_states),
+                                state_units=lay.unit_map(position_units(filt.init.lat, filt.init.h)),
+                                info=info)
+
+
+def _config(config, cls):
+    """The validated configuration; a wrong field raises :class:`BadInput` naming it."""
+    if isinstance(config, cls):
+        cfg = config
+    else:
+        try:
+            cfg = cls(**(config or {}))
+        except ValidationError as exc:
+            err = exc.errors()[0]
+            where = ".".join(str(x) for x in err["loc"])
+            raise BadInput(f"{where}: {err['msg']}", file="config") from None
+    if cfg.measurement_rate_hz > cfg.filter_rate_hz * (1 + 1e-9):
+        raise BadInput(f"measurement_rate_hz ({cfg.measurement_rate_hz}) must not exceed "
+                       f"filter_rate_hz ({cfg.filter_rate_hz})", file="config")
+    if cfg.feedback_rate_hz > cfg.measurement_rate_hz * (1 + 1e-9):
+        raise BadInput(f"feedback_rate_hz ({cfg.feedback_rate_hz}) must not exceed "
+                       f"measurement_rate_hz ({cfg.measurement_rate_hz})", file="config")
+    return cfg
+
+
+def _run(bundle, config, init, progress, cls, with_dr, method):
+    cfg = _config(config, cls)
+    t0 = time.perf_counter()
+    filt = _AlignmentFilter(bundle, cfg, init, with_dr)
+    arrays = filt.run(progress)
+    return _solution(filt, arrays, method, cfg, time.perf_counter() - t0)
+
+
+def run_dr_kf(bundle: Bundle, config: DrKfConfig | dict | None = None,
+              init: NavState | None = None, progress: Optional[Callable] = None) -> Solution:
+    """``dr-kf``: paper 000's SINS / radar-DR alignment filter (see the module docstring).
+
+    Returns a :class:`Solution` at the filter rate: the (closed-loop corrected) SINS state,
+    ``sigma`` for ``phi_E/N/U``, velocity, position, ``mount_*`` and ``dk``, every named state
+    (accumulated feedback plus the current estimate), and in ``info`` the 3x3 misalignment
+    covariance history ``cov_phi`` (for NEES), the measurement counts and gate rejections.
+    """
+    return _run(bundle, config, init, progress, DrKfConfig, True, "dr-kf")
+
+
+def run_od_velocity_kf(bundle: Bundle, config: OdVelocityKfConfig | dict | None = None,
+                       init: NavState | None = None,
+                       progress: Optional[Callable] = None) -> Solution:
+    """``od-velocity-kf``: SINS / velocity-sensor velocity matching (the baseline)."""
+    return _run(bundle, config, init, progress, OdVelocityKfConfig, False, "od-velocity-kf")
