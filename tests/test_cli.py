@@ -324,3 +324,28 @@ def test_internal_failure_exits_1(bundle, tmp_path, monkeypatch):
 def test_usage_error_exits_2(bundle):
     r = CliRunner().invoke(cli, ["navigate", str(bundle)])      # no --method, no -o
     assert r.exit_code == 2
+
+
+def test_demo_reports_a_broken_method_and_exits_1(scenario_file, monkeypatch):
+    import inmotion.navigate.pure as pure
+
+    def broken(*a, **k):
+        raise RuntimeError("boom")
+    monkeypatch.setattr(cli_main, "DEMO_SCENARIO", str(scenario_file))
+    monkeypatch.setattr(pure, "run_sins", broken)
+    r = CliRunner().invoke(cli, ["-q", "demo"])
+    assert r.exit_code == 1
+    assert "sins: internal error: RuntimeError: boom" in r.stderr
+    assert any(line.startswith("dr ") for line in r.stdout.splitlines())
+
+
+def test_info_without_truth_uses_odometer(copy, bundle):
+    import yaml
+    (copy / "truth.csv").unlink()
+    meta = yaml.safe_load((copy / "meta.yaml").read_text())
+    del meta["files"]["truth"]
+    (copy / "meta.yaml").write_text(yaml.safe_dump(meta))
+    info = run_json("info", copy)
+    assert info["distance_from"] == "odometer" and "truth" not in info["tables"]
+    with_truth = run_json("info", bundle)          # error-free odometer, 1 mm pulses
+    assert info["distance_m"] == pytest.approx(with_truth["distance_m"], abs=0.01)

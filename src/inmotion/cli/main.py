@@ -598,7 +598,13 @@ DEMO_SCENARIO = "demo"
 @_json_option
 @click.pass_context
 def demo(ctx, seed, keep, as_json):
-    """Simulate the built-in drive, run every navigation method, print their errors."""
+    """Simulate the built-in drive, run every navigation method, print their errors.
+
+    Every registered ``navigate`` method runs from the first truth row with its default
+    configuration; a method that does not fit the drive (BadInput, e.g. a missing sensor) is
+    skipped with a note; one that fails internally is reported and makes the exit status 1
+    after the table is printed.
+    """
     import numpy as np
     from ..io.bundle import write_bundle
     from ..io.result import write_result
@@ -616,20 +622,26 @@ def demo(ctx, seed, keep, as_json):
         _note(ctx, f"simulated {DEMO_SCENARIO!r} in {time.perf_counter() - t0:.1f} s")
         write_bundle(bundle, root / "bundle")
         bundle = _read_bundle(ctx, root / "bundle")
-        rows = []
+        rows, failed = [], []
         for spec in registry.methods("navigate"):
             try:
                 config = build_config(spec)
                 state, _ = _initial_state(ctx, bundle, "truth", None, spec.needs_attitude)
                 sol, b = run_method(ctx, bundle, spec, config, state, (None, None))
-            except BadInput as e:
+            except BadInput as e:           # the method does not fit this drive
                 _note(ctx, f"{spec.name}: skipped ({e})")
+                continue
+            except Exception as e:          # a broken method must not hide the others
+                click.echo(f"inmotion: {spec.name}: internal error: {type(e).__name__}: {e}",
+                           err=True)
+                failed.append(spec.name)
                 continue
             summary = write_result(sol, root / spec.name, truth=b.truth,
                                    summary_extra={"bundle": str(root / "bundle")})
             rows.append(_demo_summary(spec.name, summary))
-    _emit(ctx, {"scenario": DEMO_SCENARIO, "seed": seed, "methods": rows},
+    _emit(ctx, {"scenario": DEMO_SCENARIO, "seed": seed, "methods": rows, "failed": failed},
           _demo_table(rows), as_json)
+    return 1 if failed else 0
 
 
 def _demo_summary(name, summary) -> dict:
