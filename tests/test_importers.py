@@ -566,3 +566,75 @@ def test_real_ems_imports_and_agrees_with_its_reference():
     assert np.percentile(np.abs(d), 90) < 2.5
     check_axes_against_reference(b)
     check_specific_force_against_reference(b, 60.0, atol=0.3)
+
+
+# ----------------------------------------------------------------------------- remaining bad-input paths
+
+
+def test_bad_paths_kinds(tmp_path):
+    from inmotion.io.importers.tables import existing_dir, existing_file, read_text_table
+
+    with pytest.raises(BadInput, match="is not a file"):
+        existing_file(tmp_path, "IMU file")
+    (tmp_path / "f").write_text("x")
+    with pytest.raises(BadInput, match="is not a folder"):
+        existing_dir(tmp_path / "f")
+    (tmp_path / "empty.txt").write_text("# only a comment\n\n")
+    with pytest.raises(BadInput, match="no data rows"):
+        read_text_table(tmp_path / "empty.txt", 7, "IMU file")
+
+
+def test_bad_result_solution_csv(tmp_path):
+    (tmp_path / "solution.csv").write_text("t,lat,lon\n0,1,2\n")
+    with pytest.raises(BadInput, match="missing column 'h'"):
+        export_kf_gins(tmp_path, tmp_path / "x.nav")
+    (tmp_path / "solution.csv").write_text("t,lat,lon,h,vE,vN,vU,pitch,roll,yaw\n"
+                                           "0,1,2,3,0,0,0,0,0,0\n1,1,2,nan,0,0,0,0,0,0\n")
+    with pytest.raises(BadInput, match="not a finite number") as e:
+        export_kf_gins(tmp_path, tmp_path / "x.nav")
+    assert e.value.row == 2
+
+
+def test_comma2k19_value_rows_differ_from_times(tmp_path):
+    root = tmp_path / "seg"
+    write_comma_segment(root, np.random.default_rng(8))
+    save_npy(root / "processed_log/CAN/speed/value", np.full((150, 1), 10.0))
+    with pytest.raises(BadInput, match=r"value has shape \(150, 1\) for 200 times"):
+        import_comma2k19(root)
+
+
+def test_ems_missing_field_and_length(tmp_path):
+    n = 100
+    s = {"time": 0.05 * np.arange(n), "accel": np.zeros((n, 3)), "gyro": np.zeros((n, 3))}
+    scipy.io.savemat(tmp_path / "m.mat", {"ems_data": s})
+    with pytest.raises(BadInput, match="has no field 'vel_N'"):
+        import_ems(tmp_path / "m.mat")
+    with pytest.raises(BadInput, match="field 'roll' has 50 values for 100 times"):
+        import_ems(write_ems(tmp_path / "r.mat", roll=np.zeros(50)))
+
+
+def test_csv_more_bad_inputs(tmp_path):
+    write_csv_log(tmp_path)
+    m = yaml.safe_load(yaml.safe_dump(MAPPING))
+    (tmp_path / "list.yaml").write_text("- a\n- b\n")
+    with pytest.raises(BadInput, match="must be a YAML dictionary"):
+        import_csv(tmp_path / "log.csv", mapping=tmp_path / "list.yaml")
+    m2 = yaml.safe_load(yaml.safe_dump(MAPPING))
+    m2["truth"]["velocity"]["columns"] = ["vn", "ve"]
+    with pytest.raises(BadInput, match="truth.velocity.columns needs 3 columns"):
+        import_csv(tmp_path / "log.csv", mapping=m2)
+    (tmp_path / "truth.csv").write_text("t_s,lat,lon,alt,vn,ve,vd,roll,pitch,yaw\n"
+                                        f"1.0,{LAT / D},{LON / D},{H},0,10,0,0,0,90\n"
+                                        f"1.2,{LAT / D},,{H},0,10,0,0,0,90\n")
+    with pytest.raises(BadInput, match="'lon' blank where latitude is given") as e:
+        import_csv(tmp_path / "log.csv", mapping=m)
+    assert e.value.time == pytest.approx(1.2)
+    m3 = yaml.safe_load(yaml.safe_dump(MAPPING))
+    del m3["truth"]
+    text = (tmp_path / "log.csv").read_text().replace(",36.0\n", ",\n", 9)
+    (tmp_path / "log.csv").write_text(text)
+    with pytest.raises(BadInput, match="odometer: fewer than 2 samples"):
+        import_csv(tmp_path / "log.csv", mapping=m3)
+    (tmp_path / "bin.csv").write_bytes(b"\xff\xfe\x00\x01garbage\x00\n")
+    with pytest.raises(BadInput, match="not a readable CSV"):
+        import_csv(tmp_path / "bin.csv", mapping=m3)
