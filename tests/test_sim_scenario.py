@@ -134,3 +134,13 @@ def test_bad_files(tmp_path):
         load_scenario(p)
     with pytest.raises(BadInput, match="no shipped scenario 'nope'"):
         find_scenario("nope")
+
+
+def test_docs_example_is_a_valid_scenario():
+    """The schema example in docs/scenarios.md loads and simulates."""
+    from pathlib import Path
+    text = (Path(__file__).resolve().parent.parent / "docs" / "scenarios.md").read_text()
+    block = text.split("```yaml\n", 1)[1].split("```", 1)[0]
+    sc = load_scenario(yaml.safe_load(block))
+    assert sc.name == "my_drive" and len(sc.faults) == 8
+    assert set(sc.present_sensors) == {"radar", "ldv", "odometer", "baro"}
