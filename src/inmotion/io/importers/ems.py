@@ -7,9 +7,11 @@ One struct ``ems_data`` (MATLAB v5) with ``time`` [s], ``accel`` (N, 3) specific
 
 Body axes: the data set says only "z down". :data:`IMU_AXES` declares x forward, y right
 (Forward-Right-Down, the only right-handed choice with x along the car and z down that makes
-the reference angles aerospace ZYX angles): it is checked on the data (``tests``) by the
-gyro's z rate following the heading rate, x the roll rate and y the pitch rate (correlation
-above 0.9 each), and by the level specific force ``f_y = -g sin(roll)`` at rest.
+the reference angles aerospace ZYX angles): it is checked on the data
+(``tests/test_importers.py``): the body rates from the gyro increments follow, axis by axis, the
+body rates of the converted reference attitude (correlation above 0.9, slope 1 +- 0.15), and the
+mean specific force over the first minute agrees with ``C_n^b (dv_n/dt + [0, 0, g])`` from the
+reference to the accelerometer biases (0.3 m/s^2).
 
 The reference attitude is taken as aerospace ZYX ``roll, pitch, heading`` of that FRD frame in
 North-East-Down and converted to the DESIGN ``[pitch, roll, yaw]`` through the DCM.
