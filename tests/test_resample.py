@@ -134,3 +134,31 @@ def test_check_times_rejects_nan_and_too_short():
     assert e.value.row == 2
     with pytest.raises(BadInput, match="at least 2"):
         check_times(np.array([1.0]), "x.csv")
+
+
+from hypothesis import given, settings, strategies as st  # noqa: E402
+
+
+@settings(max_examples=60, deadline=None)
+@given(steps=st.lists(st.floats(0.005, 0.2), min_size=3, max_size=60),
+       queries=st.lists(st.floats(-1.0, 15.0), min_size=1, max_size=40),
+       seed=st.integers(0, 2 ** 16))
+def test_interpolation_property_no_extrapolation(steps, queries, seed):
+    """Any clock, any epochs: a valid value lies between the two samples that bracket its
+    epoch, whose interval is not a gap; everything else is NaN."""
+    t_src = np.concatenate([[0.0], np.cumsum(steps)])
+    v = np.random.default_rng(seed).normal(size=len(t_src))
+    t_out = np.array(queries)
+    out, valid = interpolate_at(t_src, v, t_out)
+    thr = GAP_FACTOR * np.median(np.diff(t_src))
+    assert np.isnan(out[~valid]).all()
+    for tq, val in zip(t_out[valid], out[valid]):
+        assert t_src[0] <= tq <= t_src[-1]
+        j = min(max(np.searchsorted(t_src, tq), 1), len(t_src) - 1)
+        on_sample = tq in (t_src[j - 1], t_src[j])
+        assert on_sample or t_src[j] - t_src[j - 1] <= thr
+        assert min(v[j - 1], v[j]) - 1e-12 <= val <= max(v[j - 1], v[j]) + 1e-12
+    inside = (t_out > t_src[0]) & (t_out < t_src[-1])
+    j = np.clip(np.searchsorted(t_src, t_out), 1, len(t_src) - 1)
+    short = (t_src[j] - t_src[j - 1]) <= thr
+    assert np.all(valid[inside & short])            # and nothing valid is thrown away
