@@ -63,3 +63,20 @@ def test_vectorized_solve_over_a_stack():
     sol = qmethod.solve(Ks)
     assert sol.C.shape == (4, 3, 3)
     assert np.max(np.abs(sol.C - Cs)) < 1e-10
+
+
+def test_centred_form_removes_a_constant_offset_exactly():
+    rng = np.random.default_rng(8)
+    C_true = _random_rotation(rng)
+    alpha = rng.normal(size=(20, 3)) * np.arange(1, 21)[:, None]
+    offset = np.array([0.3, -0.2, 0.5])
+    beta = alpha @ C_true.T
+    w = rng.uniform(0.5, 1.5, 20)
+    K = qmethod.k_matrix(alpha + offset, beta, w)
+    Kc = qmethod.k_centered(K, w @ (alpha + offset), w @ beta, w.sum())
+    assert np.max(np.abs(qmethod.solve(Kc).C - C_true)) < 1e-10
+    assert np.max(np.abs(qmethod.solve(K).C - C_true)) > 1e-4    # the offset does bias plain K
+    # equals K of the explicitly centred vectors
+    a_c = alpha + offset - (w @ (alpha + offset)) / w.sum()
+    b_c = beta - (w @ beta) / w.sum()
+    np.testing.assert_allclose(Kc, qmethod.k_matrix(a_c, b_c, w), atol=1e-9)

@@ -47,6 +47,13 @@ _SPECS = [
                "pure dead reckoning: gyro attitude + forward-velocity sensor (paper 002)"),
     MethodSpec("dr-kf", "align", "inmotion.align.dr_kalman:run_dr_kf", "inmotion.align.dr_kalman:DrKfConfig", True, "SINS / radar dead-reckoning fine alignment in motion, attitude + velocity + NHC, 25-state KF (paper 000)"),
     MethodSpec("od-velocity-kf", "align", "inmotion.align.dr_kalman:run_od_velocity_kf", "inmotion.align.dr_kalman:OdVelocityKfConfig", True, "SINS / velocity-sensor velocity-matching fine alignment, 19-state KF (baseline for dr-kf)"),
+    MethodSpec("imada-vb", "align", "inmotion.align.imada:run_imada_vb", "inmotion.align.imada:ImadaConfig", False, "in-motion attitude determination, body-velocity aided, omega_ie x V^b dropped (paper 004 eq. 9)"),
+    MethodSpec("imada-vn", "align", "inmotion.align.imada:run_imada_vn", "inmotion.align.imada:ImadaConfig", False, "in-motion attitude determination, navigation-velocity model (paper 004 eq. 10)"),
+    MethodSpec("imada-dual", "align", "inmotion.align.imada:run_imada_dual", "inmotion.align.imada:ImadaConfig", False, "in-motion attitude determination, dual velocity modelling (paper 004 eq. 11-19)"),
+    MethodSpec("mimada", "align", "inmotion.align.imada:run_mimada", "inmotion.align.imada:MimadaConfig", False, "multistage IMADA: imada-vb then imada-vn levels (paper 004 sec. 2.2)"),
+    MethodSpec("mimada-dual", "align", "inmotion.align.imada:run_mimada_dual", "inmotion.align.imada:MimadaConfig", False, "improved multistage IMADA: imada-vb then imada-dual levels (paper 004 sec. 3)"),
+    MethodSpec("oba", "align", "inmotion.align.imada:run_oba", "inmotion.align.imada:ImadaConfig", False, "optimization-based alignment vectors with Earth-rate term, q-method (paper 001 eq. 12-19)"),
+    MethodSpec("coarse-inertial", "align", "inmotion.align.coarse_inertial:run_coarse_inertial", "inmotion.align.coarse_inertial:CoarseInertialConfig", False, "inertial-frame coarse alignment, parked or in motion (paper 003 eq. 1-10)"),
 ]
 
 

@@ -20,6 +20,13 @@ about them is unobservable); :func:`solve` reports it, absolute and relative to 
 ``K`` is linear in the vector pairs, so it can be accumulated over time (paper 004 eq. 7-8,
 the recursive q-method): ``K_k = lambda K_{k-1} + dK_k`` with an optional fading factor
 ``0 < lambda <= 1`` (:class:`RecursiveQMethod`, and :func:`k_increment` for kernels).
+
+Centred form (:func:`k_centered`): when ``alpha_i`` carry an unknown constant offset ``c``
+(``C (alpha_i - c) = beta_i``), minimising ``sum w_i |beta_i - C alpha_i + d|^2`` over ``C`` and
+``d = C c`` gives ``d = mean_w(C alpha_i - beta_i)`` and leaves Wahba's problem for the centred
+vectors ``alpha_i - mean_w(alpha)``, ``beta_i - mean_w(beta)``, whose ``K`` is, by bilinearity,
+``K - K(S_alpha, S_beta) / W`` with ``S_alpha = sum w_i alpha_i``, ``S_beta = sum w_i beta_i``,
+``W = sum w_i``: three running sums, no stored vectors.
 """
 from __future__ import annotations
 
@@ -30,7 +37,8 @@ import numpy as np
 
 from ..core import rotations
 
-__all__ = ["k_matrix", "k_increment", "solve", "QSolution", "RecursiveQMethod"]
+__all__ = ["k_matrix", "k_pairs", "k_centered", "k_increment", "solve", "QSolution",
+           "RecursiveQMethod"]
 
 
 def k_matrix(alpha, beta, weights=None):
@@ -55,6 +63,31 @@ def k_matrix(alpha, beta, weights=None):
     B = np.einsum("i,ij,ik->jk", w, beta, alpha)
     z = np.einsum("i,ij->j", w, np.cross(alpha, beta))
     return _k_from_bz(B, z)
+
+
+def k_pairs(alpha, beta):
+    """``K`` of each single pair, vectorized: (M, 3), (M, 3) -> (M, 4, 4)."""
+    alpha = np.asarray(alpha, dtype=float)
+    beta = np.asarray(beta, dtype=float)
+    B = beta[..., :, None] * alpha[..., None, :]
+    z = np.cross(alpha, beta)
+    sigma = np.einsum("...ii->...", B)
+    K = np.empty(alpha.shape[:-1] + (4, 4))
+    K[..., 0, 0] = sigma
+    K[..., 0, 1:] = z
+    K[..., 1:, 0] = z
+    K[..., 1:, 1:] = B + np.swapaxes(B, -1, -2) - sigma[..., None, None] * np.eye(3)
+    return K
+
+
+def k_centered(K, S_alpha, S_beta, W):
+    """``K`` of the centred vectors: ``K - K(S_alpha, S_beta) / W`` (see the module docstring).
+
+    Broadcasts over leading axes; where ``W == 0`` the input ``K`` is returned.
+    """
+    W = np.asarray(W, dtype=float)
+    safe = np.where(W > 0, W, 1.0)
+    return np.asarray(K) - k_pairs(S_alpha, S_beta) / safe[..., None, None] * (W > 0)[..., None, None]
 
 
 def _k_from_bz(B, z):

@@ -1,0 +1,158 @@
+"""Shared driver of the attitude-determination alignments: inputs, one level, the Solution.
+
+A *level* is one pass of :func:`inmotion.align.obs_vectors.integrate_vectors` over the window
+with one vector model, followed by Davenport's q-method at every output epoch. The attitude
+time series is ``C_b^n(t_j) = C_{n(t_j)}^{n(0)T} C_hat(t_j) C_{b(t_j)}^{b(0)}`` with
+``C_hat(t_j)`` the q-method answer from the vectors up to ``t_j`` (paper 004's "process
+value"); the attitude at the start of the window is the final ``C_hat``, the one at the end is
+``C_b^n(t_end)`` with it. Velocity and position in the :class:`Solution` are the dead reckoning
+of the velocity sensor with the attitude the level used (the running answer for a first
+level, the previous level's constant for higher levels), started from the initial position.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import Optional
+
+import numpy as np
+
+from ..core import rotations
+from ..core.bundle import Bundle
+from ..core.solution import NavState, Solution
+from ..errors import BadInput
+from ..estimation import qmethod
+from . import obs_vectors as ov
+from . import velocity_source as vs
+
+__all__ = ["Inputs", "prepare", "Level", "run_level", "to_solution", "euler_deg_dict"]
+
+
+@dataclass
+class Inputs:
+    """Arrays of the alignment window, SI, on the IMU time base."""
+
+    t: np.ndarray
+    dtheta: np.ndarray
+    dvel: np.ndarray
+    speed: np.ndarray         #: forward speed at the IMU times [m/s]
+    speed0: float             #: v^b(0) [m/s]
+    lat0: float
+    lon0: float
+    h0: float
+    sensor: Optional[str]     #: the velocity sensor's name, None when parked
+
+    @property
+    def dt(self) -> float:
+        return float(np.median(np.diff(self.t)))
+
+
+def initial_position(bundle: Bundle, init: Optional[NavState]) -> tuple[float, float, float]:
+    """``(lat, lon, h)`` [rad, rad, m]: from ``init``, else ``meta.yaml``, else the first truth row."""
+    if init is not None:
+        return float(init.lat), float(init.lon), float(init.h)
+    meta = bundle.meta or {}
+    if all(k in meta for k in ("lat_deg", "lon_deg")):
+        return np.radians(float(meta["lat_deg"])), np.radians(float(meta["lon_deg"])), \
+            float(meta.get("h_m", 0.0))
+    if bundle.truth is not None:
+        return float(bundle.truth.lat[0]), float(bundle.truth.lon[0]), float(bundle.truth.h[0])
+    raise BadInput("no initial position: give --init, or lat_deg/lon_deg in meta.yaml",
+                   file="meta.yaml")
+
+
+def prepare(bundle: Bundle, init: Optional[NavState], *, sensor: Optional[str],
+            moving: bool, min_window_s: float, v0_fit_s: float) -> Inputs:
+    """Check the window and gather the arrays (``BadInput`` on a short window or no sensor)."""
+    imu = bundle.imu
+    if len(imu.t) < 3:
+        raise BadInput(f"the alignment window holds {len(imu.t)} IMU rows; need at least "
+                       f"{min_window_s:g} s", file="imu")
+    duration = float(imu.t[-1] - imu.t[0])
+    if duration < min_window_s:
+        raise BadInput(f"the alignment window is {duration:.3g} s long; this method needs at "
+                       f"least {min_window_s:g} s (min_window_s)", file="imu",
+                       time=float(imu.t[-1]))
+    bad = ~(np.isfinite(imu.dtheta).all(axis=1) & np.isfinite(imu.dvel).all(axis=1))
+    if bad.any():
+        i = int(np.argmax(bad))
+        raise BadInput("IMU increment is not a finite number", file="imu", row=i + 1,
+                       time=float(imu.t[i]))
+    lat0, lon0, h0 = initial_position(bundle, init)
+    if moving:
+        name, data = vs.pick_sensor(bundle, sensor)
+        speed = vs.speed_on_imu_times(name, data, imu.t)
+        speed0 = vs.initial_speed(name, data, float(imu.t[0]), v0_fit_s)
+    else:
+        name, speed, speed0 = None, np.zeros(len(imu.t)), 0.0
+    return Inputs(imu.t, imu.dtheta, imu.dvel, speed, speed0, lat0, lon0, h0, name)
+
+
+@dataclass
+class Level:
+    """One pass: the vectors' run and the q-method at its epochs."""
+
+    model: int
+    run: ov.VectorRun
+    qsol: qmethod.QSolution
+    C_nb: np.ndarray          #: (M, 3, 3) attitude series
+
+    @property
+    def C0(self) -> np.ndarray:
+        """The final estimate of ``C_b^n(0)``."""
+        return self.qsol.C[-1]
+
+
+def run_level(inp: Inputs, model: int, *, C_fixed=None, nav=ov.NAV_INTEGRATED,
+              update_interval_s=0.1, output_interval_s=1.0, fading_time_constant_s=None,
+              lowpass_time_constant_s=None, centered=False) -> Level:
+    """One alignment level with the given vector model (see :mod:`obs_vectors`)."""
+    T = 2.0 * inp.dt                                  # two IMU rows per interval
+    fading = 1.0 if not fading_time_constant_s else float(np.exp(-T / fading_time_constant_s))
+    lp = 0.0 if not lowpass_time_constant_s else float(np.exp(-T / lowpass_time_constant_s))
+    run = ov.integrate_vectors(inp.t, inp.dtheta, inp.dvel, inp.speed, inp.speed0,
+                               inp.lat0, inp.lon0, inp.h0, model=model, nav=nav, C_fixed=C_fixed,
+                               update_every=max(1, round(update_interval_s / T)),
+                               out_every=max(1, round(output_interval_s / T)),
+                               fading=fading, lowpass_a=lp, centered=centered,
+                               skip=0 if not lowpass_time_constant_s
+                               else int(np.ceil(3.0 * lowpass_time_constant_s / T)))
+    qsol = qmethod.solve(run.K_used(centered))
+    C_nb = (np.swapaxes(rotations.dcm_from_quat(run.q_n0n), -1, -2) @ qsol.C
+            @ rotations.dcm_from_quat(run.q_b0b))
+    return Level(model, run, qsol, C_nb)
+
+
+def euler_deg_dict(C_nb) -> dict:
+    """``{"pitch": .., "roll": .., "yaw": ..}`` in degrees (yaw in [0, 360))."""
+    e = np.degrees(rotations.euler_from_dcm(C_nb))
+    return {"pitch": float(e[0]), "roll": float(e[1]), "yaw": float(e[2])}
+
+
+def level_info(level: Level, name: str) -> dict:
+    return {"model": name,
+            "attitude_start_deg": euler_deg_dict(level.C0),
+            "attitude_end_deg": euler_deg_dict(level.C_nb[-1]),
+            "eigval_gap_rel": float(level.qsol.gap_rel[-1])}
+
+
+def to_solution(inp: Inputs, level: Level, *, method: str, config, levels_info: list) -> Solution:
+    """The :class:`Solution` of the final level, with the start/end attitude and the quality
+    figure (the q-method's relative eigenvalue gap ``(lambda_1 - lambda_2) / lambda_1``)."""
+    run = level.run
+    euler = rotations.euler_from_dcm(level.C_nb)
+    info = {
+        "method": method,
+        "config": config.model_dump(),
+        "t_start_s": float(inp.t[0]),
+        "t_end_s": float(run.t[-1]),
+        "attitude_start_deg": euler_deg_dict(level.C0),
+        "attitude_end_deg": euler_deg_dict(level.C_nb[-1]),
+        "quality": {"eigval_gap_rel": float(level.qsol.gap_rel[-1]),
+                    "eigval_gap": float(level.qsol.gap[-1]),
+                    "n_vector_pairs": int(run.n_vectors)},
+        "velocity_sensor": inp.sensor,
+        "initial_speed_m_s": inp.speed0,
+        "levels": levels_info,
+    }
+    states = {"eigval_gap_rel": level.qsol.gap_rel}
+    return Solution(run.t, run.lat, run.lon, run.h, run.vel_n, euler, states=states, info=info)
