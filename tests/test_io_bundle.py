@@ -289,3 +289,30 @@ def test_meta_initial_not_a_number(tmp_path, rng):
     a.meta["initial_position"]["lat_deg"] = "north-ish"
     d = write_bundle(a, tmp_path / "b")
     _expect(d, "lat_deg = 'north-ish' is not a finite number", "meta.yaml")
+
+
+def test_dvel_in_g_units(bundle_dir):
+    """dvel written in g*s instead of m/s: the mean specific force is ~1 instead of ~9.8."""
+    df = pd.read_csv(bundle_dir / "imu.csv")
+    for k in ("dvel_x", "dvel_y", "dvel_z"):
+        df[k] = df[k] / 9.80665
+    df.to_csv(bundle_dir / "imu.csv", index=False)
+    _expect(bundle_dir, "mean specific force .* are dvel_x/y/z velocity increments in m/s",
+            "imu.csv")
+
+
+def test_zero_dvel_accepted(bundle_dir):
+    """A log without accelerometers (zeros) still reads: dead reckoning needs only gyros."""
+    df = pd.read_csv(bundle_dir / "imu.csv")
+    df[["dvel_x", "dvel_y", "dvel_z"]] = 0.0
+    df.to_csv(bundle_dir / "imu.csv", index=False)
+    read_bundle(bundle_dir)
+
+
+def test_truth_lat_lon_in_radians(tmp_path, rng):
+    d = write_bundle(make_bundle(rng, n=2000, speed_m_s=20.0), tmp_path / "b")   # 400 m
+    read_bundle(d)
+    df = pd.read_csv(d / "truth.csv")
+    df["lat"], df["lon"] = np.radians(df["lat"]), np.radians(df["lon"])
+    df.to_csv(d / "truth.csv", index=False)
+    _expect(d, "are lat/lon in degrees", "truth.csv")

@@ -38,7 +38,9 @@ Validation (each failure is one :class:`inmotion.errors.BadInput` naming file, r
 - values that cannot be in the declared units (limits in :data:`LIMITS`): an angular rate
   from ``dtheta`` above 50 rad/s (no vehicle gyro measures that), a specific force from
   ``dvel`` above 100 g, a speed above 150 m/s, a barometric height outside -1 km .. 20 km,
-  truth latitude beyond +-90 deg or pitch beyond +-90 deg.
+  truth latitude beyond +-90 deg or pitch beyond +-90 deg;
+- units that do not add up: a mean specific force far from gravity (``dvel`` not in m/s), a
+  truth whose positions and velocities describe different distances (lat/lon in rad).
 
 Gaps (a time step longer than ``max_gap_periods`` = 5 median sample periods):
 
@@ -69,7 +71,7 @@ import pandas as pd
 import yaml
 
 from ..core.bundle import (BaroData, Bundle, ImuData, SpeedData, Truth, VELOCITY_SENSORS)
-from ..core.earth import G0
+from ..core.earth import G0, radii
 from ..errors import BadInput
 
 __all__ = ["read_bundle", "write_bundle", "find_gaps", "Gap", "BundleGapWarning", "LIMITS",
@@ -312,7 +314,22 @@ def _imu_from(df, path) -> ImuData:
                  "angular rate |dtheta|/dt =", "rad/s", path, c["t"])
     _check_limit(np.linalg.norm(dvel, axis=1) / dt, LIMITS["specific_force_m_s2"],
                  "specific force |dvel|/dt =", "m/s^2", path, c["t"])
+    _check_gravity(np.linalg.norm(dvel, axis=1) / dt, path)
     return ImuData(c["t"], dtheta, dvel)
+
+
+def _check_gravity(f, path):
+    """The mean specific force of a land vehicle is gravity, ~9.8 m/s^2.
+
+    A mean between 0.05 g and 0.5 g, or above 2 g, means the increments are not in m/s
+    (``dvel`` in g*s gives ~1 m/s^2). A mean below 0.05 g is accepted: a log without
+    accelerometers (zeros) can still feed dead reckoning.
+    """
+    mean = float(np.mean(f))
+    if 0.05 * G0 < mean < 0.5 * G0 or mean > 2.0 * G0:
+        raise BadInput(f"mean specific force |dvel|/dt is {mean:.4g} m/s^2, but a vehicle on "
+                       f"Earth feels ~{G0:.2f}: are dvel_x/y/z velocity increments in m/s?",
+                       file=path)
 
 
 def _speed_from(df, path, need_v) -> SpeedData:
@@ -352,7 +369,29 @@ def _truth_from(df, path) -> Truth:
     _check_limit(np.linalg.norm(vel_n, axis=1), LIMITS["speed_m_s"], "speed |v| =", "m/s",
                  path, t)
     euler = np.radians(np.column_stack([c["pitch"], c["roll"], c["yaw"]]))
-    return Truth(t, np.radians(c["lat"]), np.radians(c["lon"]), c["h"], vel_n, euler)
+    truth = Truth(t, np.radians(c["lat"]), np.radians(c["lon"]), c["h"], vel_n, euler)
+    _check_truth_consistency(truth, path)
+    return truth
+
+
+def _check_truth_consistency(truth: Truth, path):
+    """Positions and velocities of the truth must describe the same motion.
+
+    Compares the horizontal path length from the positions with the integral of the
+    horizontal speed (trapezoid). Over a drive of more than 100 m a ratio outside 0.5 .. 2
+    means a unit error: lat/lon in rad instead of degrees gives a ratio of 1/57.3.
+    """
+    if len(truth.t) < 3:
+        return
+    r_m, r_n = radii(truth.lat[:-1])
+    step = np.hypot(np.diff(truth.lat) * (r_m + truth.h[:-1]),
+                    np.diff(truth.lon) * (r_n + truth.h[:-1]) * np.cos(truth.lat[:-1]))
+    from_pos = float(np.sum(step))
+    speed = np.hypot(truth.vel_n[:, 0], truth.vel_n[:, 1])
+    from_vel = float(np.sum(0.5 * (speed[1:] + speed[:-1]) * np.diff(truth.t)))
+    if max(from_pos, from_vel) > 100.0 and not 0.5 < from_pos / max(from_vel, 1e-9) < 2.0:
+        raise BadInput(f"positions travel {from_pos:.6g} m but the velocities integrate to "
+                       f"{from_vel:.6g} m: are lat/lon in degrees and vE/vN in m/s?", file=path)
 
 
 def meta_initial(meta: dict, path=None) -> dict:
