@@ -1,10 +1,12 @@
 """Exact IMU increments of simple analytic motions, for the core tests (no simulator needed).
 
-A level vehicle with heading ``psi(t)`` and forward speed ``v(t)`` at constant height:
-``C_b^n = R_z(-psi)``, ``v_n = v [sin psi, cos psi, 0]``. From the navigation equations
+A vehicle with heading ``psi(t)``, pitch ``theta(t)`` (no roll) and forward speed ``v(t)``:
+``C_b^n = R_z(-psi) R_x(theta)``, ``v_n = v [cos theta sin psi, cos theta cos psi, sin theta]``,
+``omega_nb_b = [dtheta/dt, -dpsi/dt sin theta, -dpsi/dt cos theta]``. From the navigation
+equations
 
     f_n = dv_n/dt - g_n + (2 omega_ie_n + omega_en_n) x v_n
-    omega_ib_b = C_n^b (omega_ie_n + omega_en_n) + [0, 0, -dpsi/dt]
+    omega_ib_b = C_n^b (omega_ie_n + omega_en_n) + omega_nb_b
 
 the increments ``dtheta = int omega_ib_b dt`` and ``dvel = int f_b dt`` are integrated together
 with latitude and longitude by a high-order ODE solver (rtol 1e-12), so they are exact far below
@@ -19,19 +21,26 @@ from inmotion.core import earth
 from inmotion.core.rotations import dcm_from_euler
 
 # ODE state layout, by name
-LAT, LON, TH, DV = 0, 1, slice(2, 5), slice(5, 8)
+LAT, LON, HGT, TH, DV = 0, 1, 2, slice(3, 6), slice(6, 9)
+NY = 9
 
 
-def level_drive(t, lat0, lon0, h, psi, dpsi, speed, accel, lever_arm_b=None):
-    """Truth and exact increments of a level drive.
+def _zero(t):
+    return 0.0 * np.asarray(t, dtype=float)
+
+
+def drive_increments(t, lat0, lon0, h, psi, dpsi, speed, accel, lever_arm_b=None,
+                pitch=_zero, dpitch=_zero):
+    """Truth and exact increments of a drive (level unless ``pitch`` is given).
 
     Parameters
     ----------
     t : (N,) s, epochs; row 0 is the start (its increments are over (t0 - dt, t0], filled with
         the first interval's values).
-    lat0, lon0 : rad; h : m.
+    lat0, lon0 : rad; h : m, height at the start.
     psi, dpsi : callables t -> heading [rad], heading rate [rad/s].
     speed, accel : callables t -> forward speed [m/s], its derivative [m/s^2].
+    pitch, dpitch : callables t -> pitch [rad], pitch rate [rad/s] (default level).
     lever_arm_b : (3,) m, optional. The trajectory above is then the sensor point's;
         ``lat_imu, lon_imu`` are returned for the IMU at ``-lever_arm_b`` from it.
 
@@ -41,45 +50,66 @@ def level_drive(t, lat0, lon0, h, psi, dpsi, speed, accel, lever_arm_b=None):
     and lat_imu, lon_imu, vel_imu_n.
     """
     def rates(tt, y):
-        lat = y[LAT]
+        lat, hh = y[LAT], y[HGT]
         r_m, r_n = earth.radii(lat)
-        p, v = psi(tt), speed(tt)
-        sp, cp = np.sin(p), np.cos(p)
-        vel = v * np.array([sp, cp, 0.0])
-        acc = accel(tt) * np.array([sp, cp, 0.0]) + v * dpsi(tt) * np.array([cp, -sp, 0.0])
+        p, v, th = psi(tt), speed(tt), pitch(tt)
+        dp, dth = dpsi(tt), dpitch(tt)
+        sp, cp, st, ct = np.sin(p), np.cos(p), np.sin(th), np.cos(th)
+        u = np.array([ct * sp, ct * cp, st])                    # forward axis in n
+        du = np.array([-st * dth * sp + ct * cp * dp, -st * dth * cp - ct * sp * dp, ct * dth])
+        vel = v * u
+        acc = accel(tt) * u + v * du
         w_ie = earth.omega_ie_n(lat)
-        w_en = earth.omega_en_n(lat, h, vel)
-        f_n = acc - earth.gravity_n(lat, h) + np.cross(2 * w_ie + w_en, vel)
-        C_nb = dcm_from_euler(np.array([0.0, 0.0, p]))
-        w_b = C_nb.T @ (w_ie + w_en) + np.array([0.0, 0.0, -dpsi(tt)])
-        out = np.empty(8)
-        out[LAT] = vel[1] / (r_m + h)
-        out[LON] = vel[0] / ((r_n + h) * np.cos(lat))
+        w_en = earth.omega_en_n(lat, hh, vel)
+        f_n = acc - earth.gravity_n(lat, hh) + np.cross(2 * w_ie + w_en, vel)
+        C_nb = dcm_from_euler(np.array([th, 0.0, p]))
+        w_b = C_nb.T @ (w_ie + w_en) + np.array([dth, -dp * st, -dp * ct])
+        out = np.empty(NY)
+        out[LAT] = vel[1] / (r_m + hh)
+        out[LON] = vel[0] / ((r_n + hh) * np.cos(lat))
+        out[HGT] = vel[2]
         out[TH] = w_b
         out[DV] = C_nb.T @ f_n
         return out
 
     t = np.asarray(t, dtype=float)
-    y0 = np.zeros(8)
-    y0[LAT], y0[LON] = lat0, lon0
+    y0 = np.zeros(NY)
+    y0[LAT], y0[LON], y0[HGT] = lat0, lon0, h
     sol = solve_ivp(rates, (t[0], t[-1]), y0, method="DOP853", t_eval=t, rtol=1e-12,
                     atol=1e-13, max_step=max(t[1] - t[0], 1.0))
     y = sol.y.T
     dtheta = np.diff(y[:, TH], axis=0, prepend=y[:1, TH])
     dvel = np.diff(y[:, DV], axis=0, prepend=y[:1, DV])
     dtheta[0], dvel[0] = dtheta[1], dvel[1]
-    p = psi(t)
-    v = speed(t)
-    vel_n = np.stack([v * np.sin(p), v * np.cos(p), np.zeros_like(p)], -1)
-    euler = np.stack([np.zeros_like(p), np.zeros_like(p), p], -1)
-    out = dict(t=t, lat=y[:, LAT], lon=y[:, LON], h=np.full(len(t), float(h)), vel_n=vel_n,
+    p = psi(t) + 0.0 * t
+    v = speed(t) + 0.0 * t
+    th = pitch(t) + 0.0 * t
+    vel_n = v[:, None] * np.stack([np.cos(th) * np.sin(p), np.cos(th) * np.cos(p), np.sin(th)], -1)
+    euler = np.stack([th, np.zeros_like(p), p], -1)
+    out = dict(t=t, lat=y[:, LAT], lon=y[:, LON], h=y[:, HGT], vel_n=vel_n,
                euler=euler, dtheta=dtheta, dvel=dvel)
     l_b = np.zeros(3) if lever_arm_b is None else np.asarray(lever_arm_b, dtype=float)
     C_nb = dcm_from_euler(euler)
     l_n = C_nb @ l_b
     r_m, r_n = earth.radii(out["lat"])
-    out["lat_imu"] = out["lat"] - l_n[:, 1] / (r_m + h)
-    out["lon_imu"] = out["lon"] - l_n[:, 0] / ((r_n + h) * np.cos(out["lat"]))
-    w_nb_n = np.stack([np.zeros_like(p), np.zeros_like(p), -dpsi(t)], -1)
+    hh = out["h"]
+    out["lat_imu"] = out["lat"] - l_n[:, 1] / (r_m + hh)
+    out["lon_imu"] = out["lon"] - l_n[:, 0] / ((r_n + hh) * np.cos(out["lat"]))
+    w_nb_n = np.stack([np.zeros_like(p), np.zeros_like(p), -dpsi(t) + 0.0 * t], -1)  # level
     out["vel_imu_n"] = vel_n - np.cross(w_nb_n, l_n)
     return out
+
+
+def stop_and_go_hills(t, lat0=np.radians(34.0), lon0=np.radians(108.0), h0=400.0):
+    """A drive with turns, climbs and stops: speed ``14 (1 - cos(2 pi t / 600))`` m/s (a stop
+    every 10 min, 14 m/s mean: 50.4 km in an hour), heading swinging by up to 100 deg, pitch
+    +-3 deg with a 400 s period (+-300 m of height over a cycle at cruise)."""
+    w = 2 * np.pi / 600
+    a1, w1, a2, w2 = 1.2, 2 * np.pi / 900, 0.6, 2 * np.pi / 170
+    p0, wp = np.radians(3.0), 2 * np.pi / 400
+    return drive_increments(
+        t, lat0, lon0, h0,
+        psi=lambda t: 0.5 + a1 * np.sin(w1 * t) + a2 * np.sin(w2 * t),
+        dpsi=lambda t: a1 * w1 * np.cos(w1 * t) + a2 * w2 * np.cos(w2 * t),
+        speed=lambda t: 14 * (1 - np.cos(w * t)), accel=lambda t: 14 * w * np.sin(w * t),
+        pitch=lambda t: p0 * np.sin(wp * t), dpitch=lambda t: p0 * wp * np.cos(wp * t))
