@@ -252,6 +252,25 @@ def test_comma2k19_level_vehicle_heading_east(tmp_path):
     assert b.meta["truth"]["gps_week"] == 2012
 
 
+def test_comma2k19_gyro_on_its_own_clock(tmp_path):
+    """A gyro with its own (offset, slower) time stamps and a linear rate: interpolated to the
+    accelerometer clock, the trapezoid increments are still the exact integrals."""
+    root = tmp_path / "seg"
+    t = write_comma_segment(root, np.random.default_rng(9))
+    t_w = np.arange(t[0] - 0.05, t[-1] - 0.2, 0.013)
+    w = np.column_stack([0.01 + 0.002 * (t_w - 500), -0.02 * np.ones_like(t_w), 0.03 + 0 * t_w])
+    save_npy(root / "processed_log/IMU/gyro/t", t_w)
+    save_npy(root / "processed_log/IMU/gyro/value", w)
+    b = import_comma2k19(root)
+    t_kept = t[t <= t_w[-1]]
+    np.testing.assert_array_equal(b.imu.t, t_kept[1:])
+    s = t_kept - 500
+    exact_forward = np.diff(0.01 * s + 0.001 * s ** 2)       # integral of the forward rate
+    np.testing.assert_allclose(b.imu.dtheta[:, 1], exact_forward, atol=1e-15)
+    np.testing.assert_allclose(b.imu.dtheta[:, 0], -0.02 * np.diff(t_kept), atol=1e-16)
+    assert b.meta["source"]["gyro_clock"].startswith("own clock")
+
+
 def test_comma2k19_bad_layouts(tmp_path):
     with pytest.raises(BadInput, match="segment folder not found"):
         import_comma2k19(tmp_path / "none")
@@ -261,8 +280,8 @@ def test_comma2k19_bad_layouts(tmp_path):
     with pytest.raises(BadInput, match="file not found"):
         import_comma2k19(root)
     save_npy(root / "processed_log/CAN/speed/value", np.full((200, 1), 10.0))
-    save_npy(root / "processed_log/IMU/gyro/t", np.load(root / "processed_log/IMU/gyro/t") + 1e-3)
-    with pytest.raises(BadInput, match="time stamps differ"):
+    save_npy(root / "processed_log/IMU/gyro/t", np.load(root / "processed_log/IMU/gyro/t") + 1e3)
+    with pytest.raises(BadInput, match="spans do not overlap"):
         import_comma2k19(root)
     root2 = tmp_path / "seg2"
     write_comma_segment(root2, np.random.default_rng(6))

@@ -7,8 +7,9 @@ Layout: every signal is a folder holding two NumPy ``.npy`` files without extens
 ``processed_log/IMU/accelerometer``, ``.../gyro``
     Phone IMU, specific force [m/s^2] and angular rate [rad/s] (``gyro`` is bias-corrected by
     the phone; ``gyro_uncalibrated`` is also there), axes :data:`IMU_AXES` = [forward, right,
-    down], about 104 Hz with jitter, both on the same time stamps. Turned into increments over
-    each real interval by :func:`inmotion.io.resample.rates_to_increments` (trapezoid by
+    down], about 104 Hz with jitter. When the two have different time stamps, the gyro rate is
+    interpolated to the accelerometer's (:func:`_gyro_on_accel_clock`). Turned into increments
+    over each real interval by :func:`inmotion.io.resample.rates_to_increments` (trapezoid by
     default); the first sample only opens the first interval.
 ``processed_log/CAN/speed``
     Vehicle speed [m/s], about 89 Hz, on its own clock: the odometer ``v``. It reads about 0.6 %
@@ -33,7 +34,7 @@ import numpy as np
 from ...core import earth, rotations
 from ...core.bundle import Bundle, ImuData, SpeedData, Truth
 from ...errors import BadInput
-from ..resample import check_times, find_gaps, rates_to_increments
+from ..resample import check_times, find_gaps, interpolate_at, rates_to_increments
 from .axes import C_b_src, FRD
 from .tables import check_finite, existing_dir
 
@@ -69,16 +70,33 @@ def read_signal(folder, ncols=None):
     return t, value
 
 
+def _gyro_on_accel_clock(t_f, f_src, t_w, w_src, folder):
+    """Accelerometer and gyro on one clock: the accelerometer's, cut to the span the gyro
+    covers, with the gyro rate linearly interpolated to it (never extrapolated). Across a gyro
+    gap (:func:`inmotion.io.resample.find_gaps`) the rate is still interpolated, the only
+    information there is, and the gap is returned for ``meta['gaps']['gyro']``."""
+    if len(t_f) == len(t_w) and np.all(t_f == t_w):
+        return t_f, f_src, w_src, None
+    keep = (t_f >= t_w[0]) & (t_f <= t_w[-1])
+    if keep.sum() < 2:
+        raise BadInput("accelerometer and gyro time spans do not overlap", folder)
+    t = t_f[keep]
+    w, valid = interpolate_at(t_w, w_src, t)
+    if not valid.all():
+        w = np.column_stack([np.interp(t, t_w, w_src[:, j]) for j in range(3)])
+    return t, f_src[keep], w, find_gaps(t_w)
+
+
 def _imu(root, gyro, order):
-    t_f, f_src = read_signal(root / "processed_log/IMU/accelerometer", 3)
-    t_w, w_src = read_signal(root / "processed_log/IMU" / gyro, 3)
-    if len(t_f) != len(t_w) or np.any(t_f != t_w):
-        raise BadInput("accelerometer and gyro time stamps differ", root / "processed_log/IMU")
+    folder = root / "processed_log/IMU"
+    t_f, f_src = read_signal(folder / "accelerometer", 3)
+    t_w, w_src = read_signal(folder / gyro, 3)
+    t_src, f_src, w_src, gyro_gaps = _gyro_on_accel_clock(t_f, f_src, t_w, w_src, folder)
     C = C_b_src(IMU_AXES)
-    gaps = find_gaps(t_f)
-    t, dtheta = rates_to_increments(t_f, w_src @ C.T, order=order, gaps=gaps)
-    _, dvel = rates_to_increments(t_f, f_src @ C.T, order=order, gaps=gaps)
-    return ImuData(t, dtheta, dvel), gaps
+    gaps = find_gaps(t_src)
+    t, dtheta = rates_to_increments(t_src, w_src @ C.T, order=order, gaps=gaps)
+    _, dvel = rates_to_increments(t_src, f_src @ C.T, order=order, gaps=gaps)
+    return ImuData(t, dtheta, dvel), gaps, gyro_gaps
 
 
 def _truth(root):
@@ -123,7 +141,7 @@ def import_comma2k19(source, *, gyro="gyro", order=2, name=None) -> Bundle:
     root = existing_dir(source, "comma2k19 segment folder")
     if gyro not in ("gyro", "gyro_uncalibrated"):
         raise BadInput(f"gyro must be 'gyro' or 'gyro_uncalibrated', got {gyro!r}")
-    imu, gaps = _imu(root, gyro, order)
+    imu, gaps, gyro_gaps = _imu(root, gyro, order)
     t_can, v_can = read_signal(root / "processed_log/CAN/speed", 1)
     truth, gps = _truth(root)
     meta = {
@@ -146,4 +164,8 @@ def import_comma2k19(source, *, gyro="gyro", order=2, name=None) -> Bundle:
         meta["truth"]["gps_tow_first_s"] = float(gps[0, 1])
     if len(gaps):
         meta["gaps"] = {"imu": gaps.as_list(), "threshold_s": gaps.threshold_s}
+    if gyro_gaps is not None:
+        meta["source"]["gyro_clock"] = "own clock, interpolated to the accelerometer's"
+        if len(gyro_gaps):
+            meta.setdefault("gaps", {})["gyro"] = gyro_gaps.as_list()
     return Bundle(imu=imu, meta=meta, odometer=SpeedData(t_can, v=v_can[:, 0]), truth=truth)
