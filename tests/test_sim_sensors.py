@@ -6,7 +6,8 @@ from inmotion.core import rotations
 from inmotion.sim import simulate, simulate_truth
 from inmotion.sim.imu_errors import DEG_H, DEG_SQRT_H, UG, apply_imu_errors, draw_imu_errors
 from inmotion.sim.scenario import Imu
-from inmotion.sim.sensors import markov, mounting_C_mb
+from inmotion.sim.random_processes import markov
+from inmotion.sim.sensors import mounting_C_mb
 
 ARCMIN = np.pi / 180 / 60
 
@@ -149,3 +150,33 @@ def test_ldv_distance_and_baro_statistics():
     n = len(e)
     assert e.mean() == pytest.approx(3.0, abs=4 * 2.0 / np.sqrt(n))
     assert e.std() == pytest.approx(2.0, rel=4 / np.sqrt(2 * n))
+
+
+def test_imu_markov_bias_has_its_sigma_and_correlation():
+    """Bias instability: per-row bias recovered from the increments of a still IMU."""
+    spec = Imu.model_validate({"gyro": {"drift_markov_deg_h": 0.01, "drift_markov_tau_s": 100.0},
+                               "accel": {"bias_markov_ug": 30.0, "bias_markov_tau_s": 50.0}})
+    rng = np.random.default_rng(9)
+    err = draw_imu_errors(spec, rng)
+    n, dt = 400_000, 0.01
+    z = np.zeros((n, 3))
+    g, a = apply_imu_errors(z, z, dt, err, rng)
+    for x, sigma, tau in ((g / dt / DEG_H, 0.01, 100.0), (a / dt / UG, 30.0, 50.0)):
+        n_eff = n * dt / (2 * tau) * 3                     # three independent axes
+        assert x.std() == pytest.approx(sigma, rel=4 / np.sqrt(n_eff))
+        lag = int(tau / dt)
+        rho = np.mean(x[:-lag] * x[lag:]) / x.var()
+        assert rho == pytest.approx(np.exp(-1.0), abs=4 / np.sqrt(n_eff))
+
+
+def test_quadrature_converged_with_disturbances():
+    """Default nodes against 8 nodes on a drive with slips, jumps and fast vibration."""
+    d = _drive({}, disturbances={
+        "side_slips": [{"t_s": 8.0, "duration_s": 1.5, "speed_m_s": 0.5}],
+        "jumps": [{"t_s": 12.0, "duration_s": 1.5, "height_m": 0.05}],
+        "vibration": [{"start_s": 0.0, "end_s": 6.0, "frequency_hz": 25.0,
+                       "angular_amplitude_arcsec": 10.0, "linear_amplitude_mm": 0.02}]})
+    _, _, a = simulate_truth(d)
+    _, _, b = simulate_truth(dict(d, quadrature_nodes=8))
+    assert np.abs(a.dtheta - b.dtheta).max() < 1e-15
+    assert np.abs(a.dvel - b.dvel).max() < 1e-13

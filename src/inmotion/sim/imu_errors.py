@@ -3,10 +3,11 @@ misalignments, applied to exact increments.
 
 For each row ``k`` of length ``dt``:
 
-``dtheta_meas = (I + S_g + M_g) dtheta_true + eps dt + sigma_g sqrt(dt) w``,
-``dvel_meas   = (I + S_a + M_a) dvel_true   + nabla dt + sigma_a sqrt(dt) w``,
+``dtheta_meas = (I + S_g + M_g) dtheta_true + (eps + eps_M(t_k)) dt + sigma_g sqrt(dt) w``,
+``dvel_meas   = (I + S_a + M_a) dvel_true   + (nabla + nabla_M(t_k)) dt + sigma_a sqrt(dt) w``,
 
-with ``w`` standard normal (independent per row and axis), ``S = diag(scale factors)`` and ``M``
+with ``eps_M``, ``nabla_M`` optional first-order Markov processes per axis (bias instability,
+:mod:`inmotion.sim.random_processes`, held over each row), ``w`` standard normal (independent per row and axis), ``S = diag(scale factors)`` and ``M``
 the misalignment: from 3 values ``a`` a small rotation ``M = -[a x]`` (the triad turned by ``a``:
 it measures ``(I - [a x]) v``), from 6 values the non-orthogonality matrix with off-diagonal
 entries ``[xy, xz, yx, yz, zx, zy]`` (row = sensing axis). ``sigma_g`` is the angle random walk
@@ -25,6 +26,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..core import earth, rotations
+from .random_processes import markov
 
 __all__ = ["ImuErrors", "draw_imu_errors", "apply_imu_errors"]
 
@@ -45,6 +47,8 @@ class ImuErrors:
     vrw: float
     T_g: np.ndarray
     T_a: np.ndarray
+    eps_markov: tuple = (0.0, 1.0)     #: (sigma [rad/s], tau [s])
+    nabla_markov: tuple = (0.0, 1.0)   #: (sigma [m/s^2], tau [s])
 
     def to_meta(self) -> dict:
         """The drawn values in human units (for meta.yaml)."""
@@ -90,7 +94,9 @@ def draw_imu_errors(spec, rng: np.random.Generator) -> ImuErrors:
                      nabla=_draw(a.bias_ug, rnd, rng) * UG,
                      arw=g.arw_deg_sqrt_h * DEG_SQRT_H, vrw=vrw,
                      T_g=_error_matrix(g.scale_factor_ppm, g.misalignment_arcsec, rnd, rng),
-                     T_a=_error_matrix(a.scale_factor_ppm, a.misalignment_arcsec, rnd, rng))
+                     T_a=_error_matrix(a.scale_factor_ppm, a.misalignment_arcsec, rnd, rng),
+                     eps_markov=(g.drift_markov_deg_h * DEG_H, g.drift_markov_tau_s),
+                     nabla_markov=(a.bias_markov_ug * UG, a.bias_markov_tau_s))
 
 
 def apply_imu_errors(dtheta, dvel, dt, err: ImuErrors, rng: np.random.Generator):
@@ -102,4 +108,7 @@ def apply_imu_errors(dtheta, dvel, dt, err: ImuErrors, rng: np.random.Generator)
         out_g += err.arw * np.sqrt(dt) * rng.standard_normal((n, 3))
     if err.vrw > 0:
         out_a += err.vrw * np.sqrt(dt) * rng.standard_normal((n, 3))
+    for out, (sigma, tau) in ((out_g, err.eps_markov), (out_a, err.nabla_markov)):
+        if sigma > 0:
+            out += markov(n, dt, sigma, tau, rng, size=3) * dt
     return out_g, out_a

@@ -30,11 +30,10 @@ distance outputs at rows ``s, 2s, ...``, each ``ds`` covering the period that en
 from __future__ import annotations
 
 import numpy as np
-from scipy.signal import lfilter
-
 from ..core import rotations
 from ..core.bundle import BaroData, SpeedData
 from . import faults as faults_mod
+from .random_processes import markov
 from .trajectory import SensorGeometry
 
 __all__ = ["mounting_C_mb", "geometry", "simulate_speed_sensor", "simulate_baro", "markov"]
@@ -50,15 +49,6 @@ def mounting_C_mb(mounting_arcmin) -> np.ndarray:
 def geometry(spec) -> SensorGeometry:
     """The :class:`SensorGeometry` of a velocity-sensor spec."""
     return SensorGeometry(mounting_C_mb(spec.mounting_arcmin), np.asarray(spec.lever_arm_m, float))
-
-
-def markov(n, period_s, sigma, tau_s, rng):
-    """``n`` samples of a stationary first-order Gauss-Markov process (exact discretization)."""
-    phi = np.exp(-period_s / tau_s)
-    w = rng.standard_normal(n)
-    w[0] /= np.sqrt(1.0 - phi * phi)          # x_0 = sigma w_0: started stationary
-    drive = sigma * np.sqrt(1.0 - phi * phi) * w
-    return lfilter([1.0], [1.0, -phi], drive)
 
 
 def _step(imu_rate_hz, rate_hz):

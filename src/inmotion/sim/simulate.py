@@ -35,7 +35,7 @@ def simulate_truth(scenario):
     geos = {n: geometry(getattr(sc.sensors, n)) for n in SPEED_SENSORS
             if getattr(sc.sensors, n) is not None}
     traj = generate(prof, np.radians(sc.start.lat_deg), np.radians(sc.start.lon_deg),
-                    sc.start.h_m, rate, n_rows, nodes=sc.quadrature_nodes, sensors=geos)
+                    sc.start.h_m, rate, n_rows, nodes=sc.nodes, sensors=geos)
     return sc, prof, traj
 
 
