@@ -104,3 +104,20 @@ def test_read_missing_result(tmp_path):
     (tmp_path / "r").mkdir()
     with pytest.raises(BadInput, match="summary.json"):
         read_result(tmp_path / "r")
+
+
+def test_read_corrupt_solution(tmp_path):
+    a = make_solution(np.random.default_rng(5))
+    write_result(a, tmp_path / "r")
+    df = pd.read_csv(tmp_path / "r" / "solution.csv", dtype=str)
+    df.loc[7, "lat"] = "x"
+    df.to_csv(tmp_path / "r" / "solution.csv", index=False)
+    with pytest.raises(BadInput, match="'lat': value 'x'") as ei:
+        read_result(tmp_path / "r")
+    assert ei.value.row == 8 and ei.value.time == pytest.approx(a.t[7])
+    (tmp_path / "r" / "solution.csv").write_text("")
+    with pytest.raises(BadInput, match="solution.csv: cannot read CSV"):
+        read_result(tmp_path / "r")
+    (tmp_path / "r" / "summary.json").write_text("{not json")
+    with pytest.raises(BadInput, match="malformed JSON"):
+        read_result(tmp_path / "r")

@@ -253,8 +253,20 @@ def _info_text(info: dict) -> str:
     if info["faults"]:
         lines.append(f"  faults: {len(info['faults'])}")
         for f in info["faults"]:
-            lines.append(f"    {f}")
+            lines.append(f"    {_fault_text(f)}")
     return "\n".join(lines)
+
+
+def _fault_text(f) -> str:
+    """``odometer idle 200 .. 210 s (idle_speed_m_s=1)`` from a fault entry of meta.yaml."""
+    if not isinstance(f, dict):
+        return str(f)
+    rest = {k: v for k, v in f.items() if k not in ("sensor", "kind", "start_s", "end_s")}
+    span = (f"{f['start_s']:g} .. {f['end_s']:g} s"
+            if isinstance(f.get("start_s"), (int, float)) and isinstance(f.get("end_s"), (int, float))
+            else "")
+    extra = f" ({', '.join(f'{k}={v}' for k, v in rest.items())})" if rest else ""
+    return f"{f.get('sensor', '?')} {f.get('kind', '?')} {span}{extra}"
 
 
 @cli.command()

@@ -139,6 +139,16 @@ def _write_csv(df: pd.DataFrame, target: Path) -> None:
     atomic_write(target, lambda p: write_csv(df, p))
 
 
+def _read_csv(p: Path) -> pd.DataFrame:
+    try:
+        df = pd.read_csv(p)
+    except (pd.errors.ParserError, pd.errors.EmptyDataError, UnicodeDecodeError) as e:
+        raise BadInput(f"cannot read CSV: {str(e).strip().splitlines()[0]}", file=p) from None
+    if len(df) == 0:
+        raise BadInput("no data rows", file=p)
+    return df
+
+
 def read_summary(path) -> dict:
     """The parsed ``summary.json`` of a result folder."""
     p = Path(path) / "summary.json"
@@ -164,17 +174,19 @@ def read_result(path) -> Solution:
     p = folder / "solution.csv"
     if not p.is_file():
         raise BadInput("missing solution.csv", file=p)
-    df = pd.read_csv(p)
+    df = _read_csv(p)
     missing = [c for c in SOLUTION_COLUMNS if c not in df.columns]
     if missing:
         raise BadInput(f"missing columns {', '.join(missing)}", file=p)
-    vals = df[list(SOLUTION_COLUMNS)].to_numpy(dtype=float)
+    vals = df[list(SOLUTION_COLUMNS)].apply(pd.to_numeric, errors="coerce").to_numpy(float)
     bad = ~np.isfinite(vals).all(axis=1)
     if bad.any():
         i = int(np.argmax(bad))
-        raise BadInput("non-finite value in the solution", file=p, row=i + 1, time=vals[i, 0])
-    sigma = {c[len("sigma_"):]: df[c].to_numpy(dtype=float) / SIGMA_UNITS.get(c[6:], 1.0)
-             for c in df.columns if c.startswith("sigma_")}
+        col = SOLUTION_COLUMNS[int(np.argmax(~np.isfinite(vals[i])))]
+        raise BadInput(f"column {col!r}: value {df[col].iloc[i]!r} is not a finite number",
+                       file=p, row=i + 1, time=vals[i, 0] if np.isfinite(vals[i, 0]) else None)
+    sigma = {c[len("sigma_"):]: pd.to_numeric(df[c], errors="coerce").to_numpy(float)
+             / SIGMA_UNITS.get(c[6:], 1.0) for c in df.columns if c.startswith("sigma_")}
     states, units = _read_states(folder, summary.get("states") or {}, len(df))
     info = dict(summary.get("info") or {})
     for k in ("method", "config", "timing", "errors"):
@@ -193,13 +205,13 @@ def _read_states(folder: Path, smap: dict, n: int):
     p = folder / "states.csv"
     if not p.is_file():
         raise BadInput("missing states.csv that summary.json lists", file=p)
-    df = pd.read_csv(p)
+    df = _read_csv(p)
     if len(df) != n:
         raise BadInput(f"{len(df)} rows but solution.csv has {n}", file=p)
     states, units = {}, {}
     for name, s in smap.items():
         if s["column"] not in df.columns:
             raise BadInput(f"missing column {s['column']}", file=p)
-        states[name] = df[s["column"]].to_numpy(dtype=float) / s["scale"]
+        states[name] = pd.to_numeric(df[s["column"]], errors="coerce").to_numpy(float) / s["scale"]
         units[name] = StateUnit(s["unit"], s["scale"])
     return states, units
