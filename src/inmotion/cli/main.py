@@ -15,7 +15,7 @@ has it, else meta), ``--init-error 'pitch=1deg,roll=1deg,yaw=30arcmin,vE=0.1m/s,
 (angles in deg, arcmin, arcsec, rad or mrad; velocities in m/s; positions north/east/up in m),
 ``--start`` / ``--end`` [s], ``--mode M`` (sets the configuration field ``mode``) and
 ``--set key=value`` (any configuration field; the value is read as YAML, so ``--set
-out_stride=10`` gives an int and ``--set mounting_deg=[0,0.1,0]`` a list).
+out_stride=10`` gives an int and ``--set mounting_arcmin=[3,0,-4]`` a list).
 
 Global options ``--quiet`` (no progress, no notes), ``--json`` (print the command's summary as
 JSON on stdout), ``--debug`` (tracebacks on internal failures). Exit status 0 on success, 2 on
@@ -109,7 +109,7 @@ def _progress(ctx, desc: str):
         yield None
         return
     from tqdm import tqdm
-    bar = tqdm(total=1000, desc=desc, file=sys.stderr, leave=False,
+    bar = tqdm(total=1000, desc=desc, file=sys.stderr, leave=False, disable=None,  # tty only
                bar_format="{desc}: {percentage:3.0f}%|{bar}| {elapsed}<{remaining}")
 
     def progress(fraction):
@@ -122,12 +122,15 @@ def _progress(ctx, desc: str):
 
 def _read_bundle(ctx, path):
     """Read a bundle, turning gap warnings into notes on stderr."""
-    from ..io.bundle import read_bundle
+    from ..io.bundle import BundleGapWarning, read_bundle
     with warnings.catch_warnings(record=True) as caught:
-        warnings.simplefilter("always")
+        warnings.simplefilter("always", BundleGapWarning)
         bundle = read_bundle(path)
     for w in caught:
-        _note(ctx, f"warning: {w.message}")
+        if issubclass(w.category, BundleGapWarning):
+            _note(ctx, f"warning: {w.message}")
+        else:
+            warnings.warn_explicit(w.message, w.category, w.filename, w.lineno)
     return bundle
 
 
