@@ -92,6 +92,9 @@ class _SpeedOnEpochs:
         ts = speed.t
         if speed.ds is not None:
             self.dist = np.concatenate([[0.0], np.cumsum(speed.ds[1:])])
+            if speed.v is None:
+                self.mid_t = 0.5 * (ts[1:] + ts[:-1])
+                self.mean_v = speed.ds[1:] / np.diff(ts)
         else:
             self.dist = np.concatenate(
                 [[0.0], np.cumsum(0.5 * (speed.v[1:] + speed.v[:-1]) * np.diff(ts))])
@@ -105,9 +108,8 @@ class _SpeedOnEpochs:
         ds = np.diff(np.interp(t, ts, self.dist))
         if sp.v is not None:
             v = np.interp(t[1:], ts, sp.v)
-        else:                               # the speed of the sensor interval holding t
-            j = np.clip(np.searchsorted(ts, t[1:], side="left"), 1, len(ts) - 1)
-            v = sp.ds[j] / (ts[j] - ts[j - 1])
+        else:   # interval mean speeds, placed at the interval midpoints, interpolated
+            v = np.interp(t[1:], self.mid_t, self.mean_v)
         uncovered = (t[:-1] < ts[0] - 1e-9) | (t[1:] > ts[-1] + 1e-9)
         ds[uncovered] = 0.0
         v[uncovered] = 0.0
@@ -137,7 +139,9 @@ def speed_on_epochs(speed: SpeedData, t: np.ndarray, max_gap: float | None = Non
     Returns
     -------
     ds : (M,) m, distance over each IMU interval (0 where not covered by the sensor)
-    v : (M,) m/s, speed at each interval's end (0 where not covered)
+    v : (M,) m/s, speed at each interval's end (0 where not covered): ``v`` interpolated, or
+        for a ``ds``-only sensor its interval mean speeds ``ds / dt`` placed at the interval
+        midpoints and interpolated (second order; held in the last half interval)
     uncovered : (M,) bool, intervals not (entirely) inside the sensor's span
     in_gap : (M,) bool, intervals that overlap a sensor gap (distance interpolated across it)
     """
