@@ -121,3 +121,15 @@ def test_read_corrupt_solution(tmp_path):
     (tmp_path / "r" / "summary.json").write_text("{not json")
     with pytest.raises(BadInput, match="malformed JSON"):
         read_result(tmp_path / "r")
+
+
+def test_rewrite_removes_stale_files(tmp_path):
+    tr = straight_truth(n=101, dt=1.0)
+    a = make_solution(np.random.default_rng(6), n=101)
+    a.t = tr.t
+    write_result(a, tmp_path / "r", truth=tr)
+    assert (tmp_path / "r" / "errors.csv").exists() and (tmp_path / "r" / "states.csv").exists()
+    write_result(as_solution(tr), tmp_path / "r")          # no truth, no states
+    assert not (tmp_path / "r" / "errors.csv").exists()
+    assert not (tmp_path / "r" / "states.csv").exists()
+    assert read_result(tmp_path / "r").states == {}

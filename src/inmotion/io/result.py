@@ -16,7 +16,9 @@
 
 Every file is written to a temporary file in the folder and renamed into place, solution
 first and ``summary.json`` last: a crash never leaves a half-written file under its real name
-and never loses files already written.
+and never loses files already written. Rewriting a folder first removes its ``summary.json``
+(a folder without one is an unfinished run) and at the end any ``states.csv`` /
+``errors.csv`` of an earlier run that this one does not produce.
 """
 from __future__ import annotations
 
@@ -92,12 +94,18 @@ def write_result(solution: Solution, path, truth: Truth | None = None,
         raise BadInput("the solution has no epochs; nothing to write")
     folder = Path(path)
     folder.mkdir(parents=True, exist_ok=True)
+    # rewriting a folder: it stops looking finished until the new summary lands
+    (folder / "summary.json").unlink(missing_ok=True)
     _write_csv(_solution_frame(solution), folder / "solution.csv")
     states = _state_columns(solution)
     if states:
         df = pd.DataFrame({"t": solution.t, **{s["column"]: np.asarray(solution.states[n]) *
                                                 s["scale"] for n, s in states.items()}})
         _write_csv(df, folder / "states.csv")
+    else:
+        (folder / "states.csv").unlink(missing_ok=True)
+    if truth is None:
+        (folder / "errors.csv").unlink(missing_ok=True)
     info = dict(solution.info)
     summary = {"method": info.pop("method", None), "config": info.pop("config", None),
                "timing": info.pop("timing", {}), "epochs": len(solution),
