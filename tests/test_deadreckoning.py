@@ -242,3 +242,9 @@ def test_bad_input_messages(north_line):
     dr = DeadReckoner(_init(d))
     with pytest.raises(BadInput, match="same number of rows"):
         dr.run(d["dtheta"][1:5], d["t"][1:5], np.zeros(3), np.zeros(4))
+    with pytest.raises(BadInput, match=r"speed, row 2, t=0\.2 s: ds is not finite"):
+        dr.run(d["dtheta"][1:5], d["t"][1:5], np.array([0.0, np.nan, 0.0, 0.0]), np.zeros(4))
+    dth = d["dtheta"][:20].copy()
+    dth[7, 2] = np.inf
+    with pytest.raises(BadInput, match=r"imu, row 8, t=0\.7 s: dtheta is not finite"):
+        dead_reckon(ImuData(d["t"][:20], dth, d["dvel"][:20]), good, _init(d))

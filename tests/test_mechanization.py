@@ -305,3 +305,39 @@ def test_bad_input_messages(drive):
         nav.run(d["dtheta"][1:10], d["dvel"][1:9], d["t"][1:10])
     with pytest.raises(BadInput, match="h_baro has 3 rows"):
         nav.run(d["dtheta"][1:10], d["dvel"][1:10], d["t"][1:10], h_baro=np.zeros(3))
+
+
+def test_bad_values_and_baro(drive):
+    d = drive
+    dth = d["dtheta"][:30].copy()
+    dth[12, 1] = np.nan
+    imu = ImuData(d["t"][:30], dth, d["dvel"][:30])
+    with pytest.raises(BadInput, match=r"imu, row 13, t=0\.6 s: dtheta is not finite"):
+        strapdown(imu, _init(d))
+    imu = ImuData(d["t"][:30], d["dtheta"][:30], d["dvel"][:30])
+    with pytest.raises(BadInput, match="baro: barometer damping needs at least 2 samples"):
+        strapdown(imu, _init(d), BaroData([0.0], [400.0]), damping="baro")
+    with pytest.raises(BadInput, match=r"baro, row 3, t=2 s: h is not finite"):
+        strapdown(imu, _init(d), BaroData([0.0, 1.0, 2.0], [400.0, 400.0, np.inf]),
+                  damping="baro")
+    with pytest.raises(BadInput, match=r"baro, row 3, t=1 s: time not strictly increasing"):
+        strapdown(imu, _init(d), BaroData([0.0, 1.0, 1.0], [400.0] * 3), damping="baro")
+
+
+def test_baro_is_not_used_outside_its_span_or_in_gaps():
+    """Baro from 10 s to 20 s and 60 s to 70 s (a 40 s gap), IMU at rest 0..100 s with a 2 m
+    height error: damped only while the baro is there; never pulled towards an extrapolation."""
+    lat, h = 0.3, 100.0
+    imu = stationary_imu(lat, h, [0, 0, 0], 0.1, 100.0)
+    tb = np.concatenate([np.arange(10.0, 20.01, 1.0), np.arange(60.0, 70.01, 1.0)])
+    init = NavState(0.0, lat, 0.0, h + 2.0, [0, 0, 0], [1, 0, 0, 0])
+    sol = strapdown(imu, init, BaroData(tb, np.full(len(tb), h)), damping="baro", baro_tau=2.0)
+    err = sol.h - h
+    free = run_at_rest(lat, h, [0, 0, 0], 0.1, 100.0, dh0=2.0)[0].h - h
+    before = sol.t < 10.0
+    assert np.array_equal(err[before], free[before])   # no baro yet: the free channel
+    k20, k60 = np.searchsorted(sol.t, [20.0, 60.0])
+    assert abs(err[k20]) < 0.2                          # pulled in while the baro was there
+    gap = (sol.t > 20.05) & (sol.t < 60.0)
+    slope = np.polyfit(sol.t[gap], err[gap], 1)[0]
+    assert abs(slope - sol.vel_n[k20 + 1, 2]) < 1e-3    # in the gap: coasting, no damping

@@ -36,8 +36,8 @@ import numpy as np
 
 from . import _kernels as K
 from .bundle import ImuData, SpeedData
-from .mechanization import (CHUNK_ROWS, _correct, _first_row, _intervals, _SolutionBuilder,
-                            _state_vector)
+from .mechanization import (CHUNK_ROWS, _check_finite, _correct, _first_row, _intervals,
+                            _SolutionBuilder, _state_vector)
 from .solution import NavState, Solution
 from ..errors import BadInput
 
@@ -169,6 +169,7 @@ class DeadReckoner:
         self._x = _state_vector(init)
         self._mem = K.new_memory()
         self.t = float(init.t)
+        self.rows = 0           #: rows processed so far (error messages count from here)
 
     def run(self, dtheta, t, ds, v, out_stride: int = 0):
         """Advance over M rows: gyro increments ``dtheta`` (M, 3) [rad] over the intervals
@@ -182,7 +183,10 @@ class DeadReckoner:
         if not (len(dtheta) == len(t) == len(ds) == len(v)):
             raise BadInput(f"dead-reckoning chunk: dtheta ({len(dtheta)}), t ({len(t)}), "
                            f"ds ({len(ds)}) and v ({len(v)}) must have the same number of rows")
-        dt = _intervals(t, self.t, "imu")
+        dt = _intervals(t, self.t, "imu", self.rows)
+        _check_finite(dtheta, t, "dtheta", "imu", self.rows)
+        _check_finite(ds, t, "ds", "speed", self.rows)
+        _check_finite(v, t, "v", "speed", self.rows)
         n_max = len(t) // out_stride + 1 if out_stride > 0 else 0
         out_x = np.empty((n_max, K.NX))
         out_rows = np.empty(n_max, dtype=np.int64)
@@ -190,6 +194,7 @@ class DeadReckoner:
                      int(out_stride), out_rows, out_x)
         if len(t):
             self.t = float(t[-1])
+        self.rows += len(t)
         if out_stride > 0:
             return t[out_rows[:n]], out_x[:n]
         return None
@@ -244,6 +249,7 @@ def dead_reckon(imu: ImuData, speed: SpeedData, init: NavState, *, C_bm=None,
     k0 = _first_row(imu.t, init.t)
     resample = _SpeedOnEpochs(speed, max_gap)
     dr = DeadReckoner(init, C_bm=C_bm, lever_arm_b=lever_arm_b, scale=scale)
+    dr.rows = k0                # error messages give the row of the whole log
     out = _SolutionBuilder(len(imu.t) - k0, int(out_stride), init.t, dr.x)
     n_uncovered, n_gap = 0, 0
     for a in range(k0, len(imu.t), CHUNK_ROWS):        # chunks: temporaries stay small

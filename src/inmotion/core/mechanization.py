@@ -79,14 +79,37 @@ def _check_rows(dtheta, dvel, t):
     return dtheta, dvel, t
 
 
-def _intervals(t, t_prev, what):
-    """Interval lengths ``t[k] - t[k-1]`` [s] with ``t[-1] = t_prev``; must be > 0 and finite."""
+def _check_finite(arr, t, name, what, row0=0):
+    """BadInput naming the first row of ``arr`` (rows = samples) that holds NaN or inf."""
+    ok = np.isfinite(arr) if arr.ndim == 1 else np.isfinite(arr).all(axis=1)
+    if not ok.all():
+        k = int(np.flatnonzero(~ok)[0])
+        raise BadInput(f"{name} is not finite ({arr[k]})", file=what, row=row0 + k + 1,
+                       time=float(t[k]))
+
+
+def _check_baro(baro: BaroData):
+    if len(baro.t) < 2:
+        raise BadInput(f"barometer damping needs at least 2 samples, got {len(baro.t)}",
+                       file="baro")
+    _check_finite(baro.t, baro.t, "t", "baro")
+    _check_finite(baro.h, baro.t, "h", "baro")
+    bad = np.flatnonzero(~(np.diff(baro.t) > 0))
+    if bad.size:
+        k = int(bad[0]) + 1
+        raise BadInput(f"time not strictly increasing (previous t={baro.t[k - 1]:.6g} s)",
+                       file="baro", row=k + 1, time=float(baro.t[k]))
+
+
+def _intervals(t, t_prev, what, row0=0):
+    """Interval lengths ``t[k] - t[k-1]`` [s] with ``t[-1] = t_prev``; must be > 0 and finite.
+    ``row0`` rows came before ``t`` (for the row number in the message)."""
     dt = np.diff(t, prepend=t_prev)
     bad = np.flatnonzero(~(dt > 0) | ~np.isfinite(dt))
     if bad.size:
         k = int(bad[0])
         raise BadInput(f"time not strictly increasing (previous t={t_prev if k == 0 else t[k-1]:.6g} s)",
-                       file=what, row=k + 1, time=float(t[k]))
+                       file=what, row=row0 + k + 1, time=float(t[k]))
     return dt
 
 
@@ -107,6 +130,7 @@ class Strapdown:
         self._x = _state_vector(init)
         self._mem = K.new_memory()
         self.t = float(init.t)
+        self.rows = 0           #: rows processed so far (error messages count from here)
         self.k_h, self.k_v = baro_gains(baro_tau, init.lat)
 
     # -- running
@@ -119,7 +143,9 @@ class Strapdown:
         rows of the kernel state vector ``[lat, lon, h, vE, vN, vU, q0, q1, q2, q3]``.
         """
         dtheta, dvel, t = _check_rows(dtheta, dvel, t)
-        dt = _intervals(t, self.t, "imu")
+        dt = _intervals(t, self.t, "imu", self.rows)
+        _check_finite(dtheta, t, "dtheta", "imu", self.rows)
+        _check_finite(dvel, t, "dvel", "imu", self.rows)
         if h_baro is None:
             h_ref = np.full(len(t), np.nan)
         else:
@@ -133,6 +159,7 @@ class Strapdown:
                        int(out_stride), out_rows, out_x)
         if len(t):
             self.t = float(t[-1])
+        self.rows += len(t)
         if out_stride > 0:
             return t[out_rows[:n]], out_x[:n]
         return None
@@ -270,9 +297,11 @@ def strapdown(imu: ImuData, init: NavState, baro: BaroData | None = None, *,
         raise BadInput(f"out_stride must be >= 1, got {out_stride}")
     k0 = _first_row(imu.t, init.t)
     max_gap = np.inf
-    if damping == "baro" and len(baro.t) > 1:
+    if damping == "baro":
+        _check_baro(baro)
         max_gap = 5.0 * float(np.median(np.diff(baro.t)))
     nav = Strapdown(init, baro_tau=baro_tau)
+    nav.rows = k0               # error messages give the row of the whole log
     out = _SolutionBuilder(len(imu.t) - k0, int(out_stride), init.t, nav.x)
     for a in range(k0, len(imu.t), CHUNK_ROWS):        # chunks: temporaries stay small
         b = min(a + CHUNK_ROWS, len(imu.t))
