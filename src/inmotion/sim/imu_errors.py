@@ -99,16 +99,27 @@ def draw_imu_errors(spec, rng: np.random.Generator) -> ImuErrors:
                      nabla_markov=(a.bias_markov_ug * UG, a.bias_markov_tau_s))
 
 
-def apply_imu_errors(dtheta, dvel, dt, err: ImuErrors, rng: np.random.Generator):
-    """Measured increments (new arrays) from the true ones (N, 3), row length ``dt`` [s]."""
+def apply_imu_errors(dtheta, dvel, dt, err: ImuErrors, rng: np.random.Generator, *,
+                     in_place=False):
+    """Measured increments from the true ones (N, 3), row length ``dt`` [s].
+
+    New arrays, or with ``in_place=True`` the given arrays overwritten (no copy of the log).
+    """
     n = len(dtheta)
-    out_g = dtheta @ err.T_g.T + err.eps * dt
-    out_a = dvel @ err.T_a.T + err.nabla * dt
+    I = np.eye(3)
+    if not in_place:
+        dtheta, dvel = np.array(dtheta, dtype=float), np.array(dvel, dtype=float)
+    if not np.array_equal(err.T_g, I):
+        dtheta[:] = dtheta @ err.T_g.T
+    if not np.array_equal(err.T_a, I):
+        dvel[:] = dvel @ err.T_a.T
+    dtheta += err.eps * dt
+    dvel += err.nabla * dt
     if err.arw > 0:
-        out_g += err.arw * np.sqrt(dt) * rng.standard_normal((n, 3))
+        dtheta += err.arw * np.sqrt(dt) * rng.standard_normal((n, 3))
     if err.vrw > 0:
-        out_a += err.vrw * np.sqrt(dt) * rng.standard_normal((n, 3))
-    for out, (sigma, tau) in ((out_g, err.eps_markov), (out_a, err.nabla_markov)):
+        dvel += err.vrw * np.sqrt(dt) * rng.standard_normal((n, 3))
+    for out, (sigma, tau) in ((dtheta, err.eps_markov), (dvel, err.nabla_markov)):
         if sigma > 0:
             out += markov(n, dt, sigma, tau, rng, size=3) * dt
-    return out_g, out_a
+    return dtheta, dvel

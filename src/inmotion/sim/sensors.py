@@ -46,9 +46,11 @@ def mounting_C_mb(mounting_arcmin) -> np.ndarray:
     return rotations.dcm_from_rotvec(-np.asarray(mounting_arcmin, dtype=float) * ARCMIN)
 
 
-def geometry(spec) -> SensorGeometry:
-    """The :class:`SensorGeometry` of a velocity-sensor spec."""
-    return SensorGeometry(mounting_C_mb(spec.mounting_arcmin), np.asarray(spec.lever_arm_m, float))
+def geometry(spec, distance=True) -> SensorGeometry:
+    """The :class:`SensorGeometry` of a velocity-sensor spec (``distance``: the sensor
+    outputs distance increments, so the trajectory integrates its speed)."""
+    return SensorGeometry(mounting_C_mb(spec.mounting_arcmin),
+                          np.asarray(spec.lever_arm_m, float), distance)
 
 
 def _step(imu_rate_hz, rate_hz):

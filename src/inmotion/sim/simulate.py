@@ -32,11 +32,15 @@ def simulate_truth(scenario):
     prof = build_profile(sc)
     rate = sc.imu.rate_hz
     n_rows = int(round(prof.duration_s * rate)) + 1
-    geos = {n: geometry(getattr(sc.sensors, n)) for n in SPEED_SENSORS
-            if getattr(sc.sensors, n) is not None}
+    geos = {n: geometry(getattr(sc.sensors, n), distance=_distance_output(n, sc))
+            for n in SPEED_SENSORS if getattr(sc.sensors, n) is not None}
     traj = generate(prof, np.radians(sc.start.lat_deg), np.radians(sc.start.lon_deg),
                     sc.start.h_m, rate, n_rows, nodes=sc.nodes, sensors=geos)
     return sc, prof, traj
+
+
+def _distance_output(name, sc) -> bool:
+    return name == "odometer" or getattr(getattr(sc.sensors, name), "output", "speed") == "distance"
 
 
 def simulate(scenario, rng: np.random.Generator) -> Bundle:
@@ -57,7 +61,8 @@ def simulate(scenario, rng: np.random.Generator) -> Bundle:
     sc, prof, traj = simulate_truth(scenario)
     rate = sc.imu.rate_hz
     err = draw_imu_errors(sc.imu, rng)
-    dtheta, dvel = apply_imu_errors(traj.dtheta, traj.dvel, 1.0 / rate, err, rng)
+    dtheta, dvel = apply_imu_errors(traj.dtheta, traj.dvel, 1.0 / rate, err, rng,
+                                   in_place=True)     # traj is ours alone
     bundle = Bundle(ImuData(traj.t, dtheta, dvel),
                     truth=Truth(traj.t, traj.lat, traj.lon, traj.h, traj.vel_n, traj.euler))
     drawn = {"imu": err.to_meta()}
@@ -79,7 +84,7 @@ def _meta(sc, prof, traj, drawn) -> dict:
     for name in sc.present_sensors:
         spec = getattr(sc.sensors, name).model_dump()
         if name in SPEED_SENSORS:
-            spec["output"] = "distance" if name == "odometer" else spec.get("output", "speed")
+            spec["output"] = "distance" if _distance_output(name, sc) else "speed"
         sensors[name] = spec
     return {
         "name": sc.name,

@@ -45,10 +45,12 @@ CHUNK_ROWS = 8192
 @dataclass
 class SensorGeometry:
     """Where a velocity sensor sits: ``C_mb`` (= ``C_b^m``, takes b to the sensor frame m) and
-    ``lever_arm_b`` [m] from the IMU."""
+    ``lever_arm_b`` [m] from the IMU; ``distance``: its speed is integrated per row (for
+    distance outputs) instead of sampled at the rows' ends."""
 
     C_mb: np.ndarray
     lever_arm_b: np.ndarray
+    distance: bool = False
 
 
 @dataclass
@@ -56,8 +58,9 @@ class Trajectory:
     """Truth at the IMU times and exact, error-free IMU increments (all SI).
 
     ``sensor_speed[name]`` (N,) is the forward (m-frame y) component of the velocity over ground
-    of the point where sensor ``name`` sits, at ``t``; ``sensor_distance[name]`` (N,) its integral
-    over each row's interval ``(t_{k-1}, t_k]`` [m].
+    of the point where sensor ``name`` sits, at ``t`` (sensors with ``distance=False``);
+    ``sensor_distance[name]`` (N,) its integral over each row's interval ``(t_{k-1}, t_k]`` [m]
+    (sensors with ``distance=True``).
     """
 
     t: np.ndarray
@@ -148,7 +151,8 @@ def _allocate(t, sensors):
     n = len(t)
     z1, z3 = (lambda: np.empty(n)), (lambda: np.empty((n, 3)))
     return Trajectory(t, z1(), z1(), z1(), z3(), z3(), z3(), z3(),
-                      {k: z1() for k in sensors}, {k: z1() for k in sensors})
+                      {k: z1() for k, g in sensors.items() if not g.distance},
+                      {k: z1() for k, g in sensors.items() if g.distance})
 
 
 def _chunk(profile, out, k0, k1, dt, frac, wts, pos_prev, start, sensors):
@@ -186,10 +190,12 @@ def _chunk(profile, out, k0, k1, dt, frac, wts, pos_prev, start, sensors):
         web_g = omega_nb_b_from_euler(e_g, ed_g) + _mtv(C_g, wen_g)
         web_q = wnb_q + _mtv(C_q, wen_q)
         for name, geo in sensors.items():
-            u_g = _mv(geo.C_mb, vb_g + np.cross(web_g, geo.lever_arm_b))[:, 1]
-            u_q = _mv(geo.C_mb, vb_q + np.cross(web_q, geo.lever_arm_b))[..., 1]
-            out.sensor_speed[name][rows] = u_g[1:]
-            out.sensor_distance[name][rows] = np.sum(u_q * wts[None, :], axis=1) * dt
+            if geo.distance:
+                u_q = _mv(geo.C_mb, vb_q + np.cross(web_q, geo.lever_arm_b))[..., 1]
+                out.sensor_distance[name][rows] = np.sum(u_q * wts[None, :], axis=1) * dt
+            else:
+                u_g = _mv(geo.C_mb, vb_g[1:] + np.cross(web_g[1:], geo.lever_arm_b))[:, 1]
+                out.sensor_speed[name][rows] = u_g
     return lat_g[-1], lon_g[-1], h_g[-1]
 
 
