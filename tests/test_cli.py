@@ -349,3 +349,12 @@ def test_info_without_truth_uses_odometer(copy, bundle):
     assert info["distance_from"] == "odometer" and "truth" not in info["tables"]
     with_truth = run_json("info", bundle)          # error-free odometer, 1 mm pulses
     assert info["distance_m"] == pytest.approx(with_truth["distance_m"], abs=0.01)
+
+
+def test_parquet_bundle_gives_the_same_result(scenario_file, bundle, tmp_path):
+    r = invoke("simulate", scenario_file, "-o", tmp_path / "pq", "--seed", 3,
+               "--format", "parquet")
+    assert r.exit_code == 0 and (tmp_path / "pq" / "imu.parquet").is_file()
+    a = run_json("navigate", bundle, "-m", "dr", "-o", tmp_path / "ra")
+    b = run_json("navigate", tmp_path / "pq", "-m", "dr", "-o", tmp_path / "rb")
+    assert a["final"] == b["final"]          # same seed, exact round trips: identical runs
