@@ -358,3 +358,12 @@ def test_parquet_bundle_gives_the_same_result(scenario_file, bundle, tmp_path):
     a = run_json("navigate", bundle, "-m", "dr", "-o", tmp_path / "ra")
     b = run_json("navigate", tmp_path / "pq", "-m", "dr", "-o", tmp_path / "rb")
     assert a["final"] == b["final"]          # same seed, exact round trips: identical runs
+
+
+def test_imu_gap_listed_by_info_and_allowed_on_request(copy, tmp_path):
+    _edit(copy / "imu.csv", lambda df: df.drop(index=range(300, 320)))
+    info = run_json("info", copy)
+    (gap,) = info["tables"]["imu"]["gaps"]
+    assert gap["row"] == 301 and gap["duration_s"] == pytest.approx(0.21)
+    s = run_json("navigate", copy, "-m", "dr", "--allow-imu-gaps", "-o", tmp_path / "r")
+    assert s["epochs"] == 2001 - 20

@@ -15,7 +15,9 @@ has it, else meta), ``--init-error 'pitch=1deg,roll=1deg,yaw=30arcmin,vE=0.1m/s,
 (angles in deg, arcmin, arcsec, rad or mrad; velocities in m/s; positions north/east/up in m),
 ``--start`` / ``--end`` [s], ``--mode M`` (sets the configuration field ``mode``) and
 ``--set key=value`` (any configuration field; the value is read as YAML, so ``--set
-out_stride=10`` gives an int and ``--set mounting_arcmin=[3,0,-4]`` a list).
+out_stride=10`` gives an int and ``--set mounting_arcmin=[3,0,-4]`` a list),
+``--allow-imu-gaps`` (integrate across IMU gaps; by default a bundle with one is refused,
+see :mod:`inmotion.io.bundle`). ``info`` always reads IMU gaps and lists them.
 
 Global options ``--quiet`` (no progress, no notes), ``--json`` (print the command's summary as
 JSON on stdout), ``--debug`` (tracebacks on internal failures). Exit status 0 on success, 2 on
@@ -120,12 +122,12 @@ def _progress(ctx, desc: str):
         bar.close()
 
 
-def _read_bundle(ctx, path):
+def _read_bundle(ctx, path, allow_imu_gaps=False):
     """Read a bundle, turning gap warnings into notes on stderr."""
     from ..io.bundle import BundleGapWarning, read_bundle
     with warnings.catch_warnings(record=True) as caught:
         warnings.simplefilter("always", BundleGapWarning)
-        bundle = read_bundle(path)
+        bundle = read_bundle(path, allow_imu_gaps=allow_imu_gaps)
     for w in caught:
         if issubclass(w.category, BundleGapWarning):
             _note(ctx, f"warning: {w.message}")
@@ -278,7 +280,7 @@ def _fault_text(f) -> str:
 @click.pass_context
 def info(ctx, bundle, as_json):
     """Show what BUNDLE holds: duration, sensors and rates, distance, gaps, faults."""
-    b = _read_bundle(ctx, bundle)
+    b = _read_bundle(ctx, bundle, allow_imu_gaps=True)    # info reports IMU gaps, never fails
     data = _bundle_info(b)
     _emit(ctx, data, _info_text(data), as_json)
 
@@ -471,12 +473,12 @@ def run_method(ctx, bundle, spec, config, init_state, window):
 
 
 def _run_command(ctx, kind, bundle_path, method, config_file, output, init, init_error,
-                 start, end, mode, sets, as_json):
+                 start, end, mode, sets, as_json, allow_imu_gaps=False):
     from ..io.result import write_result
     spec = _spec(method, kind)
     config = build_config(spec, config_file, mode, sets)
     err = parse_init_error(init_error) if init_error else None
-    bundle = _read_bundle(ctx, bundle_path)
+    bundle = _read_bundle(ctx, bundle_path, allow_imu_gaps)
     if init is None:
         init = "truth" if bundle.truth is not None else "meta"
     state, init_desc = _initial_state(ctx, bundle, init, start, spec.needs_attitude)
@@ -534,6 +536,8 @@ def _method_options(f):
         click.option("--mode", default=None, help="Sets the configuration field 'mode'."),
         click.option("--set", "sets", multiple=True, metavar="KEY=VALUE",
                      help="Set a configuration field (repeatable)."),
+        click.option("--allow-imu-gaps", is_flag=True,
+                     help="Integrate across IMU gaps instead of refusing the bundle."),
         _json_option,
     ]
     for o in reversed(opts):
@@ -545,20 +549,20 @@ def _method_options(f):
 @_method_options
 @click.pass_context
 def align(ctx, bundle, method, config_file, output, init, init_error, start, end, mode, sets,
-          as_json):
+          allow_imu_gaps, as_json):
     """Run an alignment method on BUNDLE and write a result folder."""
     _run_command(ctx, "align", bundle, method, config_file, output, init, init_error, start, end,
-                 mode, sets, as_json)
+                 mode, sets, as_json, allow_imu_gaps)
 
 
 @cli.command()
 @_method_options
 @click.pass_context
 def navigate(ctx, bundle, method, config_file, output, init, init_error, start, end, mode, sets,
-             as_json):
+             allow_imu_gaps, as_json):
     """Run a navigation method on BUNDLE and write a result folder."""
     _run_command(ctx, "navigate", bundle, method, config_file, output, init, init_error, start,
-                 end, mode, sets, as_json)
+                 end, mode, sets, as_json, allow_imu_gaps)
 
 
 # --------------------------------------------------------------------------- evaluate
