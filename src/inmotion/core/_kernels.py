@@ -420,6 +420,31 @@ def dr_run(x, mem, dtheta, ds, v, dt, C_bm, l_b, out_stride, out_rows, out_x):
     return n_out
 
 
+# ---------------------------------------------------------------- input checks (cheap per chunk)
+@numba.njit(cache=True)
+def time_steps(t, t_prev, dt_out):
+    """``dt_out[k] = t[k] - t[k-1]`` with ``t[-1] = t_prev``; returns the first row whose step
+    is not a finite positive number, or -1."""
+    prev = t_prev
+    for k in range(t.shape[0]):
+        d = t[k] - prev
+        if not (d > 0.0 and d < math.inf):
+            return k
+        dt_out[k] = d
+        prev = t[k]
+    return -1
+
+
+@numba.njit(cache=True)
+def first_nonfinite_row(a):
+    """First row of the 2-D array ``a`` holding NaN or inf, or -1."""
+    for k in range(a.shape[0]):
+        for j in range(a.shape[1]):
+            if not math.isfinite(a[k, j]):
+                return k
+    return -1
+
+
 def new_memory() -> np.ndarray:
     """A fresh step memory (no previous increments, no older epoch)."""
     return np.zeros(NMEM)

@@ -37,7 +37,7 @@ import numpy as np
 from . import _kernels as K
 from .bundle import ImuData, SpeedData
 from .mechanization import (CHUNK_ROWS, _check_finite, _correct, _first_row, _intervals,
-                            _SolutionBuilder, _state_vector)
+                            _out_buffers, _SolutionBuilder, _state_vector)
 from .solution import NavState, Solution
 from ..errors import BadInput
 
@@ -187,9 +187,7 @@ class DeadReckoner:
         _check_finite(dtheta, t, "dtheta", "imu", self.rows)
         _check_finite(ds, t, "ds", "speed", self.rows)
         _check_finite(v, t, "v", "speed", self.rows)
-        n_max = len(t) // out_stride + 1 if out_stride > 0 else 0
-        out_x = np.empty((n_max, K.NX))
-        out_rows = np.empty(n_max, dtype=np.int64)
+        out_rows, out_x = _out_buffers(len(t), out_stride)
         n = K.dr_run(self._x, self._mem, dtheta, ds, v, dt, self.C_bm, self.l_b,
                      int(out_stride), out_rows, out_x)
         if len(t):

@@ -81,9 +81,8 @@ def _check_rows(dtheta, dvel, t):
 
 def _check_finite(arr, t, name, what, row0=0):
     """BadInput naming the first row of ``arr`` (rows = samples) that holds NaN or inf."""
-    ok = np.isfinite(arr) if arr.ndim == 1 else np.isfinite(arr).all(axis=1)
-    if not ok.all():
-        k = int(np.flatnonzero(~ok)[0])
+    k = K.first_nonfinite_row(arr if arr.ndim == 2 else arr.reshape(-1, 1))
+    if k >= 0:
         raise BadInput(f"{name} is not finite ({arr[k]})", file=what, row=row0 + k + 1,
                        time=float(t[k]))
 
@@ -104,13 +103,32 @@ def _check_baro(baro: BaroData):
 def _intervals(t, t_prev, what, row0=0):
     """Interval lengths ``t[k] - t[k-1]`` [s] with ``t[-1] = t_prev``; must be > 0 and finite.
     ``row0`` rows came before ``t`` (for the row number in the message)."""
-    dt = np.diff(t, prepend=t_prev)
-    bad = np.flatnonzero(~(dt > 0) | ~np.isfinite(dt))
-    if bad.size:
-        k = int(bad[0])
+    dt = np.empty(len(t))
+    k = K.time_steps(t, float(t_prev), dt)
+    if k >= 0:
         raise BadInput(f"time not strictly increasing (previous t={t_prev if k == 0 else t[k-1]:.6g} s)",
                        file=what, row=row0 + k + 1, time=float(t[k]))
     return dt
+
+
+_NAN = np.full(1024, np.nan)
+_NO_ROWS, _NO_X = np.empty(0, dtype=np.int64), np.empty((0, K.NX))
+
+
+def _nan_row(m):
+    """A read-only row of ``m`` NaNs (no reference height), reused between calls."""
+    global _NAN
+    if len(_NAN) < m:
+        _NAN = np.full(m, np.nan)
+    return _NAN[:m]
+
+
+def _out_buffers(m, out_stride):
+    """Output buffers for a chunk of ``m`` rows (shared empty ones when nothing is output)."""
+    if out_stride <= 0:
+        return _NO_ROWS, _NO_X
+    n_max = m // out_stride + 1
+    return np.empty(n_max, dtype=np.int64), np.empty((n_max, K.NX))
 
 
 class Strapdown:
@@ -147,14 +165,12 @@ class Strapdown:
         _check_finite(dtheta, t, "dtheta", "imu", self.rows)
         _check_finite(dvel, t, "dvel", "imu", self.rows)
         if h_baro is None:
-            h_ref = np.full(len(t), np.nan)
+            h_ref = _nan_row(len(t))
         else:
             h_ref = np.ascontiguousarray(h_baro, dtype=float).reshape(-1)
             if len(h_ref) != len(t):
                 raise BadInput(f"h_baro has {len(h_ref)} rows, the imu chunk {len(t)}")
-        n_max = len(t) // out_stride + 1 if out_stride > 0 else 0
-        out_x = np.empty((n_max, K.NX))
-        out_rows = np.empty(n_max, dtype=np.int64)
+        out_rows, out_x = _out_buffers(len(t), out_stride)
         n = K.sins_run(self._x, self._mem, dtheta, dvel, dt, h_ref, self.k_h, self.k_v,
                        int(out_stride), out_rows, out_x)
         if len(t):
