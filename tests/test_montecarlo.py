@@ -2,6 +2,7 @@
 failures recorded as results."""
 from __future__ import annotations
 
+import json
 import os
 import signal
 import subprocess
@@ -318,3 +319,79 @@ def test_unknown_method_fails_before_any_run(tmp_path):
     with pytest.raises(BadInput, match="unknown method 'no-such-method'"):
         run_campaign(sweep, tmp_path / "c", workers=1, quiet=True)
     assert not (tmp_path / "c" / "results").exists()
+
+
+# ------------------------------------------------------------------------------- real methods
+def short_drive_sweep(runs=2):
+    """Paper 004's 20 m/s drive cut to 20 s; pure SINS and dual-velocity IMADA."""
+    import yaml
+    from inmotion.sim.scenario import find_scenario
+    scenario = yaml.safe_load(Path(find_scenario("paper004_v20")).read_text())
+    scenario["segments"] = [{"kind": "cruise", "duration_s": 20.0}]
+    return load_sweep({"name": "real", "runs": runs, "seed": 21, "scenario": scenario,
+                       "init_error": "yaw=5deg", "grid": {"method": ["sins", "imada-dual"]}})
+
+
+def test_real_method_campaign_is_identical_on_1_worker_and_a_test_cluster(tmp_path, cluster):
+    sweep = short_drive_sweep()
+    one = run_campaign(sweep, tmp_path / "w1", workers=1, quiet=True)
+    ext = run_campaign(sweep, tmp_path / "ext", scheduler=cluster.scheduler_address, quiet=True)
+    assert (one["status"] == "ok").all(), one["error"].tolist()
+    results = [c for c in one.columns if c.startswith("errors.") or c.startswith("init_error.")]
+    assert len(results) > 30
+    pd.testing.assert_frame_equal(comparable(one).drop(columns="method_s"),
+                                  comparable(ext).drop(columns="method_s"))
+    alone = rerun(tmp_path / "ext", 1, 1)
+    row = one[(one.point_id == 1) & (one.run_index == 1)].iloc[0]
+    assert all(alone[c] == row[c] for c in results)
+    # pure SINS keeps the 5 deg heading error it starts with (20 s, 0.01 deg/h gyros)
+    sins = one[one["param.method"] == "sins"]
+    assert np.allclose(sins["errors.final.yaw_arcmin"], 300.0, atol=0.5)
+    assert np.allclose(sins["init_error.yaw_arcmin"], 300.0)
+    # the runs see different drives (sensor noise)
+    assert sins["errors.final.vE_m_s"].nunique() == len(sins)
+
+
+# ------------------------------------------------------------------------------- command line
+def test_montecarlo_command_runs_resumes_and_reports(tmp_path):
+    from click.testing import CliRunner
+    from inmotion.cli.main import cli
+    sweep = tmp_path / "sweep.yaml"
+    sweep.write_text(textwrap.dedent(f"""\
+        name: cli
+        run: {SYNTH}
+        runs: 4
+        seed: 2
+        grid: {{scale: [1.0, 2.0]}}
+        """))
+    out = tmp_path / "c"
+    args = ["montecarlo", str(sweep), "--workers", "1", "-o", str(out), "--json", "--quiet",
+            "--save-arrays"]
+    res = CliRunner().invoke(cli, args + ["--runs", "2"])
+    assert res.exit_code == 0, res.output
+    first = json.loads(res.output)
+    assert first["runs_done"] == 4 and Path(first["report"]).is_file()
+    res = CliRunner().invoke(cli, args)
+    assert res.exit_code == 2 and "--resume" in res.output
+    res = CliRunner().invoke(cli, args + ["--resume", "--no-report"])
+    assert res.exit_code == 0, res.output
+    summary = json.loads(res.output)
+    assert summary["runs_done"] == 8 and [p["runs"] for p in summary["points"]] == [4, 4]
+    df = read_results(out)
+    x = run_generator(2, 3).normal(0.0, 2.0, 64)
+    assert df[(df.point_id == 1) & (df.run_index == 3)]["mean"].iloc[0] == x.mean()
+
+
+@pytest.mark.parametrize("extra, message", [
+    (["--workers", "1", "--scheduler", "tcp://127.0.0.1:1"], "not both"),
+    (["--set", "novalue"], "expected key=value"),
+    (["--method", "no-such-method"], "unknown method"),
+    (["--init-error", "yaw=5furlongs"], "NAME=VALUEUNIT"),
+])
+def test_montecarlo_command_bad_input_exits_2(tmp_path, extra, message):
+    from click.testing import CliRunner
+    from inmotion.cli.main import cli
+    res = CliRunner().invoke(cli, ["montecarlo", "paper004_v20", "-o", str(tmp_path / "c"),
+                                   "--method", "sins", "--runs", "1", "--quiet", *extra])
+    assert res.exit_code == 2, res.output
+    assert message in res.output
