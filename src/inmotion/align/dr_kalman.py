@@ -85,7 +85,7 @@ class OdVelocityKfConfig(BaseModel):
     model_config = ConfigDict(extra="forbid")
     velocity_sensor: Optional[Literal["radar", "ldv", "odometer"]] = None
     filter_rate_hz: float = Field(10.0, gt=0)
-    measurement_rate_hz: float = Field(10.0, gt=0)
+    measurement_rate_hz: float = Field(2.0, gt=0)
     use_nhc: bool = True
     use_baro: bool = True
     nhc_mount_terms: bool = False
@@ -188,13 +188,20 @@ class _Gate:
         self.rejected = {}
         self.used = {}
 
-    def update(self, kf, name, z, H, r):
-        ok, _ = kf.update_sequential(z, H, r, self.thresholds[len(z)])
-        book = self.used if ok else self.rejected
-        book[name] = book.get(name, 0) + 1
-        self.used.setdefault(name, 0)
-        self.rejected.setdefault(name, 0)
-        return ok
+    def update(self, kf, groups, r):
+        """Update ``kf`` with ``groups`` = [(name, z, H), ...] in one kernel call."""
+        sizes = [len(z) for _, z, _ in groups]
+        acc, _ = kf.update_groups(np.concatenate([z for _, z, _ in groups]),
+                                  np.vstack([H for _, _, H in groups]),
+                                  np.concatenate([r[name] for name, _, _ in groups]),
+                                  sizes, [self.thresholds[m] for m in sizes])
+        for (name, _, _), ok in zip(groups, acc):
+            self.used.setdefault(name, 0)
+            self.rejected.setdefault(name, 0)
+            if ok:
+                self.used[name] += 1
+            else:
+                self.rejected[name] += 1
 
 
 def _rotate_small(phi, q):
@@ -303,8 +310,8 @@ class _AlignmentFilter:
             groups.append(("nhc", z, em.nhc_rows(lay, pt, with_mount=cfg.nhc_mount_terms)))
         if self.h_baro is not None and np.isfinite(self.h_baro[k]):
             groups.append(("baro", np.array([xs[2] - self.h_baro[k]]), em.height_rows(lay)))
-        for name, z, H in groups:
-            self.gate.update(kf, name, z, H, self._r[name])
+        if groups:
+            self.gate.update(kf, groups, self._r)
 
     def _feed_back(self):
         lay, x = self.lay, self.kf.x

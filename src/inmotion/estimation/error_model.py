@@ -46,9 +46,10 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
+import numba
 import numpy as np
 
-from ..core import earth
+from ..core import _kernels as K
 
 __all__ = ["LinPoint", "ProcessNoise", "ErrorModel", "transport_jacobians",
            "dr_velocity_rows", "euler_rows", "nhc_rows", "sensor_velocity_rows",
@@ -106,11 +107,13 @@ class ProcessNoise:
     lever_rw: float = 0.0
 
 
+@numba.njit(cache=True)
 def skew(v):
-    """``[v x]`` of one 3-vector (the hot-loop twin of :func:`inmotion.core.rotations.skew`)."""
+    """``[v x]`` of one 3-vector (the numba twin of :func:`inmotion.core.rotations.skew`)."""
     return np.array([[0.0, -v[2], v[1]], [v[2], 0.0, -v[0]], [-v[1], v[0], 0.0]])
 
 
+@numba.njit(cache=True)
 def transport_jacobians(lat, h, vel_n):
     """Rates and their Jacobians for the error equations.
 
@@ -123,12 +126,12 @@ def transport_jacobians(lat, h, vel_n):
         latitude is 1e-3 of the terms kept)
     Mpv : (3, 3) ``d p_dot / d v``;  Mpp : (3, 3) ``d p_dot / d p`` (paper 000 eq. 15-17)
     """
-    ve, vn, _ = vel_n
-    r_m, r_n = earth.radii(lat)
+    ve, vn = vel_n[0], vel_n[1]
+    r_m, r_n = K.radii(lat)
     rm, rn = r_m + h, r_n + h
     s, c = np.sin(lat), np.cos(lat)
     t, sec = s / c, 1.0 / c
-    w = earth.OMEGA_IE
+    w = K.OMEGA_IE
     w_ie = np.array([0.0, w * c, w * s])
     w_en = np.array([-vn / rm, ve / rn, ve * t / rn])
     Wie_p = np.array([[0.0, 0.0, 0.0], [-w * s, 0.0, 0.0], [w * c, 0.0, 0.0]])
@@ -143,6 +146,79 @@ def transport_jacobians(lat, h, vel_n):
     return w_ie, w_en, Wie_p, Wen_v, Wen_p, Mpv, Mpp
 
 
+#: block offsets handed to the kernels, in this order; -1 marks a block the layout lacks
+_KERNEL_BLOCKS = ("phi", "dv", "dp", "eps", "nabla", "phi_D", "dp_D", "mount", "dk")
+
+
+def _offsets(layout):
+    return tuple(layout[b].start if b in layout else -1 for b in _KERNEL_BLOCKS)
+
+
+@numba.njit(cache=True)
+def _put(M, r, c, B):
+    """``M[r:r+3, c:c+3] = B`` (3x3)."""
+    for i in range(3):
+        for j in range(3):
+            M[r + i, c + j] = B[i, j]
+
+
+@numba.njit(cache=True)
+def _dr_velocity_kernel(D, o_phiD, o_mount, o_dk, vel_n, C):
+    V = skew(vel_n)
+    if o_phiD >= 0:
+        _put(D, 0, o_phiD, V)
+    if o_mount >= 0:
+        _put(D, 0, o_mount, V @ C)
+    if o_dk >= 0:
+        for i in range(3):
+            D[i, o_dk] = vel_n[i]
+
+
+@numba.njit(cache=True)
+def _fill_F(F, offs, lat, h, vel_n, C, f_n, inv_tau_dk, dr_eps, grav_grad):
+    """The F of the module docstring on the blocks whose offsets ``offs`` are >= 0."""
+    o_phi, o_dv, o_dp, o_eps, o_nabla, o_phiD, o_dpD, o_mount, o_dk = offs
+    w_ie, w_en, Wie_p, Wen_v, Wen_p, Mpv, Mpp = transport_jacobians(lat, h, vel_n)
+    V = skew(vel_n)
+    # SINS attitude, velocity, position
+    _put(F, o_phi, o_phi, -skew(w_ie + w_en))
+    _put(F, o_phi, o_dv, Wen_v)
+    _put(F, o_phi, o_dp, Wie_p + Wen_p)
+    _put(F, o_dv, o_phi, skew(f_n))
+    _put(F, o_dv, o_dv, V @ Wen_v - skew(2.0 * w_ie + w_en))
+    _put(F, o_dv, o_dp, V @ (2.0 * Wie_p + Wen_p))
+    if grav_grad:
+        r_m, r_n = K.radii(lat)
+        F[o_dv + 2, o_dp + 2] += 2.0 * K.gravity(lat, h) / (np.sqrt(r_m * r_n) + h)
+    _put(F, o_dp, o_dv, Mpv)
+    _put(F, o_dp, o_dp, Mpp)
+    if o_eps >= 0:
+        _put(F, o_phi, o_eps, -C)
+    if o_nabla >= 0:
+        _put(F, o_dv, o_nabla, C)
+    # dead reckoning: dv_D = D x enters through the transport rate and the position rate
+    if o_phiD >= 0:
+        D = np.zeros((3, F.shape[1]))
+        _dr_velocity_kernel(D, o_phiD, o_mount, o_dk, vel_n, C)
+        A = Wen_v @ D
+        B = Mpv @ D
+        for i in range(3):
+            for j in range(F.shape[1]):
+                F[o_phiD + i, j] += A[i, j]
+                F[o_dpD + i, j] += B[i, j]
+        W = -skew(w_ie + w_en)
+        Pj = Wie_p + Wen_p
+        for i in range(3):
+            for j in range(3):
+                F[o_phiD + i, o_phiD + j] += W[i, j]
+                F[o_phiD + i, o_dpD + j] += Pj[i, j]
+                F[o_dpD + i, o_dpD + j] += Mpp[i, j]
+        if o_eps >= 0 and dr_eps:
+            _put(F, o_phiD, o_eps, -C)
+    if o_dk >= 0:
+        F[o_dk, o_dk] = -inv_tau_dk
+
+
 def dr_velocity_rows(layout, pt: LinPoint):
     """(3, n) matrix ``D`` with ``dv_D = D x``: paper 000 eq. 11-14.
 
@@ -150,13 +226,9 @@ def dr_velocity_rows(layout, pt: LinPoint):
     Blocks missing from ``layout`` contribute nothing.
     """
     D = np.zeros((3, layout.n))
-    V = skew(pt.vel_n)
-    if "phi_D" in layout:
-        D[:, layout["phi_D"]] = V
-    if "mount" in layout:
-        D[:, layout["mount"]] = V @ pt.C_nb
-    if "dk" in layout:
-        D[:, layout["dk"]] = pt.vel_n[:, None]
+    offs = _offsets(layout)
+    _dr_velocity_kernel(D, offs[5], offs[7], offs[8], np.asarray(pt.vel_n, dtype=float),
+                        np.ascontiguousarray(pt.C_nb, dtype=float))
     return D
 
 
@@ -166,10 +238,15 @@ class ErrorModel:
     Parameters
     ----------
     layout : Layout, must contain ``phi``, ``dv``, ``dp``; the other blocks are optional
+        (``phi_D`` needs ``dp_D``)
     noise : ProcessNoise
     dr_sees_gyro_drift : bool, keep ``-C_b^n eps`` in the DR attitude rows (derived, default)
         or drop it as paper 000's printed F does
     gravity_gradient : bool, keep ``dg_U = 2 g / R dh`` in the up-velocity row
+
+    ``F`` is filled by one numba kernel (:func:`_fill_F`, the equations of the module
+    docstring written once); ``Qc`` does not depend on the navigation state (``C C^T = I``)
+    and is built once.
     """
 
     def __init__(self, layout, noise: ProcessNoise, *, dr_sees_gyro_drift=True,
@@ -177,70 +254,43 @@ class ErrorModel:
         for name in ("phi", "dv", "dp"):
             if name not in layout:
                 raise ValueError(f"the error model needs block {name!r} in the layout")
+        if ("phi_D" in layout) != ("dp_D" in layout):
+            raise ValueError("the DR blocks 'phi_D' and 'dp_D' come together")
         self.layout = layout
         self.noise = noise
         self.dr_sees_gyro_drift = dr_sees_gyro_drift
         self.gravity_gradient = gravity_gradient
+        self._offs = _offsets(layout)
+        self._Qc = self._build_Qc()
 
     # -- F -----------------------------------------------------------------------------
     def F(self, pt: LinPoint) -> np.ndarray:
         """Continuous system matrix at ``pt`` [1/s, in the units of the states]."""
-        lay = self.layout
-        F = np.zeros((lay.n, lay.n))
-        w_ie, w_en, Wie_p, Wen_v, Wen_p, Mpv, Mpp = transport_jacobians(pt.lat, pt.h, pt.vel_n)
-        self._sins_rows(F, pt, w_ie, w_en, Wie_p, Wen_v, Wen_p, Mpv, Mpp)
-        if "phi_D" in lay:
-            self._dr_rows(F, pt, w_ie + w_en, Wie_p, Wen_v, Wen_p, Mpv, Mpp)
-        if "dk" in lay:
-            F[lay["dk"], lay["dk"]] = -1.0 / self.noise.dk_tau
+        n = self.layout.n
+        F = np.zeros((n, n))
+        _fill_F(F, self._offs, float(pt.lat), float(pt.h), np.asarray(pt.vel_n, dtype=float),
+                np.ascontiguousarray(pt.C_nb, dtype=float), np.asarray(pt.f_n, dtype=float),
+                1.0 / self.noise.dk_tau, self.dr_sees_gyro_drift, self.gravity_gradient)
         return F
 
-    def _sins_rows(self, F, pt, w_ie, w_en, Wie_p, Wen_v, Wen_p, Mpv, Mpp):
-        lay = self.layout
-        phi, dv, dp = lay["phi"], lay["dv"], lay["dp"]
-        C = pt.C_nb
-        F[phi, phi] = -skew(w_ie + w_en)
-        F[phi, dv] = Wen_v
-        F[phi, dp] = Wie_p + Wen_p
-        V = skew(pt.vel_n)
-        F[dv, phi] = skew(pt.f_n)
-        F[dv, dv] = V @ Wen_v - skew(2.0 * w_ie + w_en)
-        F[dv, dp] = V @ (2.0 * Wie_p + Wen_p)
-        if self.gravity_gradient:
-            r_m, r_n = earth.radii(pt.lat)
-            F[lay.index("dv_U"), lay.index("dp_h")] += 2.0 * earth.gravity(pt.lat, pt.h) / (
-                np.sqrt(r_m * r_n) + pt.h)
-        F[dp, dv] = Mpv
-        F[dp, dp] = Mpp
-        if "eps" in lay:
-            F[phi, lay["eps"]] = -C
-        if "nabla" in lay:
-            F[dv, lay["nabla"]] = C
-
-    def _dr_rows(self, F, pt, w_in, Wie_p, Wen_v, Wen_p, Mpv, Mpp):
-        lay = self.layout
-        phi_D, dp_D = lay["phi_D"], lay["dp_D"]
-        D = dr_velocity_rows(lay, pt)           # dv_D = D x
-        F[phi_D, phi_D] = -skew(w_in)
-        F[phi_D, :] += Wen_v @ D
-        F[phi_D, dp_D] += Wie_p + Wen_p
-        F[dp_D, :] += Mpv @ D
-        F[dp_D, dp_D] += Mpp
-        if "eps" in lay and self.dr_sees_gyro_drift:
-            F[phi_D, lay["eps"]] = -pt.C_nb
-
     # -- Q -----------------------------------------------------------------------------
-    def Qc(self, pt: LinPoint) -> np.ndarray:
-        """``G diag(q) G^T`` [state^2 / s] (paper 000's G, plus bias random walks)."""
+    def Qc(self, pt: LinPoint | None = None) -> np.ndarray:
+        """``G diag(q) G^T`` [state^2 / s] (paper 000's G, plus bias random walks).
+
+        The gyro and accelerometer noises enter as ``C_b^n w`` with the same density on
+        every axis, so ``C diag(q) C^T = q I`` whatever the attitude: ``pt`` is not needed.
+        """
+        return self._Qc
+
+    def _build_Qc(self):
         lay, q = self.layout, self.noise
         Q = np.zeros((lay.n, lay.n))
-        C = pt.C_nb
-        Qg = (q.gyro_arw ** 2) * (C @ C.T)
+        Qg = (q.gyro_arw ** 2) * np.eye(3)
         att = [lay["phi"]] + ([lay["phi_D"]] if "phi_D" in lay else [])
         for a in att:                          # one gyro noise drives both platforms
             for b in att:
                 Q[a, b] = Qg
-        Q[lay["dv"], lay["dv"]] = (q.accel_vrw ** 2) * (C @ C.T)
+        Q[lay["dv"], lay["dv"]] = (q.accel_vrw ** 2) * np.eye(3)
         for name, dens in (("eps", q.gyro_bias_rw), ("nabla", q.accel_bias_rw),
                            ("mount", q.mount_rw), ("lever", q.lever_rw)):
             if name in lay:
@@ -252,6 +302,7 @@ class ErrorModel:
 
 # -- measurement rows ---------------------------------------------------------------------
 
+@numba.njit(cache=True)
 def euler_rows(C_nb):
     """(3, 3) ``d[yaw, pitch, roll] / d phi`` for ``C_computed = (I - [phi x]) C_true``.
 
@@ -267,7 +318,7 @@ def euler_rows(C_nb):
     """
     T = C_nb
     h2 = T[0, 1] ** 2 + T[1, 1] ** 2
-    cp = np.sqrt(max(1.0 - T[2, 1] ** 2, 1e-12))
+    cp = np.sqrt(max(1.0 - T[2, 1] ** 2, 1e-12))     # cos(pitch), kept off zero
     r2 = T[2, 0] ** 2 + T[2, 2] ** 2
     return np.array([
         [-T[0, 1] * T[2, 1] / h2, -T[2, 1] * T[1, 1] / h2, 1.0],

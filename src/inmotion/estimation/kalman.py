@@ -19,7 +19,7 @@ symmetric positive semi-definite for any gain. Every step re-symmetrizes ``P`` a
 diagonal at zero (:func:`symmetrize`), so hour-long runs do not drift into indefiniteness.
 
 The streaming engine runs its per-step arithmetic in two numba kernels (:func:`_predict_kernel`,
-:func:`_update_group_kernel`): the same formulas as the numpy functions above (a test checks
+:func:`_update_rows_kernel`): the same formulas as the numpy functions above (a test checks
 them against each other), without Python overhead per 25x25 step. The scalar Joseph step is
 written expanded, ``P - k (P h)^T - (P h) k^T + s k k^T`` with ``s = h P h^T + r``, which is
 algebraically ``(I - k h) P (I - k h)^T + r k k^T`` for any gain ``k``.
@@ -162,22 +162,22 @@ def _predict_kernel(x, P, F, Qc, dt):
 
 
 @numba.njit(cache=True)
-def _update_group_kernel(x, P, z, H, r, threshold):
-    """In place: gate then sequential scalar Joseph updates of one measurement group.
+def _update_rows_kernel(x, P, z, H, r, a, b, threshold):
+    """In place: gate then sequential scalar Joseph updates with the rows ``a:b``.
 
     ``z`` (m,), ``H`` (m, n), ``r`` (m,) diagonal noise variances. The group's NIS
-    ``nu^T S^-1 nu`` (``S = H P H^T + diag(r)``) is computed first; if ``threshold > 0`` and
-    the NIS exceeds it, nothing is updated. Returns ``(accepted, nis)``.
+    ``nu^T S^-1 nu`` (``S = H P H^T + diag(r)`` on rows ``a:b``) is computed first; if
+    ``threshold > 0`` and the NIS exceeds it, nothing is updated. Returns ``(accepted, nis)``.
     """
-    m = z.shape[0]
-    nu = z - H @ x
-    S = H @ P @ H.T.copy()
-    for i in range(m):
-        S[i, i] += r[i]
+    Hg = H[a:b].copy()
+    nu = z[a:b] - Hg @ x
+    S = Hg @ P @ Hg.T.copy()
+    for i in range(b - a):
+        S[i, i] += r[a + i]
     nis = nu @ np.linalg.solve(S, nu)
     if threshold > 0.0 and nis > threshold:
         return False, nis
-    for i in range(m):
+    for i in range(a, b):
         h = H[i].copy()
         Ph = P @ h
         s = h @ Ph + r[i]
@@ -187,6 +187,14 @@ def _update_group_kernel(x, P, z, H, r, threshold):
         P -= np.outer(k, Ph) + np.outer(Ph, k) - s * np.outer(k, k)
     _symmetrize_inplace(P)
     return True, nis
+
+
+@numba.njit(cache=True)
+def _update_groups_kernel(x, P, z, H, r, starts, thresholds, accepted, nis):
+    """:func:`_update_rows_kernel` for each group ``starts[g]:starts[g+1]`` in turn."""
+    for g in range(len(starts) - 1):
+        accepted[g], nis[g] = _update_rows_kernel(x, P, z, H, r, starts[g], starts[g + 1],
+                                                  thresholds[g])
 
 
 class KalmanFilter:
@@ -248,14 +256,27 @@ class KalmanFilter:
         The group is rejected whole when its NIS exceeds ``threshold`` (> 0; 0 never
         rejects). Returns ``(accepted, nis)``; accepted groups count in the NIS sums.
         """
-        z = np.ascontiguousarray(z, dtype=float)
-        ok, nis = _update_group_kernel(self.x, self.P, z, np.ascontiguousarray(H, dtype=float),
-                                       np.ascontiguousarray(r, dtype=float), float(threshold))
-        self.last_nis = float(nis)
-        if ok:
-            self.nis_sum += self.last_nis
-            self.nis_dof += len(z)
-        return bool(ok), float(nis)
+        acc, nis = self.update_groups(z, H, r, [len(z)], [threshold])
+        return bool(acc[0]), float(nis[0])
+
+    def update_groups(self, z, H, r, sizes, thresholds):
+        """Several gated groups in one call: rows are stacked, ``sizes[g]`` rows per group,
+        each group gated by its own ``thresholds[g]`` (0: never rejected) and then applied
+        by sequential scalar Joseph updates. Returns ``(accepted (G,) bool, nis (G,))``."""
+        starts = np.concatenate(([0], np.cumsum(sizes))).astype(np.int64)
+        G = len(sizes)
+        accepted = np.zeros(G, dtype=np.bool_)
+        nis = np.zeros(G)
+        _update_groups_kernel(self.x, self.P, np.ascontiguousarray(z, dtype=float),
+                              np.ascontiguousarray(H, dtype=float),
+                              np.ascontiguousarray(r, dtype=float), starts,
+                              np.asarray(thresholds, dtype=float), accepted, nis)
+        for g in range(G):
+            if accepted[g]:
+                self.nis_sum += nis[g]
+                self.nis_dof += int(sizes[g])
+        self.last_nis = float(nis[-1]) if G else np.nan
+        return accepted, nis
 
     def state(self):
         """``(x, P)`` (the arrays themselves, not copies)."""

@@ -1,0 +1,394 @@
+"""Paper 000's simulation (sec. 5), re-created as a Monte Carlo and set beside the paper.
+
+Yang, Xi, Yang, Xue, *An Alignment Method for SINS Assisted by Doppler Radar on a Vehicle-Borne
+Moving Base*, Sensors 2019. Experiments (shipped scenarios): trajectory 1 (``paper000_traj1``),
+trajectory 2 (``paper000_traj2``), trajectory 1 with side slips and jumps
+(``paper000_traj1_slip``); each aligned by ``dr-kf`` with Z2 (the non-holonomic measurement)
+and without, over ``runs`` Monte Carlo runs of 600 s.
+
+Per run (all draws from one ``numpy.random.Generator`` seeded by ``(seed, experiment, run)``):
+
+* gyro drift and accelerometer bias per axis from N(0, 0.03 deg/h) and N(0, 100 ug) (the
+  paper's "constant drift 0.03 deg/h", "bias 1e-4 g" read as 1-sigma of per-run random
+  constants: a fixed value would give every run the same deterministic error and no Monte
+  Carlo); the noises, radar scale-factor Markov process and baro noise from the scenario;
+* the coarse-alignment error per axis from N(0, 1 deg) and the initial horizontal position
+  error per axis from N(0, 15 m) (the paper: 1 deg, 15 m); the DR starts with the same errors.
+
+Reported per experiment and Z2 setting, over the runs: the misalignment estimation error
+(estimate minus truth, DESIGN ``phi``) after convergence as the paper states it, max |error|
+over the last 100 s and its standard deviation over the last 100 s, median and 95th percentile
+over runs; the mounting-angle estimates; the NEES of the misalignment (3 dof) averaged over runs
+against its two-sided 95 % chi-square band; figures of the error curves with the filter's
+3-sigma; and an observability analysis of the mounting angles.
+
+Mounting angles, honestly: the simulator's radar reads the forward component of the body
+velocity along its own (mounted) axis, so a mounting of a few arc-minutes changes the reading
+only to second order, and a dead reckoner with the nominal (identity) mounting puts the speed
+along the body's forward axis, which is where the vehicle goes. The effective mounting error
+the filter sees is therefore zero, whatever the scenario's 3', 10', 5'. Paper 000's eq. 11
+describes instead a vehicle that moves along the *sensor's* axis while the IMU is turned away
+from it. To show the estimation of alpha and gamma, the ``imu_mount`` experiment builds that
+geometry: trajectory 1 with the radar aligned and the IMU triad (gyros and accelerometers) turned
+by ``-A`` from the vehicle, so that ``C_m^b = I + [A x]`` with ``A = (3', 10', 5')``; the
+attitude truth is then the IMU's, ``C_b^n(vehicle) (I - [A x])``. In that geometry the vehicle's
+lateral and vertical velocity in the IMU frame are ``-gamma V`` and ``alpha V``, so the NHC rows
+need the mounting columns (``nhc_mount_terms=True``); both settings are run.
+"""
+from __future__ import annotations
+
+import json
+import time
+from concurrent.futures import ProcessPoolExecutor
+from pathlib import Path
+
+import numpy as np
+from scipy.stats import chi2
+
+__all__ = ["reproduce", "run_one", "EXPERIMENTS", "PAPER", "observability"]
+
+ARCMIN = np.pi / 180.0 / 60.0
+MOUNT_ARCMIN = (3.0, 10.0, 5.0)
+
+#: experiment -> (scenario, variant)
+EXPERIMENTS = {"traj1": ("paper000_traj1", None), "traj2": ("paper000_traj2", None),
+               "traj1_slip": ("paper000_traj1_slip", None),
+               "imu_mount": ("paper000_traj1", "imu_mount")}
+
+#: the filter settings compared in each experiment
+SETTINGS = {"with_Z2": {"use_nhc": True}, "without_Z2": {"use_nhc": False}}
+SETTINGS_IMU_MOUNT = {"with_Z2_mount_terms": {"use_nhc": True, "nhc_mount_terms": True},
+                      "with_Z2_paper_H2": {"use_nhc": True, "nhc_mount_terms": False}}
+
+#: paper 000 sec. 5 figures [arcmin]: (E, N, U) accuracy "better than", and the steady-state STD
+PAPER = {("traj1", "with_Z2"): ((0.5, 0.4, 3.2), (0.04, 0.02, 1.79)),
+         ("traj1", "without_Z2"): ((0.4, 0.5, 9.8), (None, None, None)),
+         ("traj2", "with_Z2"): ((0.3, 0.4, 3.4), (0.11, 0.16, 2.19)),
+         ("traj1_slip", "with_Z2"): ((0.5, 0.4, 3.5), (0.19, 0.23, 2.57))}
+
+
+def _scenario(name, variant, rng):
+    from ..sim.scenario import find_scenario, load_scenario
+    sc = load_scenario(find_scenario(name)).model_dump()
+    sc["imu"]["constant_errors"] = "fixed"
+    sc["imu"]["gyro"]["drift_deg_h"] = list(rng.normal(0.0, 0.03, 3))
+    sc["imu"]["accel"]["bias_ug"] = list(rng.normal(0.0, 100.0, 3))
+    A = np.array(MOUNT_ARCMIN)
+    if variant == "imu_mount":
+        sc["sensors"]["radar"]["mounting_arcmin"] = [0.0, 0.0, 0.0]
+        # the triad measures (I - [a x]) v with a = -A: C_m^b = I + [A x]
+        a_arcsec = list(-A * 60.0)
+        sc["imu"]["gyro"]["misalignment_arcsec"] = a_arcsec
+        sc["imu"]["accel"]["misalignment_arcsec"] = a_arcsec
+    return sc
+
+
+def run_one(task) -> dict:
+    """One Monte Carlo run of one experiment: simulate, align with each setting, summarize.
+
+    ``task = (experiment, run_index, seed)``. Returns 1 Hz series (error, sigma, NEES, mount
+    estimates) and the last-100-s statistics per setting.
+    """
+    from ..align.dr_kalman import run_dr_kf
+    from ..core.rotations import dcm_from_rotvec, misalignment
+    from ..core.solution import NavState
+    from ..sim import simulate
+
+    exp, i, seed = task
+    name, variant = EXPERIMENTS[exp]
+    rng = np.random.default_rng([seed, list(EXPERIMENTS).index(exp), i])
+    bundle = simulate(_scenario(name, variant, rng), rng)
+    tr = bundle.truth
+    C_true = tr.C_nb
+    if variant == "imu_mount":
+        C_true = C_true @ dcm_from_rotvec(-np.array(MOUNT_ARCMIN) * ARCMIN)
+    att_err = rng.normal(0.0, np.deg2rad(1.0), 3)
+    pos_err = rng.normal(0.0, 15.0, 2)
+    from ..core import earth
+    r_m, r_n = earth.radii(tr.lat[0])
+    C0 = dcm_from_rotvec(-att_err) @ C_true[0]        # C_computed = exp(-[phi x]) C_true
+    from ..core.rotations import quat_from_dcm
+    init = NavState(tr.t[0], tr.lat[0] + pos_err[0] / (r_m + tr.h[0]),
+                    tr.lon[0] + pos_err[1] / ((r_n + tr.h[0]) * np.cos(tr.lat[0])), tr.h[0],
+                    tr.vel_n[0], quat_from_dcm(C0))
+    settings = SETTINGS_IMU_MOUNT if variant == "imu_mount" else SETTINGS
+    out = {"experiment": exp, "run": i}
+    for label, cfg in settings.items():
+        t0 = time.perf_counter()
+        sol = run_dr_kf(bundle, cfg, init)
+        wall = time.perf_counter() - t0
+        idx = np.clip(np.searchsorted(tr.t, sol.t - 1e-9), 0, len(tr.t) - 1)
+        phi = misalignment(sol.C_nb, C_true[idx])
+        cov = sol.info["cov_phi"]
+        nees = np.einsum("ki,kij,kj->k", phi, np.linalg.inv(cov), phi)
+        keep = np.flatnonzero(np.isclose(sol.t - sol.t[0], np.round(sol.t - sol.t[0]), atol=1e-6))
+        last = sol.t > sol.t[-1] - 100.0
+        sig = np.stack([sol.sigma[k] for k in ("phi_E", "phi_N", "phi_U")], -1)
+        mount = np.stack([sol.states[k] for k in ("mount_x", "mount_y", "mount_z")], -1)
+        msig = np.stack([sol.sigma[k] for k in ("mount_x", "mount_y", "mount_z")], -1)
+        out[label] = {
+            "t": sol.t[keep] - sol.t[0], "phi": phi[keep], "sigma": sig[keep],
+            "nees": nees[keep], "mount": mount[keep], "mount_sigma": msig[keep],
+            "max_abs_last100": np.max(np.abs(phi[last]), axis=0),
+            "std_last100": np.std(phi[last], axis=0),
+            "final": phi[-1], "wall_s": wall,
+            "rejected": sol.info["measurements_rejected"]}
+    return out
+
+
+def _tasks(runs, seed):
+    return [(exp, i, seed) for exp in EXPERIMENTS for i in range(runs)]
+
+
+# -- observability -------------------------------------------------------------------------
+
+def observability(seconds=60.0, speed_m_s=15.0, heading_deg=30.0, lat_deg=34.25, use_nhc=True,
+                  nhc_mount_terms=False, step_s=0.5):
+    """Which states a straight constant-speed drive makes observable (dr-kf's model).
+
+    Builds the stacked observability matrix ``O = [H; H Phi; H Phi^2; ...]`` of the 25-state
+    model linearized on a level straight drive (piecewise-constant system over ``seconds``),
+    and for each state ``e_i`` the fraction of it in O's row space (the observable subspace),
+    ``|P_row e_i|``: 1 fully observable, 0 unobservable. The mounting angle beta, about the
+    forward axis, has identically zero columns in F and H (``[v x] C e_y = v x v = 0``), so its
+    fraction is exactly 0.
+    """
+    from ..align.dr_kalman import LAYOUT_DR_KF as lay
+    from ..core import earth
+    from ..core.rotations import dcm_from_euler
+    from ..estimation import error_model as em
+    from ..estimation.kalman import discretize
+    C = dcm_from_euler(np.array([0.0, 0.0, np.deg2rad(heading_deg)]))
+    lat = np.deg2rad(lat_deg)
+    pt = em.LinPoint(lat=lat, h=380.0, vel_n=C @ np.array([0.0, speed_m_s, 0.0]), C_nb=C,
+                     f_n=np.array([0.0, 0.0, earth.gravity(lat, 380.0)]))
+    model = em.ErrorModel(lay, em.ProcessNoise(dk_tau=300.0))
+    Phi, _ = discretize(model.F(pt), np.zeros((lay.n, lay.n)), step_s)
+    H = np.zeros((3, lay.n))
+    H[:, lay["phi"]] = em.euler_rows(C)
+    H[:, lay["phi_D"]] = -em.euler_rows(C)
+    Hv = -em.dr_velocity_rows(lay, pt)
+    Hv[:, lay["dv"]] += np.eye(3)
+    rows = [H, Hv, em.height_rows(lay)]
+    if use_nhc:
+        rows.append(em.nhc_rows(lay, pt, with_mount=nhc_mount_terms))
+    Hs = np.vstack(rows)
+    # scale states to their priors so the SVD threshold means something physical
+    scale = np.array([ARCMIN] * 3 + [0.1] * 3 + [15 / 6.4e6] * 2 + [15.0] + [0.03 * np.pi / 180 / 3600] * 3
+                     + [1e-3] * 3 + [ARCMIN] * 3 + [15 / 6.4e6] * 2 + [15.0] + [ARCMIN] * 3 + [1e-3])
+    blocks, M = [], np.eye(lay.n)
+    for _ in range(int(seconds / step_s)):
+        blocks.append(Hs @ M)
+        M = Phi @ M
+    O = np.vstack(blocks) * scale[None, :]
+    O /= np.linalg.norm(O, axis=1, keepdims=True) + 1e-300
+    U, s, Vt = np.linalg.svd(O, full_matrices=False)
+    rank = int(np.sum(s > s[0] * 1e-9))
+    V = Vt[:rank]
+    frac = np.linalg.norm(V, axis=0)          # |projection of e_i on the row space|
+    col = np.linalg.norm(O, axis=0)
+    return {"rank": rank, "n": lay.n,
+            "observable_fraction": dict(zip(lay.names, frac.round(6).tolist())),
+            "column_norm": dict(zip(lay.names, col.tolist()))}
+
+
+# -- aggregation, figures, report ----------------------------------------------------------
+
+def _aggregate(results, runs):
+    summary = {}
+    for exp in EXPERIMENTS:
+        rs = [r for r in results if r["experiment"] == exp]
+        labels = [k for k in rs[0] if isinstance(rs[0][k], dict)]
+        for label in labels:
+            mx = np.array([r[label]["max_abs_last100"] for r in rs]) / ARCMIN
+            sd = np.array([r[label]["std_last100"] for r in rs]) / ARCMIN
+            fin = np.array([r[label]["final"] for r in rs]) / ARCMIN
+            mount = np.array([r[label]["mount"][-1] for r in rs]) / ARCMIN
+            msig0 = rs[0][label]["mount_sigma"][0] / ARCMIN
+            msig = np.array([r[label]["mount_sigma"][-1] for r in rs]) / ARCMIN
+            nees = np.array([r[label]["nees"] for r in rs])
+            t = rs[0][label]["t"]
+            R = len(rs)
+            lo, hi = chi2.ppf([0.025, 0.975], 3 * R) / R
+            mean_nees = nees.mean(axis=0)
+            after = t >= 100.0
+            summary[(exp, label)] = {
+                "runs": R,
+                "max_abs_last100_median_arcmin": np.median(mx, axis=0).tolist(),
+                "max_abs_last100_p95_arcmin": np.percentile(mx, 95, axis=0).tolist(),
+                "std_last100_median_arcmin": np.median(sd, axis=0).tolist(),
+                "final_rms_arcmin": np.sqrt(np.mean(fin ** 2, axis=0)).tolist(),
+                "mount_final_median_arcmin": np.median(mount, axis=0).tolist(),
+                "mount_final_p95_abs_arcmin": np.percentile(np.abs(mount), 95, axis=0).tolist(),
+                "mount_sigma_final_over_prior": (np.median(msig, axis=0) / msig0).tolist(),
+                "nees_band": [float(lo), float(hi)],
+                "nees_mean_after_100s": float(mean_nees[after].mean()),
+                "nees_fraction_in_band_after_100s": float(np.mean((mean_nees[after] >= lo)
+                                                                  & (mean_nees[after] <= hi))),
+                "wall_s_median": float(np.median([r[label]["wall_s"] for r in rs])),
+                "rejected_median": {k: float(np.median([r[label]["rejected"].get(k, 0) for r in rs]))
+                                    for k in rs[0][label]["rejected"]},
+            }
+    return summary
+
+
+def _figures(results, out: Path):
+    import matplotlib
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+    files = []
+    for exp in EXPERIMENTS:
+        rs = [r for r in results if r["experiment"] == exp]
+        labels = [k for k in rs[0] if isinstance(rs[0][k], dict)]
+        fig, axes = plt.subplots(3, len(labels), figsize=(6 * len(labels), 8), sharex=True,
+                                 squeeze=False)
+        for j, label in enumerate(labels):
+            t = rs[0][label]["t"]
+            for i, ax_name in enumerate("ENU"):
+                ax = axes[i, j]
+                for r in rs:
+                    ax.plot(t, r[label]["phi"][:, i] / ARCMIN, lw=0.4, alpha=0.5)
+                s3 = 3 * np.median([r[label]["sigma"][:, i] for r in rs], axis=0) / ARCMIN
+                ax.plot(t, s3, "k--", lw=1.2, label="filter 3 sigma (median)")
+                ax.plot(t, -s3, "k--", lw=1.2)
+                lim = 4 * np.max(s3[t >= 100]) if np.any(t >= 100) else 60
+                ax.set_ylim(-lim, lim)
+                ax.set_ylabel(f"phi_{ax_name} error [arcmin]")
+                ax.grid(alpha=0.3)
+                if i == 0:
+                    ax.set_title(f"{exp}, {label} ({len(rs)} runs)")
+            axes[2, j].set_xlabel("t [s]")
+        axes[0, 0].legend(loc="upper right", fontsize=8)
+        fig.tight_layout()
+        f = out / f"misalignment_{exp}.png"
+        fig.savefig(f, dpi=80)
+        plt.close(fig)
+        files.append(f.name)
+        # mounting angles and NEES
+        fig, axes = plt.subplots(1, 2, figsize=(12, 4))
+        label = labels[0]
+        t = rs[0][label]["t"]
+        for i, c in enumerate("xyz"):
+            m = np.array([r[label]["mount"][:, i] for r in rs]) / ARCMIN
+            axes[0].plot(t, np.median(m, axis=0), label=f"mount_{c} median")
+            axes[0].fill_between(t, np.percentile(m, 2.5, axis=0), np.percentile(m, 97.5, axis=0),
+                                 alpha=0.2)
+        axes[0].set_title(f"{exp}, {label}: mounting estimates [arcmin] (95 % of runs)")
+        axes[0].legend(fontsize=8)
+        axes[0].grid(alpha=0.3)
+        R = len(rs)
+        lo, hi = chi2.ppf([0.025, 0.975], 3 * R) / R
+        for lab in labels:
+            axes[1].plot(t, np.mean([r[lab]["nees"] for r in rs], axis=0), label=lab)
+        axes[1].axhline(lo, color="k", ls="--")
+        axes[1].axhline(hi, color="k", ls="--", label="95 % band")
+        axes[1].set_yscale("log")
+        axes[1].set_title(f"{exp}: misalignment NEES, mean of {R} runs (3 dof)")
+        axes[1].legend(fontsize=8)
+        axes[1].grid(alpha=0.3)
+        fig.tight_layout()
+        f = out / f"mount_nees_{exp}.png"
+        fig.savefig(f, dpi=80)
+        plt.close(fig)
+        files.append(f.name)
+    return files
+
+
+def _fmt(v, nd=2):
+    return "-" if v is None else f"{v:.{nd}f}"
+
+
+def _report(summary, obs, files, runs, wall, out: Path) -> str:
+    L = ["# Paper 000 reproduced: dr-kf in-motion alignment, Monte Carlo", "",
+         f"{runs} runs per experiment, 600 s each; wall time {wall:.0f} s. Errors are estimate "
+         "minus truth of the misalignment (DESIGN phi), arc-minutes. 'max|err| 100 s' is the "
+         "maximum absolute error over the last 100 s of a run (the paper's 'accuracy better "
+         "than'), 'std 100 s' its standard deviation there; median and 95th percentile over runs.",
+         "", "## Misalignment estimation error", "",
+         "| experiment | setting | paper E / N / U | median max|err| 100 s E / N / U | "
+         "p95 max|err| 100 s E / N / U | paper std | median std 100 s | NEES mean (95 % band) |",
+         "| --- | --- | --- | --- | --- | --- | --- | --- |"]
+    for (exp, label), s in summary.items():
+        acc, std = PAPER.get((exp, label), ((None,) * 3, (None,) * 3))
+        L.append(f"| {exp} | {label} | {' / '.join(_fmt(a, 1) for a in acc)} | "
+                 f"{' / '.join(_fmt(a) for a in s['max_abs_last100_median_arcmin'])} | "
+                 f"{' / '.join(_fmt(a) for a in s['max_abs_last100_p95_arcmin'])} | "
+                 f"{' / '.join(_fmt(a) for a in std)} | "
+                 f"{' / '.join(_fmt(a) for a in s['std_last100_median_arcmin'])} | "
+                 f"{s['nees_mean_after_100s']:.2f} ({s['nees_band'][0]:.2f}-{s['nees_band'][1]:.2f}), "
+                 f"{100 * s['nees_fraction_in_band_after_100s']:.0f} % of epochs in band |")
+    L += ["", "## Mounting angles", "",
+          "Scenario mounting 3' / 10' / 5' (x / y / z). In the shipped experiments the simulated "
+          "radar's mounting has no first-order effect (see the module docstring): the effective "
+          "truth is 0. In `imu_mount` the IMU is turned by A = 3' / 10' / 5' from the vehicle "
+          "and sensor axis: the truth is A.", "",
+          "| experiment | setting | truth x / y / z | median estimate | p95 |estimate| | "
+          "sigma final / prior |", "| --- | --- | --- | --- | --- | --- |"]
+    for (exp, label), s in summary.items():
+        truth = MOUNT_ARCMIN if exp == "imu_mount" else (0.0, 0.0, 0.0)
+        L.append(f"| {exp} | {label} | {' / '.join(_fmt(a, 0) for a in truth)} | "
+                 f"{' / '.join(_fmt(a) for a in s['mount_final_median_arcmin'])} | "
+                 f"{' / '.join(_fmt(a) for a in s['mount_final_p95_abs_arcmin'])} | "
+                 f"{' / '.join(_fmt(a) for a in s['mount_sigma_final_over_prior'])} |")
+    L += ["", "## Observability (straight drive at 15 m/s, 60 s, Z1 + Z2 + baro)", "",
+          f"Rank of the stacked observability matrix: {obs['rank']} of {obs['n']}. Fraction of "
+          "each mounting angle in the observable subspace (1: observable, 0: not):", "",
+          "| state | fraction | column norm |", "| --- | --- | --- |"]
+    for k in ("mount_x", "mount_y", "mount_z", "phi_U", "dk"):
+        L.append(f"| {k} | {obs['observable_fraction'][k]:.3f} | {obs['column_norm'][k]:.3g} |")
+    L += ["", "beta (mount_y, about the forward axis) has identically zero columns: "
+          "[v x] C_b^n e_y = v x v = 0 for a vehicle moving along its forward axis, in F and in "
+          "every H row; its filter sigma stays at the prior (ratio 1.00 above).", "",
+          "## Figures", ""] + [f"![{f}]({f})" for f in files]
+    text = "\n".join(L) + "\n"
+    (out / "report.md").write_text(text)
+    return text
+
+
+def reproduce(out_dir, runs=50, workers=2, seed=0, progress=True) -> dict:
+    """Run the Monte Carlo and write ``report.md``, ``summary.json`` and PNG figures.
+
+    Parameters
+    ----------
+    out_dir : folder to write into (created)
+    runs : Monte Carlo runs per experiment
+    workers : processes (``ProcessPoolExecutor``); 1 runs in this process
+    seed : base seed; run ``i`` of experiment ``e`` uses ``default_rng([seed, e, i])``
+    progress : show a tqdm progress bar
+
+    Returns
+    -------
+    dict: the summary per ``"experiment/setting"``, the observability result, the files.
+    """
+    out = Path(out_dir)
+    out.mkdir(parents=True, exist_ok=True)
+    tasks = _tasks(runs, seed)
+    t0 = time.perf_counter()
+    results = []
+    bar = None
+    if progress:
+        from tqdm import tqdm
+        bar = tqdm(total=len(tasks), desc="paper 000 Monte Carlo", unit="run")
+    if workers > 1:
+        with ProcessPoolExecutor(max_workers=workers) as ex:
+            for r in ex.map(run_one, tasks, chunksize=2):
+                results.append(r)
+                if bar is not None:
+                    bar.update(1)
+    else:
+        for task in tasks:
+            results.append(run_one(task))
+            if bar is not None:
+                bar.update(1)
+    if bar is not None:
+        bar.close()
+    wall = time.perf_counter() - t0
+    summary = _aggregate(results, runs)
+    obs = observability()
+    files = _figures(results, out)
+    _report(summary, obs, files, runs, wall, out)
+    js = {"runs": runs, "seed": seed, "wall_s": wall,
+          "summary": {f"{e}/{l}": v for (e, l), v in summary.items()},
+          "observability": obs, "figures": files}
+    (out / "summary.json").write_text(json.dumps(js, indent=2))
+    return js
