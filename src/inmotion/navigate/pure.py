@@ -67,6 +67,11 @@ class DrConfig(BaseModel):
     lever_arm_m : [x, y, z] or None
         The sensor's position in b relative to the IMU [m]; None: from ``meta.yaml``
         (``sensors.<sensor>.lever_arm_m``) if there, else zero.
+
+        Both follow paper 000 eq. 8-10 as :mod:`inmotion.core.deadreckoning` does: the sensor
+        point moves along the sensor's forward axis. A simulated bundle (as of this writing)
+        moves the IMU point along b instead, so on simulated data passing ``[0, 0, 0]`` for
+        both can be the better choice (see ``tests/test_cli.py``, the xfail on mounting).
     max_gap_s : float or None
         Sensor gap threshold [s] (None: 5 sensor periods); see
         :mod:`inmotion.core.deadreckoning` for how gaps are bridged.
