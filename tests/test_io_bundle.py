@@ -316,3 +316,13 @@ def test_truth_lat_lon_in_radians(tmp_path, rng):
     df["lat"], df["lon"] = np.radians(df["lat"]), np.radians(df["lon"])
     df.to_csv(d / "truth.csv", index=False)
     _expect(d, "are lat/lon in degrees", "truth.csv")
+
+
+def test_rewrite_removes_tables_the_new_bundle_lacks(tmp_path, rng):
+    a = make_bundle(rng)
+    d = write_bundle(a, tmp_path / "b")
+    (d / "notes.txt").write_text("mine")
+    a.baro = None
+    write_bundle(a, d)
+    assert not (d / "baro.csv").exists() and (d / "notes.txt").exists()
+    assert read_bundle(d).baro is None

@@ -507,7 +507,8 @@ def write_bundle(bundle: Bundle, path, fmt: str = "csv") -> Path:
     bundle : Bundle
         SI inside; written with the truth's angles in degrees, yaw in [0, 360).
     path : str or Path
-        The folder. Existing tables of the same names are replaced.
+        The folder. Bundle tables already there (``imu.*``, ``radar.*`` ...) are replaced or,
+        if this bundle lacks them, removed; other files are left alone.
     fmt : {"csv", "parquet"}
 
     Returns
@@ -523,12 +524,13 @@ def write_bundle(bundle: Bundle, path, fmt: str = "csv") -> Path:
     folder = Path(path)
     folder.mkdir(parents=True, exist_ok=True)
     suffix = ".csv" if fmt == "csv" else ".parquet"
+    frames = _frames(bundle)
+    for name in TABLES:              # stale tables (other format, or a sensor this bundle lacks)
+        for s in SUFFIXES:
+            if name not in frames or s != suffix:
+                (folder / f"{name}{s}").unlink(missing_ok=True)
     files = {}
-    for name, df in _frames(bundle).items():
-        for s in SUFFIXES:           # a stale table in the other format would be ambiguous
-            other = folder / f"{name}{s}"
-            if s != suffix and other.exists():
-                other.unlink()
+    for name, df in frames.items():
         target = folder / f"{name}{suffix}"
         atomic_write(target, lambda p, df=df: _write_table(df, p, fmt))
         files[name] = target.name
