@@ -151,21 +151,21 @@ def read_bundle(path, *, max_gap_periods: float = MAX_GAP_PERIODS,
     files = _locate_tables(folder, meta)
     if "imu" not in files:
         raise BadInput("missing IMU table (imu.csv or imu.parquet)", file=folder)
-    tables = {name: _read_table(p) for name, p in files.items()}
-
-    imu = _imu_from(tables["imu"], files["imu"])
+    # one table at a time: a DataFrame lives only while its arrays are made
+    imu = _imu_from(_read_table(files["imu"]), files["imu"])
     _check_gaps("imu", imu.t, files["imu"], max_gap_periods, error=not allow_imu_gaps)
     speeds = {}
     for name in VELOCITY_SENSORS:
-        if name in tables:
-            speeds[name] = _speed_from(tables[name], files[name], need_v=(name == "radar"))
+        if name in files:
+            speeds[name] = _speed_from(_read_table(files[name]), files[name],
+                                       need_v=(name == "radar"))
             _check_gaps(name, speeds[name].t, files[name], max_gap_periods, error=False)
     baro = truth = None
-    if "baro" in tables:
-        baro = _baro_from(tables["baro"], files["baro"])
+    if "baro" in files:
+        baro = _baro_from(_read_table(files["baro"]), files["baro"])
         _check_gaps("baro", baro.t, files["baro"], max_gap_periods, error=False)
-    if "truth" in tables:
-        truth = _truth_from(tables["truth"], files["truth"])
+    if "truth" in files:
+        truth = _truth_from(_read_table(files["truth"]), files["truth"])
         _check_gaps("truth", truth.t, files["truth"], max_gap_periods, error=False)
     if truth is None:
         _check_initial_position(meta, folder / "meta.yaml")
