@@ -130,3 +130,15 @@ def test_no_overlap_is_bad_input():
     sol = as_solution(tr, t=tr.t + 1000.0)
     with pytest.raises(BadInput, match="do not overlap"):
         error_series(sol, tr)
+
+
+def test_truth_yaw_interpolated_across_north():
+    """Truth yaw 359 deg then 1 deg; a solution between them at 0 deg has no error."""
+    t = np.array([0.0, 1.0, 2.0])
+    euler = np.radians([[0, 0, 357.0], [0, 0, 359.0], [0, 0, 1.0]])
+    tr = Truth(t, np.full(3, 0.7), np.full(3, 2.0), np.zeros(3), np.zeros((3, 3)), euler)
+    sol = Solution(np.array([1.5]), np.array([0.7]), np.array([2.0]), np.zeros(1),
+                   np.zeros((1, 3)), np.radians([[0, 0, 0.0]]))
+    err = error_series(sol, tr)
+    assert abs(err["yaw_arcmin"].iloc[0]) < 1e-9
+    assert abs(err["phi_U_arcmin"].iloc[0]) < 1e-9
