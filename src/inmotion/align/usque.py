@@ -23,9 +23,13 @@ One filter cycle at each update epoch (the paper's sec. 3):
    (``ausquhe``, eq. 53-56) (:mod:`inmotion.estimation.hinf`).
 5. attitude update (eq. 57-59): ``q = delta_q(X) (x) mean(chi*_q)``, GRP reset.
 
-Fixed gamma below the existence floor (``gamma^2 <= max eig(M^-1)``, eq. 54) would give a
-covariance that is not positive definite; there the filter uses ``1.1 gamma_a`` instead and
-counts these events in ``info['hinf_floor_hits']``.
+Gamma at or below the existence floor ``gamma_a`` (``gamma^2 <= max eig(M^-1)``, eq. 54) gives
+a covariance that is not positive definite, and just above it an unbounded one; with the
+updates at 100 Hz, a step that only just satisfies eq. 54 repeated every 10 ms drives the
+information of a weakly observable direction (the heading, in the first tens of seconds) to
+zero. So an H-infinity step is taken only with ``gamma >= rho gamma_a`` (``hinf_margin``,
+default 1.2): a fixed gamma below that falls back to the Kalman step, an adaptive gamma is
+clamped up to it; these events are counted in ``info['hinf_floor_hits']``.
 
 The start attitude is the paper's ``q = [1 0 0 0]`` for ``C_{n(0)}^i``, i.e. ``C_b^n(0) = I``
 (pitch, roll, yaw zero); the method needs no initial attitude. The initial position comes from
@@ -59,6 +63,7 @@ __all__ = ["UsqueConfig", "AusqueConfig", "UsqueHinfConfig", "AusquheConfig",
            "run_usque", "run_ausque", "run_usque_hinf", "run_ausquhe", "run", "LAYOUT_ATT"]
 
 _DEG = np.pi / 180.0
+_G0 = 9.80665                   # m/s^2 per g, for ug
 
 #: attitude error block: GRP about the reference quaternion of C_{n(t)}^i, resolved in i
 ATT = Block("dR", ("x", "y", "z"), tuple(StateUnit("arcmin", 180.0 / np.pi * 60.0)
@@ -90,6 +95,11 @@ class UsqueConfig(BaseModel):
         Add the LDV scale-factor error ``dk`` to the state (paper: not estimated).
     scale_sigma0_ppm : float
         Its initial 1-sigma [ppm].
+    estimate_accel_bias, accel_bias_sigma0_ug : bool, float
+        Add the accelerometer bias ``nabla`` (b frame, random constant) with this initial
+        1-sigma [ug] (not in the paper; see the report of ``reproduce_001``).
+    estimate_gyro_drift, gyro_drift_sigma0_deg_h : bool, float
+        Add the gyro drift ``eps`` (b frame, random constant) with this 1-sigma [deg/h].
     adaptive_r : bool
         Adaptive measurement noise (eq. 42-45).
     fading_factor : float
@@ -105,6 +115,8 @@ class UsqueConfig(BaseModel):
         Coefficient of the adaptive gamma (eq. 55).
     gamma_min_deg, gamma_max_deg : float
         Bounds of the adaptive gamma [deg] (eq. 55-56).
+    hinf_margin : float
+        ``rho > 1``: H-infinity steps only with ``gamma >= rho gamma_a`` (see ``_covariance``).
     """
 
     model_config = ConfigDict(extra="forbid")
@@ -120,6 +132,10 @@ class UsqueConfig(BaseModel):
     ut_zeta: float = 2.0
     estimate_scale: bool = False
     scale_sigma0_ppm: float = Field(1000.0, gt=0)
+    estimate_accel_bias: bool = False
+    accel_bias_sigma0_ug: float = Field(100.0, gt=0)
+    estimate_gyro_drift: bool = False
+    gyro_drift_sigma0_deg_h: float = Field(0.01, gt=0)
     adaptive_r: bool = False
     fading_factor: float = Field(0.99, gt=0, lt=1)
     r_min_m_s: float = Field(0.01, gt=0)
@@ -129,6 +145,7 @@ class UsqueConfig(BaseModel):
     k0: float = Field(1.0, gt=0)
     gamma_min_deg: float = Field(0.1, gt=0)
     gamma_max_deg: float = Field(30.0, gt=0)
+    hinf_margin: float = Field(1.2, gt=1)
 
 
 class AusqueConfig(UsqueConfig):
@@ -183,15 +200,20 @@ class _Filter:
 
     def __init__(self, cfg: UsqueConfig):
         self.cfg = cfg
-        self.layout = Layout([ATT] + ([block("dk")] if cfg.estimate_scale else []))
+        self.extra = [name for name, on in (("dk", cfg.estimate_scale),
+                                            ("nabla", cfg.estimate_accel_bias),
+                                            ("eps", cfg.estimate_gyro_drift)) if on]
+        self.layout = Layout([ATT] + [block(name) for name in self.extra])
         self.att = self.layout["dR"]
         self.a = cfg.grp_a
         self.f = 2.0 * (cfg.grp_a + 1.0) if cfg.grp_f is None else cfg.grp_f
         self.scheme = ScaledSigmaPoints(self.layout.n, cfg.ut_sigma, cfg.ut_kappa, cfg.ut_zeta)
         p0 = {"dR": (np.asarray(cfg.sigma0_deg) * _DEG) ** 2}
         q = {"dR": (cfg.process_noise_deg * _DEG) ** 2}
-        if cfg.estimate_scale:
-            p0["dk"] = (cfg.scale_sigma0_ppm * 1e-6) ** 2
+        p0["dk"] = (cfg.scale_sigma0_ppm * 1e-6) ** 2
+        p0["nabla"] = (cfg.accel_bias_sigma0_ug * 1e-6 * _G0) ** 2
+        p0["eps"] = (cfg.gyro_drift_sigma0_deg_h * _DEG / 3600.0) ** 2
+        p0 = {k: v for k, v in p0.items() if k in self.layout}
         self.P = self.layout.diag(p0)
         self.Q = self.layout.diag(q)
         self.x = self.layout.zeros()
@@ -213,9 +235,6 @@ class _Filter:
         """GRP of ``chi_q (x) q_ref^-1`` (eq. 30 and 20)."""
         dq = rotations.quat_multiply(chi_q, rotations.quat_conjugate(q_ref))
         return rotations.grp_from_quat(dq, self.a, self.f)
-
-    def _extra(self, chi):
-        return chi[:, self.layout["dk"]][:, 0] if self.cfg.estimate_scale else None
 
     def predict(self, dq_n):
         """Time update through eq. 9 (eq. 24-33)."""
@@ -240,7 +259,8 @@ class _Filter:
         Wm, Wc = self.scheme.Wm, self.scheme.Wc
         chi = self.scheme.points(self.x, self.P)
         chi_q = self._quats(chi, self.q)
-        Z = model.predict_measurement(chi_q, self._extra(chi), obs)
+        S = model.sensitivity(obs, self.extra)
+        Z = model.predict_measurement(chi_q, chi[:, self.att.stop:], S, obs)
         Y = Wm @ Z
         dZ = Z - Y
         dX = chi - self.x
@@ -263,27 +283,37 @@ class _Filter:
         return e
 
     def _covariance(self, Pxy, Py, R, e):
+        """Kalman, fixed-gamma or adaptive-gamma covariance update (eq. 51-56).
+
+        ``rho = hinf_margin``: an H-infinity step needs ``gamma >= rho gamma_a``. Fixed gamma
+        below that falls back to the Kalman step (counted in ``floor_hits``); the adaptive
+        gamma is clamped up to it, like the paper's ``gamma_min`` (eq. 55). Then
+        ``P+^-1 >= (1 - 1/rho^2) M``: one step inflates ``P`` at most ``1 / (1 - 1/rho^2)``
+        times, and ``gamma_max`` hands large covariances back to the Kalman update.
+        """
         cfg, P = self.cfg, self.P
+        self.gamma = np.inf
         if cfg.hinf == "none":
             return hinf.kalman_covariance(P, Pxy, Py)
         g_a = hinf.gamma_floor(P, Pxy, R)
         if cfg.hinf == "fixed":
             gamma = cfg.gamma_deg * _DEG
-            if gamma <= g_a:
-                gamma = 1.1 * g_a
+            if gamma < cfg.hinf_margin * g_a:
                 self.floor_hits += 1
+                return hinf.kalman_covariance(P, Pxy, Py)
             self.gamma = gamma
             return hinf.hinf_covariance(P, Pxy, Py, gamma)
-        self.gamma = hinf.adaptive_gamma(g_a, Py, e, cfg.k0, cfg.gamma_min_deg * _DEG)
-        if self.gamma <= g_a:                     # gamma_min below the floor
-            self.gamma = 1.1 * g_a
+        gamma = hinf.adaptive_gamma(g_a, Py, e, cfg.k0, cfg.gamma_min_deg * _DEG)
+        if gamma < cfg.hinf_margin * g_a:
+            gamma = cfg.hinf_margin * g_a
             self.floor_hits += 1
-        return hinf.hinf_update(P, Pxy, Py, self.gamma, cfg.gamma_max_deg * _DEG)
+        self.gamma = gamma
+        return hinf.hinf_update(P, Pxy, Py, gamma, cfg.gamma_max_deg * _DEG)
 
 
 def run(bundle: Bundle, config: UsqueConfig, init: Optional[NavState] = None,
-        progress: Optional[Callable[[float], None]] = None, *, method: str = "usque"
-        ) -> Solution:
+        progress: Optional[Callable[[float], None]] = None, *, method: str = "usque",
+        engine: str = "numba") -> Solution:
     """Run the unscented quaternion alignment over the whole bundle.
 
     Parameters
@@ -296,6 +326,9 @@ def run(bundle: Bundle, config: UsqueConfig, init: Optional[NavState] = None,
     progress : callable(fraction) or None
     method : str
         Name echoed in ``info``.
+    engine : {"numba", "numpy"}
+        ``numba``: the compiled cycle of :mod:`inmotion.align.usque_kernel` (fast);
+        ``numpy``: the readable reference cycle of :class:`_Filter` (same numbers, ~30x slower).
 
     Returns
     -------
@@ -310,13 +343,29 @@ def run(bundle: Bundle, config: UsqueConfig, init: Optional[NavState] = None,
     stride = max(1, int(round(1.0 / (config.update_rate_hz * imu.dt))))
     flt = _Filter(config)
     acc = model.new_accumulator(lat, lon, h, speed[0])
-    dt_rows = np.diff(imu.t)
     epochs = np.arange(stride, len(imu.t), stride)
-    n_out = len(epochs) + 1
-    out = _Outputs(n_out, flt.layout)
-    obs = model.observation(acc)
-    out.record(0, imu.t[0], flt, obs, acc, speed[0])
-    q_n0n_prev = obs["q_n0n"]
+    out = _Outputs(len(epochs) + 1, flt.layout)
+    out.record(0, flt, model.observation(acc), acc)
+    if engine == "numba":
+        flt.floor_hits = _run_compiled(flt, acc, imu, speed, epochs, out)
+    elif engine == "numpy":
+        _run_reference(flt, acc, imu, speed, epochs, out, progress)
+    else:
+        raise ValueError(f"engine must be 'numba' or 'numpy', got {engine!r}")
+    if progress is not None:
+        progress(1.0)
+    info = {"method": method, "config": config.model_dump(),
+            "timing_s": time.perf_counter() - t_start, "update_stride_rows": stride,
+            "final_R_m_s": out.R[-1].tolist(), "hinf_floor_hits": int(flt.floor_hits),
+            "start_attitude": "q = [1 0 0 0] (C_b^n = I), the paper's start"}
+    return out.solution(imu.t[np.concatenate([[0], epochs])], speed[np.concatenate([[0], epochs])],
+                        flt, info)
+
+
+def _run_reference(flt, acc, imu, speed, epochs, out, progress):
+    """The filter cycle in readable numpy (module docstring steps 1-5)."""
+    dt_rows = np.diff(imu.t)
+    q_n0n_prev = model.observation(acc)["q_n0n"]
     k_prev = 0
     for j, k in enumerate(epochs, start=1):
         q_bn = model.attitude_bn(flt.q, acc[model.ACC.Q_IB:model.ACC.Q_IB + 4])
@@ -325,59 +374,70 @@ def run(bundle: Bundle, config: UsqueConfig, init: Optional[NavState] = None,
         obs = model.observation(acc)
         flt.predict(model.nav_increment(q_n0n_prev, obs["q_n0n"]))
         flt.update(obs)
-        out.record(j, imu.t[k], flt, obs, acc, speed[k])
+        out.record(j, flt, obs, acc)
         q_n0n_prev = obs["q_n0n"]
         k_prev = k
         if progress is not None and j % 1000 == 0:
             progress(j / len(epochs))
-    if progress is not None:
-        progress(1.0)
-    info = {"method": method, "config": config.model_dump(),
-            "timing_s": time.perf_counter() - t_start, "update_stride_rows": stride,
-            "final_R_m_s": np.sqrt(flt.R).tolist(), "hinf_floor_hits": flt.floor_hits,
-            "start_attitude": "q = [1 0 0 0] (C_b^n = I), the paper's start"}
-    return out.solution(flt.layout, info)
+
+
+def _run_compiled(flt, acc, imu, speed, epochs, out):
+    """The same cycle in :func:`inmotion.align.usque_kernel.run_epochs`."""
+    from . import usque_kernel as kernel
+    cfg = flt.cfg
+    mode = {"none": kernel.HINF_NONE, "fixed": kernel.HINF_FIXED,
+            "adaptive": kernel.HINF_ADAPTIVE}[cfg.hinf]
+    return kernel.run_epochs(
+        acc, imu.dtheta, imu.dvel, np.diff(imu.t), speed, epochs, flt.x.copy(), flt.P.copy(),
+        flt.q.copy(), flt.Q, flt.scheme.Wm, flt.scheme.Wc, flt.scheme.n + flt.scheme.lam,
+        flt.a, flt.f, flt.R.copy(), flt.eta, cfg.adaptive_r, cfg.fading_factor, flt.R_min,
+        flt.R_max, mode, cfg.gamma_deg * _DEG, cfg.k0, cfg.gamma_min_deg * _DEG,
+        cfg.gamma_max_deg * _DEG, cfg.hinf_margin,
+        "dk" in flt.extra, "nabla" in flt.extra, "eps" in flt.extra, out.q_in, out.q_ib, out.lla, out.P, out.R, out.gamma, out.x)
 
 
 class _Outputs:
     """Preallocated output arrays (memory grows only with the output)."""
 
     def __init__(self, n, layout):
-        self.t = np.empty(n)
+        self.q_in = np.empty((n, 4))
+        self.q_ib = np.empty((n, 4))
         self.lla = np.empty((n, 3))
-        self.vel = np.empty((n, 3))
-        self.q_bn = np.empty((n, 4))
-        self.sig = np.empty((n, 3))
+        self.P = np.empty((n, layout.n, layout.n))
         self.R = np.empty((n, 3))
         self.gamma = np.empty(n)
         self.x = np.empty((n, layout.n))
 
-    def record(self, j, t, flt, obs, acc, v):
+    def record(self, j, flt, obs, acc):
         ACC = model.ACC
-        q_bn = model.attitude_bn(flt.q, obs["q_ib"])
-        C_ni = rotations.dcm_from_quat(flt.q).T
-        P_phi = C_ni @ flt.P[flt.att, flt.att] @ C_ni.T
-        self.t[j] = t
+        self.q_in[j] = flt.q
+        self.q_ib[j] = obs["q_ib"]
         self.lla[j] = acc[ACC.LAT], acc[ACC.LON], acc[ACC.H]
-        self.vel[j] = rotations.quat_rotate(q_bn, np.array([0.0, v, 0.0]))
-        self.q_bn[j] = q_bn
-        self.sig[j] = np.sqrt(np.maximum(np.diag(P_phi), 0.0))
+        self.P[j] = flt.P
         self.R[j] = np.sqrt(flt.R)
         self.gamma[j] = flt.gamma
         self.x[j] = flt.x
-        self.x[j, flt.att] = 0.0
 
-    def solution(self, layout, info):
-        sigma = {"phi_E": self.sig[:, 0], "phi_N": self.sig[:, 1], "phi_U": self.sig[:, 2]}
+    def solution(self, t, speed, flt, info):
+        """Vehicle attitude, sensor velocity, DR position and the misalignment sigma."""
+        layout, att = flt.layout, flt.att
+        q_bn = model.attitude_bn(self.q_in, self.q_ib)
+        vel_n = rotations.quat_rotate(q_bn, np.stack([np.zeros_like(speed), speed,
+                                                      np.zeros_like(speed)], -1))
+        C_ni = np.swapaxes(rotations.dcm_from_quat(self.q_in), -1, -2)
+        P_phi = C_ni @ self.P[:, att, att] @ np.swapaxes(C_ni, -1, -2)
+        sig = np.sqrt(np.maximum(np.diagonal(P_phi, axis1=-2, axis2=-1), 0.0))
+        sigma = {"phi_E": sig[:, 0], "phi_N": sig[:, 1], "phi_U": sig[:, 2]}
         states = {"R_x": self.R[:, 0], "R_y": self.R[:, 1], "R_z": self.R[:, 2],
                   "gamma": self.gamma}
         units = {"R_x": StateUnit("m/s"), "R_y": StateUnit("m/s"), "R_z": StateUnit("m/s"),
                  "gamma": StateUnit("deg", 180.0 / np.pi)}
-        if "dk" in layout:
-            states["dk"] = self.x[:, layout.index("dk")]
-            units["dk"] = layout.unit_map()["dk"]
-        return Solution.from_arrays(self.t, self.lla, self.vel, self.q_bn, sigma=sigma,
-                                    states=states, state_units=units, info=info)
+        umap = layout.unit_map()
+        for name in layout.names[3:]:
+            states[name] = self.x[:, layout.index(name)]
+            units[name] = umap[name]
+        return Solution.from_arrays(t, self.lla, vel_n, q_bn, sigma=sigma, states=states,
+                                    state_units=units, info=info)
 
 
 def run_usque(bundle, config: UsqueConfig, init=None, progress=None) -> Solution:

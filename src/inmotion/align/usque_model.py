@@ -21,12 +21,21 @@ vector ``w^i = C_{n(t)}^i omega_ie^{n(t)}`` (any t), and
 the attitude state, it moves into ``h``. The measurement and its model are then
 
     y   = C_{b(t)}^i v_m^b(t) - v_m^b(0) - int C_b^i f^b                      (computed)
-    h(X) = C_{n(t)}^i beta(t) - (1 - dk) (C_{n(t)}^i omega_ie^{n(t)}) x D_m^i(t)
-           + dk (C_{b(t)}^i v_m^b(t) - v_m^b(0))
+    h(X) = C_{n(t)}^i beta(t) - (C_{n(t)}^i omega_ie^{n(t)}) x D_m^i(t) + S(t) x_e
 
-where ``v_m = [0, v_LDV, 0]`` is the measured body velocity and ``dk`` the optional LDV
-scale-factor error state, defined by ``v_true = (1 - dk) v_m`` (so ``dk`` equals the
-relative scale error ``v_m / v_true - 1`` to first order); without the ``dk`` state it is 0.
+where ``v_m = [0, v_LDV, 0]`` is the measured body velocity and ``x_e`` the optional extra
+states (paper eq. 22), all entering linearly to first order with the sensitivities ``S``
+(:func:`sensitivity`):
+
+- ``dk``, LDV scale-factor error, ``v_true = (1 - dk) v_m``: column ``V_i = C_b^i v_m(t) - v_m(0)``
+  (its tiny effect on the Earth-rate term is neglected);
+- ``nabla``, accelerometer bias in b [m/s^2] (``f_measured = f + nabla``): columns
+  ``-B(t)``, ``B = int C_b^i dtau``;
+- ``eps``, gyro drift in b [rad/s] (``omega_measured = omega + eps``): the computed
+  ``C_b^i`` is ``(I - [psi x]) C_b^i`` with ``psi = -B eps``, so ``y`` changes by
+  ``J eps``, ``J = int [(C_b^i f^b) x] B dtau - [(C_b^i v^b(t)) x] B(t)``.
+
+The paper estimates none of them (its sec. 3: "other parameters are not estimated").
 
 THE ALPHA/BETA ACCUMULATION HERE IS A MINIMAL STAND-IN. The optimization-based-alignment
 vectors belong in the coarse-alignment module ``inmotion.align.obs_vectors`` (issue 5); it had
@@ -72,7 +81,9 @@ DTH_PREV = 20   #: 3, previous angle increment [rad]
 DV_PREV = 23    #: 3, previous velocity increment [m/s]
 V_PREV = 26     #: previous LDV speed [m/s]
 V0 = 27         #: LDV speed at the start [m/s]
-SIZE = 28
+B_I = 28        #: 9, B = int C_b^i dtau [s], row-major (accelerometer-bias sensitivity)
+JF_I = 37       #: 9, int [(C_b^i f^b) x] B dtau [m/s * s], row-major (gyro-drift sensitivity)
+SIZE = 46
 
 
 class ACC:
@@ -80,6 +91,7 @@ class ACC:
     Q_IB, Q_N0N, ALPHA_F, D_I, BETA_N0 = Q_IB, Q_N0N, ALPHA_F, D_I, BETA_N0
     LAT, LON, H, DTH_PREV, DV_PREV, V_PREV, V0, SIZE = (LAT, LON, H, DTH_PREV, DV_PREV,
                                                         V_PREV, V0, SIZE)
+    B_I, JF_I = B_I, JF_I
 
 
 def new_accumulator(lat, lon, h, v0):
@@ -118,6 +130,17 @@ def _put(a, i, v):
 
 
 @numba.njit(cache=True)
+def _dcm_t(q):
+    """Row-major 9-tuple of the DCM of ``q``."""
+    q0, q1, q2, q3 = q
+    return (q0 * q0 + q1 * q1 - q2 * q2 - q3 * q3, 2 * (q1 * q2 - q0 * q3),
+            2 * (q1 * q3 + q0 * q2), 2 * (q1 * q2 + q0 * q3),
+            q0 * q0 - q1 * q1 + q2 * q2 - q3 * q3, 2 * (q2 * q3 - q0 * q1),
+            2 * (q1 * q3 - q0 * q2), 2 * (q2 * q3 + q0 * q1),
+            q0 * q0 - q1 * q1 - q2 * q2 + q3 * q3)
+
+
+@numba.njit(cache=True)
 def _step(acc, dth, dv, dt, v, q_bn):
     """Advance the accumulator over one IMU row (see the module docstring)."""
     q_ib = _quat(acc, Q_IB)
@@ -133,8 +156,15 @@ def _step(acc, dth, dv, dt, v, q_bn):
     dvi = kn.qrotate(q_ib, dvb)
     af = _vec(acc, ALPHA_F)
     _put(acc, ALPHA_F, (af[0] + dvi[0], af[1] + dvi[1], af[2] + dvi[2]))
+    # gyro-drift sensitivity: int [(C f) x] B, with B at the interval's start
+    for r in range(3):
+        b_col = (acc[B_I + r], acc[B_I + 3 + r], acc[B_I + 6 + r])
+        cb = kn.cross(dvi, b_col)
+        for c in range(3):
+            acc[JF_I + 3 * c + r] += cb[c]
     # displacement in i (trapezoid)
     u_old = kn.qrotate(q_ib, (0.0, acc[V_PREV], 0.0))
+    C_old = _dcm_t(q_ib)
     q_ib = kn.qnormalize(kn.qmul(q_ib, kn.quat_from_rotvec(kn.coning_rotvec(dth, dth_p))))
     u_new = kn.qrotate(q_ib, (0.0, v, 0.0))
     d = _vec(acc, D_I)
@@ -142,6 +172,9 @@ def _step(acc, dth, dv, dt, v, q_bn):
                         d[1] + 0.5 * dt * (u_old[1] + u_new[1]),
                         d[2] + 0.5 * dt * (u_old[2] + u_new[2])))
     _put(acc, Q_IB, q_ib)
+    C_new = _dcm_t(q_ib)
+    for r in range(9):
+        acc[B_I + r] += 0.5 * dt * (C_old[r] + C_new[r])
     # navigation frame: velocity from the current attitude estimate, rates, gravity (eq. 19)
     lat, h = acc[LAT], acc[H]
     vn = kn.qrotate(q_bn, (0.0, v, 0.0))
@@ -191,21 +224,38 @@ def observation(acc):
         ``y``      (3,) the computed measurement [m/s] (in i);
         ``beta_n`` (3,) ``beta(t)`` in n(t) [m/s];
         ``D_i``    (3,) displacement in i [m];
-        ``V_i``    (3,) ``C_b^i v_m^b(t) - v_m^b(0)`` [m/s] (the scale-factor sensitivity);
         ``wie_n``  (3,) Earth rate in n(t) [rad/s];
-        ``q_ib``   (4,) quaternion of ``C_{b(t)}^i``;
-        ``q_n0n``  (4,) quaternion of ``C_{n(t)}^{n(0)}``.
+        ``V_i``    (3,) ``C_b^i v_m^b(t) - v_m^b(0)`` [m/s]: sensitivity to the LDV scale ``dk``;
+        ``B``      (3, 3) ``int C_b^i dtau`` [s]: ``-B`` is the sensitivity to the
+                   accelerometer bias ``nabla`` [m/s^2];
+        ``J``      (3, 3) sensitivity to the gyro drift ``eps`` [rad/s]:
+                   ``int [(C_b^i f^b) x] B dtau - [(C_b^i v^b(t)) x] B(t)``;
+        ``q_ib``   (4,) quaternion of ``C_{b(t)}^i``;  ``q_n0n`` (4,) of ``C_{n(t)}^{n(0)}``.
     """
     q_ib = acc[ACC.Q_IB:ACC.Q_IB + 4].copy()
     q_n0n = acc[ACC.Q_N0N:ACC.Q_N0N + 4].copy()
     C_ib = _dcm(q_ib)
-    V_i = C_ib @ np.array([0.0, acc[ACC.V_PREV], 0.0]) - np.array([0.0, acc[ACC.V0], 0.0])
+    u_i = C_ib @ np.array([0.0, acc[ACC.V_PREV], 0.0])
+    V_i = u_i - np.array([0.0, acc[ACC.V0], 0.0])
     beta_n = _dcm(q_n0n).T @ acc[ACC.BETA_N0:ACC.BETA_N0 + 3]
     lat = acc[ACC.LAT]
+    B = acc[ACC.B_I:ACC.B_I + 9].reshape(3, 3).copy()
+    J = acc[ACC.JF_I:ACC.JF_I + 9].reshape(3, 3) - np.cross(u_i[None, :], B.T).T
     return dict(y=V_i - acc[ACC.ALPHA_F:ACC.ALPHA_F + 3], beta_n=beta_n,
-                D_i=acc[ACC.D_I:ACC.D_I + 3].copy(), V_i=V_i,
+                D_i=acc[ACC.D_I:ACC.D_I + 3].copy(), V_i=V_i, B=B, J=J,
                 wie_n=np.array([0.0, kn.OMEGA_IE * np.cos(lat), kn.OMEGA_IE * np.sin(lat)]),
                 q_ib=q_ib, q_n0n=q_n0n)
+
+
+def sensitivity(obs, blocks):
+    """``S`` (3, n_e): the linear part of ``h`` in the extra states, columns in ``blocks`` order.
+
+    ``dk`` -> ``V_i``; ``nabla`` -> ``-B``; ``eps`` -> ``J`` (see :func:`observation`).
+    """
+    cols = {"dk": obs["V_i"][:, None], "nabla": -obs["B"], "eps": obs["J"]}
+    if not blocks:
+        return np.zeros((3, 0))
+    return np.hstack([cols[name] for name in blocks])
 
 
 def _dcm(q):
@@ -234,27 +284,24 @@ def propagate(q_in, dq_n):
     return quat_multiply(q_in, dq_n)
 
 
-def predict_measurement(q_in, dk, obs):
+def predict_measurement(q_in, x_e, S, obs):
     """Measurement model ``h`` (module docstring) for each sigma point, vectorized.
 
     Parameters
     ----------
     q_in : (m, 4) array, sigma-point quaternions of ``C_{n(t)}^i``.
-    dk : (m,) array or None, LDV scale-factor error of each sigma point [-].
+    x_e : (m, n_e) array, the sigma points' extra states (may have 0 columns).
+    S : (3, n_e) array, :func:`sensitivity`.
     obs : dict from :func:`observation`.
 
     Returns
     -------
-    (m, 3) array [m/s].
+    (m, 3) array [m/s]: ``C_n^i beta - (C_n^i omega_ie^n) x D^i + S x_e``.
     """
     from ..core.rotations import dcm_from_quat
     C_in = dcm_from_quat(q_in)                               # (m, 3, 3)
-    Z = C_in @ obs["beta_n"]
-    w_i = C_in @ obs["wie_n"]
-    earth = np.cross(w_i, obs["D_i"])
-    if dk is None:
-        return Z - earth
-    return Z - (1.0 - dk)[:, None] * earth + dk[:, None] * obs["V_i"]
+    Z = C_in @ obs["beta_n"] - np.cross(C_in @ obs["wie_n"], obs["D_i"])
+    return Z + x_e @ S.T
 
 
 def attitude_bn(q_in, q_ib):

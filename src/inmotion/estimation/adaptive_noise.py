@@ -61,7 +61,7 @@ def adapt_noise(R_diag, eta, e, Py_diag, c, R_min, R_max):
     R_new : (m,) array, the diagonal of ``R_{k+1}``
     eta_new : float, ``eta_{k+1}``
     """
-    eta_new = fading_weight(eta, c)
+    eta_new = eta / (eta + c)             # fading_weight, inlined for numba
     p = e * e - Py_diag + R_diag
     R_new = (1.0 - eta_new) * R_diag + eta_new * p
     for i in range(len(R_new)):

@@ -15,8 +15,8 @@ Unscented filters use this average as the mean of propagated quaternion sigma po
 eigenvector is still well defined as long as ``M`` has a single largest eigenvalue, which
 holds whenever the sigma points are clustered (the usual case: spreads of a few degrees).
 
-The function uses only ``numpy`` operations that ``numba`` also compiles, so a filter kernel
-can call ``numba.njit(quat_average)`` on the same source.
+The functions use only ``numpy`` operations that ``numba`` also compiles and call no other
+Python function, so a filter kernel can use ``numba.njit(quat_average)`` on the same source.
 """
 from __future__ import annotations
 
@@ -39,7 +39,7 @@ def quat_average_matrix(q, w):
     -------
     (4, 4) array
     """
-    return (q * w[:, None]).T @ q
+    return (q * w.reshape(-1, 1)).T @ q
 
 
 def quat_average(q, w):
@@ -58,7 +58,8 @@ def quat_average(q, w):
         The unit eigenvector of ``sum w q q^T`` with the largest eigenvalue, sign chosen so that
         its scalar part is non-negative (the package's canonical sign).
     """
-    _, vecs = np.linalg.eigh(quat_average_matrix(q, w))
+    M = (q * w.reshape(-1, 1)).T @ q      # = quat_average_matrix(q, w), inlined for numba
+    _, vecs = np.linalg.eigh(M)
     q_avg = vecs[:, 3].copy()             # eigh sorts eigenvalues ascending
     if q_avg[0] < 0.0:
         q_avg = -q_avg
