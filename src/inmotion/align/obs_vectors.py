@@ -282,7 +282,7 @@ def _body_step(dth1, dv1, dth2, dv2, two):
 
 
 @numba.njit(cache=True)
-def _nav_increments(C_n0n, w_ie, w_in, g_n, vn_a, vn_b, T):
+def _nav_increments(q_n0n, w_ie, w_in, g_n, vn_a, vn_b, T):
     """``int C_{n(t)}^{n(0)} g dt`` (paper 001 eq. 19) and ``int C_{n(t)}^{n(0)} (w_ie x v^n) dt``
     (paper 001 eq. 16) over one interval, in ``n(0)``."""
     gi = _add(_scale(g_n, T), _scale(kn.cross(w_in, g_n), 0.5 * T * T))
@@ -290,7 +290,7 @@ def _nav_increments(C_n0n, w_ie, w_in, g_n, vn_a, vn_b, T):
     wb = kn.cross(w_ie, vn_b)
     inc = _add(_add(_scale(wa, 0.5 * T), _scale(kn.cross(w_in, wa), T * T / 6.0)),
                _add(_scale(wb, 0.5 * T), _scale(kn.cross(w_in, wb), T * T / 3.0)))
-    return _matvec(C_n0n, gi), _matvec(C_n0n, inc)
+    return kn.qrotate(q_n0n, gi), kn.qrotate(q_n0n, inc)
 
 
 @numba.njit(cache=True)
@@ -300,8 +300,7 @@ def _integrate(t, dtheta, dvel, speed, speed0, lat0, lon0, h0, model, nav, runni
     n_steps = n // 2
     out = np.zeros((n_out, N_OUT))
     K = np.zeros((4, 4))
-    C_b0b = np.eye(3)
-    C_n0n = np.eye(3)
+    C_n0n = np.eye(3)                 # closed form only
     q_b0b = (1.0, 0.0, 0.0, 0.0)
     q_n0n = (1.0, 0.0, 0.0, 0.0)
     # C_e^{n0}: ENU at the start, for the closed form
@@ -339,7 +338,7 @@ def _integrate(t, dtheta, dvel, speed, speed0, lat0, lon0, h0, model, nav, runni
             v2 = (0.0, 0.0, 0.0)
         phi, dvb = _body_step(d1, v1, d2, v2, two)
         # -- body side: int C_b0b f dt, then C_b0b <- C_b0b exp(phi x)
-        I_f = _add(I_f, _matvec(C_b0b, dvb))
+        I_f = _add(I_f, kn.qrotate(q_b0b, dvb))
         q_b0b = kn.qnormalize(kn.qmul(q_b0b, kn.quat_from_rotvec(phi)))
         # -- navigation side, rates at the interval's start
         lat, h = pos[0], pos[2]
@@ -347,25 +346,24 @@ def _integrate(t, dtheta, dvel, speed, speed0, lat0, lon0, h0, model, nav, runni
         w_en = kn.omega_en_n(lat, h, vn)
         w_in = _add(w_ie, w_en)
         g_n = (0.0, 0.0, -kn.gravity(lat, h))
-        C_n0n_start = C_n0n.copy()
+        q_n0n_start = q_n0n
         # C_n0n at the interval's end
         if nav == NAV_INTEGRATED:
             q_n0n = kn.qnormalize(kn.qmul(q_n0n, kn.quat_from_rotvec(_scale(w_in, T))))
-            _dcm_of_q(q_n0n, C_n0n)
         else:
             pos_pred = pos.copy()
             kn.position_update(pos_pred, vn, vn, T)
             _C_n_i0(pos_pred[0], pos_pred[1], t[i_end] - t[0], C_e_n0, C_n0n)
+            q_n0n = kn.qnormalize(_q_of_dcm(C_n0n))
         # velocity at the end with the attitude in use, trapezoidal position
-        _dcm_of_q(q_b0b, C_b0b)
         vb = (0.0, speed[i_end], 0.0)
-        vb_b0 = _matvec(C_b0b, vb)
-        vn_end = _matTvec(C_n0n, _matvec(C_hat, vb_b0))
+        vb_b0 = kn.qrotate(q_b0b, vb)
+        vn_end = kn.qrotate_inv(q_n0n, _matvec(C_hat, vb_b0))
         kn.position_update(pos, vn, vn_end, T)
         if nav == NAV_CLOSED:
             _C_n_i0(pos[0], pos[1], t[i_end] - t[0], C_e_n0, C_n0n)
             q_n0n = kn.qnormalize(_q_of_dcm(C_n0n))
-        dIg, dIwv = _nav_increments(C_n0n_start, w_ie, w_in, g_n, vn, vn_end, T)
+        dIg, dIwv = _nav_increments(q_n0n_start, w_ie, w_in, g_n, vn, vn_end, T)
         I_g = _add(I_g, dIg)
         I_wvn = _add(I_wvn, dIwv)
         I_wvb = _add(I_wvb, _matTvec(C_hat, dIwv))

@@ -30,6 +30,7 @@ over the simulated runs of each speed).
 """
 from __future__ import annotations
 
+import functools
 import json
 import time
 from concurrent.futures import ProcessPoolExecutor
@@ -80,11 +81,42 @@ AXES = ("pitch", "roll", "heading")
 
 
 # ------------------------------------------------------------------------------ one run
+@functools.lru_cache(maxsize=None)
 def _scenario(speed):
+    """The shipped ``paper004_v{speed}`` scenario with per-run random constant IMU errors
+    (parsed once per process)."""
     from ..sim.scenario import find_scenario, load_scenario
     sc = load_scenario(find_scenario(f"paper004_v{speed}")).model_dump()
     sc["imu"]["constant_errors"] = "random"
-    return sc
+    return load_scenario(sc)
+
+
+@functools.lru_cache(maxsize=None)
+def _truth(speed):
+    """The error-free trajectory of one speed (the same for every run: computed once)."""
+    from ..sim.simulate import simulate_truth
+    return simulate_truth(_scenario(speed))
+
+
+def simulate_run(speed, rng):
+    """``inmotion.sim.simulate(scenario, rng)`` for this reproduction's scenario, with the
+    truth trajectory computed once per process: the same draws in the same order (IMU
+    constants, IMU noise, then the radar), hence the same bundle bit for bit (a test checks);
+    ``meta`` is left out."""
+    from ..core.bundle import Bundle, ImuData, Truth
+    from ..sim.imu_errors import apply_imu_errors, draw_imu_errors
+    from ..sim.sensors import simulate_speed_sensor
+    sc, _, traj = _truth(speed)
+    rate = sc.imu.rate_hz
+    err = draw_imu_errors(sc.imu, rng)
+    dtheta, dvel = apply_imu_errors(traj.dtheta, traj.dvel, 1.0 / rate, err, rng)
+    b = Bundle(ImuData(traj.t, dtheta, dvel),
+               meta={"lat_deg": sc.start.lat_deg, "lon_deg": sc.start.lon_deg, "h_m": sc.start.h_m},
+               truth=Truth(traj.t, traj.lat, traj.lon, traj.h, traj.vel_n, traj.euler))
+    for name in sc.present_sensors:
+        data, _ = simulate_speed_sensor(name, getattr(sc.sensors, name), traj, rate, [], rng)
+        setattr(b, name, data)
+    return b
 
 
 def _euler_errors_deg(C_est, truth_euler):
@@ -103,9 +135,8 @@ def run_one(task) -> dict:
     """
     from ..core import rotations
     from ..registry import get
-    from ..sim.simulate import simulate
     speed, run_index, seed = task
-    bundle = simulate(_scenario(speed), np.random.default_rng(seed))
+    bundle = simulate_run(speed, np.random.default_rng(seed))
     truth = bundle.truth
     out = {"speed": speed, "run": run_index}
     for label, (name, overrides) in VARIANTS.items():
