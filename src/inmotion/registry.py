@@ -45,6 +45,7 @@ _SPECS = [
     MethodSpec("dr", "navigate", "inmotion.navigate.pure:run_dr",
                "inmotion.navigate.pure:DrConfig", True,
                "pure dead reckoning: gyro attitude + forward-velocity sensor (paper 002)"),
+    MethodSpec("sins-dr", "navigate", "inmotion.navigate.sins_dr:run_sins_dr", "inmotion.navigate.sins_dr:SinsDrConfig", True, "SINS / radar dead-reckoning integrated position and orientation, attitude+position or velocity+position, 22-state KF (paper 002)"),
     MethodSpec("dr-kf", "align", "inmotion.align.dr_kalman:run_dr_kf", "inmotion.align.dr_kalman:DrKfConfig", True, "SINS / radar dead-reckoning fine alignment in motion, attitude + velocity + NHC, 25-state KF (paper 000)"),
     MethodSpec("od-velocity-kf", "align", "inmotion.align.dr_kalman:run_od_velocity_kf", "inmotion.align.dr_kalman:OdVelocityKfConfig", True, "SINS / velocity-sensor velocity-matching fine alignment, 19-state KF (baseline for dr-kf)"),
     MethodSpec("imada-vb", "align", "inmotion.align.imada:run_imada_vb", "inmotion.align.imada:ImadaConfig", False, "in-motion attitude determination, body-velocity aided, omega_ie x V^b dropped (paper 004 eq. 9)"),

@@ -1,0 +1,420 @@
+"""A SINS and a dead reckoner side by side under one closed-loop error-state Kalman filter.
+
+The engine of the SINS / dead-reckoning (DR) integrated methods (paper 002, and the structure
+paper 000's alignment filter shares): both mechanizations run on the same compensated gyro
+increments, a Kalman filter on an error-state layout from :mod:`inmotion.estimation.layout`
+(with the blocks ``phi, dv, dp, eps, nabla, phi_D, dp_D`` and optionally ``dk``) is predicted
+with the one shared error model (:mod:`inmotion.estimation.error_model`) and updated with
+SINS-minus-DR differences, and the estimate is fed back into both systems.
+
+Per filter epoch (``step`` IMU rows, :func:`_run_epochs`, one numba loop):
+
+1. the IMU increments, less the accumulated gyro drift and accelerometer bias estimates, drive
+   the SINS (:func:`inmotion.core._kernels.sins_step`) and the DR
+   (:func:`inmotion.core._kernels.dr_step`, gyro attitude + the velocity sensor's distance);
+2. ``F`` is built at the SINS state (:func:`error_model._fill_F`) with the mean specific force
+   of the epoch, and ``x, P`` are predicted (:func:`kalman._predict_kernel`: second-order
+   transition, trapezoid ``Q_d``); the process noise is the model's ``G q G^T`` plus a random
+   walk of the DR position, the velocity sensor's white noise integrated (below);
+3. every ``meas_every`` epochs the enabled measurement groups are formed and applied one group
+   after the other by gated sequential scalar Joseph updates (:func:`kalman._update_rows_kernel`):
+
+   ========  ============================================  ==================================
+   group     z                                             H (rows of the shared model)
+   ========  ============================================  ==================================
+   attitude  ``[yaw, pitch, roll]_SINS - [..]_DR``,        ``euler_rows(C_S)`` on ``phi``,
+             wrapped to +-pi (paper 002 eq. 44-51)         ``-euler_rows(C_D)`` on ``phi_D``
+   velocity  ``v_SINS - v_DR`` (paper 002 eq. 52-55)       ``I`` on ``dv``; ``-[v x]`` on
+                                                           ``phi_D``, ``-v`` on ``dk`` (eq. 11)
+   position  ``[lat, lon, h]_SINS - [..]_DR`` (rad, rad,   ``I`` on ``dp``, ``-I`` on ``dp_D``
+             m; paper 002 eq. 43, 52)
+   height    ``h_SINS - h_baro``                           ``1`` on ``dp_h``
+   ========  ============================================  ==================================
+
+4. closed loop, right after each update: the SINS attitude, velocity and position and the DR
+   attitude and position are corrected (:func:`_correct_nav`, the numba twin of
+   :meth:`inmotion.core.mechanization.Strapdown.correct`), the drift and bias estimates are
+   added to the IMU compensation, and those states are reset to zero. The scale factor ``dk``
+   is only estimated (a first-order Markov state; the DR keeps its raw sensor), as in
+   :mod:`inmotion.align.dr_kalman`.
+
+DR position random walk: the DR integrates the sensor's speed, whose white noise of 1-sigma
+``sigma_v`` per sample (period ``T_s``) walks the DR position with density
+``q = sigma_v^2 T_s`` [m^2/s] along the track. The shared model has no such term (paper 000's G
+drives only ``dk`` with the radar noise); it is added here, isotropic in E, N, U (a bound on the
+along-track term), converted to rad^2/s for latitude and longitude.
+
+Memory: the log is processed in chunks of whole epochs (the sensor is resampled to the IMU
+epochs chunk by chunk), so only the output arrays grow with the log.
+"""
+from __future__ import annotations
+
+import math
+
+import numba
+import numpy as np
+
+from ..core import _kernels as K
+from ..core.deadreckoning import DeadReckoner, speed_on_epochs
+from ..core.mechanization import Strapdown
+from ..core.solution import NavState
+from . import error_model as em
+from .kalman import _predict_kernel, _update_rows_kernel
+from .layout import Layout
+
+__all__ = ["GROUPS", "GROUP_SIZES", "SinsDrFilter", "euler_ypr", "dcm_of_q"]
+
+#: measurement groups, in the order they are applied within an epoch
+GROUPS = ("attitude", "velocity", "position", "height")
+#: rows per group
+GROUP_SIZES = (3, 3, 3, 1)
+#: IMU rows per chunk handed to the numba loop (rounded to whole filter epochs)
+CHUNK_ROWS = 16384
+
+
+# ----------------------------------------------------------------------------- small kernels
+@numba.njit(cache=True)
+def dcm_of_q(q):
+    """``C_b^n`` (3, 3) of a unit quaternion ``q_nb`` (array of 4): its columns are the body
+    axes in n, ``C[:, j] = q (x) e_j (x) q*`` (:func:`inmotion.core._kernels.qrotate`)."""
+    qt = (q[0], q[1], q[2], q[3])
+    C = np.empty((3, 3))
+    for j in range(3):
+        e = (1.0 if j == 0 else 0.0, 1.0 if j == 1 else 0.0, 1.0 if j == 2 else 0.0)
+        c = K.qrotate(qt, e)
+        C[0, j], C[1, j], C[2, j] = c[0], c[1], c[2]
+    return C
+
+
+@numba.njit(cache=True)
+def euler_ypr(C):
+    """``[yaw, pitch, roll]`` [rad] of ``C_b^n`` in the DESIGN convention (``yaw =
+    atan2(C12, C22)``, ``pitch = asin(C32)``, ``roll = atan2(-C31, C33)``), in the row order
+    of the attitude measurement (paper 000 eq. 23, paper 002 eq. 44)."""
+    return np.array([math.atan2(C[0, 1], C[1, 1]), math.asin(min(1.0, max(-1.0, C[2, 1]))),
+                     math.atan2(-C[2, 0], C[2, 2])])
+
+
+@numba.njit(cache=True)
+def _wrap_pi(a):
+    return (a + math.pi) % (2.0 * math.pi) - math.pi
+
+
+@numba.njit(cache=True)
+def _correct_nav(x, mem, phi, dv, dp, with_velocity):
+    """Closed-loop feedback into a kernel nav state, as ``Strapdown.correct`` does.
+
+    ``q <- q(phi) (x) q`` (DESIGN misalignment, ``C_computed = (I - [phi x]) C_true``);
+    ``v -= dv`` (if ``with_velocity``), ``[lat, lon, h] -= dp``; the epoch-earlier latitude,
+    height and velocity kept for midpoint extrapolation shift by the same amounts.
+    """
+    q = K.qnormalize(K.qmul(K.quat_from_rotvec((phi[0], phi[1], phi[2])), K.get_q(x)))
+    K.set_q(x, q)
+    if with_velocity:
+        for i in range(3):
+            x[K.VE + i] -= dv[i]
+            mem[K.M_V_OLD + i] -= dv[i]
+    x[K.LAT] -= dp[0]
+    x[K.LON] -= dp[1]
+    x[K.H] -= dp[2]
+    mem[K.M_LAT_OLD] -= dp[0]
+    mem[K.M_H_OLD] -= dp[2]
+
+
+@numba.njit(cache=True)
+def measurement_rows(offs, use, xs, xd, h_baro, r_att, sig_pos_m, r_vel, r_h, n):
+    """Stack the enabled groups' ``z`` (m,), ``H`` (m, n), ``r`` (m,) and the group starts.
+
+    ``offs``: block offsets (``error_model._offsets`` order ``phi, dv, dp, eps, nabla, phi_D,
+    dp_D, mount, dk``); ``use``: (4,) flags of :data:`GROUPS`; ``xs``, ``xd``: SINS and DR
+    kernel states; ``h_baro``: barometric height (NaN: none now); ``r_att`` [rad^2],
+    ``sig_pos_m`` [m], ``r_vel`` [m^2/s^2], ``r_h`` [m^2]. Returns ``z, H, r, starts, groups``
+    with ``groups[g]`` the index in :data:`GROUPS` of the ``g``-th stacked group.
+    """
+    o_phi, o_dv, o_dp, o_phiD, o_dpD, o_dk = offs[0], offs[1], offs[2], offs[5], offs[6], offs[8]
+    z = np.zeros(10)
+    H = np.zeros((10, n))
+    r = np.zeros(10)
+    starts = np.zeros(5, dtype=np.int64)
+    groups = np.zeros(4, dtype=np.int64)
+    m, g = 0, 0
+    if use[0]:                                   # attitude (paper 002 eq. 44-51)
+        C_S = dcm_of_q(xs[K.Q0:K.Q3 + 1])
+        C_D = dcm_of_q(xd[K.Q0:K.Q3 + 1])
+        d = euler_ypr(C_S) - euler_ypr(C_D)
+        E_S = em.euler_rows(C_S)
+        E_D = em.euler_rows(C_D)
+        for i in range(3):
+            z[m + i] = _wrap_pi(d[i])
+            r[m + i] = r_att
+            for j in range(3):
+                H[m + i, o_phi + j] = E_S[i, j]
+                H[m + i, o_phiD + j] = -E_D[i, j]
+        groups[g] = 0
+        g += 1
+        m += 3
+        starts[g] = m
+    if use[1]:                                   # velocity (paper 002 eq. 52-55)
+        v = xd[K.VE:K.VU + 1]
+        for i in range(3):
+            z[m + i] = xs[K.VE + i] - xd[K.VE + i]
+            r[m + i] = r_vel
+            H[m + i, o_dv + i] = 1.0
+            if o_dk >= 0:
+                H[m + i, o_dk] = -v[i]
+        V = em.skew(v)
+        for i in range(3):
+            for j in range(3):
+                H[m + i, o_phiD + j] = -V[i, j]
+        groups[g] = 1
+        g += 1
+        m += 3
+        starts[g] = m
+    if use[2]:                                   # position (paper 002 eq. 43, 52)
+        r_m, r_n = K.radii(xs[K.LAT])
+        scale = (r_m + xs[K.H], (r_n + xs[K.H]) * math.cos(xs[K.LAT]), 1.0)
+        for i in range(3):
+            z[m + i] = xs[K.LAT + i] - xd[K.LAT + i]
+            r[m + i] = (sig_pos_m / scale[i]) ** 2
+            H[m + i, o_dp + i] = 1.0
+            H[m + i, o_dpD + i] = -1.0
+        groups[g] = 2
+        g += 1
+        m += 3
+        starts[g] = m
+    if use[3] and not math.isnan(h_baro):        # barometric height
+        z[m] = xs[K.H] - h_baro
+        r[m] = r_h
+        H[m, o_dp + 2] = 1.0
+        groups[g] = 3
+        g += 1
+        m += 1
+        starts[g] = m
+    return z[:m], H[:m], r[:m], starts[:g + 1], groups[:g]
+
+
+@numba.njit(cache=True)
+def _dr_position_noise(Qc, o_dpD, lat, h, q_m2_s):
+    """``Qc`` plus the DR position random walk ``q_m2_s`` [m^2/s] on ``dp_D`` (rad, rad, m)."""
+    Q = Qc.copy()
+    r_m, r_n = K.radii(lat)
+    Q[o_dpD, o_dpD] += q_m2_s / (r_m + h) ** 2
+    Q[o_dpD + 1, o_dpD + 1] += q_m2_s / ((r_n + h) * math.cos(lat)) ** 2
+    Q[o_dpD + 2, o_dpD + 2] += q_m2_s
+    return Q
+
+
+@numba.njit(cache=True)
+def _feed_back(x, offs, xs, ms, xd, md, bias_g, bias_a, fed_back):
+    """Closed loop: correct both systems, move drift and bias into the IMU compensation,
+    accumulate what was fed back, zero those states (``dk`` stays)."""
+    o_phi, o_dv, o_dp, o_eps, o_nabla, o_phiD, o_dpD = (offs[0], offs[1], offs[2], offs[3],
+                                                         offs[4], offs[5], offs[6])
+    _correct_nav(xs, ms, x[o_phi:o_phi + 3], x[o_dv:o_dv + 3], x[o_dp:o_dp + 3], True)
+    _correct_nav(xd, md, x[o_phiD:o_phiD + 3], x[o_dv:o_dv + 3], x[o_dpD:o_dpD + 3], False)
+    for i in range(3):
+        bias_g[i] += x[o_eps + i]
+        bias_a[i] += x[o_nabla + i]
+    for o in (o_phi, o_dv, o_dp, o_eps, o_nabla, o_phiD, o_dpD):
+        for i in range(3):
+            fed_back[o + i] += x[o + i]
+            x[o + i] = 0.0
+
+
+@numba.njit(cache=True)
+def _run_epochs(ends, dtheta, dvel, dt, ds, v, h_baro, t,
+                xs, ms, xd, md, C_bm, l_b,
+                x, P, offs, Qc, q_dr_m2_s, inv_tau_dk, dr_eps, grav_grad,
+                use, r_att, sig_pos_m, r_vel, r_h, thresholds,
+                epoch0, meas_every, out_every, bias_g, bias_a, fed_back,
+                out_t, out_xs, out_sig, out_states, n_out0, used, rejected, nis_sum):
+    """The filter loop over one chunk of IMU rows (see the module docstring).
+
+    ``ends`` (E,): exclusive end row of each epoch in the chunk (the first starts at row 0);
+    ``epoch0``: epochs done before the chunk. Outputs are written at epochs whose global index
+    is a multiple of ``out_every`` from row ``n_out0`` on; returns the next free output row.
+    """
+    n = x.shape[0]
+    a = 0
+    n_out = n_out0
+    nan = np.nan
+    for e in range(ends.shape[0]):
+        b = ends[e]
+        sum_dt = 0.0
+        f_sum = np.zeros(3)
+        for k in range(a, b):
+            dth = (dtheta[k, 0] - bias_g[0] * dt[k], dtheta[k, 1] - bias_g[1] * dt[k],
+                   dtheta[k, 2] - bias_g[2] * dt[k])
+            dvl = (dvel[k, 0] - bias_a[0] * dt[k], dvel[k, 1] - bias_a[1] * dt[k],
+                   dvel[k, 2] - bias_a[2] * dt[k])
+            K.sins_step(xs, ms, dth, dvl, dt[k], nan, 0.0, 0.0)
+            ms[K.M_COUNT] += 1.0
+            K.dr_step(xd, md, dth, ds[k], v[k], dt[k], C_bm, l_b)
+            md[K.M_COUNT] += 1.0
+            sum_dt += dt[k]
+            for i in range(3):
+                f_sum[i] += dvl[i]
+        C_S = dcm_of_q(xs[K.Q0:K.Q3 + 1])
+        f_n = C_S @ (f_sum / sum_dt)
+        F = np.zeros((n, n))
+        em._fill_F(F, offs, xs[K.LAT], xs[K.H], xs[K.VE:K.VU + 1].copy(), C_S, f_n,
+                   inv_tau_dk, dr_eps, grav_grad)
+        _predict_kernel(x, P, F, _dr_position_noise(Qc, offs[6], xs[K.LAT], xs[K.H],
+                                                    q_dr_m2_s), sum_dt)
+        epoch = epoch0 + e + 1
+        if epoch % meas_every == 0:
+            z, H, r, starts, groups = measurement_rows(offs, use, xs, xd, h_baro[b - 1], r_att,
+                                                       sig_pos_m, r_vel, r_h, n)
+            for g in range(groups.shape[0]):
+                gi = groups[g]
+                ok, nis = _update_rows_kernel(x, P, z, H, r, starts[g], starts[g + 1],
+                                              thresholds[gi])
+                if ok:
+                    used[gi] += 1
+                    nis_sum[gi] += nis
+                else:
+                    rejected[gi] += 1
+            _feed_back(x, offs, xs, ms, xd, md, bias_g, bias_a, fed_back)
+        if epoch % out_every == 0:
+            out_t[n_out] = t[b - 1]
+            out_xs[n_out] = xs
+            for i in range(n):
+                out_sig[n_out, i] = math.sqrt(max(P[i, i], 0.0))
+                out_states[n_out, i] = fed_back[i] + x[i]
+            n_out += 1
+        a = b
+    return n_out
+
+
+# ----------------------------------------------------------------------------- the driver
+class SinsDrFilter:
+    """Streaming SINS + DR + closed-loop Kalman filter (see the module docstring).
+
+    Parameters
+    ----------
+    init : NavState
+        Start of both systems (the DR starts where the SINS does).
+    layout : Layout
+        Must hold ``phi, dv, dp, eps, nabla, phi_D, dp_D``; ``dk`` optional; no ``mount``
+        (the DR assumes its nominal mounting; paper 002's model has no mounting angles).
+    model : error_model.ErrorModel
+        On ``layout``; gives ``F`` (numba kernel) and ``Qc``.
+    P0 : (n, n) initial covariance.
+    use : dict group name -> bool, which of :data:`GROUPS` update the filter.
+    noise : dict with ``attitude_rad``, ``position_m``, ``velocity_m_s``, ``height_m``
+        (1-sigma of each measurement row) and ``dr_position_m2_s`` (DR random walk density).
+    gates : dict group name -> chi-square threshold of its NIS (0: never rejected).
+    step_rows : IMU rows per filter epoch;  meas_every, out_every : in filter epochs.
+    C_bm, lever_arm_b : the velocity sensor's nominal mounting and lever arm (DR).
+    """
+
+    def __init__(self, init: NavState, layout: Layout, model: em.ErrorModel, P0, *, use: dict,
+                 noise: dict, gates: dict, step_rows: int, meas_every: int = 1,
+                 out_every: int = 1, C_bm=None, lever_arm_b=None):
+        for name in ("phi", "dv", "dp", "eps", "nabla", "phi_D", "dp_D"):
+            if name not in layout:
+                raise ValueError(f"the SINS/DR filter needs block {name!r} in the layout")
+        if "mount" in layout:
+            raise ValueError("the SINS/DR filter does not estimate mounting angles")
+        self.layout = layout
+        self.model = model
+        self.sins = Strapdown(init)
+        self.dr = DeadReckoner(init, C_bm=C_bm, lever_arm_b=lever_arm_b)
+        self.init = init
+        self.x = layout.zeros()
+        self.P = np.array(P0, dtype=float)
+        self.offs = tuple(int(o) for o in em._offsets(layout))
+        self.use = np.array([bool(use.get(g, False)) for g in GROUPS])
+        self.noise = noise
+        self.thresholds = np.array([float(gates.get(g, 0.0)) for g in GROUPS])
+        self.step = int(step_rows)
+        self.meas_every = int(meas_every)
+        self.out_every = int(out_every)
+        self.bias_g = np.zeros(3)          # accumulated gyro drift compensation [rad/s]
+        self.bias_a = np.zeros(3)          # accumulated accelerometer bias compensation [m/s^2]
+        self.fed_back = layout.zeros()     # everything fed back so far, per state
+        self.used = np.zeros(4, dtype=np.int64)
+        self.rejected = np.zeros(4, dtype=np.int64)
+        self.nis_sum = np.zeros(4)
+        self.epochs = 0
+
+    def output_rows(self, n_rows: int) -> int:
+        """Output rows a run over ``n_rows`` IMU rows can write (the initial row, every
+        ``out_every``-th epoch, and the last epoch if it is not one of them)."""
+        n_epochs = -(-n_rows // self.step)
+        return n_epochs // self.out_every + 2
+
+    def run(self, t, dtheta, dvel, speed, h_baro=None, sensor="speed", progress=None):
+        """Process a log and return the outputs.
+
+        Parameters
+        ----------
+        t : (N,) s;  dtheta, dvel : (N, 3) rad, m/s: IMU rows after ``init.t``
+        speed : SpeedData, the velocity sensor (resampled to IMU epochs chunk by chunk)
+        h_baro : callable ``t -> h`` [m] (NaN: none) or None
+        sensor : its name for error messages
+        progress : callable(fraction) or None
+
+        Returns
+        -------
+        dict of arrays: ``t`` (M,), ``x_sins`` (M, 10) kernel states, ``sigma`` (M, n),
+        ``states`` (M, n) (fed back plus current estimate); row 0 is the initial state.
+        """
+        n_rows = len(t)
+        n_out = self.output_rows(n_rows)
+        lay = self.layout
+        out = {"t": np.empty(n_out), "x_sins": np.empty((n_out, K.NX)),
+               "sigma": np.empty((n_out, lay.n)), "states": np.empty((n_out, lay.n))}
+        out["t"][0] = self.init.t
+        out["x_sins"][0] = self.sins._x
+        out["sigma"][0] = np.sqrt(np.maximum(np.diagonal(self.P), 0.0))
+        out["states"][0] = 0.0
+        i_out = 1
+        chunk = max(1, CHUNK_ROWS // self.step) * self.step
+        Qc = np.ascontiguousarray(self.model.Qc())
+        nz = self.noise
+        for a in range(0, n_rows, chunk):
+            b = min(a + chunk, n_rows)
+            tc = t[a:b]
+            t_prev = self.init.t if a == 0 else t[a - 1]
+            edges = np.concatenate([[t_prev], tc])
+            ds, v, _, _ = speed_on_epochs(speed, edges, what=sensor)
+            dt = np.diff(edges)
+            hb = h_baro(tc) if h_baro is not None else np.full(len(tc), np.nan)
+            ends = np.arange(self.step, b - a + self.step, self.step)
+            ends[-1] = b - a
+            i_out = _run_epochs(
+                ends.astype(np.int64), np.ascontiguousarray(dtheta[a:b], dtype=float),
+                np.ascontiguousarray(dvel[a:b], dtype=float), dt, ds, v, hb, tc,
+                self.sins._x, self.sins._mem, self.dr._x, self.dr._mem, self.dr.C_bm,
+                self.dr.l_b, self.x, self.P, self.offs, Qc, float(nz["dr_position_m2_s"]),
+                1.0 / self.model.noise.dk_tau, self.model.dr_sees_gyro_drift,
+                self.model.gravity_gradient, self.use, float(nz["attitude_rad"]) ** 2,
+                float(nz["position_m"]), float(nz["velocity_m_s"]) ** 2,
+                float(nz["height_m"]) ** 2, self.thresholds, self.epochs, self.meas_every,
+                self.out_every, self.bias_g, self.bias_a, self.fed_back, out["t"],
+                out["x_sins"], out["sigma"], out["states"], i_out, self.used, self.rejected,
+                self.nis_sum)
+            self.epochs += len(ends)
+            for sys_ in (self.sins, self.dr):
+                sys_.t = float(tc[-1])
+                sys_.rows += len(tc)
+            if progress is not None:
+                progress(b / n_rows)
+        if i_out < n_out:                 # the last, partial epoch is written as well
+            out["t"][i_out] = t[-1]
+            out["x_sins"][i_out] = self.sins._x
+            out["sigma"][i_out] = np.sqrt(np.maximum(np.diagonal(self.P), 0.0))
+            out["states"][i_out] = self.fed_back + self.x
+            i_out += 1
+        return {k: val[:i_out] for k, val in out.items()}
+
+    def counts(self) -> dict:
+        """Measurement groups used / rejected and their mean NIS per degree of freedom."""
+        res = {}
+        for i, g in enumerate(GROUPS):
+            if self.use[i]:
+                dof = self.used[i] * GROUP_SIZES[i]
+                res[g] = {"used": int(self.used[i]), "rejected": int(self.rejected[i]),
+                          "nis_per_dof": float(self.nis_sum[i] / dof) if dof else None}
+        return res

@@ -1,0 +1,287 @@
+"""Integrated position and orientation from a SINS and gyro / Doppler-radar dead reckoning:
+method ``sins-dr`` (paper 002).
+
+Yang et al., *Accurate integrated position and orientation method for vehicles based on
+SINS/Doppler radar*, Meas. Control 2018. The SINS and a dead reckoner (DR: the SINS's own gyros
+for attitude, the radar's forward speed for velocity and position, paper 002 eq. 1-19) run side
+by side; a Kalman filter estimates the errors of both and corrects both in closed loop
+(engine: :mod:`inmotion.estimation.sins_dr_driver`).
+
+States (22, layout :data:`LAYOUT_SINS_DR`; paper 002 "system states", which are paper 000
+eq. 21 without the radar installation angles, as paper 002 says they are calibrated out)::
+
+    phi (3)  dv (3)  dp (3)  eps (3)  nabla (3)  phi_D (3)  dp_D (3)  dk (1)
+
+with the one shared error model (:mod:`inmotion.estimation.error_model`: paper 000's F with
+the derived ``-C_b^n eps`` in the DR attitude rows; the DR velocity error eq. 11 enters through
+the DR position rows; ``dk`` first-order Markov, paper 002 eq. 22).
+
+Modes (``mode`` in the configuration; ``--mode`` on the command line):
+
+``attitude-position`` (paper 002 eq. 43-51, the paper's proposal)
+    ``z = [yaw, pitch, roll]_SINS - [yaw, pitch, roll]_DR`` and
+    ``[lat, lon, h]_SINS - [lat, lon, h]_DR``. The paper's eq. 45-50 (heading, pitch and roll
+    errors in terms of the platform angles) are lost from its text; they are paper 000 eq.
+    25-27 (:func:`error_model.euler_rows`), which hold as printed in the DESIGN convention.
+``velocity-position`` (paper 002 eq. 52-55, the paper's comparison)
+    ``z = v_SINS - v_DR`` and the position difference; the DR velocity error is paper 000
+    eq. 11 without the mounting angles, ``dv_D = [v x] phi_D + dk v``.
+
+Choices where the paper is silent (documented, not tuned to a seed):
+
+* measurement and filter rate 10 Hz by default; updates are applied group by group (gated
+  sequential scalar Joseph updates); the gate is off by default (``gate_probability = 1``):
+  nothing in the model makes a SINS-minus-DR difference an outlier, and a gate that starts
+  rejecting a diverging filter's updates never recovers;
+* measurement noise: the attitude difference of two systems on the same gyros is nearly
+  noise-free, 0.2 arcmin covers linearization and the DR's midpoint attitude; the position
+  difference 0.5 m; the velocity difference carries the sensor's white noise (0.1 m/s, paper
+  000's figure). The DR position random walk from that noise is process noise
+  (:mod:`inmotion.estimation.sins_dr_driver`);
+* the vertical channel: the SINS height is held by the position difference to the DR's height
+  (the paper's measurement); a barometer can be added (``use_baro``);
+* the scale factor ``dk`` is estimated, not fed back (the DR keeps the raw sensor speed).
+
+Velocity source: the radar by default, or any forward-velocity sensor of the bundle
+(``velocity_sensor``: ``radar``, ``ldv``, ``odometer``); its mounting and lever arm are taken
+from the configuration or ``meta.yaml`` as for method ``dr``.
+"""
+from __future__ import annotations
+
+import time
+from typing import Callable, Literal, Optional
+
+import numpy as np
+from pydantic import BaseModel, ConfigDict, Field
+from scipy.stats import chi2
+
+from ..core import earth
+from ..core.bundle import Bundle
+from ..core.mechanization import _baro_on_imu, _first_row
+from ..core.solution import NavState, Solution
+from ..errors import BadInput
+from ..estimation import error_model as em
+from ..estimation.layout import Layout, position_units
+from ..estimation.sins_dr_driver import GROUPS, SinsDrFilter
+from .pure import mounting_from_meta, mounting_matrix
+
+__all__ = ["SinsDrConfig", "run_sins_dr", "LAYOUT_SINS_DR", "MODES", "initial_covariance"]
+
+ARCMIN = np.pi / 180.0 / 60.0
+DEG_H = np.pi / 180.0 / 3600.0
+UG = earth.G0 * 1e-6
+
+#: paper 002's states: paper 000 eq. 21 without the mounting angles
+LAYOUT_SINS_DR = Layout(["phi", "dv", "dp", "eps", "nabla", "phi_D", "dp_D", "dk"])
+#: measurement groups of each mode (paper 002 eq. 43 and 52)
+MODES = {"attitude-position": ("attitude", "position"),
+         "velocity-position": ("velocity", "position")}
+
+
+class SinsDrConfig(BaseModel):
+    """Configuration of ``sins-dr``; every field carries its unit in its name.
+
+    Priors are 1-sigma at the start (a fine-aligned SINS; the DR starts from the same state,
+    so its errors start equal to the SINS's). Sensor figures default to paper 002 (gyro drift
+    0.01 deg/h) and, where its text lost them, paper 000 sec. 5.
+    """
+
+    model_config = ConfigDict(extra="forbid")
+    mode: Literal["attitude-position", "velocity-position"] = "attitude-position"
+    velocity_sensor: Optional[Literal["radar", "ldv", "odometer"]] = None
+    filter_rate_hz: float = Field(10.0, gt=0)
+    measurement_rate_hz: float = Field(10.0, gt=0)
+    output_rate_hz: Optional[float] = Field(None, gt=0)
+    use_baro: bool = False
+    gate_probability: float = Field(1.0, gt=0.5, le=1.0)
+    dr_sees_gyro_drift: bool = True
+    mounting_arcmin: Optional[tuple[float, float, float]] = None
+    lever_arm_m: Optional[tuple[float, float, float]] = None
+    # priors
+    init_tilt_sigma_arcmin: float = Field(1.0, gt=0)
+    init_heading_sigma_arcmin: float = Field(5.0, gt=0)
+    init_velocity_sigma_m_s: float = Field(0.1, gt=0)
+    init_position_sigma_m: float = Field(15.0, gt=0)
+    gyro_drift_deg_h: float = Field(0.01, ge=0)
+    accel_bias_ug: float = Field(100.0, ge=0)
+    dk_sigma_ppm: float = Field(1000.0, ge=0)
+    dk_tau_s: float = Field(300.0, gt=0)
+    # process noise
+    gyro_arw_deg_sqrt_h: float = Field(0.003, ge=0)
+    accel_vrw_ug_sqrt_hz: float = Field(10.0, ge=0)
+    gyro_bias_rw_deg_h_sqrt_h: float = Field(0.0, ge=0)
+    accel_bias_rw_ug_sqrt_h: float = Field(0.0, ge=0)
+    speed_noise_m_s: float = Field(0.1, ge=0)
+    # measurement noise
+    attitude_noise_arcmin: float = Field(0.2, gt=0)
+    position_noise_m: float = Field(0.5, gt=0)
+    velocity_noise_m_s: float = Field(0.1, gt=0)
+    baro_noise_m: float = Field(2.0, gt=0)
+
+
+def process_noise(cfg: SinsDrConfig) -> em.ProcessNoise:
+    """The shared model's noise densities in SI from the configuration's human units."""
+    return em.ProcessNoise(
+        gyro_arw=np.deg2rad(cfg.gyro_arw_deg_sqrt_h) / 60.0,
+        accel_vrw=cfg.accel_vrw_ug_sqrt_hz * UG,
+        gyro_bias_rw=cfg.gyro_bias_rw_deg_h_sqrt_h * DEG_H / 60.0,
+        accel_bias_rw=cfg.accel_bias_rw_ug_sqrt_h * UG / 60.0,
+        dk_sigma=cfg.dk_sigma_ppm * 1e-6, dk_tau=cfg.dk_tau_s)
+
+
+def initial_covariance(lay: Layout, cfg: SinsDrConfig, lat: float, h: float) -> np.ndarray:
+    """Diagonal priors, with the DR's attitude and position errors equal to the SINS's
+    (full correlation: both systems start from the same state)."""
+    r_m, r_n = earth.radii(lat)
+    pos = cfg.init_position_sigma_m
+    tilt, head = cfg.init_tilt_sigma_arcmin * ARCMIN, cfg.init_heading_sigma_arcmin * ARCMIN
+    var = {"phi": np.array([tilt, tilt, head]) ** 2,
+           "dv": cfg.init_velocity_sigma_m_s ** 2,
+           "dp": np.array([pos / (r_m + h), pos / ((r_n + h) * np.cos(lat)), pos]) ** 2,
+           "eps": (cfg.gyro_drift_deg_h * DEG_H) ** 2,
+           "nabla": (cfg.accel_bias_ug * UG) ** 2,
+           "dk": (cfg.dk_sigma_ppm * 1e-6) ** 2}
+    P = lay.diag({k: v for k, v in var.items() if k in lay})
+    for own, dr in (("phi", "phi_D"), ("dp", "dp_D")):
+        block = P[lay[own], lay[own]]
+        P[lay[dr], lay[dr]] = block
+        P[lay[own], lay[dr]] = block
+        P[lay[dr], lay[own]] = block
+    return P
+
+
+def _check_config(cfg: SinsDrConfig, bundle: Bundle):
+    if cfg.measurement_rate_hz > cfg.filter_rate_hz * (1 + 1e-9):
+        raise BadInput(f"measurement_rate_hz ({cfg.measurement_rate_hz}) must not exceed "
+                       f"filter_rate_hz ({cfg.filter_rate_hz})", file="config")
+    if cfg.output_rate_hz is not None and cfg.output_rate_hz > cfg.filter_rate_hz * (1 + 1e-9):
+        raise BadInput(f"output_rate_hz ({cfg.output_rate_hz}) must not exceed "
+                       f"filter_rate_hz ({cfg.filter_rate_hz})", file="config")
+    if cfg.use_baro and bundle.baro is None:
+        raise BadInput("use_baro is set but the bundle has no barometer (baro table)",
+                       file="config")
+
+
+def _sensor(bundle: Bundle, cfg: SinsDrConfig):
+    """``(name, SpeedData, C_bm, lever_arm_b)`` of the velocity source."""
+    try:
+        name, speed = bundle.velocity_sensor(cfg.velocity_sensor)
+    except ValueError as exc:
+        raise BadInput(str(exc)) from None
+    meta_mount, meta_lever = mounting_from_meta(bundle.meta, name)
+    mount = cfg.mounting_arcmin if cfg.mounting_arcmin is not None else meta_mount
+    lever = cfg.lever_arm_m if cfg.lever_arm_m is not None else meta_lever
+    C_bm = None if mount is None else mounting_matrix(np.asarray(mount, dtype=float) * ARCMIN)
+    l_b = None if lever is None else np.asarray(lever, dtype=float)
+    return name, speed, C_bm, l_b
+
+
+def _rates(cfg: SinsDrConfig, imu_dt: float):
+    """IMU rows per filter epoch; measurement and output decimation in filter epochs."""
+    step = max(1, int(round(1.0 / (cfg.filter_rate_hz * imu_dt))))
+    f_filter = 1.0 / (step * imu_dt)
+    meas_every = max(1, int(round(f_filter / cfg.measurement_rate_hz)))
+    out_rate = cfg.output_rate_hz or cfg.filter_rate_hz
+    out_every = max(1, int(round(f_filter / out_rate)))
+    return step, meas_every, out_every
+
+
+def build_filter(bundle: Bundle, cfg: SinsDrConfig, init: NavState):
+    """The configured :class:`SinsDrFilter` and what it runs on: ``(filter, rows, sensor)``
+    with ``rows`` the IMU slice after ``init.t`` and ``sensor = (name, SpeedData)``."""
+    _check_config(cfg, bundle)
+    name, speed, C_bm, l_b = _sensor(bundle, cfg)
+    imu = bundle.imu
+    k0 = _first_row(imu.t, init.t)
+    if len(imu.t) - k0 < 2:
+        raise BadInput(f"no IMU rows after the start t={init.t:.6g} s", file="imu")
+    step, meas_every, out_every = _rates(cfg, float(np.median(np.diff(imu.t))))
+    lay = LAYOUT_SINS_DR
+    model = em.ErrorModel(lay, process_noise(cfg), dr_sees_gyro_drift=cfg.dr_sees_gyro_drift)
+    sensor_dt = float(np.median(np.diff(speed.t)))
+    use = {g: g in MODES[cfg.mode] for g in GROUPS}
+    use["height"] = cfg.use_baro
+    gates = {g: (float(chi2.ppf(cfg.gate_probability, m)) if cfg.gate_probability < 1 else 0.0)
+             for g, m in zip(GROUPS, (3, 3, 3, 1))}
+    noise = {"attitude_rad": cfg.attitude_noise_arcmin * ARCMIN,
+             "position_m": cfg.position_noise_m, "velocity_m_s": cfg.velocity_noise_m_s,
+             "height_m": cfg.baro_noise_m,
+             "dr_position_m2_s": cfg.speed_noise_m_s ** 2 * sensor_dt}
+    filt = SinsDrFilter(init, lay, model, initial_covariance(lay, cfg, init.lat, init.h),
+                        use=use, noise=noise, gates=gates, step_rows=step,
+                        meas_every=meas_every, out_every=out_every, C_bm=C_bm,
+                        lever_arm_b=l_b)
+    return filt, slice(k0, len(imu.t)), (name, speed)
+
+
+def _baro_source(bundle: Bundle, cfg: SinsDrConfig):
+    if not cfg.use_baro:
+        return None
+    baro = bundle.baro
+    max_gap = 5.0 * float(np.median(np.diff(baro.t)))
+    return lambda t: _baro_on_imu(baro, t, max_gap)
+
+
+def _solution(filt: SinsDrFilter, out: dict, cfg: SinsDrConfig, sensor: str,
+              wall: float) -> Solution:
+    lay = filt.layout
+    xs = out["x_sins"]
+    sig = lay.as_dict(out["sigma"])
+    lat, h = xs[:, 0], xs[:, 2]
+    r_m, r_n = earth.radii(lat)
+    sigma = {"phi_E": sig["phi_E"], "phi_N": sig["phi_N"], "phi_U": sig["phi_U"],
+             "vE": sig["dv_E"], "vN": sig["dv_N"], "vU": sig["dv_U"],
+             "north": sig["dp_lat"] * (r_m + h),
+             "east": sig["dp_lon"] * (r_n + h) * np.cos(lat), "h": sig["dp_h"], "dk": sig["dk"]}
+    info = {"method": "sins-dr", "mode": cfg.mode, "config": cfg.model_dump(mode="json"),
+            "velocity_sensor": sensor, "layout": list(lay.names),
+            "filter_step_rows": filt.step, "measurement_every_filter_steps": filt.meas_every,
+            "measurements": filt.counts(), "timing": {"run_s": wall},
+            "P_final": filt.P.copy()}
+    return Solution.from_arrays(out["t"], xs[:, 0:3], xs[:, 3:6], xs[:, 6:10], sigma=sigma,
+                                states=lay.as_dict(out["states"]),
+                                state_units=lay.unit_map(position_units(filt.init.lat,
+                                                                        filt.init.h)),
+                                info=info)
+
+
+def run_sins_dr(bundle: Bundle, config: SinsDrConfig | dict | None = None,
+                init: NavState | None = None,
+                progress: Optional[Callable[[float], None]] = None) -> Solution:
+    """``sins-dr``: SINS / dead-reckoning integrated position and orientation (paper 002).
+
+    Parameters
+    ----------
+    bundle : Bundle
+        Needs ``imu`` and a forward-velocity sensor (``radar``, ``ldv`` or ``odometer``);
+        ``baro`` when ``use_baro``.
+    config : SinsDrConfig or dict (validated; a bad field raises :class:`BadInput`)
+    init : NavState
+        Start of the SINS and the DR (attitude needed).
+    progress : callable(fraction), optional
+
+    Returns
+    -------
+    Solution at the output rate: the closed-loop corrected SINS state; ``sigma`` of the
+    misalignment, velocity, position (north, east, h [m]) and ``dk``; every named state
+    (accumulated feedback plus the current estimate); ``info`` with the mode, the measurement
+    counts and mean NIS per degree of freedom, timing and the final covariance ``P_final``.
+    """
+    if init is None:
+        raise BadInput("method 'sins-dr' needs an initial state with attitude (--init truth, "
+                       "--init RESULT of an alignment, or initial_* in meta.yaml)")
+    if isinstance(config, SinsDrConfig):
+        cfg = config
+    else:
+        try:
+            cfg = SinsDrConfig(**(config or {}))
+        except Exception as exc:        # pydantic.ValidationError: name the first bad field
+            err = exc.errors()[0] if hasattr(exc, "errors") else {"loc": (), "msg": str(exc)}
+            raise BadInput(f"{'.'.join(map(str, err['loc'])) or 'config'}: {err['msg']}",
+                           file="config") from None
+    t0 = time.perf_counter()
+    filt, rows, (name, speed) = build_filter(bundle, cfg, init)
+    imu = bundle.imu
+    out = filt.run(imu.t[rows], imu.dtheta[rows], imu.dvel[rows], speed,
+                   h_baro=_baro_source(bundle, cfg), sensor=name, progress=progress)
+    return _solution(filt, out, cfg, name, time.perf_counter() - t0)
