@@ -403,3 +403,18 @@ def test_method_input_errors(copy, tmp_path):
     expect_bad(nav(copy, tmp_path, "--set", "height_damping=baro"), "no barometer")
     s = run_json(*nav(copy, tmp_path))                 # auto: no baro, free vertical channel
     assert s["info"]["height_damping"] == "none"
+
+
+def test_init_meta_without_attitude(copy, tmp_path):
+    import yaml
+    (copy / "truth.csv").unlink()
+    meta = yaml.safe_load((copy / "meta.yaml").read_text())
+    del meta["files"]["truth"]
+    del meta["initial_attitude_deg"]
+    (copy / "meta.yaml").write_text(yaml.safe_dump(meta))
+    expect_bad(nav(copy, tmp_path), "--init meta", "needs an initial attitude")
+    expect_bad(nav(copy, tmp_path, "--init", "truth"), "--init truth", "no truth")
+
+
+def test_empty_window(bundle, tmp_path):
+    expect_bad(nav(bundle, tmp_path, "--start", 50, "--init", "meta"), "fewer than 2 IMU rows")
