@@ -169,3 +169,48 @@ def test_motion_is_smooth_across_segment_joins(varied):
         for eps in (1e-7,):
             lo, hi = prof.kinematics(np.array([a - eps, a + eps]))[3]
             np.testing.assert_allclose(lo, hi, atol=1e-5)
+
+
+def test_increments_match_ecef_kinematics_of_truth(varied):
+    """An independent check in the Earth-fixed frame, from the truth positions and attitudes
+    alone (no transport rate, no Euler-rate formula): ``f = a_e + 2 w_ie x v_e - g`` and
+    ``w_ib = w_eb + w_ie``, with ``a_e`` and ``dC_b^e/dt`` from sixth-order central differences
+    (steps 0.05 s for positions, 0.02 s for the DCM; stencils inside one polynomial piece of the motion: the blends are C3 only at
+    their joins) and the IMU's rates at ``t_k`` from the increments around it."""
+    _, prof, tr = varied
+    dt = tr.t[1] - tr.t[0]
+    s, h = 5, 5 * dt
+    joins = np.unique(np.concatenate([prof.accel.x, prof.yaw_rate.x, prof.pitch.x]))
+    k = np.arange(3 * s + 5, len(tr.t) - 3 * s - 5, 7)
+    near = np.abs(tr.t[k][:, None] - joins[None, :]).min(axis=1) < 3 * h + 2 * dt
+    k = k[~near]
+    r_e = earth.lla_to_ecef(tr.lat, tr.lon, tr.h)
+    C_en = np.swapaxes(earth.enu_from_ecef_matrix(tr.lat, tr.lon), -1, -2)   # C_n^e
+    C_eb = C_en @ rotations.dcm_from_euler(tr.euler)                         # C_b^e
+    c1 = np.array([-1 / 60, 3 / 20, -3 / 4, 0.0, 3 / 4, -3 / 20, 1 / 60])
+    c2 = np.array([1 / 90, -3 / 20, 3 / 2, -49 / 18, 3 / 2, -3 / 20, 1 / 90])
+
+    def diff(x, c, p, step=s):   # differences from x[k]: the weights' sum is not exactly 0
+        return sum(ci * (x[k + (i - 3) * step] - x[k]) for i, ci in enumerate(c)) / (step * dt) ** p
+
+    w_ie_e = np.array([0.0, 0.0, earth.OMEGA_IE])
+    v_e = np.einsum("kij,kj->ki", C_en[k], tr.vel_n[k])
+    g_e = np.einsum("kij,kj->ki", C_en[k], earth.gravity_n(tr.lat[k], tr.h[k]))
+    f_e = diff(r_e, c2, 2) + 2 * np.cross(w_ie_e, v_e) - g_e
+    f_b = np.einsum("kji,kj->ki", C_eb[k], f_e)
+    f_imu = _rate_at_row_ends(tr.dvel, k, dt)
+    assert len(k) > 5000
+    assert np.abs(f_imu - f_b).max() < 2e-5          # m/s^2 (2 ug); |f| ~ 9.8
+    np.testing.assert_allclose(diff(r_e, c1, 1), v_e, atol=1e-7)
+    W = np.swapaxes(C_eb[k], -1, -2) @ diff(C_eb, c1, 1, step=2)   # DCM: no large offsets
+    w_ib = rotations.vee(W) + np.einsum("kji,j->ki", C_eb[k], w_ie_e)
+    w_imu = _rate_at_row_ends(tr.dtheta, k, dt)
+    assert np.abs(w_imu - w_ib).max() < 1.5e-8       # rad/s (0.003 deg/h): the O(dt^4) of the rate estimate in the blends
+
+
+def _rate_at_row_ends(inc, k, dt):
+    """Rate at t_k from increments, to O(dt^4): the means over 2 and 4 rows around t_k are
+    ``x + dt^2 x''/6`` and ``x + 4 dt^2 x''/6``; Richardson removes the ``x''`` term."""
+    m2 = (inc[k] + inc[k + 1]) / (2 * dt)
+    m4 = (inc[k - 1] + inc[k] + inc[k + 1] + inc[k + 2]) / (4 * dt)
+    return (4 * m2 - m4) / 3
