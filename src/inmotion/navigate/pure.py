@@ -21,6 +21,8 @@ from pydantic import BaseModel, ConfigDict, Field
 
 from ..core import rotations
 from ..core.bundle import Bundle
+from ..core.deadreckoning import dead_reckon
+from ..core.mechanization import strapdown
 from ..core.solution import NavState, Solution
 from ..errors import BadInput
 
@@ -114,7 +116,6 @@ def run_sins(bundle: Bundle, config: SinsConfig, init: NavState,
     Solution
         ``info`` holds ``method``, ``config`` (echo) and ``timing`` (``run_s``).
     """
-    from ..core.mechanization import strapdown
     init = _require_init(init, "sins")
     damping = config.height_damping
     if damping == "auto":
@@ -182,7 +183,6 @@ def run_dr(bundle: Bundle, config: DrConfig, init: NavState,
     Solution
         ``info`` holds ``method``, ``config``, ``timing`` and ``sensor`` (the one used).
     """
-    from ..core.deadreckoning import dead_reckon
     init = _require_init(init, "dr")
     try:
         name, speed = bundle.velocity_sensor(config.sensor)
