@@ -90,7 +90,7 @@ class OdVelocityKfConfig(BaseModel):
     use_baro: bool = True
     nhc_mount_terms: bool = False
     closed_loop: bool = True
-    feedback_rate_hz: float = Field(1.0, gt=0)
+    feedback_rate_hz: float = Field(2.0, gt=0)
     gate_probability: float = Field(0.9999, gt=0.5, le=1.0)
     # priors
     init_tilt_sigma_deg: float = Field(1.0, gt=0)
@@ -255,6 +255,7 @@ class _AlignmentFilter:
         self.bias_g = np.zeros(3)        # accumulated gyro drift compensation [rad/s]
         self.bias_a = np.zeros(3)        # accumulated accelerometer bias compensation [m/s^2]
         self.fed_back = self.lay.zeros()  # everything fed back so far, per state
+        self._nav_errors = np.r_[self.lay["phi"], self.lay["dv"], self.lay["dp"]]
         self.gate = _Gate(cfg.gate_probability)
         self._r = {      # diagonal measurement noise variances per group
             "attitude": np.full(3, (getattr(cfg, "attitude_noise_arcmin", 1.0) * ARCMIN) ** 2),
@@ -280,6 +281,8 @@ class _AlignmentFilter:
         """The SINS state corrected by the current estimate (open loop output; identity
         when the estimate has just been fed back)."""
         lay, xs = self.lay, self.kf.x
+        if not xs[self._nav_errors].any():           # just fed back: nothing to correct
+            return x[0], x[1], x[2], x[3:6], x[6:10]
         q = _rotate_small(xs[lay["phi"]], x[6:10])
         return (x[0] - xs[lay.index("dp_lat")], x[1] - xs[lay.index("dp_lon")],
                 x[2] - xs[lay.index("dp_h")], x[3:6] - xs[lay["dv"]], q)
