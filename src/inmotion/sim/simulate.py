@@ -79,6 +79,11 @@ def simulate(scenario, rng: np.random.Generator) -> Bundle:
     return bundle
 
 
+def _tidy(x: float) -> float:
+    """A float for meta.yaml without round-off noise (12 decimals, no -0.0)."""
+    return float(np.round(x, 12)) + 0.0
+
+
 def _meta(sc, prof, traj, drawn) -> dict:
     sensors = {}
     for name in sc.present_sensors:
@@ -91,9 +96,8 @@ def _meta(sc, prof, traj, drawn) -> dict:
         "description": sc.description,
         "simulated": True,
         "lat_deg": sc.start.lat_deg, "lon_deg": sc.start.lon_deg, "h_m": sc.start.h_m,
-        "initial_attitude_deg": {"pitch": float(np.degrees(traj.euler[0, 0])),
-                                 "roll": float(np.degrees(traj.euler[0, 1])),
-                                 "yaw": float(np.degrees(traj.euler[0, 2]))},
+        "initial_attitude_deg": {k: _tidy(np.degrees(traj.euler[0, i]))
+                                 for i, k in enumerate(("pitch", "roll", "yaw"))},
         "duration_s": float(traj.t[-1] - traj.t[0]),
         "distance_m": traj.distance_m,
         "imu": {"rate_hz": sc.imu.rate_hz, **sc.imu.model_dump(exclude={"rate_hz"})},
