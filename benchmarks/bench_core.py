@@ -39,7 +39,8 @@ def synthetic_drive(hours: float, rate_hz: float = 100.0):
     yaw_rate = np.radians(5.0) * np.sin(2 * np.pi * t / 97.0)
     pitch_rate = np.radians(0.3) * np.cos(2 * np.pi * t / 41.0)
     accel = 0.8 * np.sin(2 * np.pi * t / 300.0)
-    dtheta = np.stack([pitch_rate + w_ie_b[0], np.full(n, w_ie_b[1]), -yaw_rate + w_ie_b[2]], -1) * dt
+    dtheta = np.stack([pitch_rate + w_ie_b[0], np.full(n, w_ie_b[1]),
+                       -yaw_rate + w_ie_b[2]], -1) * dt
     dvel = np.stack([10.0 * yaw_rate, accel, np.full(n, g)], -1) * dt
     speed = 12.0 + 6.0 * np.sin(2 * np.pi * t / 300.0)
     init = NavState.from_euler(0.0, lat, np.radians(108.0), 400.0, [0, 12.0, 0], [0, 0, 0.3])
@@ -104,7 +105,8 @@ def main():
     input_mib = (imu.dtheta.nbytes + imu.dvel.nbytes + imu.t.nbytes) / 2 ** 20
     print(f"{n} rows of 100 Hz increments ({args.hours:g} h); input arrays {input_mib:.1f} MiB")
     cases = [
-        ("strapdown, baro damping, every row out", lambda: strapdown(imu, init, baro, damping="baro")),
+        ("strapdown, baro damping, every row out",
+         lambda: strapdown(imu, init, baro, damping="baro")),
         ("strapdown, baro damping, 1 Hz out", lambda: strapdown(imu, init, baro, damping="baro",
                                                                out_stride=100)),
         ("strapdown, free, every row out", lambda: strapdown(imu, init)),

@@ -182,10 +182,10 @@ def test_baro_gains_place_double_pole():
 def drive():
     t = np.arange(0.0, 300.0 + 1e-9, 0.05)
     return drive_increments(t, np.radians(34.0), np.radians(108.0), 400.0,
-                       psi=lambda t: np.radians(20) + np.radians(40) * np.sin(t / 30.0),
-                       dpsi=lambda t: np.radians(40) / 30.0 * np.cos(t / 30.0),
-                       speed=lambda t: 12 + 8 * np.sin(t / 40.0),
-                       accel=lambda t: 0.2 * np.cos(t / 40.0))
+                            psi=lambda t: np.radians(20) + np.radians(40) * np.sin(t / 30.0),
+                            dpsi=lambda t: np.radians(40) / 30.0 * np.cos(t / 30.0),
+                            speed=lambda t: 12 + 8 * np.sin(t / 40.0),
+                            accel=lambda t: 0.2 * np.cos(t / 40.0))
 
 
 def _init(d, k=0):

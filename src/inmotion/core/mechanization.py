@@ -106,7 +106,8 @@ def _intervals(t, t_prev, what, row0=0):
     dt = np.empty(len(t))
     k = K.time_steps(t, float(t_prev), dt)
     if k >= 0:
-        raise BadInput(f"time not strictly increasing (previous t={t_prev if k == 0 else t[k-1]:.6g} s)",
+        before = t_prev if k == 0 else t[k - 1]
+        raise BadInput(f"time not strictly increasing (previous t={before:.6g} s)",
                        file=what, row=row0 + k + 1, time=float(t[k]))
     return dt
 
