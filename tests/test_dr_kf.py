@@ -94,7 +94,7 @@ def test_od_velocity_kf_baseline(drive):
 
 def test_slip_is_gated_out():
     b = simulate(_scenario(slips=True), np.random.default_rng(3))
-    sol = dr_kalman.run_dr_kf(b, {}, _init(b))
+    sol = dr_kalman.run_dr_kf(b, {"measurement_rate_hz": 10.0}, _init(b))
     assert sol.info["measurements_rejected"]["nhc"] > 0
     phi = _phi_error(sol, b.truth)
     assert np.max(np.abs(phi[-1, :2])) < 1.0 * ARCMIN

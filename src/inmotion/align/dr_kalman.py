@@ -416,9 +416,6 @@ def _config(config, cls):
     if cfg.measurement_rate_hz > cfg.filter_rate_hz * (1 + 1e-9):
         raise BadInput(f"measurement_rate_hz ({cfg.measurement_rate_hz}) must not exceed "
                        f"filter_rate_hz ({cfg.filter_rate_hz})", file="config")
-    if cfg.feedback_rate_hz > cfg.measurement_rate_hz * (1 + 1e-9):
-        raise BadInput(f"feedback_rate_hz ({cfg.feedback_rate_hz}) must not exceed "
-                       f"measurement_rate_hz ({cfg.measurement_rate_hz})", file="config")
     return cfg
 
 
