@@ -418,3 +418,22 @@ def test_init_meta_without_attitude(copy, tmp_path):
 
 def test_empty_window(bundle, tmp_path):
     expect_bad(nav(bundle, tmp_path, "--start", 50, "--init", "meta"), "fewer than 2 IMU rows")
+
+
+def test_bad_config_inputs(bundle, tmp_path):
+    expect_bad(nav(bundle, tmp_path, "--set", "out_stride"), "--set 'out_stride'", "key=value")
+    expect_bad(nav(bundle, tmp_path, "--config", tmp_path / "none.yaml"),
+               "none.yaml", "does not exist")
+    bad = tmp_path / "bad.yaml"
+    bad.write_text("a: [1\n")
+    expect_bad(nav(bundle, tmp_path, "--config", bad), "bad.yaml", "malformed YAML")
+    bad.write_text("- 1\n- 2\n")
+    expect_bad(nav(bundle, tmp_path, "--config", bad), "bad.yaml", "must be a mapping")
+    expect_bad(["align", bundle, "-m", "sins", "-o", tmp_path / "r"],
+               "'sins' is a navigate method", "inmotion navigate")
+
+
+def test_bad_start_outside_previous_result(bundle, tmp_path):
+    run_json("navigate", bundle, "-m", "sins", "--end", 10, "-o", tmp_path / "r1")
+    expect_bad(nav(bundle, tmp_path, "--init", tmp_path / "r1", "--start", 15),
+               "--start 15 s is outside the result's time span")

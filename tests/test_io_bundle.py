@@ -326,3 +326,41 @@ def test_rewrite_removes_tables_the_new_bundle_lacks(tmp_path, rng):
     write_bundle(a, d)
     assert not (d / "baro.csv").exists() and (d / "notes.txt").exists()
     assert read_bundle(d).baro is None
+
+
+@pytest.mark.parametrize("file,col,row,value,match", [
+    ("radar.csv", "v", 4, "-200", "speed v = -200 m/s is physically impossible"),
+    ("baro.csv", "h", 6, "40000", "barometric height 40000 m outside"),
+    ("truth.csv", "pitch", 2, "91", "pitch 91 deg is physically impossible"),
+    ("truth.csv", "vE", 8, "300", r"speed \|v\| = 300\.\d+ m/s"),
+])
+def test_impossible_values(bundle_dir, file, col, row, value, match):
+    _edit(bundle_dir / file, _set_value(col, row - 1, value))
+    t = float(pd.read_csv(bundle_dir / file)["t"][row - 1])
+    _expect(bundle_dir, match, file, row=row, time=t)
+
+
+def _set_value(col, i, value):
+    def f(df):
+        df.loc[i, col] = value
+        return df
+    return f
+
+
+def test_speed_sensor_needs_v_or_ds(bundle_dir):
+    _edit(bundle_dir / "odometer.csv", lambda df: df.rename(columns={"ds": "pulses"}))
+    _expect(bundle_dir, "needs 'ds' or 'v'", "odometer.csv")
+
+
+def test_bundle_path_is_a_file(tmp_path):
+    (tmp_path / "f").write_text("x")
+    _expect(tmp_path / "f", "must be a folder", "f")
+
+
+def test_files_entry_malformed(bundle_dir):
+    text = (bundle_dir / "meta.yaml").read_text()
+    import yaml
+    meta = yaml.safe_load(text)
+    meta["files"] = "imu.csv"
+    (bundle_dir / "meta.yaml").write_text(yaml.safe_dump(meta))
+    _expect(bundle_dir, "'files' must list table names", "meta.yaml")

@@ -133,3 +133,18 @@ def test_rewrite_removes_stale_files(tmp_path):
     assert not (tmp_path / "r" / "errors.csv").exists()
     assert not (tmp_path / "r" / "states.csv").exists()
     assert read_result(tmp_path / "r").states == {}
+
+
+def test_states_file_damaged(tmp_path):
+    a = make_solution(np.random.default_rng(8))
+    write_result(a, tmp_path / "r")
+    st = pd.read_csv(tmp_path / "r" / "states.csv")
+    st.drop(columns=["dk_ppm"]).to_csv(tmp_path / "r" / "states.csv", index=False)
+    with pytest.raises(BadInput, match="states.csv: missing column dk_ppm"):
+        read_result(tmp_path / "r")
+    st.iloc[:5].to_csv(tmp_path / "r" / "states.csv", index=False)
+    with pytest.raises(BadInput, match="5 rows but solution.csv has 200"):
+        read_result(tmp_path / "r")
+    (tmp_path / "r" / "states.csv").unlink()
+    with pytest.raises(BadInput, match="missing states.csv"):
+        read_result(tmp_path / "r")
