@@ -155,48 +155,75 @@ def _allocate(t, sensors):
                       {k: z1() for k, g in sensors.items() if g.distance})
 
 
+@dataclass
+class _Motion:
+    """Kinematics at a set of times: Euler angles and rates, body velocity and its derivative,
+    ``C_b^n`` and ``v_n`` (arrays with the times' shape plus the vector/matrix axes)."""
+
+    euler: np.ndarray
+    euler_dot: np.ndarray
+    vel_b: np.ndarray
+    acc_b: np.ndarray
+    C_nb: np.ndarray
+    vel_n: np.ndarray
+
+    @classmethod
+    def at(cls, profile, t):
+        e, ed, vb, ab = (x.reshape(t.shape + (3,)) for x in profile.kinematics(t.ravel()))
+        C = rotations.dcm_from_euler(e)
+        return cls(e, ed, vb, ab, C, _mv(C, vb))
+
+    @property
+    def omega_nb_b(self):
+        return omega_nb_b_from_euler(self.euler, self.euler_dot)
+
+
+def _imu_rates(mq, lat_q, h_q):
+    """``omega_ib_b``, ``f_b`` and ``omega_en_n`` at the nodes (module docstring formulas)."""
+    w_ie = earth.omega_ie_n(lat_q)
+    w_en = earth.omega_en_n(lat_q, h_q, mq.vel_n)
+    w_nb = mq.omega_nb_b
+    w_ib = w_nb + _mtv(mq.C_nb, w_ie + w_en)
+    f = (np.cross(w_nb, mq.vel_b) + mq.acc_b
+         + _mtv(mq.C_nb, np.cross(2 * w_ie + w_en, mq.vel_n) - earth.gravity_n(lat_q, h_q)))
+    return w_ib, f, w_en
+
+
 def _chunk(profile, out, k0, k1, dt, frac, wts, pos_prev, start, sensors):
     """Fill rows k0..k1-1; returns the position at t_{k1-1}."""
-    m = k1 - k0
     t_grid = np.arange(k0 - 1, k1) * dt                     # t_{k0-1} .. t_{k1-1}
-    t_nodes = t_grid[:-1, None] + dt * frac[None, :]          # (m, n)
-    e_g, ed_g, vb_g, ab_g = profile.kinematics(t_grid)
-    e_q, ed_q, vb_q, ab_q = (x.reshape(m, len(frac), 3)
-                             for x in profile.kinematics(t_nodes.ravel()))
-    C_g, C_q = rotations.dcm_from_euler(e_g), rotations.dcm_from_euler(e_q)
-    vn_g, vn_q = _mv(C_g, vb_g), _mv(C_q, vb_q)
-
-    lat_g, lon_g, h_g, lat_q, h_q = _integrate_position(vn_g, vn_q, dt, frac, wts, pos_prev,
-                                                        start, k0)
-    win_q = earth.omega_ie_n(lat_q)
-    wen_q = earth.omega_en_n(lat_q, h_q, vn_q)
-    wnb_q = omega_nb_b_from_euler(e_q, ed_q)
-    w_ib_q = wnb_q + _mtv(C_q, win_q + wen_q)
-    g_q = earth.gravity_n(lat_q, h_q)
-    f_q = np.cross(wnb_q, vb_q) + ab_q + _mtv(C_q, np.cross(2 * win_q + wen_q, vn_q) - g_q)
-
+    mg = _Motion.at(profile, t_grid)
+    mq = _Motion.at(profile, t_grid[:-1, None] + dt * frac[None, :])       # (m, n) nodes
+    lat_g, lon_g, h_g, lat_q, h_q = _integrate_position(mg.vel_n, mq.vel_n, dt, frac, wts,
+                                                        pos_prev, start, k0)
+    w_ib, f, w_en = _imu_rates(mq, lat_q, h_q)
     rows = slice(k0, k1)
     wdt = (wts * dt)[None, :, None]
-    out.dtheta[rows] = np.sum(w_ib_q * wdt, axis=1)
-    out.dvel[rows] = np.sum(f_q * wdt, axis=1)
+    out.dtheta[rows] = np.sum(w_ib * wdt, axis=1)
+    out.dvel[rows] = np.sum(f * wdt, axis=1)
     out.lat[rows], out.lon[rows], out.h[rows] = lat_g[1:], lon_g[1:], h_g[1:]
-    out.vel_n[rows] = vn_g[1:]
-    euler = e_g[1:].copy()
+    out.vel_n[rows] = mg.vel_n[1:]
+    euler = mg.euler[1:].copy()
     euler[:, 2] = rotations.wrap_2pi(euler[:, 2])
     out.euler[rows] = euler
-
     if sensors:
-        wen_g = earth.omega_en_n(lat_g, h_g, vn_g)
-        web_g = omega_nb_b_from_euler(e_g, ed_g) + _mtv(C_g, wen_g)
-        web_q = wnb_q + _mtv(C_q, wen_q)
-        for name, geo in sensors.items():
-            if geo.distance:
-                u_q = _mv(geo.C_mb, vb_q + np.cross(web_q, geo.lever_arm_b))[..., 1]
-                out.sensor_distance[name][rows] = np.sum(u_q * wts[None, :], axis=1) * dt
-            else:
-                u_g = _mv(geo.C_mb, vb_g[1:] + np.cross(web_g[1:], geo.lever_arm_b))[:, 1]
-                out.sensor_speed[name][rows] = u_g
+        _sensor_outputs(out, rows, sensors, mg, mq, w_en,
+                        earth.omega_en_n(lat_g, h_g, mg.vel_n), wts * dt)
     return lat_g[-1], lon_g[-1], h_g[-1]
+
+
+def _sensor_outputs(out, rows, sensors, mg, mq, w_en_q, w_en_g, wdt):
+    """Forward speed at the rows' ends, or its integral over the rows, of each sensor's point:
+    ``[C_b^m (v_b + omega_eb_b x l_b)]_y`` with ``omega_eb_b = omega_nb_b + C_n^b omega_en_n``."""
+    for name, geo in sensors.items():
+        if geo.distance:
+            w_eb = mq.omega_nb_b + _mtv(mq.C_nb, w_en_q)
+            u = _mv(geo.C_mb, mq.vel_b + np.cross(w_eb, geo.lever_arm_b))[..., 1]
+            out.sensor_distance[name][rows] = np.sum(u * wdt[None, :], axis=1)
+        else:
+            w_eb = mg.omega_nb_b[1:] + _mtv(mg.C_nb[1:], w_en_g[1:])
+            u = _mv(geo.C_mb, mg.vel_b[1:] + np.cross(w_eb, geo.lever_arm_b))[:, 1]
+            out.sensor_speed[name][rows] = u
 
 
 def _integrate_position(vn_g, vn_q, dt, frac, wts, pos_prev, start, k0):
