@@ -37,10 +37,18 @@ def test_degradation_counts_positive_differences_of_absolute_errors():
 
 
 def test_tiny_campaign_writes_report_and_figures(tmp_path):
-    res = r4.reproduce(tmp_path, runs=2, workers=1, seed=3, progress=False)
+    res = r4.reproduce(tmp_path, runs=2, workers=1, seed=3, progress=False, segments=False)
     text = (tmp_path / "report.md").read_text()
     assert "1.3063" in text and "mimada-dual (centred)" in text
     for v in r4.SPEEDS_M_S:
         assert (tmp_path / f"heading_mae_std_v{v}.png").stat().st_size > 1000
         assert set(res["stats"][v]) == set(r4.VARIANTS)
     assert len((tmp_path / "runs.csv").read_text().splitlines()) == 1 + 2 * len(r4.SPEEDS_M_S)
+
+
+def test_segment_drive_is_the_hour_drive_with_paper_004_sensors():
+    sc = r4.drive_scenario()
+    assert sc["imu"]["gyro"]["drift_deg_h"] == 0.01 and sc["imu"]["accel"]["bias_ug"] == 100.0
+    assert sc["imu"]["constant_errors"] == "random"
+    assert sc["sensors"]["radar"]["noise_m_s"] == 0.05
+    assert sum(1 for seg in sc["segments"] if seg["kind"] == "turn") >= 5
