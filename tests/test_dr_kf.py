@@ -116,3 +116,24 @@ def test_bad_input(drive):
     with pytest.raises(BadInput, match="measurement_rate_hz"):
         dr_kalman.run_dr_kf(drive, {"filter_rate_hz": 1.0, "measurement_rate_hz": 5.0},
                             _init(drive))
+
+
+def test_observability_beta_unobservable_alpha_gamma_observable():
+    from inmotion.evaluate.reproduce_000 import observability
+    obs = observability(seconds=30.0)
+    frac = obs["observable_fraction"]
+    assert frac["mount_y"] < 1e-6 and obs["column_norm"]["mount_y"] < 1e-12
+    assert frac["mount_x"] > 0.99 and frac["mount_z"] > 0.99
+    assert obs["rank"] < obs["n"]
+
+
+def test_prior_ties_dr_errors_to_sins_errors():
+    cfg = dr_kalman.DrKfConfig()
+    lay = dr_kalman.LAYOUT_DR_KF
+    P = dr_kalman._initial_covariance(lay, cfg, 0.6, 400.0)
+    assert np.allclose(P[lay["phi"], lay["phi_D"]], P[lay["phi"], lay["phi"]])
+    # phi - phi_D has zero prior variance: the DR starts from the SINS's attitude
+    D = np.zeros(lay.n)
+    D[lay.index("phi_U")], D[lay.index("phi_D_U")] = 1.0, -1.0
+    assert D @ P @ D == pytest.approx(0.0, abs=1e-20)
+    assert np.all(np.linalg.eigvalsh(P) > -1e-15)

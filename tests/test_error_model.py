@@ -317,3 +317,66 @@ def test_gyro_drift_tilts_the_dr_platform_as_derived_not_as_printed():
     s = LAY25["phi_D"]
     # the printed F predicts almost no DR tilt; the truth has ~ |eps| T
     assert np.linalg.norm(lin_printed[s] - nl[s]) > 0.8 * np.linalg.norm(nl[s])
+
+
+def test_linear_model_follows_the_package_mechanization_and_dead_reckoner():
+    """Injected errors through the real Strapdown / DeadReckoner on a simulated drive with
+    error-free sensors (turning and accelerating), against ``Phi x0`` over 40 s."""
+    from inmotion.core.deadreckoning import DeadReckoner, speed_on_epochs
+    from inmotion.core.mechanization import Strapdown
+    from inmotion.core.solution import NavState
+    from inmotion.sim import simulate
+
+    sc = dict(name="em", start=dict(lat_deg=34.0, lon_deg=108.0, h_m=400.0, heading_deg=30.0,
+                                    speed_m_s=10.0),
+              segments=[dict(kind="accelerate", to_speed_m_s=14.0, accel_m_s2=0.5),
+                        dict(kind="turn", angle_deg=60.0, rate_deg_s=3.0),
+                        dict(kind="cruise", duration_s=20.0)],
+              imu=dict(rate_hz=100), sensors=dict(radar=dict(rate_hz=100)))
+    b = simulate(sc, np.random.default_rng(0))
+    tr = b.truth
+    lay = LAY25
+    eps = np.deg2rad([2.0, -3.0, 4.0]) / 3600
+    nabla = np.array([5e-4, -4e-4, 3e-4])
+    dk = 1e-3
+    phi0 = np.array([6e-4, -5e-4, 2e-3])
+    dp0 = np.array([1.5e-6, -1e-6, 2.0])
+    x = lay.zeros()
+    x[lay["phi"]] = x[lay["phi_D"]] = phi0
+    x[lay["dv"]] = [0.03, -0.02, 0.01]
+    x[lay["dp"]] = x[lay["dp_D"]] = dp0
+    x[lay["eps"]], x[lay["nabla"]], x[lay["dk"]] = eps, nabla, dk
+    C0 = dcm_from_rotvec(-phi0) @ tr.C_nb[0]
+    from inmotion.core.rotations import quat_from_dcm
+    init = NavState(tr.t[0], tr.lat[0] + dp0[0], tr.lon[0] + dp0[1], tr.h[0] + dp0[2],
+                    tr.vel_n[0] + x[lay["dv"]], quat_from_dcm(C0))
+    sins, dr = Strapdown(init), DeadReckoner(init)
+    ds, v, _, _ = speed_on_epochs(b.radar, tr.t)
+    dt = 0.01
+    model = em.ErrorModel(lay, em.ProcessNoise(dk_tau=np.inf))
+    step, n = 10, 4000
+    for a in range(1, n, step):
+        rows = slice(a, a + step)
+        dth = b.imu.dtheta[rows] + eps * dt
+        dvl = b.imu.dvel[rows] + nabla * dt
+        sins.run(dth, dvl, tr.t[rows])
+        dr.run(dth, tr.t[rows], ds[a - 1:a - 1 + step] * (1 + dk), v[a - 1:a - 1 + step] * (1 + dk))
+        k = a + step // 2
+        f_n = tr.C_nb[k] @ (b.imu.dvel[k] / dt)
+        pt = em.LinPoint(lat=tr.lat[k], h=tr.h[k], vel_n=tr.vel_n[k], C_nb=tr.C_nb[k], f_n=f_n)
+        Phi, _ = discretize(model.F(pt), np.zeros((lay.n, lay.n)), step * dt)
+        x = Phi @ x
+    k = n - 1 + (step - (n - 1) % step) % step
+    k = min(k, len(tr.t) - 1)
+    s, d = sins.state(), dr.state()
+    assert s.t == pytest.approx(tr.t[k])
+    nl = lay.zeros()
+    nl[lay["phi"]] = misalignment(s.C_nb, tr.C_nb[k])
+    nl[lay["dv"]] = s.vel_n - tr.vel_n[k]
+    nl[lay["dp"]] = [s.lat - tr.lat[k], s.lon - tr.lon[k], s.h - tr.h[k]]
+    nl[lay["phi_D"]] = misalignment(d.C_nb, tr.C_nb[k])
+    nl[lay["dp_D"]] = [d.lat - tr.lat[k], d.lon - tr.lon[k], d.h - tr.h[k]]
+    for blk in ("phi", "dv", "dp", "phi_D", "dp_D"):
+        sl = lay[blk]
+        scale = np.max(np.abs(nl[sl]))
+        assert np.allclose(x[sl], nl[sl], atol=0.05 * scale), (blk, x[sl], nl[sl])
