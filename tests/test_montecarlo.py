@@ -16,8 +16,9 @@ import pandas as pd
 import pytest
 
 from inmotion.errors import BadInput
-from inmotion.evaluate.campaign import (ResultStore, Task, execute_task, flatten,
-                                        run_generator, run_seed_sequence)
+from inmotion.evaluate.campaign import (Task, execute_task, flatten, run_generator,
+                                        run_seed_sequence)
+from inmotion.evaluate.store import ResultStore
 from inmotion.evaluate.montecarlo import read_results, rerun, run_campaign
 from inmotion.evaluate.runs import initial_state, parse_init_error
 from inmotion.evaluate.sweep import expand_grid, load_sweep, set_path
@@ -185,24 +186,28 @@ def test_a_raising_run_is_recorded_and_the_campaign_goes_on(tmp_path, client):
     assert r["status"] == "error" and r["error"] == failed.iloc[0]["error"]
 
 
+def fingerprints(df) -> dict:
+    """(point, run) -> wall time of the execution that wrote it: a re-run changes it."""
+    return {(int(r.point_id), int(r.run_index)): r.elapsed_s for r in df.itertuples()}
+
+
 def test_resume_runs_only_what_is_missing_and_retry_failed(tmp_path, client):
     sweep = synth_sweep(runs=4, fail_value=1.0)
     full = run_campaign(sweep, tmp_path / "ref", client=client, quiet=True)
     out = tmp_path / "c"
-    run_campaign(synth_sweep(runs=2, fail_value=1.0), out, client=client, quiet=True)
-    before = {p: p.stat().st_mtime_ns for p in ResultStore(out).files()}
-    assert len(before) == 8
+    half = run_campaign(synth_sweep(runs=2, fail_value=1.0), out, client=client, quiet=True)
+    assert len(half) == 8
     grown = run_campaign(sweep, out, client=client, resume=True, quiet=True)
     pd.testing.assert_frame_equal(comparable(grown), comparable(full))
-    assert all(p.stat().st_mtime_ns == m for p, m in before.items())   # not re-run
+    before, after = fingerprints(half), fingerprints(grown)
+    assert all(after[k] == v for k, v in before.items())          # not run again
     # retry_failed re-runs exactly the recorded failures (still failing: same seed)
-    failed = set(grown.loc[grown.status == "error", ["point_id", "run_index"]].itertuples(index=False))
-    kept = {p: p.stat().st_mtime_ns for p in ResultStore(out).files()}
+    failed = {k for k, s in zip(fingerprints(grown), grown["status"]) if s == "error"}
+    assert failed
     again = run_campaign(sweep, out, client=client, resume=True, retry_failed=True, quiet=True)
     pd.testing.assert_frame_equal(comparable(again), comparable(full))
-    rewritten = {(int(p.parent.name[6:]), int(p.stem[4:])) for p in ResultStore(out).files()
-                 if p.stat().st_mtime_ns != kept[p]}
-    assert rewritten == {tuple(map(int, k)) for k in failed}
+    rerun_keys = {k for k, v in fingerprints(again).items() if after[k] != v}
+    assert rerun_keys == failed
 
 
 def test_existing_results_and_a_different_campaign_are_refused(tmp_path, client):
@@ -218,7 +223,8 @@ def test_existing_results_and_a_different_campaign_are_refused(tmp_path, client)
 
 def test_arrays_are_written_per_run_and_a_small_window_still_finishes(tmp_path, client):
     sweep = synth_sweep(runs=3, save_arrays=True)
-    df = run_campaign(sweep, tmp_path / "c", client=client, quiet=True, max_in_flight=1)
+    df = run_campaign(sweep, tmp_path / "c", client=client, quiet=True, max_in_flight=1,
+                      max_chunk=1)
     assert len(df) == 12
     arr = ResultStore(tmp_path / "c").read_arrays(2, 1)
     x = run_generator(sweep.seed, 1).normal(0.0, 3.0, 8)
@@ -226,13 +232,27 @@ def test_arrays_are_written_per_run_and_a_small_window_still_finishes(tmp_path, 
     assert np.allclose(arr["sigma.north_m"], 3.0 * np.sqrt(np.arange(1, 9)))
 
 
-def test_partial_files_of_a_killed_write_are_ignored_and_cleaned(tmp_path):
-    store = ResultStore(tmp_path)
-    store.write({"point_id": 0, "run_index": 0, "status": "ok", "a": 1.0})
-    tmp = tmp_path / "results" / "point-0000" / ".run-000001.parquet.123.tmp"
+def test_store_journal_compaction_cut_lines_and_partial_files(tmp_path):
+    store = ResultStore(tmp_path, compact_every=3)
+    rows = [{"point_id": k % 2, "run_index": k, "status": "ok", "a": float(k)} for k in range(7)]
+    for r in rows:
+        store.write(r)
+    assert len(store.part_files()) == 4 and len(store.journal_files()) == 1   # 2 compactions
+    assert store.done() == {(r["point_id"], r["run_index"]) for r in rows}
+    # a kill mid-line leaves a cut line; a kill mid-compaction leaves rows in part and journal
+    journal = store.journal_files()[0]
+    with open(journal, "a") as f:
+        f.write(json.dumps(rows[0]) + "\n" + '{"point_id": 1, "run_ind')
+    tmp = tmp_path / "results" / "point-0000" / ".part-x.parquet.123.tmp"
     tmp.write_bytes(b"half a file")
-    assert store.done() == {(0, 0)} and len(store.table()) == 1
-    assert store.remove_partial() == 1 and not tmp.exists()
+    df = ResultStore(tmp_path).table()
+    assert df["a"].tolist() == [0.0, 2.0, 4.0, 6.0, 1.0, 3.0, 5.0]
+    assert ResultStore(tmp_path).remove_partial() == 1 and not tmp.exists()
+    store.close()
+    assert store.journal_files() == [] and len(ResultStore(tmp_path).table()) == 7
+    # forgetting runs rewrites the parts that hold them
+    store.remove([(0, 2), (1, 5)])
+    assert sorted(ResultStore(tmp_path).done()) == [(0, 0), (0, 4), (0, 6), (1, 1), (1, 3)]
 
 
 KILL_SCRIPT = """
@@ -261,16 +281,14 @@ def test_killed_campaign_resumed_gives_the_uninterrupted_table(tmp_path):
     finally:
         os.killpg(proc.pid, signal.SIGKILL)   # the campaign, its cluster and its workers
         proc.wait()
-    n_before = len(store.done())
-    assert 12 <= n_before < 60, n_before
-    before = {p: p.stat().st_mtime_ns for p in store.files()}
-    doc = {"name": "kill", "run": SYNTH, "runs": 30, "seed": 3, "sleep_s": 0.0,
+    partial = store.table()
+    assert 12 <= len(partial) < 60, len(partial)
+    doc = {"name": "kill", "run": SYNTH, "runs": 30, "seed": 3, "sleep_s": 0.05,
            "grid": {"scale": [1.0, 2.0]}}
-    # sleep_s is part of the spec: resume must use the same one
-    doc_same = dict(doc, sleep_s=0.05)
-    resumed = run_campaign(load_sweep(doc_same), out, workers=1, resume=True, quiet=True)
-    assert all(p.stat().st_mtime_ns == m for p, m in before.items())
-    reference = run_campaign(load_sweep(doc_same), tmp_path / "ref", workers=2, quiet=True)
+    resumed = run_campaign(load_sweep(doc), out, workers=1, resume=True, quiet=True)
+    after = fingerprints(resumed)
+    assert all(after[k] == v for k, v in fingerprints(partial).items())   # not run again
+    reference = run_campaign(load_sweep(doc), tmp_path / "ref", workers=2, quiet=True)
     assert len(resumed) == 60
     pd.testing.assert_frame_equal(comparable(resumed), comparable(reference))
     pd.testing.assert_frame_equal(comparable(read_results(out)), comparable(reference))
@@ -395,3 +413,11 @@ def test_montecarlo_command_bad_input_exits_2(tmp_path, extra, message):
                                    "--method", "sins", "--runs", "1", "--quiet", *extra])
     assert res.exit_code == 2, res.output
     assert message in res.output
+
+
+def test_a_part_starting_with_an_error_row_keeps_every_result_column(tmp_path):
+    store = ResultStore(tmp_path, compact_every=2)
+    store.write({"point_id": 0, "run_index": 0, "status": "error", "error": "boom"})
+    store.write({"point_id": 0, "run_index": 1, "status": "ok", "error": "", "a": 2.5})
+    df = ResultStore(tmp_path).table()
+    assert np.isnan(df["a"].iloc[0]) and df["a"].iloc[1] == 2.5

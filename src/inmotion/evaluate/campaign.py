@@ -13,15 +13,17 @@ random numbers): run ``k`` of every method sees the same simulated drive, so dif
 methods are not masked by drive-to-drive scatter. :func:`execute_task` run alone reproduces any
 run exactly.
 
-Files
------
-``DIR/results/point-PPPP/run-RRRRRR.parquet`` holds one row per finished run: ``point_id``,
-``run_index``, ``seed``, ``status`` (``ok`` / ``error``), ``error``, ``traceback``, ``label``, the
-point's grid values as ``param.<dotted path>``, the run function's scalars (nested dicts
-flattened with ``.``), and ``elapsed_s`` (wall time of the run; with ``worker``, the only columns
-that may differ between two executions of the same run). Each file is written to a temporary
-name and renamed, so a killed campaign leaves only whole files. Optional arrays a run returns
-under the key ``"arrays"`` go to ``DIR/arrays/point-PPPP/run-RRRRRR.npz``.
+Records
+-------
+A run's record (one row of the results table, :mod:`inmotion.evaluate.store`) holds
+``point_id``, ``run_index``, ``seed``, ``status`` (``ok`` / ``error``), ``error``, ``traceback``,
+``label``, the point's grid values as ``param.<dotted path>``, the run function's scalars
+(nested dicts flattened with ``.``), ``elapsed_s`` (wall time of the run) and ``worker``; these
+two are the only columns that may differ between two executions of the same run. Arrays a run
+returns under the key ``"arrays"`` travel beside the record.
+
+Several tasks may travel as one Dask task (:func:`execute_tasks`) when runs are short, to spread
+the scheduler's cost; each run keeps its own seed, so this changes no number.
 """
 from __future__ import annotations
 
@@ -32,15 +34,11 @@ import socket
 import time
 import traceback
 from dataclasses import dataclass
-from pathlib import Path
-from typing import Iterable, Optional
 
 import numpy as np
-import pyarrow as pa
-import pyarrow.parquet as pq
 
-__all__ = ["Task", "run_seed_sequence", "run_generator", "execute_task", "error_record",
-           "flatten", "ResultStore"]
+__all__ = ["Task", "run_seed_sequence", "run_generator", "execute_task", "execute_tasks",
+           "error_record", "flatten"]
 
 TIMING_COLUMNS = ("elapsed_s", "worker")
 
@@ -142,78 +140,6 @@ def execute_task(task: Task) -> tuple:
     return record, arrays
 
 
-def _stem(point_id: int, run_index: int) -> tuple:
-    return f"point-{point_id:04d}", f"run-{run_index:06d}"
-
-
-class ResultStore:
-    """The per-run result files of one campaign directory (see the module notes)."""
-
-    def __init__(self, root):
-        self.root = Path(root)
-        self.results = self.root / "results"
-        self.arrays = self.root / "arrays"
-
-    def _atomic_write(self, path: Path, write) -> None:
-        path.parent.mkdir(parents=True, exist_ok=True)
-        tmp = path.with_name(f".{path.name}.{os.getpid()}.tmp")
-        write(tmp)
-        os.replace(tmp, path)
-
-    def write(self, record: dict, arrays: Optional[dict] = None) -> None:
-        """Write one run's row (and arrays) atomically."""
-        part, run = _stem(record["point_id"], record["run_index"])
-        if arrays:
-            def save(tmp):
-                with open(tmp, "wb") as f:
-                    np.savez(f, **{k: np.asarray(v) for k, v in arrays.items()})
-            self._atomic_write(self.arrays / part / f"{run}.npz", save)
-        table = pa.Table.from_pylist([record])
-        self._atomic_write(self.results / part / f"{run}.parquet",
-                           lambda tmp: pq.write_table(table, tmp, compression="zstd"))
-
-    def files(self) -> Iterable[Path]:
-        if not self.results.is_dir():
-            return []
-        return sorted(p for p in self.results.glob("point-*/run-*.parquet"))
-
-    def done(self) -> set:
-        """``{(point_id, run_index)}`` of every run with a result file (from names only)."""
-        keys = set()
-        for p in self.files():
-            keys.add((int(p.parent.name[6:]), int(p.stem[4:])))
-        return keys
-
-    def remove_partial(self) -> int:
-        """Delete temporary files a killed campaign left behind; returns how many."""
-        n = 0
-        for sub in (self.results, self.arrays):
-            if sub.is_dir():
-                for p in sub.glob("point-*/.*.tmp"):
-                    p.unlink(missing_ok=True)
-                    n += 1
-        return n
-
-    def remove(self, keys: Iterable[tuple]) -> None:
-        """Delete the result files of ``keys`` (used to re-run failed runs)."""
-        for pid, idx in keys:
-            part, run = _stem(pid, idx)
-            (self.results / part / f"{run}.parquet").unlink(missing_ok=True)
-            (self.arrays / part / f"{run}.npz").unlink(missing_ok=True)
-
-    def read_arrays(self, point_id: int, run_index: int) -> Optional[dict]:
-        part, run = _stem(point_id, run_index)
-        path = self.arrays / part / f"{run}.npz"
-        if not path.exists():
-            return None
-        with np.load(path) as z:
-            return {k: z[k] for k in z.files}
-
-    def table(self):
-        """All rows as a pandas DataFrame sorted by ``(point_id, run_index)``."""
-        import pandas as pd
-        tables = [pq.read_table(p) for p in self.files()]
-        if not tables:
-            return pd.DataFrame(columns=["point_id", "run_index", "seed", "status", "error"])
-        df = pa.concat_tables(tables, promote_options="permissive").to_pandas()
-        return df.sort_values(["point_id", "run_index"], kind="stable").reset_index(drop=True)
+def execute_tasks(tasks) -> list:
+    """:func:`execute_task` over a list of tasks, in order (one Dask task for several short runs)."""
+    return [execute_task(t) for t in tasks]

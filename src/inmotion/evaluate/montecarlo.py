@@ -15,14 +15,16 @@ Guarantees
   only the runs in flight, and ``resume=True`` runs only the missing ones.
 - A run that raises is a result (``status='error'``, its error text, traceback and seed); the
   campaign goes on.
-- At most ``max_in_flight`` tasks are submitted at a time, so the client's memory does not grow
-  with the number of runs.
+- At most ``max_in_flight`` Dask tasks are submitted at a time, so the client's memory does not
+  grow with the number of runs. Short runs travel several to a Dask task (about 0.25 s of work
+  each, :class:`_Chunker`), so the engine's cost per run stays small even for empty runs.
 """
 from __future__ import annotations
 
 import contextlib
 import json
 import logging
+import math
 import os
 import platform
 import sys
@@ -32,7 +34,8 @@ from pathlib import Path
 from typing import Optional
 
 from ..errors import BadInput
-from .campaign import ResultStore, Task, _resolve, error_record, execute_task
+from .campaign import Task, _resolve, error_record, execute_task, execute_tasks
+from .store import ResultStore
 from .sweep import Sweep
 
 __all__ = ["run_campaign", "iter_tasks", "rerun", "read_results", "versions", "open_client"]
@@ -40,6 +43,9 @@ __all__ = ["run_campaign", "iter_tasks", "rerun", "read_results", "versions", "o
 MANIFEST = "campaign.json"
 TABLE = "table.parquet"
 #: environment of local workers: one BLAS thread each, the cores are the workers
+#: seconds of work a Dask task should carry when runs are short (see _Chunker)
+TARGET_TASK_S = 0.25
+MAX_CHUNK = 256
 WORKER_ENV = {"OPENBLAS_NUM_THREADS": "1", "MKL_NUM_THREADS": "1", "OMP_NUM_THREADS": "1",
               "NUMBA_NUM_THREADS": "1"}
 
@@ -169,7 +175,8 @@ def _failed_keys(store: ResultStore) -> set:
 def run_campaign(sweep: Sweep, out_dir, *, workers: Optional[int] = None,
                  scheduler: Optional[str] = None, client=None, resume: bool = False,
                  retry_failed: bool = False, quiet: bool = False,
-                 max_in_flight: Optional[int] = None, validate: bool = True):
+                 max_in_flight: Optional[int] = None, max_chunk: int = MAX_CHUNK,
+                 validate: bool = True):
     """Run every (point, run) of ``sweep`` not yet in ``out_dir``; return the full results table.
 
     Parameters
@@ -192,7 +199,9 @@ def run_campaign(sweep: Sweep, out_dir, *, workers: Optional[int] = None,
     quiet : bool
         No progress bar.
     max_in_flight : int, optional
-        Tasks submitted at a time (default ``max(16, 4 * workers)``).
+        Dask tasks submitted at a time (default ``max(4, 3 * workers)``).
+    max_chunk : int
+        Most runs per Dask task; 1 makes every run its own task (see :class:`_Chunker`).
 
     Returns
     -------
@@ -208,55 +217,86 @@ def run_campaign(sweep: Sweep, out_dir, *, workers: Optional[int] = None,
     if resume and retry_failed:
         store.remove(_failed_keys(store))
     done = store.done()
-    total = sweep.runs * len(sweep.points)
-    todo = iter_tasks(sweep, skip=done)
-    n_todo = total - len(done & {(p.point_id, k) for p in sweep.points for k in range(sweep.runs)})
+    wanted = {(p.point_id, k) for p in sweep.points for k in range(sweep.runs)}
+    n_todo = len(wanted - done)
     if n_todo > 0:
-        with open_client(workers, scheduler, client) as c:
-            _drive(c, todo, store, total, total - n_todo, quiet, max_in_flight, sweep.name)
+        with open_client(workers, scheduler, client) as c, store:
+            _drive(c, iter_tasks(sweep, skip=done), store, len(wanted), len(wanted) - n_todo,
+                   n_todo, quiet, max_in_flight, max_chunk, sweep.name)
     df = store.table()
     df.to_parquet(out / TABLE, index=False)
     return df
 
 
-def _drive(client, tasks, store, total, initial, quiet, max_in_flight, name):
-    """Submit tasks with a bounded window, write each result as it completes."""
+class _Chunker:
+    """How many runs to send as one Dask task: about ``TARGET_TASK_S`` of work, judged from the
+    mean wall time of the runs finished so far (1 until one has finished), never more than an
+    even share of what is left per worker (so the last tasks stay balanced)."""
+
+    def __init__(self, n_workers: int, max_chunk: int):
+        self.n_workers, self.max_chunk = n_workers, max(1, int(max_chunk))
+        self.seconds, self.runs = 0.0, 0
+
+    def observe(self, records) -> None:
+        for r in records:
+            if math.isfinite(r.get("elapsed_s", float("nan"))):
+                self.seconds += r["elapsed_s"]
+                self.runs += 1
+
+    def size(self, remaining: int) -> int:
+        if self.runs == 0:
+            return 1
+        mean = max(self.seconds / self.runs, 1e-6)
+        share = max(1, remaining // (2 * self.n_workers))
+        return int(max(1, min(TARGET_TASK_S / mean, self.max_chunk, share)))
+
+
+def _drive(client, tasks, store, total, initial, n_todo, quiet, max_in_flight, max_chunk, name):
+    """Submit chunks of tasks with a bounded window; record each run as its chunk completes."""
     from distributed import as_completed
     n_workers = max(1, len(client.scheduler_info(n_workers=-1).get("workers", {})))
-    window = max_in_flight or max(16, 4 * n_workers)
+    window = max_in_flight or max(4, 3 * n_workers)
+    chunker = _Chunker(n_workers, max_chunk)
     token = uuid.uuid4().hex[:8]
+    in_flight, remaining = {}, [n_todo]
 
-    def submit(task):
-        return client.submit(execute_task, task, pure=False,
-                             key=f"inmotion-run-{token}-p{task.point_id}-r{task.run_index}")
-
-    pending, in_flight = as_completed(), {}
-    for task in _take(tasks, window):
-        fut = submit(task)
-        in_flight[fut.key] = task
+    def submit_next(pending):
+        chunk = _take(tasks, chunker.size(remaining[0]))
+        if not chunk:
+            return
+        remaining[0] -= len(chunk)
+        first = chunk[0]
+        fut = client.submit(execute_tasks, chunk, pure=False,
+                            key=f"inmotion-{token}-p{first.point_id}-r{first.run_index}-n{len(chunk)}")
+        in_flight[fut.key] = chunk
         pending.add(fut)
+
+    pending = as_completed(with_results=True, raise_errors=False)
+    for _ in range(window):
+        submit_next(pending)
     n_err = 0
     with _progress(total, initial, quiet, name) as bar:
-        for fut in pending:
-            record, arrays = _outcome(fut, in_flight.pop(fut.key))
-            store.write(record, arrays)
-            n_err += record["status"] != "ok"
-            bar.update(1)
+        for fut, result in pending:
+            chunk = in_flight.pop(fut.key)
+            outcomes = _outcomes(result, chunk)
+            for record, arrays in outcomes:
+                store.write(record, arrays)
+                n_err += record["status"] != "ok"
+            chunker.observe(r for r, _ in outcomes)
+            bar.update(len(outcomes))
             if n_err:
                 bar.set_postfix(errors=n_err, refresh=False)
             fut.release()
-            for task in _take(tasks, 1):
-                nxt = submit(task)
-                in_flight[nxt.key] = task
-                pending.add(nxt)
+            submit_next(pending)
 
 
-def _outcome(fut, task):
-    """The task's result; a worker lost while running it (KilledWorker) is recorded as an error."""
-    try:
-        return fut.result()
-    except Exception as exc:
-        return error_record(task, exc), None
+def _outcomes(result, chunk):
+    """The chunk's (record, arrays) pairs; a chunk lost with its worker (e.g. ``KilledWorker``)
+    is recorded as one error per run."""
+    if isinstance(result, BaseException) or not isinstance(result, list):
+        exc = result if isinstance(result, BaseException) else TypeError(repr(result))
+        return [(error_record(task, exc), None) for task in chunk]
+    return result
 
 
 def _take(it, n):

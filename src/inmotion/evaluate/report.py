@@ -260,7 +260,7 @@ def _result_tracks(solution, root: Path) -> list:
 
 
 def _campaign_section(page: _Page, root: Path, paper=None, level=2) -> list:
-    from .campaign import ResultStore
+    from .store import ResultStore
     from .montecarlo import _read_manifest
     manifest = _read_manifest(root)
     store = ResultStore(root)

@@ -23,8 +23,9 @@ pydantic schema rejects an unknown field). Points are the cartesian product of t
 in the order the keys are written, the last key varying fastest; ``point_id`` is the position in
 that order, so adding runs to a campaign never renumbers its points.
 
-A file without ``grid`` and without ``scenario`` is taken to be a plain scenario: one point whose
-specification is ``{"scenario": <the file>}`` (``inmotion montecarlo SCENARIO.yaml --method``).
+A file with none of the keys ``grid, scenario, run, runs, seed, method, paper`` is taken to be a
+plain scenario: one point whose specification is ``{"scenario": <the file>}``
+(``inmotion montecarlo SCENARIO.yaml --method NAME``).
 """
 from __future__ import annotations
 
@@ -44,6 +45,8 @@ __all__ = ["Point", "Sweep", "load_sweep", "expand_grid", "set_path", "point_lab
 #: keys of a sweep file that describe the campaign rather than a run
 CAMPAIGN_KEYS = ("name", "runs", "seed", "run", "grid", "paper")
 DEFAULT_RUN = "inmotion.evaluate.runs:default_run"
+#: a file with none of these keys is a plain scenario
+SWEEP_MARKERS = {"grid", "scenario", "run", "runs", "seed", "method", "paper"}
 
 
 @dataclass(frozen=True)
@@ -192,7 +195,7 @@ def load_sweep(source, *, overrides: Optional[dict] = None) -> Sweep:
     else:
         file = Path(source)
         doc, base_dir = _read_yaml(file), file.resolve().parent
-    if "grid" not in doc and "scenario" not in doc:
+    if not SWEEP_MARKERS & set(doc):
         doc = {"scenario": doc, "name": Path(file).stem if file else "campaign"}
     for k, v in (overrides or {}).items():
         if v is not None:

@@ -1,0 +1,105 @@
+"""Cost and scaling of the Monte Carlo campaign engine (issue 8).
+
+1. Engine overhead per run: a campaign of ``--empty-runs`` runs of an empty run function on a
+   warm local cluster (submission, scheduling, transfer, one Parquet file written per run,
+   progress). Target: under 20 ms per run.
+2. Scaling from 1 to 2 workers on a CPU-bound run function (``burn_run``, ~0.1 s a run).
+3. Scaling from 1 to 2 workers of the paper 004 campaign: 3 speeds (20, 60, 80 m/s) x
+   ``--paper-runs`` runs x 5 IMADA methods (the issue's figure is 50 runs; fewer give the same
+   per-run rate).
+
+Cluster start-up is timed apart (it is paid once per campaign). The machine's load average is
+printed: other processes on the cores make the scaling look worse than it is.
+
+    OPENBLAS_NUM_THREADS=1 .venv/bin/python benchmarks/bench_montecarlo.py \\
+        [--empty-runs 1000] [--burn-runs 40] [--paper-runs 50] [--skip-paper]
+"""
+from __future__ import annotations
+
+import argparse
+import os
+import shutil
+import tempfile
+import time
+from pathlib import Path
+
+from inmotion.evaluate.montecarlo import open_client, run_campaign
+from inmotion.evaluate.sweep import load_sweep
+
+PAPER004_METHODS = ["imada-vb", "imada-vn", "imada-dual", "mimada", "mimada-dual"]
+PAPER004_SCENARIOS = ["paper004_v20", "paper004_v60", "paper004_v80"]
+
+
+def timed_campaign(doc: dict, client, tmp: Path, tag: str):
+    """Seconds for one campaign on a warm client, and its table."""
+    out = tmp / tag
+    shutil.rmtree(out, ignore_errors=True)
+    t0 = time.perf_counter()
+    df = run_campaign(load_sweep(doc), out, client=client, quiet=True)
+    return time.perf_counter() - t0, df
+
+
+def warm(client, tmp, run, spec=None):
+    """Import the run function and its numba kernels on every worker before timing."""
+    n = len(client.scheduler_info(n_workers=-1)["workers"])
+    doc = {"name": "warm", "run": run, "runs": 2 * n, **(spec or {})}
+    timed_campaign(doc, client, tmp, f"warm-{time.monotonic_ns()}")
+
+
+def overhead(n_runs: int, tmp: Path) -> None:
+    print(f"\n[1] engine overhead, {n_runs} empty runs")
+    for workers in (1, 2):
+        t0 = time.perf_counter()
+        with open_client(workers=workers) as client:
+            start = time.perf_counter() - t0
+            warm(client, tmp, "inmotion.evaluate.runs:empty_run")
+            wall, df = timed_campaign({"name": "empty", "run": "inmotion.evaluate.runs:empty_run",
+                                       "runs": n_runs}, client, tmp, f"empty{workers}")
+        assert (df["status"] == "ok").all() and len(df) == n_runs
+        print(f"  {workers} worker(s): cluster start {start:.2f} s; {wall:.2f} s for {n_runs} "
+              f"runs = {1000 * wall / n_runs:.2f} ms per run (target < 20 ms)")
+
+
+def scaling(name: str, doc: dict, warm_spec: dict, tmp: Path) -> None:
+    walls = {}
+    for workers in (1, 2):
+        with open_client(workers=workers) as client:
+            warm(client, tmp, doc["run"], warm_spec)
+            walls[workers], df = timed_campaign(doc, client, tmp, f"{name}{workers}")
+        n = len(df)
+        bad = int((df["status"] != "ok").sum())
+        print(f"  {workers} worker(s): {walls[workers]:.2f} s for {n} runs "
+              f"({walls[workers] / n * 1000:.1f} ms per run){f', {bad} failed' if bad else ''}")
+    speedup = walls[1] / walls[2]
+    print(f"  speed-up 1 -> 2 workers: {speedup:.2f}x (parallel efficiency {speedup / 2:.0%})")
+
+
+def main():
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--empty-runs", type=int, default=1000)
+    ap.add_argument("--burn-runs", type=int, default=40)
+    ap.add_argument("--paper-runs", type=int, default=50)
+    ap.add_argument("--skip-paper", action="store_true")
+    args = ap.parse_args()
+    print(f"cores: {os.cpu_count()}, load average before: {os.getloadavg()}")
+    with tempfile.TemporaryDirectory(prefix="bench-mc-") as d:
+        tmp = Path(d)
+        overhead(args.empty_runs, tmp)
+        print(f"\n[2] CPU-bound scaling, {args.burn_runs} runs of burn_run")
+        burn = {"name": "burn", "run": "inmotion.evaluate.runs:burn_run", "runs": args.burn_runs,
+                "size": 10_000, "iterations": 1500}
+        scaling("burn", burn, {"size": 10, "iterations": 1}, tmp)
+        if not args.skip_paper:
+            n = 3 * 5 * args.paper_runs
+            print(f"\n[3] paper 004 campaign: 3 speeds x {args.paper_runs} runs x 5 methods = {n}")
+            paper = {"name": "paper004", "runs": args.paper_runs, "seed": 4,
+                     "scenario": PAPER004_SCENARIOS[0], "method": PAPER004_METHODS[0],
+                     "grid": {"scenario": PAPER004_SCENARIOS, "method": PAPER004_METHODS}}
+            scaling("paper004", paper, {"scenario": PAPER004_SCENARIOS[0],
+                                        "method": PAPER004_METHODS[0],
+                                        "grid": {"method": PAPER004_METHODS}}, tmp)
+    print(f"\nload average after: {os.getloadavg()}")
+
+
+if __name__ == "__main__":
+    main()
