@@ -44,6 +44,31 @@ def run_at_rest(lat, h, euler, dt, duration, *, phi0=(0, 0, 0), dv0=(0, 0, 0), d
     return sol, d_north, d_east, phi
 
 
+def test_kernel_helpers_agree_with_rotations():
+    """The numba tuple helpers against :mod:`inmotion.core.rotations` (both sides of the
+    0.01 rad series switch of the rotation-vector quaternion)."""
+    from inmotion.core import _kernels as K
+    from inmotion.core import rotations as R
+    rng = np.random.default_rng(7)
+    for angle in (0.0, 1e-9, 1e-5, 3e-3, 0.00999, 0.01001, 0.3, 3.0):
+        axis = rng.normal(size=3)
+        r = angle * axis / np.linalg.norm(axis)
+        assert np.allclose(K.quat_from_rotvec(tuple(r)), R.quat_from_rotvec(r), rtol=0,
+                           atol=3e-16)
+    p, q = R.quat_normalize(rng.normal(size=4)), R.quat_normalize(rng.normal(size=4))
+    v = rng.normal(size=3)
+    assert np.allclose(K.qmul(tuple(p), tuple(q)), R.quat_multiply(p, q), atol=1e-15)
+    assert np.allclose(K.qrotate(tuple(q), tuple(v)), R.dcm_from_quat(q) @ v, atol=1e-14)
+    assert np.allclose(K.qrotate_inv(tuple(q), tuple(v)), R.dcm_from_quat(q).T @ v, atol=1e-14)
+    assert np.allclose(K.cross(tuple(p[:3]), tuple(v)), np.cross(p[:3], v), atol=1e-15)
+    lat, h, vel = 0.7, 300.0, np.array([10.0, -4.0, 0.3])
+    assert np.allclose(K.omega_ie_n(lat), earth.omega_ie_n(lat), rtol=1e-15)
+    assert np.allclose(K.omega_en_n(lat, h, tuple(vel)), earth.omega_en_n(lat, h, vel),
+                       rtol=1e-15)
+    assert K.gravity(lat, h) == earth.gravity(lat, h)
+    assert K.radii(lat) == earth.radii(lat)
+
+
 def test_rest_stays_put_for_an_hour():
     lat, h = np.radians(45.0), 250.0
     sol, dn, de, phi = run_at_rest(lat, h, np.radians([3.0, -5.0, 130.0]), 0.1, 3600.0)

@@ -102,15 +102,17 @@ def qrotate_inv(q, v):
 
 @numba.njit(cache=True)
 def quat_from_rotvec(r):
-    """Quaternion of the rotation vector ``r`` [rad] (3-tuple); series below 1e-4 rad.
+    """Quaternion of the rotation vector ``r`` [rad] (3-tuple); series below 0.01 rad.
 
-    ``q = [cos(|r|/2), sin(|r|/2) r/|r|]``; the series ``0.5 - |r|^2/48`` of ``sin(a/2)/a``
-    and ``1 - |r|^2/8 + |r|^4/384`` of ``cos(a/2)`` are exact to double precision there.
+    ``q = [cos(|r|/2), sin(|r|/2) r/|r|]``. Below ``a = |r| = 0.01`` rad (every increment of a
+    land vehicle at 100 Hz) the series ``sin(a/2)/a = 1/2 - a^2/48 + a^4/3840`` and
+    ``cos(a/2) = 1 - a^2/8 + a^4/384 - a^6/46080`` are used: the first omitted terms,
+    ``a^6/645120`` and ``a^8/10321920``, are below 2e-18.
     """
     a2 = r[0] * r[0] + r[1] * r[1] + r[2] * r[2]
-    if a2 < 1e-8:
-        c = 1.0 - a2 / 8.0 + a2 * a2 / 384.0
-        k = 0.5 - a2 / 48.0
+    if a2 < 1e-4:
+        c = 1.0 - a2 / 8.0 + a2 * a2 / 384.0 - a2 * a2 * a2 / 46080.0
+        k = 0.5 - a2 / 48.0 + a2 * a2 / 3840.0
     else:
         a = math.sqrt(a2)
         c = math.cos(0.5 * a)
