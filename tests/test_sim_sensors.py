@@ -3,7 +3,7 @@ import numpy as np
 import pytest
 
 from inmotion.core import rotations
-from inmotion.sim import simulate, simulate_truth
+from inmotion.sim import load_scenario, simulate, simulate_truth
 from inmotion.sim.imu_errors import DEG_H, DEG_SQRT_H, UG, apply_imu_errors, draw_imu_errors
 from inmotion.sim.scenario import Imu
 from inmotion.sim.random_processes import markov
@@ -180,3 +180,9 @@ def test_quadrature_converged_with_disturbances():
     _, _, b = simulate_truth(dict(d, quadrature_nodes=8))
     assert np.abs(a.dtheta - b.dtheta).max() < 1e-15
     assert np.abs(a.dvel - b.dvel).max() < 1e-13
+    d["disturbances"]["vibration"] = []                    # driving alone: 3 nodes
+    assert load_scenario(d).nodes == 3
+    _, _, a = simulate_truth(d)
+    _, _, b = simulate_truth(dict(d, quadrature_nodes=8))
+    assert np.abs(a.dtheta - b.dtheta).max() < 1e-16
+    assert np.abs(a.dvel - b.dvel).max() < 1e-14

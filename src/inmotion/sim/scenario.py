@@ -362,13 +362,14 @@ class Scenario(_Model):
 
     @property
     def nodes(self) -> int:
-        """Gauss-Legendre nodes per IMU interval: ``quadrature_nodes`` if given, else 4 (exact
-        to round-off for the C3 motion), or 6 when a vibration has more than 0.05 cycles per
-        IMU interval (at 25 Hz and 100 Hz, 4 nodes leave 1e-12 rad per increment, 6 nodes 1e-16)."""
+        """Gauss-Legendre nodes per IMU interval: ``quadrature_nodes`` if given, else 3 (exact
+        to round-off for the C3 driving motion: 3 and 8 nodes agree to 1e-17 rad, 5e-16 m/s per
+        increment at 100 Hz), or 6 when a vibration has more than 0.05 cycles per IMU interval
+        (at 25 Hz and 100 Hz, 4 nodes leave 1e-12 rad per increment, 6 nodes 1e-16)."""
         if self.quadrature_nodes is not None:
             return self.quadrature_nodes
         fast = any(v.frequency_hz > 0.05 * self.imu.rate_hz for v in self.disturbances.vibration)
-        return 6 if fast else 4
+        return 6 if fast else 3
 
     @property
     def present_sensors(self) -> list[str]:

@@ -18,7 +18,8 @@ navigation equations, so that an error-free mechanization reproduces the truth:
   ``dv_n/dt = C_b^n (omega_nb_b x v_b + dv_b/dt)``;
 - increments ``dtheta_k = int omega_ib_b dt``, ``dvel_k = int f_b dt`` over ``(t_{k-1}, t_k]``
   with ``n`` Gauss-Legendre nodes (exact for polynomials of degree ``2n - 1``; the motion is
-  C3 or smoother, so 4 nodes are exact to round-off at 100 Hz).
+  C3 or smoother and slow against 100 Hz, so 3 nodes are exact to round-off; fast engine
+  vibration takes 6, see :attr:`inmotion.sim.scenario.Scenario.nodes`).
 
 ``dvel`` is the integral of the specific force resolved in the *instantaneous* body frame, what an
 accelerometer triad integrates; turning it into n-frame velocity (rotation and sculling
@@ -117,7 +118,7 @@ def _hermite(y0, y1, d0, d1, x, dt):
             + h11 * dt * d1[:, None])
 
 
-def generate(profile, start_lat, start_lon, start_h, rate_hz, n_rows, *, nodes=4,
+def generate(profile, start_lat, start_lon, start_h, rate_hz, n_rows, *, nodes=3,
              sensors=None) -> Trajectory:
     """Simulate the truth and error-free increments.
 
