@@ -88,7 +88,9 @@ OUT_K = slice(15, 31)         #: Davenport K, row-major
 OUT_SA = slice(31, 34)        #: weighted sum of alpha (for the centred q-method)
 OUT_SB = slice(34, 37)        #: weighted sum of beta
 OUT_W = 37                    #: sum of weights
-N_OUT = 38
+OUT_ALPHA = slice(38, 41)     #: alpha of the model at the epoch (before any low-pass) [m/s]
+OUT_BETA = slice(41, 44)      #: beta of the model at the epoch [m/s]
+N_OUT = 44
 
 
 @dataclass
@@ -103,6 +105,10 @@ class VectorRun:
     K : (M, 4, 4) Davenport matrix accumulated up to each epoch.
     S_alpha, S_beta : (M, 3) weighted sums of the vectors; W : (M,) sum of the weights
         (with fading), for :func:`inmotion.estimation.qmethod.k_centered`.
+    alpha, beta : (M, 3) the model's vector pair at each epoch [m/s], ``C_b^n(0) alpha = beta``
+        (before any low-pass; zero at the first epoch). For paper 001's filter, whose
+        measurement is ``alpha = C_{n(t)}^{b(0)} beta_001`` with ``beta_001 =
+        C_{n(0)}^{n(t)} beta``: use :data:`MODEL_VB_EARTH` and ``q_n0n``.
     n_vectors : number of vector pairs added in all.
     """
 
@@ -117,6 +123,8 @@ class VectorRun:
     S_alpha: np.ndarray
     S_beta: np.ndarray
     W: np.ndarray
+    alpha: np.ndarray
+    beta: np.ndarray
     n_vectors: int
 
     def K_used(self, centered: bool) -> np.ndarray:
@@ -167,7 +175,7 @@ def integrate_vectors(t, dtheta, dvel, speed_fwd, speed0, lat0, lon0, h0, *, mod
     return VectorRun(out[:, OUT_T], out[:, OUT_LAT], out[:, OUT_LON], out[:, OUT_H],
                      out[:, OUT_VN], out[:, OUT_QB], out[:, OUT_QN],
                      out[:, OUT_K].reshape(-1, 4, 4), out[:, OUT_SA], out[:, OUT_SB],
-                     out[:, OUT_W], int(n_steps))
+                     out[:, OUT_W], out[:, OUT_ALPHA], out[:, OUT_BETA], int(n_steps))
 
 
 # ------------------------------------------------------------------ small numba helpers
@@ -321,7 +329,8 @@ def _integrate(t, dtheta, dvel, speed, speed0, lat0, lon0, h0, model, nav, runni
     gain = 1.0 - lowpass_a
     C_tmp = np.empty((3, 3))
     count = 0
-    _record(out, count, t[0], pos, vn, q_b0b, q_n0n, K, S_a, S_b, W)
+    zero = (0.0, 0.0, 0.0)
+    _record(out, count, t[0], pos, vn, q_b0b, q_n0n, K, S_a, S_b, W, zero, zero)
     count += 1
     for s in range(n_steps):
         i1 = 1 + 2 * s
@@ -381,6 +390,7 @@ def _integrate(t, dtheta, dvel, speed, speed0, lat0, lon0, h0, model, nav, runni
                 alpha = _add(alpha, I_wvb)
             elif model == MODEL_DUAL:
                 beta = _sub(beta, I_wvn)
+        alpha_raw, beta_raw = alpha, beta
         if lowpass_a > 0.0:
             if s == 0:          # start the filter on the first pair: a constant passes unchanged
                 a_f, b_f = alpha, beta
@@ -403,13 +413,14 @@ def _integrate(t, dtheta, dvel, speed, speed0, lat0, lon0, h0, model, nav, runni
             _solve_running(K, S_a, S_b, W, centered, C_tmp)
             C_hat[:, :] = C_tmp
         if (s + 1) % out_every == 0 or s == n_steps - 1:
-            _record(out, count, t[i_end], pos, vn, q_b0b, q_n0n, K, S_a, S_b, W)
+            _record(out, count, t[i_end], pos, vn, q_b0b, q_n0n, K, S_a, S_b, W,
+                    alpha_raw, beta_raw)
             count += 1
     return out, count
 
 
 @numba.njit(cache=True)
-def _record(out, j, t, pos, vn, q_b0b, q_n0n, K, S_a, S_b, W):
+def _record(out, j, t, pos, vn, q_b0b, q_n0n, K, S_a, S_b, W, alpha, beta):
     out[j, OUT_T] = t
     out[j, OUT_LAT] = pos[0]
     out[j, OUT_LON] = pos[1]
@@ -426,3 +437,6 @@ def _record(out, j, t, pos, vn, q_b0b, q_n0n, K, S_a, S_b, W):
         out[j, 31 + i] = S_a[i]
         out[j, 34 + i] = S_b[i]
     out[j, OUT_W] = W
+    for i in range(3):
+        out[j, 38 + i] = alpha[i]
+        out[j, 41 + i] = beta[i]
