@@ -149,3 +149,17 @@ def test_vector_pairs_are_exposed_and_satisfy_the_model(drives):
         resid = run.beta - run.alpha @ C0.T
         assert np.max(np.abs(resid)) < 1e-6 * np.max(np.abs(run.beta))
         assert np.linalg.norm(run.beta[-1]) > 1000.0        # ~ g t at 120 s
+
+
+def test_registered_methods_load_with_default_configs():
+    from inmotion.registry import get
+    for name in ("imada-vb", "imada-vn", "imada-dual", "mimada", "mimada-dual", "oba",
+                 "coarse-inertial"):
+        spec = get(name)
+        run, Cfg = spec.load()
+        assert spec.kind == "align" and not spec.needs_attitude and callable(run)
+        Cfg()
+    with pytest.raises(Exception):
+        imada.ImadaConfig(initial_speed_fit_s=-1.0)
+    with pytest.raises(Exception):
+        imada.MimadaConfig(levels=1)

@@ -323,9 +323,9 @@ def _figures(results, curves, out: Path) -> None:
             for lab in VARIANTS:
                 if ("centred" in lab) != (form == "centred"):
                     continue
-                e = curves[v][lab]
-                axes[0, col].semilogy(t, np.mean(np.abs(e), axis=0), label=lab)
-                axes[1, col].semilogy(t, np.std(e, axis=0, ddof=1), label=lab)
+                e = curves[v][lab][:, 1:]          # epoch 0 has no vectors yet
+                axes[0, col].semilogy(t[1:], np.mean(np.abs(e), axis=0), label=lab)
+                axes[1, col].semilogy(t[1:], np.std(e, axis=0, ddof=1), label=lab)
             axes[0, col].set_title(f"{v} m/s, {form}: heading MAE over {results['runs']} runs")
             axes[1, col].set_title("heading STD")
             axes[1, col].set_xlabel("time [s]")
