@@ -227,7 +227,7 @@ def _add_disturbances(dist, t, euler, euler_dot, vel_b, acc_b):
         e0, e1, e2 = (_envelope(tm, vib.start_s, vib.end_s, vib.fade_s, nu) for nu in (0, 1, 2))
         ang = np.radians(np.broadcast_to(vib.angular_amplitude_arcsec, 3) / 3600.0)
         lin = np.broadcast_to(vib.linear_amplitude_mm, 3) * 1e-3
-        for i, phase in enumerate((0.0, 2 * np.pi / 3, 4 * np.pi / 3)):
+        for i, phase in enumerate(np.radians(vib.phases_deg)):
             sn, cs = np.sin(w * tm + phase), np.cos(w * tm + phase)
             euler[m, i] += ang[i] * e0 * sn
             euler_dot[m, i] += ang[i] * (e1 * sn + e0 * w * cs)

@@ -151,13 +151,18 @@ class Jump(_Model):
 class Vibration(_Model):
     """Engine vibration in a window: sinusoidal angular oscillation of pitch, roll, yaw
     (amplitudes ``angular_amplitude_arcsec``) and linear oscillation of the body along x, y, z
-    (displacement amplitudes ``linear_amplitude_mm``) at ``frequency_hz``, the three axes with
-    phases 0, 120, 240 deg; faded in and out over ``fade_s`` (C3 blend)."""
+    (displacement amplitudes ``linear_amplitude_mm``) at ``frequency_hz``, faded in and out over
+    ``fade_s`` (C3 blend). ``phases_deg`` are the phases of the three axes (angular and linear
+    alike). In phase (the default) the body rocks about one fixed axis; phase differences make
+    a coning motion, which a two-sample coning algorithm at 100 Hz follows only roughly (25 Hz
+    coning of a few arcsec leaves about 0.1 arcsec/min of attitude drift in the mechanization:
+    a property of the algorithm, not of the increments, which stay exact)."""
     start_s: float
     end_s: float
     frequency_hz: float = Field(gt=0.0, le=1000.0)
     angular_amplitude_arcsec: ScalarOr3 = 10.0
     linear_amplitude_mm: ScalarOr3 = 0.1
+    phases_deg: Vec3 = Field(default_factory=lambda: [0.0, 0.0, 0.0])
     fade_s: float = Field(1.0, gt=0.0)
 
     @model_validator(mode="after")
