@@ -57,7 +57,7 @@ def test_dr_kf_levels_to_arcminutes_and_sigma_covers_the_error(drive):
     """1 deg initial errors: after 150 s the level errors are below 1 arcmin; the heading
     error (straight drive: observable only through gyrocompassing, slow) has come down from
     60' and is inside 3 sigma, like every misalignment component."""
-    sol = dr_kalman.run_dr_kf(drive, {}, _init(drive))
+    sol = dr_kalman.run_dr_kf(drive, {"keep_covariance": True}, _init(drive))
     phi = _phi_error(sol, drive.truth)
     last = sol.t > sol.t[-1] - 30.0
     assert np.max(np.abs(phi[last, :2])) < 1.0 * ARCMIN
@@ -65,11 +65,14 @@ def test_dr_kf_levels_to_arcminutes_and_sigma_covers_the_error(drive):
     for i, name in enumerate(("phi_E", "phi_N", "phi_U")):
         assert np.all(np.abs(phi[last, i]) < 3.0 * sol.sigma[name][last]), name
     # the prior of the unobservable mounting angle about the forward axis is kept
-    assert sol.sigma["mount_y"][-1] > 0.99 * sol.sigma["mount_y"][0]
-    assert sol.sigma["mount_x"][-1] < 0.5 * sol.sigma["mount_x"][0]
-    assert sol.info["cov_phi"].shape == (len(sol.t), 3, 3)
+    assert sol.states["sigma_mount_y"][-1] > 0.99 * sol.states["sigma_mount_y"][0]
+    assert sol.states["sigma_mount_x"][-1] < 0.5 * sol.states["sigma_mount_x"][0]
+    cov = sol.info["cov_phi"]
+    assert cov.shape == (len(sol.t), 3, 3)
+    assert np.allclose(np.sqrt(cov[:, 2, 2]), sol.sigma["phi_U"])
     assert set(sol.states) >= {"mount_x", "dk", "eps_x", "phi_D_U"}
     assert sol.state_units["mount_x"].unit == "arcmin"
+    assert sol.state_units["sigma_dk"].unit == "ppm"
 
 
 def test_open_loop_and_switches_run_and_stay_bounded(drive):

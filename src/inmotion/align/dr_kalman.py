@@ -92,6 +92,7 @@ class OdVelocityKfConfig(BaseModel):
     closed_loop: bool = True
     feedback_rate_hz: float = Field(2.0, gt=0)
     gate_probability: float = Field(0.9999, gt=0.5, le=1.0)
+    keep_covariance: bool = False
     # priors
     init_tilt_sigma_deg: float = Field(1.0, gt=0)
     init_heading_sigma_deg: float = Field(1.0, gt=0)
@@ -387,19 +388,22 @@ def _solution(filt: _AlignmentFilter, arrays, method, cfg, wall) -> Solution:
              "north": sig["dp_lat"] * (r_m + out_lla[:, 2]),
              "east": sig["dp_lon"] * (r_n + out_lla[:, 2]) * np.cos(out_lla[:, 0]),
              "h": sig["dp_h"]}
-    for name in ("mount_x", "mount_y", "mount_z", "dk"):
-        sigma[name] = sig[name]
+    states = lay.as_dict(out_states)
+    units = lay.unit_map(position_units(filt.init.lat, filt.init.h))
+    for name in ("mount_x", "mount_y", "mount_z", "dk", "eps_x", "eps_y", "eps_z"):
+        states[f"sigma_{name}"] = sig[name]          # 1-sigma, written in the state's unit
+        units[f"sigma_{name}"] = units[name]
     info = {"method": method, "config": cfg.model_dump(), "velocity_sensor": filt.sensor_name,
             "layout": list(lay.names), "filter_step_rows": filt.step,
             "measurement_every_filter_steps": filt.meas_every,
             "measurements_used": dict(filt.gate.used),
             "measurements_rejected": dict(filt.gate.rejected),
             "nis_mean_per_dof": filt.kf.nis_sum / max(filt.kf.nis_dof, 1),
-            "cov_phi": out_cov_phi, "wall_time_s": wall}
+            "wall_time_s": wall}
+    if cfg.keep_covariance:
+        info["cov_phi"] = out_cov_phi
     return Solution.from_arrays(out_t, out_lla, out_vel, out_q, sigma=sigma,
-                                states=lay.as_dict(out_states),
-                                state_units=lay.unit_map(position_units(filt.init.lat, filt.init.h)),
-                                info=info)
+                                states=states, state_units=units, info=info)
 
 
 def _config(config, cls):
@@ -432,9 +436,12 @@ def run_dr_kf(bundle: Bundle, config: DrKfConfig | dict | None = None,
     """``dr-kf``: paper 000's SINS / radar-DR alignment filter (see the module docstring).
 
     Returns a :class:`Solution` at the filter rate: the (closed-loop corrected) SINS state,
-    ``sigma`` for ``phi_E/N/U``, velocity, position, ``mount_*`` and ``dk``, every named state
-    (accumulated feedback plus the current estimate), and in ``info`` the 3x3 misalignment
-    covariance history ``cov_phi`` (for NEES), the measurement counts and gate rejections.
+    ``sigma`` for ``phi_E/N/U``, velocity and position, every named state of the layout
+    (accumulated feedback plus the current estimate) and ``sigma_<state>`` for the mounting
+    angles, scale factor and gyro drifts (in ``states``, with the state's display unit), and in ``info`` the measurement counts,
+    gate rejections, mean NIS per degree of freedom and, with ``keep_covariance=True``, the
+    (N, 3, 3) misalignment covariance history ``cov_phi`` [rad^2] (for NEES; off by default
+    because ``summary.json`` would carry it).
     """
     return _run(bundle, config, init, progress, DrKfConfig, True, "dr-kf")
 

@@ -12,9 +12,9 @@ its element names and its unit at the edge, so that ``phi`` is the same thing in
 block      size  meaning (SI inside)                                 shown in
 =========  ====  ==================================================  ===========
 phi        3     SINS misalignment E, N, U [rad] (DESIGN convention) arcmin
-dv         3     SINS velocity error E, N, U [m/s]                   m/s
+dv         3     SINS velocity error E, N, U [m/s]                   m_s
 dp         3     SINS position error lat [rad], lon [rad], h [m]     m (N, E, U)
-eps        3     gyro drift x, y, z in b [rad/s]                     deg/h
+eps        3     gyro drift x, y, z in b [rad/s]                     deg_h
 nabla      3     accelerometer bias x, y, z in b [m/s^2]             ug
 phi_D      3     dead-reckoning misalignment E, N, U [rad]           arcmin
 dp_D       3     dead-reckoning position error lat, lon [rad], h [m] m (N, E, U)
@@ -22,6 +22,8 @@ mount      3     velocity-sensor mounting angles about x, y, z [rad] arcmin
 dk         1     velocity-sensor scale-factor error [-]              ppm
 lever      3     lever arm error x, y, z in b [m]                    m
 =========  ====  ==================================================  ===========
+
+Unit strings are safe in file column names (``states.csv`` writes ``<name>_<unit>``).
 
 Position errors in latitude and longitude are stored in rad (the form of paper 000 eq. 15-21
 and of ``Strapdown.correct``); their display unit converts to metres north / east with the
@@ -79,10 +81,10 @@ def _uniform(name, elements, unit):
 #: the catalogue of blocks shared by every Kalman method
 BLOCKS = {
     "phi": _uniform("phi", "ENU", StateUnit("arcmin", _ARCMIN)),
-    "dv": _uniform("dv", "ENU", StateUnit("m/s", 1.0)),
+    "dv": _uniform("dv", "ENU", StateUnit("m_s", 1.0)),
     "dp": Block("dp", ("lat", "lon", "h"),
                 (StateUnit("rad", 1.0), StateUnit("rad", 1.0), StateUnit("m", 1.0))),
-    "eps": _uniform("eps", "xyz", StateUnit("deg/h", _DEG_H)),
+    "eps": _uniform("eps", "xyz", StateUnit("deg_h", _DEG_H)),
     "nabla": _uniform("nabla", "xyz", StateUnit("ug", _UG)),
     "phi_D": _uniform("phi_D", "ENU", StateUnit("arcmin", _ARCMIN)),
     "dp_D": Block("dp_D", ("lat", "lon", "h"),

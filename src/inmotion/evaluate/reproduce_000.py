@@ -115,7 +115,7 @@ def run_one(task) -> dict:
     out = {"experiment": exp, "run": i}
     for label, cfg in settings.items():
         t0 = time.perf_counter()
-        sol = run_dr_kf(bundle, cfg, init)
+        sol = run_dr_kf(bundle, dict(cfg, keep_covariance=True), init)
         wall = time.perf_counter() - t0
         idx = np.clip(np.searchsorted(tr.t, sol.t - 1e-9), 0, len(tr.t) - 1)
         phi = misalignment(sol.C_nb, C_true[idx])
@@ -125,7 +125,7 @@ def run_one(task) -> dict:
         last = sol.t > sol.t[-1] - 100.0
         sig = np.stack([sol.sigma[k] for k in ("phi_E", "phi_N", "phi_U")], -1)
         mount = np.stack([sol.states[k] for k in ("mount_x", "mount_y", "mount_z")], -1)
-        msig = np.stack([sol.sigma[k] for k in ("mount_x", "mount_y", "mount_z")], -1)
+        msig = np.stack([sol.states["sigma_" + k] for k in ("mount_x", "mount_y", "mount_z")], -1)
         out[label] = {
             "t": sol.t[keep] - sol.t[0], "phi": phi[keep], "sigma": sig[keep],
             "nees": nees[keep], "mount": mount[keep], "mount_sigma": msig[keep],
