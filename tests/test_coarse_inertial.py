@@ -88,7 +88,10 @@ def test_in_motion_with_velocity_compensation_and_displacement():
     sol = ci.run_coarse_inertial(b, ci.CoarseInertialConfig())
     assert sol.info["levels"][0]["model"] == "coarse-inertial-moving"
     phi = rotations.misalignment(sol.C_nb[-1], b.truth.C_nb[-1])
-    assert np.max(np.abs(phi)) < np.radians(0.01)
+    # ignoring the 3.6 km displacement would misplace the n frame by ~5e-4 rad (3.1 km north
+    # over the Earth's radius); with it, what remains is the discretization and the running
+    # answer's calculation error
+    assert np.max(np.abs(phi)) < 1e-5
 
 
 def test_moving_mode_without_sensor_and_short_window_are_bad_input(wobble):
