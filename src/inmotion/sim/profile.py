@@ -21,7 +21,7 @@ from dataclasses import dataclass
 import numpy as np
 from scipy.interpolate import PPoly
 
-__all__ = ["Profile", "build_profile", "smoothstep7", "segment_times"]
+__all__ = ["Profile", "build_profile", "smoothstep7"]
 
 #: coefficients of S(x) = 35 x^4 - 84 x^5 + 70 x^6 - 20 x^7, lowest power first
 _S7 = np.array([0.0, 0.0, 0.0, 0.0, 35.0, -84.0, 70.0, -20.0])
@@ -70,12 +70,6 @@ def _const(v):
     c = np.zeros(8)
     c[-1] = v
     return c
-
-
-def segment_times(scenario):
-    """``[(kind, t_start, t_end)]`` of the segments [s] and the total duration [s]."""
-    prof = build_profile(scenario)
-    return prof.segments, prof.duration_s
 
 
 @dataclass
