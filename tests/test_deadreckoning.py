@@ -156,6 +156,39 @@ def test_distance_sensor_on_its_own_rate(circle):
     assert sol.info["rows_without_speed"] == 0
 
 
+def test_chunked_batch_equals_one_chunk(circle, monkeypatch):
+    """The batch run goes through the log in chunks, carrying the sensor's distance: small
+    chunks give the same result as one (to rounding); gaps and coverage are counted alike."""
+    import inmotion.core.deadreckoning as drm
+    d = circle
+    imu = ImuData(d["t"], d["dtheta"], d["dvel"])
+    ts = np.concatenate([np.arange(3.0, 50.0, 1 / 7), np.arange(60.0, 110.0, 1 / 7)])
+    odo = SpeedData(ts, ds=np.full(len(ts), 8.0 / 7))
+    init = _init(d, lat_key="lat_imu", lon_key="lon_imu", vel_key="vel_imu_n")
+    one = dead_reckon(imu, odo, init, lever_arm_b=d["lever"])
+    monkeypatch.setattr(drm, "CHUNK_ROWS", 97)
+    many = dead_reckon(imu, odo, init, lever_arm_b=d["lever"])
+    assert one.info == many.info and one.info["rows_in_speed_gaps"] > 0
+    assert np.abs(many.lat - one.lat).max() * earth.A < 1e-9
+    assert np.abs(many.lon - one.lon).max() * earth.A < 1e-9
+
+
+def test_memory_stays_flat_with_log_length():
+    """Beyond its output, a run allocates the same whether the log is 1x or 3x as long."""
+    import tracemalloc
+    peaks = []
+    for n in (1000, 200_000, 600_000):    # the first run warms up
+        t = np.arange(n) * 0.01
+        imu = ImuData(t, np.tile([0.0, 5e-7, 4e-7], (n, 1)), np.tile([0, 0, 0.098], (n, 1)))
+        odo = SpeedData(t[::3], ds=np.full(len(t[::3]), 0.3))
+        init = NavState.from_euler(0.0, LAT0, LON0, H0, [0, 10.0, 0], [0, 0, 0])
+        tracemalloc.start()
+        dead_reckon(imu, odo, init, out_stride=10_000)
+        peaks.append(tracemalloc.get_traced_memory()[1])
+        tracemalloc.stop()
+    assert peaks[2] < 1.1 * peaks[1] + 2e5
+
+
 def test_speed_is_never_extrapolated():
     """IMU epochs outside the sensor's span get no distance; gaps are interpolated across and
     counted; a ``v`` sensor is integrated by the trapezoid."""

@@ -268,6 +268,29 @@ def test_streaming_equals_batch_bit_for_bit(drive):
     assert np.array_equal(dec.lat, batch.lat[::7])
 
 
+def test_chunked_batch_is_bit_identical_and_memory_flat(drive, monkeypatch):
+    import tracemalloc
+    import inmotion.core.mechanization as mech
+    d = drive
+    imu = ImuData(d["t"], d["dtheta"], d["dvel"])
+    baro = BaroData(d["t"][::10], d["h"][::10])
+    one = strapdown(imu, _init(d), baro, damping="baro")
+    monkeypatch.setattr(mech, "CHUNK_ROWS", 101)
+    many = strapdown(imu, _init(d), baro, damping="baro")
+    assert np.array_equal(one.lat, many.lat) and np.array_equal(one.euler, many.euler)
+    monkeypatch.undo()
+    peaks = []
+    for n in (1000, 200_000, 600_000):    # beyond the output, flat; the first run warms up
+        imu = stationary_imu(0.5, 0.0, [0, 0, 0], 0.01, (n - 1) * 0.01)
+        baro = BaroData(imu.t[::5], np.zeros(len(imu.t[::5])))
+        init = NavState(0.0, 0.5, 0.0, 0.0, [0, 0, 0], [1, 0, 0, 0])
+        tracemalloc.start()
+        strapdown(imu, init, baro, damping="baro", out_stride=10_000)
+        peaks.append(tracemalloc.get_traced_memory()[1])
+        tracemalloc.stop()
+    assert peaks[2] < 1.1 * peaks[1] + 2e5
+
+
 def test_rates_for_filters_are_last_increments_over_dt(drive):
     d = drive
     nav = Strapdown(_init(d))

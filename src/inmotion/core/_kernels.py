@@ -438,6 +438,15 @@ def time_steps(t, t_prev, dt_out):
 
 
 @numba.njit(cache=True)
+def first_not_increasing(t):
+    """First index ``k`` with ``t[k]`` not finite or not after ``t[k-1]``, or -1."""
+    for k in range(t.shape[0]):
+        if not math.isfinite(t[k]) or (k > 0 and not t[k] > t[k - 1]):
+            return k
+    return -1
+
+
+@numba.njit(cache=True)
 def first_nonfinite_row(a):
     """First row of the 2-D array ``a`` holding NaN or inf, or -1."""
     for k in range(a.shape[0]):

@@ -36,8 +36,9 @@ import numpy as np
 
 from . import _kernels as K
 from .bundle import ImuData, SpeedData
-from .mechanization import (CHUNK_ROWS, _check_finite, _correct, _first_row, _intervals,
-                            _out_buffers, _SolutionBuilder, _state_vector)
+from .mechanization import (CHUNK_ROWS, _check_finite, _check_time, _correct, _first_row,
+                            _intervals, _out_buffers, _SolutionBuilder, _state_vector,
+                            typical_period)
 from .solution import NavState, Solution
 from ..errors import BadInput
 
@@ -64,60 +65,74 @@ def _check_mounting(C_bm, lever_arm_b, scale):
 def _check_speed(speed: SpeedData, what: str):
     if len(speed.t) < 2:
         raise BadInput(f"need at least 2 samples, got {len(speed.t)}", file=what)
-    bad = np.flatnonzero(~(np.diff(speed.t) > 0))
-    if bad.size:
-        k = int(bad[0]) + 1
-        raise BadInput(f"time not strictly increasing (previous t={speed.t[k - 1]:.6g} s)",
-                       file=what, row=k + 1, time=float(speed.t[k]))
+    _check_time(speed.t, what)
     for name in ("v", "ds"):
         val = getattr(speed, name)
         if val is not None:
-            bad = np.flatnonzero(~np.isfinite(val))
-            if bad.size:
-                k = int(bad[0])
+            k = K.first_nonfinite_row(val.reshape(-1, 1))
+            if k >= 0:
                 raise BadInput(f"{name} is not a finite number ({val[k]})", file=what,
                                row=k + 1, time=float(speed.t[k]))
 
 
 class _SpeedOnEpochs:
-    """A velocity sensor resampled to IMU epochs; see :func:`speed_on_epochs`.
+    """A velocity sensor resampled to IMU epochs, one chunk of epochs per call
+    (see :func:`speed_on_epochs`).
 
-    The sensor's cumulative distance is built once (one array the size of the sensor's data);
-    each call then handles one chunk of IMU epochs.
+    Calls normally come in time order; the sensor's cumulative distance is then carried from
+    call to call, so every temporary is the size of the chunk's stretch of sensor data, never
+    of the whole log (a call going back in time sums again from the first sample).
     """
 
     def __init__(self, speed: SpeedData, max_gap: float | None = None, what: str = "speed"):
         _check_speed(speed, what)
         self.speed = speed
-        ts = speed.t
-        if speed.ds is not None:
-            self.dist = np.concatenate([[0.0], np.cumsum(speed.ds[1:])])
-            if speed.v is None:
-                self.mid_t = 0.5 * (ts[1:] + ts[:-1])
-                self.mean_v = speed.ds[1:] / np.diff(ts)
-        else:
-            self.dist = np.concatenate(
-                [[0.0], np.cumsum(0.5 * (speed.v[1:] + speed.v[:-1]) * np.diff(ts))])
-        if max_gap is None:
-            max_gap = 5.0 * float(np.median(np.diff(ts)))
-        # gaps_upto[j]: how many of the sensor intervals (ts[i-1], ts[i]], i = 1..j, are gaps
-        self.gaps_upto = np.concatenate([[0], np.cumsum(np.diff(ts) > max_gap)])
+        self.max_gap = 5.0 * typical_period(speed.t) if max_gap is None else float(max_gap)
+        self._j = 0             # the sensor sample whose cumulative distance is carried
+        self._dist = 0.0        # cumulative distance [m] at sample _j (0 at sample 0)
+
+    def _increments(self, lo, hi):
+        """Distance [m] of the sensor intervals ending at samples ``lo+1 .. hi-1``."""
+        sp = self.speed
+        if sp.ds is not None:
+            return sp.ds[lo + 1:hi]
+        return 0.5 * (sp.v[lo + 1:hi] + sp.v[lo:hi - 1]) * np.diff(sp.t[lo:hi])
+
+    def _distance_at(self, j):
+        """Cumulative distance [m] at sensor sample ``j``."""
+        if j < self._j:
+            self._j, self._dist = 0, 0.0
+        self._dist += float(np.sum(self._increments(self._j, j + 1)))
+        self._j = j
+        return self._dist
 
     def __call__(self, t):
-        ts, sp = self.speed.t, self.speed
-        ds = np.diff(np.interp(t, ts, self.dist))
+        sp = self.speed
+        ts = sp.t
+        n = len(ts)
+        # the sensor samples around the chunk: one before the last sample <= t[0] and one after
+        # the first sample >= t[-1] (the speed of a ds sensor is interpolated between midpoints)
+        lo = int(np.clip(np.searchsorted(ts, t[0], side="right") - 2, 0, n - 2))
+        hi = int(np.clip(np.searchsorted(ts, t[-1], side="left") + 2, lo + 2, n))
+        tl = ts[lo:hi]
+        dist = np.empty(hi - lo)
+        dist[0] = self._distance_at(lo)
+        dist[1:] = dist[0] + np.cumsum(self._increments(lo, hi))
+        ds = np.diff(np.interp(t, tl, dist))
         if sp.v is not None:
-            v = np.interp(t[1:], ts, sp.v)
+            v = np.interp(t[1:], tl, sp.v[lo:hi])
         else:   # interval mean speeds, placed at the interval midpoints, interpolated
-            v = np.interp(t[1:], self.mid_t, self.mean_v)
+            v = np.interp(t[1:], 0.5 * (tl[1:] + tl[:-1]), sp.ds[lo + 1:hi] / np.diff(tl))
         uncovered = (t[:-1] < ts[0] - 1e-9) | (t[1:] > ts[-1] + 1e-9)
         ds[uncovered] = 0.0
         v[uncovered] = 0.0
-        # sensor intervals overlapping the IMU interval (ta, tb]: j_a..j_b
-        last = len(ts) - 1
-        j_a = np.clip(np.searchsorted(ts, t[:-1], side="right"), 1, last)
-        j_b = np.clip(np.searchsorted(ts, t[1:], side="left"), 1, last)
-        in_gap = (j_b >= j_a) & (self.gaps_upto[j_b] - self.gaps_upto[j_a - 1] > 0)
+        # gaps_upto[j]: how many of the intervals (tl[i-1], tl[i]], i = 1..j, are gaps;
+        # the IMU interval (ta, tb] overlaps the sensor intervals j_a..j_b
+        gaps_upto = np.concatenate([[0], np.cumsum(np.diff(tl) > self.max_gap)])
+        last = len(tl) - 1
+        j_a = np.clip(np.searchsorted(tl, t[:-1], side="right"), 1, last)
+        j_b = np.clip(np.searchsorted(tl, t[1:], side="left"), 1, last)
+        in_gap = (j_b >= j_a) & (gaps_upto[j_b] - gaps_upto[j_a - 1] > 0)
         return ds, v, uncovered, in_gap
 
 
@@ -132,7 +147,8 @@ def speed_on_epochs(speed: SpeedData, t: np.ndarray, max_gap: float | None = Non
     t : (M + 1,) s
         IMU epochs: ``t[0]`` is the start, ``t[1:]`` the ends of the M intervals.
     max_gap : float, optional
-        Sensor intervals longer than this [s] are gaps; default 5 median sensor periods.
+        Sensor intervals longer than this [s] are gaps; default 5 median sensor periods
+        (median over the first 65536 intervals).
     what : str
         The sensor's name for error messages (``radar``, ``ldv``, ``odometer``).
 

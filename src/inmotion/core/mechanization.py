@@ -91,13 +91,23 @@ def _check_baro(baro: BaroData):
     if len(baro.t) < 2:
         raise BadInput(f"barometer damping needs at least 2 samples, got {len(baro.t)}",
                        file="baro")
-    _check_finite(baro.t, baro.t, "t", "baro")
+    _check_time(baro.t, "baro")
     _check_finite(baro.h, baro.t, "h", "baro")
-    bad = np.flatnonzero(~(np.diff(baro.t) > 0))
-    if bad.size:
-        k = int(bad[0]) + 1
-        raise BadInput(f"time not strictly increasing (previous t={baro.t[k - 1]:.6g} s)",
-                       file="baro", row=k + 1, time=float(baro.t[k]))
+
+
+def _check_time(t, what):
+    """BadInput at the first sample time that is not finite or not after the one before."""
+    k = K.first_not_increasing(t)
+    if k >= 0:
+        if not np.isfinite(t[k]):
+            raise BadInput(f"t is not finite ({t[k]})", file=what, row=k + 1)
+        raise BadInput(f"time not strictly increasing (previous t={t[k - 1]:.6g} s)",
+                       file=what, row=k + 1, time=float(t[k]))
+
+
+def typical_period(t) -> float:
+    """Median sample period [s] of the first 65536 intervals (no log-sized temporary)."""
+    return float(np.median(np.diff(t[:65537])))
 
 
 def _intervals(t, t_prev, what, row0=0):
@@ -294,7 +304,8 @@ def strapdown(imu: ImuData, init: NavState, baro: BaroData | None = None, *,
         Starting state at ``init.t``.
     baro : BaroData, optional
         Barometric height, needed for ``damping="baro"``; linearly interpolated to the IMU
-        times, not used outside its span or inside gaps longer than 5 of its periods.
+        times, not used outside its span or inside gaps longer than 5 of its periods (median
+        over its first 65536 intervals).
     damping : {"none", "baro"}
         Vertical channel: free (unstable, ``cosh(sqrt(2 g / R) t)``) or baro-damped.
     out_stride : int
@@ -316,7 +327,7 @@ def strapdown(imu: ImuData, init: NavState, baro: BaroData | None = None, *,
     max_gap = np.inf
     if damping == "baro":
         _check_baro(baro)
-        max_gap = 5.0 * float(np.median(np.diff(baro.t)))
+        max_gap = 5.0 * typical_period(baro.t)
     nav = Strapdown(init, baro_tau=baro_tau)
     nav.rows = k0               # error messages give the row of the whole log
     out = _SolutionBuilder(len(imu.t) - k0, int(out_stride), init.t, nav.x)
