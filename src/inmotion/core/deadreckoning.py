@@ -18,6 +18,12 @@ beam is); the state is the IMU's position, obtained from the sensor's path minus
 lever arm (exact for a rigid body). The velocity uses ``omega_ib`` for ``omega_eb`` (the Earth
 rate times a metre lever arm is 7e-5 m/s).
 
+This is paper 000's model (eq. 8-11): the vehicle's velocity is ``[0, v, 0]`` in m, so a
+mounting angle left out of ``C_bm`` is a first-order heading or pitch error of the DR
+(``dV_n = (V_n x) C_b^n A``), which the alignment filters estimate. (A sensor that only reads the
+forward component of a vehicle moving along b would instead make it a second-order scale error,
+``cos(angle)``; a simulator must use the paper's model for the two to agree.)
+
 Distance increments: a sensor that gives ``ds`` is used as such (its cumulative distance is
 interpolated linearly to the IMU epochs); one that gives only ``v`` is integrated by the
 trapezoid first. The sensor runs on its own rate; its distance is interpolated to the IMU
