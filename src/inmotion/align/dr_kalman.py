@@ -51,7 +51,7 @@ import numpy as np
 from pydantic import BaseModel, ConfigDict, Field, ValidationError
 from scipy.stats import chi2
 
-from ..core import earth, rotations
+from ..core import earth
 from ..core.bundle import Bundle
 from ..core.deadreckoning import DeadReckoner, speed_on_epochs
 from ..core.mechanization import Strapdown, _first_row
