@@ -39,10 +39,10 @@ def timed_campaign(doc: dict, client, tmp: Path, tag: str):
     return time.perf_counter() - t0, df
 
 
-def warm(client, tmp, run, spec=None):
+def warm(client, tmp, spec: dict):
     """Import the run function and its numba kernels on every worker before timing."""
     n = len(client.scheduler_info(n_workers=-1)["workers"])
-    doc = {"name": "warm", "run": run, "runs": 2 * n, **(spec or {})}
+    doc = {**spec, "name": "warm", "runs": 2 * n}
     timed_campaign(doc, client, tmp, f"warm-{time.monotonic_ns()}")
 
 
@@ -52,9 +52,9 @@ def overhead(n_runs: int, tmp: Path) -> None:
         t0 = time.perf_counter()
         with open_client(workers=workers) as client:
             start = time.perf_counter() - t0
-            warm(client, tmp, "inmotion.evaluate.runs:empty_run")
-            wall, df = timed_campaign({"name": "empty", "run": "inmotion.evaluate.runs:empty_run",
-                                       "runs": n_runs}, client, tmp, f"empty{workers}")
+            empty = {"name": "empty", "run": "inmotion.evaluate.runs:empty_run", "runs": n_runs}
+            warm(client, tmp, empty)
+            wall, df = timed_campaign(empty, client, tmp, f"empty{workers}")
         assert (df["status"] == "ok").all() and len(df) == n_runs
         print(f"  {workers} worker(s): cluster start {start:.2f} s; {wall:.2f} s for {n_runs} "
               f"runs = {1000 * wall / n_runs:.2f} ms per run (target < 20 ms)")
@@ -64,7 +64,7 @@ def scaling(name: str, doc: dict, warm_spec: dict, tmp: Path) -> None:
     walls = {}
     for workers in (1, 2):
         with open_client(workers=workers) as client:
-            warm(client, tmp, doc["run"], warm_spec)
+            warm(client, tmp, warm_spec)
             walls[workers], df = timed_campaign(doc, client, tmp, f"{name}{workers}")
         n = len(df)
         bad = int((df["status"] != "ok").sum())
@@ -88,16 +88,14 @@ def main():
         print(f"\n[2] CPU-bound scaling, {args.burn_runs} runs of burn_run")
         burn = {"name": "burn", "run": "inmotion.evaluate.runs:burn_run", "runs": args.burn_runs,
                 "size": 10_000, "iterations": 1500}
-        scaling("burn", burn, {"size": 10, "iterations": 1}, tmp)
+        scaling("burn", burn, dict(burn, iterations=1), tmp)
         if not args.skip_paper:
             n = 3 * 5 * args.paper_runs
             print(f"\n[3] paper 004 campaign: 3 speeds x {args.paper_runs} runs x 5 methods = {n}")
             paper = {"name": "paper004", "runs": args.paper_runs, "seed": 4,
                      "scenario": PAPER004_SCENARIOS[0], "method": PAPER004_METHODS[0],
                      "grid": {"scenario": PAPER004_SCENARIOS, "method": PAPER004_METHODS}}
-            scaling("paper004", paper, {"scenario": PAPER004_SCENARIOS[0],
-                                        "method": PAPER004_METHODS[0],
-                                        "grid": {"method": PAPER004_METHODS}}, tmp)
+            scaling("paper004", paper, dict(paper, grid={"method": PAPER004_METHODS}), tmp)
     print(f"\nload average after: {os.getloadavg()}")
 
 

@@ -421,3 +421,33 @@ def test_a_part_starting_with_an_error_row_keeps_every_result_column(tmp_path):
     store.write({"point_id": 0, "run_index": 1, "status": "ok", "error": "", "a": 2.5})
     df = ResultStore(tmp_path).table()
     assert np.isnan(df["a"].iloc[0]) and df["a"].iloc[1] == 2.5
+
+
+def test_methods_of_one_run_share_one_simulated_drive():
+    from inmotion.evaluate import runs
+    from inmotion.evaluate.montecarlo import iter_tasks
+    from inmotion.sim import load_scenario, simulate
+    sweep = short_drive_sweep()
+    sweep.points[0].spec["scenario"]["segments"][0]["duration_s"] = 5.0
+    scenario = sweep.points[0].spec["scenario"]
+    # the cached drive is the fresh one, a copy each time, and the generator ends in the same state
+    fresh_rng = run_generator(1, 0).spawn(2)[0]
+    fresh = simulate(load_scenario(scenario), fresh_rng)
+    runs._LAST_DRIVE.clear()
+    got = []
+    for _ in range(2):
+        rng = run_generator(1, 0).spawn(2)[0]
+        got.append(runs.simulate_cached(scenario, rng))
+        assert rng.bit_generator.state == fresh_rng.bit_generator.state
+    for b in got:
+        assert np.array_equal(b.imu.dtheta, fresh.imu.dtheta)
+        assert np.array_equal(b.radar.v, fresh.radar.v)
+    got[0].imu.dtheta[:] = 0.0                               # a method scribbling on its drive
+    again = runs.simulate_cached(scenario, run_generator(1, 0).spawn(2)[0])
+    assert np.array_equal(again.imu.dtheta, fresh.imu.dtheta)
+    # points with the same scenario are adjacent within a run, whatever the grid order
+    grid = load_sweep({"run": "inmotion.evaluate.runs:default_run", "runs": 2,
+                       "scenario": {"a": 1}, "method": "sins",
+                       "grid": {"method": ["sins", "dr"], "scenario.a": [1, 2]}})
+    order = [(t.run_index, t.spec["scenario"]["a"]) for t in iter_tasks(grid)]
+    assert order == [(0, 1), (0, 1), (0, 2), (0, 2), (1, 1), (1, 1), (1, 2), (1, 2)]

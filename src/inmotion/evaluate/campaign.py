@@ -57,7 +57,10 @@ def run_generator(campaign_seed: int, run_index: int) -> np.random.Generator:
 class Task:
     """Everything a worker needs for one run: picklable, no file access.
 
-    ``run`` is ``"module:function"`` of ``f(spec: dict, rng: Generator) -> dict``.
+    ``run`` is ``"module:function"`` of ``f(spec: dict, rng: Generator) -> dict``. ``affinity``
+    (from the run function's optional ``affinity(spec)``) groups tasks worth running on one worker
+    one after the other: same run index and same affinity, e.g. the methods of a sweep on one
+    simulated drive, which the worker then simulates once. It never changes a result.
     """
 
     campaign_seed: int
@@ -67,6 +70,7 @@ class Task:
     spec: dict
     run: str
     label: str = ""
+    affinity: str = ""
 
 
 def _resolve(path: str):

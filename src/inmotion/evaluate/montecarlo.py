@@ -65,11 +65,16 @@ def versions() -> dict:
 
 def iter_tasks(sweep: Sweep, skip=frozenset()):
     """The tasks of ``sweep``, run-major (run 0 of every point, then run 1, ...), so a partial
-    campaign is balanced across points; keys in ``skip`` = ``{(point_id, run_index)}`` are left out."""
+    campaign is balanced across points; within a run, points of equal affinity (see
+    :class:`Task`) are adjacent. Keys in ``skip`` = ``{(point_id, run_index)}`` are left out."""
+    key = getattr(_resolve(sweep.run), "affinity", None)
+    affinity = {p.point_id: (str(key(p.spec)) if key else "") for p in sweep.points}
+    points = sorted(sweep.points, key=lambda p: affinity[p.point_id])   # stable: grid order kept
     for k in range(sweep.runs):
-        for p in sweep.points:
+        for p in points:
             if (p.point_id, k) not in skip:
-                yield Task(sweep.seed, k, p.point_id, p.params, p.spec, sweep.run, p.label)
+                yield Task(sweep.seed, k, p.point_id, p.params, p.spec, sweep.run, p.label,
+                           affinity[p.point_id])
 
 
 def rerun(out_dir, point_id: int, run_index: int) -> dict:
@@ -260,10 +265,16 @@ def _drive(client, tasks, store, total, initial, n_todo, quiet, max_in_flight, m
     token = uuid.uuid4().hex[:8]
     in_flight, remaining = {}, [n_todo]
 
+    tasks = _Peekable(tasks)
+
     def submit_next(pending):
         chunk = _take(tasks, chunker.size(remaining[0]))
         if not chunk:
             return
+        last = chunk[-1]
+        while (last.affinity and len(chunk) < MAX_CHUNK and tasks.peek() is not None
+               and (tasks.peek().run_index, tasks.peek().affinity) == (last.run_index, last.affinity)):
+            chunk.append(next(tasks))
         remaining[0] -= len(chunk)
         first = chunk[0]
         fut = client.submit(execute_tasks, chunk, pure=False,
@@ -297,6 +308,33 @@ def _outcomes(result, chunk):
         exc = result if isinstance(result, BaseException) else TypeError(repr(result))
         return [(error_record(task, exc), None) for task in chunk]
     return result
+
+
+class _Peekable:
+    """An iterator whose next item can be looked at (``None`` at the end)."""
+
+    def __init__(self, it):
+        self._it, self._next = iter(it), None
+        self._advance()
+
+    def _advance(self):
+        try:
+            self._next = next(self._it)
+        except StopIteration:
+            self._next = None
+
+    def peek(self):
+        return self._next
+
+    def __iter__(self):
+        return self
+
+    def __next__(self):
+        if self._next is None:
+            raise StopIteration
+        item = self._next
+        self._advance()
+        return item
 
 
 def _take(it, n):
