@@ -18,7 +18,7 @@ import numpy as np
 
 from ..core import rotations
 from ..core.bundle import Bundle
-from ..core.solution import NavState, Solution
+from ..core.solution import NavState, Solution, StateUnit
 from ..errors import BadInput
 from ..estimation import qmethod
 from . import obs_vectors as ov
@@ -155,4 +155,6 @@ def to_solution(inp: Inputs, level: Level, *, method: str, config, levels_info: 
         "levels": levels_info,
     }
     states = {"eigval_gap_rel": level.qsol.gap_rel}
-    return Solution(run.t, run.lat, run.lon, run.h, run.vel_n, euler, states=states, info=info)
+    units = {"eigval_gap_rel": StateUnit("ratio")}
+    return Solution(run.t, run.lat, run.lon, run.h, run.vel_n, euler, states=states,
+                    state_units=units, info=info)
