@@ -80,3 +80,15 @@ def test_centred_form_removes_a_constant_offset_exactly():
     a_c = alpha + offset - (w @ (alpha + offset)) / w.sum()
     b_c = beta - (w @ beta) / w.sum()
     np.testing.assert_allclose(Kc, qmethod.k_matrix(a_c, b_c, w), atol=1e-9)
+
+
+def test_triad_equals_q_method_for_two_exact_vectors():
+    rng = np.random.default_rng(11)
+    C_true = _random_rotation(rng)
+    a1, a2 = rng.normal(size=3), rng.normal(size=3)
+    C = qmethod.triad(a1, a2, C_true @ a1, C_true @ a2)
+    assert np.max(np.abs(C - C_true)) < 1e-12
+    Cq = qmethod.solve(qmethod.k_matrix(np.stack([a1, a2]), np.stack([C_true @ a1, C_true @ a2]))).C
+    assert np.max(np.abs(C - Cq)) < 1e-10
+    with pytest.raises(ValueError):
+        qmethod.triad(a1, 2 * a1, a1, 2 * a1)

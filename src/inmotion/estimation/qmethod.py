@@ -38,7 +38,7 @@ import numpy as np
 from ..core import rotations
 
 __all__ = ["k_matrix", "k_pairs", "k_centered", "k_increment", "solve", "QSolution",
-           "RecursiveQMethod"]
+           "RecursiveQMethod", "triad"]
 
 
 def k_matrix(alpha, beta, weights=None):
@@ -194,3 +194,23 @@ class RecursiveQMethod:
 
     def solution(self) -> QSolution:
         return solve(self.K)
+
+
+def triad(alpha1, alpha2, beta1, beta2):
+    """Dual-vector attitude determination (TRIAD; paper 003 eq. 9): ``C`` with
+    ``C alpha1 = beta1`` exactly and ``C alpha2 ~= beta2`` in direction.
+
+    Each pair builds an orthonormal triad ``[u, u x v / |u x v|, u x (u x v) / |..|]``
+    (``u = x1 / |x1|``, ``v = x2``); ``C = T_beta T_alpha^T``. The two vectors must not be
+    parallel. This is the two-vector special case of Davenport's q-method (which weighs
+    both vectors, where TRIAD trusts the first one fully).
+    """
+    def frame(x1, x2):
+        u = np.asarray(x1, float) / np.linalg.norm(x1)
+        w = np.cross(u, x2)
+        n = np.linalg.norm(w)
+        if n < 1e-12 * np.linalg.norm(x2):
+            raise ValueError("triad: the two vectors are parallel")
+        w = w / n
+        return np.column_stack([u, w, np.cross(u, w)])
+    return frame(beta1, beta2) @ frame(alpha1, alpha2).T
