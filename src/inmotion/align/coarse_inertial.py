@@ -13,7 +13,8 @@ and the method reports ``C_b^n(0)`` and ``C_b^n(t)`` like the IMADA family.
 * Integrated, multi-vector form: instead of two instantaneous gravity vectors (eq. 9, which are
   differentiated accelerometer data, hence noisy) the vectors are the integrals
   ``alpha(t) = int g^{ib0} dt`` and ``beta(t) = int C_n^{i0} g^n dt`` at every interval, all
-  fused by Davenport's q-method (the TRIAD of eq. 9 is the two-vector special case).
+  fused by Davenport's q-method (eq. 9's dual-vector TRIAD, :func:`inmotion.estimation.qmethod.triad`,
+  is the two-vector special case).
 * Low-pass filtering against engine vibration: a first-order low-pass of time constant
   ``lowpass_time_constant_s`` applied identically to ``alpha`` and ``beta``. Because ``C`` is
   constant, a linear time-invariant filter of both sequences keeps ``C alpha_f = beta_f``
