@@ -258,6 +258,10 @@ def test_bad_input_messages(north_line):
     t_bad[6] = t_bad[5]
     with pytest.raises(BadInput, match=r"radar, row 7, t=.*not strictly increasing"):
         speed_on_epochs(SpeedData(t_bad, v=np.full(20, 15.0)), d["t"][:20], what="radar")
+    t_nan = d["t"][:20].copy()
+    t_nan[9] = np.nan
+    with pytest.raises(BadInput, match=r"odometer, row 10: t is not finite"):
+        speed_on_epochs(SpeedData(t_nan, ds=np.full(20, 1.5)), d["t"][:20], what="odometer")
     v_bad = np.full(20, 15.0)
     v_bad[3] = np.nan
     with pytest.raises(BadInput, match=r"row 4, t=.*v is not a finite number"):
