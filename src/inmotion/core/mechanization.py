@@ -301,7 +301,8 @@ def strapdown(imu: ImuData, init: NavState, baro: BaroData | None = None, *,
     imu : ImuData
         Increments in b; rows with ``t > init.t`` are processed.
     init : NavState
-        Starting state at ``init.t``.
+        Starting state at ``init.t``, normally an IMU epoch (``--init truth`` gives one); if it
+        falls between rows, the first row's whole increments are taken over ``t[k] - init.t``.
     baro : BaroData, optional
         Barometric height, needed for ``damping="baro"``; linearly interpolated to the IMU
         times, not used outside its span or inside gaps longer than 5 of its periods (median
