@@ -163,3 +163,25 @@ def test_registered_methods_load_with_default_configs():
         imada.ImadaConfig(initial_speed_fit_s=-1.0)
     with pytest.raises(Exception):
         imada.MimadaConfig(levels=1)
+
+
+def test_error_free_drive_from_the_shared_simulator():
+    """paper004_v80 with every sensor error switched off: imada-vb within its omitted-term
+    bounds, the multistage methods within G times the first level's heading error."""
+    from inmotion.sim.scenario import find_scenario, load_scenario
+    from inmotion.sim.simulate import simulate
+    sc = load_scenario(find_scenario("paper004_v80")).model_dump()
+    sc["imu"]["gyro"].update(drift_deg_h=0.0, arw_deg_sqrt_h=0.0)
+    sc["imu"]["accel"].update(bias_ug=0.0, vrw_ug_sqrt_hz=0.0)
+    sc["sensors"]["radar"]["noise_m_s"] = 0.0
+    b = simulate(sc, np.random.default_rng(0))
+    v, lat = 80.0, b.truth.lat[0]
+    tilt_theory = earth.OMEGA_IE * np.sin(lat) * v / earth.gravity(lat, 0.0)
+    phi = _phi(imada.run_imada_vb(b, imada.ImadaConfig()), b.truth, "start")
+    assert 0.9 * tilt_theory < np.hypot(phi[0], phi[1]) < 1.1 * tilt_theory
+    assert abs(phi[2]) < 1.5 * tilt_theory * np.tan(lat)
+    G = v / (earth.A * earth.OMEGA_IE * np.cos(lat))
+    for run in (imada.run_mimada, imada.run_mimada_dual):
+        phi2 = _phi(run(b, imada.MimadaConfig()), b.truth, "start")
+        assert abs(phi2[2]) <= G * abs(phi[2]) + 1e-7
+        assert np.hypot(phi2[0], phi2[1]) < 1e-6
