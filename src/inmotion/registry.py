@@ -53,6 +53,10 @@ _SPECS = [
     MethodSpec("imada-dual", "align", "inmotion.align.imada:run_imada_dual", "inmotion.align.imada:ImadaConfig", False, "in-motion attitude determination, dual velocity modelling (paper 004 eq. 11-19)"),
     MethodSpec("mimada", "align", "inmotion.align.imada:run_mimada", "inmotion.align.imada:MimadaConfig", False, "multistage IMADA: imada-vb then imada-vn levels (paper 004 sec. 2.2)"),
     MethodSpec("mimada-dual", "align", "inmotion.align.imada:run_mimada_dual", "inmotion.align.imada:MimadaConfig", False, "improved multistage IMADA: imada-vb then imada-dual levels (paper 004 sec. 3)"),
+    MethodSpec("usque", "align", "inmotion.align.usque:run_usque", "inmotion.align.usque:UsqueConfig", False, "unscented quaternion estimator with GRP attitude error, LDV-aided, from q = [1 0 0 0] (paper 001 scheme 3)"),
+    MethodSpec("ausque", "align", "inmotion.align.usque:run_ausque", "inmotion.align.usque:AusqueConfig", False, "USQUE + adaptive measurement noise with fading factor and bounds (paper 001 scheme 4)"),
+    MethodSpec("usque-hinf", "align", "inmotion.align.usque:run_usque_hinf", "inmotion.align.usque:UsqueHinfConfig", False, "USQUE + H-infinity covariance update with fixed gamma (paper 001 scheme 5)"),
+    MethodSpec("ausquhe", "align", "inmotion.align.usque:run_ausquhe", "inmotion.align.usque:AusquheConfig", False, "adaptive unscented quaternion H-infinity estimator: adaptive R and adaptive gamma (paper 001 scheme 1)"),
     MethodSpec("oba", "align", "inmotion.align.imada:run_oba", "inmotion.align.imada:ImadaConfig", False, "optimization-based alignment vectors with Earth-rate term, q-method (paper 001 eq. 12-19)"),
     MethodSpec("coarse-inertial", "align", "inmotion.align.coarse_inertial:run_coarse_inertial", "inmotion.align.coarse_inertial:CoarseInertialConfig", False, "inertial-frame coarse alignment, parked or in motion (paper 003 eq. 1-10)"),
 ]

@@ -69,6 +69,8 @@ _G0 = 9.80665                   # m/s^2 per g, for ug
 ATT = Block("dR", ("x", "y", "z"), tuple(StateUnit("arcmin", 180.0 / np.pi * 60.0)
                                         for _ in range(3)))
 LAYOUT_ATT = Layout([ATT])
+#: error of the LDV sample taken as v^b(0) [m/s] (see inmotion.align.usque_model)
+DV0 = Block("dv0", ("",), (StateUnit("m/s"),))
 
 
 class UsqueConfig(BaseModel):
@@ -100,19 +102,29 @@ class UsqueConfig(BaseModel):
         1-sigma [ug] (not in the paper; see the report of ``reproduce_001``).
     estimate_gyro_drift, gyro_drift_sigma0_deg_h : bool, float
         Add the gyro drift ``eps`` (b frame, random constant) with this 1-sigma [deg/h].
+    estimate_initial_speed_error, initial_speed_sigma0_m_s : bool, float
+        Add ``dv0``, the error of the LDV sample taken as ``v^b(0)`` (see
+        :mod:`inmotion.align.usque_model`), with this 1-sigma [m/s] (not in the paper).
     adaptive_r : bool
         Adaptive measurement noise (eq. 42-45).
     fading_factor : float
         ``c`` of eq. 43 (paper: 0.9 to 0.999).
     r_min_m_s, r_max_m_s : float
         Bounds of the adaptive R, as 1-sigma [m/s] (the paper gives none; chosen: 0.01 m/s,
-        about the LDV's 0.1 % at 10 m/s, and 30 m/s, beyond any credible LDV disturbance).
+        about the LDV's 0.1 % at 10 m/s, and 1 m/s: an LDV error beyond that is a fault to
+        be de-weighted, not noise to be learnt; the innovation of a wrong heading must not
+        inflate R without limit, which is how an unbounded Sage-Husa estimate loses the
+        heading).
     hinf : {"none", "fixed", "adaptive"}
         Covariance update: Kalman, H-infinity with fixed gamma, adaptive gamma (eq. 55-56).
     gamma_deg : float
-        Fixed gamma [deg] (``hinf="fixed"``).
+        Fixed gamma [deg] (``hinf="fixed"``; the paper gives no value).
     k0 : float
-        Coefficient of the adaptive gamma (eq. 55).
+        Coefficient of the adaptive gamma (eq. 55; "determined by experiment"). With 100 Hz
+        updates each H-infinity step removes ``gamma^-2`` of information, i.e. a fraction
+        ``~ 1 / (1 + k0 sqrt(tr P_y / e^T e))^2`` of the weakest direction's; ``k0 = 1`` forgets
+        the heading within ~0.1 s, ``k0 = 30`` gives a memory of ~30 s (chosen on test 1,
+        the undisturbed drive).
     gamma_min_deg, gamma_max_deg : float
         Bounds of the adaptive gamma [deg] (eq. 55-56).
     hinf_margin : float
@@ -136,13 +148,15 @@ class UsqueConfig(BaseModel):
     accel_bias_sigma0_ug: float = Field(100.0, gt=0)
     estimate_gyro_drift: bool = False
     gyro_drift_sigma0_deg_h: float = Field(0.01, gt=0)
+    estimate_initial_speed_error: bool = False
+    initial_speed_sigma0_m_s: float = Field(0.1, gt=0)
     adaptive_r: bool = False
     fading_factor: float = Field(0.99, gt=0, lt=1)
     r_min_m_s: float = Field(0.01, gt=0)
-    r_max_m_s: float = Field(30.0, gt=0)
+    r_max_m_s: float = Field(1.0, gt=0)
     hinf: Literal["none", "fixed", "adaptive"] = "none"
     gamma_deg: float = Field(2.0, gt=0)
-    k0: float = Field(1.0, gt=0)
+    k0: float = Field(30.0, gt=0)
     gamma_min_deg: float = Field(0.1, gt=0)
     gamma_max_deg: float = Field(30.0, gt=0)
     hinf_margin: float = Field(1.2, gt=1)
@@ -202,8 +216,10 @@ class _Filter:
         self.cfg = cfg
         self.extra = [name for name, on in (("dk", cfg.estimate_scale),
                                             ("nabla", cfg.estimate_accel_bias),
-                                            ("eps", cfg.estimate_gyro_drift)) if on]
-        self.layout = Layout([ATT] + [block(name) for name in self.extra])
+                                            ("eps", cfg.estimate_gyro_drift),
+                                            ("dv0", cfg.estimate_initial_speed_error)) if on]
+        self.layout = Layout([ATT] + [DV0 if name == "dv0" else block(name)
+                                      for name in self.extra])
         self.att = self.layout["dR"]
         self.a = cfg.grp_a
         self.f = 2.0 * (cfg.grp_a + 1.0) if cfg.grp_f is None else cfg.grp_f
@@ -213,6 +229,7 @@ class _Filter:
         p0["dk"] = (cfg.scale_sigma0_ppm * 1e-6) ** 2
         p0["nabla"] = (cfg.accel_bias_sigma0_ug * 1e-6 * _G0) ** 2
         p0["eps"] = (cfg.gyro_drift_sigma0_deg_h * _DEG / 3600.0) ** 2
+        p0["dv0"] = cfg.initial_speed_sigma0_m_s ** 2
         p0 = {k: v for k, v in p0.items() if k in self.layout}
         self.P = self.layout.diag(p0)
         self.Q = self.layout.diag(q)
@@ -293,22 +310,25 @@ class _Filter:
         """
         cfg, P = self.cfg, self.P
         self.gamma = np.inf
+        P_kf = hinf.kalman_covariance(P, Pxy, Py)
         if cfg.hinf == "none":
-            return hinf.kalman_covariance(P, Pxy, Py)
-        g_a = hinf.gamma_floor(P, Pxy, R)
+            return P_kf
+        g_a = hinf.floor_from_kalman(P_kf)
         if cfg.hinf == "fixed":
             gamma = cfg.gamma_deg * _DEG
             if gamma < cfg.hinf_margin * g_a:
                 self.floor_hits += 1
-                return hinf.kalman_covariance(P, Pxy, Py)
+                return P_kf
             self.gamma = gamma
-            return hinf.hinf_covariance(P, Pxy, Py, gamma)
+            return hinf.hinf_from_kalman(P_kf, gamma)
         gamma = hinf.adaptive_gamma(g_a, Py, e, cfg.k0, cfg.gamma_min_deg * _DEG)
         if gamma < cfg.hinf_margin * g_a:
             gamma = cfg.hinf_margin * g_a
             self.floor_hits += 1
         self.gamma = gamma
-        return hinf.hinf_update(P, Pxy, Py, gamma, cfg.gamma_max_deg * _DEG)
+        if gamma > cfg.gamma_max_deg * _DEG:          # eq. 56: Kalman above gamma_max
+            return P_kf
+        return hinf.hinf_from_kalman(P_kf, gamma)
 
 
 def run(bundle: Bundle, config: UsqueConfig, init: Optional[NavState] = None,
@@ -393,7 +413,8 @@ def _run_compiled(flt, acc, imu, speed, epochs, out):
         flt.a, flt.f, flt.R.copy(), flt.eta, cfg.adaptive_r, cfg.fading_factor, flt.R_min,
         flt.R_max, mode, cfg.gamma_deg * _DEG, cfg.k0, cfg.gamma_min_deg * _DEG,
         cfg.gamma_max_deg * _DEG, cfg.hinf_margin,
-        "dk" in flt.extra, "nabla" in flt.extra, "eps" in flt.extra, out.q_in, out.q_ib, out.lla, out.P, out.R, out.gamma, out.x)
+        "dk" in flt.extra, "nabla" in flt.extra, "eps" in flt.extra, "dv0" in flt.extra,
+        out.q_in, out.q_ib, out.lla, out.P, out.R, out.gamma, out.x)
 
 
 class _Outputs:

@@ -31,8 +31,8 @@ _quat_average_matrix = numba.njit(cache=True)(qa.quat_average_matrix)
 _adapt_noise = numba.njit(cache=True)(adaptive_noise.adapt_noise)
 _fading_weight = numba.njit(cache=True)(adaptive_noise.fading_weight)
 _kalman_cov = numba.njit(cache=True)(hinf.kalman_covariance)
-_hinf_cov = numba.njit(cache=True)(hinf.hinf_covariance)
-_gamma_floor = numba.njit(cache=True)(hinf.gamma_floor)
+_hinf_from_kalman = numba.njit(cache=True)(hinf.hinf_from_kalman)
+_floor_from_kalman = numba.njit(cache=True)(hinf.floor_from_kalman)
 _adaptive_gamma = numba.njit(cache=True)(hinf.adaptive_gamma)
 
 
@@ -149,7 +149,7 @@ def _h(chi_q, chi, beta_n, wie_n, D_i, S):
 
 
 @numba.njit(cache=True)
-def _observation(acc, has_dk, has_nabla, has_eps):
+def _observation(acc, has_dk, has_nabla, has_eps, has_dv0):
     """Per-epoch quantities of :func:`inmotion.align.usque_model.observation` and
     :func:`~inmotion.align.usque_model.sensitivity` (columns dk, nabla, eps as present)."""
     q_ib = acc[model.Q_IB:model.Q_IB + 4].copy()
@@ -162,7 +162,7 @@ def _observation(acc, has_dk, has_nabla, has_eps):
     wie_n = np.array([0.0, model.kn.OMEGA_IE * math.cos(lat), model.kn.OMEGA_IE * math.sin(lat)])
     y = V_i - acc[model.ALPHA_F:model.ALPHA_F + 3]
     D_i = acc[model.D_I:model.D_I + 3].copy()
-    n_e = int(has_dk) + 3 * int(has_nabla) + 3 * int(has_eps)
+    n_e = int(has_dk) + 3 * int(has_nabla) + 3 * int(has_eps) + int(has_dv0)
     S = np.zeros((3, n_e))
     c = 0
     if has_dk:
@@ -177,6 +177,9 @@ def _observation(acc, has_dk, has_nabla, has_eps):
         for r in range(3):
             J[:, r] -= np.cross(u_i, B[:, r])
         S[:, c:c + 3] = J
+        c += 3
+    if has_dv0:
+        S[1, c] = -1.0
     return y, beta_n, wie_n, D_i, S, q_ib, q_n0n
 
 
@@ -202,26 +205,23 @@ def _update(x, P, q, obs_y, beta_n, wie_n, D_i, S, Wm, Wc, scale, a, f, R, eta,
     x_new = x + K @ e
     gamma = np.inf
     floor_hit = 0
-    if hinf_mode == HINF_NONE:
-        P_new = _kalman_cov(P, Pxy, Py)
-    else:
-        g_a = _gamma_floor(P, Pxy, Rm)
+    P_kf = _kalman_cov(P, Pxy, Py)
+    P_new = P_kf
+    if hinf_mode != HINF_NONE:
+        g_a = _floor_from_kalman(P_kf)
         if hinf_mode == HINF_FIXED:
             if gamma_fixed < margin * g_a:
                 floor_hit = 1
-                P_new = _kalman_cov(P, Pxy, Py)
             else:
                 gamma = gamma_fixed
-                P_new = _hinf_cov(P, Pxy, Py, gamma)
+                P_new = _hinf_from_kalman(P_kf, gamma)
         else:
             gamma = _adaptive_gamma(g_a, Py, e, k0, gamma_min)
             if gamma < margin * g_a:
                 gamma = margin * g_a
                 floor_hit = 1
-            if gamma > gamma_max:
-                P_new = _kalman_cov(P, Pxy, Py)
-            else:
-                P_new = _hinf_cov(P, Pxy, Py, gamma)
+            if gamma <= gamma_max:
+                P_new = _hinf_from_kalman(P_kf, gamma)
     q_star = _quat_average(chi_q, Wm)
     q_new = _qcanon(_qmul(grp_to_quat(x_new[:3], a, f), q_star))
     x_new[:3] = 0.0
@@ -231,7 +231,7 @@ def _update(x, P, q, obs_y, beta_n, wie_n, D_i, S, Wm, Wc, scale, a, f, R, eta,
 @numba.njit(cache=True)
 def run_epochs(acc, dtheta, dvel, dt_rows, speed, epochs, x, P, q, Q, Wm, Wc, scale, a, f,
                R, eta, adaptive_r, c_fade, R_min, R_max, hinf_mode, gamma_fixed, k0,
-               gamma_min, gamma_max, margin, has_dk, has_nabla, has_eps, out_q_in, out_q_ib, out_lla, out_P, out_R, out_gamma,
+               gamma_min, gamma_max, margin, has_dk, has_nabla, has_eps, has_dv0, out_q_in, out_q_ib, out_lla, out_P, out_R, out_gamma,
                out_x):
     """All filter epochs. ``epochs[j]`` is the IMU row of update ``j``; row 0 is the start.
 
@@ -247,7 +247,7 @@ def run_epochs(acc, dtheta, dvel, dt_rows, speed, epochs, x, P, q, Q, Wm, Wc, sc
         q_bn = _qmul(_qconj(q), acc[model.Q_IB:model.Q_IB + 4])
         model.accumulate(acc, dtheta[k_prev + 1:k + 1], dvel[k_prev + 1:k + 1],
                          dt_rows[k_prev:k], speed[k_prev + 1:k + 1], q_bn)
-        y, beta_n, wie_n, D_i, S, q_ib, q_n0n = _observation(acc, has_dk, has_nabla, has_eps)
+        y, beta_n, wie_n, D_i, S, q_ib, q_n0n = _observation(acc, has_dk, has_nabla, has_eps, has_dv0)
         dq_n = _qmul(_qconj(q_n0n_prev), q_n0n)
         x, P, q = _predict(x, P, q, dq_n, Wm, Wc, scale, Q, a, f)
         x, P, q, R, eta, gamma, hit, e = _update(

@@ -35,6 +35,11 @@ states (paper eq. 22), all entering linearly to first order with the sensitiviti
   ``C_b^i`` is ``(I - [psi x]) C_b^i`` with ``psi = -B eps``, so ``y`` changes by
   ``J eps``, ``J = int [(C_b^i f^b) x] B dtau - [(C_b^i v^b(t)) x] B(t)``.
 
+- ``dv0``, the error of the one LDV sample taken for ``v^b(0)`` [m/s]
+  (``v_m(0) = v(0) + dv0``): column ``[0, -1, 0]``. This error is a constant vector in ``y``
+  that neither tilt (``~ t``) nor heading (``~ t^2``) can absorb, so with a noisy LDV it biases
+  the heading by about ``dv0 / (g omega_ie cos(L) t^2 / 2)`` rad (1.4 deg at 200 s for 0.3 m/s).
+
 The paper estimates none of them (its sec. 3: "other parameters are not estimated").
 
 THE ALPHA/BETA ACCUMULATION HERE IS A MINIMAL STAND-IN. The optimization-based-alignment
@@ -250,9 +255,11 @@ def observation(acc):
 def sensitivity(obs, blocks):
     """``S`` (3, n_e): the linear part of ``h`` in the extra states, columns in ``blocks`` order.
 
-    ``dk`` -> ``V_i``; ``nabla`` -> ``-B``; ``eps`` -> ``J`` (see :func:`observation`).
+    ``dk`` -> ``V_i``; ``nabla`` -> ``-B``; ``eps`` -> ``J`` (see :func:`observation`);
+    ``dv0`` -> ``[0, -1, 0]``.
     """
-    cols = {"dk": obs["V_i"][:, None], "nabla": -obs["B"], "eps": obs["J"]}
+    cols = {"dk": obs["V_i"][:, None], "nabla": -obs["B"], "eps": obs["J"],
+            "dv0": np.array([[0.0], [-1.0], [0.0]])}
     if not blocks:
         return np.zeros((3, 0))
     return np.hstack([cols[name] for name in blocks])

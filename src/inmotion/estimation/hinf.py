@@ -18,21 +18,25 @@ update. ``P+`` stays positive definite only if ``gamma^2 > max eig(M^-1)`` with
 
 Reading of eq. 54-55: the printed definition of ``gamma_a`` lost its inverse and square root in
 extraction; we take ``gamma_a = sqrt(max eig(M^-1))`` so that ``gamma > gamma_a`` is exactly the
-existence condition (54) and ``gamma`` has the unit of the state (rad for attitude).
+existence condition (54) and ``gamma`` has the unit of the state (rad for attitude), with
+``M = P_KF^-1`` (see :func:`gamma_floor`).
 
 Adaptive gamma (eq. 55-56): ``gamma = (1 + k0 sqrt(trace(P_y) / e^T e)) gamma_a``, floored at
 ``gamma_min``; above ``gamma_max`` the Kalman covariance update is used instead. A large
 innovation (an outlier) brings ``gamma`` down towards ``gamma_a`` (more robust, larger ``P+``);
 a small one raises it (more accurate).
 
-All functions use only ``numpy`` operations that ``numba`` also compiles.
+All functions use only ``numpy`` operations that ``numba`` also compiles; the filter kernel
+compiles the ones that call no other function (:func:`kalman_covariance`,
+:func:`hinf_from_kalman`, :func:`floor_from_kalman`, :func:`adaptive_gamma`).
 """
 from __future__ import annotations
 
 import numpy as np
 
-__all__ = ["hinf_covariance", "kalman_covariance", "gamma_floor", "adaptive_gamma",
-           "hinf_update"]
+__all__ = ["hinf_covariance", "hinf_covariance_block", "kalman_covariance", "gamma_floor",
+           "gamma_floor_paper", "adaptive_gamma", "hinf_update", "hinf_from_kalman",
+           "floor_from_kalman"]
 
 
 def kalman_covariance(P_pred, P_xy, P_y):
@@ -43,7 +47,17 @@ def kalman_covariance(P_pred, P_xy, P_y):
 
 
 def hinf_covariance(P_pred, P_xy, P_y, gamma):
-    """H-infinity covariance update of eq. 51-52.
+    """H-infinity covariance update of eq. 51-52, evaluated in its information form.
+
+    Eq. 51-52 equal, exactly (block elimination of ``R_e``; a test checks it against the block
+    form :func:`hinf_covariance_block`),
+
+        P+ = (P_KF^-1 - gamma^-2 I)^-1 = (I - gamma^-2 P_KF)^-1 P_KF,
+        P_KF = P- - P_xy P_y^-1 P_xy^T   (the Kalman posterior),
+
+    which is what is computed: it needs no inverse of ``P-`` and no difference of large
+    numbers, so it stays positive definite when the states have very different scales
+    (attitude in rad beside accelerometer bias in m/s^2).
 
     Parameters
     ----------
@@ -54,12 +68,24 @@ def hinf_covariance(P_pred, P_xy, P_y, gamma):
     P_y : (m, m) array
         Innovation covariance including ``R`` (eq. 36).
     gamma : float
-        The H-infinity bound, in the unit of the state. Must exceed :func:`gamma_floor`.
+        The H-infinity bound, in the unit of the state; must exceed :func:`gamma_floor`.
 
     Returns
     -------
     (n, n) array, the updated covariance ``P_{x,k+1}`` (symmetrized).
     """
+    return hinf_from_kalman(kalman_covariance(P_pred, P_xy, P_y), gamma)
+
+
+def hinf_from_kalman(P_kf, gamma):
+    """``(I - gamma^-2 P_KF)^-1 P_KF`` (symmetrized): eq. 51-52 from the Kalman posterior."""
+    n = P_kf.shape[0]
+    P = np.linalg.solve(np.eye(n) - P_kf / (gamma * gamma), P_kf)
+    return 0.5 * (P + P.T)
+
+
+def hinf_covariance_block(P_pred, P_xy, P_y, gamma):
+    """Eq. 51-52 literally: ``P- - [P_xy P-] R_e^-1 [P_xy P-]^T`` (reference for the tests)."""
     n = P_pred.shape[0]
     m = P_y.shape[0]
     Re = np.empty((m + n, m + n))
@@ -74,11 +100,26 @@ def hinf_covariance(P_pred, P_xy, P_y, gamma):
     return 0.5 * (P + P.T)
 
 
-def gamma_floor(P_pred, P_xy, R):
+def gamma_floor(P_pred, P_xy, P_y):
     """``gamma_a = sqrt(max eig(M^-1))``, the smallest admissible gamma (eq. 53-54).
 
-    ``M = P-^-1 + P-^-1 P_xy R^-1 (P-^-1 P_xy)^T``; returns ``1 / sqrt(min eig(M))``.
+    With ``M = P_KF^-1`` (the information of the Kalman posterior), ``P+^-1 = M - gamma^-2 I``
+    is positive definite exactly when ``gamma^2 > max eig(P_KF)``. The paper writes
+    ``M = P-^-1 + P-^-1 P_xy R^-1 (P-^-1 P_xy)^T``, which equals ``P_KF^-1`` when eq. 48-49
+    hold (:func:`gamma_floor_paper`; a test shows the two agree for a linear measurement);
+    for the unscented filter, where eq. 48 holds only approximately, ``P_KF`` makes the floor
+    match the covariance actually formed by :func:`hinf_covariance`.
     """
+    return floor_from_kalman(kalman_covariance(P_pred, P_xy, P_y))
+
+
+def floor_from_kalman(P_kf):
+    """``sqrt(max eig(P_KF))``: :func:`gamma_floor` from the Kalman posterior."""
+    return np.sqrt(np.linalg.eigvalsh(P_kf)[-1])
+
+
+def gamma_floor_paper(P_pred, P_xy, R):
+    """Eq. 53-54 as printed: ``sqrt(max eig(M^-1))``, ``M = P-^-1 + P-^-1 P_xy R^-1 P_xy^T P-^-1``."""
     Pinv = np.linalg.inv(P_pred)
     G = Pinv @ P_xy
     M = Pinv + G @ np.linalg.solve(R, G.T)
