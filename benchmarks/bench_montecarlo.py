@@ -3,7 +3,7 @@
 1. Engine overhead per run: a campaign of ``--empty-runs`` runs of an empty run function on a
    warm local cluster (submission, scheduling, transfer, one Parquet file written per run,
    progress). Target: under 20 ms per run.
-2. Scaling from 1 to 2 workers on a CPU-bound run function (``burn_run``, ~0.1 s a run).
+2. Scaling from 1 to 2 workers on a CPU-bound run function (``burn_run``, ~0.2 s a run).
 3. Scaling from 1 to 2 workers of the paper 004 campaign: 3 speeds (20, 60, 80 m/s) x
    ``--paper-runs`` runs x 5 IMADA methods (the issue's figure is 50 runs; fewer give the same
    per-run rate).
@@ -87,7 +87,7 @@ def main():
         overhead(args.empty_runs, tmp)
         print(f"\n[2] CPU-bound scaling, {args.burn_runs} runs of burn_run")
         burn = {"name": "burn", "run": "inmotion.evaluate.runs:burn_run", "runs": args.burn_runs,
-                "size": 10_000, "iterations": 1500}
+                "size": 20_000, "iterations": 5000}
         scaling("burn", burn, dict(burn, iterations=1), tmp)
         if not args.skip_paper:
             n = 3 * 5 * args.paper_runs

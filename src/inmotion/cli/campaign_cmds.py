@@ -125,8 +125,15 @@ def montecarlo(ctx, scenario, output, method, runs, seed, workers, scheduler, re
         if save_arrays:
             p.spec["save_arrays"] = True
     out = Path(output)
-    df = run_campaign(sweep, out, workers=workers, scheduler=scheduler, resume=resume,
-                      retry_failed=retry_failed, quiet=quiet)
+    try:
+        df = run_campaign(sweep, out, workers=workers, scheduler=scheduler, resume=resume,
+                          retry_failed=retry_failed, quiet=quiet)
+    except KeyboardInterrupt:
+        from ..evaluate.store import ResultStore
+        n = len(ResultStore(out).done())
+        click.echo(f"inmotion: interrupted; {n} finished runs are kept in {out}: "
+                   "run the same command with --resume to complete the campaign", err=True)
+        ctx.exit(130)
     summary = _summary(df, sweep)
     if report:
         from ..evaluate.report import build_report

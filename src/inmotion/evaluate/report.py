@@ -39,10 +39,11 @@ from ..errors import BadInput
 from . import plots
 from .stats import compare_rows, final_error_columns, point_statistics
 
-__all__ = ["build_report", "detect_kind", "load_paper"]
+__all__ = ["build_report", "detect_kind", "load_paper", "save_paper"]
 
 MAX_ENSEMBLE_RUNS = 200   #: runs drawn in a Monte Carlo envelope figure
 MAX_ENSEMBLE_POINTS = 8   #: points with an envelope figure
+MAX_TRACKS = 8            #: lines in the plan view
 KEY_FINAL = ("pitch_arcmin", "roll_arcmin", "yaw_arcmin", "phi_U_arcmin", "horizontal_m",
              "vertical_m")
 
@@ -167,6 +168,16 @@ def load_paper(source) -> Optional[dict]:
     if not isinstance(source, dict) or not isinstance(source.get("rows", []), list):
         raise BadInput(f"paper figures must be a mapping with a 'rows' list, got {source!r}")
     return source
+
+
+def save_paper(directory, paper: dict) -> Path:
+    """Write a reproduction's paper figures beside its results (``paper.json``), where
+    :func:`build_report` finds them; returns the file."""
+    paper = load_paper(paper)
+    path = Path(directory) / "paper.json"
+    path.parent.mkdir(parents=True, exist_ok=True)
+    path.write_text(json.dumps(paper, indent=1, default=str))
+    return path
 
 
 def _paper_for(root: Path, given, manifest_paper=None):
@@ -347,9 +358,12 @@ def _ensemble_figures(page, root, df, store):
                 t, runs, sigma), f"{label}: errors of {len(arrays)} runs, ensemble ±3 std and "
                 "the filter's ±3σ")
         first = arrays[0]
-        if "track.east_m" in first and not tracks:
-            tracks.append(("truth (run 0)", first["track.east_m"], first["track.north_m"]))
-        if "track.east_m" in first and "err.east_m" in first and len(tracks) < 6:
+        if "track.east_m" in first and len(tracks) < MAX_TRACKS and not any(
+                len(e) == len(first["track.east_m"]) and np.array_equal(e, first["track.east_m"])
+                for name, e, _ in tracks if name.startswith("truth")):
+            tracks.append((f"truth: {label}" if tracks else "truth", first["track.east_m"],
+                           first["track.north_m"]))
+        if "track.east_m" in first and "err.east_m" in first and len(tracks) < MAX_TRACKS:
             tt = first["track.t"]
             tracks.append((f"estimate: {label}",
                            first["track.east_m"] + np.interp(tt, first["t"], first["err.east_m"]),
