@@ -107,6 +107,26 @@ def test_heading_error_gives_cross_track_distance_sin_x(north_line, x_deg):
     assert dn[-1] == pytest.approx(-along, abs=0.02 + 2e-3 * along)
 
 
+def test_tilt_error_follows_paper000_eq20(north_line):
+    """A DR misalignment ``phi_DE`` on a northbound drive: paper 000 eq. 20,
+    ``dh' = -v_N phi_DE + v_E phi_DN``, so the height error is ``-v_N phi_DE t``. The Earth rate
+    turns the tilt into azimuth, ``phi_DU' = w_ie cos L phi_DE`` (the attitude error equation,
+    F(3,1)), and eq. 12 ``dv_DE = v_N phi_DU`` gives the east error ``v_N w_ie cos L phi_DE t^2/2``."""
+    d = north_line
+    imu = ImuData(d["t"], d["dtheta"], d["dvel"])
+    init = _init(d)
+    phi = np.array([2e-4, 0.0, 0.0])
+    init.q_nb = quat_from_dcm(apply_misalignment(init.C_nb, phi))
+    sol = dead_reckon(imu, SpeedData(d["t"], v=np.full(len(d["t"]), 15.0)), init)
+    dh = sol.h - d["h"]
+    assert dh[-1] == pytest.approx(-15.0 * phi[0] * 1000.0, rel=5e-3)
+    dn, de = _offsets(sol, d["lat"], d["lon"])
+    t = 1000.0
+    assert de[-1] == pytest.approx(15.0 * earth.OMEGA_IE * np.cos(LAT0) * phi[0] * t ** 2 / 2,
+                                   rel=0.02)
+    assert abs(dn[-1]) < 0.01
+
+
 def test_mounting_matrix_turns_the_sensor_axis(north_line):
     """A sensor yawed by +delta (forward axis turned counter-clockwise, towards West) but run as
     if aligned goes off by ``-d sin delta`` to the East; given ``C_bm`` it is exact."""
