@@ -8,7 +8,9 @@ Yan Gongmin's PSINS), one update per IMU row, 100-200 Hz increments in:
   ``zeta = omega_in_n dt`` from latitude, height and velocity extrapolated to the interval
   midpoint: ``q(k) = q(-zeta) (x) q(k-1) (x) q(phi_b)``;
 * velocity with the rotation term ``dth x dv / 2`` and two-sample sculling
-  ``(dth_prev x dv + dv_prev x dth) / 12``, the n-frame rotation ``(I - [zeta x]/2)``,
+  ``(dth_prev x dv + dv_prev x dth) / 12``, the n-frame rotation ``(I - [zeta x]/2)``, and the
+  second-order rotation terms that make a constant-rate interval exact to second order
+  (:func:`inmotion.core._kernels.sins_step` derives them),
   gravity (WGS-84 normal gravity, :mod:`inmotion.core.earth`) and Coriolis
   ``(2 omega_ie + omega_en) x v`` at the midpoint;
 * latitude, longitude, height by the trapezoid of the velocities at both ends.
@@ -23,7 +25,8 @@ on the height difference ``dh = h - h_baro``::
     k_h = 2 zeta_d / tau,        k_v = 1 / tau^2 + 2 g / R,   zeta_d = 1 (critical damping)
 
 The error dynamics ``dh'' + k_h dh' + (k_v - 2 g / R) dh = 0`` then have a double pole at
-``-1/tau``: height and vertical-velocity errors decay as ``(1 + t/tau) exp(-t/tau)``. The
+``-1/tau``: an initial height error ``dh0`` decays as ``dh0 (1 - t/tau) exp(-t/tau)`` (the
+loop feeds the height directly, hence the sign; a test checks this curve). The
 ``2 g / R`` term cancels the vertical channel's instability (``dg/dh = -2 g / R``). Default
 ``tau = 10 s`` (:data:`BARO_TAU_S`); a noisy barometer wants a longer one.
 
