@@ -7,8 +7,8 @@ from hypothesis.extra.numpy import arrays
 
 from inmotion.core import rotations as R
 
-settings.register_profile("inmotion", max_examples=60, deadline=None)
-settings.load_profile("inmotion")
+#: per-test settings (no global profile: other test files keep theirs)
+FAST = settings(max_examples=60, deadline=None)
 
 finite = st.floats(-1.0, 1.0, allow_nan=False, allow_infinity=False)
 vec3 = arrays(float, 3, elements=st.floats(-10, 10, allow_nan=False, allow_infinity=False,
@@ -50,6 +50,7 @@ def same_rotation(p, q, tol=1e-12):
 
 
 # ---------------------------------------------------------------- round trips
+@FAST
 @given(vec3)
 def test_skew_vee_and_cross(v):
     w = np.array([0.3, -1.2, 2.0])
@@ -58,6 +59,7 @@ def test_skew_vee_and_cross(v):
     assert np.allclose(R.skew(v), -R.skew(v).T)
 
 
+@FAST
 @given(eulers())
 def test_euler_dcm_round_trip(e):
     C = R.dcm_from_euler(e)
@@ -67,6 +69,7 @@ def test_euler_dcm_round_trip(e):
     assert 0 <= e2[2] < 2 * np.pi
 
 
+@FAST
 @given(unit_quats())
 def test_quat_dcm_round_trip(q):
     C = R.dcm_from_quat(q)
@@ -74,6 +77,7 @@ def test_quat_dcm_round_trip(q):
     assert same_rotation(R.quat_from_dcm(C), q, 1e-12)
 
 
+@FAST
 @given(eulers())
 def test_quat_euler_round_trip_and_agreement(e):
     q = R.quat_from_euler(e)
@@ -81,6 +85,7 @@ def test_quat_euler_round_trip_and_agreement(e):
     assert np.allclose(R.wrap_pi(R.euler_from_quat(q) - e), 0, atol=1e-9)
 
 
+@FAST
 @given(rotvecs())
 def test_rotvec_round_trips(r):
     q = R.quat_from_rotvec(r)
@@ -91,6 +96,7 @@ def test_rotvec_round_trips(r):
     assert np.allclose(R.rotvec_from_dcm(C), r, atol=1e-7)
 
 
+@FAST
 @given(rotvecs(max_angle=1e-3))
 def test_small_rotvec_series_match_exact_forms(r):
     a = np.linalg.norm(r)
@@ -101,6 +107,7 @@ def test_small_rotvec_series_match_exact_forms(r):
     assert np.allclose(C, exact, atol=1e-15)
 
 
+@FAST
 @given(unit_quats(), unit_quats())
 def test_quat_product_composes_dcms(p, q):
     assert np.allclose(R.dcm_from_quat(R.quat_multiply(p, q)),
@@ -110,6 +117,7 @@ def test_quat_product_composes_dcms(p, q):
     assert np.allclose(R.quat_rotate(q, v), R.dcm_from_quat(q) @ v, atol=1e-13)
 
 
+@FAST
 @given(unit_quats(), st.floats(0.0, 1.0), st.floats(0.5, 4.0))
 def test_grp_round_trip(q, a, f):
     """Generalized Rodrigues parameters (paper 001 eq. 20-21), any ``a`` in [0, 1], ``f`` > 0."""
@@ -119,6 +127,7 @@ def test_grp_round_trip(q, a, f):
     assert same_rotation(R.quat_from_grp(p, a=a, f=f), q, 1e-9)
 
 
+@FAST
 @given(unit_quats(min_q0=0.05))
 def test_gibbs_and_mrp_round_trips(q):
     g = R.gibbs_from_quat(q)
@@ -130,6 +139,7 @@ def test_gibbs_and_mrp_round_trips(q):
     assert same_rotation(R.quat_from_mrp(m), q, 1e-12)
 
 
+@FAST
 @given(rotvecs(max_angle=1e-2))
 def test_default_grp_is_the_rotation_angle_for_small_angles(r):
     """``a = 1, f = 2 (a + 1)``: ``p ~ r`` to third order."""
@@ -163,6 +173,7 @@ def test_pitch_up_and_roll_right_down():
     assert (R.dcm_from_euler([0, 0.1, 0]) @ [1, 0, 0])[2] < 0
 
 
+@FAST
 @given(eulers(), rotvecs(max_angle=0.5))
 def test_misalignment_round_trip(e, phi):
     C = R.dcm_from_euler(e)
@@ -171,6 +182,7 @@ def test_misalignment_round_trip(e, phi):
     assert np.allclose(R.correct_attitude(Cc, phi), C, atol=1e-13)
 
 
+@FAST
 @given(eulers(), rotvecs(max_angle=1e-6))
 def test_misalignment_first_order_is_design_definition(e, phi):
     """``C_computed = (I - [phi x]) C_true`` to first order."""
@@ -179,6 +191,7 @@ def test_misalignment_first_order_is_design_definition(e, phi):
     assert np.allclose(Cc, (np.eye(3) - R.skew(phi)) @ C, atol=1e-12)
 
 
+@FAST
 @given(eulers())
 def test_paper000_eq25_27_hold_as_printed(e):
     """Euler-angle errors from misalignment, paper 000 eq. 25-27 (SINS part, ``T = C_b^n``):
