@@ -45,7 +45,8 @@ from pathlib import Path
 import numpy as np
 from scipy.stats import chi2
 
-__all__ = ["reproduce", "run_one", "EXPERIMENTS", "PAPER", "observability"]
+__all__ = ["reproduce", "run_one", "EXPERIMENTS", "PAPER", "observability",
+           "gyrocompass_heading_limit"]
 
 ARCMIN = np.pi / 180.0 / 60.0
 MOUNT_ARCMIN = (3.0, 10.0, 5.0)
@@ -76,6 +77,7 @@ def _scenario(name, variant, rng):
     A = np.array(MOUNT_ARCMIN)
     if variant == "imu_mount":
         sc["sensors"]["radar"]["mounting_arcmin"] = [0.0, 0.0, 0.0]
+        sc["vehicle_mounting_arcmin"] = [0.0, 0.0, 0.0]     # the triad's turn below is the mount
         # the triad measures (I - [a x]) v with a = -A: C_m^b = I + [A x]
         a_arcsec = list(-A * 60.0)
         sc["imu"]["gyro"]["misalignment_arcsec"] = a_arcsec
@@ -97,11 +99,13 @@ def run_one(task) -> dict:
     exp, i, seed = task
     name, variant = EXPERIMENTS[exp]
     rng = np.random.default_rng([seed, list(EXPERIMENTS).index(exp), i])
-    bundle = simulate(_scenario(name, variant, rng), rng)
+    sc = _scenario(name, variant, rng)
+    bundle = simulate(sc, rng)
     tr = bundle.truth
     C_true = tr.C_nb
     if variant == "imu_mount":
         C_true = C_true @ dcm_from_rotvec(-np.array(MOUNT_ARCMIN) * ARCMIN)
+    eps_b = np.deg2rad(np.array(sc["imu"]["gyro"]["drift_deg_h"])) / 3600.0
     att_err = rng.normal(0.0, np.deg2rad(1.0), 3)
     pos_err = rng.normal(0.0, 15.0, 2)
     from ..core import earth
@@ -112,7 +116,8 @@ def run_one(task) -> dict:
                     tr.lon[0] + pos_err[1] / ((r_n + tr.h[0]) * np.cos(tr.lat[0])), tr.h[0],
                     tr.vel_n[0], quat_from_dcm(C0))
     settings = SETTINGS_IMU_MOUNT if variant == "imu_mount" else SETTINGS
-    out = {"experiment": exp, "run": i}
+    out = {"experiment": exp, "run": i,
+           "gyrocompass_phi_U": gyrocompass_heading_limit(C_true[-1] @ eps_b, tr.lat[-1])}
     for label, cfg in settings.items():
         t0 = time.perf_counter()
         sol = run_dr_kf(bundle, dict(cfg, keep_covariance=True), init)
@@ -134,6 +139,19 @@ def run_one(task) -> dict:
             "final": phi[-1], "wall_s": wall,
             "rejected": sol.info["measurements_rejected"]}
     return out
+
+
+def gyrocompass_heading_limit(eps_n, lat):
+    """Steady-state heading misalignment [rad] that an east gyro drift leaves on a straight drive.
+
+    In the phi_E row of F, ``phi_E_dot = -(Omega cos L + vE / R) phi_U - eps_E + ...``: with the
+    tilt held by the velocity measurements, ``phi_U`` settles where the Earth rate it feigns
+    cancels the east drift, ``phi_U = -eps_E / (Omega cos L)`` (gyrocompassing; ``eps_n`` is
+    the drift resolved in n [rad/s]). No velocity or attitude-difference measurement of
+    paper 000 separates the two on a straight road.
+    """
+    from ..core import earth
+    return float(-eps_n[0] / (earth.OMEGA_IE * np.cos(lat)))
 
 
 def _tasks(runs, seed):
@@ -212,8 +230,12 @@ def _aggregate(results, runs):
             lo, hi = chi2.ppf([0.025, 0.975], 3 * R) / R
             mean_nees = nees.mean(axis=0)
             after = t >= 100.0
+            gc = np.array([r["gyrocompass_phi_U"] for r in rs]) / ARCMIN
             summary[(exp, label)] = {
                 "runs": R,
+                "gyrocompass_limit_median_abs_arcmin": float(np.median(np.abs(gc))),
+                "final_U_vs_gyrocompass_corr": float(np.corrcoef(gc, fin[:, 2])[0, 1]) if R > 2 else None,
+                "final_U_minus_gyrocompass_rms_arcmin": float(np.sqrt(np.mean((fin[:, 2] - gc) ** 2))),
                 "max_abs_last100_median_arcmin": np.median(mx, axis=0).tolist(),
                 "max_abs_last100_p95_arcmin": np.percentile(mx, 95, axis=0).tolist(),
                 "std_last100_median_arcmin": np.median(sd, axis=0).tolist(),
@@ -317,7 +339,22 @@ def _report(summary, obs, files, runs, wall, out: Path) -> str:
                  f"{' / '.join(_fmt(a) for a in s['std_last100_median_arcmin'])} | "
                  f"{s['nees_mean_after_100s']:.2f} ({s['nees_band'][0]:.2f}-{s['nees_band'][1]:.2f}), "
                  f"{100 * s['nees_fraction_in_band_after_100s']:.0f} % of epochs in band |")
-    L += ["", "## Mounting angles", "",
+    L += ["", "## Why the up axis misses the paper's 3.2' on a straight road", "",
+          "On a straight drive the heading misalignment settles where the Earth rate it feigns "
+          "cancels the east gyro drift, phi_U = -eps_E / (Omega cos L) (gyrocompassing; "
+          "0.03 deg/h 1-sigma at 34.25 N gives 8.3' 1-sigma). No measurement of paper 000 "
+          "separates the two; the filter's own 1-sigma says so. Per run, the final phi_U error "
+          "against this limit computed from the run's drawn drift:", "",
+          "| experiment | setting | median |limit| | corr(final phi_U, limit) | "
+          "rms(final phi_U - limit) |", "| --- | --- | --- | --- | --- |"]
+    for (exp, label), s in summary.items():
+        c = s["final_U_vs_gyrocompass_corr"]
+        L.append(f"| {exp} | {label} | {s['gyrocompass_limit_median_abs_arcmin']:.2f} | "
+                 f"{'-' if c is None else f'{c:.3f}'} | "
+                 f"{s['final_U_minus_gyrocompass_rms_arcmin']:.2f} |")
+    L += ["", "(trajectory 2 turns by 90 deg at 350 s: the drift's east component changes and "
+          "the limit computed with the final heading applies only approximately.)",
+          "", "## Mounting angles", "",
           "Scenario mounting 3' / 10' / 5' (x / y / z). In the shipped experiments the simulated "
           "radar's mounting has no first-order effect (see the module docstring): the effective "
           "truth is 0. In `imu_mount` the IMU is turned by A = 3' / 10' / 5' from the vehicle "
