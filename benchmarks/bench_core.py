@@ -6,7 +6,7 @@ JIT compilation is excluded (a short warm-up run first). Prints seconds per run 
 the peak of Python/numpy allocations during a run (tracemalloc), with every state written out
 (``out_stride=1``) and decimated to 1 Hz (``out_stride=100``).
 
-    OPENBLAS_NUM_THREADS=1 .venv/bin/python benchmarks/bench_core.py [--hours H] [--accuracy]
+    OPENBLAS_NUM_THREADS=1 .venv/bin/python benchmarks/bench_core.py [--hours H] [--rate-hz F] [--accuracy]
 
 ``--accuracy`` also runs the issue's acceptance on an analytic truth (``tests/analytic_drive.py``:
 3600 s, 50.4 km, turns, +-3 deg climbs, a stop every 10 min, exact 100 Hz increments from a
@@ -94,24 +94,27 @@ def accuracy(rate_hz=100.0):
 def main():
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--hours", type=float, default=1.0)
+    ap.add_argument("--rate-hz", type=float, default=100.0, help="IMU rate (KF-GINS: 200 Hz)")
     ap.add_argument("--accuracy", action="store_true",
                     help="also run the acceptance drive against analytic truth")
     args = ap.parse_args()
-    imu, speed, baro, init = synthetic_drive(args.hours)
+    imu, speed, baro, init = synthetic_drive(args.hours, args.rate_hz)
     warm = synthetic_drive(0.001)
     strapdown(warm[0], warm[3], warm[2], damping="baro")
     dead_reckon(warm[0], warm[1], warm[3])
     n = len(imu.t)
     input_mib = (imu.dtheta.nbytes + imu.dvel.nbytes + imu.t.nbytes) / 2 ** 20
-    print(f"{n} rows of 100 Hz increments ({args.hours:g} h); input arrays {input_mib:.1f} MiB")
+    print(f"{n} rows of {args.rate_hz:g} Hz increments ({args.hours:g} h); "
+          f"input arrays {input_mib:.1f} MiB")
     cases = [
         ("strapdown, baro damping, every row out",
          lambda: strapdown(imu, init, baro, damping="baro")),
-        ("strapdown, baro damping, 1 Hz out", lambda: strapdown(imu, init, baro, damping="baro",
-                                                               out_stride=100)),
+        ("strapdown, baro damping, 1 Hz out",
+         lambda: strapdown(imu, init, baro, damping="baro", out_stride=int(args.rate_hz))),
         ("strapdown, free, every row out", lambda: strapdown(imu, init)),
         ("dead reckoning, every row out", lambda: dead_reckon(imu, speed, init)),
-        ("dead reckoning, 1 Hz out", lambda: dead_reckon(imu, speed, init, out_stride=100)),
+        ("dead reckoning, 1 Hz out",
+         lambda: dead_reckon(imu, speed, init, out_stride=int(args.rate_hz))),
     ]
     for name, fn in cases:
         sec, peak = measure(fn)
