@@ -271,14 +271,12 @@ def _drive(client, tasks, store, total, initial, n_todo, quiet, max_in_flight, m
         chunk = _take(tasks, chunker.size(remaining[0]))
         if not chunk:
             return
-        last = chunk[-1]
-        while (last.affinity and len(chunk) < MAX_CHUNK and tasks.peek() is not None
-               and (tasks.peek().run_index, tasks.peek().affinity) == (last.run_index, last.affinity)):
+        while len(chunk) < MAX_CHUNK and _same_drive(chunk[-1], tasks.peek()):
             chunk.append(next(tasks))
         remaining[0] -= len(chunk)
         first = chunk[0]
-        fut = client.submit(execute_tasks, chunk, pure=False,
-                            key=f"inmotion-{token}-p{first.point_id}-r{first.run_index}-n{len(chunk)}")
+        key = f"inmotion-{token}-p{first.point_id}-r{first.run_index}-n{len(chunk)}"
+        fut = client.submit(execute_tasks, chunk, pure=False, key=key)
         in_flight[fut.key] = chunk
         pending.add(fut)
 
@@ -299,6 +297,12 @@ def _drive(client, tasks, store, total, initial, n_todo, quiet, max_in_flight, m
                 bar.set_postfix(errors=n_err, refresh=False)
             fut.release()
             submit_next(pending)
+
+
+def _same_drive(a: Task, b: Optional[Task]) -> bool:
+    """Whether ``b`` should ride in ``a``'s chunk: same run index and same non-empty affinity."""
+    return (b is not None and bool(a.affinity) and a.affinity == b.affinity
+            and a.run_index == b.run_index)
 
 
 def _outcomes(result, chunk):

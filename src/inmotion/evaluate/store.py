@@ -19,9 +19,7 @@ Only one campaign process writes a directory at a time.
 from __future__ import annotations
 
 import json
-import math
 import os
-import time
 import uuid
 from pathlib import Path
 from typing import Iterable, Optional
