@@ -369,19 +369,12 @@ def test_imu_gap_listed_by_info_and_allowed_on_request(copy, tmp_path):
     assert s["epochs"] == 2001 - 20
 
 
-@pytest.mark.xfail(strict=True, reason=(
-    "simulator and dead reckoning disagree on which frame moves forward: paper 000 eq. 8-10 "
-    "(core.deadreckoning) has the vehicle move along the sensor frame m (V^n = C_b^n C_m^b "
-    "[0, v, 0], so a mounting angle is a first-order heading error), the simulator moves the "
-    "IMU along b and lets the sensor read the forward component (a mounting angle is then a "
-    "second-order scale error). Measured: DR told the 30' mount errs 1.14 m over 135 m, DR "
-    "ignoring it 0.005 m. Passes once the simulator follows paper 000's model."))
 def test_dr_uses_meta_mounting_with_the_simulator_convention(tmp_path):
-    """A radar yawed 30 arcmin in its mount: DR told the mounting (from meta.yaml) removes the
+    """An IMU yawed 30 arcmin in the vehicle: DR told the mounting (from meta.yaml) removes the
     cross-track error of 0.5 deg x distance that DR assuming a straight mount makes."""
     scen = tmp_path / "s.yaml"
-    scen.write_text(SCENARIO.replace("radar: {rate_hz: 10}",
-                                     "radar: {rate_hz: 10, mounting_arcmin: [0, 0, 30]}"))
+    scen.write_text(SCENARIO.replace("segments:",
+                                     "vehicle_mounting_arcmin: [0, 0, 30]\nsegments:"))
     assert invoke("simulate", scen, "-o", tmp_path / "b").exit_code == 0
     told = run_json("navigate", tmp_path / "b", "-m", "dr", "-o", tmp_path / "r1")
     naive = run_json("navigate", tmp_path / "b", "-m", "dr", "--set", "mounting_arcmin=[0,0,0]",

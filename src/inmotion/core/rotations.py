@@ -25,6 +25,7 @@ __all__ = [
     "dcm_from_rotvec", "rotvec_from_dcm", "grp_from_quat", "quat_from_grp",
     "gibbs_from_quat", "quat_from_gibbs", "mrp_from_quat", "quat_from_mrp",
     "misalignment", "apply_misalignment", "correct_attitude", "wrap_pi", "wrap_2pi",
+    "mounting_dcm",
 ]
 
 
@@ -301,3 +302,17 @@ def wrap_pi(angle):
 def wrap_2pi(angle):
     """Angle wrapped to [0, 2 pi)."""
     return np.asarray(angle) % (2 * np.pi)
+
+
+def mounting_dcm(angles):
+    """``C_v^b = exp([A x])`` of mounting angles ``A = [alpha, beta, gamma]`` [rad].
+
+    The one mounting convention of the package (``docs/ARCHITECTURE.md``, "Vehicle frame and
+    mounting"; paper 000 eq. 4-9): ``A`` are the small angles of the vehicle frame v seen from
+    the IMU frame b, about b's x (right), y (forward), z (up) axes. Paper 000 writes the
+    first-order ``I + [A x]``; the exact rotation vector form has no rotation order and agrees
+    with every Euler order of the three angles to second order. The vehicle's forward axis in b
+    is ``C_v^b [0, 1, 0] = [-gamma, 1, alpha]`` to first order. A velocity sensor's own beam
+    misalignment relative to v uses the same form, ``C_s^v = mounting_dcm(A_s)``.
+    """
+    return dcm_from_rotvec(_check(angles, (3,), "angles"))

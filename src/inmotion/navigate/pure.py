@@ -5,8 +5,11 @@
     initial state, with optional barometric damping of the (unstable) vertical channel.
 ``dr``
     Pure dead reckoning (paper 002, sec. 2): the same gyro attitude update and a forward-velocity
-    sensor, :func:`inmotion.core.deadreckoning.dead_reckon`; the sensor's mounting and lever arm
-    come from the configuration or, if absent there, from ``meta.yaml``.
+    sensor, :func:`inmotion.core.deadreckoning.dead_reckon`. The speed is put along the
+    vehicle's forward axis, ``C_bm = C_v^b = exp([A x])`` with ``A`` the IMU's mounting in the
+    vehicle (docs/ARCHITECTURE.md "Vehicle frame and mounting"), and the sensor's lever arm is
+    removed; both come from the configuration or, if absent there, from ``meta.yaml``
+    (``vehicle_mounting_arcmin`` at the top level, ``sensors.<sensor>.lever_arm_m``).
 
 Both are ``run(bundle, config, init, progress=None) -> Solution`` methods of
 :mod:`inmotion.registry`; neither reads files nor prints.
@@ -63,17 +66,18 @@ class DrConfig(BaseModel):
         Multiplies the sensor's output (dimensionless): a sensor reading ``(1 + dk)`` times
         the truth is corrected by ``1 / (1 + dk)``.
     mounting_arcmin : [alpha, beta, gamma] or None
-        Mounting angles of the sensor frame m about its x, y, z axes [arcmin]
-        (paper 000 eq. 4-6; :func:`mounting_matrix`); None: from ``meta.yaml``
-        (``sensors.<sensor>.mounting_arcmin``) if there, else aligned with b.
+        The IMU's mounting angles in the vehicle [arcmin], ``C_v^b = exp([A x])`` (paper 000
+        eq. 4-9, where the radar frame is the vehicle's; :func:`mounting_matrix`): the speed is
+        put along ``C_v^b [0, 1, 0] ~ [-gamma, 1, alpha]`` in b. None: from ``meta.yaml``
+        (``vehicle_mounting_arcmin``) if there, else the IMU is taken as aligned with the
+        vehicle. A sensor's own beam misalignment (``sensors.<sensor>.mounting_arcmin``) is
+        not used: it changes the reading only to second order.
     lever_arm_m : [x, y, z] or None
         The sensor's position in b relative to the IMU [m]; None: from ``meta.yaml``
-        (``sensors.<sensor>.lever_arm_m``) if there, else zero.
-
-        Both follow paper 000 eq. 8-10 as :mod:`inmotion.core.deadreckoning` does: the sensor
-        point moves along the sensor's forward axis. A simulated bundle (as of this writing)
-        moves the IMU point along b instead, so on simulated data passing ``[0, 0, 0]`` for
-        both can be the better choice (see ``tests/test_cli.py``, the xfail on mounting).
+        (``sensors.<sensor>.lever_arm_m``) if there, else zero. The dead reckoner lets the
+        sensor's point move along the vehicle's forward axis (paper 000 eq. 8-10), the simulator
+        the IMU's; with a lever arm the two differ in turns by ``omega x l`` across the vehicle
+        (:func:`run_dr` notes).
     max_gap_s : float or None
         Sensor gap threshold [s] (None: 5 sensor periods); see
         :mod:`inmotion.core.deadreckoning` for how gaps are bridged.
@@ -134,34 +138,37 @@ def run_sins(bundle: Bundle, config: SinsConfig, init: NavState,
 
 
 def mounting_matrix(angles_rad) -> np.ndarray:
-    """``C_m^b`` of a velocity sensor from its mounting angles ``A = [alpha, beta, gamma]``.
+    """``C_bm = C_v^b = exp([A x])``, the vehicle's (= the speed's) frame in the IMU frame, from
+    the mounting angles ``A = [alpha, beta, gamma]`` [rad].
 
-    Paper 000 eq. 4-9 writes the installed sensor as ``C_m^b = I + [A x]`` to first order
-    (residual angles about the measuring frame's x, y, z axes). We take the exact rotation
-    ``C_m^b = exp([A x])`` (rotation vector ``A`` [rad]), the convention the simulator uses
-    (:func:`inmotion.sim.sensors.mounting_C_mb` returns its transpose ``C_b^m``); it has no
-    rotation order and agrees with every Euler order of the three angles to second order.
+    The package's one mounting function, :func:`inmotion.core.rotations.mounting_dcm`, which
+    the simulator uses too (paper 000 eq. 4-9 to first order, ``I + [A x]``).
     """
-    return rotations.dcm_from_rotvec(np.asarray(angles_rad, dtype=float).reshape(3))
+    return rotations.mounting_dcm(np.asarray(angles_rad, dtype=float).reshape(3))
+
+
+def _three_numbers(value, where: str):
+    if value is None:
+        return None
+    try:
+        return np.asarray(value, dtype=float).reshape(3)
+    except (TypeError, ValueError):
+        raise BadInput(f"meta.yaml {where} must be 3 numbers, got {value!r}") from None
 
 
 def mounting_from_meta(meta: dict, sensor: str):
-    """``(mounting_arcmin, lever_arm_m)`` of ``sensor`` from ``meta['sensors'][sensor]``.
+    """``(vehicle_mounting_arcmin, lever_arm_m)`` for dead reckoning with ``sensor``.
 
-    Either may be None when absent. Raises :class:`BadInput` if present but not 3 numbers.
+    The mounting is the IMU's in the vehicle, ``meta['vehicle_mounting_arcmin']`` (top level,
+    one for all sensors: they all read the vehicle's forward speed); the lever arm is
+    ``meta['sensors'][sensor]['lever_arm_m']`` (in b). Either is None when absent. Raises
+    :class:`BadInput` if present but not 3 numbers.
     """
-    spec = ((meta or {}).get("sensors") or {}).get(sensor) or {}
-    out = []
-    for key in ("mounting_arcmin", "lever_arm_m"):
-        v = spec.get(key) if isinstance(spec, dict) else None
-        if v is not None:
-            try:
-                v = np.asarray(v, dtype=float).reshape(3)
-            except (TypeError, ValueError):
-                raise BadInput(f"meta.yaml sensors.{sensor}.{key} must be 3 numbers, got "
-                               f"{v!r}") from None
-        out.append(v)
-    return tuple(out)
+    meta = meta or {}
+    spec = (meta.get("sensors") or {}).get(sensor) or {}
+    lever = spec.get("lever_arm_m") if isinstance(spec, dict) else None
+    return (_three_numbers(meta.get("vehicle_mounting_arcmin"), "vehicle_mounting_arcmin"),
+            _three_numbers(lever, f"sensors.{sensor}.lever_arm_m"))
 
 
 def run_dr(bundle: Bundle, config: DrConfig, init: NavState,
@@ -181,7 +188,24 @@ def run_dr(bundle: Bundle, config: DrConfig, init: NavState,
     Returns
     -------
     Solution
-        ``info`` holds ``method``, ``config``, ``timing`` and ``sensor`` (the one used).
+        ``info`` holds ``method``, ``config``, ``timing``, ``sensor`` (the one used),
+        ``mounting_arcmin`` (the vehicle mounting used) and ``lever_arm_m``.
+
+    Notes
+    -----
+    With the true vehicle mounting, zero lever arm and error-free sensors the dead reckoner
+    reproduces the simulated truth up to its discretization (attitude as the SINS; distance
+    interpolated to IMU epochs). Without the mounting (``C_v^b = I`` assumed) it errs to first
+    order: cross-track ``gamma * d`` (to the right for gamma > 0, the speed is put along
+    ``+y`` instead of ``[-gamma, 1, alpha]``) and vertically ``-alpha * d`` after a distance
+    ``d`` (``tests/test_navigate_pure.py``).
+
+    Lever arm: :mod:`inmotion.core.deadreckoning` (paper 000 eq. 8-10) lets the sensor point
+    move along the vehicle's forward axis, whereas the simulator (docs/ARCHITECTURE.md) moves
+    the IMU, the vehicle's reference point, along it and lets the sensor read the forward
+    component at its lever arm. The two agree on a straight road; in a turn at rate ``omega``
+    they differ by the sideways part of ``omega x l`` (``omega_z l_y`` across the vehicle),
+    about ``l_y * (heading change)`` of displacement per turn.
     """
     init = _require_init(init, "dr")
     try:

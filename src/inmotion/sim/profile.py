@@ -1,14 +1,19 @@
 """The vehicle's motion as smooth functions of time: speed, heading, pitch, roll, disturbances.
 
+Everything here is the motion of the *vehicle frame* v (Right-Forward-Up of the vehicle, see
+docs/ARCHITECTURE.md "Vehicle frame and mounting"): the Euler angles are those of ``C_v^n`` and
+the velocity is ``v_v``, ``[0, v, 0]`` plus the disturbances. The IMU frame b is turned from v
+by the scenario's ``vehicle_mounting_arcmin``; :mod:`inmotion.sim.trajectory` makes that step.
+
 The scenario's segments become three piecewise-polynomial *channels* (:class:`scipy.interpolate.PPoly`):
 the forward acceleration ``a(t)``, the yaw rate ``r(t)`` and the pitch ``theta(t)``. Every change
 is a septic smoothstep ``S(x) = 35 x^4 - 84 x^5 + 70 x^6 - 20 x^7`` (``S, S', S'', S'''`` are 0 / 1
 at the ends), so acceleration, yaw rate and pitch are C3; speed ``v = v0 + int a`` and yaw
 ``psi = psi0 + int r`` are exact antiderivatives (C4). Roll follows the lateral acceleration:
-``roll = -k v r`` (a right turn, ``r > 0``, rolls the body to the left, roll < 0 in the DESIGN
+``roll = -k v r`` (a right turn, ``r > 0``, rolls the vehicle to the left, roll < 0 in the DESIGN
 convention where positive roll lowers the right side).
 
-Disturbances add to the body velocity and the Euler angles in their windows (side slips, jumps,
+Disturbances add to the vehicle velocity ``v_v`` and the Euler angles in their windows (side slips, jumps,
 engine vibration; see :mod:`inmotion.sim.scenario`).
 
 Everything is evaluated vectorized at any array of times, together with the analytic time
@@ -87,13 +92,13 @@ class Profile:
     segments: list          #: [(kind, t_start, t_end)]
 
     def kinematics(self, t):
-        """Euler angles, their rates, body velocity and its time derivative at times ``t``.
+        """Euler angles, their rates, vehicle velocity and its time derivative at times ``t``.
 
         Returns
         -------
-        euler, euler_dot : (N, 3) [rad], [rad/s], ``[pitch, roll, yaw]``
-        vel_b, acc_b : (N, 3) [m/s], [m/s^2], body (R-F-U) velocity over ground and its
-            derivative in the body frame (d/dt of the components, not the n-frame acceleration).
+        euler, euler_dot : (N, 3) [rad], [rad/s], ``[pitch, roll, yaw]`` of ``C_v^n``
+        vel_v, acc_v : (N, 3) [m/s], [m/s^2], vehicle-frame (R-F-U) velocity over ground and
+            its derivative in v (d/dt of the components, not the n-frame acceleration).
         """
         t = np.asarray(t, dtype=float)
         v, a = self.speed(t), self.accel(t)
@@ -102,10 +107,10 @@ class Profile:
         euler = np.stack([self.pitch(t), -k * v * r, self.yaw(t)], -1)
         euler_dot = np.stack([self.pitch(t, 1), -k * (a * r + v * rdot), r], -1)
         z = np.zeros_like(t)
-        vel_b = np.stack([z, v, z], -1)
-        acc_b = np.stack([z, a, z], -1)
-        _add_disturbances(self.disturbances, t, euler, euler_dot, vel_b, acc_b)
-        return euler, euler_dot, vel_b, acc_b
+        vel_v = np.stack([z, v, z], -1)
+        acc_v = np.stack([z, a, z], -1)
+        _add_disturbances(self.disturbances, t, euler, euler_dot, vel_v, acc_v)
+        return euler, euler_dot, vel_v, acc_v
 
 
 def build_profile(scenario) -> Profile:
@@ -203,7 +208,8 @@ def _envelope(t, start, end, fade, nu):
 
 
 def _add_disturbances(dist, t, euler, euler_dot, vel_b, acc_b):
-    """Add side slips (body x velocity), jumps (body z) and vibration in place."""
+    """Add side slips (vehicle x velocity), jumps (vehicle z) and vibration in place
+    (``vel_b``, ``acc_b`` here are the vehicle frame's ``v_v`` and its derivative)."""
     for s in dist.side_slips:
         x = (t - s.t_s) / s.duration_s
         vel_b[:, 0] += s.speed_m_s * _bump(x, 0)

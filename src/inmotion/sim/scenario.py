@@ -24,6 +24,9 @@ __all__ = ["Scenario", "load_scenario", "find_scenario", "scenario_dir", "shippe
 #: velocity sensors a scenario may carry (same names as the bundle files)
 SPEED_SENSORS = ("radar", "ldv", "odometer")
 
+#: largest accepted IMU-in-vehicle mounting angle per axis [arcmin]
+MAX_MOUNTING_ARCMIN = 1800.0
+
 Vec3 = Annotated[List[float], Field(min_length=3, max_length=3)]
 ScalarOr3 = Union[float, Vec3]
 
@@ -134,7 +137,7 @@ Segment = Annotated[Union[Rest, Wait, Cruise, Accelerate, Decelerate, Stop, Turn
 
 # ----------------------------------------------------------------------------- disturbances
 class SideSlip(_Model):
-    """Lateral sliding: a body-x (right) velocity bump ``speed_m_s * sin^4(pi s)``,
+    """Lateral sliding: a vehicle-frame x (right) velocity bump ``speed_m_s * sin^4(pi s)``,
     ``s = (t - t_s) / duration_s`` in [0, 1]; negative speed slides left."""
     t_s: float
     duration_s: float = Field(gt=0.0)
@@ -142,7 +145,8 @@ class SideSlip(_Model):
 
 
 class Jump(_Model):
-    """A vertical jolt: body-z displacement ``height_m * sin^4(pi s)`` over the window."""
+    """A vertical jolt: vehicle-frame z displacement ``height_m * sin^4(pi s)`` over the
+    window."""
     t_s: float
     duration_s: float = Field(gt=0.0)
     height_m: float = 0.05
@@ -239,9 +243,11 @@ class Imu(_Model):
 class _SpeedSensor(_Model):
     """Common to the forward-velocity sensors.
 
-    ``lever_arm_m``: sensor position in b (right, forward, up) from the IMU [m].
-    ``mounting_arcmin``: [alpha, beta, gamma], the residual mounting angles about the sensor's
-    x, y, z axes (paper 000 eq. 4-6, 9); see :mod:`inmotion.sim.sensors` for the rotation.
+    ``lever_arm_m``: sensor position in the IMU frame b (right, forward, up) from the IMU [m].
+    ``mounting_arcmin``: [alpha, beta, gamma], the sensor's own small *beam misalignment*
+    relative to the vehicle frame v (``C_s^v = exp([A_s x])``); it changes the reading only to
+    second order (a cosine). The first-order angles are the IMU's in the vehicle,
+    :attr:`Scenario.vehicle_mounting_arcmin`; see :mod:`inmotion.sim.sensors`.
     ``scale_factor_ppm``: constant scale factor error; ``scale_factor_sigma_ppm``: if > 0, a
     per-run random constant is added (1-sigma). ``noise_m_s``: white noise on the speed.
     """
@@ -338,10 +344,18 @@ class Fault(_Model):
 
 # ----------------------------------------------------------------------------- scenario
 class Scenario(_Model):
-    """One simulated drive: the motion, the disturbances, the sensors and their faults."""
+    """One simulated drive: the motion, the disturbances, the sensors and their faults.
+
+    ``vehicle_mounting_arcmin``: ``A = [alpha, beta, gamma]``, how the IMU sits in the vehicle:
+    the vehicle frame v seen from the IMU frame b, ``C_v^b = exp([A x])``
+    (:func:`inmotion.core.rotations.mounting_dcm`; paper 000 eq. 4-9, docs/ARCHITECTURE.md
+    "Vehicle frame and mounting"). The segments move v; the IMU turns with it, offset by A.
+    At most 1800 arcmin (30 deg) per axis (a larger value is most likely degrees or a typo).
+    """
     name: str
     description: str = ""
     start: Start
+    vehicle_mounting_arcmin: Vec3 = Field(default_factory=lambda: [0.0, 0.0, 0.0])
     vehicle: Vehicle = Vehicle()
     segments: List[Segment] = Field(min_length=1)
     disturbances: Disturbances = Disturbances()
@@ -349,6 +363,14 @@ class Scenario(_Model):
     sensors: Sensors = Sensors()
     faults: List[Fault] = []
     quadrature_nodes: Optional[int] = Field(None, ge=2, le=8)
+
+    @field_validator("vehicle_mounting_arcmin")
+    @classmethod
+    def _small_mounting(cls, v):
+        if max(abs(x) for x in v) > MAX_MOUNTING_ARCMIN:
+            raise ValueError(f"{list(v)} arcmin: each angle must be within "
+                             f"+-{MAX_MOUNTING_ARCMIN:g} arcmin (30 deg); degrees given?")
+        return v
 
     @model_validator(mode="after")
     def _consistent(self):

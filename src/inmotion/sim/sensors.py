@@ -1,18 +1,23 @@
 """Velocity sensors (Doppler radar, LDV, odometer) and the barometric altimeter.
 
-Every sensor samples on IMU times (its rate divides the IMU rate). A velocity sensor sees the
-velocity over ground of the point where it sits, ``v_b + omega_eb_b x l_b`` (lever arm ``l_b``),
-resolved in its own frame m, and reports the forward (m-frame y) component
-(:mod:`inmotion.sim.trajectory` computes it exactly).
+Every sensor samples on IMU times (its rate divides the IMU rate). A velocity sensor s sees the
+velocity over ground of the point where it sits, ``v_v + omega_ev_v x l_v`` (the vehicle's
+velocity ``v_v`` at the reference point, which is the IMU, plus the lever-arm term), resolved
+in its own frame s, and reports the forward (s-frame y) component
+``[C_v^s (v_v + omega_ev_v x l_v)]_y`` (docs/ARCHITECTURE.md "Vehicle frame and mounting";
+:mod:`inmotion.sim.trajectory` computes it exactly, in b). Lever arms are given in the IMU frame
+b (``l_v = C_b^v l_b``), the frame of the dead reckoner's ``lever_arm_b``.
 
-Mounting (paper 000 eq. 4-9): ``A = [alpha, beta, gamma]`` are the residual mounting angles
-about the x, y, z axes of the measuring frame. Paper 000 writes the installed sensor as
-``C_m^b(nominal) = (I - [A x]) C_m^b(true)`` with a nominal identity; we take the exact rotation
-``C_m^b = exp([A x])`` (rotation vector ``A``), which has no rotation order: it equals
-``I + [A x]`` to first order, and every Euler order of three such angles agrees with it to
-second order (a few 1e-6 rad for 10 arcmin). A sensor with nominal mounting therefore reads, for
-the body velocity ``[0, v, 0]``, the forward speed ``v`` up to ``O(A^2)``; a dead reckoner that
-assumes ``C_m^b = I`` puts that speed along the wrong body direction ``[-gamma, 1, alpha]``.
+Two mountings, both ``exp([A x])`` (:func:`inmotion.core.rotations.mounting_dcm`, paper 000
+eq. 4-9, exact rotation vector form, no rotation order, ``I + [A x]`` to first order):
+
+- the IMU in the vehicle, the scenario's ``vehicle_mounting_arcmin``: ``C_v^b = exp([A x])``.
+  It acts to *first order*: the vehicle moves along v's forward axis, which in b is
+  ``[-gamma, 1, alpha]``, so a dead reckoner that assumes ``C_v^b = I`` drifts cross-track by
+  ``gamma`` and vertically by ``alpha`` times the distance.
+- a sensor's own beam misalignment relative to v, its ``mounting_arcmin``:
+  ``C_s^v = exp([A_s x])``. With no slip the sensor reads ``cos``-like ``v (1 - O(A_s^2))``:
+  *second order* (a side slip ``v_x`` adds ``-gamma_s v_x``, first order in the slip).
 
 Outputs:
 
@@ -36,21 +41,31 @@ from . import faults as faults_mod
 from .random_processes import markov
 from .trajectory import SensorGeometry
 
-__all__ = ["mounting_C_mb", "geometry", "simulate_speed_sensor", "simulate_baro", "markov"]
+__all__ = ["mounting_C_mb", "vehicle_C_vb", "geometry", "simulate_speed_sensor",
+           "simulate_baro", "markov"]
 
 ARCMIN = np.pi / 180.0 / 60.0
 
 
 def mounting_C_mb(mounting_arcmin) -> np.ndarray:
-    """``C_b^m = exp(-[A x])`` for ``A = [alpha, beta, gamma]`` [arcmin] (see module doc)."""
-    return rotations.dcm_from_rotvec(-np.asarray(mounting_arcmin, dtype=float) * ARCMIN)
+    """``C_v^s = exp([A x])^T`` of a sensor's beam misalignment ``A = [alpha, beta, gamma]``
+    [arcmin] relative to the vehicle frame (takes v-vectors to the sensor frame; module doc)."""
+    return rotations.mounting_dcm(np.asarray(mounting_arcmin, dtype=float) * ARCMIN).T
 
 
-def geometry(spec, distance=True) -> SensorGeometry:
-    """The :class:`SensorGeometry` of a velocity-sensor spec (``distance``: the sensor
-    outputs distance increments, so the trajectory integrates its speed)."""
-    return SensorGeometry(mounting_C_mb(spec.mounting_arcmin),
-                          np.asarray(spec.lever_arm_m, float), distance)
+def vehicle_C_vb(vehicle_mounting_arcmin) -> np.ndarray:
+    """``C_v^b = exp([A x])`` of the IMU's mounting in the vehicle [arcmin] (module doc)."""
+    return rotations.mounting_dcm(np.asarray(vehicle_mounting_arcmin, dtype=float) * ARCMIN)
+
+
+def geometry(spec, distance=True, C_vb=None) -> SensorGeometry:
+    """The :class:`SensorGeometry` of a velocity-sensor spec: ``C_b^s = C_v^s C_b^v`` from
+    its beam misalignment and the vehicle mounting ``C_vb`` (``C_v^b``; None: identity), lever
+    arm in b. ``distance``: the sensor outputs distance increments, so the trajectory
+    integrates its speed."""
+    C_sv = mounting_C_mb(spec.mounting_arcmin)
+    C_sb = C_sv if C_vb is None else C_sv @ np.asarray(C_vb, dtype=float).T
+    return SensorGeometry(C_sb, np.asarray(spec.lever_arm_m, float), distance)
 
 
 def _step(imu_rate_hz, rate_hz):

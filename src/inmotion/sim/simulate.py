@@ -5,9 +5,11 @@ draws happen in a fixed order (IMU constants, IMU noise, then each present senso
 radar, ldv, odometer, baro), so a seed reproduces a bundle bit for bit.
 
 The ``meta`` dict is what :mod:`inmotion.io` writes as ``meta.yaml``: the scenario name and
-description, the initial position and attitude (degrees), the IMU rate and specification, each
-sensor's specification (human units, with lever arm ``lever_arm_m`` and mounting angles
-``mounting_arcmin``), the faults, which sensors exist, the segment timeline, the distance
+description, the initial position and attitude (degrees), ``vehicle_mounting_arcmin`` (the IMU's
+mounting in the vehicle, ``C_v^b = exp([A x])``: what a dead reckoner's ``C_bm`` is), the IMU
+rate and specification, each sensor's specification (human units, with lever arm
+``lever_arm_m`` in b and beam misalignment ``mounting_arcmin`` relative to the vehicle), the
+faults, which sensors exist, the segment timeline, the distance
 driven, and under ``simulated_errors`` the constants drawn for this run (the truth an
 estimator's calibration can be checked against).
 """
@@ -20,22 +22,27 @@ from . import faults as faults_mod
 from .imu_errors import apply_imu_errors, draw_imu_errors
 from .profile import build_profile
 from .scenario import SPEED_SENSORS, load_scenario
-from .sensors import geometry, simulate_baro, simulate_speed_sensor
+from .sensors import geometry, simulate_baro, simulate_speed_sensor, vehicle_C_vb
 from .trajectory import generate
 
 __all__ = ["simulate", "simulate_truth"]
 
 
 def simulate_truth(scenario):
-    """The error-free :class:`inmotion.sim.trajectory.Trajectory` of a scenario."""
+    """``(Scenario, Profile, Trajectory)``: the error-free truth and increments of a scenario.
+
+    The profile moves the vehicle frame v; the IMU is turned from it by
+    ``vehicle_mounting_arcmin`` (``C_v^b``, None when zero so that an aligned IMU is exactly
+    the vehicle)."""
     sc = load_scenario(scenario)
     prof = build_profile(sc)
     rate = sc.imu.rate_hz
     n_rows = int(round(prof.duration_s * rate)) + 1
-    geos = {n: geometry(getattr(sc.sensors, n), distance=_distance_output(n, sc))
+    C_vb = vehicle_C_vb(sc.vehicle_mounting_arcmin) if any(sc.vehicle_mounting_arcmin) else None
+    geos = {n: geometry(getattr(sc.sensors, n), distance=_distance_output(n, sc), C_vb=C_vb)
             for n in SPEED_SENSORS if getattr(sc.sensors, n) is not None}
     traj = generate(prof, np.radians(sc.start.lat_deg), np.radians(sc.start.lon_deg),
-                    sc.start.h_m, rate, n_rows, nodes=sc.nodes, sensors=geos)
+                    sc.start.h_m, rate, n_rows, nodes=sc.nodes, sensors=geos, C_vb=C_vb)
     return sc, prof, traj
 
 
@@ -98,6 +105,7 @@ def _meta(sc, prof, traj, drawn) -> dict:
         "lat_deg": sc.start.lat_deg, "lon_deg": sc.start.lon_deg, "h_m": sc.start.h_m,
         "initial_attitude_deg": {k: _tidy(np.degrees(traj.euler[0, i]))
                                  for i, k in enumerate(("pitch", "roll", "yaw"))},
+        "vehicle_mounting_arcmin": [float(x) for x in sc.vehicle_mounting_arcmin],
         "duration_s": float(traj.t[-1] - traj.t[0]),
         "distance_m": traj.distance_m,
         "imu": {"rate_hz": sc.imu.rate_hz, **sc.imu.model_dump(exclude={"rate_hz"})},

@@ -1,17 +1,22 @@
 """The truth: position, velocity, attitude and exact IMU increments of a simulated drive.
 
-Given the motion of :mod:`inmotion.sim.profile` (Euler angles ``e(t)`` and body velocity
-``v_b(t)`` as smooth functions with analytic derivatives), everything else follows from the
-navigation equations, so that an error-free mechanization reproduces the truth:
+Given the motion of :mod:`inmotion.sim.profile` (the vehicle frame's Euler angles ``e(t)`` and
+velocity ``v_v(t)`` as smooth functions with analytic derivatives) and the IMU's mounting in the
+vehicle ``C_v^b = exp([A x])`` (constant; :func:`inmotion.core.rotations.mounting_dcm`,
+docs/ARCHITECTURE.md "Vehicle frame and mounting"), everything else follows from the navigation
+equations, so that an error-free mechanization reproduces the truth:
 
-- attitude ``C_b^n = R_z(-psi) R_x(theta) R_y(gamma)`` (DESIGN convention);
-- velocity ``v_n = C_b^n v_b``;
+- vehicle attitude ``C_v^n = R_z(-psi) R_x(theta) R_y(gamma)`` (DESIGN convention); the IMU's
+  ``C_b^n = C_v^n C_b^v`` (``C_b^v = (C_v^b)^T``), and the truth attitude is the IMU's;
+- IMU-frame motion (the IMU is the vehicle's reference point, so they share the velocity):
+  ``v_b = C_v^b v_v``, ``dv_b/dt = C_v^b dv_v/dt``, ``omega_nb_b = C_v^b omega_nv_v``;
+- velocity ``v_n = C_b^n v_b = C_v^n v_v``;
 - position by integrating ``[dL, dlambda, dh]/dt = [vN/(R_M+h), vE/((R_N+h) cos L), vU]``
   (radii from :mod:`inmotion.core.earth`): per IMU interval by Gauss-Legendre quadrature of the
   rates, with ``L`` and ``h`` inside the interval from cubic Hermite interpolation and ``L``
   iterated to a fixed point (three Picard sweeps, each shrinking the error by ~1e-5);
-- body rate relative to n from the Euler rates (differentiate ``C_b^n``):
-  ``omega_nb_b = [cg th' + sg cth psi', g' - sth psi', sg th' - cg cth psi']``;
+- vehicle rate relative to n from the Euler rates (differentiate ``C_v^n``):
+  ``omega_nv_v = [cg th' + sg cth psi', g' - sth psi', sg th' - cg cth psi']``;
 - ``omega_ib_b = omega_nb_b + C_n^b (omega_ie_n + omega_en_n)``;
 - ``f_b = omega_nb_b x v_b + dv_b/dt + C_n^b ((2 omega_ie_n + omega_en_n) x v_n - g_n)``,
   which is ``C_n^b (dv_n/dt + (2 omega_ie_n + omega_en_n) x v_n - g_n)`` since
@@ -45,8 +50,9 @@ CHUNK_ROWS = 8192
 
 @dataclass
 class SensorGeometry:
-    """Where a velocity sensor sits: ``C_mb`` (= ``C_b^m``, takes b to the sensor frame m) and
-    ``lever_arm_b`` [m] from the IMU; ``distance``: its speed is integrated per row (for
+    """Where a velocity sensor sits: ``C_mb`` (= ``C_b^m`` = ``C_v^m C_b^v``, takes b to the
+    sensor frame m: the vehicle mounting and the sensor's beam misalignment together) and
+    ``lever_arm_b`` [m] from the IMU, in b; ``distance``: its speed is integrated per row (for
     distance outputs) instead of sampled at the rows' ends."""
 
     C_mb: np.ndarray
@@ -85,7 +91,8 @@ class Trajectory:
 
 
 def omega_nb_b_from_euler(euler, euler_dot):
-    """Body rate relative to n [rad/s] (N, 3) from ``[pitch, roll, yaw]`` and their rates.
+    """Rate of a frame relative to n, in that frame [rad/s] (N, 3), from its
+    ``[pitch, roll, yaw]`` and their rates (used for the vehicle frame: ``omega_nv_v``).
 
     From ``[omega_nb_b x] = C_n^b dC_b^n/dt`` with ``C_b^n = R_z(-psi) R_x(theta) R_y(gamma)``:
     ``R_y(g)^T (R_x(th)^T [0, 0, -psi'] + [th', 0, 0]) + [0, g', 0]``.
@@ -119,7 +126,7 @@ def _hermite(y0, y1, d0, d1, x, dt):
 
 
 def generate(profile, start_lat, start_lon, start_h, rate_hz, n_rows, *, nodes=3,
-             sensors=None) -> Trajectory:
+             sensors=None, C_vb=None) -> Trajectory:
     """Simulate the truth and error-free increments.
 
     Parameters
@@ -129,12 +136,16 @@ def generate(profile, start_lat, start_lon, start_h, rate_hz, n_rows, *, nodes=3
     rate_hz : float, IMU rate [Hz];  n_rows : int, rows at ``t_k = k / rate_hz``
     nodes : int, Gauss-Legendre nodes per interval
     sensors : dict name -> :class:`SensorGeometry`, velocity sensors to evaluate
+    C_vb : (3, 3) or None, ``C_v^b``, the IMU's mounting in the vehicle (None: identity)
 
     Returns
     -------
     Trajectory
+        attitude, increments and sensors of the IMU frame b; position and velocity of the
+        IMU (the vehicle's reference point).
     """
     sensors = sensors or {}
+    C_vb = None if C_vb is None else np.asarray(C_vb, dtype=float)
     dt = 1.0 / rate_hz
     t = np.arange(n_rows) / rate_hz
     xi, wi = np.polynomial.legendre.leggauss(nodes)
@@ -144,7 +155,7 @@ def generate(profile, start_lat, start_lon, start_h, rate_hz, n_rows, *, nodes=3
     for k0 in range(0, n_rows, CHUNK_ROWS):
         k1 = min(n_rows, k0 + CHUNK_ROWS)
         pos = _chunk(profile, out, k0, k1, dt, frac, wts, pos,
-                     (start_lat, start_lon, start_h), sensors)
+                     (start_lat, start_lon, start_h), sensors, C_vb)
     return out
 
 
@@ -158,25 +169,29 @@ def _allocate(t, sensors):
 
 @dataclass
 class _Motion:
-    """Kinematics at a set of times: Euler angles and rates, body velocity and its derivative,
-    ``C_b^n`` and ``v_n`` (arrays with the times' shape plus the vector/matrix axes)."""
+    """IMU-frame kinematics at a set of times: ``omega_nb_b``, velocity ``v_b`` and its
+    derivative, ``C_b^n``, ``v_n`` and the Euler angles of ``C_b^n`` (arrays with the times'
+    shape plus the vector/matrix axes), from the vehicle's motion and ``C_v^b`` (module doc)."""
 
     euler: np.ndarray
-    euler_dot: np.ndarray
+    omega_nb_b: np.ndarray
     vel_b: np.ndarray
     acc_b: np.ndarray
     C_nb: np.ndarray
     vel_n: np.ndarray
 
     @classmethod
-    def at(cls, profile, t):
-        e, ed, vb, ab = (x.reshape(t.shape + (3,)) for x in profile.kinematics(t.ravel()))
-        C = rotations.dcm_from_euler(e)
-        return cls(e, ed, vb, ab, C, _mv(C, vb))
-
-    @property
-    def omega_nb_b(self):
-        return omega_nb_b_from_euler(self.euler, self.euler_dot)
+    def at(cls, profile, t, C_vb=None):
+        e_v, ed_v, vel_v, acc_v = (x.reshape(t.shape + (3,))
+                                   for x in profile.kinematics(t.ravel()))
+        C_nv = rotations.dcm_from_euler(e_v)
+        w_nv_v = omega_nb_b_from_euler(e_v, ed_v)
+        vel_n = _mv(C_nv, vel_v)
+        if C_vb is None:                      # IMU aligned with the vehicle: b = v
+            return cls(e_v, w_nv_v, vel_v, acc_v, C_nv, vel_n)
+        C_nb = C_nv @ C_vb.T                  # C_b^n = C_v^n C_b^v
+        return cls(rotations.euler_from_dcm(C_nb), _mv(C_vb, w_nv_v), _mv(C_vb, vel_v),
+                   _mv(C_vb, acc_v), C_nb, vel_n)
 
 
 def _imu_rates(mq, lat_q, h_q):
@@ -190,11 +205,11 @@ def _imu_rates(mq, lat_q, h_q):
     return w_ib, f, w_en
 
 
-def _chunk(profile, out, k0, k1, dt, frac, wts, pos_prev, start, sensors):
+def _chunk(profile, out, k0, k1, dt, frac, wts, pos_prev, start, sensors, C_vb):
     """Fill rows k0..k1-1; returns the position at t_{k1-1}."""
     t_grid = np.arange(k0 - 1, k1) * dt                     # t_{k0-1} .. t_{k1-1}
-    mg = _Motion.at(profile, t_grid)
-    mq = _Motion.at(profile, t_grid[:-1, None] + dt * frac[None, :])       # (m, n) nodes
+    mg = _Motion.at(profile, t_grid, C_vb)
+    mq = _Motion.at(profile, t_grid[:-1, None] + dt * frac[None, :], C_vb)   # (m, n) nodes
     lat_g, lon_g, h_g, lat_q, h_q = _integrate_position(mg.vel_n, mq.vel_n, dt, frac, wts,
                                                         pos_prev, start, k0)
     w_ib, f, w_en = _imu_rates(mq, lat_q, h_q)
@@ -215,7 +230,9 @@ def _chunk(profile, out, k0, k1, dt, frac, wts, pos_prev, start, sensors):
 
 def _sensor_outputs(out, rows, sensors, mg, mq, w_en_q, w_en_g, wdt):
     """Forward speed at the rows' ends, or its integral over the rows, of each sensor's point:
-    ``[C_b^m (v_b + omega_eb_b x l_b)]_y`` with ``omega_eb_b = omega_nb_b + C_n^b omega_en_n``."""
+    ``[C_b^m (v_b + omega_eb_b x l_b)]_y`` with ``omega_eb_b = omega_nb_b + C_n^b omega_en_n``
+    (``= [C_v^m (v_v + omega_ev_v x l_v)]_y`` with ``C_b^m = C_v^m C_b^v``, ``l_v = C_b^v l_b``:
+    the architecture's sensor model, evaluated in b)."""
     for name, geo in sensors.items():
         if geo.distance:
             w_eb = mq.omega_nb_b + _mtv(mq.C_nb, w_en_q)
