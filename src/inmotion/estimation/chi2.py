@@ -1,0 +1,56 @@
+"""Chi-square tests on Kalman residuals and on sensor speeds (paper 003 eq. 40-42, 43-45).
+
+Residual test (paper 003 sec. 3.2.2, eq. 40-42): with the innovation
+``r_k = Z_k - H_k X_{k,k-1}`` and its covariance ``C_rk = H_k P_{k,k-1} H_k^T + R_k``, the
+statistic ``lambda_k = r_k^T C_rk^-1 r_k`` is chi-square with ``m`` (the measurement
+dimension) degrees of freedom while the channel is healthy; a fault gives ``r_k`` a non-zero
+mean and ``lambda_k`` grows. The channel is declared faulty when ``lambda_k > T_lambda``, the
+upper ``zeta`` quantile of ``chi2(m)``, ``zeta`` the false-alarm rate per test.
+
+Parked / moving test (sec. 3.3.2, eq. 43-45): the forward speeds of the odometer and the LDV,
+zero-mean white noise of variances ``C_vk`` when parked, give ``lambda_v = v^T C_v^-1 v``,
+chi-square with 2 degrees of freedom; above ``T_lambda`` the vehicle moves.
+
+The paper prints the decision rule of eq. 42 with the two outcomes swapped ("lambda <= T:
+faulted"); its text (and eq. 45) say the opposite, which is what is implemented.
+"""
+from __future__ import annotations
+
+import numpy as np
+from scipy.stats import chi2 as _chi2
+
+__all__ = ["threshold", "statistic", "exceeds"]
+
+
+def threshold(false_alarm_rate: float, dof: int) -> float:
+    """``T_lambda``: the upper ``false_alarm_rate`` quantile of ``chi2(dof)``.
+
+    Parameters
+    ----------
+    false_alarm_rate : probability per test that a healthy channel is declared faulty, (0, 1)
+    dof : degrees of freedom (the measurement dimension ``m``)
+    """
+    if not 0.0 < false_alarm_rate < 1.0:
+        raise ValueError(f"false_alarm_rate must be in (0, 1), got {false_alarm_rate}")
+    if dof < 1:
+        raise ValueError(f"dof must be >= 1, got {dof}")
+    return float(_chi2.isf(false_alarm_rate, dof))
+
+
+def statistic(r, C) -> np.ndarray:
+    """``lambda = r^T C^-1 r`` for one residual (m,) or a stack (N, m) with (m, m) / (N, m, m).
+
+    Parameters
+    ----------
+    r : residuals, any unit;  C : their covariance, the unit squared
+    """
+    r = np.asarray(r, dtype=float)
+    C = np.asarray(C, dtype=float)
+    sol = np.linalg.solve(C, r[..., None])[..., 0]
+    return np.einsum("...i,...i->...", r, sol)
+
+
+def exceeds(r, C, false_alarm_rate: float) -> np.ndarray:
+    """True where ``lambda > T_lambda`` (eq. 42: faulted / eq. 45: moving)."""
+    r = np.asarray(r, dtype=float)
+    return statistic(r, C) > threshold(false_alarm_rate, r.shape[-1])
