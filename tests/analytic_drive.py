@@ -29,8 +29,7 @@ def _zero(t):
     return 0.0 * np.asarray(t, dtype=float)
 
 
-def drive_increments(t, lat0, lon0, h, psi, dpsi, speed, accel, lever_arm_b=None,
-                pitch=_zero, dpitch=_zero):
+def drive_increments(t, lat0, lon0, h, psi, dpsi, speed, accel, pitch=_zero, dpitch=_zero):
     """Truth and exact increments of a drive (level unless ``pitch`` is given).
 
     Parameters
@@ -41,13 +40,12 @@ def drive_increments(t, lat0, lon0, h, psi, dpsi, speed, accel, lever_arm_b=None
     psi, dpsi : callables t -> heading [rad], heading rate [rad/s].
     speed, accel : callables t -> forward speed [m/s], its derivative [m/s^2].
     pitch, dpitch : callables t -> pitch [rad], pitch rate [rad/s] (default level).
-    lever_arm_b : (3,) m, optional. The trajectory above is then the sensor point's;
-        ``lat_imu, lon_imu`` are returned for the IMU at ``-lever_arm_b`` from it.
 
     Returns
     -------
-    dict with t, lat, lon, h, vel_n (N,3), euler (N,3), dtheta (N,3), dvel (N,3),
-    and lat_imu, lon_imu, vel_imu_n.
+    dict with t, lat, lon, h, vel_n (N,3), euler (N,3), dtheta (N,3), dvel (N,3), and
+    omega_eb_b (N,3) [rad/s], the body rate over the Earth at each epoch (for what a sensor at a
+    lever arm reads: ``speed + [omega_eb_b x l_b]_y``).
     """
     def rates(tt, y):
         lat, hh = y[LAT], y[HGT]
@@ -88,15 +86,11 @@ def drive_increments(t, lat0, lon0, h, psi, dpsi, speed, accel, lever_arm_b=None
     euler = np.stack([th, np.zeros_like(p), p], -1)
     out = dict(t=t, lat=y[:, LAT], lon=y[:, LON], h=y[:, HGT], vel_n=vel_n,
                euler=euler, dtheta=dtheta, dvel=dvel)
-    l_b = np.zeros(3) if lever_arm_b is None else np.asarray(lever_arm_b, dtype=float)
     C_nb = dcm_from_euler(euler)
-    l_n = C_nb @ l_b
-    r_m, r_n = earth.radii(out["lat"])
-    hh = out["h"]
-    out["lat_imu"] = out["lat"] - l_n[:, 1] / (r_m + hh)
-    out["lon_imu"] = out["lon"] - l_n[:, 0] / ((r_n + hh) * np.cos(out["lat"]))
-    w_nb_n = np.stack([np.zeros_like(p), np.zeros_like(p), -dpsi(t) + 0.0 * t], -1)  # level
-    out["vel_imu_n"] = vel_n - np.cross(w_nb_n, l_n)
+    w_en = earth.omega_en_n(out["lat"], out["h"], vel_n)
+    w_nb_b = np.stack([dpitch(t) + 0.0 * t, -(dpsi(t) + 0.0 * t) * np.sin(th),
+                       -(dpsi(t) + 0.0 * t) * np.cos(th)], -1)
+    out["omega_eb_b"] = np.einsum("nji,nj->ni", C_nb, w_en) + w_nb_b
     return out
 
 

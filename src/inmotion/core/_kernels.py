@@ -361,18 +361,24 @@ def dr_step(x, mem, dth, ds, v, dt, C_bm, l_b):
     x : (NX,) state at ``t[k-1]``, overwritten with the state at ``t[k]``.
     mem : (NMEM,) step memory.
     dth : 3-tuple, gyro angle increment [rad] in b.
-    ds : distance [m] the velocity sensor travelled over the interval (along its forward axis).
+    ds : distance [m] the velocity sensor measured over the interval.
     v : the sensor's forward speed [m/s] at ``t[k]``.
-    C_bm : (3, 3) ``C_m^b``, sensor frame m to body b.
+    C_bm : (3, 3) ``C_m^b = C_v^b``: the frame m the vehicle moves along (forward y; the vehicle
+        frame v of docs/ARCHITECTURE.md, paper 000's radar frame) to body b.
     l_b : (3,) lever arm [m], IMU to sensor, in b.
 
     Attitude: the SINS update (:func:`attitude_update`, two-sample coning) with ``omega_in``
-    from the DR's own position and velocity. Velocity:
-    ``v_n = C_b^n (C_m^b [0, v, 0] - omega_ib_b x l_b)`` (the IMU point's velocity; the sensor
-    point, not the IMU, obeys the non-holonomic constraint). Position (of the IMU): the
-    sensor's displacement ``C_b^n(k-1/2) C_m^b [0, ds, 0]`` with the midpoint attitude
-    (normalized quaternion mean, = slerp at 1/2), minus the change of the lever arm in n,
-    ``(C_b^n(k) - C_b^n(k-1)) l_b``: exact for a rigid body.
+    from the DR's own position and velocity. The IMU moves along the vehicle's forward axis
+    ``u_b = C_m^b [0, 1, 0]`` (docs/ARCHITECTURE.md, "Vehicle frame and mounting"); the sensor
+    at ``l_b`` reads the forward component of its own velocity over ground,
+    ``s = u + u_b . (omega_eb_b x l_b)``. So the IMU's forward speed and distance are
+
+        u = v - u_b . (omega_eb_b x l_b),     ds_imu = ds - u_b . (dth_eb x l_b),
+
+    with ``dth_eb = dth - C_n^b omega_ie_n dt``; velocity ``v_n = C_b^n(k) u_b u`` (paper 002
+    eq. 8, paper 000 eq. 8 with ``V^m = [0, u, 0]``), displacement
+    ``dS_n = C_b^n(k-1/2) u_b ds_imu`` with the midpoint attitude (normalized quaternion mean,
+    = slerp at 1/2).
     """
     dth_p = (mem[M_DTH], mem[M_DTH + 1], mem[M_DTH + 2]) if mem[M_HAS_PREV] > 0.0 else dth
     phi_b = coning_rotvec(dth, dth_p)
@@ -390,19 +396,17 @@ def dr_step(x, mem, dth, ds, v, dt, C_bm, l_b):
 
     fwd_b = (C_bm[0, 1], C_bm[1, 1], C_bm[2, 1])          # C_m^b [0, 1, 0]
     l_t = (l_b[0], l_b[1], l_b[2])
-    s_n = qrotate(q_mid, (fwd_b[0] * ds, fwd_b[1] * ds, fwd_b[2] * ds))
-    l_old = qrotate(q_old, l_t)
-    l_new = qrotate(q_new, l_t)
-    ds_n = (s_n[0] - (l_new[0] - l_old[0]), s_n[1] - (l_new[1] - l_old[1]),
-            s_n[2] - (l_new[2] - l_old[2]))
-
-    w_b = (dth[0] / dt, dth[1] / dt, dth[2] / dt)
-    wl = cross(w_b, l_t)
-    v_b = (fwd_b[0] * v - wl[0], fwd_b[1] * v - wl[1], fwd_b[2] * v - wl[2])
+    w_ie_b = qrotate_inv(q_mid, w_ie)
+    dth_eb = (dth[0] - w_ie_b[0] * dt, dth[1] - w_ie_b[1] * dt, dth[2] - w_ie_b[2] * dt)
+    lever = cross(dth_eb, l_t)                             # (omega_eb x l) dt
+    lever_fwd = fwd_b[0] * lever[0] + fwd_b[1] * lever[1] + fwd_b[2] * lever[2]
+    ds_imu = ds - lever_fwd
+    u = v - lever_fwd / dt
+    ds_n = qrotate(q_mid, (fwd_b[0] * ds_imu, fwd_b[1] * ds_imu, fwd_b[2] * ds_imu))
 
     remember_old(x, mem)
     displacement_update(x, ds_n)
-    x[VE], x[VN], x[VU] = qrotate(q_new, v_b)
+    x[VE], x[VN], x[VU] = qrotate(q_new, (fwd_b[0] * u, fwd_b[1] * u, fwd_b[2] * u))
     set_q(x, q_new)
     store_increments(mem, dth, (0.0, 0.0, 0.0), dt)
 

@@ -4,25 +4,26 @@ Attitude by the same equivalent-rotation-vector update as the SINS (two-sample c
 navigation frame's rotation from the DR's own position and velocity; the kernel is shared,
 :func:`inmotion.core._kernels.attitude_update`). Velocity, paper 002 eq. 8 (paper 000 eq. 8)::
 
-    v_n = C_b^n (C_m^b [0, v, 0] - omega_ib_b x l_b)
+    v_n = C_b^n C_m^b [0, u, 0],      u = v - u_b . (omega_eb_b x l_b)
 
 and position from distance increments (paper 002 eq. 12-19: the distance travelled over the
 interval, resolved in n with the attitude, moves latitude, longitude and height)::
 
-    dS_n = C_b^n(k-1/2) C_m^b [0, ds, 0] - (C_b^n(k) - C_b^n(k-1)) l_b
+    dS_n = C_b^n(k-1/2) C_m^b [0, ds_imu, 0],      ds_imu = ds - u_b . (dtheta_eb x l_b)
 
-``m`` is the sensor's frame (forward axis y), ``C_bm = C_m^b`` its mounting matrix, ``l_b`` the
-lever arm from the IMU to the sensor in b. The sensor point, not the IMU, is the one that moves
-along the sensor's forward axis (the non-holonomic assumption is made where the wheel or the
-beam is); the state is the IMU's position, obtained from the sensor's path minus the rotated
-lever arm (exact for a rigid body). The velocity uses ``omega_ib`` for ``omega_eb`` (the Earth
-rate times a metre lever arm is 7e-5 m/s).
+``m`` is the frame the vehicle moves along (forward axis y): the vehicle frame v of
+docs/ARCHITECTURE.md ("Vehicle frame and mounting"), paper 000's radar frame, so
+``C_bm = C_m^b = C_v^b`` and ``u_b = C_m^b [0, 1, 0]`` is the vehicle's forward axis in b. As
+the project's vehicle model has it, the IMU point moves along ``u_b`` (no sideways or vertical
+velocity) and a sensor at the lever arm ``l_b`` (IMU to sensor, in b) reads the forward
+component of its own velocity over ground, ``v = u + u_b . (omega_eb_b x l_b)`` (an outer wheel
+in a turn reads more): the lever-arm term is removed from the speed and from the distance
+(``dtheta_eb = dtheta - C_n^b omega_ie_n dt``). A sensor's own beam misalignment relative to v
+is second order (a cosine) and not modelled here.
 
-This is paper 000's model (eq. 8-11): the vehicle's velocity is ``[0, v, 0]`` in m, so a
-mounting angle left out of ``C_bm`` is a first-order heading or pitch error of the DR
-(``dV_n = (V_n x) C_b^n A``), which the alignment filters estimate. (A sensor that only reads the
-forward component of a vehicle moving along b would instead make it a second-order scale error,
-``cos(angle)``; a simulator must use the paper's model for the two to agree.)
+This is paper 000's model (eq. 8-11): a mounting angle left out of ``C_bm`` is a first-order
+heading or pitch error of the DR (``dV_n = (V_n x) C_b^n A``), which the alignment filters
+estimate.
 
 Distance increments: a sensor that gives ``ds`` is used as such (its cumulative distance is
 interpolated linearly to the IMU epochs); one that gives only ``v`` is integrated by the
@@ -179,7 +180,8 @@ class DeadReckoner:
         Starting state of the IMU point at ``init.t`` (its velocity seeds only the first
         transport-rate evaluation; afterwards the velocity comes from the sensor).
     C_bm : (3, 3), optional
-        ``C_m^b``: sensor frame (forward y) to body. Identity by default.
+        ``C_m^b = C_v^b``: the frame the vehicle moves along (forward y) to body. Identity by
+        default.
     lever_arm_b : (3,), optional
         IMU-to-sensor lever arm [m] in b. Zero by default.
     scale : float
