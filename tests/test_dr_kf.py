@@ -123,11 +123,14 @@ def test_bad_input(drive):
 
 def test_observability_beta_unobservable_alpha_gamma_observable():
     from inmotion.evaluate.reproduce_000 import observability
-    obs = observability(seconds=30.0)
+    obs = observability(seconds=60.0)                       # NHC in the vehicle frame
     frac = obs["observable_fraction"]
     assert frac["mount_y"] < 1e-6 and obs["column_norm"]["mount_y"] < 1e-12
-    assert frac["mount_x"] > 0.99 and frac["mount_z"] > 0.99
-    assert obs["rank"] < obs["n"]
+    assert frac["mount_x"] > 0.9 and obs["rank"] < obs["n"]
+    # gamma and the heading share a direction on a straight road (degenerate in velocity)
+    assert frac["mount_z"] < 0.9 and frac["phi_U"] < 0.9
+    printed = observability(seconds=60.0, nhc_mount_terms=False)["observable_fraction"]
+    assert printed["mount_y"] < 1e-6 and printed["mount_z"] > 0.99
 
 
 def test_prior_ties_dr_errors_to_sins_errors():

@@ -10,7 +10,12 @@ velocity-matching baseline ``od-velocity-kf``.
       rows are eq. 25-27 in the DESIGN Euler convention (:func:`error_model.euler_rows`), the
       velocity rows eq. 28-30 (``dv - dv_D``, :func:`error_model.dr_velocity_rows`);
     * Z2 (eq. 32-38): the SINS velocity on the body x and z axes, zero for a vehicle that
-      neither slips nor jumps (:func:`error_model.nhc_rows`);
+      neither slips nor jumps (:func:`error_model.nhc_rows`). The constraint holds in the
+      vehicle frame v, which the mounting angles ``A`` turn away from the IMU frame b
+      (docs/ARCHITECTURE.md "Vehicle frame and mounting"; ``C_v^b = I + [A x]``, the same
+      angles as eq. 9-11): in b the lateral and vertical velocity are ``-gamma V`` and
+      ``alpha V``. ``nhc_mount_terms=True`` (default) adds these mounting columns to eq. 37;
+      ``False`` is eq. 37 as printed, right only for an IMU aligned with the vehicle;
     * optionally the barometric height (sec. 2: "the altitude output of the barometric
       altimeter replaces the SINS's"), as the measurement ``h_SINS - h_baro``.
 
@@ -29,7 +34,8 @@ epochs; per epoch the model is linearized at the current SINS state, discretized
 (default): the estimated SINS (and DR) attitude, velocity and position errors are fed back into
 the mechanizations and reset to zero, the gyro drift and accelerometer bias are accumulated
 into the IMU compensation subtracted from the increments. The mounting angles and the scale
-factor are only estimated (the DR keeps its nominal mounting, identity, and scale 1): they are
+factor are only estimated (the DR keeps its nominal mounting, identity, and scale 1; the
+mounting in ``meta.yaml`` is the simulator's truth and is not read): they are
 arc-minutes and 1e-3, well inside the linear model, and feeding a Markov state back would
 break its model. Open loop (``closed_loop=False``): nothing is fed back, the output is the
 SINS corrected by the current estimate.
@@ -88,7 +94,7 @@ class OdVelocityKfConfig(BaseModel):
     measurement_rate_hz: float = Field(2.0, gt=0)
     use_nhc: bool = True
     use_baro: bool = True
-    nhc_mount_terms: bool = False
+    nhc_mount_terms: bool = True
     closed_loop: bool = True
     feedback_rate_hz: float = Field(2.0, gt=0)
     gate_probability: float = Field(0.9999, gt=0.5, le=1.0)
