@@ -17,15 +17,17 @@ Per filter epoch (``step`` IMU rows, :func:`_run_epochs`, one numba loop):
    transition, trapezoid ``Q_d``); the process noise is the model's ``G q G^T`` plus a random
    walk of the DR position, the velocity sensor's white noise integrated (below);
 3. every ``meas_every`` epochs the enabled measurement groups are formed and applied one group
-   after the other by gated sequential scalar Joseph updates (:func:`kalman._update_rows_kernel`):
+   after the other by gated sequential scalar Joseph updates (:func:`sequential_joseph`, the
+   allocation-free form of :func:`kalman._update_rows_kernel`):
 
    ========  ============================================  ==================================
    group     z                                             H (rows of the shared model)
    ========  ============================================  ==================================
    attitude  ``[yaw, pitch, roll]_SINS - [..]_DR``,        ``euler_rows(C_S)`` on ``phi``,
              wrapped to +-pi (paper 002 eq. 44-51)         ``-euler_rows(C_D)`` on ``phi_D``
-   velocity  ``v_SINS - v_DR`` (paper 002 eq. 52-55)       ``I`` on ``dv``; ``-[v x]`` on
-                                                           ``phi_D``, ``-v`` on ``dk`` (eq. 11)
+   velocity  ``v_SINS - v_DR`` (paper 002 eq. 52-55),     ``I`` on ``dv``; ``-[v x]`` on
+             resolved in the DR's body frame               ``phi_D``, ``-v`` on ``dk`` (eq. 11),
+                                                           times ``C_n^b`` of the DR
    position  ``[lat, lon, h]_SINS - [..]_DR`` (rad, rad,   ``I`` on ``dp``, ``-I`` on ``dp_D``
              m; paper 002 eq. 43, 52)
    height    ``h_SINS - h_baro``                           ``1`` on ``dp_h``
@@ -59,10 +61,11 @@ from ..core.deadreckoning import DeadReckoner, speed_on_epochs
 from ..core.mechanization import Strapdown
 from ..core.solution import NavState
 from . import error_model as em
-from .kalman import _predict_kernel, _update_rows_kernel
+from .kalman import _predict_kernel
 from .layout import Layout
 
-__all__ = ["GROUPS", "GROUP_SIZES", "SinsDrFilter", "euler_ypr", "dcm_of_q"]
+__all__ = ["GROUPS", "GROUP_SIZES", "SinsDrFilter", "euler_ypr", "dcm_of_q",
+           "measurement_rows", "sequential_joseph"]
 
 #: measurement groups, in the order they are applied within an epoch
 GROUPS = ("attitude", "velocity", "position", "height")
@@ -128,7 +131,8 @@ def measurement_rows(offs, use, xs, xd, h_baro, r_att, sig_pos_m, r_vel, r_h, n)
     ``offs``: block offsets (``error_model._offsets`` order ``phi, dv, dp, eps, nabla, phi_D,
     dp_D, mount, dk``); ``use``: (4,) flags of :data:`GROUPS`; ``xs``, ``xd``: SINS and DR
     kernel states; ``h_baro``: barometric height (NaN: none now); ``r_att`` [rad^2],
-    ``sig_pos_m`` [m], ``r_vel`` [m^2/s^2], ``r_h`` [m^2]. Returns ``z, H, r, starts, groups``
+    ``sig_pos_m`` [m], ``r_vel`` (3,) [m^2/s^2] (lateral, forward, vertical in the DR's body
+    frame), ``r_h`` [m^2]. Returns ``z, H, r, starts, groups``
     with ``groups[g]`` the index in :data:`GROUPS` of the ``g``-th stacked group.
     """
     o_phi, o_dv, o_dp, o_phiD, o_dpD, o_dk = offs[0], offs[1], offs[2], offs[5], offs[6], offs[8]
@@ -155,17 +159,22 @@ def measurement_rows(offs, use, xs, xd, h_baro, r_att, sig_pos_m, r_vel, r_h, n)
         m += 3
         starts[g] = m
     if use[1]:                                   # velocity (paper 002 eq. 52-55)
+        # z_n = v_S - v_D, H_n = [dv: I, phi_D: -[v x], dk: -v]; applied as C_n^b z_n with
+        # the DR attitude, whose rows have the independent noises r_vel (lateral, forward,
+        # vertical): the sensor's white noise lies along its forward axis only
         v = xd[K.VE:K.VU + 1]
-        for i in range(3):
-            z[m + i] = xs[K.VE + i] - xd[K.VE + i]
-            r[m + i] = r_vel
-            H[m + i, o_dv + i] = 1.0
-            if o_dk >= 0:
-                H[m + i, o_dk] = -v[i]
+        C_bn = dcm_of_q(xd[K.Q0:K.Q3 + 1]).T
         V = em.skew(v)
         for i in range(3):
+            r[m + i] = r_vel[i]
             for j in range(3):
-                H[m + i, o_phiD + j] = -V[i, j]
+                c = C_bn[i, j]
+                z[m + i] += c * (xs[K.VE + j] - xd[K.VE + j])
+                H[m + i, o_dv + j] = c
+                if o_dk >= 0:
+                    H[m + i, o_dk] -= c * v[j]
+                for l in range(3):
+                    H[m + i, o_phiD + l] -= c * V[j, l]
         groups[g] = 1
         g += 1
         m += 3
@@ -191,6 +200,57 @@ def measurement_rows(offs, use, xs, xd, h_baro, r_att, sig_pos_m, r_vel, r_h, n)
         m += 1
         starts[g] = m
     return z[:m], H[:m], r[:m], starts[:g + 1], groups[:g]
+
+
+@numba.njit(cache=True)
+def sequential_joseph(x, P, z, H, r, a, b, threshold, xw, Pw):
+    """Gated sequential scalar Joseph updates with the rows ``a:b`` (in place, no allocation).
+
+    The same update as :func:`inmotion.estimation.kalman._update_rows_kernel` (a test checks
+    them against each other): for each row ``h`` with noise variance ``r_i``,
+    ``s = h P h^T + r_i``, ``k = P h^T / s``, ``x += k (z_i - h x)``,
+    ``P <- P - k (P h^T)^T - (P h^T) k^T + s k k^T`` (the Joseph form expanded). The group's
+    NIS is accumulated from the sequential innovations, ``sum_i nu_i^2 / s_i``, which for a
+    diagonal ``R`` equals the batch ``nu^T S^-1 nu`` (the sequential innovations are the
+    batch innovation decorrelated by the Cholesky factor of ``S``), so no matrix is solved.
+    The rows are applied to the work copies ``xw``, ``Pw``; if ``threshold > 0`` and the NIS
+    exceeds it the group is rejected and ``x``, ``P`` stay as they were. Returns
+    ``(accepted, nis)``.
+    """
+    n = x.shape[0]
+    xw[:] = x
+    Pw[:, :] = P
+    Ph = np.empty(n)
+    k = np.empty(n)
+    nis = 0.0
+    for i in range(a, b):
+        s = r[i]
+        innov = z[i]
+        for p in range(n):
+            acc = 0.0
+            for q in range(n):
+                acc += Pw[p, q] * H[i, q]
+            Ph[p] = acc
+            s += H[i, p] * acc
+            innov -= H[i, p] * xw[p]
+        nis += innov * innov / s
+        for p in range(n):
+            k[p] = Ph[p] / s
+            xw[p] += k[p] * innov
+        for p in range(n):
+            for q in range(n):
+                Pw[p, q] += -k[p] * Ph[q] - Ph[p] * k[q] + s * k[p] * k[q]
+    if threshold > 0.0 and nis > threshold:
+        return False, nis
+    x[:] = xw
+    for p in range(n):
+        for q in range(p, n):
+            m = 0.5 * (Pw[p, q] + Pw[q, p])
+            P[p, q] = m
+            P[q, p] = m
+        if P[p, p] < 0.0:
+            P[p, p] = 0.0
+    return True, nis
 
 
 @numba.njit(cache=True)
@@ -238,6 +298,8 @@ def _run_epochs(ends, dtheta, dvel, dt, ds, v, h_baro, t,
     a = 0
     n_out = n_out0
     nan = np.nan
+    xw = np.empty(n)
+    Pw = np.empty((n, n))
     for e in range(ends.shape[0]):
         b = ends[e]
         sum_dt = 0.0
@@ -267,8 +329,8 @@ def _run_epochs(ends, dtheta, dvel, dt, ds, v, h_baro, t,
                                                        sig_pos_m, r_vel, r_h, n)
             for g in range(groups.shape[0]):
                 gi = groups[g]
-                ok, nis = _update_rows_kernel(x, P, z, H, r, starts[g], starts[g + 1],
-                                              thresholds[gi])
+                ok, nis = sequential_joseph(x, P, z, H, r, starts[g], starts[g + 1],
+                                            thresholds[gi], xw, Pw)
                 if ok:
                     used[gi] += 1
                     nis_sum[gi] += nis
@@ -301,8 +363,9 @@ class SinsDrFilter:
         On ``layout``; gives ``F`` (numba kernel) and ``Qc``.
     P0 : (n, n) initial covariance.
     use : dict group name -> bool, which of :data:`GROUPS` update the filter.
-    noise : dict with ``attitude_rad``, ``position_m``, ``velocity_m_s``, ``height_m``
-        (1-sigma of each measurement row) and ``dr_position_m2_s`` (DR random walk density).
+    noise : dict with ``attitude_rad``, ``position_m``, ``velocity_b_m_s`` (3: lateral,
+        forward, vertical in the DR's body frame), ``height_m`` (1-sigma of each measurement
+        row) and ``dr_position_m2_s`` (DR random walk density).
     gates : dict group name -> chi-square threshold of its NIS (0: never rejected).
     step_rows : IMU rows per filter epoch;  meas_every, out_every : in filter epochs.
     C_bm, lever_arm_b : the velocity sensor's nominal mounting and lever arm (DR).
@@ -345,7 +408,9 @@ class SinsDrFilter:
         return n_epochs // self.out_every + 2
 
     def run(self, t, dtheta, dvel, speed, h_baro=None, sensor="speed", progress=None):
-        """Process a log and return the outputs.
+        """Process rows of a log and return the outputs; successive calls continue the run
+        (rows must follow the last row processed; a call whose row count is not a multiple
+        of ``step_rows`` ends with a short epoch).
 
         Parameters
         ----------
@@ -358,17 +423,17 @@ class SinsDrFilter:
         Returns
         -------
         dict of arrays: ``t`` (M,), ``x_sins`` (M, 10) kernel states, ``sigma`` (M, n),
-        ``states`` (M, n) (fed back plus current estimate); row 0 is the initial state.
+        ``states`` (M, n) (fed back plus current estimate); row 0 is the state before the call.
         """
         n_rows = len(t)
         n_out = self.output_rows(n_rows)
         lay = self.layout
         out = {"t": np.empty(n_out), "x_sins": np.empty((n_out, K.NX)),
                "sigma": np.empty((n_out, lay.n)), "states": np.empty((n_out, lay.n))}
-        out["t"][0] = self.init.t
+        out["t"][0] = self.sins.t
         out["x_sins"][0] = self.sins._x
         out["sigma"][0] = np.sqrt(np.maximum(np.diagonal(self.P), 0.0))
-        out["states"][0] = 0.0
+        out["states"][0] = self.fed_back + self.x
         i_out = 1
         chunk = max(1, CHUNK_ROWS // self.step) * self.step
         Qc = np.ascontiguousarray(self.model.Qc())
@@ -376,7 +441,7 @@ class SinsDrFilter:
         for a in range(0, n_rows, chunk):
             b = min(a + chunk, n_rows)
             tc = t[a:b]
-            t_prev = self.init.t if a == 0 else t[a - 1]
+            t_prev = self.sins.t if a == 0 else t[a - 1]
             edges = np.concatenate([[t_prev], tc])
             ds, v, _, _ = speed_on_epochs(speed, edges, what=sensor)
             dt = np.diff(edges)
@@ -390,7 +455,7 @@ class SinsDrFilter:
                 self.dr.l_b, self.x, self.P, self.offs, Qc, float(nz["dr_position_m2_s"]),
                 1.0 / self.model.noise.dk_tau, self.model.dr_sees_gyro_drift,
                 self.model.gravity_gradient, self.use, float(nz["attitude_rad"]) ** 2,
-                float(nz["position_m"]), float(nz["velocity_m_s"]) ** 2,
+                float(nz["position_m"]), np.asarray(nz["velocity_b_m_s"], dtype=float) ** 2,
                 float(nz["height_m"]) ** 2, self.thresholds, self.epochs, self.meas_every,
                 self.out_every, self.bias_g, self.bias_a, self.fed_back, out["t"],
                 out["x_sins"], out["sigma"], out["states"], i_out, self.used, self.rejected,

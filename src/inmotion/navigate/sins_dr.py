@@ -116,6 +116,7 @@ class SinsDrConfig(BaseModel):
     attitude_noise_arcmin: float = Field(0.2, gt=0)
     position_noise_m: float = Field(0.5, gt=0)
     velocity_noise_m_s: float = Field(0.1, gt=0)
+    velocity_cross_noise_m_s: float = Field(0.1, gt=0)
     baro_noise_m: float = Field(2.0, gt=0)
 
 
@@ -204,7 +205,9 @@ def build_filter(bundle: Bundle, cfg: SinsDrConfig, init: NavState):
     gates = {g: (float(chi2.ppf(cfg.gate_probability, m)) if cfg.gate_probability < 1 else 0.0)
              for g, m in zip(GROUPS, (3, 3, 3, 1))}
     noise = {"attitude_rad": cfg.attitude_noise_arcmin * ARCMIN,
-             "position_m": cfg.position_noise_m, "velocity_m_s": cfg.velocity_noise_m_s,
+             "position_m": cfg.position_noise_m,
+             "velocity_b_m_s": (cfg.velocity_cross_noise_m_s, cfg.velocity_noise_m_s,
+                                cfg.velocity_cross_noise_m_s),
              "height_m": cfg.baro_noise_m,
              "dr_position_m2_s": cfg.speed_noise_m_s ** 2 * sensor_dt}
     filt = SinsDrFilter(init, lay, model, initial_covariance(lay, cfg, init.lat, init.h),
