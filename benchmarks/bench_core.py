@@ -11,7 +11,8 @@ the peak of Python/numpy allocations during a run (tracemalloc), with every stat
 ``--accuracy`` also runs the issue's acceptance on an analytic truth (``tests/analytic_drive.py``:
 3600 s, 50.4 km, turns, +-3 deg climbs, a stop every 10 min, exact 100 Hz increments from a
 rtol 1e-12 ODE solution) through the SINS with a perfect barometer and through the DR with a
-perfect odometer, and prints the maximum errors.
+perfect odometer, and prints the maximum errors; then the DR on the simulator's demo drive
+with error-free radar and odometer at lever arms (with and without the lever arm).
 """
 from __future__ import annotations
 
@@ -91,12 +92,46 @@ def accuracy(rate_hz=100.0):
               f"attitude {np.degrees(att) * 3600:.2e} arcsec")
 
 
+def simulator_check():
+    """DR with error-free sensors from :mod:`inmotion.sim` (the demo drive, vehicle mounting,
+    radar and odometer at lever arms): with the mounting and lever arms the DR must reproduce
+    the simulated truth; without the lever arm it must not."""
+    import yaml
+
+    from inmotion.core.rotations import mounting_dcm
+    from inmotion.sim import simulate
+    from inmotion.sim.scenario import find_scenario, load_scenario
+
+    d = yaml.safe_load(open(find_scenario("demo")))
+    d["imu"] = {"rate_hz": 100.0}
+    d["sensors"] = {"radar": {"rate_hz": 100.0, "lever_arm_m": [0.5, 1.8, -0.6]},
+                    "odometer": {"rate_hz": 20.0, "pulses_per_m": 1e6,
+                                 "lever_arm_m": [-0.75, -1.4, -0.9]}}
+    b = simulate(load_scenario(d), np.random.default_rng(0))
+    tr = b.truth
+    init = NavState.from_euler(tr.t[0], tr.lat[0], tr.lon[0], tr.h[0], tr.vel_n[0],
+                               tr.euler[0])
+    C_vb = mounting_dcm(np.radians(np.array(d["vehicle_mounting_arcmin"]) / 60))
+    print(f"simulator demo drive, error-free sensors, vehicle mounting "
+          f"{d['vehicle_mounting_arcmin']} arcmin")
+    for name in ("radar", "odometer"):
+        for lever in (d["sensors"][name]["lever_arm_m"], None):
+            sol = dead_reckon(b.imu, getattr(b, name), init, C_bm=C_vb, lever_arm_b=lever)
+            k = np.searchsorted(tr.t, sol.t)
+            dn, de = earth.local_ne_offsets(sol.lat, sol.lon, tr.lat[k], tr.lon[k])
+            print(f"DR {name:8s} lever arm {'given' if lever else 'ignored':7s} "
+                  f"max horizontal {np.hypot(dn, de).max():.2e} m, "
+                  f"vertical {np.abs(sol.h - tr.h[k]).max():.2e} m, "
+                  f"velocity {np.abs(sol.vel_n - tr.vel_n[k]).max():.2e} m/s")
+
+
 def main():
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--hours", type=float, default=1.0)
     ap.add_argument("--rate-hz", type=float, default=100.0, help="IMU rate (KF-GINS: 200 Hz)")
     ap.add_argument("--accuracy", action="store_true",
-                    help="also run the acceptance drive against analytic truth")
+                    help="also run the acceptance drive against analytic truth, and the DR "
+                         "against the simulator with lever arms")
     args = ap.parse_args()
     imu, speed, baro, init = synthetic_drive(args.hours, args.rate_hz)
     warm = synthetic_drive(0.001)
@@ -122,6 +157,7 @@ def main():
               f"{sec / n * 1e9:5.0f} ns/row")
     if args.accuracy:
         accuracy()
+        simulator_check()
 
 
 if __name__ == "__main__":
