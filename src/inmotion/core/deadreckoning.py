@@ -29,7 +29,8 @@ Distance increments: a sensor that gives ``ds`` is used as such (its cumulative 
 interpolated linearly to the IMU epochs); one that gives only ``v`` is integrated by the
 trapezoid first. The sensor runs on its own rate; its distance is interpolated to the IMU
 epochs, never extrapolated: IMU rows before the sensor's first sample or after its last get no
-distance and zero speed (the position is held) and are counted in ``Solution.info``. Across a
+distance and zero speed (the position is held, up to the lever-arm term of a rotation) and are
+counted in ``Solution.info``. Across a
 gap in the sensor's data (longer than ``max_gap``) the distance is interpolated between the
 samples on either side (the distance a ``ds`` sensor reports after a gap covers the gap) and the
 rows are counted too.
