@@ -74,10 +74,9 @@ class DrConfig(BaseModel):
         not used: it changes the reading only to second order.
     lever_arm_m : [x, y, z] or None
         The sensor's position in b relative to the IMU [m]; None: from ``meta.yaml``
-        (``sensors.<sensor>.lever_arm_m``) if there, else zero. The dead reckoner lets the
-        sensor's point move along the vehicle's forward axis (paper 000 eq. 8-10), the simulator
-        the IMU's; with a lever arm the two differ in turns by ``omega x l`` across the vehicle
-        (:func:`run_dr` notes).
+        (``sensors.<sensor>.lever_arm_m``) if there, else zero. The IMU moves along the
+        vehicle's forward axis and the sensor reads the forward part of ``omega_eb x l`` on top,
+        which the dead reckoner removes (:mod:`inmotion.core.deadreckoning`).
     max_gap_s : float or None
         Sensor gap threshold [s] (None: 5 sensor periods); see
         :mod:`inmotion.core.deadreckoning` for how gaps are bridged.
@@ -193,19 +192,12 @@ def run_dr(bundle: Bundle, config: DrConfig, init: NavState,
 
     Notes
     -----
-    With the true vehicle mounting, zero lever arm and error-free sensors the dead reckoner
+    With the true vehicle mounting and lever arm and error-free sensors the dead reckoner
     reproduces the simulated truth up to its discretization (attitude as the SINS; distance
     interpolated to IMU epochs). Without the mounting (``C_v^b = I`` assumed) it errs to first
     order: cross-track ``gamma * d`` (to the right for gamma > 0, the speed is put along
     ``+y`` instead of ``[-gamma, 1, alpha]``) and vertically ``-alpha * d`` after a distance
     ``d`` (``tests/test_navigate_pure.py``).
-
-    Lever arm: :mod:`inmotion.core.deadreckoning` (paper 000 eq. 8-10) lets the sensor point
-    move along the vehicle's forward axis, whereas the simulator (docs/ARCHITECTURE.md) moves
-    the IMU, the vehicle's reference point, along it and lets the sensor read the forward
-    component at its lever arm. The two agree on a straight road; in a turn at rate ``omega``
-    they differ by the sideways part of ``omega x l`` (``omega_z l_y`` across the vehicle),
-    about ``l_y * (heading change)`` of displacement per turn.
     """
     init = _require_init(init, "dr")
     try:
