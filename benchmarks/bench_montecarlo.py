@@ -1,8 +1,9 @@
 """Cost and scaling of the Monte Carlo campaign engine (issue 8).
 
 1. Engine overhead per run: a campaign of ``--empty-runs`` runs of an empty run function on a
-   warm local cluster (submission, scheduling, transfer, one Parquet file written per run,
-   progress). Target: under 20 ms per run.
+   warm local cluster (submission, scheduling, transfer, recording each run, progress), as the
+   engine runs it (short runs grouped into Dask tasks of ~0.25 s) and with one Dask task per run
+   (``max_chunk=1``, the cost a long run pays). Target: under 20 ms per run.
 2. Scaling from 1 to 2 workers on a CPU-bound run function (``burn_run``, ~0.2 s a run).
 3. Scaling from 1 to 2 workers of the paper 004 campaign: 3 speeds (20, 60, 80 m/s) x
    ``--paper-runs`` runs x 5 IMADA methods (the issue's figure is 50 runs; fewer give the same
@@ -30,12 +31,12 @@ PAPER004_METHODS = ["imada-vb", "imada-vn", "imada-dual", "mimada", "mimada-dual
 PAPER004_SCENARIOS = ["paper004_v20", "paper004_v60", "paper004_v80"]
 
 
-def timed_campaign(doc: dict, client, tmp: Path, tag: str):
+def timed_campaign(doc: dict, client, tmp: Path, tag: str, **kw):
     """Seconds for one campaign on a warm client, and its table."""
     out = tmp / tag
     shutil.rmtree(out, ignore_errors=True)
     t0 = time.perf_counter()
-    df = run_campaign(load_sweep(doc), out, client=client, quiet=True)
+    df = run_campaign(load_sweep(doc), out, client=client, quiet=True, **kw)
     return time.perf_counter() - t0, df
 
 
@@ -55,9 +56,12 @@ def overhead(n_runs: int, tmp: Path) -> None:
             empty = {"name": "empty", "run": "inmotion.evaluate.runs:empty_run", "runs": n_runs}
             warm(client, tmp, empty)
             wall, df = timed_campaign(empty, client, tmp, f"empty{workers}")
-        assert (df["status"] == "ok").all() and len(df) == n_runs
+            assert (df["status"] == "ok").all() and len(df) == n_runs
+            one, df = timed_campaign(empty, client, tmp, f"single{workers}", max_chunk=1)
+            assert (df["status"] == "ok").all() and len(df) == n_runs
         print(f"  {workers} worker(s): cluster start {start:.2f} s; {wall:.2f} s for {n_runs} "
-              f"runs = {1000 * wall / n_runs:.2f} ms per run (target < 20 ms)")
+              f"runs = {1000 * wall / n_runs:.2f} ms per run (target < 20 ms); one Dask task "
+              f"per run (max_chunk=1): {1000 * one / n_runs:.2f} ms per run")
 
 
 def scaling(name: str, doc: dict, warm_spec: dict, tmp: Path) -> None:
@@ -87,7 +91,7 @@ def main():
         overhead(args.empty_runs, tmp)
         print(f"\n[2] CPU-bound scaling, {args.burn_runs} runs of burn_run")
         burn = {"name": "burn", "run": "inmotion.evaluate.runs:burn_run", "runs": args.burn_runs,
-                "size": 20_000, "iterations": 5000}
+                "size": 20_000, "iterations": 300}
         scaling("burn", burn, dict(burn, iterations=1), tmp)
         if not args.skip_paper:
             n = 3 * 5 * args.paper_runs

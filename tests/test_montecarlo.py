@@ -2,6 +2,7 @@
 failures recorded as results."""
 from __future__ import annotations
 
+import contextlib
 import json
 import os
 import signal
@@ -279,7 +280,8 @@ def test_killed_campaign_resumed_gives_the_uninterrupted_table(tmp_path):
         while len(store.done()) < 12 and time.monotonic() < deadline and proc.poll() is None:
             time.sleep(0.02)
     finally:
-        os.killpg(proc.pid, signal.SIGKILL)   # the campaign, its cluster and its workers
+        with contextlib.suppress(ProcessLookupError):
+            os.killpg(proc.pid, signal.SIGKILL)   # the campaign, its cluster and its workers
         proc.wait()
     partial = store.table()
     assert 12 <= len(partial) < 60, len(partial)
@@ -330,6 +332,12 @@ def test_initial_state_adds_the_attitude_error_to_truth_row_0():
     _, drawn = initial_state(truth, {"yaw_deg": 2, "distribution": "normal"},
                              np.random.default_rng(9))
     assert np.allclose(drawn, np.random.default_rng(9).normal(0, 1, 3) * np.radians([0, 0, 2]))
+
+
+def test_unknown_run_function_fails_before_any_run(tmp_path):
+    for run in ("inmotion.no_such_module:f", "inmotion.evaluate.runs:no_such_function"):
+        with pytest.raises(BadInput, match="cannot be imported"):
+            run_campaign(load_sweep({"run": run}), tmp_path / "c", workers=1, quiet=True)
 
 
 def test_unknown_method_fails_before_any_run(tmp_path):

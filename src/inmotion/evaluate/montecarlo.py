@@ -11,8 +11,9 @@ Guarantees
 - A run's numbers depend on the campaign seed and its index only
   (:func:`inmotion.evaluate.campaign.run_seed_sequence`): same results on 1, 2 or 200 workers;
   :func:`rerun` reproduces one run alone.
-- Each finished run is written at once (one Parquet file per run); an interrupted campaign loses
-  only the runs in flight, and ``resume=True`` runs only the missing ones.
+- Each finished run is recorded at once (:mod:`inmotion.evaluate.store`: a flushed journal line,
+  compacted into the Parquet dataset); an interrupted or killed campaign loses only the runs in
+  flight, and ``resume=True`` runs only the missing ones.
 - A run that raises is a result (``status='error'``, its error text, traceback and seed); the
   campaign goes on.
 - At most ``max_in_flight`` Dask tasks are submitted at a time, so the client's memory does not
@@ -42,10 +43,10 @@ __all__ = ["run_campaign", "iter_tasks", "rerun", "read_results", "versions", "o
 
 MANIFEST = "campaign.json"
 TABLE = "table.parquet"
-#: environment of local workers: one BLAS thread each, the cores are the workers
 #: seconds of work a Dask task should carry when runs are short (see _Chunker)
 TARGET_TASK_S = 0.25
 MAX_CHUNK = 256
+#: environment of local workers: one BLAS thread each, the cores are the workers
 WORKER_ENV = {"OPENBLAS_NUM_THREADS": "1", "MKL_NUM_THREADS": "1", "OMP_NUM_THREADS": "1",
               "NUMBA_NUM_THREADS": "1"}
 
@@ -132,7 +133,12 @@ def _prepare_dir(out: Path, sweep: Sweep, store: ResultStore, resume: bool) -> N
 def _validate(sweep: Sweep) -> None:
     """Call the run function's ``validate_spec(spec)`` attribute on every point (if it has one),
     so a typo in a sweep fails before the campaign starts rather than in every run."""
-    check = getattr(_resolve(sweep.run), "validate_spec", None)
+    try:
+        run = _resolve(sweep.run)
+    except (ImportError, AttributeError) as exc:
+        raise BadInput(f"run function {sweep.run!r} cannot be imported ({exc})",
+                       file=sweep.source) from None
+    check = getattr(run, "validate_spec", None)
     if check is None:
         return
     for p in sweep.points:
@@ -215,9 +221,9 @@ def run_campaign(sweep: Sweep, out_dir, *, workers: Optional[int] = None,
     """
     out = Path(out_dir)
     store = ResultStore(out)
-    _prepare_dir(out, sweep, store, resume)
     if validate:
         _validate(sweep)
+    _prepare_dir(out, sweep, store, resume)
     store.remove_partial()
     if resume and retry_failed:
         store.remove(_failed_keys(store))
