@@ -8,9 +8,14 @@ errors against the bounds 1 m / 5 mm/s / 1 arcsec; then the pure (undamped) vert
 an initial 1 m height error against the theory ``cosh(sqrt(2 g / R) t)``.
 
     OPENBLAS_NUM_THREADS=1 .venv/bin/python benchmarks/consistency_hour.py
+    OPENBLAS_NUM_THREADS=1 .venv/bin/python benchmarks/consistency_hour.py --vehicle-mounting-arcmin 3 10 5
+
+``--vehicle-mounting-arcmin`` mounts the IMU in the vehicle (``C_v^b = exp([A x])``) instead of
+the scenario's (zero) mounting; the truth is then the mounted IMU's.
 """
 from __future__ import annotations
 
+import argparse
 import time
 
 import numpy as np
@@ -19,14 +24,19 @@ from inmotion.core import earth, rotations
 from inmotion.core.bundle import BaroData, ImuData
 from inmotion.core.mechanization import strapdown
 from inmotion.core.solution import NavState
-from inmotion.sim import simulate_truth
+from inmotion.sim import load_scenario, simulate_truth
+from inmotion.sim.scenario import find_scenario
 
 ARCSEC = np.pi / 180 / 3600
 
 
-def main():
+def main(vehicle_mounting_arcmin=None):
+    scenario = load_scenario(find_scenario("paper002_hour")).model_dump()
+    if vehicle_mounting_arcmin is not None:
+        scenario["vehicle_mounting_arcmin"] = list(vehicle_mounting_arcmin)
+    print(f"vehicle mounting {scenario['vehicle_mounting_arcmin']} arcmin")
     t0 = time.perf_counter()
-    sc, prof, tr = simulate_truth("paper002_hour")
+    sc, prof, tr = simulate_truth(scenario)
     t_sim = time.perf_counter() - t0
     imu = ImuData(tr.t, tr.dtheta, tr.dvel)
     init = NavState.from_euler(tr.t[0], tr.lat[0], tr.lon[0], tr.h[0], tr.vel_n[0], tr.euler[0])
@@ -59,4 +69,7 @@ def main():
 
 
 if __name__ == "__main__":
-    main()
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--vehicle-mounting-arcmin", type=float, nargs=3, default=None,
+                    metavar=("ALPHA", "BETA", "GAMMA"))
+    main(ap.parse_args().vehicle_mounting_arcmin)

@@ -171,14 +171,20 @@ def _allocate(t, sensors):
 class _Motion:
     """IMU-frame kinematics at a set of times: ``omega_nb_b``, velocity ``v_b`` and its
     derivative, ``C_b^n``, ``v_n`` and the Euler angles of ``C_b^n`` (arrays with the times'
-    shape plus the vector/matrix axes), from the vehicle's motion and ``C_v^b`` (module doc)."""
+    shape plus the vector/matrix axes), from the vehicle's motion and ``C_v^b`` (module doc).
+    The Euler angles of a mounted IMU are computed from ``C_b^n`` only when asked for."""
 
-    euler: np.ndarray
+    euler_v: np.ndarray
     omega_nb_b: np.ndarray
     vel_b: np.ndarray
     acc_b: np.ndarray
     C_nb: np.ndarray
     vel_n: np.ndarray
+    mounted: bool = False
+
+    @property
+    def euler(self):
+        return rotations.euler_from_dcm(self.C_nb) if self.mounted else self.euler_v
 
     @classmethod
     def at(cls, profile, t, C_vb=None):
@@ -190,8 +196,8 @@ class _Motion:
         if C_vb is None:                      # IMU aligned with the vehicle: b = v
             return cls(e_v, w_nv_v, vel_v, acc_v, C_nv, vel_n)
         C_nb = C_nv @ C_vb.T                  # C_b^n = C_v^n C_b^v
-        return cls(rotations.euler_from_dcm(C_nb), _mv(C_vb, w_nv_v), _mv(C_vb, vel_v),
-                   _mv(C_vb, acc_v), C_nb, vel_n)
+        return cls(e_v, _mv(C_vb, w_nv_v), _mv(C_vb, vel_v), _mv(C_vb, acc_v), C_nb, vel_n,
+                   mounted=True)
 
 
 def _imu_rates(mq, lat_q, h_q):
