@@ -394,6 +394,7 @@ class Engine:
         self.nhc_only = bool(nhc_only)
         self.xn = np.zeros(NS)
         self.Pn = np.array(nhc["P0"], dtype=float) if nhc else np.eye(NS)
+        self.Pn0 = self.Pn.copy()
         self.Qn = np.array(nhc["Qc"], dtype=float) if nhc else np.zeros((NS, NS))
         self.sig_nhc = float(nhc["sigma_m_s"]) if nhc else 1.0
         self.sig_baro = float(baro_sigma_m)

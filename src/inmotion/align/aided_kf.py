@@ -70,6 +70,8 @@ class NhcKfConfig(BaseModel):
     main_period_s: float = Field(10.0, gt=0, description="fusion and feedback period")
     output_interval_s: float = Field(1.0, gt=0)
     use_baro: bool = True
+    mounting_from_meta: bool = Field(True, description="nominal IMU-to-vehicle mounting from "
+                                     "meta vehicle_mounting_arcmin (else zero)")
     # priors (1-sigma)
     init_tilt_sigma_deg: float = Field(0.5, gt=0)
     init_heading_sigma_deg: float = Field(2.0, gt=0)
@@ -90,6 +92,8 @@ class AidedKfConfig(NhcKfConfig):
 
     measurement: Literal["displacement", "velocity"] = "displacement"
     main_period_s: float = Field(1.0, gt=0, description="feedback period")
+    mounting_from_meta: bool = Field(False, description="nominal mounting from meta; the "
+                                     "mount states estimate the rest (paper: all of it)")
     od_noise_m_s: list[float] = Field([0.05, 0.02, 0.05], min_length=3, max_length=3)
     ldv_noise_m_s: list[float] = Field([0.05, 0.02, 0.05], min_length=3, max_length=3)
     od_scale_sigma_ppm: float = Field(3000.0, ge=0)
@@ -192,7 +196,9 @@ def run_aided(bundle: Bundle, cfg, init: NavState, sensors: tuple, *, method: st
     fdi = getattr(cfg, "fdi", False)
     thr = chi2.threshold(cfg.false_alarm_rate, 3) if fdi else 0.0
     ret = max(1, int(round(getattr(cfg, "return_after_s", 1.0) / (meas_every * t_ep))))
-    A = np.asarray(bundle.meta.get("vehicle_mounting_arcmin", [0.0, 0.0, 0.0]), float) * ARCMIN
+    A = np.zeros(3)
+    if cfg.mounting_from_meta:
+        A = np.asarray(bundle.meta.get("vehicle_mounting_arcmin", [0.0, 0.0, 0.0]), float) * ARCMIN
     sd = Strapdown(init)
     e = eng.Engine(sd._x, sd._mem, channels, rotations.mounting_dcm(A), nhc, cfg.baro_noise_m,
                    thr, ret, step, meas_every, fuse_every, out_every, nhc_only=nhc_only)
@@ -227,8 +233,8 @@ def _events(res, sensors, thr):
 def _solution(res, e, init, x0, cfg, method, sensors, thr, wall):
     t = np.concatenate([[init.t], res["t"]])
     x = np.vstack([x0, res["x"]])
-    sig = np.vstack([np.sqrt(np.diagonal(e.P[0, :eng.NS, :eng.NS] if sensors else e.Pn)),
-                     res["sigma"]])
+    P0 = e.channels[0]["P0"][:eng.NS, :eng.NS] if sensors else e.Pn0
+    sig = np.vstack([np.sqrt(np.diagonal(P0)), res["sigma"]])
     lay = NHC_LAYOUT
     s = lay.as_dict(sig)
     r_m, r_n = earth.radii(x[:, K.LAT])

@@ -1,0 +1,199 @@
+"""Fault-tolerant inertial-frame coarse alignment and information multiplexing (paper 003
+sec. 3.2.1 and 3.3.1): method ``fine-mux``.
+
+Fault-tolerant speed (sec. 3.2.1, Figure 2)
+    The vehicle's forward speed is redundant in the odometer, the LDV and the IMU. At every
+    IMU row the IMU predicts the speed from the last accepted value and its forward velocity
+    increment, ``v_imu(k) = v(k-1) + dvel_y(k) - g sin(theta) dt`` (``d v / dt = f_y -
+    g sin(theta)`` along the forward axis, whose ``omega x v`` term vanishes). The channel
+    closer to ``v_imu`` is used; if both differ by more than ``speed_tolerance_m_s`` the IMU
+    prediction bridges the gap (both channels faulty, rare and short). ``sin(theta)`` is a
+    low-pass (``pitch_time_constant_s``) of ``(f_y - dv/dt) / g`` with the accepted speed:
+    the coarse stage needs no attitude. Channel changes are logged as events.
+
+Information multiplexing (sec. 3.3.1, Figure 3)
+    The inertial-frame coarse alignment (:mod:`inmotion.align.coarse_inertial`, eq. 1-10) over
+    ``[t0, t0 + coarse_window_s]`` gives ``C_{ib0}^{i0}``; with ``C_b^{ib0}(t0) = I`` and the
+    start position it gives the attitude *at the window's start* (eq. 1 at ``t0``). The fine
+    alignment then starts at ``t0`` from that attitude and the sensor's speed along it and
+    runs over the stored data and on to the end of the log. Because the fine filter runs
+    faster than real time (the ``catch_up`` block of ``info`` gives the factor), it reaches
+    the present at ``t_c + (t_c - t0) / (factor - 1)`` with ``t_c`` the end of the coarse
+    window, without dropping a sample (every stored row is processed once, in order).
+"""
+from __future__ import annotations
+
+import time
+from typing import Callable, Literal, Optional
+
+import numpy as np
+from pydantic import BaseModel, ConfigDict, Field
+
+from ..core import earth, rotations
+from ..core.bundle import Bundle, SpeedData
+from ..core.solution import NavState, Solution
+from ..errors import BadInput
+from . import aided_kf as ak
+from .attitude_determination import initial_position
+from .coarse_inertial import CoarseInertialConfig, run_coarse_inertial
+from .velocity_source import initial_speed, speed_on_imu_times
+
+__all__ = ["MuxConfig", "fault_tolerant_speed", "coarse_fault_tolerant", "run_multiplexed",
+           "run_fine_mux", "FINE_METHODS"]
+
+#: the fine alignments ``fine-mux`` can run after the coarse stage
+FINE_METHODS = {"fkf": (ak.run_fkf, ak.FkfConfig), "od-kf": (ak.run_od_kf, ak.AidedKfConfig),
+                "ldv-kf": (ak.run_ldv_kf, ak.AidedKfConfig),
+                "nhc-kf": (ak.run_nhc_kf, ak.NhcKfConfig)}
+_CHANNELS = ("odometer", "ldv")
+
+
+class MuxConfig(BaseModel):
+    """Configuration of ``fine-mux`` (human units)."""
+
+    model_config = ConfigDict(extra="forbid")
+    coarse_window_s: float = Field(600.0, gt=0, description="coarse alignment window")
+    fault_tolerant_coarse: bool = True
+    speed_tolerance_m_s: float = Field(0.3, gt=0)
+    pitch_time_constant_s: float = Field(5.0, gt=0)
+    coarse_sensor: Optional[Literal["odometer", "ldv"]] = Field(
+        None, description="the one sensor of a non-fault-tolerant coarse stage (default: "
+                          "ldv if present)")
+    fine_method: Literal["fkf", "od-kf", "ldv-kf", "nhc-kf"] = "fkf"
+    fine: dict = Field(default_factory=dict, description="configuration of the fine method")
+    coarse: dict = Field(default_factory=dict, description="coarse-inertial configuration")
+
+
+def fault_tolerant_speed(bundle: Bundle, t: np.ndarray, tolerance_m_s: float = 0.3,
+                         pitch_tau_s: float = 5.0):
+    """The forward speed picked from OD / LDV by the IMU (module docstring).
+
+    Parameters
+    ----------
+    bundle : with ``imu`` and at least one of ``odometer``, ``ldv``
+    t : (N,) IMU times of the window [s] (a contiguous run of the IMU rows)
+
+    Returns
+    -------
+    v : (N,) m/s;  source : (N,) int, 0 odometer, 1 LDV, 2 IMU bridge;
+    events : list of ``{"t_s", "source"}`` where the source changes
+    """
+    present = [c for c in _CHANNELS if getattr(bundle, c) is not None]
+    if not present:
+        raise BadInput(f"bundle {bundle.name!r} has neither odometer nor ldv")
+    V = np.full((2, len(t)), np.nan)
+    for i, c in enumerate(_CHANNELS):
+        if c in present:
+            V[i] = speed_on_imu_times(c, getattr(bundle, c), t)
+    imu = bundle.imu
+    k0 = int(np.searchsorted(imu.t, t[0]))
+    dvy = imu.dvel[k0:k0 + len(t), 1]
+    dt = np.diff(t, prepend=t[0] - imu.dt)
+    g = earth.G0
+    v = np.empty(len(t))
+    src = np.empty(len(t), dtype=np.int64)
+    first = np.nanargmin(np.where(np.isnan(V[:, 0]), np.inf, 0.0))
+    v[0], src[0] = V[first, 0], first
+    s_pitch = 0.0
+    for k in range(1, len(t)):
+        v_imu = v[k - 1] + dvy[k] - g * s_pitch * dt[k]
+        d = np.abs(V[:, k] - v_imu)
+        d[np.isnan(d)] = np.inf
+        j = int(np.argmin(d))
+        if d[j] <= tolerance_m_s:
+            v[k], src[k] = V[j, k], j
+        else:
+            v[k], src[k] = v_imu, 2
+        a = dt[k] / pitch_tau_s
+        s_pitch += a * ((dvy[k] - (v[k] - v[k - 1])) / (g * dt[k]) - s_pitch)
+    change = np.flatnonzero(np.diff(src)) + 1
+    names = ("odometer", "ldv", "imu")
+    events = [{"t_s": float(t[k]), "event": "speed source", "source": names[src[k]]}
+              for k in change]
+    return v, src, events
+
+
+def coarse_fault_tolerant(bundle: Bundle, cfg: MuxConfig, init: Optional[NavState],
+                          t0: float, t1: float):
+    """Coarse alignment over ``[t0, t1]`` with the fault-tolerant (or a single) speed.
+
+    Returns ``(solution, C_nb0)``: the coarse solution and the attitude at ``t0``.
+    """
+    t0 = first_covered(bundle, t0)
+    win = bundle.window(t0, t1)
+    events = []
+    ccfg = CoarseInertialConfig(**{"mode": "moving", **cfg.coarse})
+    if cfg.fault_tolerant_coarse:
+        v, _, events = fault_tolerant_speed(win, win.imu.t, cfg.speed_tolerance_m_s,
+                                            cfg.pitch_time_constant_s)
+        win = Bundle(win.imu, win.meta, None, SpeedData(win.imu.t, v=v), None, win.baro, win.truth)
+        ccfg = ccfg.model_copy(update={"velocity_sensor": "ldv"})
+    else:
+        name = cfg.coarse_sensor or ("ldv" if bundle.ldv is not None else "odometer")
+        ccfg = ccfg.model_copy(update={"velocity_sensor": name})
+    sol = run_coarse_inertial(win, ccfg, init)
+    sol.info["speed_source_events"] = events
+    a = sol.info["attitude_start_deg"]
+    C0 = rotations.dcm_from_euler(np.radians([a["pitch"], a["roll"], a["yaw"]]))
+    return sol, C0
+
+
+def _start_state(bundle, C0, t0, init):
+    lat, lon, h = initial_position(bundle, init)
+    name = "ldv" if bundle.ldv is not None else "odometer"
+    v0 = initial_speed(name, getattr(bundle, name), t0, 1.0)
+    return NavState(t0, lat, lon, h, C0 @ np.array([0.0, v0, 0.0]),
+                    rotations.quat_from_dcm(C0))
+
+
+def first_covered(bundle: Bundle, t_from: float) -> float:
+    """The first IMU time at or after ``t_from`` at which every OD / LDV present has a speed
+    (a distance sensor's first speed is at the middle of its first interval)."""
+    t_min = t_from
+    for c in _CHANNELS:
+        sp = getattr(bundle, c)
+        if sp is None or len(sp.t) < 2:
+            continue
+        t_min = max(t_min, float(sp.t[0] if sp.v is not None else 0.5 * (sp.t[0] + sp.t[1])))
+    k = int(np.searchsorted(bundle.imu.t, t_min - 1e-9))
+    if k >= len(bundle.imu.t) - 1:
+        raise BadInput(f"no IMU rows after {t_min:.3f} s covered by the velocity sensors",
+                       file="imu")
+    return float(bundle.imu.t[k])
+
+
+def run_multiplexed(bundle: Bundle, cfg: MuxConfig, init: Optional[NavState] = None,
+                    progress: Optional[Callable] = None) -> Solution:
+    """Coarse over the window, attitude back-derived to its start, fine from the start to the
+    end of the log (module docstring)."""
+    t0 = first_covered(bundle, float(bundle.imu.t[0]) if init is None else float(init.t))
+    t1 = min(t0 + cfg.coarse_window_s, float(bundle.imu.t[-1]))
+    w0 = time.perf_counter()
+    coarse, C0 = coarse_fault_tolerant(bundle, cfg, init, t0, t1)
+    w_coarse = time.perf_counter() - w0
+    start = _start_state(bundle, C0, t0, init)
+    run, cls = FINE_METHODS[cfg.fine_method]
+    w1 = time.perf_counter()
+    sol = run(bundle, ak._config(cfg.fine, cls), start, progress=progress)
+    w_fine = time.perf_counter() - w1
+    data_s = float(bundle.imu.t[-1] - t0)
+    factor = data_s / max(w_fine, 1e-9)
+    sol.info.update({
+        "method": "fine-mux", "mux_config": cfg.model_dump(),
+        "multiplexing": {"t_start_s": t0, "coarse_end_s": t1,
+                         "attitude_start_deg": coarse.info["attitude_start_deg"],
+                         "coarse_attitude_end_deg": coarse.info["attitude_end_deg"],
+                         "speed_source_events": coarse.info["speed_source_events"],
+                         "coarse_wall_s": w_coarse, "fine_wall_s": w_fine},
+        "catch_up": {"speed_factor": factor,
+                     "real_time_reached_s": (t1 + (t1 - t0) / (factor - 1.0)
+                                             if factor > 1.0 else None)}})
+    sol.info["coarse_solution_end"] = coarse.final_state().euler.tolist()
+    return sol
+
+
+def run_fine_mux(bundle: Bundle, config: MuxConfig | dict | None = None,
+                 init: NavState | None = None, progress: Optional[Callable] = None) -> Solution:
+    """``fine-mux``: fault-tolerant coarse, then fine alignment with information multiplexing."""
+    cfg = ak._config(config, MuxConfig)
+    return run_multiplexed(bundle, cfg, init, progress)

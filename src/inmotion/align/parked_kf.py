@@ -1,0 +1,170 @@
+"""Parked (wobbling-base) fine alignment: the 12-state zero-velocity Kalman filter, ``parked-kf``
+(paper 003 sec. 2.3.1, eq. 11-13).
+
+State (eq. 12): ``phi`` (misalignment, DESIGN convention), ``dv`` (velocity error, ENU),
+``eps`` (gyro drift, b), ``nabla`` (accelerometer bias, b); position errors are ignored
+(the vehicle does not move). Error equations (eq. 11, with ``v = 0``)::
+
+    phi_dot = -[w_ie x] phi + M_dav dv - C_b^n eps - C_b^n w_g
+    dv_dot  = [f_n x] phi - 2 [w_ie x] dv + C_b^n nabla + C_b^n w_a
+
+``M_dav`` is the transport rate's dependence on velocity (``d w_en / d v`` of
+:func:`inmotion.estimation.error_model.transport_jacobians`). Measurement (eq. 13):
+``Z = v_SINS`` (the true velocity is zero), ``H = [0 I 0 0]``; its noise covers the base's
+vibration velocity. Closed loop: after every update the attitude and velocity errors are fed
+back into the SINS, the drift and bias into the IMU compensation, and the SINS position is
+held at the parked position.
+
+Theoretical limits (steady state of the equations above, the errors the filter cannot see):
+``phi_E = -nabla_N / g``, ``phi_N = nabla_E / g`` and ``phi_U = -eps_E / (omega_ie cos L) +
+tan L nabla_E / g``, with the drift and bias resolved in n (the tests check them on a
+simulated parked run).
+"""
+from __future__ import annotations
+
+import time
+from typing import Callable, Optional
+
+import numpy as np
+from pydantic import BaseModel, ConfigDict, Field
+
+from ..core import earth
+from ..core.bundle import Bundle
+from ..core.mechanization import Strapdown, _first_row
+from ..core.solution import NavState, Solution
+from ..errors import BadInput
+from ..estimation import error_model as em
+from ..estimation.kalman import KalmanFilter
+from ..estimation.layout import Layout
+from .aided_kf import _config
+
+__all__ = ["ParkedKfConfig", "PARKED_LAYOUT", "parked_F", "run_parked_kf"]
+
+ARCMIN = np.pi / 180.0 / 60.0
+DEG_H = np.pi / 180.0 / 3600.0
+UG = earth.G0 * 1e-6
+#: eq. 12: the 12 states
+PARKED_LAYOUT = Layout(["phi", "dv", "eps", "nabla"])
+
+
+class ParkedKfConfig(BaseModel):
+    """Configuration of ``parked-kf`` (human units)."""
+
+    model_config = ConfigDict(extra="forbid")
+    filter_rate_hz: float = Field(10.0, gt=0)
+    init_tilt_sigma_deg: float = Field(0.5, gt=0)
+    init_heading_sigma_deg: float = Field(5.0, gt=0)
+    init_velocity_sigma_m_s: float = Field(0.1, gt=0)
+    gyro_drift_deg_h: float = Field(0.01, ge=0)
+    accel_bias_ug: float = Field(100.0, ge=0)
+    gyro_arw_deg_sqrt_h: float = Field(0.001, ge=0)
+    accel_vrw_ug_sqrt_hz: float = Field(10.0, ge=0)
+    zero_velocity_noise_m_s: float = Field(0.01, gt=0, description="vibration velocity")
+    output_interval_s: float = Field(1.0, gt=0)
+
+
+def parked_F(lat: float, C_nb, f_n) -> np.ndarray:
+    """(12, 12) continuous ``A`` of eq. 12 (layout :data:`PARKED_LAYOUT`)."""
+    lay = PARKED_LAYOUT
+    w_ie, _, _, Wen_v, _, _, _ = em.transport_jacobians(float(lat), 0.0, np.zeros(3))
+    F = np.zeros((lay.n, lay.n))
+    F[lay["phi"], lay["phi"]] = -em.skew(w_ie)
+    F[lay["phi"], lay["dv"]] = Wen_v
+    F[lay["phi"], lay["eps"]] = -C_nb
+    F[lay["dv"], lay["phi"]] = em.skew(np.asarray(f_n, dtype=float))
+    F[lay["dv"], lay["dv"]] = -2.0 * em.skew(w_ie)
+    F[lay["dv"], lay["nabla"]] = C_nb
+    return F
+
+
+def _prior(cfg):
+    tilt, head = np.deg2rad(cfg.init_tilt_sigma_deg), np.deg2rad(cfg.init_heading_sigma_deg)
+    return PARKED_LAYOUT.diag({"phi": np.array([tilt, tilt, head]) ** 2,
+                               "dv": cfg.init_velocity_sigma_m_s ** 2,
+                               "eps": (cfg.gyro_drift_deg_h * DEG_H) ** 2,
+                               "nabla": (cfg.accel_bias_ug * UG) ** 2})
+
+
+def _Qc(cfg):
+    lay = PARKED_LAYOUT
+    Q = np.zeros((lay.n, lay.n))
+    Q[lay["phi"], lay["phi"]] = (np.deg2rad(cfg.gyro_arw_deg_sqrt_h) / 60.0) ** 2 * np.eye(3)
+    Q[lay["dv"], lay["dv"]] = (cfg.accel_vrw_ug_sqrt_hz * UG) ** 2 * np.eye(3)
+    return Q
+
+
+def run_parked_kf(bundle: Bundle, config: ParkedKfConfig | dict | None = None,
+                  init: NavState | None = None, progress: Optional[Callable] = None,
+                  end_s: float | None = None) -> Solution:
+    """``parked-kf``: zero-velocity fine alignment of a parked vehicle (module docstring).
+
+    ``end_s`` [s] stops the filter there (the adaptive strategy hands over when the vehicle
+    drives off). Returns the SINS attitude at the output interval, ``sigma`` of ``phi`` and
+    the estimated drift and bias in ``states``.
+    """
+    cfg = _config(config, ParkedKfConfig)
+    if init is None:
+        raise BadInput("parked-kf needs an initial attitude (--init truth, a coarse alignment "
+                       "result, or meta.yaml)")
+    t_wall = time.perf_counter()
+    imu = bundle.imu
+    k0 = _first_row(imu.t, init.t)
+    k1 = len(imu.t) if end_s is None else int(np.searchsorted(imu.t, end_s, side="right"))
+    if k1 - k0 < 2:
+        raise BadInput(f"no IMU rows after the start t={init.t:.6g} s", file="imu")
+    lay = PARKED_LAYOUT
+    still = NavState(init.t, init.lat, init.lon, init.h, np.zeros(3), init.q_nb)
+    sins = Strapdown(still)
+    kf = KalmanFilter(lay.zeros(), _prior(cfg))
+    Qc = _Qc(cfg)
+    R = np.eye(3) * cfg.zero_velocity_noise_m_s ** 2
+    H = np.zeros((3, lay.n))
+    H[:, lay["dv"]] = np.eye(3)
+    step = max(1, int(round(1.0 / (cfg.filter_rate_hz * imu.dt))))
+    out_every = max(1, int(round(cfg.output_interval_s / (step * imu.dt))))
+    bias_g, bias_a, fed = np.zeros(3), np.zeros(3), lay.zeros()
+    rows = {"t": [init.t], "q": [init.q_nb.copy()], "sig": [kf.sigma()], "st": [fed.copy()]}
+    t_prev = init.t
+    ends = list(range(k0 + step, k1, step)) + [k1]
+    for i, b in enumerate(ends, start=1):
+        a = ends[i - 2] if i > 1 else k0
+        tt = imu.t[a:b]
+        dt = np.diff(np.concatenate([[t_prev], tt]))
+        sins.run(imu.dtheta[a:b] - bias_g * dt[:, None], imu.dvel[a:b] - bias_a * dt[:, None], tt)
+        t_prev = tt[-1]
+        x = sins.x
+        C = _dcm(x[6:10])
+        kf.set_model(parked_F(init.lat, C, C @ sins.f_b), Qc)
+        kf.predict(dt.sum())
+        kf.update(x[3:6].copy(), H, R)
+        e = kf.x
+        sins.correct(phi=e[lay["phi"]], dvel_n=e[lay["dv"]])
+        sins._x[0:3] = (init.lat, init.lon, init.h)           # parked: position held
+        bias_g += e[lay["eps"]]
+        bias_a += e[lay["nabla"]]
+        fed += e
+        kf.reset([lay["phi"], lay["dv"], lay["eps"], lay["nabla"]])
+        if i % out_every == 0 or b == k1:
+            rows["t"].append(tt[-1])
+            rows["q"].append(sins.x[6:10].copy())
+            rows["sig"].append(kf.sigma())
+            rows["st"].append(fed.copy())
+        if progress is not None and i % 100 == 0:
+            progress(i / len(ends))
+    n = len(rows["t"])
+    lla = np.tile([init.lat, init.lon, init.h], (n, 1))
+    sig = lay.as_dict(np.array(rows["sig"]))
+    sigma = {k: sig[k] for k in ("phi_E", "phi_N", "phi_U")}
+    sigma.update(vE=sig["dv_E"], vN=sig["dv_N"], vU=sig["dv_U"])
+    states = lay.as_dict(np.array(rows["st"]))
+    info = {"method": "parked-kf", "config": cfg.model_dump(), "layout": list(lay.names),
+            "nis_mean_per_dof": kf.nis_sum / max(kf.nis_dof, 1),
+            "wall_time_s": time.perf_counter() - t_wall}
+    return Solution.from_arrays(np.array(rows["t"]), lla, np.zeros((n, 3)), np.array(rows["q"]),
+                                sigma=sigma, states=states, state_units=lay.unit_map(),
+                                info=info)
+
+
+def _dcm(q):
+    from ..core.rotations import dcm_from_quat
+    return dcm_from_quat(q)
