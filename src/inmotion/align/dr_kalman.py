@@ -84,8 +84,13 @@ class OdVelocityKfConfig(BaseModel):
     """Configuration of ``od-velocity-kf`` (and the common part of ``dr-kf``).
 
     Rates: ``filter_rate_hz`` (prediction, model relinearization), ``measurement_rate_hz``
-    (updates); both rounded to whole IMU rows. Priors (1-sigma) and noise densities carry
-    their unit in the name; the defaults are paper 000 sec. 5.
+    (updates), ``feedback_rate_hz`` (closed-loop corrections); rounded to whole IMU rows.
+    Priors (1-sigma) and noise densities carry their unit in the name; the defaults are paper
+    000 sec. 5 where it gives them. Measurement noise: ``velocity_noise_m_s`` the radar's
+    0.1 m/s; ``nhc_noise_m_s`` 0.03 m/s (paper 000 puts no noise on Z2, eq. 39; a small floor
+    keeps the update well conditioned, and lets the chi-square gate see side slips);
+    ``baro_noise_m``; ``attitude_noise_arcmin`` for the SINS-minus-DR attitude (both from the
+    same gyros, so only numerical and transport-rate differences: small).
     """
 
     model_config = ConfigDict(extra="forbid")
@@ -115,7 +120,7 @@ class OdVelocityKfConfig(BaseModel):
     gyro_bias_rw_deg_h_sqrt_h: float = Field(0.0, ge=0)
     accel_bias_rw_ug_sqrt_h: float = Field(0.0, ge=0)
     velocity_noise_m_s: float = Field(0.1, gt=0)
-    nhc_noise_m_s: float = Field(0.1, gt=0)
+    nhc_noise_m_s: float = Field(0.03, gt=0)
     baro_noise_m: float = Field(2.0, gt=0)
 
 
