@@ -59,6 +59,13 @@ _SPECS = [
     MethodSpec("ausquhe", "align", "inmotion.align.usque:run_ausquhe", "inmotion.align.usque:AusquheConfig", False, "adaptive unscented quaternion H-infinity estimator: adaptive R and adaptive gamma (paper 001 scheme 1)"),
     MethodSpec("oba", "align", "inmotion.align.imada:run_oba", "inmotion.align.imada:ImadaConfig", False, "optimization-based alignment vectors with Earth-rate term, q-method (paper 001 eq. 12-19)"),
     MethodSpec("coarse-inertial", "align", "inmotion.align.coarse_inertial:run_coarse_inertial", "inmotion.align.coarse_inertial:CoarseInertialConfig", False, "inertial-frame coarse alignment, parked or in motion (paper 003 eq. 1-10)"),
+    MethodSpec("parked-kf", "align", "inmotion.align.parked_kf:run_parked_kf", "inmotion.align.parked_kf:ParkedKfConfig", True, "parked (wobbling base) zero-velocity fine alignment, 12-state KF (paper 003 eq. 11-13)"),
+    MethodSpec("od-kf", "align", "inmotion.align.aided_kf:run_od_kf", "inmotion.align.aided_kf:AidedKfConfig", True, "SINS / odometer in-motion fine alignment, 21-state KF, velocity or displacement-increment measurement, FDI + NHC fallback (paper 003 eq. 14-26)"),
+    MethodSpec("ldv-kf", "align", "inmotion.align.aided_kf:run_ldv_kf", "inmotion.align.aided_kf:AidedKfConfig", True, "SINS / LDV in-motion fine alignment, 21-state KF, velocity or displacement-increment measurement, FDI + NHC fallback (paper 003 eq. 14-26)"),
+    MethodSpec("nhc-kf", "align", "inmotion.align.aided_kf:run_nhc_kf", "inmotion.align.aided_kf:NhcKfConfig", True, "vehicle-constraint (NHC, vehicle frame) in-motion fine alignment, 15-state KF (paper 003 eq. 27-31)"),
+    MethodSpec("fkf", "align", "inmotion.align.aided_kf:run_fkf", "inmotion.align.aided_kf:FkfConfig", True, "federated OD / LDV Kalman filter with chi-square FDI and Table 1 reconfiguration (paper 003 sec. 3.1-3.2)"),
+    MethodSpec("fine-mux", "align", "inmotion.align.multiplex:run_fine_mux", "inmotion.align.multiplex:MuxConfig", False, "fault-tolerant inertial-frame coarse, then fine alignment from the window's start (information multiplexing, paper 003 sec. 3.2.1, 3.3.1)"),
+    MethodSpec("adaptive", "align", "inmotion.align.strategy:run_adaptive", "inmotion.align.strategy:AdaptiveConfig", False, "adaptive strategy: parked/moving chi-square detection, parked coarse + parked-kf or in-motion coarse + fine (paper 003 sec. 3.3.2)"),
 ]
 
 
