@@ -104,7 +104,8 @@ def test_radar_lever_arm_in_a_steady_turn():
 
 def test_mounting_angles_first_order_effect_on_side_slip():
     """With a side slip v_x, a radar mounted with yaw offset gamma reads v_y - gamma v_x
-    (C_b^m = exp(-[A x]) = I - [A x] to first order, paper 000 eq. 9)."""
+    (beam misalignment C_v^s = exp(-[A x]) = I - [A x] to first order, paper 000 eq. 9: first
+    order in the slip, while with no slip the beam acts to second order)."""
     gamma_arcmin = 60.0
     dist = {"side_slips": [{"t_s": 20.0, "duration_s": 2.0, "speed_m_s": 0.5}]}
     seg = [{"kind": "cruise", "duration_s": 30}]
