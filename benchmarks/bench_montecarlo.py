@@ -10,7 +10,9 @@
    per-run rate).
 
 Cluster start-up is timed apart (it is paid once per campaign). The machine's load average is
-printed: other processes on the cores make the scaling look worse than it is.
+printed: other processes on the cores make the scaling look worse than it is; "workers busy"
+(the runs' summed wall time over workers x campaign wall time) tells whether the engine kept the
+workers fed, whatever else runs on the machine.
 
     OPENBLAS_NUM_THREADS=1 .venv/bin/python benchmarks/bench_montecarlo.py \\
         [--empty-runs 1000] [--burn-runs 40] [--paper-runs 50] [--skip-paper]
@@ -72,8 +74,10 @@ def scaling(name: str, doc: dict, warm_spec: dict, tmp: Path) -> None:
             walls[workers], df = timed_campaign(doc, client, tmp, f"{name}{workers}")
         n = len(df)
         bad = int((df["status"] != "ok").sum())
+        busy = df["elapsed_s"].sum() / (workers * walls[workers])
         print(f"  {workers} worker(s): {walls[workers]:.2f} s for {n} runs "
-              f"({walls[workers] / n * 1000:.1f} ms per run){f', {bad} failed' if bad else ''}")
+              f"({walls[workers] / n * 1000:.1f} ms per run), workers busy {busy:.0%} of the "
+              f"time, load average {os.getloadavg()[0]:.1f}{f', {bad} failed' if bad else ''}")
     speedup = walls[1] / walls[2]
     print(f"  speed-up 1 -> 2 workers: {speedup:.2f}x (parallel efficiency {speedup / 2:.0%})")
 

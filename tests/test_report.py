@@ -134,6 +134,17 @@ def test_campaign_report_tables_verdicts_and_failures(campaign_dir, tmp_path):
     assert page.count("RuntimeError: synthetic failure") == len(failed)
 
 
+def test_saved_paper_figures_are_found_beside_the_results(result_dir, tmp_path):
+    from inmotion.evaluate.report import save_paper
+    run = tmp_path / "run"
+    shutil.copytree(result_dir, run)
+    save_paper(run, {"title": "Table 9", "rows": [
+        {"quantity": "heading", "unit": "arcmin", "paper": 1.5, "measured": 2.0}]})
+    page = build_report(run).read_text()
+    assert "Against the paper: Table 9" in page
+    assert re.search(r"heading</td>.*?>worse</td>", page)
+
+
 def test_collection_report_summarises_every_paper_row(campaign_dir, result_dir, tmp_path):
     root = tmp_path / "all"
     root.mkdir()
