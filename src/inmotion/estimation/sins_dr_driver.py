@@ -57,6 +57,7 @@ import numba
 import numpy as np
 
 from ..core import _kernels as K
+from ..core.bundle import SpeedData
 from ..core.deadreckoning import DeadReckoner, speed_on_epochs
 from ..core.mechanization import Strapdown
 from ..core.solution import NavState
@@ -348,6 +349,18 @@ def _run_epochs(ends, dtheta, dvel, dt, ds, v, h_baro, t,
     return n_out
 
 
+def _speed_window(speed: SpeedData, edges) -> SpeedData:
+    """The sensor samples that cover ``edges[0] .. edges[-1]`` (one more on each side, at
+    least two): resampling a chunk then costs memory of the chunk's size, not the log's.
+    Distance differences inside the window are those of the whole log."""
+    ts = speed.t
+    i0 = max(0, min(int(np.searchsorted(ts, edges[0], side="right")) - 1, len(ts) - 2))
+    i1 = min(len(ts), max(int(np.searchsorted(ts, edges[-1], side="left")) + 1, i0 + 1) + 1)
+    w = slice(i0, i1)
+    return SpeedData(ts[w], None if speed.v is None else speed.v[w],
+                     None if speed.ds is None else speed.ds[w])
+
+
 # ----------------------------------------------------------------------------- the driver
 class SinsDrFilter:
     """Streaming SINS + DR + closed-loop Kalman filter (see the module docstring).
@@ -436,6 +449,8 @@ class SinsDrFilter:
         out["states"][0] = self.fed_back + self.x
         i_out = 1
         chunk = max(1, CHUNK_ROWS // self.step) * self.step
+        speed_on_epochs(speed, np.array([self.sins.t, t[0]]), what=sensor)   # validates once
+        max_gap = 5.0 * float(np.median(np.diff(speed.t)))
         Qc = np.ascontiguousarray(self.model.Qc())
         nz = self.noise
         for a in range(0, n_rows, chunk):
@@ -443,7 +458,8 @@ class SinsDrFilter:
             tc = t[a:b]
             t_prev = self.sins.t if a == 0 else t[a - 1]
             edges = np.concatenate([[t_prev], tc])
-            ds, v, _, _ = speed_on_epochs(speed, edges, what=sensor)
+            ds, v, _, _ = speed_on_epochs(_speed_window(speed, edges), edges,
+                                          max_gap=max_gap, what=sensor)
             dt = np.diff(edges)
             hb = h_baro(tc) if h_baro is not None else np.full(len(tc), np.nan)
             ends = np.arange(self.step, b - a + self.step, self.step)
@@ -466,7 +482,7 @@ class SinsDrFilter:
                 sys_.rows += len(tc)
             if progress is not None:
                 progress(b / n_rows)
-        if i_out < n_out:                 # the last, partial epoch is written as well
+        if self.epochs % self.out_every:  # the last epoch is written even off the output grid
             out["t"][i_out] = t[-1]
             out["x_sins"][i_out] = self.sins._x
             out["sigma"][i_out] = np.sqrt(np.maximum(np.diagonal(self.P), 0.0))

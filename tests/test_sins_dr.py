@@ -1,0 +1,403 @@
+"""``sins-dr`` (paper 002): what is new on top of the shared error model and Kalman blocks.
+
+The shared tests (``test_error_model.py``, ``test_kalman.py``) already check ``euler_rows``,
+``dr_velocity_rows`` and the SINS/DR ``F`` against the nonlinear system. Here:
+
+* the assembled measurement rows of both modes (attitude, velocity in the DR body frame,
+  position, height) against central differences of the nonlinear SINS-minus-DR measurement,
+  heading across North included;
+* the allocation-free sequential Joseph update against the shared kernel and the batch update;
+  the numba feedback against ``Strapdown.correct`` / ``DeadReckoner.correct``;
+* the DR position random walk the filter adds, against Monte Carlo dead reckoning with a noisy
+  speed (closed form ``sigma_v^2 T_s t``);
+* a 24 h drive (10 Hz IMU, 1 Hz filter): the covariance stays symmetric positive definite and
+  bounded, hour after hour;
+* short drives against simulated truth: errors inside the filter's 3-sigma, and bounds;
+* every bad-input path, and ``inmotion navigate --method sins-dr --mode ...``.
+"""
+import json
+
+import numpy as np
+import pytest
+from click.testing import CliRunner
+
+from inmotion.core import earth, rotations
+from inmotion.core.bundle import SpeedData
+from inmotion.core.deadreckoning import DeadReckoner, speed_on_epochs
+from inmotion.core.mechanization import Strapdown
+from inmotion.core.solution import NavState
+from inmotion.errors import BadInput
+from inmotion.estimation import kalman
+from inmotion.estimation import sins_dr_driver as drv
+from inmotion.estimation.error_model import _offsets
+from inmotion.evaluate.metrics import error_series
+from inmotion.navigate.sins_dr import (LAYOUT_SINS_DR as LAY, SinsDrConfig, build_filter,
+                                       run_sins_dr)
+from inmotion.sim import simulate
+from inmotion.sim.scenario import load_scenario
+
+ARCMIN = np.pi / 180 / 60
+OFFS = tuple(int(o) for o in _offsets(LAY))
+
+
+# -- measurement rows against the nonlinear measurement -----------------------------------
+
+def _nav(lat, lon, h, vel_n, C):
+    x = np.empty(10)
+    x[:3] = lat, lon, h
+    x[3:6] = vel_n
+    x[6:] = rotations.quat_from_dcm(C)
+    return x
+
+
+def _nonlinear(err, truth):
+    """SINS and DR kernel states of a truth with the errors ``err`` (layout LAY) applied the
+    nonlinear way: attitudes ``exp(-[phi x]) C``, the DR's velocity its own attitude times the
+    scaled forward speed ``(1 + dk) u`` (paper 000 eq. 7-8)."""
+    lat, lon, h, u, C = truth
+    e = LAY.as_dict(err)
+    blk = {b: err[LAY[b]] for b in ("phi", "dv", "dp", "phi_D", "dp_D")}
+    C_S = rotations.apply_misalignment(C, blk["phi"])
+    C_D = rotations.apply_misalignment(C, blk["phi_D"])
+    v = C @ np.array([0.0, u, 0.0])
+    xs = _nav(lat + blk["dp"][0], lon + blk["dp"][1], h + blk["dp"][2], v + blk["dv"], C_S)
+    xd = _nav(lat + blk["dp_D"][0], lon + blk["dp_D"][1], h + blk["dp_D"][2],
+              C_D @ np.array([0.0, (1 + e["dk"]) * u, 0.0]), C_D)
+    return xs, xd
+
+
+@pytest.mark.parametrize("yaw_deg", [359.995, 127.0])
+def test_measurement_rows_are_the_derivative_of_the_nonlinear_differences(yaw_deg):
+    C = rotations.dcm_from_euler(np.radians([4.0, -3.0, yaw_deg]))
+    truth = (0.6, 1.9, 380.0, 17.0, C)
+    h_baro = 379.0
+    use = np.array([True, True, True, True])
+    r_vel = np.array([0.1, 0.2, 0.3]) ** 2
+
+    def rows(err):
+        xs, xd = _nonlinear(err, truth)
+        return drv.measurement_rows(OFFS, use, xs, xd, h_baro, 1e-8, 0.5, r_vel, 4.0, LAY.n)
+
+    z0, H, r, starts, groups = rows(LAY.zeros())
+    assert list(groups) == [0, 1, 2, 3] and list(starts) == [0, 3, 6, 9, 10]
+    # at zero error: attitude, velocity and position differences vanish (wrapped near North)
+    assert np.allclose(z0[:9], 0.0, atol=1e-12) and z0[9] == pytest.approx(1.0)
+    assert np.allclose(r[3:6], r_vel)
+    rng = np.random.default_rng(1)
+    scale = LAY.zeros()
+    for b, s in (("phi", 1e-3), ("dv", 0.1), ("phi_D", 1e-3), ("dk", 1e-3)):
+        scale[LAY[b]] = s
+    scale[LAY["dp"]] = scale[LAY["dp_D"]] = (1e-6, 1e-6, 1.0)
+    for _ in range(5):
+        d = rng.standard_normal(LAY.n) * scale
+        eps = 1e-3
+        num = (rows(eps * d)[0] - rows(-eps * d)[0]) / (2 * eps)
+        ref = np.abs(H) @ np.abs(d) + 1e-15
+        assert np.all(np.abs(num - H @ d) <= 1e-6 * ref), (num, H @ d)
+
+
+def test_velocity_rows_are_the_n_frame_rows_resolved_in_the_dr_body_frame():
+    """z_b = C_n^b z_n: the along-track row carries the sensor noise, the others do not."""
+    C = rotations.dcm_from_euler(np.radians([2.0, 1.0, 63.0]))
+    xs, xd = _nonlinear(LAY.zeros(), (0.6, 1.9, 380.0, 20.0, C))
+    xs[3:6] += [0.3, -0.2, 0.05]
+    use = np.array([False, True, False, False])
+    z, H, *_ = drv.measurement_rows(OFFS, use, xs, xd, np.nan, 1.0, 1.0, np.ones(3), 1.0, LAY.n)
+    assert np.allclose(C @ z, [0.3, -0.2, 0.05])
+    assert np.allclose(C @ H[:, LAY["dv"]], np.eye(3))
+    v = xd[3:6]
+    assert np.allclose(C @ H[:, LAY.index("dk")], -v)
+    assert np.allclose(C @ H[:, LAY["phi_D"]], -rotations.skew(v))
+
+
+# -- the update and the feedback kernels ---------------------------------------------------
+
+def _random_problem(rng, n=LAY.n, m=6):
+    A = rng.standard_normal((n, n))
+    P = A @ A.T + n * np.eye(n)
+    return (rng.standard_normal(n), P, rng.standard_normal(m), rng.standard_normal((m, n)),
+            rng.uniform(0.5, 2.0, m))
+
+
+def test_sequential_joseph_equals_the_shared_kernel_and_the_batch_update():
+    rng = np.random.default_rng(2)
+    x, P, z, H, r = _random_problem(rng)
+    xa, Pa = x.copy(), P.copy()
+    ok, nis = drv.sequential_joseph(xa, Pa, z, H, r, 0, 6, 0.0, np.empty(LAY.n),
+                                    np.empty((LAY.n, LAY.n)))
+    xb, Pb = x.copy(), P.copy()
+    ok_b, nis_b = kalman._update_rows_kernel(xb, Pb, z, H, r, 0, 6, 0.0)
+    xc, Pc, nu, S = kalman.joseph_update(x, P, z, H, np.diag(r))
+    assert ok and ok_b
+    assert nis == pytest.approx(nis_b, rel=1e-10)
+    assert nis == pytest.approx(nu @ np.linalg.solve(S, nu), rel=1e-10)
+    for xx, PP in ((xb, Pb), (xc, Pc)):
+        assert np.allclose(xa, xx, rtol=1e-10, atol=1e-12)
+        assert np.allclose(Pa, PP, rtol=1e-9, atol=1e-11)
+    assert np.array_equal(Pa, Pa.T)
+
+
+def test_sequential_joseph_gate_rejects_whole_group_and_leaves_the_state():
+    rng = np.random.default_rng(3)
+    x, P, z, H, r = _random_problem(rng)
+    z = z + 100.0
+    xa, Pa = x.copy(), P.copy()
+    ok, nis = drv.sequential_joseph(xa, Pa, z, H, r, 2, 5, 5.0, np.empty(LAY.n),
+                                    np.empty((LAY.n, LAY.n)))
+    ok_b, nis_b = kalman._update_rows_kernel(x.copy(), P.copy(), z, H, r, 2, 5, 5.0)
+    assert not ok and not ok_b and nis == pytest.approx(nis_b, rel=1e-10) and nis > 5.0
+    assert np.array_equal(xa, x) and np.array_equal(Pa, P)
+
+
+def _moving(obj, rng, dr):
+    dth = rng.standard_normal((20, 3)) * 1e-3
+    t = 0.01 * np.arange(1, 21)
+    if dr:
+        obj.run(dth, t, np.full(20, 0.1), np.full(20, 10.0))
+    else:
+        obj.run(dth, rng.standard_normal((20, 3)) * 1e-2 + [0, 0, 0.098], t)
+
+
+@pytest.mark.parametrize("dr", [False, True])
+def test_numba_feedback_equals_the_mechanization_correct(dr):
+    rng = np.random.default_rng(4)
+    init = NavState.from_euler(0.0, 0.6, 1.9, 380.0, [3.0, 4.0, 0.1], np.radians([1, 2, 30]))
+    a = DeadReckoner(init) if dr else Strapdown(init)
+    b = DeadReckoner(init) if dr else Strapdown(init)
+    for o in (a, b):
+        _moving(o, np.random.default_rng(5), dr)
+    phi, dv, dp = rng.standard_normal(3) * 1e-3, rng.standard_normal(3) * 0.1, [1e-6, -2e-6, 3.0]
+    if dr:
+        a.correct(phi=phi, dpos=dp)
+    else:
+        a.correct(phi=phi, dvel_n=dv, dpos=dp)
+    drv._correct_nav(b._x, b._mem, phi, dv, np.array(dp), not dr)
+    assert np.allclose(a._x, b._x, rtol=0, atol=1e-15)
+    assert np.allclose(a._mem, b._mem, rtol=0, atol=1e-15)
+
+
+# -- the DR position random walk of the model ----------------------------------------------
+
+def test_dr_position_random_walk_density_is_sigma_squared_times_sensor_period():
+    """White speed noise sigma_v at period T_s walks the DR distance with variance
+    sigma_v^2 T_s t (the trapezoid sum of the samples; the density the driver adds)."""
+    rng = np.random.default_rng(6)
+    sigma_v, T_s, dur, u = 0.1, 0.1, 60.0, 10.0
+    n_runs = 300
+    t_imu = np.arange(1, int(dur / 0.02) + 1) * 0.02
+    ts = np.arange(0, int(dur / T_s) + 1) * T_s
+    init = NavState.from_euler(0.0, 0.6, 1.9, 380.0, [0.0, u, 0.0], [0.0, 0.0, 0.0])
+    r_m, _ = earth.radii(0.6)
+    north = np.empty(n_runs)
+    for i in range(n_runs):
+        speed = SpeedData(ts, v=u + sigma_v * rng.standard_normal(len(ts)))
+        ds, v, _, _ = speed_on_epochs(speed, np.concatenate([[0.0], t_imu]))
+        dr = DeadReckoner(init)
+        dr.run(np.zeros((len(t_imu), 3)), t_imu, ds, v)
+        north[i] = (dr._x[0] - 0.6) * (r_m + 380.0) - u * dur
+    var_model = sigma_v ** 2 * T_s * dur
+    # sample variance of 300 normal draws: relative 1-sigma sqrt(2/299) = 8 %
+    assert np.var(north, ddof=1) == pytest.approx(var_model, rel=0.25)
+
+
+# -- long runs: covariance health --------------------------------------------------------------
+
+def _day_scenario(hours):
+    segs = [{"kind": "rest", "duration_s": 60}]
+    for i in range(hours):
+        segs += [{"kind": "accelerate", "to_speed_m_s": 15.0, "accel_m_s2": 1.0},
+                 {"kind": "cruise", "duration_s": 1600},
+                 {"kind": "turn", "angle_deg": 90 if i % 2 else -120, "rate_deg_s": 5},
+                 {"kind": "cruise", "duration_s": 1600},
+                 {"kind": "stop", "decel_m_s2": 1.0}, {"kind": "wait", "duration_s": 345}]
+    return load_scenario({
+        "name": "day", "start": {"lat_deg": 34.2, "lon_deg": 108.9, "h_m": 380, "heading_deg": 30},
+        "segments": segs,
+        "imu": {"rate_hz": 10.0, "gyro": {"drift_deg_h": 0.01, "arw_deg_sqrt_h": 0.003},
+                "accel": {"bias_ug": 100, "vrw_ug_sqrt_hz": 10}},
+        "sensors": {"radar": {"rate_hz": 10.0, "noise_m_s": 0.1, "scale_markov_sigma_ppm": 1000,
+                              "scale_markov_tau_s": 300}}})
+
+
+def _truth_init(bundle):
+    return NavState.from_euler(**bundle.truth.at(bundle.truth.t[0]))
+
+
+def test_covariance_stays_symmetric_positive_definite_for_24_hours():
+    b = simulate(_day_scenario(24), np.random.default_rng(7))
+    assert b.imu.t[-1] >= 24 * 3600
+    cfg = SinsDrConfig(mode="attitude-position", filter_rate_hz=1.0, measurement_rate_hz=1.0,
+                       output_rate_hz=0.01)
+    filt, rows, (name, speed) = build_filter(b, cfg, _truth_init(b))
+    t, dth, dvl = b.imu.t[rows], b.imu.dtheta[rows], b.imu.dvel[rows]
+    per_hour = 36000
+    sig_first = None
+    for a in range(0, len(t), per_hour):
+        out = filt.run(t[a:a + per_hour], dth[a:a + per_hour], dvl[a:a + per_hour], speed)
+        P = filt.P
+        assert np.array_equal(P, P.T)
+        d = np.sqrt(np.diagonal(P))
+        assert np.all(np.isfinite(P)) and np.all(d > 0)
+        corr = P / np.outer(d, d)
+        assert np.linalg.eigvalsh(corr).min() > 0.0
+        np.linalg.cholesky(P)
+        sig = out["sigma"][-1]
+        if sig_first is None:
+            sig_first = sig
+        # no drift of the covariance: position and heading sigma stay bounded (metres, arcmin)
+        units = LAY.unit_map()
+        assert sig[LAY.index("phi_U")] < 5 * ARCMIN
+        assert sig[LAY.index("dp_h")] < 20.0
+    errs = error_series(run_sins_dr(b, cfg, _truth_init(b)), b.truth)
+    assert errs.horizontal_m.max() < 200.0          # 0.05 % of the 1 250 km driven
+    assert filt.counts()["attitude"]["rejected"] == 0
+
+
+# -- short runs against simulated truth --------------------------------------------------------
+
+SHORT = {
+    "name": "short", "start": {"lat_deg": 34.2, "lon_deg": 108.9, "h_m": 380, "heading_deg": 30},
+    "segments": [{"kind": "rest", "duration_s": 20},
+                 {"kind": "accelerate", "to_speed_m_s": 15.0, "accel_m_s2": 1.0},
+                 {"kind": "cruise", "duration_s": 100},
+                 {"kind": "turn", "angle_deg": 90, "rate_deg_s": 5},
+                 {"kind": "climb", "pitch_deg": 3, "duration_s": 60},
+                 {"kind": "turn", "angle_deg": -120, "rate_deg_s": 4},
+                 {"kind": "cruise", "duration_s": 100},
+                 {"kind": "stop", "decel_m_s2": 1.0}, {"kind": "wait", "duration_s": 20}],
+    "imu": {"rate_hz": 100.0, "gyro": {"drift_deg_h": 0.01, "arw_deg_sqrt_h": 0.003},
+            "accel": {"bias_ug": 100, "vrw_ug_sqrt_hz": 10}},
+    "sensors": {"radar": {"rate_hz": 10.0, "noise_m_s": 0.1, "scale_markov_sigma_ppm": 1000,
+                          "scale_markov_tau_s": 300},
+                "odometer": {"rate_hz": 10.0, "pulses_per_m": 1000},
+                "baro": {"rate_hz": 10.0, "noise_m": 0.5}}}
+
+
+@pytest.fixture(scope="module")
+def short_drive():
+    return simulate(load_scenario(SHORT), np.random.default_rng(8))
+
+
+def _perturbed(bundle, d_euler_arcmin):
+    s = _truth_init(bundle)
+    return NavState.from_euler(s.t, s.lat, s.lon, s.h, s.vel_n,
+                               s.euler + np.asarray(d_euler_arcmin) * ARCMIN)
+
+
+@pytest.mark.parametrize("mode", ["attitude-position", "velocity-position"])
+def test_short_drive_errors_inside_three_sigma_and_bounded(short_drive, mode):
+    init = _perturbed(short_drive, [0.5, -0.5, 3.0])
+    sol = run_sins_dr(short_drive, {"mode": mode, "init_heading_sigma_arcmin": 3.0}, init)
+    err = error_series(sol, short_drive.truth)
+    i = np.searchsorted(sol.t, err.t.to_numpy())
+    for axis in ("E", "N", "U"):
+        ratio = np.abs(err[f"phi_{axis}_arcmin"]) * ARCMIN / sol.sigma[f"phi_{axis}"][i]
+        assert np.mean(ratio > 3.0) < 0.05, axis
+    horiz_sigma = np.hypot(sol.sigma["north"], sol.sigma["east"])[i]
+    assert np.mean(err.horizontal_m > 3.0 * horiz_sigma) < 0.05
+    # bounds: 4.8 km with 0.1 % speed-scale noise and a 3' heading: a few metres, not tens
+    assert err.horizontal_m.max() < 10.0
+    assert np.abs(err.vertical_m).max() < 5.0
+    assert np.abs(err.phi_U_arcmin).max() < 4.0
+    # before the turns, a 100 ug bias and the tilt are one (0.34'); after the two turns
+    # (ending near 250 s) the filter has told them apart
+    late = err.t > 260
+    assert np.abs(err.phi_E_arcmin[late]).max() < 0.2 and np.abs(err.phi_N_arcmin[late]).max() < 0.2
+    assert sol.info["mode"] == mode
+    assert set(sol.info["measurements"]) == {"attitude" if mode[0] == "a" else "velocity",
+                                              "position"}
+
+
+def test_error_free_sensors_and_exact_start_stay_on_truth(short_drive):
+    """No sensor errors, exact start: the closed loop must not invent corrections."""
+    d = dict(SHORT)
+    d["imu"] = {"rate_hz": 100.0}
+    d["sensors"] = {"radar": {"rate_hz": 10.0, "noise_m_s": 0.0}}
+    b = simulate(load_scenario(d), np.random.default_rng(9))
+    sol = run_sins_dr(b, {}, _truth_init(b))
+    err = error_series(sol, b.truth)
+    assert err.horizontal_m.max() < 0.05
+    assert np.abs(err.vertical_m).max() < 0.05
+    assert np.abs(err[["phi_E_arcmin", "phi_N_arcmin", "phi_U_arcmin"]]).to_numpy().max() < 0.01
+
+
+@pytest.mark.parametrize("sensor", ["odometer", "radar"])
+def test_other_velocity_source_and_baro(short_drive, sensor):
+    init = _perturbed(short_drive, [0.5, -0.5, 3.0])
+    sol = run_sins_dr(short_drive, {"velocity_sensor": sensor, "use_baro": True,
+                                    "output_rate_hz": 1.0}, init)
+    assert sol.info["velocity_sensor"] == sensor
+    assert sol.info["measurements"]["height"]["used"] > 0
+    assert np.median(np.diff(sol.t)) == pytest.approx(1.0)
+    err = error_series(sol, short_drive.truth)
+    assert err.horizontal_m.max() < 15.0 and np.abs(err.vertical_m).max() < 3.0
+
+
+def test_chunked_run_equals_one_call(short_drive):
+    init = _truth_init(short_drive)
+    cfg = SinsDrConfig()
+    f1, rows, (_, speed) = build_filter(short_drive, cfg, init)
+    f2, _, _ = build_filter(short_drive, cfg, init)
+    imu = short_drive.imu
+    t, dth, dvl = imu.t[rows], imu.dtheta[rows], imu.dvel[rows]
+    f1.run(t, dth, dvl, speed)
+    for a in range(0, len(t), 7000):                 # 700 rows = 70 epochs per call
+        f2.run(t[a:a + 7000], dth[a:a + 7000], dvl[a:a + 7000], speed)
+    # the same run up to rounding (the sensor is resampled in different windows)
+    assert np.allclose(f1.sins._x, f2.sins._x, rtol=1e-12, atol=1e-8)
+    assert np.allclose(f1.P, f2.P, rtol=1e-6, atol=1e-30)
+    assert f1.epochs == f2.epochs
+
+
+# -- bad input -----------------------------------------------------------------------------------
+
+def test_bad_inputs_raise_one_clear_message(short_drive):
+    init = _truth_init(short_drive)
+    with pytest.raises(BadInput, match="needs an initial state"):
+        run_sins_dr(short_drive, {}, None)
+    with pytest.raises(BadInput, match="mode"):
+        run_sins_dr(short_drive, {"mode": "attitude-only"}, init)
+    with pytest.raises(BadInput, match="must not exceed"):
+        run_sins_dr(short_drive, {"filter_rate_hz": 1, "measurement_rate_hz": 10}, init)
+    with pytest.raises(BadInput, match="output_rate_hz"):
+        run_sins_dr(short_drive, {"filter_rate_hz": 1, "measurement_rate_hz": 1,
+                                  "output_rate_hz": 10}, init)
+    with pytest.raises(BadInput, match="no ldv|velocity sensor"):
+        run_sins_dr(short_drive, {"velocity_sensor": "ldv"}, init)
+    no_baro = short_drive.window(None, None)
+    no_baro.baro = None
+    with pytest.raises(BadInput, match="no barometer"):
+        run_sins_dr(no_baro, {"use_baro": True}, init)
+    late = NavState(short_drive.imu.t[-1] + 1.0, init.lat, init.lon, init.h, init.vel_n,
+                    init.q_nb)
+    with pytest.raises(BadInput, match="no IMU rows after"):
+        run_sins_dr(short_drive, {}, late)
+    bad = short_drive.window(None, None)
+    v = bad.radar.v.copy()
+    v[50] = np.nan
+    bad.radar = SpeedData(bad.radar.t, v=v)
+    with pytest.raises(BadInput, match="not a finite") as e:
+        run_sins_dr(bad, {"velocity_sensor": "radar"}, init)
+    assert e.value.row == 51
+
+
+# -- the command line --------------------------------------------------------------------------
+
+@pytest.mark.parametrize("mode", ["attitude-position", "velocity-position"])
+def test_cli_navigate_sins_dr_with_mode(tmp_path, short_drive, mode):
+    from inmotion.cli.main import cli
+    from inmotion.io.bundle import write_bundle
+    from inmotion.io.result import read_result
+    bpath = tmp_path / "b"
+    write_bundle(short_drive.window(None, 120.0), bpath)
+    out = tmp_path / "r"
+    res = CliRunner().invoke(cli, ["--quiet", "navigate", str(bpath), "--method", "sins-dr",
+                                   "--mode", mode, "-o", str(out)], catch_exceptions=False)
+    assert res.exit_code == 0, res.output
+    summary = json.loads((out / "summary.json").read_text())
+    assert summary["method"] == "sins-dr" and summary["config"]["mode"] == mode
+    assert summary["errors"]["max_abs_last_100s"]["horizontal_m"] < 5.0
+    assert len(read_result(out).t) == 1201                 # 10 Hz over 120 s, and t = 0
+    res = CliRunner().invoke(cli, ["--quiet", "navigate", str(bpath), "--method", "sins-dr",
+                                   "--mode", "sideways", "-o", str(tmp_path / "x")])
+    assert res.exit_code == 2
