@@ -1,0 +1,228 @@
+"""Paper 001's unscented quaternion alignment: GRP, models, schemes, adaptive R, bad input."""
+import numpy as np
+import pytest
+import yaml
+
+from inmotion import registry
+from inmotion.align import usque
+from inmotion.align import usque_model as model
+from inmotion.core import earth, rotations
+from inmotion.core.bundle import Bundle, ImuData, SpeedData, Truth
+from inmotion.core.solution import NavState
+from inmotion.errors import BadInput
+from inmotion.sim import simulate
+from inmotion.sim.scenario import find_scenario, load_scenario
+
+SCHEMES = [("usque", usque.UsqueConfig), ("ausque", usque.AusqueConfig),
+           ("usque-hinf", usque.UsqueHinfConfig), ("ausquhe", usque.AusquheConfig)]
+
+
+# ------------------------------------------------------------------ GRP (eq. 20-21)
+@pytest.mark.parametrize("a,f", [(0.0, 1.0), (1.0, 1.0), (1.0, None), (0.5, None), (0.3, 3.0)])
+def test_grp_quaternion_round_trip(a, f):
+    rng = np.random.default_rng(0)
+    q = rotations.quat_normalize(rotations.quat_from_rotvec(rng.normal(scale=0.8, size=(50, 3))))
+    p = rotations.grp_from_quat(q, a, f)
+    assert np.allclose(rotations.quat_from_grp(p, a, f), q, atol=1e-13)
+    # the compiled row versions of the filter kernel agree
+    from inmotion.align import usque_kernel as kernel
+    ff = 2.0 * (a + 1.0) if f is None else f
+    for qi, pi in zip(q[:5], p[:5]):
+        assert np.allclose(kernel.quat_to_grp(qi, a, ff), pi, atol=1e-15)
+        assert np.allclose(kernel.grp_to_quat(pi, a, ff), qi, atol=1e-15)
+
+
+def test_grp_small_angle_is_rotation_vector_and_printed_eq21_is_wrong_between_0_and_1():
+    r = np.array([1e-4, -2e-4, 3e-4])
+    assert np.allclose(rotations.grp_from_quat(rotations.quat_from_rotvec(r), 1.0), r, rtol=1e-7)
+    # eq. 21 as printed has (1 - a)^2 under the root: right for a = 0 and 1, wrong between
+    a, f = 0.5, 3.0
+    p = rotations.grp_from_quat(rotations.quat_from_rotvec(np.array([0.3, 0.4, -0.5])), a, f)
+    n2 = p @ p
+    q0_printed = (-a * n2 + f * np.sqrt(f * f + (1 - a) ** 2 * n2)) / (f * f + n2)
+    q0_used = rotations.quat_from_grp(p, a, f)[0]
+    assert np.isclose(q0_used, np.cos(np.linalg.norm([0.3, 0.4, -0.5]) / 2))
+    assert not np.isclose(q0_printed, q0_used, atol=1e-3)
+
+
+# ------------------------------------------------------------------ helpers
+def _error_free(name="paper001_urban"):
+    with open(find_scenario(name)) as fh:
+        d = yaml.safe_load(fh)
+    d["imu"]["gyro"], d["imu"]["accel"] = {}, {}
+    d["sensors"]["ldv"].update(scale_factor_sigma_ppm=0.0, noise_m_s=0.0)
+    d.pop("faults", None)
+    return simulate(load_scenario(d), np.random.default_rng(0))
+
+
+@pytest.fixture(scope="module")
+def clean_drive():
+    return _error_free()
+
+
+def _static_bundle(euler_deg=(2.0, -1.0, 10.0), lat_deg=28.0, T=300.0, rate=2.0):
+    t = np.arange(0.0, T + 1e-9, 1.0 / rate)
+    n, lat = len(t), np.radians(lat_deg)
+    e = np.radians(euler_deg)
+    C_bn = rotations.dcm_from_euler(e)
+    w_b = C_bn.T @ earth.omega_ie_n(lat)
+    f_b = -C_bn.T @ earth.gravity_n(lat, 0.0)
+    imu = ImuData(t, np.tile(w_b / rate, (n, 1)), np.tile(f_b / rate, (n, 1)))
+    tr = Truth(t, np.full(n, lat), np.full(n, 1.9), np.zeros(n), np.zeros((n, 3)),
+               np.tile(e, (n, 1)))
+    return Bundle(imu, {"name": "static"}, ldv=SpeedData(t, v=np.zeros(n)), truth=tr)
+
+
+def _errors_deg(sol, truth):
+    from inmotion.evaluate.metrics import interpolate_truth
+    return np.degrees(rotations.wrap_pi(sol.euler - interpolate_truth(truth, sol.t).euler))
+
+
+# ------------------------------------------------------------------ models
+def test_measurement_model_is_exact_at_the_true_attitude(clean_drive):
+    b = clean_drive.window(0.0, 120.0)
+    imu, v, tr = b.imu, b.ldv.speed(), b.truth
+    acc = model.new_accumulator(tr.lat[0], tr.lon[0], tr.h[0], v[0])
+    dt = np.diff(imu.t)
+    worst = 0.0
+    for k in range(1, len(imu.t), 10):
+        q_bn = rotations.quat_from_euler(tr.euler[k - 1])
+        rows = slice(k, k + 10)
+        model.accumulate(acc, imu.dtheta[rows], imu.dvel[rows], dt[k - 1:k + 9], v[rows], q_bn)
+        if k % 500 == 1:
+            j = min(k + 9, len(imu.t) - 1)
+            obs = model.observation(acc)
+            q_in = rotations.quat_from_dcm(rotations.dcm_from_quat(obs["q_ib"])
+                                           @ rotations.dcm_from_euler(tr.euler[j]).T)
+            z = model.predict_measurement(q_in[None], np.zeros((1, 0)), np.zeros((3, 0)), obs)
+            worst = max(worst, np.abs(obs["y"] - z[0]).max())
+    # |beta| reaches 1200 m/s; the residual at the true attitude is integration error only
+    assert worst < 2e-4
+
+
+def test_process_model_right_multiplies_every_sigma_point():
+    rng = np.random.default_rng(2)
+    q = rotations.quat_normalize(rng.normal(size=(7, 4)))
+    dq = rotations.quat_from_rotvec(np.array([1e-5, 2e-5, 3e-5]))
+    out = model.propagate(q, dq)
+    assert np.allclose(rotations.dcm_from_quat(out),
+                       rotations.dcm_from_quat(q) @ rotations.dcm_from_quat(dq))
+
+
+# ------------------------------------------------------------------ schemes converge
+@pytest.mark.parametrize("name,Config", SCHEMES)
+def test_each_scheme_converges_static_zero_noise(name, Config):
+    b = _static_bundle()
+    init = NavState(0.0, b.truth.lat[0], b.truth.lon[0], 0.0, np.zeros(3), [1, 0, 0, 0])
+    sol = usque.run(b, Config(update_rate_hz=2.0), init, method=name, engine="numpy")
+    err = _errors_deg(sol, b.truth)
+    assert np.abs(err[0]).max() == pytest.approx(10.0, abs=1e-9)   # starts at C_b^n = I
+    assert np.abs(err[-1, :2]).max() < 0.01
+    assert abs(err[-1, 2]) < 0.05
+
+
+@pytest.mark.parametrize("name,Config", SCHEMES)
+def test_each_scheme_converges_on_an_error_free_drive(name, Config, clean_drive):
+    sol = usque.run(clean_drive, Config(), None, method=name)     # 100 Hz, compiled cycle
+    err = _errors_deg(sol, clean_drive.truth)
+    late = sol.t > 200.0
+    assert np.abs(err[late, :2]).max() < 0.01           # level: 0.6 arcmin
+    assert np.abs(err[late, 2]).max() < 0.05            # heading
+    assert np.all(np.isfinite(sol.sigma["phi_U"]))
+
+
+def test_compiled_cycle_equals_reference(clean_drive):
+    b = clean_drive.window(0.0, 60.0)
+    for _, Config in SCHEMES:
+        cfg = Config(update_rate_hz=10.0, estimate_scale=True, estimate_accel_bias=True,
+                     estimate_gyro_drift=True, estimate_initial_speed_error=True)
+        fast = usque.run(b, cfg, None, engine="numba")
+        ref = usque.run(b, cfg, None, engine="numpy")
+        assert np.abs(fast.euler - ref.euler).max() < 1e-9
+        for k in ("R_y", "nabla_x", "dk", "dv0"):
+            assert np.allclose(fast.states[k], ref.states[k], rtol=1e-6, atol=1e-12)
+
+
+def test_extra_states_estimate_a_known_bias_and_scale(clean_drive):
+    b = clean_drive
+    bias = np.array([40.0, -30.0, 60.0]) * 1e-6 * 9.80665
+    n = len(b.imu.t)
+    dvel = b.imu.dvel + bias * np.diff(b.imu.t, prepend=b.imu.t[0] - 0.01)[:, None]
+    ldv = SpeedData(b.ldv.t, v=b.ldv.speed() * (1 + 1e-3))
+    bb = Bundle(ImuData(b.imu.t, b.imu.dtheta, dvel), b.meta, ldv=ldv, truth=b.truth)
+    cfg = usque.UsqueConfig(update_rate_hz=10.0, estimate_scale=True, estimate_accel_bias=True)
+    sol = usque.run(bb, cfg, None)
+    assert sol.states["dk"][-1] == pytest.approx(1e-3, abs=5e-5)
+    nab = np.array([sol.states[f"nabla_{a}"][-1] for a in "xyz"])
+    assert np.abs(nab - bias).max() < 10e-6 * 9.80665
+    assert abs(_errors_deg(sol, b.truth)[-1, 2]) < 0.05
+    assert n == len(sol.t) * 10 - 9
+
+
+# ------------------------------------------------------------------ adaptive R in the filter
+def test_adaptive_r_in_bounds_and_follows_a_noise_step(clean_drive):
+    rng = np.random.default_rng(5)
+    b = clean_drive
+    t, v = b.ldv.t, b.ldv.speed().copy()
+    sig = np.where(t < 150.0, 0.0, 0.5)
+    noisy = Bundle(b.imu, b.meta, ldv=SpeedData(t, v=v + sig * rng.normal(size=len(t))),
+                   truth=b.truth)
+    cfg = usque.AusqueConfig()
+    sol = usque.run(noisy, cfg, None)
+    R = np.stack([sol.states[k] for k in ("R_x", "R_y", "R_z")], -1)
+    assert R.min() >= cfg.r_min_m_s * (1 - 1e-9) and R.max() <= cfg.r_max_m_s * (1 + 1e-9)
+    # the LDV noise acts along the body forward axis, horizontal in i: R_x^2 + R_y^2 ~ sigma^2
+    horiz = np.sqrt(R[:, 0] ** 2 + R[:, 1] ** 2)
+    quiet, loud = (sol.t > 60) & (sol.t < 150), sol.t > 200
+    assert np.mean(horiz[quiet]) < 0.1
+    # eq. 44 sets an element straight to R_max whenever e^2 - H P H^T exceeds it (here at
+    # |e| > 1 m/s, a 2-sigma event), so R sits above sigma^2 on average: it must rise to the
+    # new noise level and stay below the bound
+    assert 0.4 < np.median(horiz[loud]) < np.sqrt(2.0) * cfg.r_max_m_s
+    assert np.median(horiz[loud]) > 5 * np.mean(horiz[quiet])
+
+
+# ------------------------------------------------------------------ registry and bad input
+def test_registered_and_runs_through_the_registry(clean_drive):
+    b = clean_drive.window(0.0, 20.0)
+    for name, _ in SCHEMES:
+        spec = registry.get(name)
+        assert spec.kind == "align" and not spec.needs_attitude
+        run, Config = spec.load()
+        sol = run(b, Config(update_rate_hz=10.0), None)
+        assert sol.info["method"] == name and len(sol) == 201
+
+
+def test_bad_input_no_velocity_sensor():
+    b = _static_bundle(T=2.0)
+    with pytest.raises(BadInput, match="no velocity sensor"):
+        usque.run(Bundle(b.imu, b.meta, truth=b.truth), usque.UsqueConfig())
+
+
+def test_bad_input_ldv_does_not_cover_the_imu():
+    b = _static_bundle(T=10.0)
+    short = SpeedData(b.ldv.t[:4], v=b.ldv.v[:4])
+    with pytest.raises(BadInput, match="ldv covers"):
+        usque.run(Bundle(b.imu, b.meta, ldv=short, truth=b.truth), usque.UsqueConfig())
+
+
+def test_bad_input_nan_speed_names_row_and_time():
+    b = _static_bundle(T=2.0, rate=10.0)
+    v = b.ldv.v.copy()
+    v[7] = np.nan
+    with pytest.raises(BadInput, match=r"ldv, row 8, t=0.7 s: ldv speed is not finite"):
+        usque.run(Bundle(b.imu, b.meta, ldv=SpeedData(b.ldv.t, v=v), truth=b.truth),
+                  usque.UsqueConfig())
+
+
+def test_bad_input_no_initial_position():
+    b = _static_bundle(T=2.0)
+    with pytest.raises(BadInput, match="no initial position"):
+        usque.run(Bundle(b.imu, {"name": "x"}, ldv=b.ldv), usque.UsqueConfig())
+
+
+def test_bad_input_too_short():
+    b = _static_bundle(T=0.1, rate=10.0)
+    with pytest.raises(BadInput, match="too few IMU rows"):
+        usque.run(Bundle(b.imu.window(0, 0.1), b.meta, ldv=b.ldv, truth=b.truth),
+                  usque.UsqueConfig())
