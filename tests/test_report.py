@@ -17,7 +17,7 @@ from click.testing import CliRunner
 
 from inmotion.core.bundle import Truth
 from inmotion.core.earth import radii
-from inmotion.core.solution import Solution
+from inmotion.core.solution import Solution, StateUnit
 from inmotion.errors import BadInput
 from inmotion.evaluate.montecarlo import run_campaign
 from inmotion.evaluate.report import build_report, detect_kind, load_paper
@@ -52,6 +52,7 @@ def result_dir(tmp_path_factory):
     euler[:, 2] += 2.0 * ARCMIN
     sol = Solution(truth.t, truth.lat + 5.0 / (r_m + truth.h), truth.lon, truth.h, truth.vel_n,
                    euler, sigma={"phi_U": np.full(n, 1.0 * ARCMIN), "north": np.full(n, 2.0)},
+                   states={"dk": np.full(n, 150e-6)}, state_units={"dk": StateUnit("ppm", 1e6)},
                    info={"method": "constructed", "config": {"gain_per_s": 0.5}})
     path = tmp_path_factory.mktemp("result") / "run"
     write_result(sol, path, truth)
@@ -87,7 +88,7 @@ def test_result_report_shows_the_constructed_errors(result_dir, tmp_path):
     page = out.read_text()
     assert_self_contained(page)
     imgs = images(page)
-    assert len(imgs) == 2                                   # error curves, plan view
+    assert len(imgs) == 3                                   # errors, plan view, states
     for b64 in imgs:
         assert base64.b64decode(b64).startswith(PNG_MAGIC)
     saved = sorted((tmp_path / "r_figures").glob("*.png"))
@@ -96,7 +97,7 @@ def test_result_report_shows_the_constructed_errors(result_dir, tmp_path):
     assert abs(float(row.group(1)) - 2.0) < 1e-3
     row = re.search(r"<td class=\"l\">horizontal_m</td><td class=\"\">([^<]+)</td>", page)
     assert abs(float(row.group(1)) - 5.0) < 1e-3
-    assert "gain_per_s" in page and "constructed" in page
+    assert "gain_per_s" in page and "constructed" in page and "dk_ppm" in page
 
 
 def test_result_sigma_and_tracks_in_the_error_units(result_dir):
@@ -275,9 +276,10 @@ def test_reports_load_and_render_in_a_real_browser(campaign_dir, result_dir, tmp
     for src in (campaign_dir, result_dir):
         page = build_report(src, tmp_path / f"{src.name}.html")
         found = open_in_chromium(page, tmp_path)
-        n = len(images(page.read_text()))
+        pngs = [base64.b64decode(b) for b in images(page.read_text())]
         assert found["errors"] == []
-        assert found["images"] == n > 0 and found["rendered"] == n
-        assert all(w > 300 for w in found["widths"])
+        assert found["images"] == len(pngs) > 0 and found["rendered"] == len(pngs)
+        # the browser decoded each PNG to its own width (IHDR bytes 16-19)
+        assert found["widths"] == [int.from_bytes(p[16:20], "big") for p in pngs]
         assert found["tables"] >= 2
         assert found["fetched"] == []                   # nothing loaded from anywhere

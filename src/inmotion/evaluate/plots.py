@@ -13,7 +13,7 @@ import numpy as np
 from matplotlib.figure import Figure
 
 __all__ = ["ERROR_GROUPS", "png_bytes", "error_curves", "ensemble_curves",
-           "final_distributions", "plan_view"]
+           "final_distributions", "state_curves", "plan_view"]
 
 #: rows of the error-curve figures: (title, error columns)
 ERROR_GROUPS = (
@@ -158,6 +158,38 @@ def final_distributions(values: dict, columns, title: str = "") -> Figure:
         ax.set_visible(False)
     for r in range(nrow):
         axes[r * ncol].set_yticks(np.arange(1, len(labels) + 1), labels, fontsize=8)
+    if title:
+        fig.suptitle(title)
+    return fig
+
+
+def state_curves(t, states: dict, sigma: dict, title: str = "") -> Figure:
+    """Estimated states against time, each with its +-3 sigma where the method gives one.
+
+    Parameters
+    ----------
+    t : (N,) s
+    states : column (name with unit, as in ``states.csv``) -> (N,) value
+    sigma : column -> (N,) 1-sigma in the same unit (may miss columns)
+    """
+    cols = list(states)
+    ncol = min(4, max(1, len(cols)))
+    nrow = max(1, -(-len(cols) // ncol))
+    fig = Figure(figsize=(3.2 * ncol, 2.3 * nrow), layout="constrained")
+    axes = np.atleast_1d(fig.subplots(nrow, ncol, squeeze=False, sharex=True)).ravel()
+    sl = _thin(len(t))
+    for ax, col in zip(axes, cols):
+        x = np.asarray(states[col])[sl]
+        ax.plot(t[sl], x, lw=0.9, color="C0")
+        if col in sigma:
+            s3 = 3.0 * np.asarray(sigma[col])[sl]
+            ax.fill_between(t[sl], x - s3, x + s3, color="C1", alpha=0.25, lw=0)
+        ax.set_title(col, fontsize=9)
+        ax.grid(alpha=0.3)
+    for ax in axes[len(cols):]:
+        ax.set_visible(False)
+    for ax in axes[-ncol:]:
+        ax.set_xlabel("t [s]")
     if title:
         fig.suptitle(title)
     return fig

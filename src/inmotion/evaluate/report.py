@@ -44,6 +44,7 @@ __all__ = ["build_report", "detect_kind", "load_paper", "save_paper"]
 MAX_ENSEMBLE_RUNS = 200   #: runs drawn in a Monte Carlo envelope figure
 MAX_ENSEMBLE_POINTS = 8   #: points with an envelope figure
 MAX_TRACKS = 8            #: lines in the plan view
+MAX_STATE_PANELS = 16     #: estimated states shown for a run
 KEY_FINAL = ("pitch_arcmin", "roll_arcmin", "yaw_arcmin", "phi_U_arcmin", "horizontal_m",
              "vertical_m")
 
@@ -239,10 +240,29 @@ def _result_section(page: _Page, root: Path, paper=None, level=2) -> list:
             "errors against truth with the method's ±3σ (shaded where the method gives σ)")
     page.figure(f"{root.name}-plan", plots.plan_view(_result_tracks(solution, root)),
                 "plan view of the drive")
+    _states_figure(page, root)
     page.add("<h3>Configuration</h3>" + _pre_yaml({k: summary.get(k) for k in
                                                    ("method", "config", "timing", "bundle", "init")
                                                    if summary.get(k) is not None}))
     return rows
+
+
+def _states_figure(page: _Page, root: Path) -> None:
+    """The estimated states of ``states.csv`` with their ±3σ (``sigma_<column>``): those with a
+    sigma first (the calibrated quantities), at most :data:`MAX_STATE_PANELS`."""
+    path = root / "states.csv"
+    if not path.is_file():
+        return
+    df = pd.read_csv(path)
+    names = [c for c in df.columns if c != "t" and not c.startswith("sigma_")]
+    names = ([c for c in names if f"sigma_{c}" in df] + [c for c in names if f"sigma_{c}" not in df])
+    names = names[:MAX_STATE_PANELS]
+    if not names or "t" not in df:
+        return
+    page.figure(f"{root.name}-states", plots.state_curves(
+        df["t"].to_numpy(), {c: df[c].to_numpy() for c in names},
+        {c: df[f"sigma_{c}"].to_numpy() for c in names if f"sigma_{c}" in df}),
+        f"estimated states with the filter's ±3σ where it gives one: {', '.join(names)}")
 
 
 def _sigma_on(solution, t) -> dict:
