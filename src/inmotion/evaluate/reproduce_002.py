@@ -1,0 +1,287 @@
+"""Paper 002's one-hour simulation, re-created and set beside the paper's figures.
+
+Yang et al., *Accurate integrated position and orientation method for vehicles based on
+SINS/Doppler radar*, Meas. Control 2018, "Simulation experiment results": start at rest,
+34 deg 14.763' N, 108 deg 54.579' E, 380 m, heading 30 deg; 3600 s; top speed 22 m/s; 50.6 km
+with acceleration, cruise, deceleration, turns, climbs, descents and stops (shipped scenario
+``paper002_hour``). Methods compared on the same drives: ``sins-dr`` in both modes, and the
+pure ``sins`` (barometric height damping, as the bundle has a barometer) and pure ``dr``
+baselines.
+
+Set-up (documented choices):
+
+* Sensors: the gyro constant drift 0.01 deg/h is the paper's (the same on every axis, as
+  stated; the scenario's ``fixed`` constants); every other figure is lost from the paper's
+  text and taken from paper 000 sec. 5: gyro random walk 0.003 deg/sqrt(h), accelerometer bias
+  100 ug (1e-4 g) and random walk 10 ug/sqrt(Hz), radar white noise 0.1 m/s and a first-order
+  Markov scale factor (1000 ppm, 300 s; paper 002 models it as Markov, paper 000 gives tau).
+* Initial state: the surveyed start (position and zero velocity exact) with the attitude of a
+  fine alignment, drawn per run: pitch and roll ~ N(0, 0.5') (paper 000's level accuracy),
+  heading ~ N(0, 1.8') (paper 000's steady-state heading standard deviation, 1.79'; its bound
+  is 3.2'). The filter's priors are these sigmas (a consistent filter, not a tuned one).
+* Statistics per run (estimate minus truth): horizontal position error, its maximum and RMS
+  after the filter settles (``t >= SETTLE_S = 600 s``; the paper says only "when the filter
+  reaches the stable state") and the maximum as a percentage of the distance driven; the
+  maximum |height error|; maximum |heading error| and maximum level error
+  ``max(|pitch error|, |roll error|)`` after settling. The paper's figures (20.8 m, 2.1', 0.5'
+  and 49.2 m, 4.0', 0.6') are "+-" envelopes of one run; they are compared with the **median
+  over runs** of each run's maximum.
+* Run ``i`` simulates with ``numpy.random.default_rng([seed, i])`` and draws its initial
+  attitude error from the same generator afterwards: a seed reproduces a run.
+"""
+from __future__ import annotations
+
+import json
+import time
+from concurrent.futures import ProcessPoolExecutor
+from pathlib import Path
+
+import numpy as np
+
+__all__ = ["reproduce", "run_one", "PAPER", "SETTLE_S", "METHODS", "INIT_SIGMA_ARCMIN"]
+
+ARCMIN = np.pi / 180.0 / 60.0
+#: the filter has settled after this time [s] (statistics "after settling" start here)
+SETTLE_S = 600.0
+#: initial attitude error 1-sigma [arcmin]: pitch, roll, heading (paper 000 sec. 5)
+INIT_SIGMA_ARCMIN = (0.5, 0.5, 1.8)
+#: paper 002's figures per mode: horizontal [m], heading [arcmin], level [arcmin]
+PAPER = {"attitude-position": {"horizontal_m": 20.8, "heading_arcmin": 2.1, "level_arcmin": 0.5},
+         "velocity-position": {"horizontal_m": 49.2, "heading_arcmin": 4.0, "level_arcmin": 0.6}}
+#: label -> (method, configuration)
+_PRIORS = {"init_tilt_sigma_arcmin": INIT_SIGMA_ARCMIN[0],
+           "init_heading_sigma_arcmin": INIT_SIGMA_ARCMIN[2],
+           "init_velocity_sigma_m_s": 0.01, "init_position_sigma_m": 1.0}
+METHODS = {"attitude-position": ("sins-dr", dict(mode="attitude-position", **_PRIORS)),
+           "velocity-position": ("sins-dr", dict(mode="velocity-position", **_PRIORS)),
+           "pure SINS": ("sins", {}),
+           "pure DR": ("dr", {})}
+#: statistics of each run, with their units at the edge
+STATS = ("horizontal_max_m", "horizontal_rms_m", "horizontal_max_pct", "height_max_m",
+         "heading_max_arcmin", "level_max_arcmin", "horizontal_max_hour_m", "horizontal_final_m")
+SERIES = ("horizontal_m", "vertical_m", "yaw_arcmin", "pitch_arcmin", "roll_arcmin")
+
+
+# ------------------------------------------------------------------------------ one run
+def _initial_state(truth, rng):
+    from ..core.solution import NavState
+    row = truth.at(truth.t[0])
+    row["euler"] = row["euler"] + rng.standard_normal(3) * np.asarray(INIT_SIGMA_ARCMIN) * ARCMIN
+    return NavState.from_euler(**row)
+
+
+def run_statistics(err) -> dict:
+    """This run's figures from an :func:`inmotion.evaluate.metrics.error_series` table."""
+    late = err["t"].to_numpy() >= err["t"].iloc[0] + SETTLE_S
+    hor = err["horizontal_m"].to_numpy()
+    dist = float(err["distance_m"].iloc[-1])
+    level = np.maximum(np.abs(err["pitch_arcmin"].to_numpy()), np.abs(err["roll_arcmin"].to_numpy()))
+    return {"horizontal_max_m": float(hor[late].max()),
+            "horizontal_rms_m": float(np.sqrt(np.mean(hor[late] ** 2))),
+            "horizontal_max_pct": float(100.0 * hor[late].max() / dist),
+            "height_max_m": float(np.abs(err["vertical_m"].to_numpy()[late]).max()),
+            "heading_max_arcmin": float(np.abs(err["yaw_arcmin"].to_numpy()[late]).max()),
+            "level_max_arcmin": float(level[late].max()),
+            "horizontal_max_hour_m": float(hor.max()),
+            "horizontal_final_m": float(hor[-1])}
+
+
+def run_one(task) -> dict:
+    """Simulate run ``index`` and navigate it with every method of :data:`METHODS`.
+
+    ``task = (index, seed)``. Returns ``{"index", "distance_m", "t" (1 Hz), label: {"stats":
+    dict, "series": {name: (N,) at 1 Hz}, "wall_s"}}``.
+    """
+    from ..evaluate.metrics import error_series
+    from ..registry import get
+    from ..sim import simulate
+    from ..sim.scenario import find_scenario, load_scenario
+    index, seed = task
+    rng = np.random.default_rng([seed, index])
+    bundle = simulate(load_scenario(find_scenario("paper002_hour")), rng)
+    init = _initial_state(bundle.truth, rng)
+    out = {"index": index}
+    t_grid = np.arange(0.0, bundle.truth.t[-1] + 0.5, 1.0)
+    for label, (name, cfg) in METHODS.items():
+        run, Cfg = get(name).load()
+        t0 = time.perf_counter()
+        sol = run(bundle, Cfg(**cfg), init)
+        wall = time.perf_counter() - t0
+        err = error_series(sol, bundle.truth)
+        te = err["t"].to_numpy()
+        out[label] = {"stats": run_statistics(err), "wall_s": wall,
+                      "series": {k: np.interp(t_grid, te, err[k].to_numpy()) for k in SERIES}}
+        out["distance_m"] = float(err["distance_m"].iloc[-1])
+    out["t"] = t_grid
+    return out
+
+
+# ------------------------------------------------------------------------------ aggregate
+def aggregate(results) -> dict:
+    """Median, mean, 90th percentile and maximum over runs of every statistic, per method."""
+    agg = {}
+    for label in METHODS:
+        table = {s: np.array([r[label]["stats"][s] for r in results]) for s in STATS}
+        agg[label] = {s: {"median": float(np.median(v)), "mean": float(np.mean(v)),
+                          "p90": float(np.percentile(v, 90)), "max": float(np.max(v))}
+                      for s, v in table.items()}
+        agg[label]["wall_s_median"] = float(np.median([r[label]["wall_s"] for r in results]))
+    return agg
+
+
+def verdicts(agg) -> dict:
+    """The issue's targets on medians: attitude/position at or better than the paper's
+    figures, and better than velocity/position on all three."""
+    keys = (("horizontal_m", "horizontal_max_m"), ("heading_arcmin", "heading_max_arcmin"),
+            ("level_arcmin", "level_max_arcmin"))
+    ap, vp = agg["attitude-position"], agg["velocity-position"]
+    return {"ap_meets_paper": {p: ap[s]["median"] <= PAPER["attitude-position"][p] for p, s in keys},
+            "ap_beats_vp": {p: ap[s]["median"] < vp[s]["median"] for p, s in keys}}
+
+
+# ------------------------------------------------------------------------------ report
+def _report(agg, ver, runs, seed, wall, distance, files, out: Path) -> str:
+    L = ["# Paper 002 reproduction: SINS / Doppler-radar integrated position and orientation", "",
+         f"{runs} Monte Carlo runs of the one-hour drive ({distance / 1000:.1f} km), seed {seed}, "
+         f"{wall:.0f} s wall. Errors are estimate minus truth; each run's maximum after the "
+         f"filter settles (t >= {SETTLE_S:.0f} s), then the median over runs (90th percentile "
+         "in brackets). Paper: one run, '+-' envelopes after the stable state.", "",
+         "| method | horizontal max (m) | % of distance | horizontal RMS (m) | height max (m) "
+         "| heading max (arcmin) | level max (arcmin) | paper: horizontal / heading / level |",
+         "| --- | --- | --- | --- | --- | --- | --- | --- |"]
+    for label in METHODS:
+        a = agg[label]
+
+        def cell(s, nd=1):
+            return f"{a[s]['median']:.{nd}f} ({a[s]['p90']:.{nd}f})"
+        p = PAPER.get(label)
+        paper = f"{p['horizontal_m']} m / {p['heading_arcmin']}' / {p['level_arcmin']}'" if p else ""
+        L.append(f"| {label} | {cell('horizontal_max_m')} | {cell('horizontal_max_pct', 3)} | "
+                 f"{cell('horizontal_rms_m')} | {cell('height_max_m')} | "
+                 f"{cell('heading_max_arcmin', 2)} | {cell('level_max_arcmin', 2)} | {paper} |")
+    L += ["", "Targets (medians): attitude/position at or better than the paper's figures: "
+          + ", ".join(f"{k} {'yes' if v else 'NO'}" for k, v in ver["ap_meets_paper"].items())
+          + "; attitude/position better than velocity/position: "
+          + ", ".join(f"{k} {'yes' if v else 'NO'}" for k, v in ver["ap_beats_vp"].items()) + ".",
+          "", "Set-up: see `inmotion.evaluate.reproduce_002` (sensor figures: gyro drift "
+          "0.01 deg/h from paper 002; the others, lost from its text, from paper 000 sec. 5; "
+          "initial attitude error N(0, 0.5') level, N(0, 1.8') heading).", "",
+          "Figures: " + ", ".join(f"`{f}`" for f in files), ""]
+    text = "\n".join(L)
+    (out / "report.md").write_text(text)
+    return text
+
+
+def _band(ax, t, runs, label, color):
+    med = np.median(runs, axis=0)
+    lo, hi = np.percentile(runs, [10, 90], axis=0)
+    ax.fill_between(t, lo, hi, color=color, alpha=0.2, lw=0)
+    ax.plot(t, med, color=color, lw=1.2, label=f"{label} (median, 10-90 %)")
+
+
+def _figures(results, out: Path) -> list:
+    from matplotlib.figure import Figure
+    t = results[0]["t"]
+    files = []
+    colors = {"attitude-position": "C0", "velocity-position": "C3"}
+    for what, panels in (("position", (("horizontal_m", "horizontal error (m)", False),
+                                       ("vertical_m", "height error (m)", False))),
+                         ("attitude", (("yaw_arcmin", "heading error (arcmin)", False),
+                                       ("pitch_arcmin", "pitch error (arcmin)", False),
+                                       ("roll_arcmin", "roll error (arcmin)", False)))):
+        fig = Figure(figsize=(10, 2.6 * len(panels) + 0.6))
+        axes = fig.subplots(len(panels), 1, sharex=True)
+        for ax, (key, ylabel, _) in zip(axes, panels):
+            for label, color in colors.items():
+                runs = np.array([r[label]["series"][key] for r in results])
+                for run in runs[:5]:
+                    ax.plot(t, run, color=color, lw=0.4, alpha=0.5)
+                _band(ax, t, runs, label, color)
+            ax.set_ylabel(ylabel)
+            ax.grid(alpha=0.3)
+        axes[0].legend(loc="upper left", fontsize=8)
+        axes[0].set_title(f"Paper 002 drive, sins-dr {what} errors over {len(results)} runs "
+                          "(thin: first 5 runs)")
+        axes[-1].set_xlabel("time (s)")
+        fig.tight_layout()
+        name = f"{what}_errors.png"
+        fig.savefig(out / name, dpi=90)
+        files.append(name)
+    fig = Figure(figsize=(10, 4))
+    ax = fig.subplots()
+    for i, label in enumerate(METHODS):
+        runs = np.array([r[label]["series"]["horizontal_m"] for r in results])
+        ax.semilogy(t[1:], np.median(runs, axis=0)[1:], color=f"C{i}", label=label)
+    ax.set_xlabel("time (s)")
+    ax.set_ylabel("horizontal error, median (m)")
+    ax.grid(alpha=0.3, which="both")
+    ax.legend(fontsize=8)
+    ax.set_title("sins-dr against pure SINS and pure DR")
+    fig.tight_layout()
+    fig.savefig(out / "baselines_horizontal.png", dpi=90)
+    files.append("baselines_horizontal.png")
+    return files
+
+
+# ------------------------------------------------------------------------------ entry point
+def reproduce(out_dir, runs=20, workers=2, seed=0, progress=True) -> dict:
+    """Run the Monte Carlo; write ``report.md``, ``summary.json`` and PNG figures.
+
+    Parameters
+    ----------
+    out_dir : folder to write into (created)
+    runs : Monte Carlo runs (>= 1; the issue asks for at least 20)
+    workers : processes (``ProcessPoolExecutor``); 1 runs in this process
+    seed : base seed; run ``i`` uses ``default_rng([seed, i])``
+    progress : show a tqdm progress bar
+
+    Returns
+    -------
+    dict with the aggregate statistics per method, the verdicts, the per-run statistics and
+    the files written.
+    """
+    from ..errors import BadInput
+    if int(runs) < 1 or int(workers) < 1:
+        raise BadInput(f"runs and workers must be >= 1, got runs={runs}, workers={workers}")
+    out = Path(out_dir)
+    out.mkdir(parents=True, exist_ok=True)
+    tasks = [(i, int(seed)) for i in range(int(runs))]
+    t0 = time.perf_counter()
+    bar = None
+    if progress:
+        from tqdm import tqdm
+        bar = tqdm(total=len(tasks), desc="paper 002 Monte Carlo", unit="run")
+    results = []
+    if workers > 1:
+        with ProcessPoolExecutor(max_workers=int(workers)) as ex:
+            for r in ex.map(run_one, tasks):
+                results.append(r)
+                if bar is not None:
+                    bar.update(1)
+    else:
+        for task in tasks:
+            results.append(run_one(task))
+            if bar is not None:
+                bar.update(1)
+    if bar is not None:
+        bar.close()
+    wall = time.perf_counter() - t0
+    agg = aggregate(results)
+    ver = verdicts(agg)
+    files = _figures(results, out)
+    _report(agg, ver, len(results), seed, wall, results[0]["distance_m"], files, out)
+    js = {"paper": PAPER, "runs": len(results), "seed": seed, "wall_s": wall,
+          "settle_s": SETTLE_S, "init_sigma_arcmin": INIT_SIGMA_ARCMIN, "aggregate": agg,
+          "verdicts": ver, "files": files,
+          "per_run": [{"index": r["index"], **{lab: r[lab]["stats"] for lab in METHODS}}
+                      for r in results]}
+    (out / "summary.json").write_text(json.dumps(js, indent=2))
+    return js
+
+
+if __name__ == "__main__":
+    import sys
+    dest = sys.argv[1] if len(sys.argv) > 1 else "reproduce_002"
+    n = int(sys.argv[2]) if len(sys.argv) > 2 else 20
+    reproduce(dest, runs=n)
+    print((Path(dest) / "report.md").read_text())
