@@ -98,6 +98,8 @@ class OdVelocityKfConfig(BaseModel):
     000 sec. 5 where it gives them. Measurement noise: ``velocity_noise_m_s`` the radar's
     0.1 m/s; ``nhc_noise_m_s`` 0.03 m/s (paper 000 puts no noise on Z2, eq. 39; a small floor
     keeps the update well conditioned, and lets the chi-square gate see side slips);
+    ``lateral_noise_m_s`` the floor across the sensor's axis of the velocity difference
+    (resolved in body axes: the sensor's noise is along its axis only);
     ``baro_noise_m``; ``attitude_noise_arcmin`` for the SINS-minus-DR attitude (both from the
     same gyros, so only numerical and transport-rate differences: small).
     """
@@ -130,6 +132,7 @@ class OdVelocityKfConfig(BaseModel):
     accel_bias_rw_ug_sqrt_h: float = Field(0.0, ge=0)
     velocity_noise_m_s: float = Field(0.1, gt=0)
     nhc_noise_m_s: float = Field(0.03, gt=0)
+    lateral_noise_m_s: float = Field(0.03, gt=0)
     baro_noise_m: float = Field(2.0, gt=0)
 
 
@@ -186,6 +189,18 @@ def _ypr(C):
     """``[yaw, pitch, roll]`` [rad] of ``C_b^n`` (DESIGN convention; the order of eq. 23)."""
     return np.array([np.arctan2(C[0, 1], C[1, 1]), np.arcsin(min(1.0, max(-1.0, C[2, 1]))),
                      np.arctan2(-C[2, 0], C[2, 2])])
+
+
+def _in_body(C_nb, z, H):
+    """A velocity-difference measurement ``(z, H)`` resolved in the (computed) body axes.
+
+    The sensor's noise lies along the forward axis only (its speed times the computed forward
+    direction), so in body axes ``R`` is diagonal: ``diag(lateral, forward, vertical)`` with
+    the sensor's noise forward and only the model floor ``dr_lateral_noise_m_s`` across. The
+    rotation by the computed ``C_n^b`` changes the measurement only to second order.
+    """
+    C_bn = C_nb.T
+    return C_bn @ z, C_bn @ H
 
 
 def _wrap(a):
@@ -280,7 +295,8 @@ class _AlignmentFilter:
         self.gate = _Gate(cfg.gate_probability)
         self._r = {      # diagonal measurement noise variances per group
             "attitude": np.full(3, (getattr(cfg, "attitude_noise_arcmin", 1.0) * ARCMIN) ** 2),
-            "velocity": np.full(3, cfg.velocity_noise_m_s ** 2),
+            "velocity": np.array([cfg.lateral_noise_m_s, cfg.velocity_noise_m_s,
+                                  cfg.lateral_noise_m_s]) ** 2,     # body axes, _in_body
             "nhc": np.full(2, cfg.nhc_noise_m_s ** 2),
             "baro": np.full(1, cfg.baro_noise_m ** 2)}
 
@@ -324,11 +340,11 @@ class _AlignmentFilter:
             if cfg.use_velocity:
                 H = -em.dr_velocity_rows(lay, pt_D)
                 H[:, lay["dv"]] += np.eye(3)
-                groups.append(("velocity", xs[3:6] - xd[3:6], H))
+                groups.append(("velocity", *_in_body(C_D, xs[3:6] - xd[3:6], H)))
         else:
             v_s = pt.C_nb @ np.array([0.0, self.v[k], 0.0])
-            groups.append(("velocity", xs[3:6] - v_s,
-                           em.sensor_velocity_rows(lay, pt, vel_sensor_n=v_s)))
+            groups.append(("velocity", *_in_body(pt.C_nb, xs[3:6] - v_s,
+                                                 em.sensor_velocity_rows(lay, pt, vel_sensor_n=v_s))))
         if cfg.use_nhc:
             z = (pt.C_nb.T @ xs[3:6])[[0, 2]]
             groups.append(("nhc", z, em.nhc_rows(lay, pt, with_mount=cfg.nhc_mount_terms)))
