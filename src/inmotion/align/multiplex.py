@@ -3,9 +3,11 @@ sec. 3.2.1 and 3.3.1): method ``fine-mux``.
 
 Fault-tolerant speed (sec. 3.2.1, Figure 2)
     The vehicle's forward speed is redundant in the odometer, the LDV and the IMU. At every
-    IMU row the IMU predicts the speed from the last accepted value and its forward velocity
-    increment, ``v_imu(k) = v(k-1) + dvel_y(k) - g sin(theta) dt`` (``d v / dt = f_y -
-    g sin(theta)`` along the forward axis, whose ``omega x v`` term vanishes). The channel
+    IMU row the IMU predicts the speed from its reference and its forward velocity
+    increment, ``v_imu(k) = v_ref(k-1) + dvel_y(k) - g sin(theta) dt`` (``d v / dt = f_y -
+    g sin(theta)`` along the forward axis, whose ``omega x v`` term vanishes); the reference
+    follows the accepted speed with a 2 s time constant, so a fault that sets in over a few
+    samples (a distance sensor's interval straddling the fault's start) cannot drag it. The channel
     closer to ``v_imu`` is used; if both differ by more than ``speed_tolerance_m_s`` the IMU
     prediction bridges the gap (both channels faulty, rare and short). ``sin(theta)`` is a
     low-pass (``pitch_time_constant_s``) of ``(f_y - dv/dt) / g`` with the accepted speed:
@@ -65,7 +67,7 @@ class MuxConfig(BaseModel):
 
 
 def fault_tolerant_speed(bundle: Bundle, t: np.ndarray, tolerance_m_s: float = 0.3,
-                         pitch_tau_s: float = 5.0):
+                         pitch_tau_s: float = 5.0, ref_tau_s: float = 2.0):
     """The forward speed picked from OD / LDV by the IMU (module docstring).
 
     Parameters
@@ -94,9 +96,10 @@ def fault_tolerant_speed(bundle: Bundle, t: np.ndarray, tolerance_m_s: float = 0
     src = np.empty(len(t), dtype=np.int64)
     first = np.nanargmin(np.where(np.isnan(V[:, 0]), np.inf, 0.0))
     v[0], src[0] = V[first, 0], first
+    v_ref = v[0]
     s_pitch = 0.0
     for k in range(1, len(t)):
-        v_imu = v[k - 1] + dvy[k] - g * s_pitch * dt[k]
+        v_imu = v_ref + dvy[k] - g * s_pitch * dt[k]
         d = np.abs(V[:, k] - v_imu)
         d[np.isnan(d)] = np.inf
         j = int(np.argmin(d))
@@ -104,6 +107,9 @@ def fault_tolerant_speed(bundle: Bundle, t: np.ndarray, tolerance_m_s: float = 0
             v[k], src[k] = V[j, k], j
         else:
             v[k], src[k] = v_imu, 2
+        # the IMU reference follows the accepted speed only slowly (ref_time_constant_s), so
+        # a fault that sets in over a few samples cannot drag it along
+        v_ref = v_imu + dt[k] / ref_tau_s * (v[k] - v_imu)
         a = dt[k] / pitch_tau_s
         s_pitch += a * ((dvy[k] - (v[k] - v[k - 1])) / (g * dt[k]) - s_pitch)
     change = np.flatnonzero(np.diff(src)) + 1

@@ -69,6 +69,7 @@ def detect_motion(bundle: Bundle, t0: float, noise_m_s, false_alarm_rate: float,
     Returns ``(t_switch, lambda_at_switch, threshold)``.
     """
     t_imu = bundle.imu.t
+    t0 = first_covered(bundle, t0)
     step = max(1, int(round(1.0 / (rate_hz * bundle.imu.dt))))
     k0 = int(np.searchsorted(t_imu, t0 - 1e-9))
     t = t_imu[k0::step]
