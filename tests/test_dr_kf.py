@@ -143,3 +143,17 @@ def test_prior_ties_dr_errors_to_sins_errors():
     D[lay.index("phi_U")], D[lay.index("phi_D_U")] = 1.0, -1.0
     assert D @ P @ D == pytest.approx(0.0, abs=1e-20)
     assert np.all(np.linalg.eigvalsh(P) > -1e-15)
+
+
+@pytest.mark.slow
+def test_reproduce_000_writes_report_tables_and_figures(tmp_path):
+    from inmotion.evaluate.reproduce_000 import reproduce
+    js = reproduce(tmp_path, runs=2, workers=1, progress=False)
+    text = (tmp_path / "report.md").read_text()
+    assert "| traj1 | with_Z2 | 0.5 / 0.4 / 3.2 |" in text
+    for f in js["figures"]:
+        assert (tmp_path / f).stat().st_size > 1000
+    s = js["summary"]["traj1/with_Z2"]
+    assert s["mount_truth_arcmin"] == pytest.approx([3.0, 10.0, 5.0])
+    assert s["mount_sigma_final_over_prior"][1] > 0.98       # beta: stays at its prior
+    assert all(v < 1.0 for v in s["max_abs_last100_median_arcmin"][:2])
