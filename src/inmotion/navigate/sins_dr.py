@@ -35,16 +35,36 @@ Choices where the paper is silent (documented, not tuned to a seed):
   rejecting a diverging filter's updates never recovers;
 * measurement noise: the attitude difference of two systems on the same gyros is nearly
   noise-free, 0.2 arcmin covers linearization and the DR's midpoint attitude; the position
-  difference 0.5 m; the velocity difference carries the sensor's white noise (0.1 m/s, paper
-  000's figure). The DR position random walk from that noise is process noise
-  (:mod:`inmotion.estimation.sins_dr_driver`);
+  difference 0.5 m. The velocity difference is resolved in the DR's body frame: along the
+  vehicle it carries the sensor's white noise (``velocity_noise_m_s``, 0.1 m/s, paper 000's
+  figure); across and up (``velocity_cross_noise_m_s``) the DR velocity is zero by
+  construction, and what the difference sees there is the vehicle's own lateral and vertical
+  motion, for which 0.1 m/s (the usual non-holonomic noise, as ``dr-kf``'s) is the default:
+  the same isotropic 0.1 m/s a per-axis reading of paper 002 gives. The DR position random
+  walk from the sensor noise is process noise (:mod:`inmotion.estimation.sins_dr_driver`);
 * the vertical channel: the SINS height is held by the position difference to the DR's height
   (the paper's measurement); a barometer can be added (``use_baro``);
 * the scale factor ``dk`` is estimated, not fed back (the DR keeps the raw sensor speed).
 
+What the measurements carry (measured, ``inmotion.evaluate.reproduce_002``): the SINS and
+the DR share the gyros and start from the same attitude, so ``phi - phi_D`` grows only from
+the difference of their transport rates, ``Wen_v (dv - dv_D) ~ (dv - dv_D) / R``: the attitude
+rows see the integral of the velocity-error difference that the position rows see, scaled by
+``1 / R`` (1 m of position difference is 0.0005'). Open loop (pure SINS against pure DR,
+velocity errors of m/s) it reaches about 1' in the hour; in the closed loop (cm/s) thousandths
+of an arcminute, and the attitude/position mode behaves as a position-only filter: its results
+do not change between 0.02' and 2' of attitude noise. Heading is learnt only by
+gyrocompassing through the position difference (the SINS's tilt from ``omega_ie x phi_U``
+makes it drift from the DR), slowly (1-sigma 1.8' -> 0.9' over the hour); the vertical gyro
+drift is not observable. The velocity/position mode is worse than attitude/position with the
+default cross-track noise at 10 Hz (as the paper found) and equal at 1 Hz; with a cross-track
+noise of 0.01 m/s (the simulator's vehicle neither slips nor bounces) it is better: the
+comparison depends on how the velocity difference is weighted, which the paper does not give.
+
 Velocity source: the radar by default, or any forward-velocity sensor of the bundle
 (``velocity_sensor``: ``radar``, ``ldv``, ``odometer``); its mounting and lever arm are taken
-from the configuration or ``meta.yaml`` as for method ``dr``.
+from the configuration or ``meta.yaml`` as for method ``dr`` (the IMU's mounting in the
+vehicle, ``vehicle_mounting_arcmin``, and the sensor's lever arm).
 """
 from __future__ import annotations
 
@@ -84,6 +104,21 @@ class SinsDrConfig(BaseModel):
     Priors are 1-sigma at the start (a fine-aligned SINS; the DR starts from the same state,
     so its errors start equal to the SINS's). Sensor figures default to paper 002 (gyro drift
     0.01 deg/h) and, where its text lost them, paper 000 sec. 5.
+
+    Attributes (beyond the priors and noise densities, whose names carry their units)
+    ----------
+    mode : ``attitude-position`` or ``velocity-position`` (paper 002 eq. 43 / 52)
+    velocity_sensor : radar, ldv or odometer; None takes the first present
+    filter_rate_hz, measurement_rate_hz, output_rate_hz : rounded to whole IMU rows /
+        filter epochs; output defaults to the filter rate
+    use_baro : add the barometric height measurement (not in the paper)
+    gate_probability : chi-square gate per measurement group (1: off)
+    dr_sees_gyro_drift : keep ``-C_b^n eps`` in the DR attitude rows (error_model)
+    mounting_arcmin : the IMU's mounting in the vehicle (``C_v^b``) for the DR; None: meta
+    lever_arm_m : the sensor's lever arm in b; None: meta
+    speed_noise_m_s : the sensor's white noise, for the DR position random walk
+    velocity_noise_m_s, velocity_cross_noise_m_s : velocity-difference noise along and
+        across / up the vehicle (velocity/position mode)
     """
 
     model_config = ConfigDict(extra="forbid")
