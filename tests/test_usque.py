@@ -226,3 +226,17 @@ def test_bad_input_too_short():
     with pytest.raises(BadInput, match="too few IMU rows"):
         usque.run(Bundle(b.imu.window(0, 0.1), b.meta, ldv=b.ldv, truth=b.truth),
                   usque.UsqueConfig())
+
+
+def test_filter_on_the_coarse_alignment_vectors(clean_drive):
+    # the same filter fed by inmotion.align.obs_vectors (paper 001 eq. 13-19 as printed)
+    # converges like the one on its own accumulation
+    for Config in (usque.UsqueConfig, usque.AusquheConfig):
+        sol = usque.run(clean_drive, Config(vectors="obs_vectors"), None)
+        own = usque.run(clean_drive, Config(), None)
+        err, err_own = _errors_deg(sol, clean_drive.truth), _errors_deg(own, clean_drive.truth)
+        late = sol.t > 200.0
+        assert np.abs(err[late]).max() < 0.01
+        assert abs(err[-1, 2] - err_own[-1, 2]) < 0.005
+    with pytest.raises(BadInput, match="attitude state only"):
+        usque.run(clean_drive, usque.UsqueConfig(vectors="obs_vectors", estimate_scale=True))

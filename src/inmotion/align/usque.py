@@ -80,6 +80,14 @@ class UsqueConfig(BaseModel):
     ----------
     sensor : {"ldv", "radar", "odometer"}
         The forward-velocity sensor (paper: LDV).
+    vectors : {"own", "obs_vectors"}
+        Where the measurement comes from. ``own``: :mod:`inmotion.align.usque_model`'s
+        streaming accumulation at every IMU row, exact Earth-rate term in ``h``, extra states
+        possible. ``obs_vectors``: the coarse-alignment module's per-epoch OBA pairs
+        (:func:`inmotion.align.obs_vectors.integrate_vectors`, ``MODEL_VB_EARTH``: paper 001
+        eq. 13-19 as printed, two-sample intervals so updates at half the IMU rate, the
+        Earth-rate term and ``v^n`` from its running q-method attitude, ``v^b(0)`` line-fitted
+        over ``v0_fit_s``); attitude state only.
     update_rate_hz : float
         Filter update rate [Hz]; the paper's IMU and LDV run at 100 Hz and the paper states no
         other rate, so 100 Hz (an update at every IMU row of a 100 Hz bundle).
@@ -133,10 +141,13 @@ class UsqueConfig(BaseModel):
         Bounds of the adaptive gamma [deg] (eq. 55-56).
     hinf_margin : float
         ``rho > 1``: H-infinity steps only with ``gamma >= rho gamma_a`` (see ``_covariance``).
+    v0_fit_s : float
+        ``vectors="obs_vectors"`` only: line-fit window for ``v^b(0)`` [s] (0: raw sample).
     """
 
     model_config = ConfigDict(extra="forbid")
     sensor: Literal["ldv", "radar", "odometer"] = "ldv"
+    vectors: Literal["own", "obs_vectors"] = "own"
     update_rate_hz: float = Field(100.0, gt=0)
     sigma0_deg: tuple[float, float, float] = (3.0, 3.0, 12.0)
     process_noise_deg: float = Field(1e-7, ge=0)
@@ -164,6 +175,7 @@ class UsqueConfig(BaseModel):
     gamma_min_deg: float = Field(0.1, gt=0)
     gamma_max_deg: float = Field(30.0, gt=0)
     hinf_margin: float = Field(1.2, gt=1)
+    v0_fit_s: float = Field(1.0, ge=0)
 
 
 class AusqueConfig(UsqueConfig):
@@ -359,6 +371,8 @@ def run(bundle: Bundle, config: UsqueConfig, init: Optional[NavState] = None,
     Solution at the update epochs (the first row is the start, before any update).
     """
     t_start = time.perf_counter()
+    if config.vectors == "obs_vectors":
+        return _run_obs_vectors(bundle, config, init, method, t_start)
     imu = bundle.imu
     if len(imu.t) < 3:
         raise BadInput(f"bundle {bundle.name!r}: too few IMU rows ({len(imu.t)}) to align")
@@ -384,6 +398,50 @@ def run(bundle: Bundle, config: UsqueConfig, init: Optional[NavState] = None,
             "start_attitude": "q = [1 0 0 0] (C_b^n = I), the paper's start"}
     return out.solution(imu.t[np.concatenate([[0], epochs])], speed[np.concatenate([[0], epochs])],
                         flt, info)
+
+
+def _run_obs_vectors(bundle, config, init, method, t_start):
+    """The filter on the coarse-alignment module's vectors (``config.vectors="obs_vectors"``)."""
+    from . import obs_vectors as ov
+    from . import usque_kernel as kernel
+    from . import velocity_source as vs
+    flt = _Filter(config)
+    if flt.extra:
+        raise BadInput("vectors=obs_vectors supports the attitude state only; "
+                       f"drop {', '.join(flt.extra)} or use vectors=own")
+    imu = bundle.imu
+    if len(imu.t) < 3:
+        raise BadInput(f"bundle {bundle.name!r}: too few IMU rows ({len(imu.t)}) to align")
+    speed = _speed_at_imu(bundle, config.sensor)
+    lat, lon, h = _initial_position(bundle, init)
+    _, data = bundle.velocity_sensor(config.sensor)
+    speed0 = vs.initial_speed(config.sensor, data, float(imu.t[0]), config.v0_fit_s)
+    vr = ov.integrate_vectors(imu.t, imu.dtheta, imu.dvel, speed, speed0, lat, lon, h,
+                              model=ov.MODEL_VB_EARTH, out_every=1)
+    # paper 001: alpha = C_{n(t)}^i beta_001 with beta_001 = C_{n(0)}^{n(t)} beta
+    beta_n = np.einsum("kji,kj->ki", rotations.dcm_from_quat(vr.q_n0n), vr.beta)
+    out = _Outputs(len(vr.t), flt.layout)
+    out.q_in[0], out.P[0], out.R[0], out.gamma[0], out.x[0] = (flt.q, flt.P, np.sqrt(flt.R),
+                                                             np.inf, flt.x)
+    mode = {"none": kernel.HINF_NONE, "fixed": kernel.HINF_FIXED,
+            "adaptive": kernel.HINF_ADAPTIVE}[config.hinf]
+    hits = kernel.run_vector_epochs(
+        np.ascontiguousarray(vr.alpha), np.ascontiguousarray(beta_n),
+        np.ascontiguousarray(vr.q_n0n), flt.x.copy(), flt.P.copy(), flt.q.copy(), flt.Q,
+        flt.scheme.Wm, flt.scheme.Wc, flt.scheme.n + flt.scheme.lam, flt.a, flt.f,
+        flt.R.copy(), flt.eta, config.adaptive_r, config.fading_factor, flt.R_min, flt.R_max,
+        mode, config.gamma_deg * _DEG, config.k0, config.gamma_min_deg * _DEG,
+        config.gamma_max_deg * _DEG, config.hinf_margin, out.q_in, out.P, out.R, out.gamma,
+        out.x)
+    out.q_ib[:] = vr.q_b0b
+    out.lla[:] = np.stack([vr.lat, vr.lon, vr.h], -1)
+    i_speed = np.searchsorted(imu.t, vr.t).clip(0, len(imu.t) - 1)
+    info = {"method": method, "config": config.model_dump(),
+            "timing_s": time.perf_counter() - t_start, "update_stride_rows": 2,
+            "final_R_m_s": out.R[-1].tolist(), "hinf_floor_hits": int(hits),
+            "vectors": "inmotion.align.obs_vectors (MODEL_VB_EARTH)",
+            "start_attitude": "q = [1 0 0 0] (C_b^n = I), the paper's start"}
+    return out.solution(vr.t, speed[i_speed], flt, info)
 
 
 def _run_reference(flt, acc, imu, speed, epochs, out, progress):

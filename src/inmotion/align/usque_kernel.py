@@ -266,3 +266,28 @@ def run_epochs(acc, dtheta, dvel, dt_rows, speed, epochs, x, P, q, Q, Wm, Wc, sc
         q_n0n_prev = q_n0n
         k_prev = k
     return hits
+
+
+@numba.njit(cache=True)
+def run_vector_epochs(y, beta_n, q_n0n, x, P, q, Q, Wm, Wc, scale, a, f, R, eta, adaptive_r,
+                      c_fade, R_min, R_max, hinf_mode, gamma_fixed, k0, gamma_min, gamma_max,
+                      margin, out_q_in, out_P, out_R, out_gamma, out_x):
+    """The filter cycle over precomputed per-epoch vectors (``y``, ``beta_n``: (M, 3), and
+    ``q_n0n``: (M, 4), epoch 0 the start), attitude state only: the Earth-rate term is already
+    in ``y`` (``inmotion.align.obs_vectors``, model ``MODEL_VB_EARTH``). Returns floor hits."""
+    zero3 = np.zeros(3)
+    S = np.zeros((3, 0))
+    hits = 0
+    for j in range(1, y.shape[0]):
+        dq_n = _qmul(_qconj(q_n0n[j - 1]), q_n0n[j])
+        x, P, q = _predict(x, P, q, dq_n, Wm, Wc, scale, Q, a, f)
+        x, P, q, R, eta, gamma, hit, e = _update(
+            x, P, q, y[j], beta_n[j], zero3, zero3, S, Wm, Wc, scale, a, f, R, eta, adaptive_r,
+            c_fade, R_min, R_max, hinf_mode, gamma_fixed, k0, gamma_min, gamma_max, margin)
+        hits += hit
+        out_q_in[j] = q
+        out_P[j] = P
+        out_R[j] = np.sqrt(R)
+        out_gamma[j] = gamma
+        out_x[j] = x
+    return hits
