@@ -30,6 +30,7 @@ from pydantic import BaseModel, ConfigDict, Field
 
 from ..core import earth
 from ..core.bundle import Bundle
+from ..core.rotations import dcm_from_quat
 from ..core.mechanization import Strapdown, _first_row
 from ..core.solution import NavState, Solution
 from ..errors import BadInput
@@ -133,7 +134,7 @@ def run_parked_kf(bundle: Bundle, config: ParkedKfConfig | dict | None = None,
         sins.run(imu.dtheta[a:b] - bias_g * dt[:, None], imu.dvel[a:b] - bias_a * dt[:, None], tt)
         t_prev = tt[-1]
         x = sins.x
-        C = _dcm(x[6:10])
+        C = dcm_from_quat(x[6:10])
         kf.set_model(parked_F(init.lat, C, C @ sins.f_b), Qc)
         kf.predict(dt.sum())
         kf.update(x[3:6].copy(), H, R)
@@ -164,7 +165,3 @@ def run_parked_kf(bundle: Bundle, config: ParkedKfConfig | dict | None = None,
                                 sigma=sigma, states=states, state_units=lay.unit_map(),
                                 info=info)
 
-
-def _dcm(q):
-    from ..core.rotations import dcm_from_quat
-    return dcm_from_quat(q)
