@@ -692,3 +692,6 @@ cli.add_command(import_cmd); cli.add_command(export_cmd)
 
 from .campaign_cmds import montecarlo, report  # noqa: E402  (issue 8: campaigns and reports)
 cli.add_command(montecarlo); cli.add_command(report)
+
+from .reproduce_cmds import reproduce  # noqa: E402  (issue 8: paper reproductions)
+cli.add_command(reproduce)
