@@ -11,11 +11,12 @@ The shared tests (``test_error_model.py``, ``test_kalman.py``) already check ``e
 * the DR position random walk the filter adds, against Monte Carlo dead reckoning with a noisy
   speed (closed form ``sigma_v^2 T_s t``);
 * a 24 h drive (10 Hz IMU, 1 Hz filter): the covariance stays symmetric positive definite and
-  bounded, hour after hour;
+  bounded, hour after hour, and a six-hour call allocates no more than a one-hour one;
 * short drives against simulated truth: errors inside the filter's 3-sigma, and bounds;
 * every bad-input path, and ``inmotion navigate --method sins-dr --mode ...``.
 """
 import json
+import tracemalloc
 
 import numpy as np
 import pytest
@@ -230,10 +231,16 @@ def test_covariance_stays_symmetric_positive_definite_for_24_hours():
                        output_rate_hz=0.01)
     filt, rows, (name, speed) = build_filter(b, cfg, _truth_init(b))
     t, dth, dvl = b.imu.t[rows], b.imu.dtheta[rows], b.imu.dvel[rows]
+    build_filter(b, cfg, _truth_init(b))[0].run(t[:100], dth[:100], dvl[:100], speed)  # warm-up
     per_hour = 36000
-    sig_first = None
-    for a in range(0, len(t), per_hour):
-        out = filt.run(t[a:a + per_hour], dth[a:a + per_hour], dvl[a:a + per_hour], speed)
+    peaks = {}
+    spans = [(0, 6 * per_hour)] + [(a, a + per_hour) for a in range(6 * per_hour, len(t),
+                                                                    per_hour)]
+    for a, b_ in spans:                               # six hours at once, then hour by hour
+        tracemalloc.start()
+        out = filt.run(t[a:b_], dth[a:b_], dvl[a:b_], speed)
+        peaks.setdefault((b_ - a) // per_hour, tracemalloc.get_traced_memory()[1])
+        tracemalloc.stop()
         P = filt.P
         assert np.array_equal(P, P.T)
         d = np.sqrt(np.diagonal(P))
@@ -242,12 +249,11 @@ def test_covariance_stays_symmetric_positive_definite_for_24_hours():
         assert np.linalg.eigvalsh(corr).min() > 0.0
         np.linalg.cholesky(P)
         sig = out["sigma"][-1]
-        if sig_first is None:
-            sig_first = sig
-        # no drift of the covariance: position and heading sigma stay bounded (metres, arcmin)
-        units = LAY.unit_map()
+        # no drift of the covariance: heading and height sigma stay bounded
         assert sig[LAY.index("phi_U")] < 5 * ARCMIN
         assert sig[LAY.index("dp_h")] < 20.0
+    # memory: six hours in one call need no more than one hour (outputs at 0.01 Hz are tiny)
+    assert peaks[6] < peaks[1] + 2**18
     errs = error_series(run_sins_dr(b, cfg, _truth_init(b)), b.truth)
     assert errs.horizontal_m.max() < 200.0          # 0.05 % of the 1 250 km driven
     assert filt.counts()["attitude"]["rejected"] == 0
@@ -372,13 +378,21 @@ def test_bad_inputs_raise_one_clear_message(short_drive):
                     init.q_nb)
     with pytest.raises(BadInput, match="no IMU rows after"):
         run_sins_dr(short_drive, {}, late)
+    for k in (50, 3000):                   # rows are counted in the whole table
+        bad = short_drive.window(None, None)
+        v = bad.radar.v.copy()
+        v[k] = np.nan
+        bad.radar = SpeedData(bad.radar.t, v=v)
+        with pytest.raises(BadInput, match="radar.*not a finite") as e:
+            run_sins_dr(bad, {"velocity_sensor": "radar"}, init)
+        assert e.value.row == k + 1 and e.value.time == pytest.approx(bad.radar.t[k])
     bad = short_drive.window(None, None)
-    v = bad.radar.v.copy()
-    v[50] = np.nan
-    bad.radar = SpeedData(bad.radar.t, v=v)
-    with pytest.raises(BadInput, match="not a finite") as e:
-        run_sins_dr(bad, {"velocity_sensor": "radar"}, init)
-    assert e.value.row == 51
+    ts = bad.radar.t.copy()
+    ts[2000] = ts[1999]
+    bad.radar = SpeedData(ts, v=bad.radar.v)
+    with pytest.raises(BadInput, match="not strictly increasing") as e:
+        run_sins_dr(bad, {}, init)
+    assert e.value.row == 2001
 
 
 # -- the command line --------------------------------------------------------------------------

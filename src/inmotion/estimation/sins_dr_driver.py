@@ -61,6 +61,7 @@ from ..core.bundle import SpeedData
 from ..core.deadreckoning import DeadReckoner, speed_on_epochs
 from ..core.mechanization import Strapdown
 from ..core.solution import NavState
+from ..errors import BadInput
 from . import error_model as em
 from .kalman import _predict_kernel
 from .layout import Layout
@@ -74,6 +75,8 @@ GROUPS = ("attitude", "velocity", "position", "height")
 GROUP_SIZES = (3, 3, 3, 1)
 #: IMU rows per chunk handed to the numba loop (rounded to whole filter epochs)
 CHUNK_ROWS = 16384
+#: sensor samples whose median period sets the gap threshold (5 periods), as dead_reckon's
+GAP_SAMPLES = 10001
 
 
 # ----------------------------------------------------------------------------- small kernels
@@ -349,16 +352,26 @@ def _run_epochs(ends, dtheta, dvel, dt, ds, v, h_baro, t,
     return n_out
 
 
-def _speed_window(speed: SpeedData, edges) -> SpeedData:
-    """The sensor samples that cover ``edges[0] .. edges[-1]`` (one more on each side, at
-    least two): resampling a chunk then costs memory of the chunk's size, not the log's.
-    Distance differences inside the window are those of the whole log."""
+def _speed_on_chunk(speed: SpeedData, edges, max_gap: float, sensor: str):
+    """:func:`speed_on_epochs` on the sensor samples that cover ``edges[0] .. edges[-1]`` (one
+    more on each side, at least two): resampling and validating a chunk costs memory of the
+    chunk's size, not the log's. Distance differences inside the window are those of the whole
+    log; consecutive windows share their end samples, so every pair of samples is checked, and
+    a bad row is reported with its row number in the whole table."""
     ts = speed.t
+    if len(ts) < 2:
+        raise BadInput(f"need at least 2 samples, got {len(ts)}", file=sensor)
     i0 = max(0, min(int(np.searchsorted(ts, edges[0], side="right")) - 1, len(ts) - 2))
     i1 = min(len(ts), max(int(np.searchsorted(ts, edges[-1], side="left")) + 1, i0 + 1) + 1)
     w = slice(i0, i1)
-    return SpeedData(ts[w], None if speed.v is None else speed.v[w],
-                     None if speed.ds is None else speed.ds[w])
+    window = SpeedData(ts[w], None if speed.v is None else speed.v[w],
+                       None if speed.ds is None else speed.ds[w])
+    try:
+        ds, v, _, _ = speed_on_epochs(window, edges, max_gap=max_gap, what=sensor)
+    except BadInput as e:
+        raise BadInput(e.what, file=e.file, row=None if e.row is None else e.row + i0,
+                       time=e.time) from None
+    return ds, v
 
 
 # ----------------------------------------------------------------------------- the driver
@@ -449,8 +462,7 @@ class SinsDrFilter:
         out["states"][0] = self.fed_back + self.x
         i_out = 1
         chunk = max(1, CHUNK_ROWS // self.step) * self.step
-        speed_on_epochs(speed, np.array([self.sins.t, t[0]]), what=sensor)   # validates once
-        max_gap = 5.0 * float(np.median(np.diff(speed.t)))
+        max_gap = 5.0 * float(np.median(np.diff(speed.t[:GAP_SAMPLES])))
         Qc = np.ascontiguousarray(self.model.Qc())
         nz = self.noise
         for a in range(0, n_rows, chunk):
@@ -458,8 +470,7 @@ class SinsDrFilter:
             tc = t[a:b]
             t_prev = self.sins.t if a == 0 else t[a - 1]
             edges = np.concatenate([[t_prev], tc])
-            ds, v, _, _ = speed_on_epochs(_speed_window(speed, edges), edges,
-                                          max_gap=max_gap, what=sensor)
+            ds, v = _speed_on_chunk(speed, edges, max_gap, sensor)
             dt = np.diff(edges)
             hb = h_baro(tc) if h_baro is not None else np.full(len(tc), np.nan)
             ends = np.arange(self.step, b - a + self.step, self.step)
