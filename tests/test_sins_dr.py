@@ -415,3 +415,31 @@ def test_cli_navigate_sins_dr_with_mode(tmp_path, short_drive, mode):
     res = CliRunner().invoke(cli, ["--quiet", "navigate", str(bpath), "--method", "sins-dr",
                                    "--mode", "sideways", "-o", str(tmp_path / "x")])
     assert res.exit_code == 2
+
+
+# -- the reproduction's statistics ---------------------------------------------------------------
+
+def test_reproduce_002_statistics_on_a_known_error_table():
+    import pandas as pd
+    from inmotion.evaluate import reproduce_002 as rep
+    t = np.arange(0.0, 3601.0)
+    hor = np.where(t < rep.SETTLE_S, 100.0, 3.0 + 4.0 * (t == 2000))   # spike before settling
+    err = pd.DataFrame({"t": t, "horizontal_m": hor, "vertical_m": -2.0 * np.ones_like(t),
+                        "yaw_arcmin": np.where(t > 3000, -1.5, 0.5),
+                        "pitch_arcmin": 0.2 * np.ones_like(t), "roll_arcmin": -0.3 * np.ones_like(t),
+                        "distance_m": t * 14.0})
+    s = rep.run_statistics(err)
+    assert s["horizontal_max_m"] == 7.0 and s["horizontal_max_hour_m"] == 100.0
+    n_late = np.sum(t >= rep.SETTLE_S)
+    assert s["horizontal_rms_m"] == pytest.approx(np.sqrt((9.0 * (n_late - 1) + 49.0) / n_late))
+    assert s["horizontal_max_pct"] == pytest.approx(100 * 7.0 / (3600 * 14.0))
+    assert s["height_max_m"] == 2.0 and s["heading_max_arcmin"] == 1.5
+    assert s["level_max_arcmin"] == pytest.approx(0.3)
+    runs = [{lab: {"stats": dict(s, horizontal_max_m=k + (lab == "velocity-position")),
+                   "wall_s": 1.0} for lab in rep.METHODS} for k in (1.0, 2.0, 30.0)]
+    agg = rep.aggregate(runs)
+    assert agg["attitude-position"]["horizontal_max_m"]["median"] == 2.0
+    ver = rep.verdicts(agg)
+    assert ver["ap_meets_paper"] == {"horizontal_m": True, "heading_arcmin": True,
+                                     "level_arcmin": True}
+    assert ver["ap_beats_vp"]["horizontal_m"] and not ver["ap_beats_vp"]["heading_arcmin"]
