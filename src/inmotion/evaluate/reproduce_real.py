@@ -1,39 +1,40 @@
-"""Results on the two real drives of ``shared/data/real`` (issue 9): the first pieces, those
-that need only methods that exist today.
+"""Results on the two real drives of ``shared/data/real`` (issue 9): coarse alignment, the
+odometer / NHC filters of paper 003 and dead reckoning, against each drive's reference.
 
-What this computes
-------------------
-comma2k19 (60 s highway, phone IMU, CAN speed)
-    Dead reckoning (``dr``: gyro attitude + CAN speed) started from the reference pose at the
-    first IMU epoch, against the reference positions; three runs:
-
-    * ``raw``: CAN speed as it is, sensor axis taken along the IMU's forward axis;
-    * ``scale (README)``: CAN speed divided by 0.994, the README's "about 0.6 % low";
-    * ``scale + mounting (from reference)``: the scale and the pitch / yaw mounting angles
-      measured from the reference itself (:func:`reference_calibration`). These are **not
-      estimates**: they are what a perfect estimator of the odometer scale and mounting
-      (issue 7's odometer/NHC filter, not written yet) could at best give, an upper bound.
-
-    Pure inertial navigation (``sins``) from the same start is the baseline without aiding.
+comma2k19 (60 s highway, phone IMU, CAN speed; moving from the first sample)
+    * **Coarse alignment in motion** (``mimada-dual``, ``oba``; CAN speed as the velocity
+      sensor): level attitude (``phi_E``, ``phi_N``) against the reference at the end of the
+      60 s window. Their heading is reported but meaningless: a consumer gyro (residual biases
+      ~100 deg/h here, measured against the reference) cannot see the 15 deg/h Earth rate.
+    * **Odometer filter** ``od-kf`` (paper 003's 21-state SINS / OD filter: scale factor
+      ``dk``, pitch and yaw mounting ``mount_x``, ``mount_z``, lever arm; the NHC filter runs
+      alongside) started from the reference pose and velocity at the first IMU epoch, with
+      priors for a phone IMU (:data:`PHONE_OD_KF`); FDI off (a fault-free drive; the
+      chi-square test with a noise model fitted to simulation isolates good data). A second
+      run with looser start priors (:data:`PHONE_OD_KF_LOOSE`) shows how much the mounting
+      estimate depends on them.
+    * **NHC filter** ``nhc-kf`` in the vehicle frame, once with the vehicle frame taken equal
+      to the IMU's (no mounting) and once with the mounting the ``od-kf`` estimated (put into
+      ``meta['vehicle_mounting_arcmin']``, the nominal ``C_v^b`` every filter reads).
+    * **Dead reckoning** (``dr``: gyro attitude + CAN speed) from the reference pose: raw;
+      README scale; the scale and mounting *estimated* by ``od-kf``; and the scale and
+      mounting *measured from the reference* (:func:`reference_calibration`, an oracle, the
+      best a perfect estimator could give). ``sins`` is the unaided baseline.
 EMS (511 s city drive, 20 Hz MEMS, no odometer)
-    Dead reckoning with a **pseudo-odometer made from the reference speed** (the norm of the
-    reference velocity): not an independent sensor, so its position error only shows what the
-    gyros' attitude drift does to a perfectly scaled speed. Started from the reference at the
-    end of the still period (:func:`still_period_end`); once with the raw gyros, once with the
-    gyro bias measured over the still period removed (:func:`still_gyro_bias`). ``sins`` with
-    the same bias removed, from the same start, is the baseline without aiding.
+    Every run starts from the reference at the end of the still period
+    (:func:`still_period_end`) with the gyro bias measured over the still period removed
+    (:func:`still_gyro_bias`; the biases are hundreds of deg/h, the still period is the only
+    place they can be measured without a reference). ``nhc-kf`` (INS + NHC only, an
+    independent result) against ``sins``; and, **not independent**, ``od-kf`` and ``dr`` with a
+    pseudo-odometer made from the reference speed (:func:`ems_pseudo_odometer`): they show
+    what the gyros do to a perfect speed, nothing about an odometer.
 
-Not done yet (reported in the results under ``not_done``): level attitude from in-motion coarse
-alignment and the odometer/NHC filter (scale and mounting estimation) on comma2k19; INS with NHC
-only on EMS. Observability with these sensors (also in the results): level attitude is
-observable from the specific force once the vehicle's acceleration is known from the speed
-sensor; heading is not observable by gyrocompassing with consumer gyros (biases of ~100 to
-1000 deg/h against an Earth rate of 15 deg/h), so it is started from the reference; odometer
-scale and pitch / yaw mounting are observable from the speed against the INS velocity when the
-attitude is known, but not with DR alone.
+Observability with these sensors is in :data:`OBSERVABILITY` and the report.
 
-Run ``python -m inmotion.evaluate.reproduce_real -o DIR`` (writes ``real_results.json``,
-``real_table.md``, ``real_position_error.png``).
+Output (:func:`reproduce`): ``report.md``, ``results.json`` (a list of rows ``quantity,
+reference, measured, unit, note``), ``real_results.json`` (every run, for
+:mod:`inmotion.evaluate.reproduce`), ``real_position_error.png``, ``real_mounting.png``,
+``real_attitude_error.png``. Run ``python -m inmotion.evaluate.reproduce_real -o DIR``.
 """
 from __future__ import annotations
 
@@ -45,17 +46,19 @@ from pathlib import Path
 import numpy as np
 from matplotlib.figure import Figure
 
+from .. import registry
 from ..core import earth
 from ..core.bundle import Bundle, ImuData, SpeedData
 from ..core.solution import NavState
 from ..errors import BadInput
 from ..io.importers import import_log
-from ..navigate.pure import DrConfig, SinsConfig, run_dr, run_sins
+from ..navigate.pure import DrConfig, SinsConfig
 from .metrics import error_series, interpolate_truth
 
-__all__ = ["default_data_root", "reference_calibration", "run_comma2k19", "run_ems",
-           "still_period_end", "still_gyro_bias", "reproduce_real", "README_CAN_SCALE",
-           "STILL_SPEED_M_S"]
+__all__ = ["default_data_root", "reference_calibration", "estimated_sensor",
+           "coarse_alignment", "run_comma2k19", "run_ems", "ems_pseudo_odometer",
+           "still_period_end", "still_gyro_bias", "result_rows", "reproduce", "reproduce_real",
+           "README_CAN_SCALE", "STILL_SPEED_M_S", "OBSERVABILITY"]
 
 #: CAN speed over reference speed stated by the data README ("about 0.6 % low")
 README_CAN_SCALE = 0.994
@@ -63,19 +66,61 @@ README_CAN_SCALE = 0.994
 STILL_SPEED_M_S = 0.05
 
 NOT_DONE = [
-    "comma2k19: level attitude from in-motion coarse alignment (methods in progress)",
-    "comma2k19: odometer/NHC filter estimating odometer scale and pitch/yaw mounting (issue 7)",
-    "EMS: INS with NHC only, and with the reference-speed pseudo-odometer (needs the issue 7 "
-    "filter); here only DR with the pseudo-odometer",
+    "comma2k19: the lever arm states of od-kf are estimated but not reported (no reference for "
+    "them: the reference gives the camera's pose only)",
+    "od-kf scale factor dk: the estimate is reported but not trusted (see observability); on a "
+    "simulated drive with the true scale -0.11 % the filter also missed it (sign and size), "
+    "which points at the filter, not only at the data: left to the filter's engineer",
 ]
 OBSERVABILITY = {
-    "level attitude": "observable: specific force minus the acceleration known from the speed",
-    "heading": "not observable by gyrocompassing with consumer gyros (bias 100-1000 deg/h vs "
-               "Earth rate 15 deg/h); started from the reference",
-    "odometer scale, pitch/yaw mounting": "observable from speed vs INS velocity with known "
-                                           "attitude (filter of issue 7); not with DR alone",
-    "roll mounting, lever arm along forward": "not observable from a forward speed",
+    "level attitude (pitch, roll)": "observable from gravity: the specific force minus the "
+        "acceleration the speed sensor (or NHC) implies; bounded by the accelerometer bias "
+        "(b / g: 0.07 m/s^2 lateral on the phone = 0.4 deg) and, for the coarse methods, by "
+        "the gyro drift over the window that propagates the attitude",
+    "heading": "not observable by gyrocompassing with consumer gyros (biases 100-1000 deg/h "
+        "against the 15 deg/h Earth rate); started from the reference, then it drifts with "
+        "the uncompensated z-gyro bias (only partly observable through the lateral velocity)",
+    "mounting pitch (mount_x)": "observable with motion: the vertical velocity in the IMU "
+        "frame, v * alpha, against the INS whose vertical velocity gravity keeps near zero",
+    "mounting yaw (mount_z)": "observable with motion but weakly: the lateral velocity "
+        "v * gamma looks like a heading error and, at constant speed, like a lateral "
+        "accelerometer bias or z-gyro drift; it separates through speed changes, turns and "
+        "a known start (heading and velocity from the reference)",
+    "mounting roll": "not observable: a rotation about the direction of travel does not change "
+        "a forward speed",
+    "odometer scale factor": "not observable from the speed alone; against the INS only "
+        "through speed changes integrated by the accelerometers, so confounded with the "
+        "forward accelerometer bias and the pitch; it needs an independent velocity or "
+        "distance reference (GNSS, a surveyed distance, here the reference pose, which the "
+        "filter does not use)",
+    "gyro bias": "x, y observable in motion through the level attitude; z weakly (heading); "
+        "all three from a still period (EMS) to the noise",
 }
+#: od-kf on the phone (comma2k19): priors for a consumer IMU; start from the reference
+#: (velocity to 2 cm/s, heading to 0.1 deg); mounting prior 5 deg (covers the README's 3.8)
+PHONE_OD_KF = dict(measurement="velocity", fdi=False, use_baro=False,
+                   gyro_drift_deg_h=150.0, accel_bias_ug=10000.0, gyro_arw_deg_sqrt_h=0.5,
+                   accel_vrw_ug_sqrt_hz=300.0, init_tilt_sigma_deg=0.2,
+                   init_heading_sigma_deg=0.1, init_velocity_sigma_m_s=0.02,
+                   od_noise_m_s=[0.05, 0.05, 0.05], nhc_noise_m_s=0.05,
+                   mount_sigma_arcmin=300.0, od_scale_sigma_ppm=10000.0)
+#: the same with a looser start (velocity 5 cm/s, heading 0.5 deg): the sensitivity
+PHONE_OD_KF_LOOSE = {**PHONE_OD_KF, "init_velocity_sigma_m_s": 0.05,
+                     "init_heading_sigma_deg": 0.5}
+#: nhc-kf on the phone
+PHONE_NHC_KF = {k: PHONE_OD_KF[k] for k in (
+    "use_baro", "gyro_drift_deg_h", "accel_bias_ug", "gyro_arw_deg_sqrt_h",
+    "accel_vrw_ug_sqrt_hz", "init_tilt_sigma_deg", "init_heading_sigma_deg",
+    "init_velocity_sigma_m_s", "nhc_noise_m_s")}
+#: nhc-kf on the EMS MEMS after the still-period gyro bias is removed (residual 50 deg/h);
+#: NHC noise 0.3 m/s: a city car's lateral slip and vertical bounce
+EMS_NHC_KF = dict(use_baro=False, gyro_drift_deg_h=50.0, accel_bias_ug=20000.0,
+                  gyro_arw_deg_sqrt_h=1.0, accel_vrw_ug_sqrt_hz=500.0, nhc_noise_m_s=0.3,
+                  init_heading_sigma_deg=0.5, init_tilt_sigma_deg=0.5)
+#: od-kf on EMS with the pseudo-odometer (reference speed: no scale error, tight noise)
+EMS_OD_KF = {**EMS_NHC_KF, "measurement": "velocity", "fdi": False,
+             "od_noise_m_s": [0.3, 0.05, 0.3], "mount_sigma_arcmin": 120.0,
+             "od_scale_sigma_ppm": 1000.0}
 
 
 def default_data_root() -> Path:
@@ -114,47 +159,115 @@ def _init_from_truth(bundle: Bundle, t0: float) -> NavState:
     return NavState.from_euler(t0, tr.lat[0], tr.lon[0], tr.h[0], tr.vel_n[0], tr.euler[0])
 
 
-def _run(label, run, bundle, config, init, note=""):
-    t0 = time.perf_counter()
-    sol = run(bundle, config, init)
-    wall = time.perf_counter() - t0
-    e = error_series(sol, bundle.truth)
+def _method(name):
+    return registry.get(name).load()
+
+
+def _row(label, sol, truth, wall, note=""):
+    """One run's figures against the reference (errors at the last solution row)."""
+    e = error_series(sol, truth)
     dist = float(e.distance_m.iloc[-1])
+    last = e.iloc[-1]
     row = {"run": label, "note": note, "duration_s": float(e.t.iloc[-1] - e.t.iloc[0]),
            "distance_m": dist,
-           "final_horizontal_m": float(e.horizontal_m.iloc[-1]),
+           "final_horizontal_m": float(last.horizontal_m),
            "max_horizontal_m": float(e.horizontal_m.max()),
-           "final_horizontal_pct_distance": 100.0 * float(e.horizontal_m.iloc[-1]) / dist,
-           "final_vertical_m": float(e.vertical_m.iloc[-1]),
-           "final_yaw_arcmin": float(e.yaw_arcmin.iloc[-1]),
-           "final_level_arcmin": float(np.hypot(e.phi_E_arcmin.iloc[-1],
-                                                e.phi_N_arcmin.iloc[-1])),
+           "final_horizontal_pct_distance": 100.0 * float(last.horizontal_m) / dist,
+           "final_vertical_m": float(last.vertical_m),
+           "final_yaw_arcmin": float(last.yaw_arcmin),
+           "final_level_arcmin": float(np.hypot(last.phi_E_arcmin, last.phi_N_arcmin)),
+           "max_level_arcmin": float(np.hypot(e.phi_E_arcmin, e.phi_N_arcmin).max()),
            "run_s": wall}
     return row, e
 
 
-def run_comma2k19(bundle: Bundle) -> tuple[list, dict, dict]:
-    """The comma2k19 runs (module docstring): ``(rows, error series by run, calibration)``."""
+def _run(label, name, bundle, config, init, note=""):
+    """Run registered method ``name``; ``(row, error series, solution)``."""
+    run, cfg_cls = _method(name)
+    t0 = time.perf_counter()
+    sol = run(bundle, cfg_cls(**config) if isinstance(config, dict) else config, init)
+    row, e = _row(label, sol, bundle.truth, time.perf_counter() - t0, note)
+    return row, e, sol
+
+
+def estimated_sensor(sol) -> dict:
+    """The ``od-kf`` estimates at the end of the run: scale (odometer / true speed, i.e.
+    ``1 + dk``), pitch and yaw mounting [deg] and their 1-sigma (the filter's)."""
+    s = sol.states
+    return {"scale": 1.0 + float(s["od_dk"][-1]),
+            "scale_sigma": float(s["sigma_od_dk"][-1]),
+            "pitch_mount_deg": float(np.degrees(s["od_mount_x"][-1])),
+            "pitch_mount_sigma_deg": float(np.degrees(s["sigma_od_mount_x"][-1])),
+            "yaw_mount_deg": float(np.degrees(s["od_mount_z"][-1])),
+            "yaw_mount_sigma_deg": float(np.degrees(s["sigma_od_mount_z"][-1])),
+            "t": np.asarray(sol.t, float), "pitch_series_deg": np.degrees(s["od_mount_x"]),
+            "yaw_series_deg": np.degrees(s["od_mount_z"])}
+
+
+def coarse_alignment(bundle: Bundle) -> list:
+    """``mimada-dual`` and ``oba`` with the CAN speed over the whole segment: rows with the
+    level error (``hypot(phi_E, phi_N)``) and pitch / roll / heading errors at the end."""
+    rows = []
+    init = _init_from_truth(bundle, bundle.imu.t[0])    # position only (needs_attitude False)
+    for name in ("mimada-dual", "oba"):
+        row, e, _ = _run(f"coarse {name}", name, bundle, {"velocity_sensor": "odometer"}, init,
+                         "in-motion coarse alignment, CAN speed; heading not observable")
+        last = e.iloc[-1]
+        row.update(final_pitch_arcmin=float(last.pitch_arcmin),
+                   final_roll_arcmin=float(last.roll_arcmin))
+        rows.append(row)
+    return rows
+
+
+def _with_mounting(bundle: Bundle, est: dict) -> Bundle:
+    """A shallow copy whose meta carries the estimated mounting as the nominal ``C_v^b``."""
+    out = bundle.window()
+    out.meta = {**bundle.meta, "vehicle_mounting_arcmin":
+                [est["pitch_mount_deg"] * 60.0, 0.0, est["yaw_mount_deg"] * 60.0]}
+    return out
+
+
+def run_comma2k19(bundle: Bundle) -> dict:
+    """The comma2k19 runs (module docstring): rows, error series, calibration, estimates."""
     init = _init_from_truth(bundle, bundle.imu.t[0])
     cal = reference_calibration(bundle)
-    mount_arcmin = (cal["pitch_mount_deg"] * 60.0, 0.0, cal["yaw_mount_deg"] * 60.0)
-    runs = [
-        ("dr raw", run_dr, DrConfig(sensor="odometer"), "CAN speed as is, mounting not estimated"),
-        ("dr scale (README)", run_dr, DrConfig(sensor="odometer",
-                                               speed_scale=1.0 / README_CAN_SCALE),
-         "CAN / 0.994 (README), mounting not estimated"),
-        ("dr scale + mounting (from reference)", run_dr,
-         DrConfig(sensor="odometer", speed_scale=1.0 / cal["scale"],
-                  mounting_arcmin=mount_arcmin),
-         "oracle: values measured from the reference, not estimated (upper bound)"),
-        ("sins", run_sins, SinsConfig(), "pure inertial, no aiding"),
-    ]
     rows, series = [], {}
-    for label, fn, cfg, note in runs:
-        row, e = _run(label, fn, bundle, cfg, init, note)
+
+    def add(label, name, b, cfg, note):
+        row, e, sol = _run(label, name, b, cfg, init, note)
         rows.append(row)
         series[label] = e
-    return rows, series, cal
+        return sol
+
+    sol = add("od-kf", "od-kf", bundle, PHONE_OD_KF,
+              "SINS/OD 21-state filter, start from the reference (PHONE_OD_KF)")
+    est = estimated_sensor(sol)
+    loose = estimated_sensor(add("od-kf loose start", "od-kf", bundle, PHONE_OD_KF_LOOSE,
+                                 "as od-kf, start velocity 5 cm/s, heading 0.5 deg"))
+    add("nhc-kf (no mounting)", "nhc-kf", bundle, PHONE_NHC_KF,
+        "NHC in the IMU frame (vehicle frame taken = IMU)")
+    add("nhc-kf (od-kf mounting)", "nhc-kf", _with_mounting(bundle, est), PHONE_NHC_KF,
+        "NHC in the vehicle frame of the od-kf's estimated mounting")
+    est_mount = (est["pitch_mount_deg"] * 60.0, 0.0, est["yaw_mount_deg"] * 60.0)
+    cal_mount = (cal["pitch_mount_deg"] * 60.0, 0.0, cal["yaw_mount_deg"] * 60.0)
+    add("dr raw", "dr", bundle, DrConfig(sensor="odometer"),
+        "CAN speed as is, no mounting")
+    add("dr scale (README)", "dr", bundle,
+        DrConfig(sensor="odometer", speed_scale=1.0 / README_CAN_SCALE),
+        "CAN / 0.994 (README), no mounting")
+    add("dr mounting (od-kf)", "dr", bundle,
+        DrConfig(sensor="odometer", mounting_arcmin=est_mount),
+        "mounting estimated by od-kf, scale not corrected")
+    add("dr scale + mounting (od-kf)", "dr", bundle,
+        DrConfig(sensor="odometer", speed_scale=1.0 / est["scale"], mounting_arcmin=est_mount),
+        "scale and mounting estimated by od-kf")
+    add("dr scale + mounting (from reference)", "dr", bundle,
+        DrConfig(sensor="odometer", speed_scale=1.0 / cal["scale"], mounting_arcmin=cal_mount),
+        "oracle: measured from the reference, not estimated (upper bound)")
+    add("sins", "sins", bundle, SinsConfig(), "pure inertial, no aiding")
+    coarse = coarse_alignment(bundle)
+    return {"runs": rows, "coarse": coarse, "series": series,
+            "reference_calibration": cal, "estimated": est, "estimated_loose": loose}
 
 
 def ems_pseudo_odometer(bundle: Bundle) -> SpeedData:
@@ -194,36 +307,44 @@ def _compensated(bundle: Bundle, gyro_bias) -> Bundle:
     return out
 
 
-def run_ems(bundle: Bundle) -> tuple[list, dict, dict]:
-    """The EMS runs (module docstring): ``(rows, error series by run, still-period info)``."""
+def run_ems(bundle: Bundle) -> dict:
+    """The EMS runs (module docstring): rows, error series, still-period info."""
     t_still = still_period_end(bundle)
     bias = still_gyro_bias(bundle, t_still)
     raw = bundle.window(t_still, None)
-    raw.odometer = ems_pseudo_odometer(raw)
     comp = _compensated(raw, bias)
+    pseudo = _compensated(raw, bias)
+    pseudo.odometer = ems_pseudo_odometer(raw)
+    raw_pseudo = bundle.window(t_still, None)
+    raw_pseudo.odometer = pseudo.odometer
     init = _init_from_truth(raw, raw.imu.t[0])
     runs = [
-        ("dr pseudo-odometer", run_dr, raw, DrConfig(sensor="odometer"),
-         "speed from the reference (not an independent sensor); raw gyros"),
-        ("dr pseudo-odometer + still gyro bias", run_dr, comp, DrConfig(sensor="odometer"),
-         "as above, gyro bias from the still period removed"),
-        ("sins + still gyro bias", run_sins, comp, SinsConfig(), "pure inertial, no aiding"),
+        ("nhc-kf", "nhc-kf", comp, EMS_NHC_KF,
+         "INS + NHC only (independent), still gyro bias removed"),
+        ("sins", "sins", comp, SinsConfig(), "pure inertial, still gyro bias removed"),
+        ("od-kf pseudo-odometer", "od-kf", pseudo, EMS_OD_KF,
+         "NOT independent: speed from the reference; still gyro bias removed"),
+        ("dr pseudo-odometer", "dr", raw_pseudo, DrConfig(sensor="odometer"),
+         "NOT independent: speed from the reference; raw gyros"),
+        ("dr pseudo-odometer + still gyro bias", "dr", pseudo, DrConfig(sensor="odometer"),
+         "NOT independent: speed from the reference; still gyro bias removed"),
     ]
     rows, series = [], {}
-    for label, fn, b, cfg, note in runs:
-        row, e = _run(label, fn, b, cfg, init, note)
+    for label, name, b, cfg, note in runs:
+        row, e, _ = _run(label, name, b, cfg, init, note)
         rows.append(row)
         series[label] = e
-    info = {"still_end_s": t_still, "gyro_bias_deg_h": [float(x) for x in np.degrees(bias) * 3600]}
-    return rows, series, info
+    info = {"still_end_s": t_still,
+            "gyro_bias_deg_h": [float(x) for x in np.degrees(bias) * 3600]}
+    return {"runs": rows, "series": series, "still_period": info}
 
 
-def _figure(series_by_drive: dict) -> Figure:
-    fig = Figure(figsize=(11, 4), layout="constrained")
+def _figure_position(series_by_drive: dict) -> Figure:
+    fig = Figure(figsize=(12, 4.5), layout="constrained")
     axes = fig.subplots(1, len(series_by_drive), squeeze=False)[0]
     for ax, (drive, series) in zip(axes, series_by_drive.items()):
         for label, e in series.items():
-            ax.plot(e.distance_m, e.horizontal_m, label=label, lw=1.0)
+            ax.plot(e.distance_m, np.maximum(e.horizontal_m, 1e-2), label=label, lw=1.0)
         ax.set_yscale("log")
         ax.set_xlabel("distance travelled [m]")
         ax.set_ylabel("horizontal position error [m]")
@@ -233,57 +354,177 @@ def _figure(series_by_drive: dict) -> Figure:
     return fig
 
 
-def _table(results: dict) -> str:
-    lines = []
-    for drive, res in results["drives"].items():
-        lines += [f"### {drive}", "",
-                  "| run | distance m | final horiz. m | % dist | max horiz. m | final vert. m "
-                  "| final yaw arcmin | final level arcmin | run s | note |",
-                  "| --- | ---: | ---: | ---: | ---: | ---: | ---: | ---: | ---: | --- |"]
+def _figure_attitude(series_by_drive: dict) -> Figure:
+    fig = Figure(figsize=(12, 4.5), layout="constrained")
+    axes = fig.subplots(1, len(series_by_drive), squeeze=False)[0]
+    for ax, (drive, series) in zip(axes, series_by_drive.items()):
+        for label, e in series.items():
+            t = e.t - e.t.iloc[0]
+            ax.plot(t, np.hypot(e.phi_E_arcmin, e.phi_N_arcmin), label=label, lw=1.0)
+        ax.set_xlabel("time from start [s]")
+        ax.set_ylabel("level attitude error hypot(phi_E, phi_N) [arcmin]")
+        ax.set_title(drive, loc="left", fontsize=10)
+        ax.grid(alpha=0.3)
+        ax.legend(fontsize=7)
+    return fig
+
+
+def _figure_mounting(comma: dict) -> Figure:
+    fig = Figure(figsize=(11, 4), layout="constrained")
+    axes = fig.subplots(1, 2)
+    cal = comma["reference_calibration"]
+    for ax, key, ref, title in ((axes[0], "pitch", cal["pitch_mount_deg"], "mounting pitch"),
+                                (axes[1], "yaw", cal["yaw_mount_deg"], "mounting yaw")):
+        for lab, est in (("od-kf", comma["estimated"]), ("od-kf loose start",
+                                                          comma["estimated_loose"])):
+            ax.plot(est["t"] - est["t"][0], est[f"{key}_series_deg"], lw=1.0, label=lab)
+        ax.axhline(ref, color="k", ls="--", lw=1.0, label="from the reference")
+        ax.set_xlabel("time from start [s]")
+        ax.set_ylabel(f"{title} [deg]")
+        ax.set_title(f"comma2k19: {title} estimated by od-kf", loc="left", fontsize=10)
+        ax.grid(alpha=0.3)
+        ax.legend(fontsize=7)
+    return fig
+
+
+def result_rows(comma: dict, ems: dict) -> list:
+    """The ``results.json`` rows: ``quantity, reference, measured, unit, note``
+    (``reference``: the figure derived from the data's reference or README, None if none)."""
+    cal, est, loose = comma["reference_calibration"], comma["estimated"], comma["estimated_loose"]
+    rows = [
+        {"quantity": "comma2k19 odometer scale (CAN / true speed), od-kf", "reference":
+         cal["scale"], "measured": est["scale"], "unit": "1", "note":
+         f"reference from the reference pose (README: about {README_CAN_SCALE}); filter "
+         f"1-sigma {est['scale_sigma']:.4f}; not observable without an independent reference"},
+        {"quantity": "comma2k19 mounting pitch, od-kf", "reference": cal["pitch_mount_deg"],
+         "measured": est["pitch_mount_deg"], "unit": "deg",
+         "note": f"filter 1-sigma {est['pitch_mount_sigma_deg']:.2f} deg; loose start: "
+                 f"{loose['pitch_mount_deg']:.2f} deg"},
+        {"quantity": "comma2k19 mounting yaw, od-kf", "reference": cal["yaw_mount_deg"],
+         "measured": est["yaw_mount_deg"], "unit": "deg",
+         "note": f"filter 1-sigma {est['yaw_mount_sigma_deg']:.2f} deg; loose start: "
+                 f"{loose['yaw_mount_deg']:.2f} deg; weakly observable (heading drift, "
+                 "lateral accelerometer bias)"},
+    ]
+    for r in comma["coarse"]:
+        rows.append({"quantity": f"comma2k19 level attitude error at 60 s, {r['run']}",
+                     "reference": None, "measured": r["final_level_arcmin"], "unit": "arcmin",
+                     "note": f"pitch {r['final_pitch_arcmin']:.0f}, roll "
+                             f"{r['final_roll_arcmin']:.0f} arcmin; heading error "
+                             f"{r['final_yaw_arcmin'] / 60:.0f} deg (not observable)"})
+    for drive, res in (("comma2k19", comma), ("EMS", ems)):
         for r in res["runs"]:
-            lines.append(f"| {r['run']} | {r['distance_m']:.0f} | {r['final_horizontal_m']:.1f} "
-                         f"| {r['final_horizontal_pct_distance']:.2f} | {r['max_horizontal_m']:.1f} "
-                         f"| {r['final_vertical_m']:.1f} | {r['final_yaw_arcmin']:.1f} "
-                         f"| {r['final_level_arcmin']:.1f} | {r['run_s']:.2f} | {r['note']} |")
-        if "still_period" in res:
-            sp = res["still_period"]
-            lines += ["", f"Still period up to {sp['still_end_s']:.2f} s; gyro bias there "
-                      f"[deg/h]: {', '.join(f'{x:.0f}' for x in sp['gyro_bias_deg_h'])} (x, y, z "
-                      "in b). The vertical error is against a placeholder reference height "
-                      "(meaningless)."]
-        if "reference_calibration" in res:
-            c = res["reference_calibration"]
-            lines += ["", f"Measured from the reference (oracle, not estimated): odometer scale "
-                      f"{c['scale']:.4f} ({100 * (1 - c['scale']):.2f} % low; README: about "
-                      f"0.6 %), pitch mounting {c['pitch_mount_deg']:.2f} deg, yaw mounting "
-                      f"{c['yaw_mount_deg']:.2f} deg."]
-        lines.append("")
-    lines += ["Not done yet:", ""] + [f"- {x}" for x in results["not_done"]]
-    lines += ["", "Observability with these sensors:", ""]
-    lines += [f"- {k}: {v}" for k, v in results["observability"].items()]
-    return "\n".join(lines) + "\n"
+            if r["run"].startswith(("od-kf", "nhc-kf")):
+                rows.append({"quantity": f"{drive} level attitude error at the end, {r['run']}",
+                             "reference": None, "measured": r["final_level_arcmin"],
+                             "unit": "arcmin", "note": r["note"]})
+            rows.append({"quantity": f"{drive} final horizontal position error, {r['run']}",
+                         "reference": None, "measured": r["final_horizontal_m"], "unit": "m",
+                         "note": f"{r['final_horizontal_pct_distance']:.2f} % of "
+                                 f"{r['distance_m']:.0f} m; {r['note']}"})
+    return rows
 
 
-def reproduce_real(out_dir, data_root=None) -> dict:
-    """Run the real-drive pieces, write ``real_results.json``, ``real_table.md`` and
-    ``real_position_error.png`` to ``out_dir``; return the results dict."""
+def _fmt(x, nd=2):
+    return "-" if x is None else f"{x:.{nd}f}"
+
+
+def _runs_table(runs) -> list:
+    lines = ["| run | distance m | final horiz. m | % dist | max horiz. m | final yaw arcmin "
+             "| final level arcmin | max level arcmin | run s | note |",
+             "| --- | ---: | ---: | ---: | ---: | ---: | ---: | ---: | ---: | --- |"]
+    for r in runs:
+        lines.append(f"| {r['run']} | {r['distance_m']:.0f} | {r['final_horizontal_m']:.1f} "
+                     f"| {r['final_horizontal_pct_distance']:.2f} | {r['max_horizontal_m']:.1f} "
+                     f"| {r['final_yaw_arcmin']:.1f} | {r['final_level_arcmin']:.1f} "
+                     f"| {r['max_level_arcmin']:.1f} | {r['run_s']:.2f} | {r['note']} |")
+    return lines
+
+
+def report_markdown(results: dict, rows: list) -> str:
+    """``report.md``: the rows table, the run tables per drive, observability, not done."""
+    c = results["drives"]["comma2k19_rav4_60s"]
+    e = results["drives"]["ems_toronto_511s"]
+    sp = e["still_period"]
+    lines = ["# Real drives: comma2k19 (60 s) and EMS Toronto (511 s)", "",
+             "Reproduce: `python -m inmotion.evaluate.reproduce_real -o DIR` "
+             f"(this run: {results['wall_s']:.0f} s).", "",
+             "## Figures against the reference", "",
+             "| quantity | reference-derived | measured | unit | note |",
+             "| --- | ---: | ---: | --- | --- |"]
+    lines += [f"| {r['quantity']} | {_fmt(r['reference'], 4 if r['unit'] == '1' else 2)} "
+              f"| {_fmt(r['measured'], 4 if r['unit'] == '1' else 2)} | {r['unit']} "
+              f"| {r['note']} |" for r in rows]
+    lines += ["", "## comma2k19: runs", "",
+              "Every run starts from the reference pose and velocity at the first IMU epoch "
+              "(the car is already moving); the coarse alignments use only the position.", ""]
+    lines += _runs_table(c["coarse"] + c["runs"])
+    lines += ["", "The vertical error is not shown: the DR runs without the pitch mounting "
+              "climb by about 3.8 deg x distance.", "",
+              "## EMS: runs", "",
+              f"Start: the end of the still period, {sp['still_end_s']:.2f} s (reference speed "
+              f"> {STILL_SPEED_M_S} m/s). Gyro bias measured there [deg/h] (x, y, z in b): "
+              f"{', '.join(f'{x:.0f}' for x in sp['gyro_bias_deg_h'])}; removed from every run "
+              "except `dr pseudo-odometer`. **The pseudo-odometer is the reference speed, not "
+              "an independent sensor**: those runs only show what the gyros do to a perfect "
+              "speed. The reference height is a placeholder, so no vertical figure is given.",
+              ""]
+    lines += _runs_table(e["runs"])
+    lines += ["", "## What these sensors can and cannot observe", ""]
+    lines += [f"- **{k}**: {v}" for k, v in results["observability"].items()]
+    lines += ["", "## Not done", ""] + [f"- {x}" for x in results["not_done"]]
+    lines += ["", "Figures: `real_position_error.png`, `real_attitude_error.png`, "
+              "`real_mounting.png`.", ""]
+    return "\n".join(lines)
+
+
+def _jsonable(res: dict) -> dict:
+    out = {k: v for k, v in res.items() if k != "series"}
+    for k in ("estimated", "estimated_loose"):
+        if k in out:
+            out[k] = {a: b for a, b in out[k].items() if not isinstance(b, np.ndarray)}
+    return out
+
+
+def reproduce(out_dir, runs=None, workers=None, seed=0, progress=True, data_root=None) -> dict:
+    """Run everything on the two real drives and write ``report.md``, ``results.json`` (the
+    rows of :func:`result_rows`), ``real_results.json`` (all runs) and three PNG figures to
+    ``out_dir``; return the ``real_results`` dict.
+
+    ``runs``, ``workers``, ``seed`` are accepted for the signature shared with the
+    ``reproduce_00x`` modules and ignored: there is one recorded drive each, nothing random.
+    ``data_root`` is the folder of the real drives (default :func:`default_data_root`).
+    """
+    t_wall = time.perf_counter()
     root = Path(data_root) if data_root is not None else default_data_root()
     if not root.is_dir():
         raise BadInput("real data folder not found", root)
-    comma = import_log("comma2k19", root / "comma2k19_rav4_60s")
-    ems = import_log("ems", root / "ems_toronto_511s" / "ems_data_for_lc.mat")
-    c_rows, c_series, cal = run_comma2k19(comma)
-    e_rows, e_series, still = run_ems(ems)
-    results = {"drives": {"comma2k19_rav4_60s": {"runs": c_rows, "reference_calibration": cal},
-                          "ems_toronto_511s": {"runs": e_rows, "still_period": still}},
-               "not_done": NOT_DONE, "observability": OBSERVABILITY}
+    comma = run_comma2k19(import_log("comma2k19", root / "comma2k19_rav4_60s"))
+    ems = run_ems(import_log("ems", root / "ems_toronto_511s" / "ems_data_for_lc.mat"))
+    rows = result_rows(comma, ems)
+    results = {"drives": {"comma2k19_rav4_60s": _jsonable(comma),
+                          "ems_toronto_511s": _jsonable(ems)},
+               "not_done": NOT_DONE, "observability": OBSERVABILITY,
+               "wall_s": time.perf_counter() - t_wall}
     out = Path(out_dir)
     out.mkdir(parents=True, exist_ok=True)
+    (out / "results.json").write_text(json.dumps(rows, indent=2))
     (out / "real_results.json").write_text(json.dumps(results, indent=2))
-    (out / "real_table.md").write_text(_table(results))
-    _figure({"comma2k19 (60 s)": c_series, "EMS (after the still period)": e_series}).savefig(
+    (out / "report.md").write_text(report_markdown(results, rows))
+    filt = {k: v for k, v in comma["series"].items() if k.startswith(("od-kf", "nhc-kf"))}
+    _figure_position({"comma2k19 (60 s)": comma["series"],
+                      "EMS (after the still period)": ems["series"]}).savefig(
         out / "real_position_error.png", dpi=90)
+    _figure_attitude({"comma2k19 filters (60 s)": filt,
+                      "EMS (after the still period)": ems["series"]}).savefig(
+        out / "real_attitude_error.png", dpi=90)
+    _figure_mounting(comma).savefig(out / "real_mounting.png", dpi=90)
     return results
+
+
+def reproduce_real(out_dir, data_root=None) -> dict:
+    """The entry point :mod:`inmotion.evaluate.reproduce` calls: :func:`reproduce`."""
+    return reproduce(out_dir, data_root=data_root)
 
 
 def main(argv=None):
@@ -291,8 +532,8 @@ def main(argv=None):
     p.add_argument("-o", "--out", required=True, help="output folder")
     p.add_argument("--data", default=None, help="folder of the real drives")
     a = p.parse_args(argv)
-    results = reproduce_real(a.out, a.data)
-    print(_table(results))
+    reproduce(a.out, data_root=a.data)
+    print((Path(a.out) / "report.md").read_text())
 
 
 if __name__ == "__main__":
