@@ -76,6 +76,15 @@ class Reproduction:
         return importlib.import_module(self.module)
 
 
+def _mc_tolerance(std, n) -> float:
+    """Two Monte Carlo standard errors of a mean of ``n`` draws with spread ``std``: a mean
+    within this of the paper's is ``same`` (the runs cannot tell them apart)."""
+    try:
+        return 2.0 * float(std) / float(n) ** 0.5 if n and n > 1 else 0.0
+    except (TypeError, ValueError):
+        return 0.0
+
+
 def _row(quantity, unit, paper, measured, better="lower", note="", **extra) -> dict:
     out = {"quantity": quantity, "unit": unit, "paper": paper, "measured": measured,
            "better": better, "note": note}
@@ -125,7 +134,9 @@ def _rows_001(res: dict) -> list:
             p_mean, p_std = paper[name][w]
             rows.append(_row(f"001 test {test} {label}: heading mean {a}-{b} s", "deg", p_mean,
                              t["mean"][w], better="closer",
-                             note="mean over runs of the window mean; paper: one car run"))
+                             tolerance=_mc_tolerance(t["sd_of_means"][w], res.get("runs")),
+                             note="mean over runs of the window mean (same: within 2 Monte "
+                                  "Carlo standard errors); paper: one car run"))
             rows.append(_row(f"001 test {test} {label}: heading STD {a}-{b} s", "deg", p_std,
                              t["std"][w], note="mean over runs of the window's time-STD"))
     for test in (1, 2):
@@ -174,7 +185,10 @@ def _rows_003(res: dict) -> list:
         if s is None:
             continue
         rows.append(_row(f"003 Table 2 {k}: heading mean", "arcmin", p_mean, s["mean"],
-                         better="closer", note="over runs x windows; paper: 10 windows, one car"))
+                         better="closer", tolerance=_mc_tolerance(s["std"], res.get("runs")),
+                         note="over runs x windows (same: within 2 standard errors, counting "
+                              "runs only, as a run's windows share its drift); paper: 10 "
+                              "windows, one car"))
         rows.append(_row(f"003 Table 2 {k}: heading STD", "arcmin", p_std, s["std"],
                          note="over runs x windows"))
     for ax, (p_mean, p_std) in m.PAPER_TABLE3.items():
@@ -182,7 +196,8 @@ def _rows_003(res: dict) -> list:
         if s is None:
             continue
         rows.append(_row(f"003 Table 3 fkf: {ax} mean", "arcmin", p_mean, s["mean"],
-                         better="closer", note="over runs x windows"))
+                         better="closer", tolerance=_mc_tolerance(s["std"], res.get("runs")),
+                         note="over runs x windows (same: within 2 standard errors)"))
         rows.append(_row(f"003 Table 3 fkf: {ax} STD", "arcmin", p_std, s["std"],
                          note="over runs x windows (drawn gyro drift per run spreads the "
                               "heading; the paper's 10 windows share one car's drift)"))
@@ -205,9 +220,12 @@ def _rows_004(res: dict) -> list:
             if s is None:
                 continue
             for stat, better in pick:
+                tol = _mc_tolerance(s["STD"], res.get("runs")) if stat == "mean" else 0.0
                 rows.append(_row(f"004 {table} {label} {v} m/s: heading {stat}", "deg",
                                  paper[v][m.STAT_NAMES.index(stat)], s[stat], better=better,
-                                 note=f"{res.get('runs')} runs, paper form; paper: 50 runs"))
+                                 tolerance=tol,
+                                 note=f"{res.get('runs')} runs, paper form; paper: 50 runs"
+                                      + ("; same: within 2 standard errors" if tol else "")))
     seg = res.get("segments")
     if seg:
         for table, label, paper in (("Table 4", "mimada", m.PAPER_TABLE4),
