@@ -110,3 +110,18 @@ def test_fading_weight_sequence_eq43():
     for k in range(200):
         R, eta = adapt_noise(R, eta, e, np.array([1.0]), c, np.array([1e-6]), np.array([1e6]))
     assert np.isclose(eta, 1.0 - c, rtol=1e-3)
+
+
+def test_bound_on_a_subset_of_states():
+    # S = L x with L selecting the first two states: P+^-1 = P_KF^-1 - gamma^-2 L^T L
+    P, Pxy, Py, H, R = _linear_case(8)
+    w = np.array([1.0, 1.0, 0.0, 0.0])
+    P_kf = hinf.kalman_covariance(P, Pxy, Py)
+    g_a = hinf.gamma_floor(P, Pxy, Py, w)
+    assert np.isclose(g_a, np.sqrt(np.linalg.eigvalsh(P_kf[:2, :2])[-1]))
+    gamma = 1.5 * g_a
+    P_plus = hinf.hinf_covariance(P, Pxy, Py, gamma, w)
+    assert np.allclose(np.linalg.inv(P_plus), np.linalg.inv(P_kf) - np.diag(w) / gamma ** 2,
+                       rtol=1e-9)
+    assert np.linalg.eigvalsh(hinf.hinf_covariance(P, Pxy, Py, 1.001 * g_a, w))[0] > 0
+    assert np.linalg.eigvalsh(hinf.hinf_covariance(P, Pxy, Py, 0.999 * g_a, w))[0] < 0

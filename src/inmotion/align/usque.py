@@ -29,7 +29,10 @@ updates at 100 Hz, a step that only just satisfies eq. 54 repeated every 10 ms d
 information of a weakly observable direction (the heading, in the first tens of seconds) to
 zero. So an H-infinity step is taken only with ``gamma >= rho gamma_a`` (``hinf_margin``,
 default 1.2): a fixed gamma below that falls back to the Kalman step, an adaptive gamma is
-clamped up to it; these events are counted in ``info['hinf_floor_hits']``.
+clamped up to it; these events are counted in ``info['hinf_floor_hits']``. With extra states
+the H-infinity bound applies to the attitude error only (eq. 46 with ``S = L X``, ``L``
+selecting ``dR``): the extra states are in other units (m/s^2, m/s, -), where one gamma in
+rad means nothing (with an identity ``L``, ``usque-hinf`` lost the heading in test 2).
 
 The start attitude is the paper's ``q = [1 0 0 0]`` for ``C_{n(0)}^i``, i.e. ``C_b^n(0) = I``
 (pitch, roll, yaw zero); the method needs no initial attitude. The initial position comes from
@@ -256,6 +259,9 @@ class _Filter:
         self.R_max = np.full(3, cfg.r_max_m_s ** 2)
         self.eta = 1.0
         self.gamma = np.inf
+        # H-infinity bounds the attitude error only (eq. 46 with S = L x, L selecting dR)
+        self.hinf_weights = np.zeros(self.layout.n)
+        self.hinf_weights[self.att] = 1.0
         self.floor_hits = 0
 
     # manifold operations of the attitude block
@@ -329,14 +335,14 @@ class _Filter:
         P_kf = hinf.kalman_covariance(P, Pxy, Py)
         if cfg.hinf == "none":
             return P_kf
-        g_a = hinf.floor_from_kalman(P_kf)
+        g_a = hinf.floor_from_kalman(P_kf, self.hinf_weights)
         if cfg.hinf == "fixed":
             gamma = cfg.gamma_deg * _DEG
             if gamma < cfg.hinf_margin * g_a:
                 self.floor_hits += 1
                 return P_kf
             self.gamma = gamma
-            return hinf.hinf_from_kalman(P_kf, gamma)
+            return hinf.hinf_from_kalman(P_kf, gamma, self.hinf_weights)
         gamma = hinf.adaptive_gamma(g_a, Py, e, cfg.k0, cfg.gamma_min_deg * _DEG)
         if gamma < cfg.hinf_margin * g_a:
             gamma = cfg.hinf_margin * g_a
@@ -344,7 +350,7 @@ class _Filter:
         self.gamma = gamma
         if gamma > cfg.gamma_max_deg * _DEG:          # eq. 56: Kalman above gamma_max
             return P_kf
-        return hinf.hinf_from_kalman(P_kf, gamma)
+        return hinf.hinf_from_kalman(P_kf, gamma, self.hinf_weights)
 
 
 def run(bundle: Bundle, config: UsqueConfig, init: Optional[NavState] = None,
@@ -431,7 +437,7 @@ def _run_obs_vectors(bundle, config, init, method, t_start):
         flt.scheme.Wm, flt.scheme.Wc, flt.scheme.n + flt.scheme.lam, flt.a, flt.f,
         flt.R.copy(), flt.eta, config.adaptive_r, config.fading_factor, flt.R_min, flt.R_max,
         mode, config.gamma_deg * _DEG, config.k0, config.gamma_min_deg * _DEG,
-        config.gamma_max_deg * _DEG, config.hinf_margin, out.q_in, out.P, out.R, out.gamma,
+        config.gamma_max_deg * _DEG, config.hinf_margin, flt.hinf_weights, out.q_in, out.P, out.R, out.gamma,
         out.x)
     out.q_ib[:] = vr.q_b0b
     out.lla[:] = np.stack([vr.lat, vr.lon, vr.h], -1)
@@ -474,7 +480,7 @@ def _run_compiled(flt, acc, imu, speed, epochs, out):
         flt.q.copy(), flt.Q, flt.scheme.Wm, flt.scheme.Wc, flt.scheme.n + flt.scheme.lam,
         flt.a, flt.f, flt.R.copy(), flt.eta, cfg.adaptive_r, cfg.fading_factor, flt.R_min,
         flt.R_max, mode, cfg.gamma_deg * _DEG, cfg.k0, cfg.gamma_min_deg * _DEG,
-        cfg.gamma_max_deg * _DEG, cfg.hinf_margin,
+        cfg.gamma_max_deg * _DEG, cfg.hinf_margin, flt.hinf_weights,
         "dk" in flt.extra, "nabla" in flt.extra, "eps" in flt.extra, "dv0" in flt.extra,
         out.q_in, out.q_ib, out.lla, out.P, out.R, out.gamma, out.x)
 

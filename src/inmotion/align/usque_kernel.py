@@ -186,7 +186,7 @@ def _observation(acc, has_dk, has_nabla, has_eps, has_dv0):
 @numba.njit(cache=True)
 def _update(x, P, q, obs_y, beta_n, wie_n, D_i, S, Wm, Wc, scale, a, f, R, eta,
             adaptive_r, c_fade, R_min, R_max, hinf_mode, gamma_fixed, k0, gamma_min,
-            gamma_max, margin):
+            gamma_max, margin, hinf_w):
     """Measurement update (eq. 34-38, 42-45, 50-59)."""
     chi = _sigma(x, P, scale)
     chi_q = _quats(chi, q, a, f)
@@ -208,20 +208,20 @@ def _update(x, P, q, obs_y, beta_n, wie_n, D_i, S, Wm, Wc, scale, a, f, R, eta,
     P_kf = _kalman_cov(P, Pxy, Py)
     P_new = P_kf
     if hinf_mode != HINF_NONE:
-        g_a = _floor_from_kalman(P_kf)
+        g_a = _floor_from_kalman(P_kf, hinf_w)
         if hinf_mode == HINF_FIXED:
             if gamma_fixed < margin * g_a:
                 floor_hit = 1
             else:
                 gamma = gamma_fixed
-                P_new = _hinf_from_kalman(P_kf, gamma)
+                P_new = _hinf_from_kalman(P_kf, gamma, hinf_w)
         else:
             gamma = _adaptive_gamma(g_a, Py, e, k0, gamma_min)
             if gamma < margin * g_a:
                 gamma = margin * g_a
                 floor_hit = 1
             if gamma <= gamma_max:
-                P_new = _hinf_from_kalman(P_kf, gamma)
+                P_new = _hinf_from_kalman(P_kf, gamma, hinf_w)
     q_star = _quat_average(chi_q, Wm)
     q_new = _qcanon(_qmul(grp_to_quat(x_new[:3], a, f), q_star))
     x_new[:3] = 0.0
@@ -231,7 +231,7 @@ def _update(x, P, q, obs_y, beta_n, wie_n, D_i, S, Wm, Wc, scale, a, f, R, eta,
 @numba.njit(cache=True)
 def run_epochs(acc, dtheta, dvel, dt_rows, speed, epochs, x, P, q, Q, Wm, Wc, scale, a, f,
                R, eta, adaptive_r, c_fade, R_min, R_max, hinf_mode, gamma_fixed, k0,
-               gamma_min, gamma_max, margin, has_dk, has_nabla, has_eps, has_dv0, out_q_in, out_q_ib, out_lla, out_P, out_R, out_gamma,
+               gamma_min, gamma_max, margin, hinf_w, has_dk, has_nabla, has_eps, has_dv0, out_q_in, out_q_ib, out_lla, out_P, out_R, out_gamma,
                out_x):
     """All filter epochs. ``epochs[j]`` is the IMU row of update ``j``; row 0 is the start.
 
@@ -252,7 +252,7 @@ def run_epochs(acc, dtheta, dvel, dt_rows, speed, epochs, x, P, q, Q, Wm, Wc, sc
         x, P, q = _predict(x, P, q, dq_n, Wm, Wc, scale, Q, a, f)
         x, P, q, R, eta, gamma, hit, e = _update(
             x, P, q, y, beta_n, wie_n, D_i, S, Wm, Wc, scale, a, f, R, eta, adaptive_r,
-            c_fade, R_min, R_max, hinf_mode, gamma_fixed, k0, gamma_min, gamma_max, margin)
+            c_fade, R_min, R_max, hinf_mode, gamma_fixed, k0, gamma_min, gamma_max, margin, hinf_w)
         hits += hit
         out_q_in[j + 1] = q
         out_q_ib[j + 1] = q_ib
@@ -271,7 +271,7 @@ def run_epochs(acc, dtheta, dvel, dt_rows, speed, epochs, x, P, q, Q, Wm, Wc, sc
 @numba.njit(cache=True)
 def run_vector_epochs(y, beta_n, q_n0n, x, P, q, Q, Wm, Wc, scale, a, f, R, eta, adaptive_r,
                       c_fade, R_min, R_max, hinf_mode, gamma_fixed, k0, gamma_min, gamma_max,
-                      margin, out_q_in, out_P, out_R, out_gamma, out_x):
+                      margin, hinf_w, out_q_in, out_P, out_R, out_gamma, out_x):
     """The filter cycle over precomputed per-epoch vectors (``y``, ``beta_n``: (M, 3), and
     ``q_n0n``: (M, 4), epoch 0 the start), attitude state only: the Earth-rate term is already
     in ``y`` (``inmotion.align.obs_vectors``, model ``MODEL_VB_EARTH``). Returns floor hits."""
@@ -283,7 +283,7 @@ def run_vector_epochs(y, beta_n, q_n0n, x, P, q, Q, Wm, Wc, scale, a, f, R, eta,
         x, P, q = _predict(x, P, q, dq_n, Wm, Wc, scale, Q, a, f)
         x, P, q, R, eta, gamma, hit, e = _update(
             x, P, q, y[j], beta_n[j], zero3, zero3, S, Wm, Wc, scale, a, f, R, eta, adaptive_r,
-            c_fade, R_min, R_max, hinf_mode, gamma_fixed, k0, gamma_min, gamma_max, margin)
+            c_fade, R_min, R_max, hinf_mode, gamma_fixed, k0, gamma_min, gamma_max, margin, hinf_w)
         hits += hit
         out_q_in[j] = q
         out_P[j] = P

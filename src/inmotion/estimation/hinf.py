@@ -46,7 +46,7 @@ def kalman_covariance(P_pred, P_xy, P_y):
     return 0.5 * (P + P.T)
 
 
-def hinf_covariance(P_pred, P_xy, P_y, gamma):
+def hinf_covariance(P_pred, P_xy, P_y, gamma, weights=None):
     """H-infinity covariance update of eq. 51-52, evaluated in its information form.
 
     Eq. 51-52 equal, exactly (block elimination of ``R_e``; a test checks it against the block
@@ -69,18 +69,26 @@ def hinf_covariance(P_pred, P_xy, P_y, gamma):
         Innovation covariance including ``R`` (eq. 36).
     gamma : float
         The H-infinity bound, in the unit of the state; must exceed :func:`gamma_floor`.
+    weights : (n,) array or None
+        Diagonal of ``L^T L`` for the estimated combination ``S = L x`` of eq. 46 (None: all
+        ones, ``S = x`` as in the paper). A filter whose state mixes units (attitude in rad,
+        bias in m/s^2, speed in m/s) bounds the attitude only: weights 1 there, 0 elsewhere,
+        so ``P+^-1 = P_KF^-1 - gamma^-2 L^T L``.
 
     Returns
     -------
     (n, n) array, the updated covariance ``P_{x,k+1}`` (symmetrized).
     """
-    return hinf_from_kalman(kalman_covariance(P_pred, P_xy, P_y), gamma)
+    P_kf = kalman_covariance(P_pred, P_xy, P_y)
+    w = np.ones(P_kf.shape[0]) if weights is None else np.asarray(weights, dtype=float)
+    return hinf_from_kalman(P_kf, gamma, w)
 
 
-def hinf_from_kalman(P_kf, gamma):
-    """``(I - gamma^-2 P_KF)^-1 P_KF`` (symmetrized): eq. 51-52 from the Kalman posterior."""
+def hinf_from_kalman(P_kf, gamma, weights):
+    """``(I - gamma^-2 P_KF L^T L)^-1 P_KF`` (symmetrized): eq. 51-52 from the Kalman posterior,
+    ``weights`` the diagonal of ``L^T L``."""
     n = P_kf.shape[0]
-    P = np.linalg.solve(np.eye(n) - P_kf / (gamma * gamma), P_kf)
+    P = np.linalg.solve(np.eye(n) - (P_kf * weights.reshape(1, -1)) / (gamma * gamma), P_kf)
     return 0.5 * (P + P.T)
 
 
@@ -100,7 +108,7 @@ def hinf_covariance_block(P_pred, P_xy, P_y, gamma):
     return 0.5 * (P + P.T)
 
 
-def gamma_floor(P_pred, P_xy, P_y):
+def gamma_floor(P_pred, P_xy, P_y, weights=None):
     """``gamma_a = sqrt(max eig(M^-1))``, the smallest admissible gamma (eq. 53-54).
 
     With ``M = P_KF^-1`` (the information of the Kalman posterior), ``P+^-1 = M - gamma^-2 I``
@@ -110,12 +118,17 @@ def gamma_floor(P_pred, P_xy, P_y):
     for the unscented filter, where eq. 48 holds only approximately, ``P_KF`` makes the floor
     match the covariance actually formed by :func:`hinf_covariance`.
     """
-    return floor_from_kalman(kalman_covariance(P_pred, P_xy, P_y))
+    P_kf = kalman_covariance(P_pred, P_xy, P_y)
+    w = np.ones(P_kf.shape[0]) if weights is None else np.asarray(weights, dtype=float)
+    return floor_from_kalman(P_kf, w)
 
 
-def floor_from_kalman(P_kf):
-    """``sqrt(max eig(P_KF))``: :func:`gamma_floor` from the Kalman posterior."""
-    return np.sqrt(np.linalg.eigvalsh(P_kf)[-1])
+def floor_from_kalman(P_kf, weights):
+    """``sqrt(max eig(W^1/2 P_KF W^1/2))``, ``W = L^T L = diag(weights)``: :func:`gamma_floor`
+    from the Kalman posterior (``P_KF^-1 - gamma^-2 W > 0`` exactly above it)."""
+    s = np.sqrt(weights)
+    A = P_kf * s.reshape(-1, 1) * s.reshape(1, -1)
+    return np.sqrt(np.linalg.eigvalsh(A)[-1])
 
 
 def gamma_floor_paper(P_pred, P_xy, R):
@@ -149,8 +162,8 @@ def adaptive_gamma(gamma_a, P_y, e, k0, gamma_min):
     return max(gamma, gamma_min)
 
 
-def hinf_update(P_pred, P_xy, P_y, gamma, gamma_max=np.inf):
+def hinf_update(P_pred, P_xy, P_y, gamma, gamma_max=np.inf, weights=None):
     """Covariance update of eq. 56: H-infinity (eq. 51) below ``gamma_max``, Kalman above."""
     if gamma > gamma_max:
         return kalman_covariance(P_pred, P_xy, P_y)
-    return hinf_covariance(P_pred, P_xy, P_y, gamma)
+    return hinf_covariance(P_pred, P_xy, P_y, gamma, weights)
