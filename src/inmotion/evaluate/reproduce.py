@@ -238,15 +238,19 @@ def _rows_004(res: dict) -> list:
     return rows
 
 
-def _rows_real(res: dict) -> list:
-    """Real drives (issue 9): no paper figures; the final horizontal error per run."""
+def _rows_real(res) -> list:
+    """Real drives (issue 9): no paper figures. ``results.json`` of :mod:`reproduce_real` is a
+    list of rows ``quantity, reference, measured, unit, note``; the reference (derived from the
+    data's reference trajectory or README, where there is one) goes into the note and the
+    ``reference`` field, the verdict is ``-``."""
     rows = []
-    for drive, d in res.get("drives", {}).items():
-        for r in d.get("runs", []):
-            rows.append(_row(f"real {drive} {r['run']}: final horizontal error", "m", None,
-                             r.get("final_horizontal_m"),
-                             note=f"{r.get('final_horizontal_pct_distance', float('nan')):.2f} % "
-                                  f"of distance; {r.get('note', '')}".strip("; ")))
+    for r in res if isinstance(res, list) else []:
+        ref = r.get("reference")
+        note = r.get("note", "")
+        if ref is not None:
+            note = f"reference {ref:.4g}; {note}"
+        rows.append(_row(f"real {r['quantity']}", r.get("unit", ""), None, r.get("measured"),
+                         note=note, reference=ref))
     return rows
 
 
@@ -266,8 +270,8 @@ REPRODUCTIONS = {r.name: r for r in (
                  "(imada, mimada)", "inmotion.evaluate.reproduce_004", "reproduce",
                  "results.json", _rows_004, 50),
     Reproduction("real", "Real drives (comma2k19, EMS): dead reckoning and SINS against the "
-                 "reference", "inmotion.evaluate.reproduce_real", "reproduce_real",
-                 "real_results.json", _rows_real, None),
+                 "reference", "inmotion.evaluate.reproduce_real", "reproduce",
+                 "results.json", _rows_real, None),
 )}
 
 
