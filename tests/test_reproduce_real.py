@@ -64,22 +64,96 @@ def test_no_still_period_is_bad_input():
         rr.reproduce_real("/tmp/unused", data_root="/nonexistent/real")
 
 
-@pytest.mark.skipif(not rr.default_data_root().is_dir(), reason="real data not found")
-def test_real_drives_end_to_end(tmp_path):
-    res = rr.reproduce_real(tmp_path)
-    assert {p.name for p in tmp_path.iterdir()} == {"real_results.json", "real_table.md",
-                                                    "real_position_error.png"}
-    assert json.loads((tmp_path / "real_results.json").read_text())["not_done"]
-    comma = {r["run"]: r for r in res["drives"]["comma2k19_rav4_60s"]["runs"]}
-    # aiding beats pure inertial, and removing the (oracle) scale and mounting errors helps
-    assert comma["dr raw"]["final_horizontal_m"] < comma["sins"]["final_horizontal_m"]
-    assert (comma["dr scale + mounting (from reference)"]["final_horizontal_m"]
-            < comma["dr raw"]["final_horizontal_m"])
-    cal = res["drives"]["comma2k19_rav4_60s"]["reference_calibration"]
-    assert cal["pitch_mount_deg"] == pytest.approx(3.8, abs=0.5)    # README: about 3.8 deg
-    # README: "roughly 0.8 deg in yaw"; the sign is that of mounting_matrix (travel to the
-    # right of the camera's forward axis is a negative rotation about up)
-    assert cal["yaw_mount_deg"] == pytest.approx(-0.8, abs=0.5)
-    ems = {r["run"]: r for r in res["drives"]["ems_toronto_511s"]["runs"]}
-    assert (ems["dr pseudo-odometer + still gyro bias"]["final_horizontal_m"]
-            < ems["dr pseudo-odometer"]["final_horizontal_m"])
+def test_level_error_is_the_tilt_whatever_the_heading():
+    C_ref = rotations.dcm_from_euler([2 * D, -1 * D, 30 * D])
+    tilted = rotations.dcm_from_euler([2.5 * D, -1 * D, 30 * D])       # 0.5 deg pitch
+    assert rr.level_error(tilted, C_ref) == pytest.approx(0.5 * D, rel=1e-6)
+    turned = rotations.dcm_from_euler([2 * D, -1 * D, 170 * D])        # heading only
+    assert rr.level_error(turned, C_ref) == pytest.approx(0.0, abs=1e-12)
+
+
+DATA = rr.default_data_root()
+needs_data = pytest.mark.skipif(not (DATA / "comma2k19_rav4_60s").is_dir()
+                                or not (DATA / "ems_toronto_511s").is_dir(),
+                                reason=f"real drives not found under {DATA}")
+
+
+@pytest.fixture(scope="module")
+def real(tmp_path_factory):
+    out = tmp_path_factory.mktemp("real")
+    res = rr.reproduce(out)
+    return out, res
+
+
+@needs_data
+def test_real_writes_report_rows_and_figures(real):
+    out, res = real
+    assert {"report.md", "results.json", "real_results.json", "real_position_error.png",
+            "real_attitude_error.png", "real_mounting.png"} <= {p.name for p in out.iterdir()}
+    rows = json.loads((out / "results.json").read_text())
+    assert all(set(r) == {"quantity", "reference", "measured", "unit", "note"} for r in rows)
+    text = (out / "report.md").read_text()
+    assert "not an independent sensor" in text and "mounting roll" in text
+
+
+@needs_data
+def test_comma2k19_od_kf_mounting_against_the_reference(real):
+    """Mounting estimated by od-kf (CAN speed + phone IMU, 60 s) against the angles measured
+    from the reference pose (``reference_calibration``, 3.81 and -0.81 deg).
+
+    Pitch within 0.5 deg: the vertical velocity ``v alpha`` (1.2 m/s for 3.8 deg at 18 m/s,
+    0.16 m/s per 0.5 deg) stands far above the vertical NHC noise and is independent of the
+    heading; the residual comes from the accelerometer z bias and the tilt (0.15 m/s^2 ~ 0.9
+    deg if unestimated, mostly estimated). Yaw within 1.0 deg: the lateral velocity ``v gamma``
+    is matched by a heading error or, at nearly constant speed, by a lateral accelerometer
+    bias (0.07 m/s^2 measured against the reference) or z-gyro drift (~100 deg/h here); on a
+    straight 60 s highway segment these separate only through the speed changes, so the yaw
+    mount is held to what its share of the 1.7 deg heading drift over the segment allows.
+    The filter's 1-sigma must also be honest: the error within 3 sigma + 0.5 deg.
+    """
+    _, res = real
+    c = res["drives"]["comma2k19_rav4_60s"]
+    cal, est = c["reference_calibration"], c["estimated"]
+    assert est["pitch_mount_deg"] == pytest.approx(cal["pitch_mount_deg"], abs=0.5)
+    assert est["yaw_mount_deg"] == pytest.approx(cal["yaw_mount_deg"], abs=1.0)
+    assert abs(est["pitch_mount_deg"] - cal["pitch_mount_deg"]) < 3 * est["pitch_mount_sigma_deg"] + 0.5
+
+
+@needs_data
+def test_comma2k19_level_attitude_and_position(real):
+    """Level attitude: the coarse alignment's ``C_b^n(0)`` within 1 deg of the reference (the
+    accelerometer biases of the phone, 0.07 / 0.15 m/s^2, allow ~0.5-1 deg); od-kf within
+    1 deg over the whole run (started from the reference: it must hold the level the gyro
+    biases of ~110 deg/h would lose, 2.5 deg in DR after 60 s). Aiding beats pure inertial,
+    and the NHC needs the vehicle frame: with the estimated mounting it beats the IMU frame."""
+    _, res = real
+    c = res["drives"]["comma2k19_rav4_60s"]
+    for r in c["coarse"]:
+        assert r["start_level_arcmin"] < 60.0, r["run"]
+    runs = {r["run"]: r for r in c["runs"]}
+    assert runs["od-kf"]["max_level_arcmin"] < 60.0
+    assert runs["od-kf"]["max_level_arcmin"] < runs["dr raw"]["max_level_arcmin"]
+    assert runs["od-kf"]["final_horizontal_m"] < runs["sins"]["final_horizontal_m"]
+    assert runs["dr raw"]["final_horizontal_m"] < runs["sins"]["final_horizontal_m"]
+    assert (runs["nhc-kf (od-kf mounting)"]["final_horizontal_m"]
+            < runs["nhc-kf (no mounting)"]["final_horizontal_m"])
+    assert (runs["dr scale + mounting (from reference)"]["final_horizontal_m"]
+            < runs["dr raw"]["final_horizontal_m"])
+    assert c["reference_calibration"]["pitch_mount_deg"] == pytest.approx(3.8, abs=0.5)
+    assert c["reference_calibration"]["yaw_mount_deg"] == pytest.approx(-0.8, abs=0.5)
+
+
+@needs_data
+def test_ems_nhc_bounds_the_inertial_error(real):
+    """INS + NHC only against pure INS over the 511 s drive (both with the still-period gyro
+    bias removed): pure INS is tens of km off (accelerometer biases integrate twice); the NHC
+    bounds the velocity across and along-track errors grow with heading only, so the error
+    stays within 10 % of the 2.1 km travelled."""
+    _, res = real
+    runs = {r["run"]: r for r in res["drives"]["ems_toronto_511s"]["runs"]}
+    nhc, sins = runs["nhc-kf"], runs["sins"]
+    assert sins["final_horizontal_m"] > 1000.0
+    assert nhc["final_horizontal_pct_distance"] < 10.0
+    assert nhc["max_horizontal_m"] < 0.05 * sins["max_horizontal_m"]
+    assert (runs["dr pseudo-odometer + still gyro bias"]["final_horizontal_m"]
+            < runs["dr pseudo-odometer"]["final_horizontal_m"])
