@@ -85,7 +85,9 @@ def test_reuse_rereads_without_running(run_004, monkeypatch):
     assert res.exit_code == 0, res.output
     (one,) = json.loads(res.output)["papers"]
     assert one["reused"] is True
-    assert one["rows"] == json.loads(first.output)["papers"][0]["rows"]
+    before = json.loads(first.output)["papers"][0]
+    assert one["rows"] == before["rows"]
+    assert (one["wall_s"], one["runs"], one["seed"]) == (before["wall_s"], 2, 5)   # the run's
 
 
 def test_unknown_paper_exits_2_naming_the_valid_ones(tmp_path):
@@ -171,6 +173,7 @@ def test_cli_all_exits_1_when_one_fails_and_prints_rows(tmp_path, fake_registry)
     assert "paper bad: failed (RuntimeError: boom: solver diverged)" in res.stdout
     assert "value" in res.stdout and "better" in res.stdout
     assert "failed: bad" in res.stderr
+    assert "paper bad (1 of 3)" in res.stderr and "paper good: ok" in res.stderr
     assert (tmp_path / "report.html").is_file()
 
 

@@ -65,8 +65,11 @@ def reproduce(ctx, paper, output, runs, workers, seed, reuse, quiet, as_json):
     as_json = as_json or _root_flag(ctx, "json")
     out = Path(output)
     if paper == "all":
+        def note(text):
+            if not quiet:
+                click.echo(f"inmotion: {text}", err=True)
         summary = rp.reproduce_all(out, runs=runs, workers=workers, seed=seed,
-                                   progress=not quiet, reuse=reuse)
+                                   progress=not quiet, reuse=reuse, notify=note)
         papers = summary["papers"]
     else:
         rp.get(paper)                                   # BadInput (exit 2) before any work

@@ -346,11 +346,22 @@ def run_reproduction(name: str, out_dir, runs=None, workers=2, seed=0, progress=
         out.mkdir(parents=True, exist_ok=True)
         _call(rep, out, runs, workers, seed, progress)
     summary = {"paper": rep.name, "title": rep.title, "status": "ok", "reused": reused,
-               "wall_s": None if reused else time.perf_counter() - t0,
+               "wall_s": time.perf_counter() - t0,
                "runs": runs if runs is not None else rep.issue_runs, "seed": seed,
                "out_dir": str(out), "rows": summary_rows(rep.name, out)}
+    if reused:      # the run that made the results: its wall time, runs and seed
+        summary.update(_previous(out))
     (out / ROWS_FILE).write_text(json.dumps(summary, indent=1, default=_json_default))
     return summary
+
+
+def _previous(out: Path) -> dict:
+    """``wall_s``, ``runs``, ``seed`` of the run recorded in ``out/paper_rows.json`` (if any)."""
+    try:
+        old = json.loads((out / ROWS_FILE).read_text())
+    except (OSError, json.JSONDecodeError):
+        return {"wall_s": None}
+    return {k: old.get(k) for k in ("wall_s", "runs", "seed")}
 
 
 def _json_default(x):
@@ -362,7 +373,7 @@ def _json_default(x):
 
 # ----------------------------------------------------------------------------- all
 def reproduce_all(out_dir, runs=None, workers=2, seed=0, progress=True, reuse=False,
-                  papers=None) -> dict:
+                  papers=None, notify=None) -> dict:
     """Run every reproduction into ``out_dir/<name>`` and write one HTML report.
 
     A reproduction that raises is recorded (``status: "failed"``, its error and the last lines
@@ -374,6 +385,7 @@ def reproduce_all(out_dir, runs=None, workers=2, seed=0, progress=True, reuse=Fa
     runs : runs per paper (None: each paper's issue count)
     workers, seed, progress, reuse : as :func:`run_reproduction`
     papers : names to run (default all of :data:`REPRODUCTIONS`)
+    notify : ``notify(text)`` called as each paper starts and ends (the CLI prints to stderr)
 
     Returns
     -------
@@ -384,9 +396,12 @@ def reproduce_all(out_dir, runs=None, workers=2, seed=0, progress=True, reuse=Fa
     out = Path(out_dir)
     out.mkdir(parents=True, exist_ok=True)
     results = []
-    for name in (papers or names()):
+    notify = notify or (lambda text: None)
+    todo = list(papers or names())
+    for k, name in enumerate(todo):
         rep = get(name)
         t0 = time.perf_counter()
+        notify(f"paper {name} ({k + 1} of {len(todo)}): {rep.title}")
         try:
             r_runs = runs if rep.issue_runs is not None else None
             results.append(run_reproduction(name, out / name, r_runs, workers, seed, progress,
@@ -397,6 +412,10 @@ def reproduce_all(out_dir, runs=None, workers=2, seed=0, progress=True, reuse=Fa
                             "traceback": "".join(traceback.format_exc().splitlines(True)[-12:]),
                             "wall_s": time.perf_counter() - t0, "out_dir": str(out / name),
                             "rows": []})
+        r = results[-1]
+        notify(f"paper {name}: {r['status']}" + (" (reused)" if r.get("reused") else "")
+               + (f", {r['error']}" if r["status"] != "ok" else f", {len(r['rows'])} figures")
+               + f", {time.perf_counter() - t0:.0f} s")
     page = write_page(out / "report.html", results,
                       title="inmotion: the five papers reproduced in simulation")
     summary = {"papers": results, "report": str(page)}

@@ -113,7 +113,7 @@ def _rows_table(rows, with_paper=False) -> str:
                                                  "measured", "verdict", "note"]
     body = [([r["_paper"]] if with_paper else [])
             + [r["quantity"], r.get("unit", ""), r.get("paper"), r.get("measured"),
-               (r.get("verdict", "-"), r.get("verdict", "-")), r.get("note", "")]
+               (r.get("verdict", "-"), r.get("verdict", "-")), (r.get("note", ""), "l")]
             for r in rows]
     return _table(head, body, left=3 if with_paper else 2)
 
@@ -144,7 +144,7 @@ def write_page(path, results, title: str) -> Path:
     page = _Page(title, out.parent / f"{out.stem}_figures")
     page.add("<h2>Summary</h2>" + _summary_table(results))
     all_rows = [dict(row, _paper=r["paper"]) for r in results for row in r["rows"]]
-    if all_rows:
+    if all_rows and len(results) > 1:
         page.add("<h2>Every paper figure against the measured one</h2>"
                  "<p class=\"note\">verdict: better / worse than the paper in the row's sense "
                  "(lower, or closer to 0 for a mean error), same within tolerance, - where one "
