@@ -459,3 +459,14 @@ def test_methods_of_one_run_share_one_simulated_drive():
                        "grid": {"method": ["sins", "dr"], "scenario.a": [1, 2]}})
     order = [(t.run_index, t.spec["scenario"]["a"]) for t in iter_tasks(grid)]
     assert order == [(0, 1), (0, 1), (0, 2), (0, 2), (1, 1), (1, 1), (1, 2), (1, 2)]
+
+
+def test_a_lost_chunk_is_recorded_as_one_error_per_run():
+    from inmotion.evaluate.montecarlo import _outcomes
+    chunk = [Task(4, k, 1, {"scale": 1.0}, {}, SYNTH, "scale=1.0") for k in (3, 4)]
+    exc = RuntimeError("worker lost")
+    for result in (exc, (RuntimeError, exc, None)):     # as Dask hands a failed future over
+        rows = [r for r, _ in _outcomes(result, chunk)]
+        assert [(r["run_index"], r["status"], r["seed"]) for r in rows] == \
+            [(3, "error", 4), (4, "error", 4)]
+        assert all(r["error"] == "RuntimeError: worker lost" for r in rows)

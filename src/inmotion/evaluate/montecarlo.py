@@ -314,6 +314,9 @@ def _same_drive(a: Task, b: Optional[Task]) -> bool:
 def _outcomes(result, chunk):
     """The chunk's (record, arrays) pairs; a chunk lost with its worker (e.g. ``KilledWorker``)
     is recorded as one error per run."""
+    if (isinstance(result, tuple) and len(result) == 3
+            and isinstance(result[1], BaseException)):     # as_completed(raise_errors=False)
+        result = result[1]
     if isinstance(result, BaseException) or not isinstance(result, list):
         exc = result if isinstance(result, BaseException) else TypeError(repr(result))
         return [(error_record(task, exc), None) for task in chunk]
