@@ -56,6 +56,22 @@ def test_still_gyro_bias_is_mean_rate_minus_earth_rate():
     np.testing.assert_allclose(rr.still_gyro_bias(b, b.imu.t[-1]), bias, atol=1e-15)
 
 
+def test_gyro_minus_reference_recovers_a_bias_per_window():
+    """Constant attitude, gyro = Earth rate in b + a bias that steps after 1 s (row k holds the
+    interval ending at t_k): the window means are the bias of each window (the transport rate
+    is zero at rest)."""
+    b = synthetic_bundle(np.zeros(3), 1.0)
+    b.truth.vel_n[:] = 0.0
+    C_nb = b.truth.C_nb[0]
+    bias = np.where(b.imu.t[:, None] <= 1.0 + 1e-9, [100.0, -200.0, 300.0], [-50.0, 0.0, 20.0])
+    w_b = C_nb.T @ earth.omega_ie_n(LAT) + bias * D / 3600
+    b.imu = ImuData(b.imu.t, w_b * 0.05, b.imu.dvel)
+    g = rr.gyro_minus_reference(b, window_s=1.0)
+    assert g["t_start_s"] == [0.0, 1.0, 2.0]
+    np.testing.assert_allclose(g["mean_deg_h"], [[100.0, -200.0, 300.0], [-50.0, 0.0, 20.0],
+                                                  [-50.0, 0.0, 20.0]], atol=1e-6)
+
+
 def test_no_still_period_is_bad_input():
     b = synthetic_bundle(np.zeros(3), 1.0)
     with pytest.raises(BadInput, match="no still period"):
