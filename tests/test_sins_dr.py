@@ -310,6 +310,7 @@ def test_short_drive_errors_inside_three_sigma_and_bounded(short_drive, mode):
     late = err.t > 260
     assert np.abs(err.phi_E_arcmin[late]).max() < 0.2 and np.abs(err.phi_N_arcmin[late]).max() < 0.2
     assert sol.info["mode"] == mode
+    assert sol.info["rows_without_speed"] == 0 and sol.info["rows_in_speed_gaps"] == 0
     assert set(sol.info["measurements"]) == {"attitude" if mode[0] == "a" else "velocity",
                                               "position"}
 
@@ -443,3 +444,10 @@ def test_reproduce_002_statistics_on_a_known_error_table():
     assert ver["ap_meets_paper"] == {"horizontal_m": True, "heading_arcmin": True,
                                      "level_arcmin": True}
     assert ver["ap_beats_vp"]["horizontal_m"] and not ver["ap_beats_vp"]["heading_arcmin"]
+
+
+def test_rows_without_speed_are_counted(short_drive):
+    late = short_drive.window(None, None)
+    late.radar = late.radar.window(10.0, None)           # the radar starts 10 s late
+    sol = run_sins_dr(late, {"velocity_sensor": "radar"}, _truth_init(late))
+    assert sol.info["rows_without_speed"] == 1000        # (0, 10] s at 100 Hz

@@ -367,11 +367,10 @@ def _speed_on_chunk(speed: SpeedData, edges, max_gap: float, sensor: str):
     window = SpeedData(ts[w], None if speed.v is None else speed.v[w],
                        None if speed.ds is None else speed.ds[w])
     try:
-        ds, v, _, _ = speed_on_epochs(window, edges, max_gap=max_gap, what=sensor)
+        return speed_on_epochs(window, edges, max_gap=max_gap, what=sensor)
     except BadInput as e:
         raise BadInput(e.what, file=e.file, row=None if e.row is None else e.row + i0,
                        time=e.time) from None
-    return ds, v
 
 
 # ----------------------------------------------------------------------------- the driver
@@ -426,6 +425,10 @@ class SinsDrFilter:
         self.rejected = np.zeros(4, dtype=np.int64)
         self.nis_sum = np.zeros(4)
         self.epochs = 0
+        #: IMU rows outside the sensor's span (the DR holds its position there) and inside
+        #: sensor gaps (distance interpolated across), as :func:`dead_reckon` counts them
+        self.rows_without_speed = 0
+        self.rows_in_speed_gaps = 0
 
     def output_rows(self, n_rows: int) -> int:
         """Output rows a run over ``n_rows`` IMU rows can write (the initial row, every
@@ -452,6 +455,8 @@ class SinsDrFilter:
         ``states`` (M, n) (fed back plus current estimate); row 0 is the state before the call.
         """
         n_rows = len(t)
+        if n_rows == 0:
+            raise ValueError("SinsDrFilter.run needs at least one IMU row")
         n_out = self.output_rows(n_rows)
         lay = self.layout
         out = {"t": np.empty(n_out), "x_sins": np.empty((n_out, K.NX)),
@@ -470,7 +475,9 @@ class SinsDrFilter:
             tc = t[a:b]
             t_prev = self.sins.t if a == 0 else t[a - 1]
             edges = np.concatenate([[t_prev], tc])
-            ds, v = _speed_on_chunk(speed, edges, max_gap, sensor)
+            ds, v, uncovered, in_gap = _speed_on_chunk(speed, edges, max_gap, sensor)
+            self.rows_without_speed += int(uncovered.sum())
+            self.rows_in_speed_gaps += int(in_gap.sum())
             dt = np.diff(edges)
             hb = h_baro(tc) if h_baro is not None else np.full(len(tc), np.nan)
             ends = np.arange(self.step, b - a + self.step, self.step)

@@ -274,7 +274,9 @@ def _solution(filt: SinsDrFilter, out: dict, cfg: SinsDrConfig, sensor: str,
     info = {"method": "sins-dr", "mode": cfg.mode, "config": cfg.model_dump(mode="json"),
             "velocity_sensor": sensor, "layout": list(lay.names),
             "filter_step_rows": filt.step, "measurement_every_filter_steps": filt.meas_every,
-            "measurements": filt.counts(), "timing": {"run_s": wall}}
+            "measurements": filt.counts(), "timing": {"run_s": wall},
+            "rows_without_speed": filt.rows_without_speed,
+            "rows_in_speed_gaps": filt.rows_in_speed_gaps}
     return Solution.from_arrays(out["t"], xs[:, 0:3], xs[:, 3:6], xs[:, 6:10], sigma=sigma,
                                 states=lay.as_dict(out["states"]),
                                 state_units=lay.unit_map(position_units(filt.init.lat,
@@ -302,7 +304,10 @@ def run_sins_dr(bundle: Bundle, config: SinsDrConfig | dict | None = None,
     Solution at the output rate: the closed-loop corrected SINS state; ``sigma`` of the
     misalignment, velocity, position (north, east, h [m]) and ``dk``; every named state
     (accumulated feedback plus the current estimate); ``info`` with the mode, the measurement
-    counts and mean NIS per degree of freedom, and timing.
+    counts and mean NIS per degree of freedom, timing, and the IMU rows the velocity sensor
+    did not cover (``rows_without_speed``: the DR holds its position there, so a log whose
+    sensor starts late or stops early should be cut to the sensor's span with ``--start`` /
+    ``--end``) or covered across a gap (``rows_in_speed_gaps``).
     """
     if init is None:
         raise BadInput("method 'sins-dr' needs an initial state with attitude (--init truth, "
