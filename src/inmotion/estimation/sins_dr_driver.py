@@ -29,7 +29,7 @@ Per filter epoch (``step`` IMU rows, :func:`_run_epochs`, one numba loop):
              resolved in the DR's body frame               ``phi_D``, ``-v`` on ``dk`` (eq. 11),
                                                            times ``C_n^b`` of the DR
    position  ``[lat, lon, h]_SINS - [..]_DR`` (rad, rad,   ``I`` on ``dp``, ``-I`` on ``dp_D``
-             m; paper 002 eq. 43, 52)
+             m; paper 002 eq. 44, 52)
    height    ``h_SINS - h_baro``                           ``1`` on ``dp_h``
    ========  ============================================  ==================================
 
@@ -183,7 +183,7 @@ def measurement_rows(offs, use, xs, xd, h_baro, r_att, sig_pos_m, r_vel, r_h, n)
         g += 1
         m += 3
         starts[g] = m
-    if use[2]:                                   # position (paper 002 eq. 43, 52)
+    if use[2]:                                   # position (paper 002 eq. 44, 52)
         r_m, r_n = K.radii(xs[K.LAT])
         scale = (r_m + xs[K.H], (r_n + xs[K.H]) * math.cos(xs[K.LAT]), 1.0)
         for i in range(3):

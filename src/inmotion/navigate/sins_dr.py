@@ -18,7 +18,7 @@ the DR position rows; ``dk`` first-order Markov, paper 002 eq. 22).
 
 Modes (``mode`` in the configuration; ``--mode`` on the command line):
 
-``attitude-position`` (paper 002 eq. 43-51, the paper's proposal)
+``attitude-position`` (paper 002 eq. 44-51, the paper's proposal)
     ``z = [yaw, pitch, roll]_SINS - [yaw, pitch, roll]_DR`` and
     ``[lat, lon, h]_SINS - [lat, lon, h]_DR``. The paper's eq. 45-50 (heading, pitch and roll
     errors in terms of the platform angles) are lost from its text; they are paper 000 eq.
@@ -93,7 +93,7 @@ UG = earth.G0 * 1e-6
 
 #: paper 002's states: paper 000 eq. 21 without the mounting angles
 LAYOUT_SINS_DR = Layout(["phi", "dv", "dp", "eps", "nabla", "phi_D", "dp_D", "dk"])
-#: measurement groups of each mode (paper 002 eq. 43 and 52)
+#: measurement groups of each mode (paper 002 eq. 44 and 52)
 MODES = {"attitude-position": ("attitude", "position"),
          "velocity-position": ("velocity", "position")}
 
@@ -107,7 +107,7 @@ class SinsDrConfig(BaseModel):
 
     Attributes (beyond the priors and noise densities, whose names carry their units)
     ----------
-    mode : ``attitude-position`` or ``velocity-position`` (paper 002 eq. 43 / 52)
+    mode : ``attitude-position`` or ``velocity-position`` (paper 002 eq. 44 / 52)
     velocity_sensor : radar, ldv or odometer; None takes the first present
     filter_rate_hz, measurement_rate_hz, output_rate_hz : rounded to whole IMU rows /
         filter epochs; output defaults to the filter rate
