@@ -423,6 +423,13 @@ def test_montecarlo_command_bad_input_exits_2(tmp_path, extra, message):
     assert message in res.output
 
 
+def test_store_compacts_after_a_while_too(tmp_path):
+    store = ResultStore(tmp_path, compact_every=1000, compact_after_s=0.0)
+    store.write({"point_id": 3, "run_index": 0, "status": "ok"})
+    assert store.journal_files() == [] and len(store.part_files()) == 1
+    assert pd.read_parquet(store.part_files()[0])["point_id"].tolist() == [3]
+
+
 def test_a_part_starting_with_an_error_row_keeps_every_result_column(tmp_path):
     store = ResultStore(tmp_path, compact_every=2)
     store.write({"point_id": 0, "run_index": 0, "status": "error", "error": "boom"})

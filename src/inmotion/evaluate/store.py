@@ -7,8 +7,8 @@ Layout of ``DIR/results/``::
 
 Each finished run is appended to the journal as one line and flushed to the operating system at
 once (tens of microseconds), so a campaign killed at any moment keeps every run that finished;
-a line cut short by the kill is ignored when read. Every ``compact_every`` runs (and when the
-campaign ends) the journal's rows are written as one Parquet part per point (to a temporary name,
+a line cut short by the kill is ignored when read. Every ``compact_every`` runs or
+``compact_after_s`` seconds (and when the campaign ends) the journal's rows are written as one Parquet part per point (to a temporary name,
 then renamed) and the journal is deleted; a kill between the two leaves rows in both, which
 reading removes (a run's rows are identical). ``pyarrow.dataset`` / ``pandas.read_parquet`` read
 the parts directly; :meth:`ResultStore.table` adds the journal.
@@ -20,6 +20,7 @@ from __future__ import annotations
 
 import json
 import os
+import time
 import uuid
 from pathlib import Path
 from typing import Iterable, Optional
@@ -60,15 +61,20 @@ class ResultStore:
         The campaign directory.
     compact_every : int
         Runs between two compactions of the journal into Parquet parts.
+    compact_after_s : float
+        Or seconds since the journal's first pending run, whichever comes first, so a reader of
+        the Parquet dataset alone is never far behind.
     """
 
-    def __init__(self, root, compact_every: int = 500):
+    def __init__(self, root, compact_every: int = 500, compact_after_s: float = 60.0):
         self.root = Path(root)
         self.results = self.root / "results"
         self.arrays = self.root / "arrays"
         self.compact_every = int(compact_every)
+        self.compact_after_s = float(compact_after_s)
         self._journal = None
         self._pending = []
+        self._since = 0.0
 
     # ------------------------------------------------------------------ writing
     def write(self, record: dict, arrays: Optional[dict] = None) -> None:
@@ -82,8 +88,11 @@ class ResultStore:
         line = json.dumps(record, default=_json_default, allow_nan=True)
         self._journal[1].write(line + "\n")
         self._journal[1].flush()
+        if not self._pending:
+            self._since = time.monotonic()
         self._pending.append(record)
-        if len(self._pending) >= self.compact_every:
+        if (len(self._pending) >= self.compact_every
+                or time.monotonic() - self._since >= self.compact_after_s):
             self.compact()
 
     def compact(self) -> None:
