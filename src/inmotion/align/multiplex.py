@@ -3,11 +3,14 @@ sec. 3.2.1 and 3.3.1): method ``fine-mux``.
 
 Fault-tolerant speed (sec. 3.2.1, Figure 2)
     The vehicle's forward speed is redundant in the odometer, the LDV and the IMU. At every
-    IMU row the IMU predicts the speed from its reference and its forward velocity
-    increment, ``v_imu(k) = v_ref(k-1) + dvel_y(k) - g sin(theta) dt`` (``d v / dt = f_y -
-    g sin(theta)`` along the forward axis, whose ``omega x v`` term vanishes); the reference
-    follows the accepted speed with a 2 s time constant, so a fault that sets in over a few
-    samples (a distance sensor's interval straddling the fault's start) cannot drag it. The channel
+    IMU row the IMU predicts the speed from the value accepted ``horizon_s`` (0.2 s) earlier
+    and its forward velocity increments since, ``v_imu(k) = v(k-N) + sum (dvel_y - g
+    sin(theta) dt)`` (``d v / dt = f_y - g sin(theta)`` along the forward axis, whose
+    ``omega x v`` term vanishes). The horizon makes a fault that sets in over a few samples
+    (a distance sensor's interval straddling the fault's start) show in full, while the
+    pitch estimate's error acts only over 0.2 s. When neither channel agrees with the IMU
+    but both agree with each other (the IMU bridge has drifted after a double fault), the
+    two sensors win. The channel
     closer to ``v_imu`` is used; if both differ by more than ``speed_tolerance_m_s`` the IMU
     prediction bridges the gap (both channels faulty, rare and short). ``sin(theta)`` is a
     low-pass (``pitch_time_constant_s``) of ``(f_y - dv/dt) / g`` with the accepted speed:
@@ -56,8 +59,8 @@ class MuxConfig(BaseModel):
     model_config = ConfigDict(extra="forbid")
     coarse_window_s: float = Field(600.0, gt=0, description="coarse alignment window")
     fault_tolerant_coarse: bool = True
-    speed_tolerance_m_s: float = Field(0.3, gt=0)
-    pitch_time_constant_s: float = Field(5.0, gt=0)
+    speed_tolerance_m_s: float = Field(0.15, gt=0)
+    pitch_time_constant_s: float = Field(1.0, gt=0)
     coarse_sensor: Optional[Literal["odometer", "ldv"]] = Field(
         None, description="the one sensor of a non-fault-tolerant coarse stage (default: "
                           "ldv if present)")
@@ -66,8 +69,8 @@ class MuxConfig(BaseModel):
     coarse: dict = Field(default_factory=dict, description="coarse-inertial configuration")
 
 
-def fault_tolerant_speed(bundle: Bundle, t: np.ndarray, tolerance_m_s: float = 0.3,
-                         pitch_tau_s: float = 5.0, ref_tau_s: float = 2.0):
+def fault_tolerant_speed(bundle: Bundle, t: np.ndarray, tolerance_m_s: float = 0.15,
+                         pitch_tau_s: float = 1.0, horizon_s: float = 0.2):
     """The forward speed picked from OD / LDV by the IMU (module docstring).
 
     Parameters
@@ -92,24 +95,29 @@ def fault_tolerant_speed(bundle: Bundle, t: np.ndarray, tolerance_m_s: float = 0
     dvy = imu.dvel[k0:k0 + len(t), 1]
     dt = np.diff(t, prepend=t[0] - imu.dt)
     g = earth.G0
-    v = np.empty(len(t))
-    src = np.empty(len(t), dtype=np.int64)
+    n = len(t)
+    v = np.empty(n)
+    src = np.empty(n, dtype=np.int64)
+    cum = np.zeros(n)              # cumulated IMU forward velocity increments [m/s]
     first = np.nanargmin(np.where(np.isnan(V[:, 0]), np.inf, 0.0))
     v[0], src[0] = V[first, 0], first
-    v_ref = v[0]
+    lag = max(1, int(round(horizon_s / float(np.median(dt)))))
     s_pitch = 0.0
-    for k in range(1, len(t)):
-        v_imu = v_ref + dvy[k] - g * s_pitch * dt[k]
+    for k in range(1, n):
+        cum[k] = cum[k - 1] + dvy[k] - g * s_pitch * dt[k]
+        j0 = max(k - lag, 0)
+        v_imu = v[j0] + cum[k] - cum[j0]
         d = np.abs(V[:, k] - v_imu)
         d[np.isnan(d)] = np.inf
         j = int(np.argmin(d))
         if d[j] <= tolerance_m_s:
             v[k], src[k] = V[j, k], j
+        elif abs(V[0, k] - V[1, k]) <= tolerance_m_s:
+            # both sensors agree with each other but not with the IMU (whose bridge has
+            # drifted after a double fault): two independent sensors win
+            v[k], src[k] = V[j, k], j
         else:
-            v[k], src[k] = v_imu, 2
-        # the IMU reference follows the accepted speed only slowly (ref_time_constant_s), so
-        # a fault that sets in over a few samples cannot drag it along
-        v_ref = v_imu + dt[k] / ref_tau_s * (v[k] - v_imu)
+            v[k], src[k] = v[k - 1] + cum[k] - cum[k - 1], 2
         a = dt[k] / pitch_tau_s
         s_pitch += a * ((dvy[k] - (v[k] - v[k - 1])) / (g * dt[k]) - s_pitch)
     change = np.flatnonzero(np.diff(src)) + 1
