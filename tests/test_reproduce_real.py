@@ -72,6 +72,22 @@ def test_gyro_minus_reference_recovers_a_bias_per_window():
                                                   [-50.0, 0.0, 20.0]], atol=1e-6)
 
 
+def test_accel_minus_reference_at_rest_is_the_bias_and_its_tilt():
+    """At rest with a tilted attitude the accelerometer reads ``C_n^b [0, 0, g] + b``; the
+    function returns ``b`` and the tilt ``atan(hypot(b_x, b_y) / g)``."""
+    b = synthetic_bundle(np.zeros(3), 1.0)
+    b.truth.vel_n[:] = 0.0
+    C_nb = b.truth.C_nb[0]
+    g = earth.gravity(LAT, 100.0)
+    bias = np.array([0.05, -0.02, 0.1])
+    f_b = C_nb.T @ np.array([0.0, 0.0, g]) + bias
+    b.imu = ImuData(b.imu.t, b.imu.dtheta, np.tile(f_b * 0.05, (len(b.imu.t), 1)))
+    a = rr.accel_minus_reference(b)
+    np.testing.assert_allclose(a["bias_m_s2"], bias, atol=1e-9)
+    assert a["level_error_arcmin"] == pytest.approx(
+        np.degrees(np.arctan(np.hypot(0.05, 0.02) / g)) * 60, rel=1e-6)
+
+
 def test_no_still_period_is_bad_input():
     b = synthetic_bundle(np.zeros(3), 1.0)
     with pytest.raises(BadInput, match="no still period"):
