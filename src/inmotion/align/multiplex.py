@@ -6,13 +6,15 @@ Fault-tolerant speed (sec. 3.2.1, Figure 2)
     IMU row the IMU predicts the speed from the value accepted ``horizon_s`` (0.2 s) earlier
     and its forward velocity increments since, ``v_imu(k) = v(k-N) + sum (dvel_y - g
     sin(theta) dt)`` (``d v / dt = f_y - g sin(theta)`` along the forward axis, whose
-    ``omega x v`` term vanishes). The horizon makes a fault that sets in over a few samples
+    ``omega x v`` term vanishes). A channel is healthy while it agrees with ``v_imu`` within
+    ``speed_tolerance_m_s``; of two healthy channels the LDV is used (the paper's "smaller
+    difference" rule would switch on noise between two healthy channels; the LDV has the
+    smaller scale-factor error, sec. 4.1), else the healthy one. The horizon makes a fault that sets in over a few samples
     (a distance sensor's interval straddling the fault's start) show in full, while the
     pitch estimate's error acts only over 0.2 s. When neither channel agrees with the IMU
     but both agree with each other (the IMU bridge has drifted after a double fault), the
-    two sensors win. The channel
-    closer to ``v_imu`` is used; if both differ by more than ``speed_tolerance_m_s`` the IMU
-    prediction bridges the gap (both channels faulty, rare and short). ``sin(theta)`` is a
+    two sensors win; otherwise the IMU prediction bridges the gap (both channels faulty,
+    rare and short). ``sin(theta)`` is a
     low-pass (``pitch_time_constant_s``) of ``(f_y - dv/dt) / g`` with the accepted speed:
     the coarse stage needs no attitude. Channel changes are logged as events.
 
@@ -110,6 +112,8 @@ def fault_tolerant_speed(bundle: Bundle, t: np.ndarray, tolerance_m_s: float = 0
         d = np.abs(V[:, k] - v_imu)
         d[np.isnan(d)] = np.inf
         j = int(np.argmin(d))
+        if d[1] <= tolerance_m_s:
+            j = 1                    # a healthy LDV is preferred (the smaller scale error)
         if d[j] <= tolerance_m_s:
             v[k], src[k] = V[j, k], j
         elif abs(V[0, k] - V[1, k]) <= tolerance_m_s:
