@@ -38,6 +38,13 @@ each local filter an estimate of the error of the *corrected* SINS, and is not a
 information: the local covariances are left alone (non-reset mode, beta_m = 0). Sensor states
 (``dk``, ``mount``, ``lever``) are estimated only, never fed back.
 
+Reconfiguration in non-reset mode: the local filters are never reset to the global
+estimate, so their SINS estimates differ (within their covariances, which are 1 / beta
+times inflated); when a channel is isolated the output moves from the fused estimate to the
+remaining channel's, a step of that difference (tens of arc-minutes of heading early in a
+drive, while heading is still poorly observed; see ``reproduce_003`` Figure 13). This is the
+price of the paper's fault-tolerant structure: a faulty channel never contaminates another.
+
 Memory: rows are processed in chunks; outputs (at ``out_every`` epochs), the test-statistic
 series (per measurement epoch) and the event list are the only arrays that grow.
 """
