@@ -173,7 +173,8 @@ def _report(agg, ver, runs, seed, wall, distance, files, out: Path) -> str:
           + ", ".join(f"{k} {'yes' if v else 'NO'}" for k, v in ver["ap_beats_vp"].items()) + ".",
           "", "Set-up: see `inmotion.evaluate.reproduce_002` (sensor figures: gyro drift "
           "0.01 deg/h from paper 002; the others, lost from its text, from paper 000 sec. 5; "
-          "initial attitude error N(0, 0.5') level, N(0, 1.8') heading).", "",
+          f"initial attitude error N(0, {INIT_SIGMA_ARCMIN[0]:g}') level, "
+          f"N(0, {INIT_SIGMA_ARCMIN[2]:g}') heading).", "",
           "Figures: " + ", ".join(f"`{f}`" for f in files), ""]
     text = "\n".join(L)
     (out / "report.md").write_text(text)
