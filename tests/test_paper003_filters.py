@@ -197,3 +197,16 @@ def test_bad_input_paths(clean):
         fault_tolerant_speed(bare, clean.imu.t[10:20])
     with pytest.raises(BadInput, match="fine_method"):
         run_fine_mux(clean, {"fine_method": "nope"})
+
+
+def test_adaptive_strategy_2_when_parked_briefly():
+    """Parked for less than ``parked_coarse_s``: in-motion coarse from the start, then the fine
+    alignment with information multiplexing (the fine filter starts at the log's start)."""
+    b = simulate(load_scenario("paper003_parked_then_drive"), np.random.default_rng(3))
+    b = b.window(150.0, 330.0)
+    sol = run_adaptive(b, {"mux": {"coarse_window_s": 120.0}})
+    assert sol.info["strategy"].startswith("2")
+    assert 180.0 <= sol.info["switch_time_s"] <= 182.0
+    assert sol.t[0] < 151.0
+    e = _final_err(sol, b.truth)
+    assert np.all(np.abs(e[:2]) < 1.0) and abs(e[2]) < 15.0
