@@ -172,6 +172,18 @@ def test_demo_runs_end_to_end(scenario_file, monkeypatch):
     assert {m["method"] for m in d["methods"]} >= {"sins", "dr"}
 
 
+def test_demo_alignment_chain_on_the_shipped_drive():
+    """The demo's main job: coarse in-motion alignment with no attitude, then fine alignment.
+    Bounds: coarse level within a few arcmin (accelerometer bias 50 ug ~ 0.2'), fine heading
+    within 10' (gyrocompass limit drift / (omega_ie cos L) = 0.01 deg/h -> ~2.7' 1-sigma here)."""
+    d = run_json("demo")
+    chain = {r["method"].split(":")[0]: r for r in d["alignment_chain"]}
+    assert set(chain) == {"coarse", "fine", "navigate"}, d["alignment_chain"]
+    assert chain["coarse"]["level_arcmin"] < 5.0
+    assert abs(chain["fine"]["heading_arcmin"]) < 10.0
+    assert chain["fine"]["level_arcmin"] < 1.0
+
+
 def test_shipped_demo_scenario_exists():
     from inmotion.sim.scenario import find_scenario, load_scenario
     load_scenario(find_scenario("demo"))
