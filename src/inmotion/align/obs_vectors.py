@@ -209,20 +209,6 @@ def _matTvec(C, v):
 
 
 @numba.njit(cache=True)
-def _dcm_of_q(q, C):
-    q0, q1, q2, q3 = q
-    C[0, 0] = q0 * q0 + q1 * q1 - q2 * q2 - q3 * q3
-    C[0, 1] = 2 * (q1 * q2 - q0 * q3)
-    C[0, 2] = 2 * (q1 * q3 + q0 * q2)
-    C[1, 0] = 2 * (q1 * q2 + q0 * q3)
-    C[1, 1] = q0 * q0 - q1 * q1 + q2 * q2 - q3 * q3
-    C[1, 2] = 2 * (q2 * q3 - q0 * q1)
-    C[2, 0] = 2 * (q1 * q3 - q0 * q2)
-    C[2, 1] = 2 * (q2 * q3 + q0 * q1)
-    C[2, 2] = q0 * q0 - q1 * q1 - q2 * q2 + q3 * q3
-
-
-@numba.njit(cache=True)
 def _solve_running(K, S_a, S_b, W, centered, C):
     """Largest-eigenvalue eigenvector of ``K`` (or of its centred form) into the DCM ``C``."""
     Ku = K.copy()
@@ -230,7 +216,7 @@ def _solve_running(K, S_a, S_b, W, centered, C):
         k_increment(Ku, S_a, S_b, -1.0 / W)
     vals, vecs = np.linalg.eigh(Ku)
     q = (vecs[0, 3], vecs[1, 3], vecs[2, 3], vecs[3, 3])
-    _dcm_of_q(kn.qnormalize(q), C)
+    kn.dcm_from_quat_into(kn.qnormalize(q), C)
 
 
 @numba.njit(cache=True)

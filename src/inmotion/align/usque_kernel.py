@@ -19,6 +19,7 @@ import math
 import numba
 import numpy as np
 
+from ..core import _kernels as kn
 from ..estimation import adaptive_noise, hinf, quat_average as qa
 from . import usque_model as model
 
@@ -76,22 +77,6 @@ def quat_to_grp(q, a, f):
 
 
 @numba.njit(cache=True)
-def _dcm(q):
-    q0, q1, q2, q3 = q[0], q[1], q[2], q[3]
-    C = np.empty((3, 3))
-    C[0, 0] = q0 * q0 + q1 * q1 - q2 * q2 - q3 * q3
-    C[0, 1] = 2 * (q1 * q2 - q0 * q3)
-    C[0, 2] = 2 * (q1 * q3 + q0 * q2)
-    C[1, 0] = 2 * (q1 * q2 + q0 * q3)
-    C[1, 1] = q0 * q0 - q1 * q1 + q2 * q2 - q3 * q3
-    C[1, 2] = 2 * (q2 * q3 - q0 * q1)
-    C[2, 0] = 2 * (q1 * q3 - q0 * q2)
-    C[2, 1] = 2 * (q2 * q3 + q0 * q1)
-    C[2, 2] = q0 * q0 - q1 * q1 - q2 * q2 + q3 * q3
-    return C
-
-
-@numba.njit(cache=True)
 def _sigma(x, P, scale):
     """Rows ``x``, ``x + L_i``, ``x - L_i`` with ``L L^T = scale P`` (eq. 24)."""
     n = len(x)
@@ -143,7 +128,7 @@ def _h(chi_q, chi, beta_n, wie_n, D_i, S):
     m = chi_q.shape[0]
     Z = np.empty((m, 3))
     for i in range(m):
-        C = _dcm(chi_q[i])
+        C = kn.dcm_from_quat(chi_q[i])
         Z[i] = C @ beta_n - np.cross(C @ wie_n, D_i) + S @ chi[i, 3:]
     return Z
 
@@ -154,10 +139,10 @@ def _observation(acc, has_dk, has_nabla, has_eps, has_dv0):
     :func:`~inmotion.align.usque_model.sensitivity` (columns dk, nabla, eps as present)."""
     q_ib = acc[model.Q_IB:model.Q_IB + 4].copy()
     q_n0n = acc[model.Q_N0N:model.Q_N0N + 4].copy()
-    u_i = _dcm(q_ib) @ np.array([0.0, acc[model.V_PREV], 0.0])
+    u_i = kn.dcm_from_quat(q_ib) @ np.array([0.0, acc[model.V_PREV], 0.0])
     V_i = u_i.copy()
     V_i[1] -= acc[model.V0]
-    beta_n = _dcm(q_n0n).T @ acc[model.BETA_N0:model.BETA_N0 + 3]
+    beta_n = kn.dcm_from_quat(q_n0n).T @ acc[model.BETA_N0:model.BETA_N0 + 3]
     lat = acc[model.LAT]
     wie_n = np.array([0.0, model.kn.OMEGA_IE * math.cos(lat), model.kn.OMEGA_IE * math.sin(lat)])
     y = V_i - acc[model.ALPHA_F:model.ALPHA_F + 3]

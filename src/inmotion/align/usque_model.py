@@ -239,10 +239,10 @@ def observation(acc):
     """
     q_ib = acc[ACC.Q_IB:ACC.Q_IB + 4].copy()
     q_n0n = acc[ACC.Q_N0N:ACC.Q_N0N + 4].copy()
-    C_ib = _dcm(q_ib)
+    C_ib = kn.dcm_from_quat(q_ib)
     u_i = C_ib @ np.array([0.0, acc[ACC.V_PREV], 0.0])
     V_i = u_i - np.array([0.0, acc[ACC.V0], 0.0])
-    beta_n = _dcm(q_n0n).T @ acc[ACC.BETA_N0:ACC.BETA_N0 + 3]
+    beta_n = kn.dcm_from_quat(q_n0n).T @ acc[ACC.BETA_N0:ACC.BETA_N0 + 3]
     lat = acc[ACC.LAT]
     B = acc[ACC.B_I:ACC.B_I + 9].reshape(3, 3).copy()
     J = acc[ACC.JF_I:ACC.JF_I + 9].reshape(3, 3) - np.cross(u_i[None, :], B.T).T
@@ -263,14 +263,6 @@ def sensitivity(obs, blocks):
     if not blocks:
         return np.zeros((3, 0))
     return np.hstack([cols[name] for name in blocks])
-
-
-def _dcm(q):
-    q0, q1, q2, q3 = q
-    return np.array([
-        [q0 * q0 + q1 * q1 - q2 * q2 - q3 * q3, 2 * (q1 * q2 - q0 * q3), 2 * (q1 * q3 + q0 * q2)],
-        [2 * (q1 * q2 + q0 * q3), q0 * q0 - q1 * q1 + q2 * q2 - q3 * q3, 2 * (q2 * q3 - q0 * q1)],
-        [2 * (q1 * q3 - q0 * q2), 2 * (q2 * q3 + q0 * q1), q0 * q0 - q1 * q1 - q2 * q2 + q3 * q3]])
 
 
 def nav_increment(q_n0n_old, q_n0n_new):

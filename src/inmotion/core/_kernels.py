@@ -121,6 +121,33 @@ def quat_from_rotvec(r):
 
 
 @numba.njit(cache=True)
+def dcm_from_quat_into(q, C):
+    """Write ``C(q)`` (= ``C_b^n`` of ``q_nb``) into the (3, 3) array ``C``; ``q`` not normalized.
+
+    The numba twin of :func:`inmotion.core.rotations.dcm_from_quat` (which normalizes first):
+    the homogeneous quadratic form of a scalar-first quaternion, exact for a unit ``q``.
+    """
+    q0, q1, q2, q3 = q[0], q[1], q[2], q[3]
+    C[0, 0] = q0 * q0 + q1 * q1 - q2 * q2 - q3 * q3
+    C[0, 1] = 2 * (q1 * q2 - q0 * q3)
+    C[0, 2] = 2 * (q1 * q3 + q0 * q2)
+    C[1, 0] = 2 * (q1 * q2 + q0 * q3)
+    C[1, 1] = q0 * q0 - q1 * q1 + q2 * q2 - q3 * q3
+    C[1, 2] = 2 * (q2 * q3 - q0 * q1)
+    C[2, 0] = 2 * (q1 * q3 - q0 * q2)
+    C[2, 1] = 2 * (q2 * q3 + q0 * q1)
+    C[2, 2] = q0 * q0 - q1 * q1 - q2 * q2 + q3 * q3
+
+
+@numba.njit(cache=True)
+def dcm_from_quat(q):
+    """New (3, 3) array ``C(q)``: :func:`dcm_from_quat_into` into a fresh array."""
+    C = np.empty((3, 3))
+    dcm_from_quat_into(q, C)
+    return C
+
+
+@numba.njit(cache=True)
 def get_q(x):
     return (x[Q0], x[Q1], x[Q2], x[Q3])
 
