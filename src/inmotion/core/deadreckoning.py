@@ -45,7 +45,7 @@ import numpy as np
 from . import _kernels as K
 from .bundle import ImuData, SpeedData
 from .mechanization import (CHUNK_ROWS, _check_finite, _check_time, _correct, _first_row,
-                            _intervals, _out_buffers, _SolutionBuilder, _state_vector,
+                            _intervals, _KernelStream, _out_buffers, _SolutionBuilder,
                             typical_period)
 from .solution import NavState, Solution
 from ..errors import BadInput
@@ -172,7 +172,7 @@ def speed_on_epochs(speed: SpeedData, t: np.ndarray, max_gap: float | None = Non
     return _SpeedOnEpochs(speed, max_gap, what)(np.asarray(t, dtype=float))
 
 
-class DeadReckoner:
+class DeadReckoner(_KernelStream):
     """Streaming dead reckoning: advance over chunks, read the state, feed back corrections.
 
     Parameters
@@ -191,10 +191,7 @@ class DeadReckoner:
 
     def __init__(self, init: NavState, C_bm=None, lever_arm_b=None, scale: float = 1.0):
         self.C_bm, self.l_b, self.scale = _check_mounting(C_bm, lever_arm_b, scale)
-        self._x = _state_vector(init)
-        self._mem = K.new_memory()
-        self.t = float(init.t)
-        self.rows = 0           #: rows processed so far (error messages count from here)
+        self._start(init)
 
     def run(self, dtheta, t, ds, v, out_stride: int = 0):
         """Advance over M rows: gyro increments ``dtheta`` (M, 3) [rad] over the intervals
@@ -215,27 +212,7 @@ class DeadReckoner:
         out_rows, out_x = _out_buffers(len(t), out_stride)
         n = K.dr_run(self._x, self._mem, dtheta, ds, v, dt, self.C_bm, self.l_b,
                      int(out_stride), out_rows, out_x)
-        if len(t):
-            self.t = float(t[-1])
-        self.rows += len(t)
-        if out_stride > 0:
-            return t[out_rows[:n]], out_x[:n]
-        return None
-
-    def state(self) -> NavState:
-        """The current dead-reckoning state (a copy)."""
-        x = self._x
-        return NavState(self.t, x[K.LAT], x[K.LON], x[K.H], x[K.VE:K.VU + 1].copy(),
-                        x[K.Q0:K.Q3 + 1].copy())
-
-    @property
-    def x(self) -> np.ndarray:
-        return self._x.copy()
-
-    @property
-    def omega_ib_b(self) -> np.ndarray:
-        """Mean body rate [rad/s] over the last row."""
-        return self._mem[K.M_WIB:K.M_WIB + 3].copy()
+        return self._finish_chunk(t, n, out_rows, out_x, out_stride)
 
     def correct(self, phi=None, dpos=None):
         """Feedback of estimated DR errors (computed minus true): ``phi`` [rad] misalignment

@@ -145,7 +145,46 @@ def _out_buffers(m, out_stride):
     return np.empty(n_max, dtype=np.int64), np.empty((n_max, K.NX))
 
 
-class Strapdown:
+class _KernelStream:
+    """What the streaming SINS (:class:`Strapdown`) and the streaming dead reckoner
+    (:class:`inmotion.core.deadreckoning.DeadReckoner`) share: the kernel state vector ``x``
+    ``[lat, lon, h, vE, vN, vU, q0, q1, q2, q3]`` and memory, the time of the last row ``t`` [s],
+    the row count, and the bookkeeping after a numba chunk loop."""
+
+    def _start(self, init: NavState):
+        self._x = _state_vector(init)
+        self._mem = K.new_memory()
+        self.t = float(init.t)
+        self.rows = 0           #: rows processed so far (error messages count from here)
+
+    def _finish_chunk(self, t, n, out_rows, out_x, out_stride):
+        """After a kernel ran over the chunk with times ``t`` (M,) and filled ``n`` output rows:
+        move ``t`` and the row count on; return ``(t_out, x_out)`` when ``out_stride > 0``."""
+        if len(t):
+            self.t = float(t[-1])
+        self.rows += len(t)
+        if out_stride > 0:
+            return t[out_rows[:n]], out_x[:n]
+        return None
+
+    def state(self) -> NavState:
+        """The current navigation state (a copy)."""
+        x = self._x
+        return NavState(self.t, x[K.LAT], x[K.LON], x[K.H], x[K.VE:K.VU + 1].copy(),
+                        x[K.Q0:K.Q3 + 1].copy())
+
+    @property
+    def x(self) -> np.ndarray:
+        """Copy of the kernel state vector ``[lat, lon, h, vE, vN, vU, q0, q1, q2, q3]``."""
+        return self._x.copy()
+
+    @property
+    def omega_ib_b(self) -> np.ndarray:
+        """Mean body rate [rad/s] over the last row (``dtheta / dt``); zeros before any row."""
+        return self._mem[K.M_WIB:K.M_WIB + 3].copy()
+
+
+class Strapdown(_KernelStream):
     """Streaming SINS for filters: advance over chunks, read the state, feed back corrections.
 
     Parameters
@@ -159,10 +198,7 @@ class Strapdown:
     """
 
     def __init__(self, init: NavState, baro_tau: float = BARO_TAU_S):
-        self._x = _state_vector(init)
-        self._mem = K.new_memory()
-        self.t = float(init.t)
-        self.rows = 0           #: rows processed so far (error messages count from here)
+        self._start(init)
         self.k_h, self.k_v = baro_gains(baro_tau, init.lat)
 
     # -- running
@@ -187,30 +223,9 @@ class Strapdown:
         out_rows, out_x = _out_buffers(len(t), out_stride)
         n = K.sins_run(self._x, self._mem, dtheta, dvel, dt, h_ref, self.k_h, self.k_v,
                        int(out_stride), out_rows, out_x)
-        if len(t):
-            self.t = float(t[-1])
-        self.rows += len(t)
-        if out_stride > 0:
-            return t[out_rows[:n]], out_x[:n]
-        return None
+        return self._finish_chunk(t, n, out_rows, out_x, out_stride)
 
-    # -- reading
-    def state(self) -> NavState:
-        """The current navigation state (a copy)."""
-        x = self._x
-        return NavState(self.t, x[K.LAT], x[K.LON], x[K.H], x[K.VE:K.VU + 1].copy(),
-                        x[K.Q0:K.Q3 + 1].copy())
-
-    @property
-    def x(self) -> np.ndarray:
-        """Copy of the kernel state vector ``[lat, lon, h, vE, vN, vU, q0, q1, q2, q3]``."""
-        return self._x.copy()
-
-    @property
-    def omega_ib_b(self) -> np.ndarray:
-        """Mean body rate [rad/s] over the last row (``dtheta / dt``); zeros before any row."""
-        return self._mem[K.M_WIB:K.M_WIB + 3].copy()
-
+    # -- reading (state(), x, omega_ib_b: _KernelStream)
     @property
     def f_b(self) -> np.ndarray:
         """Mean specific force [m/s^2] over the last row (``dvel / dt``); zeros before any row."""
