@@ -69,10 +69,11 @@ from .layout import Layout
 __all__ = ["GROUPS", "GROUP_SIZES", "SinsDrFilter", "euler_ypr", "dcm_of_q",
            "measurement_rows", "sequential_joseph"]
 
-#: measurement groups, in the order they are applied within an epoch
-GROUPS = ("attitude", "velocity", "position", "height")
+#: measurement groups (index order of the ``use``, ``thresholds`` and count arrays); within
+#: an epoch they are applied in the order attitude, velocity, nhc, position, height
+GROUPS = ("attitude", "velocity", "position", "height", "nhc")
 #: rows per group
-GROUP_SIZES = (3, 3, 3, 1)
+GROUP_SIZES = (3, 3, 3, 1, 2)
 #: IMU rows per chunk handed to the numba loop (rounded to whole filter epochs)
 CHUNK_ROWS = 16384
 #: sensor samples whose median period sets the gap threshold (5 periods), as dead_reckon's
@@ -130,21 +131,39 @@ def _correct_nav(x, mem, phi, dv, dp, with_velocity):
 
 @numba.njit(cache=True)
 def measurement_rows(offs, use, xs, xd, h_baro, r_att, sig_pos_m, r_vel, r_h, n):
+    """The four SINS-minus-DR groups of paper 002 (:func:`stack_rows` without the NHC).
+
+    ``use``: (4,) flags of the first four :data:`GROUPS`. Returns ``z, H, r, starts, groups``
+    as :func:`stack_rows`.
+    """
+    use5 = np.zeros(5, dtype=np.bool_)
+    for i in range(4):
+        use5[i] = use[i]
+    return stack_rows(offs, use5, xs, xd, h_baro, r_att, sig_pos_m, r_vel, r_h, 0.0, False, n)
+
+
+@numba.njit(cache=True)
+def stack_rows(offs, use, xs, xd, h_baro, r_att, sig_pos_m, r_vel, r_h, r_nhc, nhc_mount, n):
     """Stack the enabled groups' ``z`` (m,), ``H`` (m, n), ``r`` (m,) and the group starts.
 
     ``offs``: block offsets (``error_model._offsets`` order ``phi, dv, dp, eps, nabla, phi_D,
-    dp_D, mount, dk``); ``use``: (4,) flags of :data:`GROUPS`; ``xs``, ``xd``: SINS and DR
+    dp_D, mount, dk``); ``use``: (5,) flags of :data:`GROUPS`; ``xs``, ``xd``: SINS and DR
     kernel states; ``h_baro``: barometric height (NaN: none now); ``r_att`` [rad^2],
     ``sig_pos_m`` [m], ``r_vel`` (3,) [m^2/s^2] (lateral, forward, vertical in the DR's body
-    frame), ``r_h`` [m^2]. Returns ``z, H, r, starts, groups``
-    with ``groups[g]`` the index in :data:`GROUPS` of the ``g``-th stacked group.
+    frame), ``r_h`` [m^2], ``r_nhc`` [m^2/s^2] (each NHC row); ``nhc_mount``: the NHC rows
+    carry the mounting columns (:func:`error_model.nhc_rows` ``with_mount``). With a
+    ``mount`` block the velocity rows carry ``-[v x] C_b^n`` on it (paper 000 eq. 11, the DR's
+    attitude). Groups are stacked in the order attitude, velocity, nhc, position, height.
+    Returns ``z, H, r, starts, groups`` with ``groups[g]`` the index in :data:`GROUPS` of the
+    ``g``-th stacked group.
     """
     o_phi, o_dv, o_dp, o_phiD, o_dpD, o_dk = offs[0], offs[1], offs[2], offs[5], offs[6], offs[8]
-    z = np.zeros(10)
-    H = np.zeros((10, n))
-    r = np.zeros(10)
-    starts = np.zeros(5, dtype=np.int64)
-    groups = np.zeros(4, dtype=np.int64)
+    o_mount = offs[7]
+    z = np.zeros(12)
+    H = np.zeros((12, n))
+    r = np.zeros(12)
+    starts = np.zeros(6, dtype=np.int64)
+    groups = np.zeros(5, dtype=np.int64)
     m, g = 0, 0
     if use[0]:                                   # attitude (paper 002 eq. 44-51)
         C_S = dcm_of_q(xs[K.Q0:K.Q3 + 1])
@@ -167,8 +186,10 @@ def measurement_rows(offs, use, xs, xd, h_baro, r_att, sig_pos_m, r_vel, r_h, n)
         # the DR attitude, whose rows have the independent noises r_vel (lateral, forward,
         # vertical): the sensor's white noise lies along its forward axis only
         v = xd[K.VE:K.VU + 1]
-        C_bn = dcm_of_q(xd[K.Q0:K.Q3 + 1]).T
+        C_D = dcm_of_q(xd[K.Q0:K.Q3 + 1])
+        C_bn = C_D.T
         V = em.skew(v)
+        VC = V @ C_D                             # dv_D on the mounting angles (eq. 11)
         for i in range(3):
             r[m + i] = r_vel[i]
             for j in range(3):
@@ -179,9 +200,32 @@ def measurement_rows(offs, use, xs, xd, h_baro, r_att, sig_pos_m, r_vel, r_h, n)
                     H[m + i, o_dk] -= c * v[j]
                 for l in range(3):
                     H[m + i, o_phiD + l] -= c * V[j, l]
+                    if o_mount >= 0:
+                        H[m + i, o_mount + l] -= c * VC[j, l]
         groups[g] = 1
         g += 1
         m += 3
+        starts[g] = m
+    if use[4]:                                   # NHC (paper 000 eq. 32-38)
+        # z = [v_x, v_z] of C_n^b v (SINS); H: C_n^b on dv, -C_n^b [v x] on phi, and with
+        # nhc_mount -[v_b x] on the mounting angles (error_model.nhc_rows)
+        C_bn = dcm_of_q(xs[K.Q0:K.Q3 + 1]).T
+        v = xs[K.VE:K.VU + 1].copy()
+        v_b = C_bn @ v
+        CV = C_bn @ em.skew(v)
+        Vb = em.skew(v_b)
+        for i in range(2):
+            row = 2 * i                          # body x, then body z
+            z[m + i] = v_b[row]
+            r[m + i] = r_nhc
+            for j in range(3):
+                H[m + i, o_dv + j] = C_bn[row, j]
+                H[m + i, o_phi + j] = -CV[row, j]
+                if nhc_mount and o_mount >= 0:
+                    H[m + i, o_mount + j] = -Vb[row, j]
+        groups[g] = 4
+        g += 1
+        m += 2
         starts[g] = m
     if use[2]:                                   # position (paper 002 eq. 44, 52)
         r_m, r_n = K.radii(xs[K.LAT])
@@ -286,17 +330,38 @@ def _feed_back(x, offs, xs, ms, xd, md, bias_g, bias_a, fed_back):
 
 
 @numba.njit(cache=True)
+def _corrected_sins(out, xs, x, offs):
+    """``out`` = the SINS state ``xs`` corrected by the estimate ``x`` not yet fed back (the
+    open-loop output; a plain copy when the nav errors are zero, as right after feedback):
+    ``q <- q(phi) (x) q``, ``v -= dv``, ``[lat, lon, h] -= dp``."""
+    out[:] = xs
+    o_phi, o_dv, o_dp = offs[0], offs[1], offs[2]
+    nonzero = False
+    for i in range(3):
+        if x[o_phi + i] != 0.0 or x[o_dv + i] != 0.0 or x[o_dp + i] != 0.0:
+            nonzero = True
+    if nonzero:
+        _correct_nav(out, np.zeros(K.NMEM), x[o_phi:o_phi + 3], x[o_dv:o_dv + 3],
+                     x[o_dp:o_dp + 3], True)
+
+
+@numba.njit(cache=True)
 def _run_epochs(ends, dtheta, dvel, dt, ds, v, h_baro, t,
                 xs, ms, xd, md, C_bm, l_b,
                 x, P, offs, Qc, q_dr_m2_s, inv_tau_dk, dr_eps, grav_grad,
-                use, r_att, sig_pos_m, r_vel, r_h, thresholds,
-                epoch0, meas_every, out_every, bias_g, bias_a, fed_back,
-                out_t, out_xs, out_sig, out_states, n_out0, used, rejected, nis_sum):
+                use, r_att, sig_pos_m, r_vel, r_h, r_nhc, nhc_mount, thresholds,
+                epoch0, meas_every, out_every, closed_loop, feedback_every,
+                bias_g, bias_a, fed_back,
+                out_t, out_xs, out_sig, out_states, out_cov_phi, n_out0, used, rejected,
+                nis_sum):
     """The filter loop over one chunk of IMU rows (see the module docstring).
 
     ``ends`` (E,): exclusive end row of each epoch in the chunk (the first starts at row 0);
-    ``epoch0``: epochs done before the chunk. Outputs are written at epochs whose global index
-    is a multiple of ``out_every`` from row ``n_out0`` on; returns the next free output row.
+    ``epoch0``: epochs done before the chunk. Closed loop (``closed_loop``), the estimate is
+    fed back after every ``feedback_every``-th measurement epoch. Outputs are written at
+    epochs whose global index is a multiple of ``out_every`` from row ``n_out0`` on (the
+    SINS corrected by the estimate not yet fed back, :func:`_corrected_sins`, and the
+    ``phi`` block of ``P``); returns the next free output row.
     """
     n = x.shape[0]
     a = 0
@@ -304,6 +369,7 @@ def _run_epochs(ends, dtheta, dvel, dt, ds, v, h_baro, t,
     nan = np.nan
     xw = np.empty(n)
     Pw = np.empty((n, n))
+    o_phi = offs[0]
     for e in range(ends.shape[0]):
         b = ends[e]
         sum_dt = 0.0
@@ -329,8 +395,8 @@ def _run_epochs(ends, dtheta, dvel, dt, ds, v, h_baro, t,
                                                     q_dr_m2_s), sum_dt)
         epoch = epoch0 + e + 1
         if epoch % meas_every == 0:
-            z, H, r, starts, groups = measurement_rows(offs, use, xs, xd, h_baro[b - 1], r_att,
-                                                       sig_pos_m, r_vel, r_h, n)
+            z, H, r, starts, groups = stack_rows(offs, use, xs, xd, h_baro[b - 1], r_att,
+                                                 sig_pos_m, r_vel, r_h, r_nhc, nhc_mount, n)
             for g in range(groups.shape[0]):
                 gi = groups[g]
                 ok, nis = sequential_joseph(x, P, z, H, r, starts[g], starts[g + 1],
@@ -340,13 +406,17 @@ def _run_epochs(ends, dtheta, dvel, dt, ds, v, h_baro, t,
                     nis_sum[gi] += nis
                 else:
                     rejected[gi] += 1
-            _feed_back(x, offs, xs, ms, xd, md, bias_g, bias_a, fed_back)
+            if closed_loop and (epoch // meas_every) % feedback_every == 0:
+                _feed_back(x, offs, xs, ms, xd, md, bias_g, bias_a, fed_back)
         if epoch % out_every == 0:
             out_t[n_out] = t[b - 1]
-            out_xs[n_out] = xs
+            _corrected_sins(out_xs[n_out], xs, x, offs)
             for i in range(n):
                 out_sig[n_out, i] = math.sqrt(max(P[i, i], 0.0))
                 out_states[n_out, i] = fed_back[i] + x[i]
+            for i in range(3):
+                for j in range(3):
+                    out_cov_phi[n_out, i, j] = P[o_phi + i, o_phi + j]
             n_out += 1
         a = b
     return n_out
@@ -382,28 +452,32 @@ class SinsDrFilter:
     init : NavState
         Start of both systems (the DR starts where the SINS does).
     layout : Layout
-        Must hold ``phi, dv, dp, eps, nabla, phi_D, dp_D``; ``dk`` optional; no ``mount``
-        (the DR assumes its nominal mounting; paper 002's model has no mounting angles).
+        Must hold ``phi, dv, dp, eps, nabla, phi_D, dp_D``; ``dk`` and ``mount`` optional
+        (the mounting angles, paper 000, are only estimated: the DR keeps its nominal
+        mounting ``C_bm``).
     model : error_model.ErrorModel
         On ``layout``; gives ``F`` (numba kernel) and ``Qc``.
     P0 : (n, n) initial covariance.
     use : dict group name -> bool, which of :data:`GROUPS` update the filter.
     noise : dict with ``attitude_rad``, ``position_m``, ``velocity_b_m_s`` (3: lateral,
         forward, vertical in the DR's body frame), ``height_m`` (1-sigma of each measurement
-        row) and ``dr_position_m2_s`` (DR random walk density).
+        row) and ``dr_position_m2_s`` (DR random walk density); ``nhc_m_s`` (each NHC row)
+        when the ``nhc`` group is used.
     gates : dict group name -> chi-square threshold of its NIS (0: never rejected).
     step_rows : IMU rows per filter epoch;  meas_every, out_every : in filter epochs.
     C_bm, lever_arm_b : the velocity sensor's nominal mounting and lever arm (DR).
+    nhc_mount : the NHC rows carry the mounting columns (paper 000's eq. 37 as printed: False).
+    closed_loop : feed the estimate back (False: open loop, the output is the SINS corrected
+        by the estimate);  feedback_every : measurement epochs per feedback.
     """
 
     def __init__(self, init: NavState, layout: Layout, model: em.ErrorModel, P0, *, use: dict,
                  noise: dict, gates: dict, step_rows: int, meas_every: int = 1,
-                 out_every: int = 1, C_bm=None, lever_arm_b=None):
+                 out_every: int = 1, C_bm=None, lever_arm_b=None, nhc_mount: bool = True,
+                 closed_loop: bool = True, feedback_every: int = 1):
         for name in ("phi", "dv", "dp", "eps", "nabla", "phi_D", "dp_D"):
             if name not in layout:
                 raise ValueError(f"the SINS/DR filter needs block {name!r} in the layout")
-        if "mount" in layout:
-            raise ValueError("the SINS/DR filter does not estimate mounting angles")
         self.layout = layout
         self.model = model
         self.sins = Strapdown(init)
@@ -418,12 +492,15 @@ class SinsDrFilter:
         self.step = int(step_rows)
         self.meas_every = int(meas_every)
         self.out_every = int(out_every)
+        self.nhc_mount = bool(nhc_mount)
+        self.closed_loop = bool(closed_loop)
+        self.feedback_every = int(feedback_every)
         self.bias_g = np.zeros(3)          # accumulated gyro drift compensation [rad/s]
         self.bias_a = np.zeros(3)          # accumulated accelerometer bias compensation [m/s^2]
         self.fed_back = layout.zeros()     # everything fed back so far, per state
-        self.used = np.zeros(4, dtype=np.int64)
-        self.rejected = np.zeros(4, dtype=np.int64)
-        self.nis_sum = np.zeros(4)
+        self.used = np.zeros(len(GROUPS), dtype=np.int64)
+        self.rejected = np.zeros(len(GROUPS), dtype=np.int64)
+        self.nis_sum = np.zeros(len(GROUPS))
         self.epochs = 0
         #: IMU rows outside the sensor's span (the DR holds its position there) and inside
         #: sensor gaps (distance interpolated across), as :func:`dead_reckon` counts them
@@ -451,8 +528,10 @@ class SinsDrFilter:
 
         Returns
         -------
-        dict of arrays: ``t`` (M,), ``x_sins`` (M, 10) kernel states, ``sigma`` (M, n),
-        ``states`` (M, n) (fed back plus current estimate); row 0 is the state before the call.
+        dict of arrays: ``t`` (M,), ``x_sins`` (M, 10) kernel states (corrected by the
+        estimate not yet fed back), ``sigma`` (M, n), ``states`` (M, n) (fed back plus
+        current estimate), ``cov_phi`` (M, 3, 3) the ``phi`` block of ``P`` [rad^2]; row 0 is
+        the state before the call.
         """
         n_rows = len(t)
         if n_rows == 0:
@@ -460,12 +539,9 @@ class SinsDrFilter:
         n_out = self.output_rows(n_rows)
         lay = self.layout
         out = {"t": np.empty(n_out), "x_sins": np.empty((n_out, K.NX)),
-               "sigma": np.empty((n_out, lay.n)), "states": np.empty((n_out, lay.n))}
-        out["t"][0] = self.sins.t
-        out["x_sins"][0] = self.sins._x
-        out["sigma"][0] = np.sqrt(np.maximum(np.diagonal(self.P), 0.0))
-        out["states"][0] = self.fed_back + self.x
-        i_out = 1
+               "sigma": np.empty((n_out, lay.n)), "states": np.empty((n_out, lay.n)),
+               "cov_phi": np.empty((n_out, 3, 3))}
+        i_out = self._write_now(out, 0)
         chunk = max(1, CHUNK_ROWS // self.step) * self.step
         max_gap = 5.0 * float(np.median(np.diff(speed.t[:GAP_SAMPLES])))
         Qc = np.ascontiguousarray(self.model.Qc())
@@ -490,10 +566,11 @@ class SinsDrFilter:
                 1.0 / self.model.noise.dk_tau, self.model.dr_sees_gyro_drift,
                 self.model.gravity_gradient, self.use, float(nz["attitude_rad"]) ** 2,
                 float(nz["position_m"]), np.asarray(nz["velocity_b_m_s"], dtype=float) ** 2,
-                float(nz["height_m"]) ** 2, self.thresholds, self.epochs, self.meas_every,
-                self.out_every, self.bias_g, self.bias_a, self.fed_back, out["t"],
-                out["x_sins"], out["sigma"], out["states"], i_out, self.used, self.rejected,
-                self.nis_sum)
+                float(nz["height_m"]) ** 2, float(nz.get("nhc_m_s", 1.0)) ** 2, self.nhc_mount,
+                self.thresholds, self.epochs, self.meas_every, self.out_every,
+                self.closed_loop, self.feedback_every, self.bias_g, self.bias_a,
+                self.fed_back, out["t"], out["x_sins"], out["sigma"], out["states"],
+                out["cov_phi"], i_out, self.used, self.rejected, self.nis_sum)
             self.epochs += len(ends)
             for sys_ in (self.sins, self.dr):
                 sys_.t = float(tc[-1])
@@ -501,12 +578,18 @@ class SinsDrFilter:
             if progress is not None:
                 progress(b / n_rows)
         if self.epochs % self.out_every:  # the last epoch is written even off the output grid
-            out["t"][i_out] = t[-1]
-            out["x_sins"][i_out] = self.sins._x
-            out["sigma"][i_out] = np.sqrt(np.maximum(np.diagonal(self.P), 0.0))
-            out["states"][i_out] = self.fed_back + self.x
-            i_out += 1
+            i_out = self._write_now(out, i_out)
         return {k: val[:i_out] for k, val in out.items()}
+
+    def _write_now(self, out, i):
+        """Write the current state into output row ``i``; returns ``i + 1``."""
+        out["t"][i] = self.sins.t
+        _corrected_sins(out["x_sins"][i], self.sins._x, self.x, self.offs)
+        out["sigma"][i] = np.sqrt(np.maximum(np.diagonal(self.P), 0.0))
+        out["states"][i] = self.fed_back + self.x
+        phi = self.layout["phi"]
+        out["cov_phi"][i] = self.P[phi, phi]
+        return i + 1
 
     def counts(self) -> dict:
         """Measurement groups used / rejected and their mean NIS per degree of freedom."""
