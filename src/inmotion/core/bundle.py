@@ -135,8 +135,9 @@ class Truth:
         return Truth(self.t[m], self.lat[m], self.lon[m], self.h[m], self.vel_n[m], self.euler[m])
 
     def at(self, t: float) -> dict:
-        """The truth row at time ``t`` (nearest sample); used by ``--init truth``."""
-        i = int(np.clip(np.searchsorted(self.t, t), 0, len(self.t) - 1))
+        """The truth row at time ``t`` (the first at or after ``t``, :func:`row_at_or_after`);
+        used by ``--init truth``."""
+        i = int(row_at_or_after(self.t, t))
         return dict(t=self.t[i], lat=self.lat[i], lon=self.lon[i], h=self.h[i],
                     vel_n=self.vel_n[i].copy(), euler=self.euler[i].copy())
 
@@ -174,6 +175,14 @@ class Bundle:
             return None if x is None else x.window(start, end)
         return Bundle(self.imu.window(start, end), dict(self.meta), cut(self.radar), cut(self.ldv),
                       cut(self.odometer), cut(self.baro), cut(self.truth))
+
+
+def row_at_or_after(t_all, t, tol_s: float = 0.0):
+    """Index into the increasing time base ``t_all`` [s] of the first sample at or after
+    ``t - tol_s`` (``t`` [s] scalar or array), clipped to ``[0, len(t_all) - 1]``: a time past
+    the end gives the last row. ``tol_s`` [s] absorbs rounding of times that are meant to fall
+    on a sample. Returns a numpy integer (array for an array ``t``)."""
+    return np.clip(np.searchsorted(t_all, np.asarray(t) - tol_s), 0, len(t_all) - 1)
 
 
 def _mask(t, start, end):

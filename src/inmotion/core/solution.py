@@ -11,6 +11,7 @@ from typing import Optional
 import numpy as np
 
 from . import rotations
+from .bundle import row_at_or_after
 
 __all__ = ["NavState", "Solution", "StateUnit"]
 
@@ -115,7 +116,9 @@ class Solution:
                                    self.vel_n[-1], self.euler[-1])
 
     def state_at(self, t: float) -> NavState:
-        i = int(np.clip(np.searchsorted(self.t, t), 0, len(self.t) - 1))
+        """The solution row at or after ``t`` [s] (:func:`inmotion.core.bundle.row_at_or_after`)
+        as a :class:`NavState`."""
+        i = int(row_at_or_after(self.t, t))
         return NavState.from_euler(self.t[i], self.lat[i], self.lon[i], self.h[i],
                                    self.vel_n[i], self.euler[i])
 

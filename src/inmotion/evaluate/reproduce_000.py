@@ -40,6 +40,8 @@ from pathlib import Path
 import numpy as np
 from scipy.stats import chi2
 
+from ..core.bundle import row_at_or_after
+
 __all__ = ["reproduce", "run_one", "EXPERIMENTS", "PAPER", "observability",
            "gyrocompass_heading_limit"]
 
@@ -106,7 +108,7 @@ def run_one(task) -> dict:
         t0 = time.perf_counter()
         sol = run_dr_kf(bundle, dict(cfg, keep_covariance=True), init)
         wall = time.perf_counter() - t0
-        idx = np.clip(np.searchsorted(tr.t, sol.t - 1e-9), 0, len(tr.t) - 1)
+        idx = row_at_or_after(tr.t, sol.t, 1e-9)
         phi = misalignment(sol.C_nb, C_true[idx])
         cov = sol.info["cov_phi"]
         nees = np.einsum("ki,kij,kj->k", phi, np.linalg.inv(cov), phi)

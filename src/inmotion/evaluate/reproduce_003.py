@@ -38,6 +38,8 @@ from pathlib import Path
 import numpy as np
 import yaml
 
+from ..core.bundle import row_at_or_after
+
 __all__ = ["reproduce", "PAPER_TABLE2", "PAPER_TABLE3", "run_one"]
 
 ARCMIN = 180.0 / np.pi * 60.0
@@ -70,7 +72,7 @@ def _scenario(name, extend=False):
 
 def _err(sol, truth, k=-1):
     """[pitch, roll, yaw] error [arcmin] of ``sol`` row ``k`` against the truth."""
-    i = int(np.clip(np.searchsorted(truth.t, sol.t[k] - 1e-6), 0, len(truth.t) - 1))
+    i = int(row_at_or_after(truth.t, sol.t[k], 1e-6))
     d = sol.euler[k] - truth.euler[i]
     d[2] = (d[2] + np.pi) % (2 * np.pi) - np.pi
     return d * ARCMIN
@@ -82,14 +84,14 @@ def _drift_limit(bundle, t):
     limit that velocity aiding does not remove on a drive without sustained manoeuvres."""
     from ..core import earth
     tr = bundle.truth
-    i = int(np.clip(np.searchsorted(tr.t, t - 1e-6), 0, len(tr.t) - 1))
+    i = int(row_at_or_after(tr.t, t, 1e-6))
     eps_b = np.radians(bundle.meta["simulated_errors"]["imu"]["gyro_drift_deg_h"]) / 3600.0
     eps_n = tr.C_nb[i] @ eps_b
     return float(-eps_n[0] / (earth.OMEGA_IE * np.cos(tr.lat[i])) * ARCMIN)
 
 
 def _yaw_series(sol, truth):
-    i = np.clip(np.searchsorted(truth.t, sol.t - 1e-6), 0, len(truth.t) - 1)
+    i = row_at_or_after(truth.t, sol.t, 1e-6)
     d = sol.euler[:, 2] - truth.euler[i, 2]
     return sol.t.copy(), ((d + np.pi) % (2 * np.pi) - np.pi) * ARCMIN
 
