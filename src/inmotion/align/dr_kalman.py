@@ -28,8 +28,13 @@ velocity-matching baseline ``od-velocity-kf``.
     to n with the SINS attitude (:func:`error_model.sensor_velocity_rows`), 19 states
     ``phi, dv, dp, eps, nabla, mount, dk``, the same NHC and baro options, no DR.
 
-Filter loop (both): the mechanizations run in numba over the IMU rows between two filter
-epochs; per epoch the model is linearized at the current SINS state, discretized
+Filter loop: ``dr-kf`` runs on the one SINS + DR + Kalman engine of the package,
+:class:`inmotion.estimation.sins_dr_driver.SinsDrFilter` (also paper 002's ``sins-dr``): the
+whole loop (mechanizations, ``F`` at the SINS state, prediction, gated sequential Joseph
+updates of the groups attitude, velocity, NHC, height, feedback) is one numba function, the
+Python side only configures it and packs the :class:`Solution`. ``od-velocity-kf`` (no DR)
+keeps a Python loop over filter epochs that drives the numba mechanization in chunks. In both,
+per epoch the model is linearized at the current SINS state, discretized
 (:func:`kalman.discretize`), and, at measurement epochs, updated in Joseph form. Closed loop
 (default): the estimated SINS (and DR) attitude, velocity and position errors are fed back into
 the mechanizations and reset to zero, the gyro drift and accelerometer bias are accumulated
@@ -73,8 +78,10 @@ from ..core.mechanization import Strapdown, _first_row
 from ..core.solution import NavState, Solution
 from ..errors import BadInput
 from ..estimation import error_model as em
+from ..core.mechanization import _check_finite
 from ..estimation.kalman import KalmanFilter
 from ..estimation.layout import Layout, position_units
+from ..estimation.sins_dr_driver import GROUP_SIZES, GROUPS, SinsDrFilter
 
 __all__ = ["DrKfConfig", "OdVelocityKfConfig", "run_dr_kf", "run_od_velocity_kf",
            "LAYOUT_DR_KF", "LAYOUT_OD_KF"]
@@ -415,8 +422,20 @@ class _AlignmentFilter:
 
 
 def _solution(filt: _AlignmentFilter, arrays, method, cfg, wall) -> Solution:
-    out_t, out_lla, out_vel, out_q, out_sig, out_states, out_cov_phi = arrays
-    lay = filt.lay
+    info = {"method": method, "config": cfg.model_dump(), "velocity_sensor": filt.sensor_name,
+            "layout": list(filt.lay.names), "filter_step_rows": filt.step,
+            "measurement_every_filter_steps": filt.meas_every,
+            "measurements_used": dict(filt.gate.used),
+            "measurements_rejected": dict(filt.gate.rejected),
+            "nis_mean_per_dof": filt.kf.nis_sum / max(filt.kf.nis_dof, 1),
+            "wall_time_s": wall}
+    return _pack(filt.lay, filt.init, cfg, info, *arrays)
+
+
+def _pack(lay, init, cfg, info, out_t, out_lla, out_vel, out_q, out_sig, out_states,
+          out_cov_phi) -> Solution:
+    """The :class:`Solution` of either method (sigmas of the nav states, every named state,
+    ``sigma_<state>`` of the mounting, scale factor and gyro drifts)."""
     sig = lay.as_dict(out_sig)
     r_m, r_n = earth.radii(out_lla[:, 0])
     sigma = {"phi_E": sig["phi_E"], "phi_N": sig["phi_N"], "phi_U": sig["phi_U"],
@@ -425,21 +444,84 @@ def _solution(filt: _AlignmentFilter, arrays, method, cfg, wall) -> Solution:
              "east": sig["dp_lon"] * (r_n + out_lla[:, 2]) * np.cos(out_lla[:, 0]),
              "h": sig["dp_h"]}
     states = lay.as_dict(out_states)
-    units = lay.unit_map(position_units(filt.init.lat, filt.init.h))
+    units = lay.unit_map(position_units(init.lat, init.h))
     for name in ("mount_x", "mount_y", "mount_z", "dk", "eps_x", "eps_y", "eps_z"):
         states[f"sigma_{name}"] = sig[name]          # 1-sigma, written in the state's unit
         units[f"sigma_{name}"] = units[name]
-    info = {"method": method, "config": cfg.model_dump(), "velocity_sensor": filt.sensor_name,
-            "layout": list(lay.names), "filter_step_rows": filt.step,
-            "measurement_every_filter_steps": filt.meas_every,
-            "measurements_used": dict(filt.gate.used),
-            "measurements_rejected": dict(filt.gate.rejected),
-            "nis_mean_per_dof": filt.kf.nis_sum / max(filt.kf.nis_dof, 1),
-            "wall_time_s": wall}
     if cfg.keep_covariance:
         info["cov_phi"] = out_cov_phi
     return Solution.from_arrays(out_t, out_lla, out_vel, out_q, sigma=sigma,
                                 states=states, state_units=units, info=info)
+
+
+# -- dr-kf on the shared SINS / DR engine ---------------------------------------------------
+
+#: the engine's group names -> this method's (``Solution.info`` counts)
+_GROUP_NAMES = {"attitude": "attitude", "velocity": "velocity", "nhc": "nhc", "height": "baro"}
+
+
+def _gates(p):
+    """Chi-square threshold of each engine group's NIS at probability ``p`` (``p = 1``: 0,
+    never rejects)."""
+    return {g: (float(chi2.ppf(p, m)) if p < 1.0 else 0.0) for g, m in zip(GROUPS, GROUP_SIZES)}
+
+
+def _dr_kf_filter(bundle: Bundle, cfg: DrKfConfig, init: NavState):
+    """The configured engine and what it runs on: ``(filter, rows, (sensor name, speed))``."""
+    if init is None:
+        raise BadInput("this method needs an initial attitude (--init truth, a coarse "
+                       "alignment result, or meta.yaml)")
+    try:
+        sensor_name, speed = bundle.velocity_sensor(cfg.velocity_sensor)
+    except ValueError as exc:
+        raise BadInput(str(exc)) from None
+    imu = bundle.imu
+    k0 = _first_row(imu.t, init.t)
+    if len(imu.t) - k0 < 2:
+        raise BadInput(f"no IMU rows after the start t={init.t:.6g} s", file="imu")
+    rows = slice(k0, len(imu.t))
+    _check_finite(imu.dtheta[rows], imu.t[rows], "dtheta", "imu", row0=k0)
+    _check_finite(imu.dvel[rows], imu.t[rows], "dvel", "imu", row0=k0)
+    imu_dt = float(np.median(np.diff(imu.t)))
+    step = max(1, int(round(1.0 / (cfg.filter_rate_hz * imu_dt))))
+    meas_every = max(1, int(round(cfg.filter_rate_hz / cfg.measurement_rate_hz)))
+    feedback_every = max(1, int(round(cfg.measurement_rate_hz / cfg.feedback_rate_hz)))
+    lay = LAYOUT_DR_KF
+    model = em.ErrorModel(lay, _process_noise(cfg), dr_sees_gyro_drift=cfg.dr_sees_gyro_drift)
+    use = {"attitude": cfg.use_attitude, "velocity": cfg.use_velocity, "nhc": cfg.use_nhc,
+           "height": cfg.use_baro and bundle.baro is not None, "position": False}
+    noise = {"attitude_rad": cfg.attitude_noise_arcmin * ARCMIN, "position_m": 1.0,
+             "velocity_b_m_s": (cfg.lateral_noise_m_s, cfg.velocity_noise_m_s,
+                                cfg.lateral_noise_m_s),       # body axes, see _in_body
+             "height_m": cfg.baro_noise_m, "nhc_m_s": cfg.nhc_noise_m_s,
+             "dr_position_m2_s": 0.0}    # paper 000's G: no DR position random walk
+    filt = SinsDrFilter(init, lay, model, _initial_covariance(lay, cfg, init.lat, init.h),
+                        use=use, noise=noise, gates=_gates(cfg.gate_probability),
+                        step_rows=step, meas_every=meas_every, out_every=1,
+                        nhc_mount=cfg.nhc_mount_terms, closed_loop=cfg.closed_loop,
+                        feedback_every=feedback_every)
+    return filt, rows, (sensor_name, speed)
+
+
+def _dr_kf_solution(filt: SinsDrFilter, out: dict, cfg: DrKfConfig, sensor: str,
+                    wall: float) -> Solution:
+    xs = out["x_sins"]
+    used, rejected = {}, {}
+    nis, dof = 0.0, 0
+    for g in _GROUP_NAMES:                     # in the order the groups are applied
+        i = GROUPS.index(g)
+        if filt.use[i] and filt.used[i] + filt.rejected[i] > 0:
+            used[_GROUP_NAMES[g]] = int(filt.used[i])
+            rejected[_GROUP_NAMES[g]] = int(filt.rejected[i])
+            nis += float(filt.nis_sum[i])
+            dof += int(filt.used[i]) * GROUP_SIZES[i]
+    info = {"method": "dr-kf", "config": cfg.model_dump(), "velocity_sensor": sensor,
+            "layout": list(filt.layout.names), "filter_step_rows": filt.step,
+            "measurement_every_filter_steps": filt.meas_every,
+            "measurements_used": used, "measurements_rejected": rejected,
+            "nis_mean_per_dof": nis / max(dof, 1), "wall_time_s": wall}
+    return _pack(filt.layout, filt.init, cfg, info, out["t"], xs[:, 0:3], xs[:, 3:6],
+                 xs[:, 6:10], out["sigma"], out["states"], out["cov_phi"])
 
 
 def _config(config, cls):
@@ -479,7 +561,14 @@ def run_dr_kf(bundle: Bundle, config: DrKfConfig | dict | None = None,
     (N, 3, 3) misalignment covariance history ``cov_phi`` [rad^2] (for NEES; off by default
     because ``summary.json`` would carry it).
     """
-    return _run(bundle, config, init, progress, DrKfConfig, True, "dr-kf")
+    cfg = _config(config, DrKfConfig)
+    t0 = time.perf_counter()
+    filt, rows, (sensor, speed) = _dr_kf_filter(bundle, cfg, init)
+    imu = bundle.imu
+    h_baro = (lambda t: _baro_on_epochs(bundle, t)) if filt.use[GROUPS.index("height")] else None
+    out = filt.run(imu.t[rows], imu.dtheta[rows], imu.dvel[rows], speed, h_baro=h_baro,
+                   sensor=sensor, progress=progress)
+    return _dr_kf_solution(filt, out, cfg, sensor, time.perf_counter() - t0)
 
 
 def run_od_velocity_kf(bundle: Bundle, config: OdVelocityKfConfig | dict | None = None,
