@@ -121,6 +121,20 @@ def test_bad_input(drive):
                             _init(drive))
 
 
+def test_non_finite_imu_row_is_bad_input_naming_its_time(drive):
+    """The engine's numba loop does not check its input: a NaN increment is refused up front,
+    with the file, the row and its time."""
+    import copy
+    from inmotion.core.bundle import ImuData
+    bad = copy.copy(drive)
+    dvel = drive.imu.dvel.copy()
+    dvel[700, 1] = np.nan
+    bad.imu = ImuData(drive.imu.t, drive.imu.dtheta, dvel)
+    with pytest.raises(BadInput, match="dvel is not finite") as exc:
+        dr_kalman.run_dr_kf(bad, {}, _init(drive))
+    assert exc.value.file == "imu" and exc.value.time == pytest.approx(drive.imu.t[700])
+
+
 def test_observability_beta_unobservable_alpha_gamma_observable():
     from inmotion.evaluate.reproduce_000 import observability
     obs = observability(seconds=60.0)                       # NHC in the vehicle frame
