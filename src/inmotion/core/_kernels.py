@@ -69,6 +69,13 @@ def cross(a, b):
 
 
 @numba.njit(cache=True)
+def skew(v):
+    """``[v x]`` (3, 3) array of one 3-vector: the numba twin of
+    :func:`inmotion.core.rotations.skew` (``skew(v) @ w = v x w``)."""
+    return np.array([[0.0, -v[2], v[1]], [v[2], 0.0, -v[0]], [-v[1], v[0], 0.0]])
+
+
+@numba.njit(cache=True)
 def qmul(p, q):
     """Hamilton product ``p (x) q`` of scalar-first quaternion 4-tuples."""
     return (p[0] * q[0] - p[1] * q[1] - p[2] * q[2] - p[3] * q[3],

@@ -107,10 +107,9 @@ class ProcessNoise:
     lever_rw: float = 0.0
 
 
-@numba.njit(cache=True)
-def skew(v):
-    """``[v x]`` of one 3-vector (the numba twin of :func:`inmotion.core.rotations.skew`)."""
-    return np.array([[0.0, -v[2], v[1]], [v[2], 0.0, -v[0]], [-v[1], v[0], 0.0]])
+#: ``[v x]`` of one 3-vector, numba (:func:`inmotion.core._kernels.skew`); kept under this name
+#: for the error-model builders and their callers (``em.skew``).
+skew = K.skew
 
 
 @numba.njit(cache=True)
