@@ -34,13 +34,13 @@ from __future__ import annotations
 
 import json
 import time
-from concurrent.futures import ProcessPoolExecutor
 from pathlib import Path
 
 import numpy as np
 from scipy.stats import chi2
 
 from ..core.bundle import row_at_or_after
+from .repro_common import run_tasks
 
 __all__ = ["reproduce", "run_one", "EXPERIMENTS", "PAPER", "observability",
            "gyrocompass_heading_limit"]
@@ -395,24 +395,8 @@ def reproduce(out_dir, runs=50, workers=2, seed=0, progress=True) -> dict:
     out.mkdir(parents=True, exist_ok=True)
     tasks = _tasks(runs, seed)
     t0 = time.perf_counter()
-    results = []
-    bar = None
-    if progress:
-        from tqdm import tqdm
-        bar = tqdm(total=len(tasks), desc="paper 000 Monte Carlo", unit="run")
-    if workers > 1:
-        with ProcessPoolExecutor(max_workers=workers) as ex:
-            for r in ex.map(run_one, tasks, chunksize=2):
-                results.append(r)
-                if bar is not None:
-                    bar.update(1)
-    else:
-        for task in tasks:
-            results.append(run_one(task))
-            if bar is not None:
-                bar.update(1)
-    if bar is not None:
-        bar.close()
+    results = run_tasks(run_one, tasks, workers, desc="paper 000 Monte Carlo",
+                        progress=progress, chunksize=2)
     wall = time.perf_counter() - t0
     summary = _aggregate(results, runs)
     obs = observability()

@@ -36,10 +36,11 @@ from __future__ import annotations
 
 import json
 import time
-from concurrent.futures import ProcessPoolExecutor
 from pathlib import Path
 
 import numpy as np
+
+from .repro_common import run_tasks
 
 __all__ = ["reproduce", "run_one", "window_stats", "PAPER_TABLE1", "PAPER_TABLE2",
            "PAPER_TABLE3", "SCHEMES", "WINDOWS", "STATE_SETS"]
@@ -160,24 +161,7 @@ def reproduce(out_dir, runs: int = 30, workers: int = 2, seed: int = 0,
     t0 = time.perf_counter()
     _warm_up()
     tasks = [(test, r, seed) for test in (1, 2) for r in range(runs)]
-    results = []
-    bar = None
-    if progress:
-        from tqdm import tqdm
-        bar = tqdm(total=len(tasks), desc="paper 001", unit="run")
-    if workers > 1:
-        with ProcessPoolExecutor(max_workers=workers) as pool:
-            for res in pool.map(run_one, tasks):
-                results.append(res)
-                if bar:
-                    bar.update()
-    else:
-        for task in tasks:
-            results.append(run_one(task))
-            if bar:
-                bar.update()
-    if bar:
-        bar.close()
+    results = run_tasks(run_one, tasks, workers, desc="paper 001", progress=progress)
     summary = _summarize(results)
     summary["elapsed_s"] = time.perf_counter() - t0
     summary["runs"], summary["seed"], summary["workers"] = runs, seed, workers

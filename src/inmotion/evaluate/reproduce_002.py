@@ -39,10 +39,11 @@ from __future__ import annotations
 
 import json
 import time
-from concurrent.futures import ProcessPoolExecutor
 from pathlib import Path
 
 import numpy as np
+
+from .repro_common import run_tasks
 
 __all__ = ["reproduce", "run_one", "PAPER", "SETTLE_S", "METHODS", "INIT_SIGMA_ARCMIN"]
 
@@ -256,24 +257,8 @@ def reproduce(out_dir, runs=20, workers=2, seed=0, progress=True) -> dict:
     out.mkdir(parents=True, exist_ok=True)
     tasks = [(i, int(seed)) for i in range(int(runs))]
     t0 = time.perf_counter()
-    bar = None
-    if progress:
-        from tqdm import tqdm
-        bar = tqdm(total=len(tasks), desc="paper 002 Monte Carlo", unit="run")
-    results = []
-    if workers > 1:
-        with ProcessPoolExecutor(max_workers=int(workers)) as ex:
-            for r in ex.map(run_one, tasks):
-                results.append(r)
-                if bar is not None:
-                    bar.update(1)
-    else:
-        for task in tasks:
-            results.append(run_one(task))
-            if bar is not None:
-                bar.update(1)
-    if bar is not None:
-        bar.close()
+    results = run_tasks(run_one, tasks, workers, desc="paper 002 Monte Carlo",
+                        progress=progress)
     wall = time.perf_counter() - t0
     agg = aggregate(results)
     ver = verdicts(agg)

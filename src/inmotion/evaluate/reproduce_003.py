@@ -32,13 +32,13 @@ from __future__ import annotations
 
 import json
 import time
-from concurrent.futures import ProcessPoolExecutor
 from pathlib import Path
 
 import numpy as np
 import yaml
 
 from ..core.bundle import row_at_or_after
+from .repro_common import run_tasks
 
 __all__ = ["reproduce", "PAPER_TABLE2", "PAPER_TABLE3", "run_one"]
 
@@ -396,24 +396,7 @@ def reproduce(out_dir, runs: int = 20, workers: int = 2, seed: int = 0,
     children = np.random.SeedSequence(seed).spawn(runs)
     tasks = [(r, children[r], r == 0, windows) for r in range(runs)]
     t0 = time.perf_counter()
-    bar = None
-    if progress:
-        from tqdm import tqdm
-        bar = tqdm(total=runs, desc="paper 003 Monte Carlo", unit="run")
-    recs = []
-    if workers and workers > 1:
-        with ProcessPoolExecutor(max_workers=workers) as ex:
-            for rec in ex.map(run_one, tasks):
-                recs.append(rec)
-                if bar:
-                    bar.update()
-    else:
-        for task in tasks:
-            recs.append(run_one(task))
-            if bar:
-                bar.update()
-    if bar:
-        bar.close()
+    recs = run_tasks(run_one, tasks, workers, desc="paper 003 Monte Carlo", progress=progress)
     res = _summarize(recs)
     figs = _figures(recs[0].get("series", {}), out)
     wall = time.perf_counter() - t0
