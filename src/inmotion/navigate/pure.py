@@ -170,6 +170,36 @@ def mounting_from_meta(meta: dict, sensor: str):
             _three_numbers(lever, f"sensors.{sensor}.lever_arm_m"))
 
 
+def velocity_source(bundle: Bundle, sensor, mounting_arcmin, lever_arm_m):
+    """The forward-velocity sensor a dead reckoner uses and where it sits.
+
+    Parameters
+    ----------
+    bundle : Bundle
+    sensor : str or None
+        ``radar``, ``ldv``, ``odometer``, or None for the bundle's first one
+        (:meth:`Bundle.velocity_sensor`).
+    mounting_arcmin, lever_arm_m : 3 numbers or None
+        The configuration's values; None takes them from ``meta.yaml``
+        (:func:`mounting_from_meta`).
+
+    Returns
+    -------
+    ``(name, SpeedData, mount, lever_arm_b)``: the vehicle mounting ``[alpha, beta, gamma]``
+    [arcmin] as given (None: none known) and the lever arm [m] in b as a float array (None:
+    none known). Raises :class:`BadInput` when the bundle has no such sensor.
+    """
+    try:
+        name, speed = bundle.velocity_sensor(sensor)
+    except ValueError as e:
+        raise BadInput(str(e)) from None
+    meta_mount, meta_lever = mounting_from_meta(bundle.meta, name)
+    mount = mounting_arcmin if mounting_arcmin is not None else meta_mount
+    lever = lever_arm_m if lever_arm_m is not None else meta_lever
+    lever_arm_b = None if lever is None else np.asarray(lever, dtype=float)
+    return name, speed, mount, lever_arm_b
+
+
 def run_dr(bundle: Bundle, config: DrConfig, init: NavState,
            progress: Optional[Callable[[float], None]] = None) -> Solution:
     """Pure dead reckoning from ``init`` with the gyros and one forward-velocity sensor.
@@ -200,15 +230,9 @@ def run_dr(bundle: Bundle, config: DrConfig, init: NavState,
     ``d`` (``tests/test_navigate_pure.py``).
     """
     init = _require_init(init, "dr")
-    try:
-        name, speed = bundle.velocity_sensor(config.sensor)
-    except ValueError as e:
-        raise BadInput(str(e)) from None
-    meta_mount, meta_lever = mounting_from_meta(bundle.meta, name)
-    mount = config.mounting_arcmin if config.mounting_arcmin is not None else meta_mount
-    lever = config.lever_arm_m if config.lever_arm_m is not None else meta_lever
+    name, speed, mount, lever_arm_b = velocity_source(bundle, config.sensor,
+                                                      config.mounting_arcmin, config.lever_arm_m)
     C_bm = None if mount is None else mounting_matrix(np.radians(np.asarray(mount) / 60.0))
-    lever_arm_b = None if lever is None else np.asarray(lever, dtype=float)
     t0 = time.perf_counter()
     sol = dead_reckon(bundle.imu, speed, init, C_bm=C_bm, lever_arm_b=lever_arm_b,
                       scale=config.speed_scale, out_stride=config.out_stride,
@@ -219,5 +243,5 @@ def run_dr(bundle: Bundle, config: DrConfig, init: NavState,
     sol.info.update(method="dr", config=config.model_dump(mode="json"), timing={"run_s": run_s},
                     sensor=name,
                     mounting_arcmin=None if mount is None else [float(x) for x in mount],
-                    lever_arm_m=None if lever is None else [float(x) for x in lever])
+                    lever_arm_m=None if lever_arm_b is None else [float(x) for x in lever_arm_b])
     return sol

@@ -83,7 +83,7 @@ from ..errors import BadInput
 from ..estimation import error_model as em
 from ..estimation.layout import Layout, position_units
 from ..estimation.sins_dr_driver import GROUPS, SinsDrFilter
-from .pure import mounting_from_meta, mounting_matrix
+from .pure import mounting_matrix, velocity_source
 
 __all__ = ["SinsDrConfig", "run_sins_dr", "LAYOUT_SINS_DR", "MODES", "initial_covariance"]
 
@@ -200,15 +200,9 @@ def _check_config(cfg: SinsDrConfig, bundle: Bundle):
 
 def _sensor(bundle: Bundle, cfg: SinsDrConfig):
     """``(name, SpeedData, C_bm, lever_arm_b)`` of the velocity source."""
-    try:
-        name, speed = bundle.velocity_sensor(cfg.velocity_sensor)
-    except ValueError as exc:
-        raise BadInput(str(exc)) from None
-    meta_mount, meta_lever = mounting_from_meta(bundle.meta, name)
-    mount = cfg.mounting_arcmin if cfg.mounting_arcmin is not None else meta_mount
-    lever = cfg.lever_arm_m if cfg.lever_arm_m is not None else meta_lever
+    name, speed, mount, l_b = velocity_source(bundle, cfg.velocity_sensor, cfg.mounting_arcmin,
+                                              cfg.lever_arm_m)
     C_bm = None if mount is None else mounting_matrix(np.asarray(mount, dtype=float) * ARCMIN)
-    l_b = None if lever is None else np.asarray(lever, dtype=float)
     return name, speed, C_bm, l_b
 
 
