@@ -73,7 +73,7 @@ from scipy.stats import chi2
 
 from ..core import earth
 from ..core.bundle import Bundle
-from ..core.deadreckoning import DeadReckoner, speed_on_epochs
+from ..core.deadreckoning import speed_on_epochs
 from ..core.mechanization import Strapdown, _first_row
 from ..core.solution import NavState, Solution
 from ..errors import BadInput
@@ -192,12 +192,6 @@ def _dcm(q):
         [2 * (q1 * q3 - q0 * q2), 2 * (q2 * q3 + q0 * q1), q0 * q0 - q1 * q1 - q2 * q2 + q3 * q3]])
 
 
-def _ypr(C):
-    """``[yaw, pitch, roll]`` [rad] of ``C_b^n`` (DESIGN convention; the order of eq. 23)."""
-    return np.array([np.arctan2(C[0, 1], C[1, 1]), np.arcsin(min(1.0, max(-1.0, C[2, 1]))),
-                     np.arctan2(-C[2, 0], C[2, 2])])
-
-
 def _in_body(C_nb, z, H):
     """A velocity-difference measurement ``(z, H)`` resolved in the (computed) body axes.
 
@@ -208,10 +202,6 @@ def _in_body(C_nb, z, H):
     """
     C_bn = C_nb.T
     return C_bn @ z, C_bn @ H
-
-
-def _wrap(a):
-    return (a + np.pi) % (2 * np.pi) - np.pi
 
 
 def _baro_on_epochs(bundle: Bundle, t):
@@ -258,9 +248,10 @@ def _rotate_small(phi, q):
 
 
 class _AlignmentFilter:
-    """The shared filter loop of ``dr-kf`` and ``od-velocity-kf``."""
+    """The filter loop of ``od-velocity-kf`` (SINS only; ``dr-kf`` runs on
+    :class:`~inmotion.estimation.sins_dr_driver.SinsDrFilter`)."""
 
-    def __init__(self, bundle: Bundle, cfg, init: NavState, with_dr: bool):
+    def __init__(self, bundle: Bundle, cfg, init: NavState):
         if init is None:
             raise BadInput("this method needs an initial attitude (--init truth, a coarse "
                            "alignment result, or meta.yaml)")
@@ -269,8 +260,7 @@ class _AlignmentFilter:
         except ValueError as exc:
             raise BadInput(str(exc)) from None
         self.cfg = cfg
-        self.with_dr = with_dr
-        self.lay = LAYOUT_DR_KF if with_dr else LAYOUT_OD_KF
+        self.lay = LAYOUT_OD_KF
         imu = bundle.imu
         k0 = _first_row(imu.t, init.t)
         if len(imu.t) - k0 < 2:
@@ -278,9 +268,8 @@ class _AlignmentFilter:
         self.t = imu.t[k0:]
         self.dtheta = imu.dtheta[k0:]
         self.dvel = imu.dvel[k0:]
-        ds, v, _, _ = speed_on_epochs(self.speed, np.concatenate([[init.t], self.t]),
-                                      what=self.sensor_name)
-        self.ds, self.v = ds, v
+        _, self.v, _, _ = speed_on_epochs(self.speed, np.concatenate([[init.t], self.t]),
+                                          what=self.sensor_name)
         imu_dt = float(np.median(np.diff(imu.t)))
         self.step = max(1, int(round(1.0 / (cfg.filter_rate_hz * imu_dt))))
         self.meas_every = max(1, int(round(cfg.filter_rate_hz / cfg.measurement_rate_hz)))
@@ -290,18 +279,15 @@ class _AlignmentFilter:
         if cfg.use_baro and bundle.baro is not None:
             self.h_baro = _baro_on_epochs(bundle, self.t)
         self.init = init
-        self.model = em.ErrorModel(self.lay, _process_noise(cfg),
-                                   dr_sees_gyro_drift=getattr(cfg, "dr_sees_gyro_drift", True))
+        self.model = em.ErrorModel(self.lay, _process_noise(cfg))
         self.kf = KalmanFilter(self.lay.zeros(), _initial_covariance(self.lay, cfg, init.lat, init.h))
         self.sins = Strapdown(init)
-        self.dr = DeadReckoner(init) if with_dr else None
         self.bias_g = np.zeros(3)        # accumulated gyro drift compensation [rad/s]
         self.bias_a = np.zeros(3)        # accumulated accelerometer bias compensation [m/s^2]
         self.fed_back = self.lay.zeros()  # everything fed back so far, per state
         self._nav_errors = np.r_[self.lay["phi"], self.lay["dv"], self.lay["dp"]]
         self.gate = _Gate(cfg.gate_probability)
         self._r = {      # diagonal measurement noise variances per group
-            "attitude": np.full(3, (getattr(cfg, "attitude_noise_arcmin", 1.0) * ARCMIN) ** 2),
             "velocity": np.array([cfg.lateral_noise_m_s, cfg.velocity_noise_m_s,
                                   cfg.lateral_noise_m_s]) ** 2,     # body axes, _in_body
             "nhc": np.full(2, cfg.nhc_noise_m_s ** 2),
@@ -313,8 +299,6 @@ class _AlignmentFilter:
         dth = self.dtheta[a:b] - self.bias_g * dt[:, None]
         dvl = self.dvel[a:b] - self.bias_a * dt[:, None]
         self.sins.run(dth, dvl, self.t[a:b])
-        if self.dr is not None:
-            self.dr.run(dth, self.t[a:b], self.ds[a:b], self.v[a:b])
         return dvl.sum(axis=0) / dt.sum(), dt.sum()
 
     def _point(self, x, f_b):
@@ -331,27 +315,12 @@ class _AlignmentFilter:
         return (x[0] - xs[lay.index("dp_lat")], x[1] - xs[lay.index("dp_lon")],
                 x[2] - xs[lay.index("dp_h")], x[3:6] - xs[lay["dv"]], q)
 
-    def _measure(self, k, pt, xs, xd):
+    def _measure(self, k, pt, xs):
         """Stack the enabled measurement groups at IMU row ``k`` and update group by group."""
         lay, cfg, kf = self.lay, self.cfg, self.kf
-        groups = []
-        if self.with_dr:
-            C_D = _dcm(xd[6:10])
-            pt_D = em.LinPoint(lat=xd[0], h=xd[2], vel_n=xd[3:6], C_nb=C_D, f_n=pt.f_n)
-            if cfg.use_attitude:
-                H = np.zeros((3, lay.n))
-                H[:, lay["phi"]] = em.euler_rows(pt.C_nb)
-                H[:, lay["phi_D"]] = -em.euler_rows(C_D)
-                z = _wrap(_ypr(pt.C_nb) - _ypr(C_D))
-                groups.append(("attitude", z, H))
-            if cfg.use_velocity:
-                H = -em.dr_velocity_rows(lay, pt_D)
-                H[:, lay["dv"]] += np.eye(3)
-                groups.append(("velocity", *_in_body(C_D, xs[3:6] - xd[3:6], H)))
-        else:
-            v_s = pt.C_nb @ np.array([0.0, self.v[k], 0.0])
-            groups.append(("velocity", *_in_body(pt.C_nb, xs[3:6] - v_s,
-                                                 em.sensor_velocity_rows(lay, pt, vel_sensor_n=v_s))))
+        v_s = pt.C_nb @ np.array([0.0, self.v[k], 0.0])
+        groups = [("velocity", *_in_body(pt.C_nb, xs[3:6] - v_s,
+                                         em.sensor_velocity_rows(lay, pt, vel_sensor_n=v_s)))]
         if cfg.use_nhc:
             z = (pt.C_nb.T @ xs[3:6])[[0, 2]]
             groups.append(("nhc", z, em.nhc_rows(lay, pt, with_mount=cfg.nhc_mount_terms)))
@@ -364,9 +333,6 @@ class _AlignmentFilter:
         lay, x = self.lay, self.kf.x
         self.sins.correct(phi=x[lay["phi"]], dvel_n=x[lay["dv"]], dpos=x[lay["dp"]])
         done = [lay["phi"], lay["dv"], lay["dp"], lay["eps"], lay["nabla"]]
-        if self.dr is not None:
-            self.dr.correct(phi=x[lay["phi_D"]], dpos=x[lay["dp_D"]])
-            done += [lay["phi_D"], lay["dp_D"]]
         self.bias_g += x[lay["eps"]]
         self.bias_a += x[lay["nabla"]]
         for s in done:
@@ -410,8 +376,7 @@ class _AlignmentFilter:
             self.kf.set_model(self.model.F(pt), self.model.Qc(pt))
             self.kf.predict(dt)
             if i % self.meas_every == 0:
-                xd = self.dr.x if self.dr is not None else None
-                self._measure(b - 1, pt, xs, xd)
+                self._measure(b - 1, pt, xs)
                 if self.cfg.closed_loop and (i // self.meas_every) % self.feedback_every == 0:
                     self._feed_back()
             record(i, self.t[b - 1])
@@ -541,12 +506,12 @@ def _config(config, cls):
     return cfg
 
 
-def _run(bundle, config, init, progress, cls, with_dr, method):
-    cfg = _config(config, cls)
+def _run_od(bundle, config, init, progress):
+    cfg = _config(config, OdVelocityKfConfig)
     t0 = time.perf_counter()
-    filt = _AlignmentFilter(bundle, cfg, init, with_dr)
+    filt = _AlignmentFilter(bundle, cfg, init)
     arrays = filt.run(progress)
-    return _solution(filt, arrays, method, cfg, time.perf_counter() - t0)
+    return _solution(filt, arrays, "od-velocity-kf", cfg, time.perf_counter() - t0)
 
 
 def run_dr_kf(bundle: Bundle, config: DrKfConfig | dict | None = None,
@@ -575,4 +540,4 @@ def run_od_velocity_kf(bundle: Bundle, config: OdVelocityKfConfig | dict | None 
                        init: NavState | None = None,
                        progress: Optional[Callable] = None) -> Solution:
     """``od-velocity-kf``: SINS / velocity-sensor velocity matching (the baseline)."""
-    return _run(bundle, config, init, progress, OdVelocityKfConfig, False, "od-velocity-kf")
+    return _run_od(bundle, config, init, progress)
