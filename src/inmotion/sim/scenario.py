@@ -14,7 +14,8 @@ from pathlib import Path
 from typing import Annotated, List, Literal, Optional, Union
 
 import yaml
-from pydantic import BaseModel, ConfigDict, Field, ValidationError, field_validator, model_validator
+from pydantic import (AfterValidator, BaseModel, ConfigDict, Field, ValidationError, field_validator,
+                      model_validator)
 
 from ..errors import BadInput
 
@@ -29,6 +30,17 @@ MAX_MOUNTING_ARCMIN = 1800.0
 
 Vec3 = Annotated[List[float], Field(min_length=3, max_length=3)]
 ScalarOr3 = Union[float, Vec3]
+
+
+def _three_or_six(v):
+    if len(v) not in (3, 6):
+        raise ValueError("misalignment_arcsec needs 3 or 6 values")
+    return v
+
+
+#: a sensor triad's misalignment [arcsec]: 3 values (a small rotation of the triad) or 6
+#: (non-orthogonality xy, xz, yx, yz, zx, zy); Gyro and Accel
+MisalignmentArcsec = Annotated[List[float], AfterValidator(_three_or_six)]
 
 
 class _Model(BaseModel):
@@ -193,14 +205,7 @@ class Gyro(_Model):
     drift_markov_deg_h: float = Field(0.0, ge=0.0)
     drift_markov_tau_s: float = Field(3600.0, gt=0.0)
     scale_factor_ppm: ScalarOr3 = 0.0
-    misalignment_arcsec: List[float] = Field(default_factory=lambda: [0.0, 0.0, 0.0])
-
-    @field_validator("misalignment_arcsec")
-    @classmethod
-    def _mis(cls, v):
-        if len(v) not in (3, 6):
-            raise ValueError("misalignment_arcsec needs 3 or 6 values")
-        return v
+    misalignment_arcsec: MisalignmentArcsec = Field(default_factory=lambda: [0.0, 0.0, 0.0])
 
 
 class Accel(_Model):
@@ -214,14 +219,7 @@ class Accel(_Model):
     vrw_ug_sqrt_hz: Optional[float] = Field(None, ge=0.0)
     vrw_m_s_sqrt_h: Optional[float] = Field(None, ge=0.0)
     scale_factor_ppm: ScalarOr3 = 0.0
-    misalignment_arcsec: List[float] = Field(default_factory=lambda: [0.0, 0.0, 0.0])
-
-    @field_validator("misalignment_arcsec")
-    @classmethod
-    def _mis(cls, v):
-        if len(v) not in (3, 6):
-            raise ValueError("misalignment_arcsec needs 3 or 6 values")
-        return v
+    misalignment_arcsec: MisalignmentArcsec = Field(default_factory=lambda: [0.0, 0.0, 0.0])
 
     @model_validator(mode="after")
     def _one_vrw(self):
