@@ -1,11 +1,13 @@
 """A SINS and a dead reckoner side by side under one closed-loop error-state Kalman filter.
 
-The engine of the SINS / dead-reckoning (DR) integrated methods (paper 002, and the structure
-paper 000's alignment filter shares): both mechanizations run on the same compensated gyro
+The one engine of the SINS / dead-reckoning (DR) methods: paper 002's ``sins-dr``
+(:mod:`inmotion.navigate.sins_dr`) and paper 000's alignment ``dr-kf``
+(:mod:`inmotion.align.dr_kalman`). Both mechanizations run on the same compensated gyro
 increments, a Kalman filter on an error-state layout from :mod:`inmotion.estimation.layout`
-(with the blocks ``phi, dv, dp, eps, nabla, phi_D, dp_D`` and optionally ``dk``) is predicted
-with the one shared error model (:mod:`inmotion.estimation.error_model`) and updated with
-SINS-minus-DR differences, and the estimate is fed back into both systems.
+(with the blocks ``phi, dv, dp, eps, nabla, phi_D, dp_D`` and optionally ``mount`` and ``dk``)
+is predicted with the one shared error model (:mod:`inmotion.estimation.error_model`) and
+updated with SINS-minus-DR differences (and paper 000's non-holonomic constraint), and the
+estimate is fed back into both systems.
 
 Per filter epoch (``step`` IMU rows, :func:`_run_epochs`, one numba loop):
 
@@ -31,20 +33,33 @@ Per filter epoch (``step`` IMU rows, :func:`_run_epochs`, one numba loop):
    position  ``[lat, lon, h]_SINS - [..]_DR`` (rad, rad,   ``I`` on ``dp``, ``-I`` on ``dp_D``
              m; paper 002 eq. 44, 52)
    height    ``h_SINS - h_baro``                           ``1`` on ``dp_h``
+   nhc       ``[v_x, v_z]`` of ``C_n^b v_SINS``: zero for   ``C_n^b`` on ``dv``, ``-C_n^b [v x]``
+             a vehicle that neither slips nor jumps        on ``phi``; with ``nhc_mount``
+             (paper 000 eq. 32-38)                         ``-[v_b x]`` on ``mount``
+                                                           (:func:`error_model.nhc_rows`)
    ========  ============================================  ==================================
 
-4. closed loop, right after each update: the SINS attitude, velocity and position and the DR
+   With a ``mount`` block the velocity rows also carry ``-[v x] C_b^n`` (DR attitude) on it
+   (paper 000 eq. 11, :func:`error_model.dr_velocity_rows`). Groups are applied in the order
+   attitude, velocity, nhc, position, height (``GROUPS`` gives the index order of the flag,
+   gate and count arrays, ``nhc`` last so that paper 002's four keep their indices).
+
+4. closed loop (``closed_loop``; after every ``feedback_every``-th measurement epoch, default
+   each), right after the update: the SINS attitude, velocity and position and the DR
    attitude and position are corrected (:func:`_correct_nav`, the numba twin of
    :meth:`inmotion.core.mechanization.Strapdown.correct`), the drift and bias estimates are
    added to the IMU compensation, and those states are reset to zero. The scale factor ``dk``
-   is only estimated (a first-order Markov state; the DR keeps its raw sensor), as in
-   :mod:`inmotion.align.dr_kalman`.
+   is only estimated (a first-order Markov state; the DR keeps its raw sensor), as are the
+   mounting angles (the DR keeps its nominal ``C_bm``). Open loop nothing is fed back; the
+   output is always the SINS corrected by the estimate not yet fed back (a plain copy right
+   after feedback), with the ``phi`` block of ``P`` for NEES.
 
 DR position random walk: the DR integrates the sensor's speed, whose white noise of 1-sigma
 ``sigma_v`` per sample (period ``T_s``) walks the DR position with density
 ``q = sigma_v^2 T_s`` [m^2/s] along the track. The shared model has no such term (paper 000's G
 drives only ``dk`` with the radar noise); it is added here, isotropic in E, N, U (a bound on the
-along-track term), converted to rad^2/s for latitude and longitude.
+along-track term), converted to rad^2/s for latitude and longitude. (``dr-kf`` sets it to 0,
+paper 000's model.)
 
 Memory: the log is processed in chunks of whole epochs (the sensor is resampled to the IMU
 epochs chunk by chunk), so only the output arrays grow with the log.
@@ -67,7 +82,7 @@ from .kalman import _predict_kernel
 from .layout import Layout
 
 __all__ = ["GROUPS", "GROUP_SIZES", "SinsDrFilter", "euler_ypr", "dcm_of_q",
-           "measurement_rows", "sequential_joseph"]
+           "measurement_rows", "stack_rows", "sequential_joseph"]
 
 #: measurement groups (index order of the ``use``, ``thresholds`` and count arrays); within
 #: an epoch they are applied in the order attitude, velocity, nhc, position, height
