@@ -48,6 +48,31 @@ def _grid(columns_present):
     return [(title, cols) for title, cols in groups if cols]
 
 
+def _column_grid(columns_present, draw, title: str) -> Figure:
+    """The layout :func:`error_curves` and :func:`ensemble_curves` share: one row of three
+    panels per group of :func:`_grid` (unused panels hidden), ``draw(ax, column)`` fills a
+    panel; unit labels, grid, group titles, time axis, one legend and the title around it."""
+    groups = _grid(columns_present)
+    fig = Figure(figsize=(12, 2.6 * max(1, len(groups))), layout="constrained")
+    axes = fig.subplots(max(1, len(groups)), 3, squeeze=False, sharex=True)
+    for r, (gtitle, cols) in enumerate(groups):
+        for c in range(3):
+            ax = axes[r, c]
+            if c >= len(cols):
+                ax.set_visible(False)
+                continue
+            draw(ax, cols[c])
+            ax.set_ylabel(_unit_label(cols[c]))
+            ax.grid(alpha=0.3)
+        axes[r, 0].set_title(gtitle, loc="left", fontsize=10)
+    for ax in axes[-1]:
+        ax.set_xlabel("t [s]")
+    axes[0, 0].legend(loc="best", fontsize=8)
+    if title:
+        fig.suptitle(title)
+    return fig
+
+
 def error_curves(t, errors: dict, sigma: dict, title: str = "") -> Figure:
     """One run: each error column against time, with the method's +-3 sigma shaded.
 
@@ -57,30 +82,15 @@ def error_curves(t, errors: dict, sigma: dict, title: str = "") -> Figure:
     errors : column -> (N,) error, estimate minus truth (columns of ``error_series``)
     sigma : column -> (N,) the method's 1-sigma for that column, same unit (may be empty)
     """
-    groups = _grid(errors)
-    fig = Figure(figsize=(12, 2.6 * max(1, len(groups))), layout="constrained")
-    axes = fig.subplots(max(1, len(groups)), 3, squeeze=False, sharex=True)
     sl = _thin(len(t))
-    for r, (gtitle, cols) in enumerate(groups):
-        for c in range(3):
-            ax = axes[r, c]
-            if c >= len(cols):
-                ax.set_visible(False)
-                continue
-            col = cols[c]
-            ax.plot(t[sl], errors[col][sl], lw=0.9, color="C0", label="error")
-            if col in sigma and np.isfinite(sigma[col]).any():
-                s3 = 3.0 * np.asarray(sigma[col])[sl]
-                ax.fill_between(t[sl], -s3, s3, color="C1", alpha=0.25, lw=0, label="±3σ (filter)")
-            ax.set_ylabel(_unit_label(col))
-            ax.grid(alpha=0.3)
-        axes[r, 0].set_title(gtitle, loc="left", fontsize=10)
-    for ax in axes[-1]:
-        ax.set_xlabel("t [s]")
-    axes[0, 0].legend(loc="best", fontsize=8)
-    if title:
-        fig.suptitle(title)
-    return fig
+
+    def draw(ax, col):
+        ax.plot(t[sl], errors[col][sl], lw=0.9, color="C0", label="error")
+        if col in sigma and np.isfinite(sigma[col]).any():
+            s3 = 3.0 * np.asarray(sigma[col])[sl]
+            ax.fill_between(t[sl], -s3, s3, color="C1", alpha=0.25, lw=0, label="±3σ (filter)")
+
+    return _column_grid(errors, draw, title)
 
 
 def ensemble_curves(t, runs: dict, sigma: dict, title: str = "") -> Figure:
@@ -93,36 +103,21 @@ def ensemble_curves(t, runs: dict, sigma: dict, title: str = "") -> Figure:
     runs : column -> (R, N) errors of the R runs
     sigma : column -> (R, N) the filter's 1-sigma of the runs (may be empty)
     """
-    groups = _grid(runs)
-    fig = Figure(figsize=(12, 2.6 * max(1, len(groups))), layout="constrained")
-    axes = fig.subplots(max(1, len(groups)), 3, squeeze=False, sharex=True)
     sl = _thin(len(t))
-    for r, (gtitle, cols) in enumerate(groups):
-        for c in range(3):
-            ax = axes[r, c]
-            if c >= len(cols):
-                ax.set_visible(False)
-                continue
-            col = cols[c]
-            x = np.asarray(runs[col])[:, sl]
-            ax.plot(t[sl], x.T, lw=0.4, color="0.6", alpha=0.6)
-            mean, std = x.mean(axis=0), x.std(axis=0)
-            ax.fill_between(t[sl], mean - 3 * std, mean + 3 * std, color="C0", alpha=0.2, lw=0,
-                            label="ensemble mean ±3 std")
-            ax.plot(t[sl], mean, color="C0", lw=1.0)
-            if col in sigma:
-                s = np.sqrt(np.nanmean(np.square(np.asarray(sigma[col])[:, sl]), axis=0))
-                ax.plot(t[sl], 3 * s, "--", color="C3", lw=1.0, label="±3σ filter (RMS)")
-                ax.plot(t[sl], -3 * s, "--", color="C3", lw=1.0)
-            ax.set_ylabel(_unit_label(col))
-            ax.grid(alpha=0.3)
-        axes[r, 0].set_title(gtitle, loc="left", fontsize=10)
-    for ax in axes[-1]:
-        ax.set_xlabel("t [s]")
-    axes[0, 0].legend(loc="best", fontsize=8)
-    if title:
-        fig.suptitle(title)
-    return fig
+
+    def draw(ax, col):
+        x = np.asarray(runs[col])[:, sl]
+        ax.plot(t[sl], x.T, lw=0.4, color="0.6", alpha=0.6)
+        mean, std = x.mean(axis=0), x.std(axis=0)
+        ax.fill_between(t[sl], mean - 3 * std, mean + 3 * std, color="C0", alpha=0.2, lw=0,
+                        label="ensemble mean ±3 std")
+        ax.plot(t[sl], mean, color="C0", lw=1.0)
+        if col in sigma:
+            s = np.sqrt(np.nanmean(np.square(np.asarray(sigma[col])[:, sl]), axis=0))
+            ax.plot(t[sl], 3 * s, "--", color="C3", lw=1.0, label="±3σ filter (RMS)")
+            ax.plot(t[sl], -3 * s, "--", color="C3", lw=1.0)
+
+    return _column_grid(runs, draw, title)
 
 
 def final_distributions(values: dict, columns, title: str = "") -> Figure:
