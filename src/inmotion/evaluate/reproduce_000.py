@@ -29,6 +29,12 @@ vehicle's forward axis, which is ``[-gamma, 1, alpha]`` in the IMU frame, exactl
 of eq. 9-11. The truth attitude is the IMU's. The non-holonomic constraint then holds in the
 vehicle frame: ``dr-kf``'s default NHC rows carry the mounting columns; trajectory 1 is also run
 with eq. 37 as printed (``with_Z2_paper_H2``), which ignores them.
+
+Cost (issue 3: 50 runs of the three experiments under 2 minutes on 2 cores): each run
+simulates its bundle once (about 0.3 CPU-s) and aligns it with every setting (``dr-kf`` on the
+one numba SINS / DR engine, about 0.11 CPU-s per 600 s setting), about 0.6 CPU-s per run in
+all; a worker process starts in about 1 s (imports and numba cache). Measured with
+``benchmarks/bench_dr_kf.py --reproduce-runs 50``.
 """
 from __future__ import annotations
 
