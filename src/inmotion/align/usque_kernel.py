@@ -39,11 +39,10 @@ _adaptive_gamma = numba.njit(cache=True)(hinf.adaptive_gamma)
 
 @numba.njit(cache=True)
 def _qmul(p, q):
+    """``p (x) q`` as a new array (:func:`inmotion.core._kernels.qmul`)."""
+    r = kn.qmul(p, q)
     out = np.empty(4)
-    out[0] = p[0] * q[0] - p[1] * q[1] - p[2] * q[2] - p[3] * q[3]
-    out[1] = p[0] * q[1] + p[1] * q[0] + p[2] * q[3] - p[3] * q[2]
-    out[2] = p[0] * q[2] - p[1] * q[3] + p[2] * q[0] + p[3] * q[1]
-    out[3] = p[0] * q[3] + p[1] * q[2] - p[2] * q[1] + p[3] * q[0]
+    out[0], out[1], out[2], out[3] = r[0], r[1], r[2], r[3]
     return out
 
 
