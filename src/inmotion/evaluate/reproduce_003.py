@@ -38,6 +38,7 @@ import numpy as np
 import yaml
 
 from ..core.bundle import row_at_or_after
+from ..core.rotations import wrap_pi
 from .repro_common import run_tasks
 
 __all__ = ["reproduce", "PAPER_TABLE2", "PAPER_TABLE3", "run_one"]
@@ -74,7 +75,7 @@ def _err(sol, truth, k=-1):
     """[pitch, roll, yaw] error [arcmin] of ``sol`` row ``k`` against the truth."""
     i = int(row_at_or_after(truth.t, sol.t[k], 1e-6))
     d = sol.euler[k] - truth.euler[i]
-    d[2] = (d[2] + np.pi) % (2 * np.pi) - np.pi
+    d[2] = wrap_pi(d[2])
     return d * ARCMIN
 
 
@@ -93,7 +94,7 @@ def _drift_limit(bundle, t):
 def _yaw_series(sol, truth):
     i = row_at_or_after(truth.t, sol.t, 1e-6)
     d = sol.euler[:, 2] - truth.euler[i, 2]
-    return sol.t.copy(), ((d + np.pi) % (2 * np.pi) - np.pi) * ARCMIN
+    return sol.t.copy(), wrap_pi(d) * ARCMIN
 
 
 def _fine(bundle, start, which, extra=None):
