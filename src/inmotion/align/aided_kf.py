@@ -40,7 +40,7 @@ from ..core import earth, rotations
 from ..core import _kernels as K
 from ..core.bundle import Bundle
 from ..core.deadreckoning import speed_on_epochs
-from ..core.mechanization import Strapdown, _baro_on_imu, _first_row
+from ..core.mechanization import Strapdown, _baro_on_imu, start_row
 from ..core.solution import NavState, Solution, StateUnit
 from ..errors import BadInput
 from ..estimation import chi2
@@ -162,11 +162,7 @@ def _check_init(init, bundle):
     if init is None:
         raise BadInput("this method needs an initial attitude (--init truth, a coarse "
                        "alignment result, or meta.yaml)")
-    imu = bundle.imu
-    k0 = _first_row(imu.t, init.t)
-    if len(imu.t) - k0 < 2:
-        raise BadInput(f"no IMU rows after the start t={init.t:.6g} s", file="imu")
-    return k0
+    return start_row(bundle.imu.t, init.t)
 
 
 def run_aided(bundle: Bundle, cfg, init: NavState, sensors: tuple, *, method: str,

@@ -268,6 +268,16 @@ def _first_row(t, init_t):
     return int(np.searchsorted(t, init_t + 1e-6, side="left"))
 
 
+def start_row(t, init_t) -> int:
+    """:func:`_first_row` for a filter that needs at least two IMU rows after its start:
+    the index ``k0`` of the first row of ``t`` [s] after ``init_t`` [s]; raises
+    :class:`BadInput` (file ``imu``) when fewer than two rows are left from there."""
+    k0 = _first_row(t, init_t)
+    if len(t) - k0 < 2:
+        raise BadInput(f"no IMU rows after the start t={init_t:.6g} s", file="imu")
+    return k0
+
+
 def _baro_on_imu(baro: BaroData, t: np.ndarray, max_gap: float) -> np.ndarray:
     """Barometric height interpolated to the IMU times ``t``; NaN outside the baro's span and
     strictly inside gaps longer than ``max_gap`` [s] (never extrapolated)."""

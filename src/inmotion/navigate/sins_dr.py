@@ -77,7 +77,7 @@ from scipy.stats import chi2
 
 from ..core import earth
 from ..core.bundle import Bundle
-from ..core.mechanization import _baro_on_imu, _first_row
+from ..core.mechanization import _baro_on_imu, start_row
 from ..core.solution import NavState, Solution
 from ..errors import BadInput
 from ..estimation import error_model as em
@@ -222,9 +222,7 @@ def build_filter(bundle: Bundle, cfg: SinsDrConfig, init: NavState):
     _check_config(cfg, bundle)
     name, speed, C_bm, l_b = _sensor(bundle, cfg)
     imu = bundle.imu
-    k0 = _first_row(imu.t, init.t)
-    if len(imu.t) - k0 < 2:
-        raise BadInput(f"no IMU rows after the start t={init.t:.6g} s", file="imu")
+    k0 = start_row(imu.t, init.t)
     step, meas_every, out_every = _rates(cfg, float(np.median(np.diff(imu.t))))
     lay = LAYOUT_SINS_DR
     model = em.ErrorModel(lay, process_noise(cfg), dr_sees_gyro_drift=cfg.dr_sees_gyro_drift)
