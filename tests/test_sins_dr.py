@@ -125,10 +125,10 @@ def test_dr_kf_rows_equal_the_shared_model_rows(nhc_mount):
     C_D = rotations.dcm_from_euler(np.radians([3.1, -2.2, 210.7]))
     xs = _nav(0.6, 1.9, 380.0, C_S @ [0.2, 14.0, -0.1], C_S)
     xd = _nav(0.6 + 1e-6, 1.9 - 1e-6, 377.0, C_D @ [0.0, 14.1, 0.0], C_D)
-    use = np.array([True, True, False, True, True])
+    use = np.array([True, True, False, True, True, False])
     z, H, r, starts, groups = drv.stack_rows(offs, use, xs, xd, 379.0, 1e-8, 1.0,
                                              np.array([1.0, 2.0, 3.0]), 4.0, 0.09, nhc_mount,
-                                             L0.n)
+                                             0.0, L0.n)
     assert list(groups) == [0, 1, 4, 3] and list(starts) == [0, 3, 6, 8, 9]
     att = np.zeros((3, L0.n))
     att[:, L0["phi"]] = em.euler_rows(C_S)
@@ -146,6 +146,32 @@ def test_dr_kf_rows_equal_the_shared_model_rows(nhc_mount):
     assert np.allclose(z[3:6], C_D.T @ (xs[3:6] - xd[3:6]), atol=1e-12)
     assert np.allclose(z[6:8], (C_S.T @ xs[3:6])[[0, 2]], atol=1e-12)
     assert z[8] == pytest.approx(1.0) and np.allclose(r[6:8], 0.09)
+
+
+def test_od_velocity_kf_rows_equal_the_shared_model_rows():
+    """Without DR blocks (``od-velocity-kf``) the engine's ``sensor_velocity`` group is the
+    shared model's ``sensor_velocity_rows`` (velocity matching, mounting and scale columns)
+    resolved in the SINS body frame, and ``z`` the SINS velocity minus the speed along the
+    SINS forward axis."""
+    from inmotion.align.dr_kalman import LAYOUT_OD_KF as L1
+    from inmotion.estimation import error_model as em
+    offs = tuple(int(o) for o in _offsets(L1))
+    C_S = rotations.dcm_from_euler(np.radians([-1.5, 2.0, 33.0]))
+    xs = _nav(0.6, 1.9, 380.0, C_S @ [0.2, 14.0, -0.1], C_S)
+    use = np.array([False, False, False, False, True, True])
+    speed = 14.3
+    z, H, r, starts, groups = drv.stack_rows(offs, use, xs, xs, np.nan, 1.0, 1.0,
+                                             np.array([1.0, 2.0, 3.0]), 1.0, 0.09, True,
+                                             speed, L1.n)
+    assert list(groups) == [5, 4] and list(starts) == [0, 3, 5]
+    v_s = C_S @ [0.0, speed, 0.0]
+    pt = em.LinPoint(lat=xs[0], h=xs[2], vel_n=xs[3:6], C_nb=C_S, f_n=np.zeros(3))
+    ref = em.sensor_velocity_rows(L1, pt, vel_sensor_n=v_s)
+    assert np.abs(ref[:, L1["mount"]]).max() > 1.0
+    assert np.allclose(H[0:3], C_S.T @ ref, atol=1e-12)
+    assert np.allclose(z[0:3], C_S.T @ (xs[3:6] - v_s), atol=1e-12)
+    assert np.allclose(r[0:3], [1.0, 2.0, 3.0])
+    assert np.allclose(H[3:5], em.nhc_rows(L1, pt), atol=1e-12)
 
 
 # -- the update and the feedback kernels ---------------------------------------------------

@@ -28,14 +28,14 @@ velocity-matching baseline ``od-velocity-kf``.
     to n with the SINS attitude (:func:`error_model.sensor_velocity_rows`), 19 states
     ``phi, dv, dp, eps, nabla, mount, dk``, the same NHC and baro options, no DR.
 
-Filter loop: ``dr-kf`` runs on the one SINS + DR + Kalman engine of the package,
-:class:`inmotion.estimation.sins_dr_driver.SinsDrFilter` (also paper 002's ``sins-dr``): the
+Filter loop: both methods run on the one SINS + DR + Kalman engine of the package,
+:class:`inmotion.estimation.sins_dr_driver.SinsDrFilter` (also paper 002's ``sins-dr``;
+``od-velocity-kf`` on its layout without DR blocks, with the ``sensor_velocity`` group): the
 whole loop (mechanizations, ``F`` at the SINS state, prediction, gated sequential Joseph
 updates of the groups attitude, velocity, NHC, height, feedback) is one numba function, the
-Python side only configures it and packs the :class:`Solution`. ``od-velocity-kf`` (no DR)
-keeps a Python loop over filter epochs that drives the numba mechanization in chunks. In both,
-per epoch the model is linearized at the current SINS state, discretized
-(:func:`kalman.discretize`), and, at measurement epochs, updated in Joseph form. Closed loop
+Python side only configures it and packs the :class:`Solution`. Per epoch the model is
+linearized at the current SINS state, discretized (:func:`kalman.discretize`), and, at
+measurement epochs, updated group by group in Joseph form. Closed loop
 (default): the estimated SINS (and DR) attitude, velocity and position errors are fed back into
 the mechanizations and reset to zero, the gyro drift and accelerometer bias are accumulated
 into the IMU compensation subtracted from the increments. The mounting angles and the scale
@@ -73,13 +73,10 @@ from scipy.stats import chi2
 
 from ..core import earth
 from ..core.bundle import Bundle
-from ..core.deadreckoning import speed_on_epochs
-from ..core.mechanization import Strapdown, _first_row
+from ..core.mechanization import _check_finite, _first_row
 from ..core.solution import NavState, Solution
 from ..errors import BadInput
 from ..estimation import error_model as em
-from ..core.mechanization import _check_finite
-from ..estimation.kalman import KalmanFilter
 from ..estimation.layout import Layout, position_units
 from ..estimation.sins_dr_driver import GROUP_SIZES, GROUPS, SinsDrFilter
 
@@ -183,218 +180,12 @@ def _initial_covariance(lay: Layout, cfg, lat, h):
     return P
 
 
-def _dcm(q):
-    """``C_b^n`` of a unit quaternion (scalar helper, no checks: the hot loop's)."""
-    q0, q1, q2, q3 = q
-    return np.array([
-        [q0 * q0 + q1 * q1 - q2 * q2 - q3 * q3, 2 * (q1 * q2 - q0 * q3), 2 * (q1 * q3 + q0 * q2)],
-        [2 * (q1 * q2 + q0 * q3), q0 * q0 - q1 * q1 + q2 * q2 - q3 * q3, 2 * (q2 * q3 - q0 * q1)],
-        [2 * (q1 * q3 - q0 * q2), 2 * (q2 * q3 + q0 * q1), q0 * q0 - q1 * q1 - q2 * q2 + q3 * q3]])
-
-
-def _in_body(C_nb, z, H):
-    """A velocity-difference measurement ``(z, H)`` resolved in the (computed) body axes.
-
-    The sensor's noise lies along the forward axis only (its speed times the computed forward
-    direction), so in body axes ``R`` is diagonal: ``diag(lateral, forward, vertical)`` with
-    the sensor's noise forward and only the model floor ``dr_lateral_noise_m_s`` across. The
-    rotation by the computed ``C_n^b`` changes the measurement only to second order.
-    """
-    C_bn = C_nb.T
-    return C_bn @ z, C_bn @ H
-
-
 def _baro_on_epochs(bundle: Bundle, t):
     """Barometric height at the times ``t`` (NaN outside its span)."""
     b = bundle.baro
     h = np.interp(t, b.t, b.h)
     h[(t < b.t[0]) | (t > b.t[-1])] = np.nan
     return h
-
-
-class _Gate:
-    """Chi-square gate per measurement group (probability ``p``; ``p = 1``: never rejects)
-    and the counts of used and rejected updates."""
-
-    def __init__(self, p):
-        self.thresholds = {m: (float(chi2.ppf(p, m)) if p < 1.0 else 0.0) for m in (1, 2, 3)}
-        self.rejected = {}
-        self.used = {}
-
-    def update(self, kf, groups, r):
-        """Update ``kf`` with ``groups`` = [(name, z, H), ...] in one kernel call."""
-        sizes = [len(z) for _, z, _ in groups]
-        acc, _ = kf.update_groups(np.concatenate([z for _, z, _ in groups]),
-                                  np.vstack([H for _, _, H in groups]),
-                                  np.concatenate([r[name] for name, _, _ in groups]),
-                                  sizes, [self.thresholds[m] for m in sizes])
-        for (name, _, _), ok in zip(groups, acc):
-            self.used.setdefault(name, 0)
-            self.rejected.setdefault(name, 0)
-            if ok:
-                self.used[name] += 1
-            else:
-                self.rejected[name] += 1
-
-
-def _rotate_small(phi, q):
-    """``q(phi) (x) q``: the attitude ``q`` corrected by the misalignment ``phi`` [rad]."""
-    a = np.sqrt(phi @ phi)
-    k = 0.5 - a * a / 48.0 if a < 1e-4 else np.sin(0.5 * a) / a
-    p0, p1, p2, p3 = np.cos(0.5 * a), k * phi[0], k * phi[1], k * phi[2]
-    q0, q1, q2, q3 = q
-    return np.array([p0 * q0 - p1 * q1 - p2 * q2 - p3 * q3, p0 * q1 + p1 * q0 + p2 * q3 - p3 * q2,
-                     p0 * q2 - p1 * q3 + p2 * q0 + p3 * q1, p0 * q3 + p1 * q2 - p2 * q1 + p3 * q0])
-
-
-class _AlignmentFilter:
-    """The filter loop of ``od-velocity-kf`` (SINS only; ``dr-kf`` runs on
-    :class:`~inmotion.estimation.sins_dr_driver.SinsDrFilter`)."""
-
-    def __init__(self, bundle: Bundle, cfg, init: NavState):
-        if init is None:
-            raise BadInput("this method needs an initial attitude (--init truth, a coarse "
-                           "alignment result, or meta.yaml)")
-        try:
-            self.sensor_name, self.speed = bundle.velocity_sensor(cfg.velocity_sensor)
-        except ValueError as exc:
-            raise BadInput(str(exc)) from None
-        self.cfg = cfg
-        self.lay = LAYOUT_OD_KF
-        imu = bundle.imu
-        k0 = _first_row(imu.t, init.t)
-        if len(imu.t) - k0 < 2:
-            raise BadInput(f"no IMU rows after the start t={init.t:.6g} s", file="imu")
-        self.t = imu.t[k0:]
-        self.dtheta = imu.dtheta[k0:]
-        self.dvel = imu.dvel[k0:]
-        _, self.v, _, _ = speed_on_epochs(self.speed, np.concatenate([[init.t], self.t]),
-                                          what=self.sensor_name)
-        imu_dt = float(np.median(np.diff(imu.t)))
-        self.step = max(1, int(round(1.0 / (cfg.filter_rate_hz * imu_dt))))
-        self.meas_every = max(1, int(round(cfg.filter_rate_hz / cfg.measurement_rate_hz)))
-        self.feedback_every = max(1, int(round(cfg.measurement_rate_hz / cfg.feedback_rate_hz)))
-        self.dt = np.diff(np.concatenate([[init.t], self.t]))
-        self.h_baro = None
-        if cfg.use_baro and bundle.baro is not None:
-            self.h_baro = _baro_on_epochs(bundle, self.t)
-        self.init = init
-        self.model = em.ErrorModel(self.lay, _process_noise(cfg))
-        self.kf = KalmanFilter(self.lay.zeros(), _initial_covariance(self.lay, cfg, init.lat, init.h))
-        self.sins = Strapdown(init)
-        self.bias_g = np.zeros(3)        # accumulated gyro drift compensation [rad/s]
-        self.bias_a = np.zeros(3)        # accumulated accelerometer bias compensation [m/s^2]
-        self.fed_back = self.lay.zeros()  # everything fed back so far, per state
-        self._nav_errors = np.r_[self.lay["phi"], self.lay["dv"], self.lay["dp"]]
-        self.gate = _Gate(cfg.gate_probability)
-        self._r = {      # diagonal measurement noise variances per group
-            "velocity": np.array([cfg.lateral_noise_m_s, cfg.velocity_noise_m_s,
-                                  cfg.lateral_noise_m_s]) ** 2,     # body axes, _in_body
-            "nhc": np.full(2, cfg.nhc_noise_m_s ** 2),
-            "baro": np.full(1, cfg.baro_noise_m ** 2)}
-
-    # -- one epoch -------------------------------------------------------------------------
-    def _advance(self, a, b):
-        dt = self.dt[a:b]
-        dth = self.dtheta[a:b] - self.bias_g * dt[:, None]
-        dvl = self.dvel[a:b] - self.bias_a * dt[:, None]
-        self.sins.run(dth, dvl, self.t[a:b])
-        return dvl.sum(axis=0) / dt.sum(), dt.sum()
-
-    def _point(self, x, f_b):
-        C = _dcm(x[6:10])
-        return em.LinPoint(lat=x[0], h=x[2], vel_n=x[3:6].copy(), C_nb=C, f_n=C @ f_b)
-
-    def _corrected(self, x):
-        """The SINS state corrected by the current estimate (open loop output; identity
-        when the estimate has just been fed back)."""
-        lay, xs = self.lay, self.kf.x
-        if not xs[self._nav_errors].any():           # just fed back: nothing to correct
-            return x[0], x[1], x[2], x[3:6], x[6:10]
-        q = _rotate_small(xs[lay["phi"]], x[6:10])
-        return (x[0] - xs[lay.index("dp_lat")], x[1] - xs[lay.index("dp_lon")],
-                x[2] - xs[lay.index("dp_h")], x[3:6] - xs[lay["dv"]], q)
-
-    def _measure(self, k, pt, xs):
-        """Stack the enabled measurement groups at IMU row ``k`` and update group by group."""
-        lay, cfg, kf = self.lay, self.cfg, self.kf
-        v_s = pt.C_nb @ np.array([0.0, self.v[k], 0.0])
-        groups = [("velocity", *_in_body(pt.C_nb, xs[3:6] - v_s,
-                                         em.sensor_velocity_rows(lay, pt, vel_sensor_n=v_s)))]
-        if cfg.use_nhc:
-            z = (pt.C_nb.T @ xs[3:6])[[0, 2]]
-            groups.append(("nhc", z, em.nhc_rows(lay, pt, with_mount=cfg.nhc_mount_terms)))
-        if self.h_baro is not None and np.isfinite(self.h_baro[k]):
-            groups.append(("baro", np.array([xs[2] - self.h_baro[k]]), em.height_rows(lay)))
-        if groups:
-            self.gate.update(kf, groups, self._r)
-
-    def _feed_back(self):
-        lay, x = self.lay, self.kf.x
-        self.sins.correct(phi=x[lay["phi"]], dvel_n=x[lay["dv"]], dpos=x[lay["dp"]])
-        done = [lay["phi"], lay["dv"], lay["dp"], lay["eps"], lay["nabla"]]
-        self.bias_g += x[lay["eps"]]
-        self.bias_a += x[lay["nabla"]]
-        for s in done:
-            self.fed_back[s] += x[s]
-        self.kf.reset(done)
-
-    # -- the run ---------------------------------------------------------------------------
-    def run(self, progress=None):
-        n_rows = len(self.t)
-        ends = list(range(self.step, n_rows, self.step))
-        if not ends or ends[-1] != n_rows:
-            ends.append(n_rows)
-        n_out = len(ends) + 1
-        lay = self.lay
-        out_t = np.empty(n_out)
-        out_lla = np.empty((n_out, 3))
-        out_vel = np.empty((n_out, 3))
-        out_q = np.empty((n_out, 4))
-        out_sig = np.empty((n_out, lay.n))
-        out_states = np.empty((n_out, lay.n))
-        out_cov_phi = np.empty((n_out, 3, 3))
-        phi = lay["phi"]
-
-        def record(i, t):
-            lat, lon, h, vel, q = self._corrected(self.sins.x)
-            out_t[i] = t
-            out_lla[i] = lat, lon, h
-            out_vel[i] = vel
-            out_q[i] = q
-            out_sig[i] = self.kf.sigma()
-            out_states[i] = self.fed_back + self.kf.x
-            out_cov_phi[i] = self.kf.P[phi, phi]
-
-        record(0, self.init.t)
-        a = 0
-        report_every = max(1, len(ends) // 100)
-        for i, b in enumerate(ends, start=1):
-            f_b, dt = self._advance(a, b)
-            xs = self.sins.x
-            pt = self._point(xs, f_b)
-            self.kf.set_model(self.model.F(pt), self.model.Qc(pt))
-            self.kf.predict(dt)
-            if i % self.meas_every == 0:
-                self._measure(b - 1, pt, xs)
-                if self.cfg.closed_loop and (i // self.meas_every) % self.feedback_every == 0:
-                    self._feed_back()
-            record(i, self.t[b - 1])
-            a = b
-            if progress is not None and i % report_every == 0:
-                progress(i / len(ends))
-        return out_t, out_lla, out_vel, out_q, out_sig, out_states, out_cov_phi
-
-
-def _solution(filt: _AlignmentFilter, arrays, method, cfg, wall) -> Solution:
-    info = {"method": method, "config": cfg.model_dump(), "velocity_sensor": filt.sensor_name,
-            "layout": list(filt.lay.names), "filter_step_rows": filt.step,
-            "measurement_every_filter_steps": filt.meas_every,
-            "measurements_used": dict(filt.gate.used),
-            "measurements_rejected": dict(filt.gate.rejected),
-            "nis_mean_per_dof": filt.kf.nis_sum / max(filt.kf.nis_dof, 1),
-            "wall_time_s": wall}
-    return _pack(filt.lay, filt.init, cfg, info, *arrays)
 
 
 def _pack(lay, init, cfg, info, out_t, out_lla, out_vel, out_q, out_sig, out_states,
@@ -422,7 +213,8 @@ def _pack(lay, init, cfg, info, out_t, out_lla, out_vel, out_q, out_sig, out_sta
 # -- dr-kf on the shared SINS / DR engine ---------------------------------------------------
 
 #: the engine's group names -> this method's (``Solution.info`` counts)
-_GROUP_NAMES = {"attitude": "attitude", "velocity": "velocity", "nhc": "nhc", "height": "baro"}
+_GROUP_NAMES = {"attitude": "attitude", "velocity": "velocity", "sensor_velocity": "velocity",
+                "nhc": "nhc", "height": "baro"}
 
 
 def _gates(p):
@@ -431,8 +223,10 @@ def _gates(p):
     return {g: (float(chi2.ppf(p, m)) if p < 1.0 else 0.0) for g, m in zip(GROUPS, GROUP_SIZES)}
 
 
-def _dr_kf_filter(bundle: Bundle, cfg: DrKfConfig, init: NavState):
-    """The configured engine and what it runs on: ``(filter, rows, (sensor name, speed))``."""
+def _engine_filter(bundle: Bundle, cfg, init: NavState, with_dr: bool):
+    """The configured engine and what it runs on: ``(filter, rows, (sensor name, speed))``;
+    ``with_dr``: ``dr-kf`` (25 states, Z1 = SINS minus DR), else ``od-velocity-kf`` (19
+    states, SINS minus the sensor's velocity)."""
     if init is None:
         raise BadInput("this method needs an initial attitude (--init truth, a coarse "
                        "alignment result, or meta.yaml)")
@@ -451,13 +245,24 @@ def _dr_kf_filter(bundle: Bundle, cfg: DrKfConfig, init: NavState):
     step = max(1, int(round(1.0 / (cfg.filter_rate_hz * imu_dt))))
     meas_every = max(1, int(round(cfg.filter_rate_hz / cfg.measurement_rate_hz)))
     feedback_every = max(1, int(round(cfg.measurement_rate_hz / cfg.feedback_rate_hz)))
-    lay = LAYOUT_DR_KF
-    model = em.ErrorModel(lay, _process_noise(cfg), dr_sees_gyro_drift=cfg.dr_sees_gyro_drift)
-    use = {"attitude": cfg.use_attitude, "velocity": cfg.use_velocity, "nhc": cfg.use_nhc,
-           "height": cfg.use_baro and bundle.baro is not None, "position": False}
-    noise = {"attitude_rad": cfg.attitude_noise_arcmin * ARCMIN, "position_m": 1.0,
+    use = {"nhc": cfg.use_nhc, "height": cfg.use_baro and bundle.baro is not None}
+    if with_dr:
+        lay = LAYOUT_DR_KF
+        model = em.ErrorModel(lay, _process_noise(cfg),
+                              dr_sees_gyro_drift=cfg.dr_sees_gyro_drift)
+        use.update(attitude=cfg.use_attitude, velocity=cfg.use_velocity)
+    else:
+        lay = LAYOUT_OD_KF
+        model = em.ErrorModel(lay, _process_noise(cfg))
+        use.update(sensor_velocity=True)
+    # velocity noise in body axes (lateral, forward, vertical): the sensor's noise lies along
+    # its forward axis only, so resolved in the (computed) body axes R is diagonal, with only
+    # the model floor lateral_noise_m_s across; the rotation by the computed C_n^b changes
+    # the measurement only to second order
+    noise = {"attitude_rad": getattr(cfg, "attitude_noise_arcmin", 1.0) * ARCMIN,
+             "position_m": 1.0,
              "velocity_b_m_s": (cfg.lateral_noise_m_s, cfg.velocity_noise_m_s,
-                                cfg.lateral_noise_m_s),       # body axes, see _in_body
+                                cfg.lateral_noise_m_s),
              "height_m": cfg.baro_noise_m, "nhc_m_s": cfg.nhc_noise_m_s,
              "dr_position_m2_s": 0.0}    # paper 000's G: no DR position random walk
     filt = SinsDrFilter(init, lay, model, _initial_covariance(lay, cfg, init.lat, init.h),
@@ -468,8 +273,8 @@ def _dr_kf_filter(bundle: Bundle, cfg: DrKfConfig, init: NavState):
     return filt, rows, (sensor_name, speed)
 
 
-def _dr_kf_solution(filt: SinsDrFilter, out: dict, cfg: DrKfConfig, sensor: str,
-                    wall: float) -> Solution:
+def _engine_solution(filt: SinsDrFilter, out: dict, cfg, method: str, sensor: str,
+                     wall: float) -> Solution:
     xs = out["x_sins"]
     used, rejected = {}, {}
     nis, dof = 0.0, 0
@@ -480,7 +285,7 @@ def _dr_kf_solution(filt: SinsDrFilter, out: dict, cfg: DrKfConfig, sensor: str,
             rejected[_GROUP_NAMES[g]] = int(filt.rejected[i])
             nis += float(filt.nis_sum[i])
             dof += int(filt.used[i]) * GROUP_SIZES[i]
-    info = {"method": "dr-kf", "config": cfg.model_dump(), "velocity_sensor": sensor,
+    info = {"method": method, "config": cfg.model_dump(), "velocity_sensor": sensor,
             "layout": list(filt.layout.names), "filter_step_rows": filt.step,
             "measurement_every_filter_steps": filt.meas_every,
             "measurements_used": used, "measurements_rejected": rejected,
@@ -506,12 +311,15 @@ def _config(config, cls):
     return cfg
 
 
-def _run_od(bundle, config, init, progress):
-    cfg = _config(config, OdVelocityKfConfig)
+def _run(bundle, config, init, progress, cls, with_dr, method):
+    cfg = _config(config, cls)
     t0 = time.perf_counter()
-    filt = _AlignmentFilter(bundle, cfg, init)
-    arrays = filt.run(progress)
-    return _solution(filt, arrays, "od-velocity-kf", cfg, time.perf_counter() - t0)
+    filt, rows, (sensor, speed) = _engine_filter(bundle, cfg, init, with_dr)
+    imu = bundle.imu
+    h_baro = (lambda t: _baro_on_epochs(bundle, t)) if filt.use[GROUPS.index("height")] else None
+    out = filt.run(imu.t[rows], imu.dtheta[rows], imu.dvel[rows], speed, h_baro=h_baro,
+                   sensor=sensor, progress=progress)
+    return _engine_solution(filt, out, cfg, method, sensor, time.perf_counter() - t0)
 
 
 def run_dr_kf(bundle: Bundle, config: DrKfConfig | dict | None = None,
@@ -526,18 +334,11 @@ def run_dr_kf(bundle: Bundle, config: DrKfConfig | dict | None = None,
     (N, 3, 3) misalignment covariance history ``cov_phi`` [rad^2] (for NEES; off by default
     because ``summary.json`` would carry it).
     """
-    cfg = _config(config, DrKfConfig)
-    t0 = time.perf_counter()
-    filt, rows, (sensor, speed) = _dr_kf_filter(bundle, cfg, init)
-    imu = bundle.imu
-    h_baro = (lambda t: _baro_on_epochs(bundle, t)) if filt.use[GROUPS.index("height")] else None
-    out = filt.run(imu.t[rows], imu.dtheta[rows], imu.dvel[rows], speed, h_baro=h_baro,
-                   sensor=sensor, progress=progress)
-    return _dr_kf_solution(filt, out, cfg, sensor, time.perf_counter() - t0)
+    return _run(bundle, config, init, progress, DrKfConfig, True, "dr-kf")
 
 
 def run_od_velocity_kf(bundle: Bundle, config: OdVelocityKfConfig | dict | None = None,
                        init: NavState | None = None,
                        progress: Optional[Callable] = None) -> Solution:
     """``od-velocity-kf``: SINS / velocity-sensor velocity matching (the baseline)."""
-    return _run_od(bundle, config, init, progress)
+    return _run(bundle, config, init, progress, OdVelocityKfConfig, False, "od-velocity-kf")

@@ -37,12 +37,18 @@ Per filter epoch (``step`` IMU rows, :func:`_run_epochs`, one numba loop):
              a vehicle that neither slips nor jumps        on ``phi``; with ``nhc_mount``
              (paper 000 eq. 32-38)                         ``-[v_b x]`` on ``mount``
                                                            (:func:`error_model.nhc_rows`)
+   sensor_   ``v_SINS - C_S [0, v, 0]`` (the sensor's      ``I`` on ``dv``, ``-[v x]`` on
+   velocity  speed along the SINS forward axis), in the    ``phi``, ``-[v_s x] C_S`` on
+             SINS body frame; no DR (``od-velocity-kf``)   ``mount``, ``-v_s`` on ``dk``
+                                                           (``sensor_velocity_rows``)
    ========  ============================================  ==================================
 
    With a ``mount`` block the velocity rows also carry ``-[v x] C_b^n`` (DR attitude) on it
    (paper 000 eq. 11, :func:`error_model.dr_velocity_rows`). Groups are applied in the order
-   attitude, velocity, nhc, position, height (``GROUPS`` gives the index order of the flag,
-   gate and count arrays, ``nhc`` last so that paper 002's four keep their indices).
+   attitude, velocity, sensor_velocity, nhc, position, height (``GROUPS`` gives the index
+   order of the flag, gate and count arrays, the new groups last so that paper 002's four
+   keep their indices). Without the DR blocks (``phi_D``, ``dp_D``) the DR is not run and
+   only the nhc, sensor_velocity and height groups can be used.
 
 4. closed loop (``closed_loop``; after every ``feedback_every``-th measurement epoch, default
    each), right after the update: the SINS attitude, velocity and position and the DR
@@ -86,9 +92,9 @@ __all__ = ["GROUPS", "GROUP_SIZES", "SinsDrFilter", "euler_ypr", "dcm_of_q",
 
 #: measurement groups (index order of the ``use``, ``thresholds`` and count arrays); within
 #: an epoch they are applied in the order attitude, velocity, nhc, position, height
-GROUPS = ("attitude", "velocity", "position", "height", "nhc")
+GROUPS = ("attitude", "velocity", "position", "height", "nhc", "sensor_velocity")
 #: rows per group
-GROUP_SIZES = (3, 3, 3, 1, 2)
+GROUP_SIZES = (3, 3, 3, 1, 2, 3)
 #: IMU rows per chunk handed to the numba loop (rounded to whole filter epochs)
 CHUNK_ROWS = 16384
 #: sensor samples whose median period sets the gap threshold (5 periods), as dead_reckon's
@@ -151,34 +157,39 @@ def measurement_rows(offs, use, xs, xd, h_baro, r_att, sig_pos_m, r_vel, r_h, n)
     ``use``: (4,) flags of the first four :data:`GROUPS`. Returns ``z, H, r, starts, groups``
     as :func:`stack_rows`.
     """
-    use5 = np.zeros(5, dtype=np.bool_)
+    use6 = np.zeros(6, dtype=np.bool_)
     for i in range(4):
-        use5[i] = use[i]
-    return stack_rows(offs, use5, xs, xd, h_baro, r_att, sig_pos_m, r_vel, r_h, 0.0, False, n)
+        use6[i] = use[i]
+    return stack_rows(offs, use6, xs, xd, h_baro, r_att, sig_pos_m, r_vel, r_h, 0.0, False,
+                      0.0, n)
 
 
 @numba.njit(cache=True)
-def stack_rows(offs, use, xs, xd, h_baro, r_att, sig_pos_m, r_vel, r_h, r_nhc, nhc_mount, n):
+def stack_rows(offs, use, xs, xd, h_baro, r_att, sig_pos_m, r_vel, r_h, r_nhc, nhc_mount,
+               speed, n):
     """Stack the enabled groups' ``z`` (m,), ``H`` (m, n), ``r`` (m,) and the group starts.
 
     ``offs``: block offsets (``error_model._offsets`` order ``phi, dv, dp, eps, nabla, phi_D,
-    dp_D, mount, dk``); ``use``: (5,) flags of :data:`GROUPS`; ``xs``, ``xd``: SINS and DR
+    dp_D, mount, dk``); ``use``: (6,) flags of :data:`GROUPS`; ``xs``, ``xd``: SINS and DR
     kernel states; ``h_baro``: barometric height (NaN: none now); ``r_att`` [rad^2],
     ``sig_pos_m`` [m], ``r_vel`` (3,) [m^2/s^2] (lateral, forward, vertical in the DR's body
     frame), ``r_h`` [m^2], ``r_nhc`` [m^2/s^2] (each NHC row); ``nhc_mount``: the NHC rows
-    carry the mounting columns (:func:`error_model.nhc_rows` ``with_mount``). With a
-    ``mount`` block the velocity rows carry ``-[v x] C_b^n`` on it (paper 000 eq. 11, the DR's
-    attitude). Groups are stacked in the order attitude, velocity, nhc, position, height.
+    carry the mounting columns (:func:`error_model.nhc_rows` ``with_mount``); ``speed`` [m/s]
+    the sensor's speed now (``sensor_velocity``: SINS velocity minus the speed along the
+    SINS forward axis, :func:`error_model.sensor_velocity_rows`, resolved in the SINS body
+    frame with the noises ``r_vel``; no DR needed). With a ``mount`` block the velocity rows
+    carry ``-[v x] C_b^n`` on it (paper 000 eq. 11, the DR's attitude). Groups are stacked in
+    the order attitude, velocity, sensor_velocity, nhc, position, height.
     Returns ``z, H, r, starts, groups`` with ``groups[g]`` the index in :data:`GROUPS` of the
     ``g``-th stacked group.
     """
     o_phi, o_dv, o_dp, o_phiD, o_dpD, o_dk = offs[0], offs[1], offs[2], offs[5], offs[6], offs[8]
     o_mount = offs[7]
-    z = np.zeros(12)
-    H = np.zeros((12, n))
-    r = np.zeros(12)
-    starts = np.zeros(6, dtype=np.int64)
-    groups = np.zeros(5, dtype=np.int64)
+    z = np.zeros(15)
+    H = np.zeros((15, n))
+    r = np.zeros(15)
+    starts = np.zeros(7, dtype=np.int64)
+    groups = np.zeros(6, dtype=np.int64)
     m, g = 0, 0
     if use[0]:                                   # attitude (paper 002 eq. 44-51)
         C_S = dcm_of_q(xs[K.Q0:K.Q3 + 1])
@@ -218,6 +229,31 @@ def stack_rows(offs, use, xs, xd, h_baro, r_att, sig_pos_m, r_vel, r_h, r_nhc, n
                     if o_mount >= 0:
                         H[m + i, o_mount + l] -= c * VC[j, l]
         groups[g] = 1
+        g += 1
+        m += 3
+        starts[g] = m
+    if use[5]:                                   # SINS minus sensor velocity (od-velocity-kf)
+        # z_n = v_S - C_S [0, speed, 0], H_n = [dv: I, phi: -[v x], mount: -[v_s x] C_S,
+        # dk: -v_s] (error_model.sensor_velocity_rows), applied as C_n^b z_n (SINS attitude)
+        C_S = dcm_of_q(xs[K.Q0:K.Q3 + 1])
+        C_bn = C_S.T
+        v = xs[K.VE:K.VU + 1].copy()
+        v_s = C_S[:, 1] * speed
+        V = em.skew(v)
+        VsC = em.skew(v_s) @ C_S
+        for i in range(3):
+            r[m + i] = r_vel[i]
+            for j in range(3):
+                c = C_bn[i, j]
+                z[m + i] += c * (v[j] - v_s[j])
+                H[m + i, o_dv + j] = c
+                if o_dk >= 0:
+                    H[m + i, o_dk] -= c * v_s[j]
+                for l in range(3):
+                    H[m + i, o_phi + l] -= c * V[j, l]
+                    if o_mount >= 0:
+                        H[m + i, o_mount + l] -= c * VsC[j, l]
+        groups[g] = 5
         g += 1
         m += 3
         starts[g] = m
@@ -318,8 +354,11 @@ def sequential_joseph(x, P, z, H, r, a, b, threshold, xw, Pw):
 
 @numba.njit(cache=True)
 def _dr_position_noise(Qc, o_dpD, lat, h, q_m2_s):
-    """``Qc`` plus the DR position random walk ``q_m2_s`` [m^2/s] on ``dp_D`` (rad, rad, m)."""
+    """``Qc`` plus the DR position random walk ``q_m2_s`` [m^2/s] on ``dp_D`` (rad, rad, m)
+    (``Qc`` itself when there is no DR block, ``o_dpD < 0``)."""
     Q = Qc.copy()
+    if o_dpD < 0:
+        return Q
     r_m, r_n = K.radii(lat)
     Q[o_dpD, o_dpD] += q_m2_s / (r_m + h) ** 2
     Q[o_dpD + 1, o_dpD + 1] += q_m2_s / ((r_n + h) * math.cos(lat)) ** 2
@@ -334,11 +373,14 @@ def _feed_back(x, offs, xs, ms, xd, md, bias_g, bias_a, fed_back):
     o_phi, o_dv, o_dp, o_eps, o_nabla, o_phiD, o_dpD = (offs[0], offs[1], offs[2], offs[3],
                                                          offs[4], offs[5], offs[6])
     _correct_nav(xs, ms, x[o_phi:o_phi + 3], x[o_dv:o_dv + 3], x[o_dp:o_dp + 3], True)
-    _correct_nav(xd, md, x[o_phiD:o_phiD + 3], x[o_dv:o_dv + 3], x[o_dpD:o_dpD + 3], False)
+    if o_phiD >= 0:
+        _correct_nav(xd, md, x[o_phiD:o_phiD + 3], x[o_dv:o_dv + 3], x[o_dpD:o_dpD + 3], False)
     for i in range(3):
         bias_g[i] += x[o_eps + i]
         bias_a[i] += x[o_nabla + i]
     for o in (o_phi, o_dv, o_dp, o_eps, o_nabla, o_phiD, o_dpD):
+        if o < 0:
+            continue
         for i in range(3):
             fed_back[o + i] += x[o + i]
             x[o + i] = 0.0
@@ -385,6 +427,7 @@ def _run_epochs(ends, dtheta, dvel, dt, ds, v, h_baro, t,
     xw = np.empty(n)
     Pw = np.empty((n, n))
     o_phi = offs[0]
+    with_dr = offs[5] >= 0
     for e in range(ends.shape[0]):
         b = ends[e]
         sum_dt = 0.0
@@ -396,8 +439,9 @@ def _run_epochs(ends, dtheta, dvel, dt, ds, v, h_baro, t,
                    dvel[k, 2] - bias_a[2] * dt[k])
             K.sins_step(xs, ms, dth, dvl, dt[k], nan, 0.0, 0.0)
             ms[K.M_COUNT] += 1.0
-            K.dr_step(xd, md, dth, ds[k], v[k], dt[k], C_bm, l_b)
-            md[K.M_COUNT] += 1.0
+            if with_dr:
+                K.dr_step(xd, md, dth, ds[k], v[k], dt[k], C_bm, l_b)
+                md[K.M_COUNT] += 1.0
             sum_dt += dt[k]
             for i in range(3):
                 f_sum[i] += dvl[i]
@@ -411,7 +455,8 @@ def _run_epochs(ends, dtheta, dvel, dt, ds, v, h_baro, t,
         epoch = epoch0 + e + 1
         if epoch % meas_every == 0:
             z, H, r, starts, groups = stack_rows(offs, use, xs, xd, h_baro[b - 1], r_att,
-                                                 sig_pos_m, r_vel, r_h, r_nhc, nhc_mount, n)
+                                                 sig_pos_m, r_vel, r_h, r_nhc, nhc_mount,
+                                                 v[b - 1], n)
             for g in range(groups.shape[0]):
                 gi = groups[g]
                 ok, nis = sequential_joseph(x, P, z, H, r, starts[g], starts[g + 1],
@@ -467,7 +512,8 @@ class SinsDrFilter:
     init : NavState
         Start of both systems (the DR starts where the SINS does).
     layout : Layout
-        Must hold ``phi, dv, dp, eps, nabla, phi_D, dp_D``; ``dk`` and ``mount`` optional
+        Must hold ``phi, dv, dp, eps, nabla``; ``phi_D, dp_D`` (the DR), ``dk`` and ``mount``
+        optional
         (the mounting angles, paper 000, are only estimated: the DR keeps its nominal
         mounting ``C_bm``).
     model : error_model.ErrorModel
@@ -490,9 +536,14 @@ class SinsDrFilter:
                  noise: dict, gates: dict, step_rows: int, meas_every: int = 1,
                  out_every: int = 1, C_bm=None, lever_arm_b=None, nhc_mount: bool = True,
                  closed_loop: bool = True, feedback_every: int = 1):
-        for name in ("phi", "dv", "dp", "eps", "nabla", "phi_D", "dp_D"):
+        for name in ("phi", "dv", "dp", "eps", "nabla"):
             if name not in layout:
                 raise ValueError(f"the SINS/DR filter needs block {name!r} in the layout")
+        if ("phi_D" in layout) != ("dp_D" in layout):
+            raise ValueError("the DR blocks 'phi_D' and 'dp_D' come together")
+        if "phi_D" not in layout and any(use.get(g, False) for g in ("attitude", "velocity",
+                                                                     "position")):
+            raise ValueError("the attitude, velocity and position groups need the DR blocks")
         self.layout = layout
         self.model = model
         self.sins = Strapdown(init)
