@@ -109,8 +109,7 @@ def simulator_check():
                                  "lever_arm_m": [-0.75, -1.4, -0.9]}}
     b = simulate(load_scenario(d), np.random.default_rng(0))
     tr = b.truth
-    init = NavState.from_euler(tr.t[0], tr.lat[0], tr.lon[0], tr.h[0], tr.vel_n[0],
-                               tr.euler[0])
+    init = NavState.from_truth(tr)
     C_vb = mounting_dcm(np.radians(np.array(d["vehicle_mounting_arcmin"]) / 60))
     print(f"simulator demo drive, error-free sensors, vehicle mounting "
           f"{d['vehicle_mounting_arcmin']} arcmin")

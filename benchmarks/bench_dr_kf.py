@@ -36,9 +36,7 @@ def main(argv=None):
     t0 = time.perf_counter()
     bundle = simulate(args.scenario, np.random.default_rng(0))
     t_sim = time.perf_counter() - t0
-    tr = bundle.truth
-    init = NavState.from_euler(tr.t[0], tr.lat[0], tr.lon[0], tr.h[0], tr.vel_n[0],
-                               tr.euler[0] + np.deg2rad([1.0, 1.0, 1.0]))
+    init = NavState.from_truth(bundle.truth, euler_error=np.deg2rad([1.0, 1.0, 1.0]))
     cfg = {}
     if args.filter_hz:
         cfg["filter_rate_hz"] = args.filter_hz

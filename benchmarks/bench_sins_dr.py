@@ -30,7 +30,7 @@ def main():
     ap.add_argument("--filter-hz", type=float, default=10.0)
     args = ap.parse_args()
     bundle = simulate(load_scenario(find_scenario("paper002_hour")), np.random.default_rng(0))
-    init = NavState.from_euler(**bundle.truth.at(bundle.truth.t[0]))
+    init = NavState.from_truth(bundle.truth)
     rows = len(bundle.imu.t) - 1
     print(f"paper002_hour: {rows} IMU rows ({bundle.imu.t[-1]:.0f} s at "
           f"{1 / np.median(np.diff(bundle.imu.t)):.0f} Hz), filter {args.filter_hz:g} Hz")

@@ -364,9 +364,7 @@ def _initial_state(ctx, bundle, init, start, needs_attitude):
     if init == "truth":
         if bundle.truth is None:
             raise BadInput("--init truth: the bundle has no truth table")
-        tr = bundle.truth.at(start if start is not None else bundle.truth.t[0])
-        return NavState.from_euler(tr["t"], tr["lat"], tr["lon"], tr["h"], tr["vel_n"],
-                                   tr["euler"]), "truth"
+        return NavState.from_truth(bundle.truth, start), "truth"
     if init == "meta":
         t0 = start if start is not None else float(bundle.imu.t[0])
         return _init_from_meta(bundle, t0, needs_attitude), "meta"

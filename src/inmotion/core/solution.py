@@ -39,6 +39,16 @@ class NavState:
         return cls(float(t), float(lat), float(lon), float(h), vel_n,
                    rotations.quat_from_euler(np.asarray(euler, dtype=float)))
 
+    @classmethod
+    def from_truth(cls, truth, t=None, euler_error=(0.0, 0.0, 0.0)) -> "NavState":
+        """The truth row at or after ``t`` [s] (default: the first row), with ``euler_error``
+        = [pitch, roll, yaw] [rad] added to its attitude: how ``--init truth --init-error``,
+        the campaigns, reproductions and benchmarks start a method from a
+        :class:`~inmotion.core.bundle.Truth`."""
+        row = truth.at(truth.t[0] if t is None else t)
+        return cls.from_euler(row["t"], row["lat"], row["lon"], row["h"], row["vel_n"],
+                              row["euler"] + np.asarray(euler_error, dtype=float))
+
     @property
     def euler(self) -> np.ndarray:
         return rotations.euler_from_quat(self.q_nb)

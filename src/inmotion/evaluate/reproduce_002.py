@@ -74,9 +74,8 @@ SERIES = ("horizontal_m", "vertical_m", "yaw_arcmin", "pitch_arcmin", "roll_arcm
 # ------------------------------------------------------------------------------ one run
 def _initial_state(truth, rng):
     from ..core.solution import NavState
-    row = truth.at(truth.t[0])
-    row["euler"] = row["euler"] + rng.standard_normal(3) * np.asarray(INIT_SIGMA_ARCMIN) * ARCMIN
-    return NavState.from_euler(**row)
+    return NavState.from_truth(
+        truth, euler_error=rng.standard_normal(3) * np.asarray(INIT_SIGMA_ARCMIN) * ARCMIN)
 
 
 def run_statistics(err) -> dict:

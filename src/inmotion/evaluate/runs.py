@@ -96,9 +96,7 @@ def initial_state(truth, init_error, rng: np.random.Generator):
     delta = spec["angles_rad"].copy()
     if spec["distribution"] == "normal":
         delta = rng.normal(0.0, 1.0, 3) * delta
-    row = truth.at(truth.t[0])
-    row["euler"] = row["euler"] + delta
-    return NavState.from_euler(**row), delta
+    return NavState.from_truth(truth, euler_error=delta), delta
 
 
 # ---------------------------------------------------------------------------- the real run
