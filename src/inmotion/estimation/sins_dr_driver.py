@@ -165,6 +165,31 @@ def measurement_rows(offs, use, xs, xd, h_baro, r_att, sig_pos_m, r_vel, r_h, n)
 
 
 @numba.njit(cache=True)
+def _body_velocity_rows(z, H, r, m, C_bn, dv_n, r_vel, o_dv, o_att, V, o_dk, dk_vec, o_mount,
+                        VM):
+    """Fill rows ``m .. m+2``: a velocity difference ``dv_n`` (n frame) resolved in body axes.
+
+    ``z = C_n^b dv_n`` with ``H = C_n^b [dv: I, att: -[v x] (V), dk: -dk_vec, mount: -VM]``
+    and the noises ``r_vel`` (lateral, forward, vertical). Serves the SINS-minus-DR velocity
+    (paper 002 eq. 52-55, paper 000 eq. 11: ``att`` = DR attitude, :func:`error_model.
+    dr_velocity_rows`) and the SINS-minus-sensor velocity (``att`` = SINS attitude,
+    :func:`error_model.sensor_velocity_rows`). ``o_dk`` / ``o_mount`` < 0: no such block.
+    """
+    for i in range(3):
+        r[m + i] = r_vel[i]
+        for j in range(3):
+            c = C_bn[i, j]
+            z[m + i] += c * dv_n[j]
+            H[m + i, o_dv + j] = c
+            if o_dk >= 0:
+                H[m + i, o_dk] -= c * dk_vec[j]
+            for l in range(3):
+                H[m + i, o_att + l] -= c * V[j, l]
+                if o_mount >= 0:
+                    H[m + i, o_mount + l] -= c * VM[j, l]
+
+
+@numba.njit(cache=True)
 def stack_rows(offs, use, xs, xd, h_baro, r_att, sig_pos_m, r_vel, r_h, r_nhc, nhc_mount,
                speed, n):
     """Stack the enabled groups' ``z`` (m,), ``H`` (m, n), ``r`` (m,) and the group starts.
@@ -216,18 +241,8 @@ def stack_rows(offs, use, xs, xd, h_baro, r_att, sig_pos_m, r_vel, r_h, r_nhc, n
         C_bn = C_D.T
         V = em.skew(v)
         VC = V @ C_D                             # dv_D on the mounting angles (eq. 11)
-        for i in range(3):
-            r[m + i] = r_vel[i]
-            for j in range(3):
-                c = C_bn[i, j]
-                z[m + i] += c * (xs[K.VE + j] - xd[K.VE + j])
-                H[m + i, o_dv + j] = c
-                if o_dk >= 0:
-                    H[m + i, o_dk] -= c * v[j]
-                for l in range(3):
-                    H[m + i, o_phiD + l] -= c * V[j, l]
-                    if o_mount >= 0:
-                        H[m + i, o_mount + l] -= c * VC[j, l]
+        _body_velocity_rows(z, H, r, m, C_bn, xs[K.VE:K.VU + 1] - xd[K.VE:K.VU + 1], r_vel,
+                            o_dv, o_phiD, V, o_dk, v, o_mount, VC)
         groups[g] = 1
         g += 1
         m += 3
@@ -241,18 +256,8 @@ def stack_rows(offs, use, xs, xd, h_baro, r_att, sig_pos_m, r_vel, r_h, r_nhc, n
         v_s = C_S[:, 1] * speed
         V = em.skew(v)
         VsC = em.skew(v_s) @ C_S
-        for i in range(3):
-            r[m + i] = r_vel[i]
-            for j in range(3):
-                c = C_bn[i, j]
-                z[m + i] += c * (v[j] - v_s[j])
-                H[m + i, o_dv + j] = c
-                if o_dk >= 0:
-                    H[m + i, o_dk] -= c * v_s[j]
-                for l in range(3):
-                    H[m + i, o_phi + l] -= c * V[j, l]
-                    if o_mount >= 0:
-                        H[m + i, o_mount + l] -= c * VsC[j, l]
+        _body_velocity_rows(z, H, r, m, C_bn, v - v_s, r_vel, o_dv, o_phi, V, o_dk, v_s,
+                            o_mount, VsC)
         groups[g] = 5
         g += 1
         m += 3
