@@ -223,7 +223,8 @@ def _gates(p):
     return {g: (float(chi2.ppf(p, m)) if p < 1.0 else 0.0) for g, m in zip(GROUPS, GROUP_SIZES)}
 
 
-def _engine_filter(bundle: Bundle, cfg, init: NavState, with_dr: bool):
+def _engine_filter(bundle: Bundle, cfg, init: NavState, with_dr: bool,
+                   dr_gyro_offset_rad_s=None):
     """The configured engine and what it runs on: ``(filter, rows, (sensor name, speed))``;
     ``with_dr``: ``dr-kf`` (25 states, Z1 = SINS minus DR), else ``od-velocity-kf`` (19
     states, SINS minus the sensor's velocity)."""
@@ -269,7 +270,8 @@ def _engine_filter(bundle: Bundle, cfg, init: NavState, with_dr: bool):
                         use=use, noise=noise, gates=_gates(cfg.gate_probability),
                         step_rows=step, meas_every=meas_every, out_every=1,
                         nhc_mount=cfg.nhc_mount_terms, closed_loop=cfg.closed_loop,
-                        feedback_every=feedback_every)
+                        feedback_every=feedback_every,
+                        dr_gyro_offset_rad_s=dr_gyro_offset_rad_s)
     return filt, rows, (sensor_name, speed)
 
 
@@ -311,10 +313,11 @@ def _config(config, cls):
     return cfg
 
 
-def _run(bundle, config, init, progress, cls, with_dr, method):
+def _run(bundle, config, init, progress, cls, with_dr, method, dr_gyro_offset_rad_s=None):
     cfg = _config(config, cls)
     t0 = time.perf_counter()
-    filt, rows, (sensor, speed) = _engine_filter(bundle, cfg, init, with_dr)
+    filt, rows, (sensor, speed) = _engine_filter(bundle, cfg, init, with_dr,
+                                                 dr_gyro_offset_rad_s)
     imu = bundle.imu
     h_baro = (lambda t: _baro_on_epochs(bundle, t)) if filt.use[GROUPS.index("height")] else None
     out = filt.run(imu.t[rows], imu.dtheta[rows], imu.dvel[rows], speed, h_baro=h_baro,
@@ -323,8 +326,13 @@ def _run(bundle, config, init, progress, cls, with_dr, method):
 
 
 def run_dr_kf(bundle: Bundle, config: DrKfConfig | dict | None = None,
-              init: NavState | None = None, progress: Optional[Callable] = None) -> Solution:
+              init: NavState | None = None, progress: Optional[Callable] = None, *,
+              dr_gyro_offset_rad_s=None) -> Solution:
     """``dr-kf``: paper 000's SINS / radar-DR alignment filter (see the module docstring).
+
+    ``dr_gyro_offset_rad_s`` (3,) [rad/s], for simulation studies only (not a configuration
+    field: it needs the truth): added to the DR's gyro rows, ``-eps_true`` gives the DR
+    drift-free gyros, the world paper 000's printed F describes (``reproduce 000``).
 
     Returns a :class:`Solution` at the filter rate: the (closed-loop corrected) SINS state,
     ``sigma`` for ``phi_E/N/U``, velocity and position, every named state of the layout
@@ -334,7 +342,8 @@ def run_dr_kf(bundle: Bundle, config: DrKfConfig | dict | None = None,
     (N, 3, 3) misalignment covariance history ``cov_phi`` [rad^2] (for NEES; off by default
     because ``summary.json`` would carry it).
     """
-    return _run(bundle, config, init, progress, DrKfConfig, True, "dr-kf")
+    return _run(bundle, config, init, progress, DrKfConfig, True, "dr-kf",
+                dr_gyro_offset_rad_s)
 
 
 def run_od_velocity_kf(bundle: Bundle, config: OdVelocityKfConfig | dict | None = None,

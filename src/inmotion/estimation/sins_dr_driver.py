@@ -13,7 +13,9 @@ Per filter epoch (``step`` IMU rows, :func:`_run_epochs`, one numba loop):
 
 1. the IMU increments, less the accumulated gyro drift and accelerometer bias estimates, drive
    the SINS (:func:`inmotion.core._kernels.sins_step`) and the DR
-   (:func:`inmotion.core._kernels.dr_step`, gyro attitude + the velocity sensor's distance);
+   (:func:`inmotion.core._kernels.dr_step`, gyro attitude + the velocity sensor's distance;
+   with a model whose DR does not see the drift, paper 000's printed F, the DR's rows are
+   not compensated, and a simulation study may add ``dr_gyro_offset_rad_s`` to them);
 2. ``F`` is built at the SINS state (:func:`error_model._fill_F`) with the mean specific force
    of the epoch, and ``x, P`` are predicted (:func:`kalman._predict_kernel`: second-order
    transition, trapezoid ``Q_d``); the process noise is the model's ``G q G^T`` plus a random
@@ -409,7 +411,7 @@ def _corrected_sins(out, xs, x, offs):
 
 @numba.njit(cache=True)
 def _run_epochs(ends, dtheta, dvel, dt, ds, v, h_baro, t,
-                xs, ms, xd, md, C_bm, l_b,
+                xs, ms, xd, md, C_bm, l_b, dr_gyro_offset,
                 x, P, offs, Qc, q_dr_m2_s, inv_tau_dk, dr_eps, grav_grad,
                 use, r_att, sig_pos_m, r_vel, r_h, r_nhc, nhc_mount, thresholds,
                 epoch0, meas_every, out_every, closed_loop, feedback_every,
@@ -445,7 +447,15 @@ def _run_epochs(ends, dtheta, dvel, dt, ds, v, h_baro, t,
             K.sins_step(xs, ms, dth, dvl, dt[k], nan, 0.0, 0.0)
             ms[K.M_COUNT] += 1.0
             if with_dr:
-                K.dr_step(xd, md, dth, ds[k], v[k], dt[k], C_bm, l_b)
+                if dr_eps:      # the DR's gyros are the SINS's: the same compensated rows
+                    dth_d = (dth[0] + dr_gyro_offset[0] * dt[k],
+                             dth[1] + dr_gyro_offset[1] * dt[k],
+                             dth[2] + dr_gyro_offset[2] * dt[k])
+                else:           # printed model: the DR has no drift, so none is compensated
+                    dth_d = (dtheta[k, 0] + dr_gyro_offset[0] * dt[k],
+                             dtheta[k, 1] + dr_gyro_offset[1] * dt[k],
+                             dtheta[k, 2] + dr_gyro_offset[2] * dt[k])
+                K.dr_step(xd, md, dth_d, ds[k], v[k], dt[k], C_bm, l_b)
                 md[K.M_COUNT] += 1.0
             sum_dt += dt[k]
             for i in range(3):
@@ -533,6 +543,11 @@ class SinsDrFilter:
     step_rows : IMU rows per filter epoch;  meas_every, out_every : in filter epochs.
     C_bm, lever_arm_b : the velocity sensor's nominal mounting and lever arm (DR).
     nhc_mount : the NHC rows carry the mounting columns (paper 000's eq. 37 as printed: False).
+    dr_gyro_offset_rad_s : (3,) rad/s added to the DR's gyro rows only (default 0). A
+        simulation-study knob: ``-eps_true`` gives the DR drift-free gyros, the world that
+        paper 000's printed F describes (``reproduce 000``, ``paper_world``). With a model
+        whose DR does not see the drift (``dr_sees_gyro_drift=False``) the DR's rows are not
+        compensated by the drift estimate either.
     closed_loop : feed the estimate back (False: open loop, the output is the SINS corrected
         by the estimate);  feedback_every : measurement epochs per feedback.
     """
@@ -540,7 +555,8 @@ class SinsDrFilter:
     def __init__(self, init: NavState, layout: Layout, model: em.ErrorModel, P0, *, use: dict,
                  noise: dict, gates: dict, step_rows: int, meas_every: int = 1,
                  out_every: int = 1, C_bm=None, lever_arm_b=None, nhc_mount: bool = True,
-                 closed_loop: bool = True, feedback_every: int = 1):
+                 closed_loop: bool = True, feedback_every: int = 1,
+                 dr_gyro_offset_rad_s=None):
         for name in ("phi", "dv", "dp", "eps", "nabla"):
             if name not in layout:
                 raise ValueError(f"the SINS/DR filter needs block {name!r} in the layout")
@@ -566,6 +582,11 @@ class SinsDrFilter:
         self.nhc_mount = bool(nhc_mount)
         self.closed_loop = bool(closed_loop)
         self.feedback_every = int(feedback_every)
+        off = np.zeros(3) if dr_gyro_offset_rad_s is None else np.asarray(
+            dr_gyro_offset_rad_s, dtype=float)
+        if off.shape != (3,) or not np.all(np.isfinite(off)):
+            raise ValueError(f"dr_gyro_offset_rad_s must be 3 finite values, got {off!r}")
+        self.dr_gyro_offset = off
         self.bias_g = np.zeros(3)          # accumulated gyro drift compensation [rad/s]
         self.bias_a = np.zeros(3)          # accumulated accelerometer bias compensation [m/s^2]
         self.fed_back = layout.zeros()     # everything fed back so far, per state
@@ -633,7 +654,7 @@ class SinsDrFilter:
                 ends.astype(np.int64), np.ascontiguousarray(dtheta[a:b], dtype=float),
                 np.ascontiguousarray(dvel[a:b], dtype=float), dt, ds, v, hb, tc,
                 self.sins._x, self.sins._mem, self.dr._x, self.dr._mem, self.dr.C_bm,
-                self.dr.l_b, self.x, self.P, self.offs, Qc, float(nz["dr_position_m2_s"]),
+                self.dr.l_b, self.dr_gyro_offset, self.x, self.P, self.offs, Qc, float(nz["dr_position_m2_s"]),
                 1.0 / self.model.noise.dk_tau, self.model.dr_sees_gyro_drift,
                 self.model.gravity_gradient, self.use, float(nz["attitude_rad"]) ** 2,
                 float(nz["position_m"]), np.asarray(nz["velocity_b_m_s"], dtype=float) ** 2,
