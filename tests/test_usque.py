@@ -240,3 +240,36 @@ def test_filter_on_the_coarse_alignment_vectors(clean_drive):
         assert abs(err[-1, 2] - err_own[-1, 2]) < 0.005
     with pytest.raises(BadInput, match="attitude state only"):
         usque.run(clean_drive, usque.UsqueConfig(vectors="obs_vectors", estimate_scale=True))
+
+
+# ------------------------------------------------------------------ usque-hinf, fixed gamma
+def test_fixed_gamma_is_a_bound_per_unit_time():
+    # eq. 53 with dt L^T L: the information removed per second, f gamma_step^-2, is gamma_c^-2
+    # whatever the update rate
+    gamma_c = np.radians(100.0)
+    for rate in (1.0, 10.0, 100.0):
+        flt = usque._Filter(usque.UsqueHinfConfig(update_rate_hz=rate))
+        assert np.isclose(rate / flt.gamma_fixed() ** 2, 1.0 / gamma_c ** 2, rtol=1e-12)
+
+
+def _disturbed_drive(seed):
+    with open(find_scenario("paper001_urban_disturbed")) as fh:
+        d = yaml.safe_load(fh)
+    d["imu"]["constant_errors"] = "random"
+    return simulate(load_scenario(d), np.random.default_rng(seed))
+
+
+@pytest.mark.parametrize("seed", [0, 1, 2])
+def test_usque_hinf_extended_stays_bounded_in_test_2(seed):
+    # reproduce_001 test 2 (LDV noise 0.3 m/s and outlier bursts), extended states: with the
+    # former per-update gamma of 2 deg the heading locked onto a wrong value (tens of deg)
+    b = _disturbed_drive(seed)
+    cfg = usque.UsqueHinfConfig(estimate_accel_bias=True, estimate_scale=True,
+                                estimate_initial_speed_error=True)
+    sol = usque.run(b, cfg)
+    assert sol.info["P_min_corr_eigenvalue"] > 0.0          # P positive definite at every epoch
+    assert sol.info["hinf_floor_hits"] == 0                 # gamma feasible at every update
+    err = _errors_deg(sol, b.truth)
+    late = sol.t - sol.t[0] > 180.0
+    assert np.abs(err[late, 2]).max() < 5.0                 # heading [deg]
+    assert np.abs(err[-1, :2]).max() * 60.0 < 3.0           # pitch, roll [arcmin]

@@ -32,7 +32,27 @@ default 1.2): a fixed gamma below that falls back to the Kalman step, an adaptiv
 clamped up to it; these events are counted in ``info['hinf_floor_hits']``. With extra states
 the H-infinity bound applies to the attitude error only (eq. 46 with ``S = L X``, ``L``
 selecting ``dR``): the extra states are in other units (m/s^2, m/s, -), where one gamma in
-rad means nothing (with an identity ``L``, ``usque-hinf`` lost the heading in test 2).
+rad means nothing.
+
+The fixed gamma of ``usque-hinf`` is a bound per unit time (``gamma_deg_sqrt_s``, deg sqrt(s)).
+Why: each update of eq. 53 removes ``gamma^-2`` of information from the attitude, so a gamma
+given per update removes ``f_update gamma^-2`` per second: at 100 Hz, 100 times what it removes
+at 1 Hz. The H-infinity cost of eq. 46 is the discretization of ``int |S - S_hat|^2 dt``, i.e.
+``sum dt |S_k - S_hat_k|^2``, which puts ``dt L^T L`` in eq. 53: the gamma of one update is
+``gamma_c / sqrt(dt)``. The value must satisfy the existence condition (54) over the run, not
+only at each step: while the heading gets almost no information from the measurement (the
+first tens of seconds, its sensitivity grows as ``g omega_ie cos(L) t^2 / 2``), the information
+left of its prior ``1 / sigma_psi0^2`` after ``T0`` seconds is ``1 / sigma_psi0^2 - T0 /
+gamma_c^2``, positive with the margin ``rho`` only for ``gamma_c > rho sigma_psi0 sqrt(T0)``:
+1.2 * 12 deg * sqrt(50 s) = 102 deg sqrt(s) (default 100). The former default, 2 deg per update
+(0.2 deg sqrt(s) at 100 Hz), violated it by a factor 500 in information: the per-step fallback
+to Kalman then held the attitude covariance at the existence boundary (heading 1-sigma pinned
+at ``gamma / rho`` = 1.7 deg for the whole run), the heading forgot everything older than a
+few updates, and with the extended states the filter locked onto a wrong heading compensated
+by a wrong LDV scale factor and ``dv0`` (test 2 of ``reproduce_001``: heading off by 14 +- 48
+deg at 181-300 s, level 37 arcmin; the covariance stayed positive definite throughout, so it was
+not a loss of definiteness). With the feasible gamma no step hits the floor in either test, and
+``usque-hinf`` stays close to ``usque``, as in the paper's test 2 (14.46 vs 14.51 deg).
 
 The start attitude is the paper's ``q = [1 0 0 0]`` for ``C_{n(0)}^i``, i.e. ``C_b^n(0) = I``
 (pitch, roll, yaw zero); the method needs no initial attitude. The initial position comes from
@@ -132,8 +152,10 @@ class UsqueConfig(BaseModel):
         heading).
     hinf : {"none", "fixed", "adaptive"}
         Covariance update: Kalman, H-infinity with fixed gamma, adaptive gamma (eq. 55-56).
-    gamma_deg : float
-        Fixed gamma [deg] (``hinf="fixed"``; the paper gives no value).
+    gamma_deg_sqrt_s : float
+        Fixed gamma per unit time [deg sqrt(s)] (``hinf="fixed"``; the paper gives no value):
+        the gamma of one update is ``gamma_deg_sqrt_s / sqrt(update interval [s])``. Default
+        from the existence condition over the first 50 s (module docstring).
     k0 : float
         Coefficient of the adaptive gamma (eq. 55; "determined by experiment"). With 100 Hz
         updates each H-infinity step removes ``gamma^-2`` of information, i.e. a fraction
@@ -173,7 +195,7 @@ class UsqueConfig(BaseModel):
     r_min_m_s: float = Field(0.05, gt=0)
     r_max_m_s: float = Field(1.0, gt=0)
     hinf: Literal["none", "fixed", "adaptive"] = "none"
-    gamma_deg: float = Field(2.0, gt=0)
+    gamma_deg_sqrt_s: float = Field(100.0, gt=0)
     k0: float = Field(30.0, gt=0)
     gamma_min_deg: float = Field(0.1, gt=0)
     gamma_max_deg: float = Field(30.0, gt=0)
@@ -263,6 +285,11 @@ class _Filter:
         self.hinf_weights = np.zeros(self.layout.n)
         self.hinf_weights[self.att] = 1.0
         self.floor_hits = 0
+        self.dt_update_s = 1.0 / cfg.update_rate_hz    # set by run() from the IMU rate
+
+    def gamma_fixed(self):
+        """The fixed gamma of one update [rad]: ``gamma_c / sqrt(dt_update)`` (module docstring)."""
+        return self.cfg.gamma_deg_sqrt_s * _DEG / np.sqrt(self.dt_update_s)
 
     # manifold operations of the attitude block
     def _quats(self, chi, q_ref):
@@ -337,7 +364,7 @@ class _Filter:
             return P_kf
         g_a = hinf.floor_from_kalman(P_kf, self.hinf_weights)
         if cfg.hinf == "fixed":
-            gamma = cfg.gamma_deg * _DEG
+            gamma = self.gamma_fixed()
             if gamma < cfg.hinf_margin * g_a:
                 self.floor_hits += 1
                 return P_kf
@@ -386,6 +413,7 @@ def run(bundle: Bundle, config: UsqueConfig, init: Optional[NavState] = None,
     lat, lon, h = _initial_position(bundle, init)
     stride = max(1, int(round(1.0 / (config.update_rate_hz * imu.dt))))
     flt = _Filter(config)
+    flt.dt_update_s = stride * imu.dt
     acc = model.new_accumulator(lat, lon, h, speed[0])
     epochs = np.arange(stride, len(imu.t), stride)
     out = _Outputs(len(epochs) + 1, flt.layout)
@@ -412,6 +440,7 @@ def _run_obs_vectors(bundle, config, init, method, t_start):
     from . import usque_kernel as kernel
     from . import velocity_source as vs
     flt = _Filter(config)
+    flt.dt_update_s = 2.0 * bundle.imu.dt           # two-sample intervals
     if flt.extra:
         raise BadInput("vectors=obs_vectors supports the attitude state only; "
                        f"drop {', '.join(flt.extra)} or use vectors=own")
@@ -436,7 +465,7 @@ def _run_obs_vectors(bundle, config, init, method, t_start):
         np.ascontiguousarray(vr.q_n0n), flt.x.copy(), flt.P.copy(), flt.q.copy(), flt.Q,
         flt.scheme.Wm, flt.scheme.Wc, flt.scheme.n + flt.scheme.lam, flt.a, flt.f,
         flt.R.copy(), flt.eta, config.adaptive_r, config.fading_factor, flt.R_min, flt.R_max,
-        mode, config.gamma_deg * _DEG, config.k0, config.gamma_min_deg * _DEG,
+        mode, flt.gamma_fixed(), config.k0, config.gamma_min_deg * _DEG,
         config.gamma_max_deg * _DEG, config.hinf_margin, flt.hinf_weights, out.q_in, out.P, out.R, out.gamma,
         out.x)
     out.q_ib[:] = vr.q_b0b
@@ -479,10 +508,19 @@ def _run_compiled(flt, acc, imu, speed, epochs, out):
         acc, imu.dtheta, imu.dvel, np.diff(imu.t), speed, epochs, flt.x.copy(), flt.P.copy(),
         flt.q.copy(), flt.Q, flt.scheme.Wm, flt.scheme.Wc, flt.scheme.n + flt.scheme.lam,
         flt.a, flt.f, flt.R.copy(), flt.eta, cfg.adaptive_r, cfg.fading_factor, flt.R_min,
-        flt.R_max, mode, cfg.gamma_deg * _DEG, cfg.k0, cfg.gamma_min_deg * _DEG,
+        flt.R_max, mode, flt.gamma_fixed(), cfg.k0, cfg.gamma_min_deg * _DEG,
         cfg.gamma_max_deg * _DEG, cfg.hinf_margin, flt.hinf_weights,
         "dk" in flt.extra, "nabla" in flt.extra, "eps" in flt.extra, "dv0" in flt.extra,
         out.q_in, out.q_ib, out.lla, out.P, out.R, out.gamma, out.x)
+
+
+def _min_corr_eigenvalue(P):
+    """Smallest eigenvalue over all epochs of the correlation matrix of ``P`` (N, n, n): > 0
+    exactly when every covariance is positive definite, independent of the states' units."""
+    d = np.sqrt(np.abs(np.diagonal(P, axis1=-2, axis2=-1)))
+    if not np.all(d > 0) or not np.all(np.isfinite(P)):
+        return float("-inf")
+    return float(np.linalg.eigvalsh(P / d[:, :, None] / d[:, None, :])[:, 0].min())
 
 
 class _Outputs:
@@ -516,6 +554,7 @@ class _Outputs:
         C_ni = np.swapaxes(rotations.dcm_from_quat(self.q_in), -1, -2)
         P_phi = C_ni @ self.P[:, att, att] @ np.swapaxes(C_ni, -1, -2)
         sig = np.sqrt(np.maximum(np.diagonal(P_phi, axis1=-2, axis2=-1), 0.0))
+        info["P_min_corr_eigenvalue"] = _min_corr_eigenvalue(self.P)
         sigma = {"phi_E": sig[:, 0], "phi_N": sig[:, 1], "phi_U": sig[:, 2]}
         states = {"R_x": self.R[:, 0], "R_y": self.R[:, 1], "R_z": self.R[:, 2],
                   "gamma": self.gamma}
