@@ -267,9 +267,16 @@ def test_usque_hinf_extended_stays_bounded_in_test_2(seed):
     cfg = usque.UsqueHinfConfig(estimate_accel_bias=True, estimate_scale=True,
                                 estimate_initial_speed_error=True)
     sol = usque.run(b, cfg)
-    assert sol.info["P_min_corr_eigenvalue"] > 0.0          # P positive definite at every epoch
+    assert sol.info["P_positive_definite"]                  # at every epoch
     assert sol.info["hinf_floor_hits"] == 0                 # gamma feasible at every update
     err = _errors_deg(sol, b.truth)
     late = sol.t - sol.t[0] > 180.0
     assert np.abs(err[late, 2]).max() < 5.0                 # heading [deg]
     assert np.abs(err[-1, :2]).max() * 60.0 < 3.0           # pitch, roll [arcmin]
+
+
+def test_positive_definite_check_of_the_covariance_history():
+    P = np.tile(np.diag([1e-8, 1e-8, 1e-4, 1e-2]), (5, 1, 1))   # mixed units
+    assert usque._positive_definite(P)
+    P[3, 0, 1] = P[3, 1, 0] = 1.1e-8                            # correlation 1.1 at epoch 3
+    assert not usque._positive_definite(P)

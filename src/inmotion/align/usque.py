@@ -514,13 +514,17 @@ def _run_compiled(flt, acc, imu, speed, epochs, out):
         out.q_in, out.q_ib, out.lla, out.P, out.R, out.gamma, out.x)
 
 
-def _min_corr_eigenvalue(P):
-    """Smallest eigenvalue over all epochs of the correlation matrix of ``P`` (N, n, n): > 0
-    exactly when every covariance is positive definite, independent of the states' units."""
+def _positive_definite(P):
+    """True if every covariance of ``P`` (N, n, n) is positive definite (one batched Cholesky
+    of the correlation matrices, so the states' different units do not matter)."""
     d = np.sqrt(np.abs(np.diagonal(P, axis1=-2, axis2=-1)))
-    if not np.all(d > 0) or not np.all(np.isfinite(P)):
-        return float("-inf")
-    return float(np.linalg.eigvalsh(P / d[:, :, None] / d[:, None, :])[:, 0].min())
+    if not (np.all(np.isfinite(P)) and np.all(d > 0)):
+        return False
+    try:
+        np.linalg.cholesky(P / d[:, :, None] / d[:, None, :])
+    except np.linalg.LinAlgError:
+        return False
+    return True
 
 
 class _Outputs:
@@ -554,7 +558,7 @@ class _Outputs:
         C_ni = np.swapaxes(rotations.dcm_from_quat(self.q_in), -1, -2)
         P_phi = C_ni @ self.P[:, att, att] @ np.swapaxes(C_ni, -1, -2)
         sig = np.sqrt(np.maximum(np.diagonal(P_phi, axis1=-2, axis2=-1), 0.0))
-        info["P_min_corr_eigenvalue"] = _min_corr_eigenvalue(self.P)
+        info["P_positive_definite"] = _positive_definite(self.P)
         sigma = {"phi_E": sig[:, 0], "phi_N": sig[:, 1], "phi_U": sig[:, 2]}
         states = {"R_x": self.R[:, 0], "R_y": self.R[:, 1], "R_z": self.R[:, 2],
                   "gamma": self.gamma}
