@@ -462,8 +462,9 @@ def _ranking_text(S) -> list:
     if has3:
         L += [f"* **Test 3 (our assumption, not the paper's): LDV bursts that hold a stale value "
               f"or carry a bias.** Same noise as test 2, but the four bursts are: the output "
-              f"stuck for 40-50 s and for 110-125 s (there the car brakes from 13 m/s to a stop "
-              f"and the LDV keeps reading 13 m/s), and +0.5 m/s for 190-200 s and 240-255 s. "
+              f"stuck for 40-50 s and for 110-125 s (in the last 3 s of it the car brakes from 13 "
+              f"to 7 m/s while the LDV keeps reading 13 m/s), and +0.5 m/s for 190-200 s and "
+              f"240-255 s (the windows of test 2's bursts). "
               f"Now `oba` is biased: RMS {r(3, 'oba/-'):.3f} deg (mean "
               f"{r(3, 'oba/-', 'mean'):.2f} +- {r(3, 'oba/-', 'sd'):.2f}), paper form "
               f"{r(3, 'oba/paper-form'):.3f}; `ausquhe` {r(3, 'ausquhe/extended'):.3f} "
