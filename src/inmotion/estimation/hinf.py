@@ -21,6 +21,12 @@ extraction; we take ``gamma_a = sqrt(max eig(M^-1))`` so that ``gamma > gamma_a`
 existence condition (54) and ``gamma`` has the unit of the state (rad for attitude), with
 ``M = P_KF^-1`` (see :func:`gamma_floor`).
 
+Update rate: eq. 53 removes ``gamma^-2`` of information at every update, so a gamma given per
+update means a rate-dependent bound; a filter updating at a high rate should state gamma per
+unit time and use ``gamma_c / sqrt(dt)`` per update (the discretization of
+``int |S - S_hat|^2 dt``), and pick ``gamma_c`` so that the existence condition holds over the
+run, not only at each step (:mod:`inmotion.align.usque`, ``usque-hinf``).
+
 Adaptive gamma (eq. 55-56): ``gamma = (1 + k0 sqrt(trace(P_y) / e^T e)) gamma_a``, floored at
 ``gamma_min``; above ``gamma_max`` the Kalman covariance update is used instead. A large
 innovation (an outlier) brings ``gamma`` down towards ``gamma_a`` (more robust, larger ``P+``);
