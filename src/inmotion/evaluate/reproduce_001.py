@@ -532,9 +532,11 @@ def _ranking_text(S) -> list:
               f"{pos3['ausque/extended']}), `ausquhe` {r(3, 'ausquhe/extended'):.2f} (extended, "
               f"rank {pos3['ausquhe/extended']}) / {r(3, 'ausquhe/paper'):.2f} (paper states), "
               f"`usque` {r(3, 'usque/extended'):.2f} / {r(3, 'usque/paper'):.2f}. A "
-              f"non-zero-mean LDV error is what takes `oba` off zero; it hurts every filter, "
-              f"and the extended filters most when they take the held speed for a scale-factor "
-              f"or v^b(0) error they then keep."]
+              f"non-zero-mean LDV error is what takes `oba` off zero; it hurts every filter. "
+              f"Among the extended filters, `usque` and `ausquhe` suffer most, `ausque` least: "
+              f"likely the extra states absorb the held speed as a scale-factor or v^b(0) "
+              f"error and keep it, unless the innovations it causes inflate R first (we have "
+              f"not isolated this)."]
     return L
 
 
