@@ -3,8 +3,13 @@
 Yang, Xi, Yang, Xue, *An Alignment Method for SINS Assisted by Doppler Radar on a Vehicle-Borne
 Moving Base*, Sensors 2019. Experiments (shipped scenarios): trajectory 1 (``paper000_traj1``),
 trajectory 2 (``paper000_traj2``), trajectory 1 with side slips and jumps
-(``paper000_traj1_slip``); each aligned by ``dr-kf`` with Z2 (the non-holonomic measurement)
-and without, over ``runs`` Monte Carlo runs of 600 s.
+(``paper000_traj1_slip``); each aligned over ``runs`` Monte Carlo runs of 600 s with the
+settings of :data:`SETTINGS`: ``dr-kf`` with Z2 (the non-holonomic measurement) and without;
+``paper_world``, the world paper 000's printed F describes (the DR's gyros without the drift,
+the filter's DR attitude rows without ``-C_b^n eps``; it reproduces the paper's up accuracy,
+which shared gyros cannot reach); and the velocity-matching baseline ``od-velocity-kf``.
+Trajectory 1 adds eq. 37 as printed (``with_Z2_paper_H2``) and a rerun with the IMU's white
+noise off (``with_Z2_imu_white_noise_off``: what limits the mounting angle gamma).
 
 Per run (all draws from one ``numpy.random.Generator`` seeded by ``(seed, experiment, run)``):
 
@@ -32,9 +37,10 @@ with eq. 37 as printed (``with_Z2_paper_H2``), which ignores them.
 
 Cost (issue 3: 50 runs of the three experiments under 2 minutes on 2 cores): each run
 simulates its bundle once (about 0.3 CPU-s) and aligns it with every setting (``dr-kf`` on the
-one numba SINS / DR engine, about 0.11 CPU-s per 600 s setting), about 0.6 CPU-s per run in
-all; a worker process starts in about 1 s (imports and numba cache). Measured with
-``benchmarks/bench_dr_kf.py --reproduce-runs 50``.
+one numba SINS / DR engine, about 0.11 CPU-s per 600 s setting; trajectory 1 simulates a
+second, noise-free bundle), about 1 CPU-s per run in all; a worker process starts in about
+1 s (imports and numba cache). Measured with ``benchmarks/bench_dr_kf.py --reproduce-runs 50``:
+81 s wall on 2 cores, 152 CPU-s in the runs (2026-11-22).
 """
 from __future__ import annotations
 
