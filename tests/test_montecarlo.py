@@ -187,6 +187,23 @@ def test_a_raising_run_is_recorded_and_the_campaign_goes_on(tmp_path, client):
     assert r["status"] == "error" and r["error"] == failed.iloc[0]["error"]
 
 
+def test_a_run_that_kills_its_worker_is_the_only_error(tmp_path):
+    """A run that takes its worker process down (``os._exit``, as a crash in native code
+    would) is recorded as a ``KilledWorker`` error; the runs that shared its Dask task are
+    re-run one per task and recorded as results, and the campaign ends (no hang)."""
+    from distributed import Client, LocalCluster
+    sweep = synth_sweep(runs=10, exit_value=2.0)
+    with LocalCluster(n_workers=2, threads_per_worker=1, processes=True,
+                      dashboard_address="127.0.0.1:0") as cl, Client(cl) as c:
+        df = run_campaign(sweep, tmp_path / "c", client=c, quiet=True)
+    assert len(df) == 40
+    for _, row in df.iterrows():
+        first = run_generator(sweep.seed, row.run_index).normal(0.0, row["param.scale"], 1)[0]
+        assert (row.status == "error") == (first > 2.0), (row.point_id, row.run_index)
+    failed = df[df["status"] == "error"]
+    assert len(failed) > 0 and failed["error"].str.startswith("KilledWorker").all()
+
+
 def fingerprints(df) -> dict:
     """(point, run) -> wall time of the execution that wrote it: a re-run changes it."""
     return {(int(r.point_id), int(r.run_index)): r.elapsed_s for r in df.itertuples()}

@@ -263,7 +263,11 @@ class _Chunker:
 
 
 def _drive(client, tasks, store, total, initial, n_todo, quiet, max_in_flight, max_chunk, name):
-    """Submit chunks of tasks with a bounded window; record each run as its chunk completes."""
+    """Submit chunks of tasks with a bounded window; record each run as its chunk completes.
+
+    A chunk lost as a whole (its worker died: a run that crashes the process, or a machine
+    going away; Dask reports ``KilledWorker``) is split and its runs are submitted again one
+    per task, so that only the run that takes its worker down is recorded as an error."""
     from distributed import as_completed
     n_workers = max(1, len(client.scheduler_info(n_workers=-1).get("workers", {})))
     window = max_in_flight or max(4, 3 * n_workers)
@@ -273,6 +277,13 @@ def _drive(client, tasks, store, total, initial, n_todo, quiet, max_in_flight, m
 
     tasks = _Peekable(tasks)
 
+    def submit(chunk, pending, tag=""):
+        first = chunk[0]
+        key = f"inmotion-{token}-p{first.point_id}-r{first.run_index}-n{len(chunk)}{tag}"
+        fut = client.submit(execute_tasks, chunk, pure=False, key=key)
+        in_flight[fut.key] = chunk
+        pending.add(fut)
+
     def submit_next(pending):
         chunk = _take(tasks, chunker.size(remaining[0]))
         if not chunk:
@@ -280,11 +291,7 @@ def _drive(client, tasks, store, total, initial, n_todo, quiet, max_in_flight, m
         while len(chunk) < MAX_CHUNK and _same_drive(chunk[-1], tasks.peek()):
             chunk.append(next(tasks))
         remaining[0] -= len(chunk)
-        first = chunk[0]
-        key = f"inmotion-{token}-p{first.point_id}-r{first.run_index}-n{len(chunk)}"
-        fut = client.submit(execute_tasks, chunk, pure=False, key=key)
-        in_flight[fut.key] = chunk
-        pending.add(fut)
+        submit(chunk, pending)
 
     pending = as_completed(with_results=True, raise_errors=False)
     for _ in range(window):
@@ -293,6 +300,11 @@ def _drive(client, tasks, store, total, initial, n_todo, quiet, max_in_flight, m
     with _progress(total, initial, quiet, name) as bar:
         for fut, result in pending:
             chunk = in_flight.pop(fut.key)
+            fut.release()
+            if len(chunk) > 1 and _chunk_exception(result) is not None:
+                for task in chunk:                   # find the run that killed the worker
+                    submit([task], pending, tag="-split")
+                continue
             outcomes = _outcomes(result, chunk)
             for record, arrays in outcomes:
                 store.write(record, arrays)
@@ -301,7 +313,6 @@ def _drive(client, tasks, store, total, initial, n_todo, quiet, max_in_flight, m
             bar.update(len(outcomes))
             if n_err:
                 bar.set_postfix(errors=n_err, refresh=False)
-            fut.release()
             submit_next(pending)
 
 
@@ -311,14 +322,24 @@ def _same_drive(a: Task, b: Optional[Task]) -> bool:
             and a.run_index == b.run_index)
 
 
+def _chunk_exception(result):
+    """The exception of a chunk lost as a whole (``None``: the chunk returned its records).
+    ``as_completed(raise_errors=False)`` hands a failed future over as ``(type, exc, tb)``."""
+    if (isinstance(result, tuple) and len(result) == 3
+            and isinstance(result[1], BaseException)):
+        return result[1]
+    if isinstance(result, BaseException):
+        return result
+    if not isinstance(result, list):
+        return TypeError(repr(result))
+    return None
+
+
 def _outcomes(result, chunk):
     """The chunk's (record, arrays) pairs; a chunk lost with its worker (e.g. ``KilledWorker``)
     is recorded as one error per run."""
-    if (isinstance(result, tuple) and len(result) == 3
-            and isinstance(result[1], BaseException)):     # as_completed(raise_errors=False)
-        result = result[1]
-    if isinstance(result, BaseException) or not isinstance(result, list):
-        exc = result if isinstance(result, BaseException) else TypeError(repr(result))
+    exc = _chunk_exception(result)
+    if exc is not None:
         return [(error_record(task, exc), None) for task in chunk]
     return result
 

@@ -16,6 +16,7 @@ from __future__ import annotations
 import copy
 import json
 import re
+import os
 import time
 
 import numpy as np
@@ -240,7 +241,9 @@ def synthetic_run(spec: dict, rng: np.random.Generator) -> dict:
 
     Spec keys: ``n`` (draws, default 64), ``scale`` (default 1), ``sleep_s`` (wall time to
     spend, default 0), ``fail_value`` (the run raises when its first draw exceeds it),
-    ``save_arrays`` (the draws' cumulative sum as ``err.north_m`` with its 1-sigma).
+    ``save_arrays`` (the draws' cumulative sum as ``err.north_m`` with its 1-sigma),
+    ``exit_value`` (the run's process exits at once, ``os._exit(70)``, when its first draw
+    exceeds it: a stand-in for a crash in native code that takes the worker with it).
 
     Returns the mean, standard deviation and maximum of the draws (exactly reproducible from the
     Generator), so two executions of one run can be compared bit for bit.
@@ -248,6 +251,8 @@ def synthetic_run(spec: dict, rng: np.random.Generator) -> dict:
     x = rng.normal(0.0, float(spec.get("scale", 1.0)), int(spec.get("n", 64)))
     if spec.get("sleep_s"):
         time.sleep(float(spec["sleep_s"]))
+    if "exit_value" in spec and x[0] > float(spec["exit_value"]):
+        os._exit(70)
     if "fail_value" in spec and x[0] > float(spec["fail_value"]):
         raise RuntimeError(f"synthetic failure: first draw {float(x[0]):.6g} > {spec['fail_value']}")
     out = {"mean": float(x.mean()), "std": float(x.std()), "max": float(x.max()),
