@@ -121,7 +121,12 @@ class UsqueConfig(BaseModel):
     sigma0_deg : (3,)
         Initial 1-sigma of the attitude error about i's x, y, z [deg] (paper: 3, 3, 12).
     process_noise_deg : float
-        1-sigma process noise per update and axis [deg] (paper: 1e-7).
+        1-sigma process noise per update and axis [deg] (paper: 1e-7). The paper's value is
+        far below what a gyro's angle random walk adds per update (``ARW sqrt(dt)``: 5e-6 deg
+        for 0.003 deg/sqrt(h) at 100 Hz), so with it the filter's attitude sigma is
+        overconfident (``inmotion reproduce 001``: NEES about 100 in test 1 against a band
+        of 2-4); ``ARW sqrt(dt)`` gives a consistent filter there (NEES 2.5) at some cost
+        in test 2's disturbed LDV. Set it from the IMU's ARW when the sigma matters.
     meas_noise_m_s : float
         Initial 1-sigma measurement noise per axis [m/s] (paper: 0.07).
     grp_a, grp_f : float
