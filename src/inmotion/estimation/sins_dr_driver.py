@@ -447,14 +447,11 @@ def _run_epochs(ends, dtheta, dvel, dt, ds, v, h_baro, t,
             K.sins_step(xs, ms, dth, dvl, dt[k], nan, 0.0, 0.0)
             ms[K.M_COUNT] += 1.0
             if with_dr:
-                if dr_eps:      # the DR's gyros are the SINS's: the same compensated rows
-                    dth_d = (dth[0] + dr_gyro_offset[0] * dt[k],
-                             dth[1] + dr_gyro_offset[1] * dt[k],
-                             dth[2] + dr_gyro_offset[2] * dt[k])
-                else:           # printed model: the DR has no drift, so none is compensated
-                    dth_d = (dtheta[k, 0] + dr_gyro_offset[0] * dt[k],
-                             dtheta[k, 1] + dr_gyro_offset[1] * dt[k],
-                             dtheta[k, 2] + dr_gyro_offset[2] * dt[k])
+                # the DR's gyros are the SINS's (the same compensated rows), unless the model
+                # is the printed one: a DR without drift, so none is compensated
+                g = dth if dr_eps else (dtheta[k, 0], dtheta[k, 1], dtheta[k, 2])
+                dth_d = (g[0] + dr_gyro_offset[0] * dt[k], g[1] + dr_gyro_offset[1] * dt[k],
+                         g[2] + dr_gyro_offset[2] * dt[k])
                 K.dr_step(xd, md, dth_d, ds[k], v[k], dt[k], C_bm, l_b)
                 md[K.M_COUNT] += 1.0
             sum_dt += dt[k]
