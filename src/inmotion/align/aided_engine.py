@@ -60,7 +60,8 @@ from ..estimation import error_model as em
 from ..estimation.aiding_rows import _displacement_rows, _nhc_rows, _velocity_rows
 from ..estimation.federated import fuse_kernel
 from ..estimation.kalman import _predict_kernel
-from ..estimation.sins_dr_driver import _correct_nav, dcm_of_q, sequential_joseph
+from ..estimation.sins_dr_driver import (_correct_nav, compensated_row, dcm_of_q,
+                                         sequential_joseph)
 
 __all__ = ["EVENT_DETECTED", "EVENT_RETURNED", "EVENT_MODE", "MODE_NAMES", "NS", "NSUB",
            "Engine"]
@@ -167,10 +168,7 @@ def _run_chunk(ends, t, dtheta, dvel, dt, ds, v, h_baro,
         f_sum = np.zeros(3)
         th_ep = np.zeros(3)
         for k in range(a, b):
-            dth = (dtheta[k, 0] - bias_g[0] * dt[k], dtheta[k, 1] - bias_g[1] * dt[k],
-                   dtheta[k, 2] - bias_g[2] * dt[k])
-            dvl = (dvel[k, 0] - bias_a[0] * dt[k], dvel[k, 1] - bias_a[1] * dt[k],
-                   dvel[k, 2] - bias_a[2] * dt[k])
+            dth, dvl = compensated_row(dtheta, dvel, k, dt[k], bias_g, bias_a)
             v_old = (xs[K.VE], xs[K.VN], xs[K.VU])
             K.sins_step(xs, ms, dth, dvl, dt[k], nan, 0.0, 0.0)
             ms[K.M_COUNT] += 1.0

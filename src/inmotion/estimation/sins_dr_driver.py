@@ -118,6 +118,17 @@ def dcm_of_q(q):
 
 
 @numba.njit(cache=True)
+def compensated_row(dtheta, dvel, k, dt, bias_g, bias_a):
+    """IMU row ``k`` less the accumulated gyro drift and accelerometer bias estimates over its
+    interval ``dt`` [s]: ``(dtheta_k - eps dt, dvel_k - nabla dt)`` as two 3-tuples."""
+    dth = (dtheta[k, 0] - bias_g[0] * dt, dtheta[k, 1] - bias_g[1] * dt,
+           dtheta[k, 2] - bias_g[2] * dt)
+    dvl = (dvel[k, 0] - bias_a[0] * dt, dvel[k, 1] - bias_a[1] * dt,
+           dvel[k, 2] - bias_a[2] * dt)
+    return dth, dvl
+
+
+@numba.njit(cache=True)
 def euler_ypr(C):
     """``[yaw, pitch, roll]`` [rad] of ``C_b^n`` in the DESIGN convention (``yaw =
     atan2(C12, C22)``, ``pitch = asin(C32)``, ``roll = atan2(-C31, C33)``), in the row order
@@ -440,10 +451,7 @@ def _run_epochs(ends, dtheta, dvel, dt, ds, v, h_baro, t,
         sum_dt = 0.0
         f_sum = np.zeros(3)
         for k in range(a, b):
-            dth = (dtheta[k, 0] - bias_g[0] * dt[k], dtheta[k, 1] - bias_g[1] * dt[k],
-                   dtheta[k, 2] - bias_g[2] * dt[k])
-            dvl = (dvel[k, 0] - bias_a[0] * dt[k], dvel[k, 1] - bias_a[1] * dt[k],
-                   dvel[k, 2] - bias_a[2] * dt[k])
+            dth, dvl = compensated_row(dtheta, dvel, k, dt[k], bias_g, bias_a)
             K.sins_step(xs, ms, dth, dvl, dt[k], nan, 0.0, 0.0)
             ms[K.M_COUNT] += 1.0
             if with_dr:
