@@ -30,8 +30,8 @@ from inmotion.core.mechanization import Strapdown
 from inmotion.core.solution import NavState
 from inmotion.errors import BadInput
 from inmotion.estimation import kalman
-from inmotion.estimation import sins_dr_driver as drv
-from inmotion.estimation.error_model import _offsets
+from inmotion.estimation import measurements as ms
+from inmotion.estimation import nav_ops
 from inmotion.evaluate.metrics import error_series
 from inmotion.navigate.sins_dr import (LAYOUT_SINS_DR as LAY, SinsDrConfig, build_filter,
                                        run_sins_dr)
@@ -39,7 +39,21 @@ from inmotion.sim import simulate
 from inmotion.sim.scenario import load_scenario
 
 ARCMIN = np.pi / 180 / 60
-OFFS = tuple(int(o) for o in _offsets(LAY))
+
+
+def _stack(meas, xs, xd, layout, data=None):
+    """The measurements' ``(z, H, r)`` stacked in order (``data``: name -> sample)."""
+    data = data or {}
+    parts = [m.rows((xs, xd, np.zeros(ms.AUX_SIZE)), data.get(m.name), layout) for m in meas]
+    parts = [p for p in parts if len(p[0])]
+    return (np.concatenate([p[0] for p in parts]), np.vstack([p[1] for p in parts]),
+            np.concatenate([np.diag(p[2]) for p in parts]))
+
+
+def _paper002_rows(xs, xd, h_baro, r_vel, sig_att=1e-4, sig_pos=0.5, sig_h=2.0):
+    meas = [ms.SinsDrAttitude(sig_att), ms.SinsDrVelocity(np.sqrt(r_vel)),
+            ms.SinsDrPosition(sig_pos), ms.Height(sig_h)]
+    return _stack(meas, xs, xd, LAY, {"height": h_baro})
 
 
 # -- measurement rows against the nonlinear measurement -----------------------------------
@@ -73,15 +87,14 @@ def test_measurement_rows_are_the_derivative_of_the_nonlinear_differences(yaw_de
     C = rotations.dcm_from_euler(np.radians([4.0, -3.0, yaw_deg]))
     truth = (0.6, 1.9, 380.0, 17.0, C)
     h_baro = 379.0
-    use = np.array([True, True, True, True])
     r_vel = np.array([0.1, 0.2, 0.3]) ** 2
 
     def rows(err):
         xs, xd = _nonlinear(err, truth)
-        return drv.measurement_rows(OFFS, use, xs, xd, h_baro, 1e-8, 0.5, r_vel, 4.0, LAY.n)
+        return _paper002_rows(xs, xd, h_baro, r_vel)
 
-    z0, H, r, starts, groups = rows(LAY.zeros())
-    assert list(groups) == [0, 1, 2, 3] and list(starts) == [0, 3, 6, 9, 10]
+    z0, H, r = rows(LAY.zeros())
+    assert len(z0) == 10
     # at zero error: attitude, velocity and position differences vanish (wrapped near North)
     assert np.allclose(z0[:9], 0.0, atol=1e-12) and z0[9] == pytest.approx(1.0)
     assert np.allclose(r[3:6], r_vel)
@@ -103,8 +116,7 @@ def test_velocity_rows_are_the_n_frame_rows_resolved_in_the_dr_body_frame():
     C = rotations.dcm_from_euler(np.radians([2.0, 1.0, 63.0]))
     xs, xd = _nonlinear(LAY.zeros(), (0.6, 1.9, 380.0, 20.0, C))
     xs[3:6] += [0.3, -0.2, 0.05]
-    use = np.array([False, True, False, False])
-    z, H, *_ = drv.measurement_rows(OFFS, use, xs, xd, np.nan, 1.0, 1.0, np.ones(3), 1.0, LAY.n)
+    z, H, _ = _stack([ms.SinsDrVelocity(1.0)], xs, xd, LAY)
     assert np.allclose(C @ z, [0.3, -0.2, 0.05])
     assert np.allclose(C @ H[:, LAY["dv"]], np.eye(3))
     v = xd[3:6]
@@ -120,16 +132,14 @@ def test_dr_kf_rows_equal_the_shared_model_rows(nhc_mount):
     the NHC ``z`` is the SINS velocity on body x and z."""
     from inmotion.align.dr_kalman import LAYOUT_DR_KF as L0
     from inmotion.estimation import error_model as em
-    offs = tuple(int(o) for o in _offsets(L0))
     C_S = rotations.dcm_from_euler(np.radians([3.0, -2.0, 211.0]))
     C_D = rotations.dcm_from_euler(np.radians([3.1, -2.2, 210.7]))
     xs = _nav(0.6, 1.9, 380.0, C_S @ [0.2, 14.0, -0.1], C_S)
     xd = _nav(0.6 + 1e-6, 1.9 - 1e-6, 377.0, C_D @ [0.0, 14.1, 0.0], C_D)
-    use = np.array([True, True, False, True, True, False])
-    z, H, r, starts, groups = drv.stack_rows(offs, use, xs, xd, 379.0, 1e-8, 1.0,
-                                             np.array([1.0, 2.0, 3.0]), 4.0, 0.09, nhc_mount,
-                                             0.0, L0.n)
-    assert list(groups) == [0, 1, 4, 3] and list(starts) == [0, 3, 6, 8, 9]
+    meas = [ms.SinsDrAttitude(1e-4), ms.SinsDrVelocity(np.sqrt([1.0, 2.0, 3.0])),
+            ms.Nhc(0.3, mount_terms=nhc_mount), ms.Height(2.0)]
+    z, H, r = _stack(meas, xs, xd, L0, {"height": 379.0})
+    assert len(z) == 9
     att = np.zeros((3, L0.n))
     att[:, L0["phi"]] = em.euler_rows(C_S)
     att[:, L0["phi_D"]] = -em.euler_rows(C_D)
@@ -155,15 +165,12 @@ def test_od_velocity_kf_rows_equal_the_shared_model_rows():
     SINS forward axis."""
     from inmotion.align.dr_kalman import LAYOUT_OD_KF as L1
     from inmotion.estimation import error_model as em
-    offs = tuple(int(o) for o in _offsets(L1))
     C_S = rotations.dcm_from_euler(np.radians([-1.5, 2.0, 33.0]))
     xs = _nav(0.6, 1.9, 380.0, C_S @ [0.2, 14.0, -0.1], C_S)
-    use = np.array([False, False, False, False, True, True])
     speed = 14.3
-    z, H, r, starts, groups = drv.stack_rows(offs, use, xs, xs, np.nan, 1.0, 1.0,
-                                             np.array([1.0, 2.0, 3.0]), 1.0, 0.09, True,
-                                             speed, L1.n)
-    assert list(groups) == [5, 4] and list(starts) == [0, 3, 5]
+    z, H, r = _stack([ms.ForwardVelocity(np.sqrt([1.0, 2.0, 3.0])), ms.Nhc(0.3)], xs, xs, L1,
+                     {"sensor_velocity": speed})
+    assert len(z) == 5
     v_s = C_S @ [0.0, speed, 0.0]
     pt = em.LinPoint(lat=xs[0], h=xs[2], vel_n=xs[3:6], C_nb=C_S, f_n=np.zeros(3))
     ref = em.sensor_velocity_rows(L1, pt, vel_sensor_n=v_s)
@@ -187,7 +194,7 @@ def test_sequential_joseph_equals_the_shared_kernel_and_the_batch_update():
     rng = np.random.default_rng(2)
     x, P, z, H, r = _random_problem(rng)
     xa, Pa = x.copy(), P.copy()
-    ok, nis = drv.sequential_joseph(xa, Pa, z, H, r, 0, 6, 0.0, np.empty(LAY.n),
+    ok, nis = kalman.sequential_joseph(xa, Pa, z, H, r, 0, 6, 0.0, np.empty(LAY.n),
                                     np.empty((LAY.n, LAY.n)))
     xb, Pb = x.copy(), P.copy()
     ok_b, nis_b = kalman._update_rows_kernel(xb, Pb, z, H, r, 0, 6, 0.0)
@@ -206,7 +213,7 @@ def test_sequential_joseph_gate_rejects_whole_group_and_leaves_the_state():
     x, P, z, H, r = _random_problem(rng)
     z = z + 100.0
     xa, Pa = x.copy(), P.copy()
-    ok, nis = drv.sequential_joseph(xa, Pa, z, H, r, 2, 5, 5.0, np.empty(LAY.n),
+    ok, nis = kalman.sequential_joseph(xa, Pa, z, H, r, 2, 5, 5.0, np.empty(LAY.n),
                                     np.empty((LAY.n, LAY.n)))
     ok_b, nis_b = kalman._update_rows_kernel(x.copy(), P.copy(), z, H, r, 2, 5, 5.0)
     assert not ok and not ok_b and nis == pytest.approx(nis_b, rel=1e-10) and nis > 5.0
@@ -235,7 +242,7 @@ def test_numba_feedback_equals_the_mechanization_correct(dr):
         a.correct(phi=phi, dpos=dp)
     else:
         a.correct(phi=phi, dvel_n=dv, dpos=dp)
-    drv._correct_nav(b._x, b._mem, phi, dv, np.array(dp), not dr)
+    nav_ops.correct_nav(b._x, b._mem, phi, dv, np.array(dp), not dr)
     assert np.allclose(a._x, b._x, rtol=0, atol=1e-15)
     assert np.allclose(a._mem, b._mem, rtol=0, atol=1e-15)
 
@@ -304,7 +311,7 @@ def test_covariance_stays_symmetric_positive_definite_for_24_hours():
         out = filt.run(t[a:b_], dth[a:b_], dvl[a:b_], speed)
         peaks.setdefault((b_ - a) // per_hour, tracemalloc.get_traced_memory()[1])
         tracemalloc.stop()
-        P = filt.P
+        P = filt.filter.covariance()
         assert np.array_equal(P, P.T)
         d = np.sqrt(np.diagonal(P))
         assert np.all(np.isfinite(P)) and np.all(d > 0)
@@ -414,9 +421,10 @@ def test_chunked_run_equals_one_call(short_drive):
     for a in range(0, len(t), 7000):                 # 700 rows = 70 epochs per call
         f2.run(t[a:a + 7000], dth[a:a + 7000], dvl[a:a + 7000], speed)
     # the same run up to rounding (the sensor is resampled in different windows)
-    assert np.allclose(f1.sins._x, f2.sins._x, rtol=1e-12, atol=1e-8)
-    assert np.allclose(f1.P, f2.P, rtol=1e-6, atol=1e-30)
-    assert f1.epochs == f2.epochs
+    assert np.allclose(f1.filter.kernel_states()[0], f2.filter.kernel_states()[0], rtol=1e-12,
+                       atol=1e-8)
+    assert np.allclose(f1.filter.covariance(), f2.filter.covariance(), rtol=1e-6, atol=1e-30)
+    assert f1.filter.epochs == f2.filter.epochs
 
 
 # -- bad input -----------------------------------------------------------------------------------

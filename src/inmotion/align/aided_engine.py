@@ -17,7 +17,7 @@ local filter is predicted (:func:`inmotion.estimation.kalman._predict_kernel`) w
 Per measurement epoch (``meas_every`` filter epochs), for each channel ``c`` present:
 
 1. residual ``r = z - H x`` and ``lambda = r^T (H P H^T + R)^-1 r`` (eq. 40-41, computed by
-   the sequential Joseph update of :func:`inmotion.estimation.sins_dr_driver.sequential_joseph`,
+   the sequential Joseph update of :func:`inmotion.estimation.kalman.sequential_joseph`,
    whose NIS equals the batch statistic for a diagonal ``R``);
 2. FDI (eq. 42, Table 1): a healthy channel with ``lambda > T`` is declared faulty and isolated
    (its update is not applied; event "detected"); an isolated channel keeps being tested and
@@ -60,8 +60,8 @@ from ..estimation import error_model as em
 from ..estimation.aiding_rows import _displacement_rows, _nhc_rows, _velocity_rows
 from ..estimation.federated import fuse_kernel
 from ..estimation.kalman import _predict_kernel
-from ..estimation.sins_dr_driver import (_correct_nav, compensated_row, dcm_of_q,
-                                         sequential_joseph)
+from ..estimation.kalman import sequential_joseph
+from ..estimation.nav_ops import compensated_row, correct_nav as _correct_nav, dcm_of_q
 
 __all__ = ["EVENT_DETECTED", "EVENT_RETURNED", "EVENT_MODE", "MODE_NAMES", "NS", "NSUB",
            "Engine"]

@@ -29,11 +29,12 @@ velocity-matching baseline ``od-velocity-kf``.
     ``phi, dv, dp, eps, nabla, mount, dk``, the same NHC and baro options, no DR.
 
 Filter loop: both methods run on the one SINS + DR + Kalman engine of the package,
-:class:`inmotion.estimation.sins_dr_driver.SinsDrFilter` (also paper 002's ``sins-dr``;
-``od-velocity-kf`` on its layout without DR blocks, with the ``sensor_velocity`` group): the
-whole loop (mechanizations, ``F`` at the SINS state, prediction, gated sequential Joseph
-updates of the groups attitude, velocity, NHC, height, feedback) is one numba function, the
-Python side only configures it and packs the :class:`Solution`. Per epoch the model is
+:class:`inmotion.estimation.engine.ErrorStateFilter`, fed by
+:class:`inmotion.estimation.velocity_aided.VelocityAidedRun` (also paper 002's ``sins-dr``;
+``od-velocity-kf`` on its layout without DR blocks, with the ``sensor_velocity`` measurement):
+the whole loop (mechanizations, ``F`` at the SINS state, prediction, gated sequential Joseph
+updates of the measurement plug-ins attitude, velocity, NHC, height, feedback) runs in numba,
+the Python side only configures it and packs the :class:`Solution`. Per epoch the model is
 linearized at the current SINS state, discretized (:func:`kalman.discretize`), and, at
 measurement epochs, updated group by group in Joseph form. Closed loop
 (default): the estimated SINS (and DR) attitude, velocity and position errors are fed back into
@@ -78,7 +79,7 @@ from ..core.solution import NavState, Solution
 from ..errors import BadInput
 from ..estimation import error_model as em
 from ..estimation.layout import Layout, position_units
-from ..estimation.sins_dr_driver import GROUP_SIZES, GROUPS, SinsDrFilter
+from ..estimation.velocity_aided import GROUP_SIZES, GROUPS, VelocityAidedRun
 
 __all__ = ["DrKfConfig", "OdVelocityKfConfig", "run_dr_kf", "run_od_velocity_kf",
            "LAYOUT_DR_KF", "LAYOUT_OD_KF"]
@@ -220,11 +221,10 @@ _GROUP_NAMES = {"attitude": "attitude", "velocity": "velocity", "sensor_velocity
 def _gates(p):
     """Chi-square threshold of each engine group's NIS at probability ``p`` (``p = 1``: 0,
     never rejects)."""
-    return {g: (float(chi2.ppf(p, m)) if p < 1.0 else 0.0) for g, m in zip(GROUPS, GROUP_SIZES)}
+    return {g: (float(chi2.ppf(p, m)) if p < 1.0 else 0.0) for g, m in GROUP_SIZES.items()}
 
 
-def _engine_filter(bundle: Bundle, cfg, init: NavState, with_dr: bool,
-                   dr_gyro_offset_rad_s=None):
+def _engine_filter(bundle: Bundle, cfg, init: NavState, with_dr: bool):
     """The configured engine and what it runs on: ``(filter, rows, (sensor name, speed))``;
     ``with_dr``: ``dr-kf`` (25 states, Z1 = SINS minus DR), else ``od-velocity-kf`` (19
     states, SINS minus the sensor's velocity)."""
@@ -266,27 +266,27 @@ def _engine_filter(bundle: Bundle, cfg, init: NavState, with_dr: bool,
                                 cfg.lateral_noise_m_s),
              "height_m": cfg.baro_noise_m, "nhc_m_s": cfg.nhc_noise_m_s,
              "dr_position_m2_s": 0.0}    # paper 000's G: no DR position random walk
-    filt = SinsDrFilter(init, lay, model, _initial_covariance(lay, cfg, init.lat, init.h),
+    filt = VelocityAidedRun(init, lay, model, _initial_covariance(lay, cfg, init.lat, init.h),
                         use=use, noise=noise, gates=_gates(cfg.gate_probability),
                         step_rows=step, meas_every=meas_every, out_every=1,
                         nhc_mount=cfg.nhc_mount_terms, closed_loop=cfg.closed_loop,
-                        feedback_every=feedback_every,
-                        dr_gyro_offset_rad_s=dr_gyro_offset_rad_s)
+                        feedback_every=feedback_every)
     return filt, rows, (sensor_name, speed)
 
 
-def _engine_solution(filt: SinsDrFilter, out: dict, cfg, method: str, sensor: str,
+def _engine_solution(filt: VelocityAidedRun, out: dict, cfg, method: str, sensor: str,
                      wall: float) -> Solution:
     xs = out["x_sins"]
     used, rejected = {}, {}
     nis, dof = 0.0, 0
-    for g in _GROUP_NAMES:                     # in the order the groups are applied
-        i = GROUPS.index(g)
-        if filt.use[i] and filt.used[i] + filt.rejected[i] > 0:
-            used[_GROUP_NAMES[g]] = int(filt.used[i])
-            rejected[_GROUP_NAMES[g]] = int(filt.rejected[i])
-            nis += float(filt.nis_sum[i])
-            dof += int(filt.used[i]) * GROUP_SIZES[i]
+    counts, sums = filt.counts(), filt.filter.nis_sums()
+    for g in GROUPS:                           # in the order the groups are applied
+        c = counts.get(g)
+        if g in _GROUP_NAMES and c is not None and c["used"] + c["rejected"] > 0:
+            used[_GROUP_NAMES[g]] = c["used"]
+            rejected[_GROUP_NAMES[g]] = c["rejected"]
+            nis += sums[g][0]
+            dof += c["used"] * GROUP_SIZES[g]
     info = {"method": method, "config": cfg.model_dump(), "velocity_sensor": sensor,
             "layout": list(filt.layout.names), "filter_step_rows": filt.step,
             "measurement_every_filter_steps": filt.meas_every,
@@ -316,11 +316,20 @@ def _config(config, cls):
 def _run(bundle, config, init, progress, cls, with_dr, method, dr_gyro_offset_rad_s=None):
     cfg = _config(config, cls)
     t0 = time.perf_counter()
-    filt, rows, (sensor, speed) = _engine_filter(bundle, cfg, init, with_dr,
-                                                 dr_gyro_offset_rad_s)
+    if dr_gyro_offset_rad_s is not None:
+        dr_gyro_offset_rad_s = np.asarray(dr_gyro_offset_rad_s, dtype=float)
+        if dr_gyro_offset_rad_s.shape != (3,) or not np.all(np.isfinite(dr_gyro_offset_rad_s)):
+            raise ValueError(f"dr_gyro_offset_rad_s must be 3 finite values, got "
+                             f"{dr_gyro_offset_rad_s!r}")
+    filt, rows, (sensor, speed) = _engine_filter(bundle, cfg, init, with_dr)
     imu = bundle.imu
-    h_baro = (lambda t: _baro_on_epochs(bundle, t)) if filt.use[GROUPS.index("height")] else None
+    h_baro = (lambda t: _baro_on_epochs(bundle, t)) if filt.use["height"] else None
+    dtheta_dr = None
+    if dr_gyro_offset_rad_s is not None:     # a simulation study's own DR gyros
+        dt = np.diff(np.concatenate([[init.t], imu.t[rows]]))
+        dtheta_dr = imu.dtheta[rows] + dr_gyro_offset_rad_s[None, :] * dt[:, None]
     out = filt.run(imu.t[rows], imu.dtheta[rows], imu.dvel[rows], speed, h_baro=h_baro,
+                   dtheta_dr=dtheta_dr,
                    sensor=sensor, progress=progress)
     return _engine_solution(filt, out, cfg, method, sensor, time.perf_counter() - t0)
 

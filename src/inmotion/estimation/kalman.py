@@ -290,3 +290,54 @@ class KalmanFilter:
         """Zero the estimate on the slices/indices ``where`` after feeding it back."""
         for s in where:
             self.x[s] = 0.0
+
+
+@numba.njit(cache=True)
+def sequential_joseph(x, P, z, H, r, a, b, threshold, xw, Pw):
+    """Gated sequential scalar Joseph updates with the rows ``a:b`` (in place, no allocation).
+
+    The same update as :func:`inmotion.estimation.kalman._update_rows_kernel` (a test checks
+    them against each other): for each row ``h`` with noise variance ``r_i``,
+    ``s = h P h^T + r_i``, ``k = P h^T / s``, ``x += k (z_i - h x)``,
+    ``P <- P - k (P h^T)^T - (P h^T) k^T + s k k^T`` (the Joseph form expanded). The group's
+    NIS is accumulated from the sequential innovations, ``sum_i nu_i^2 / s_i``, which for a
+    diagonal ``R`` equals the batch ``nu^T S^-1 nu`` (the sequential innovations are the
+    batch innovation decorrelated by the Cholesky factor of ``S``), so no matrix is solved.
+    The rows are applied to the work copies ``xw``, ``Pw``; if ``threshold > 0`` and the NIS
+    exceeds it the group is rejected and ``x``, ``P`` stay as they were. Returns
+    ``(accepted, nis)``.
+    """
+    n = x.shape[0]
+    xw[:] = x
+    Pw[:, :] = P
+    Ph = np.empty(n)
+    k = np.empty(n)
+    nis = 0.0
+    for i in range(a, b):
+        s = r[i]
+        innov = z[i]
+        for p in range(n):
+            acc = 0.0
+            for q in range(n):
+                acc += Pw[p, q] * H[i, q]
+            Ph[p] = acc
+            s += H[i, p] * acc
+            innov -= H[i, p] * xw[p]
+        nis += innov * innov / s
+        for p in range(n):
+            k[p] = Ph[p] / s
+            xw[p] += k[p] * innov
+        for p in range(n):
+            for q in range(n):
+                Pw[p, q] += -k[p] * Ph[q] - Ph[p] * k[q] + s * k[p] * k[q]
+    if threshold > 0.0 and nis > threshold:
+        return False, nis
+    x[:] = xw
+    for p in range(n):
+        for q in range(p, n):
+            m = 0.5 * (Pw[p, q] + Pw[q, p])
+            P[p, q] = m
+            P[q, p] = m
+        if P[p, p] < 0.0:
+            P[p, p] = 0.0
+    return True, nis

@@ -38,7 +38,8 @@ import numpy as np
 from ..core import earth
 from ..core.solution import StateUnit
 
-__all__ = ["Block", "Layout", "BLOCKS", "block", "position_units"]
+__all__ = ["Block", "Layout", "BLOCKS", "block", "position_units", "KERNEL_BLOCKS",
+           "PHI", "DV", "DP", "EPS", "NABLA", "PHI_D", "DP_D", "MOUNT", "DK", "LEVER"]
 
 _ARCMIN = 180.0 / np.pi * 60.0          # rad -> arc-minutes
 _DEG_H = 180.0 / np.pi * 3600.0         # rad/s -> deg/h
@@ -93,6 +94,14 @@ BLOCKS = {
     "dk": Block("dk", ("",), (StateUnit("ppm", 1e6),)),
     "lever": _uniform("lever", "xyz", StateUnit("m", 1.0)),
 }
+
+
+#: the blocks a numba kernel can address, in the order of :meth:`Layout.offsets`
+KERNEL_BLOCKS = ("phi", "dv", "dp", "eps", "nabla", "phi_D", "dp_D", "mount", "dk", "lever")
+#: named indices into :meth:`Layout.offsets` (``offs[PHI]`` is the first state of ``phi``, -1
+#: when the layout lacks it): how kernels and measurement fills address the state vector,
+#: never by bare numbers (KF-GINS's ``StateID`` enum, here derived from the layout)
+PHI, DV, DP, EPS, NABLA, PHI_D, DP_D, MOUNT, DK, LEVER = range(len(KERNEL_BLOCKS))
 
 
 def block(name: str) -> Block:
@@ -166,6 +175,12 @@ class Layout:
             return self._index[element]
         except KeyError:
             raise KeyError(f"state element {element!r} is not in this layout") from None
+
+    def offsets(self) -> np.ndarray:
+        """(10,) int64: the first state of each of :data:`KERNEL_BLOCKS` (-1: not in this
+        layout), indexed by the named constants :data:`PHI`, :data:`DV`, ... :data:`LEVER`."""
+        return np.array([self._slices[b].start if b in self._slices else -1
+                         for b in KERNEL_BLOCKS], dtype=np.int64)
 
     def zeros(self) -> np.ndarray:
         return np.zeros(self.n)

@@ -5,7 +5,7 @@ Yang et al., *Accurate integrated position and orientation method for vehicles b
 SINS/Doppler radar*, Meas. Control 2018. The SINS and a dead reckoner (DR: the SINS's own gyros
 for attitude, the radar's forward speed for velocity and position, paper 002 eq. 1-19) run side
 by side; a Kalman filter estimates the errors of both and corrects both in closed loop
-(engine: :mod:`inmotion.estimation.sins_dr_driver`).
+(engine: :mod:`inmotion.estimation.engine`, fed by :mod:`inmotion.estimation.velocity_aided`).
 
 States (22, layout :data:`LAYOUT_SINS_DR`; paper 002 "system states", which are paper 000
 eq. 21 without the radar installation angles, as paper 002 says they are calibrated out)::
@@ -41,7 +41,7 @@ Choices where the paper is silent (documented, not tuned to a seed):
   construction, and what the difference sees there is the vehicle's own lateral and vertical
   motion, for which 0.1 m/s (the usual non-holonomic noise, as ``dr-kf``'s) is the default:
   the same isotropic 0.1 m/s a per-axis reading of paper 002 gives. The DR position random
-  walk from the sensor noise is process noise (:mod:`inmotion.estimation.sins_dr_driver`);
+  walk from the sensor noise is process noise (:mod:`inmotion.estimation.velocity_aided`);
 * the vertical channel: the SINS height is held by the position difference to the DR's height
   (the paper's measurement); a barometer can be added (``use_baro``);
 * the scale factor ``dk`` is estimated, not fed back (the DR keeps the raw sensor speed).
@@ -82,7 +82,7 @@ from ..core.solution import NavState, Solution
 from ..errors import BadInput
 from ..estimation import error_model as em
 from ..estimation.layout import Layout, position_units
-from ..estimation.sins_dr_driver import GROUPS, SinsDrFilter
+from ..estimation.velocity_aided import GROUP_SIZES, GROUPS, VelocityAidedRun
 from .pure import mounting_matrix, velocity_source
 
 __all__ = ["SinsDrConfig", "run_sins_dr", "LAYOUT_SINS_DR", "MODES", "initial_covariance"]
@@ -217,7 +217,7 @@ def _rates(cfg: SinsDrConfig, imu_dt: float):
 
 
 def build_filter(bundle: Bundle, cfg: SinsDrConfig, init: NavState):
-    """The configured :class:`SinsDrFilter` and what it runs on: ``(filter, rows, sensor)``
+    """The configured :class:`VelocityAidedRun` and what it runs on: ``(filter, rows, sensor)``
     with ``rows`` the IMU slice after ``init.t`` and ``sensor = (name, SpeedData)``."""
     _check_config(cfg, bundle)
     name, speed, C_bm, l_b = _sensor(bundle, cfg)
@@ -230,14 +230,14 @@ def build_filter(bundle: Bundle, cfg: SinsDrConfig, init: NavState):
     use = {g: g in MODES[cfg.mode] for g in GROUPS}
     use["height"] = cfg.use_baro
     gates = {g: (float(chi2.ppf(cfg.gate_probability, m)) if cfg.gate_probability < 1 else 0.0)
-             for g, m in zip(GROUPS, (3, 3, 3, 1))}
+             for g, m in GROUP_SIZES.items()}
     noise = {"attitude_rad": cfg.attitude_noise_arcmin * ARCMIN,
              "position_m": cfg.position_noise_m,
              "velocity_b_m_s": (cfg.velocity_cross_noise_m_s, cfg.velocity_noise_m_s,
                                 cfg.velocity_cross_noise_m_s),
              "height_m": cfg.baro_noise_m,
              "dr_position_m2_s": cfg.speed_noise_m_s ** 2 * sensor_dt}
-    filt = SinsDrFilter(init, lay, model, initial_covariance(lay, cfg, init.lat, init.h),
+    filt = VelocityAidedRun(init, lay, model, initial_covariance(lay, cfg, init.lat, init.h),
                         use=use, noise=noise, gates=gates, step_rows=step,
                         meas_every=meas_every, out_every=out_every, C_bm=C_bm,
                         lever_arm_b=l_b)
@@ -252,7 +252,7 @@ def _baro_source(bundle: Bundle, cfg: SinsDrConfig):
     return lambda t: _baro_on_imu(baro, t, max_gap)
 
 
-def _solution(filt: SinsDrFilter, out: dict, cfg: SinsDrConfig, sensor: str,
+def _solution(filt: VelocityAidedRun, out: dict, cfg: SinsDrConfig, sensor: str,
               wall: float) -> Solution:
     lay = filt.layout
     xs = out["x_sins"]

@@ -1,0 +1,540 @@
+"""Aiding measurements as plug-ins of the error-state engine (:mod:`inmotion.estimation.engine`).
+
+A measurement is one small object: a ``name``, its degrees of freedom ``dof`` (rows), the data
+it takes per sample (``data_size`` values), what it needs from the navigation state
+(``needs_dr``: the dead reckoner), its noise parameters, an optional innovation gate, and one
+numba **fill function** with the fixed signature :data:`FILL_SIG`::
+
+    fill(xs, xd, aux, data, p, offs, z, H, r) -> m
+
+which writes ``m <= dof`` rows of the innovation vector ``z`` (measured minus predicted, so that
+``z = H x + noise`` for the error state ``x``), the rows of ``H`` (on the columns given by the
+layout's offsets ``offs``, indexed with the named constants of
+:mod:`inmotion.estimation.layout`, never bare numbers) and the noise variances ``r``; ``m = 0``
+means "no measurement now" (e.g. a NaN sample). The inputs are the SINS and dead-reckoning
+kernel states ``xs``, ``xd`` (``[lat, lon, h, vE, vN, vU, q0..q3]``), ``aux = [t, omega_ib_b
+(3), f_b (3)]`` (the filter epoch's mean compensated body rate [rad/s] and specific force
+[m/s^2]), the sample ``data`` and the measurement's parameters ``p``. The engine hands ``z``,
+``H``, ``r`` zeroed.
+
+The engine's compiled loop calls the fill through a function pointer; :meth:`Measurement.rows`
+is the Python form, the same function called on fresh buffers, returning ``(z, H, R)``.
+
+Built-in kinds (each written once):
+
+===================  ====  ===============================================================
+class                dof   z and H (paper and equation)
+===================  ====  ===============================================================
+SinsDrAttitude       3     SINS minus DR ``[yaw, pitch, roll]`` (paper 002 eq. 44-51;
+                           paper 000 Z1)
+SinsDrVelocity       3     SINS minus DR velocity in the DR body frame (paper 002 eq. 52-55;
+                           paper 000 eq. 11 on the mounting angles)
+SinsDrPosition       3     SINS minus DR ``[lat, lon, h]`` (paper 002 eq. 44, 52)
+ForwardVelocity      3     SINS velocity minus the sensor's speed along the SINS forward axis,
+                           in body axes (the velocity-matching baseline ``od-velocity-kf``)
+Nhc                  2     lateral and vertical body velocity are zero (paper 000 Z2,
+                           eq. 32-38; paper 003 eq. 27-31)
+Height               1     SINS minus barometric height
+Position             3     SINS minus a position fix ``[lat, lon, h]``
+ZeroVelocity         3     SINS velocity while parked (paper 003 eq. 11-13)
+ZeroAngularRate      3     measured minus Earth rate in b while parked (gyro drift, heading)
+===================  ====  ===============================================================
+
+To add a sensor, write one class like these (``docs/extending.md``).
+"""
+from __future__ import annotations
+
+import math
+import warnings
+
+import numba
+import numpy as np
+from numba import types
+
+from ..core import _kernels as K
+from . import error_model as em
+from .layout import DK, DP, DP_D, DV, EPS, MOUNT, PHI, PHI_D, Layout
+from .nav_ops import dcm_of_q, euler_ypr, wrap_pi
+
+__all__ = ["FILL_SIG", "Measurement", "SinsDrAttitude", "SinsDrVelocity", "SinsDrPosition",
+           "ForwardVelocity", "Nhc", "Height", "Position", "ZeroVelocity", "ZeroAngularRate",
+           "fill_function", "AUX_SIZE"]
+
+warnings.filterwarnings("ignore", message="First-class function type feature is experimental")
+
+_f8 = types.float64[::1]
+#: the one signature of every fill function: (xs, xd, aux, data, p, offs, z, H, r) -> rows
+FILL_SIG = types.int64(_f8, _f8, _f8, _f8, _f8, types.int64[::1], _f8, types.float64[:, ::1],
+                       _f8)
+#: ``aux = [t, omega_ib_b x, y, z, f_b x, y, z]``
+AUX_SIZE = 7
+
+
+def fill_function(func):
+    """Compile ``func`` as a fill function with :data:`FILL_SIG` (cached on disk)."""
+    return numba.njit(FILL_SIG, cache=True)(func)
+
+
+class Measurement:
+    """Base class of a measurement plug-in (see the module docstring).
+
+    Subclasses set the class attributes ``name``, ``dof``, ``data_size``, ``needs_dr`` and
+    ``fill`` (from :func:`fill_function`) and implement :meth:`params`.
+
+    Parameters
+    ----------
+    gate : float
+        Chi-square threshold of the sample's NIS (0: never rejected); a rejected sample
+        leaves the state untouched and is counted.
+    name : str, optional
+        Overrides the class name (two measurements of one kind in one filter).
+    """
+
+    name = "measurement"
+    dof = 0
+    data_size = 0
+    needs_dr = False
+    fill = None
+
+    def __init__(self, *, gate: float = 0.0, name: str | None = None):
+        if not (gate >= 0.0 and math.isfinite(gate)):
+            raise ValueError(f"{type(self).__name__}: gate must be a finite chi-square "
+                             f"threshold >= 0, got {gate!r}")
+        self.gate = float(gate)
+        if name is not None:
+            self.name = name
+
+    def params(self) -> np.ndarray:
+        """The parameter vector ``p`` handed to the fill function (SI)."""
+        return np.zeros(0)
+
+    def rows(self, nav, data=None, layout: Layout | None = None):
+        """The Python form: ``(z, H, R)`` at the navigation state ``nav``.
+
+        ``nav`` is an :class:`~inmotion.estimation.engine.ErrorStateFilter` (its current SINS,
+        DR and epoch means) or a tuple ``(xs, xd, aux)`` of kernel arrays; ``layout`` defaults
+        to the filter's. Returns ``z`` (m,), ``H`` (m, n), ``R`` (m, m) diagonal; ``m = 0``
+        when the sample gives no measurement.
+        """
+        if isinstance(nav, tuple):
+            xs, xd, aux = (np.ascontiguousarray(a, dtype=float) for a in nav)
+        else:
+            xs, xd, aux = nav.kernel_states()
+            layout = layout or nav.layout
+        if layout is None:
+            raise ValueError("rows() needs the layout when nav is a tuple of arrays")
+        d = np.ascontiguousarray(np.zeros(0) if data is None else np.atleast_1d(data),
+                                 dtype=float)
+        if d.shape != (self.data_size,):
+            raise ValueError(f"{self.name}: a sample holds {self.data_size} values, got "
+                             f"shape {d.shape}")
+        z = np.zeros(self.dof)
+        H = np.zeros((self.dof, layout.n))
+        r = np.zeros(self.dof)
+        m = self.fill(xs, xd, aux, d, np.ascontiguousarray(self.params(), dtype=float),
+                      layout.offsets(), z, H, r)
+        return z[:m], H[:m], np.diag(r[:m])
+
+    def check(self, layout: Layout):
+        """Raise ``ValueError`` if ``layout`` lacks a block this measurement writes."""
+
+    def __repr__(self):
+        return f"{type(self).__name__}(name={self.name!r}, dof={self.dof}, gate={self.gate})"
+
+
+def _need(layout, meas, *blocks):
+    for b in blocks:
+        if b not in layout:
+            raise ValueError(f"measurement {meas.name!r} needs state block {b!r} in the "
+                             f"layout {layout!r}")
+
+
+def _noise3(values, what):
+    v = np.broadcast_to(np.asarray(values, dtype=float), (3,)).copy()
+    if not np.all(np.isfinite(v)) or np.any(v <= 0.0):
+        raise ValueError(f"{what} must be finite and > 0, got {values!r}")
+    return v
+
+
+def _noise1(value, what):
+    v = float(value)
+    if not (math.isfinite(v) and v > 0.0):
+        raise ValueError(f"{what} must be finite and > 0, got {value!r}")
+    return v
+
+
+# ----------------------------------------------------------------------------- shared rows
+@numba.njit(cache=True)
+def body_velocity_rows(z, H, r, m, C_bn, dv_n, r_vel, o_dv, o_att, V, o_dk, dk_vec, o_mount,
+                       VM):
+    """Fill rows ``m .. m+2``: a velocity difference ``dv_n`` (n frame) resolved in body axes.
+
+    ``z = C_n^b dv_n`` with ``H = C_n^b [dv: I, att: -[v x] (V), dk: -dk_vec, mount: -VM]``
+    and the noises ``r_vel`` (lateral, forward, vertical). Serves the SINS-minus-DR velocity
+    (paper 002 eq. 52-55, paper 000 eq. 11: ``att`` = DR attitude, :func:`error_model.
+    dr_velocity_rows`) and the SINS-minus-sensor velocity (``att`` = SINS attitude,
+    :func:`error_model.sensor_velocity_rows`). ``o_dk`` / ``o_mount`` < 0: no such block.
+    """
+    for i in range(3):
+        r[m + i] = r_vel[i]
+        for j in range(3):
+            c = C_bn[i, j]
+            z[m + i] += c * dv_n[j]
+            H[m + i, o_dv + j] = c
+            if o_dk >= 0:
+                H[m + i, o_dk] -= c * dk_vec[j]
+            for l in range(3):
+                H[m + i, o_att + l] -= c * V[j, l]
+                if o_mount >= 0:
+                    H[m + i, o_mount + l] -= c * VM[j, l]
+
+
+# ----------------------------------------------------------------------------- SINS minus DR
+@fill_function
+def _fill_sins_dr_attitude(xs, xd, aux, data, p, offs, z, H, r):
+    C_S = dcm_of_q(xs[K.Q0:K.Q3 + 1])
+    C_D = dcm_of_q(xd[K.Q0:K.Q3 + 1])
+    d = euler_ypr(C_S) - euler_ypr(C_D)
+    E_S = em.euler_rows(C_S)
+    E_D = em.euler_rows(C_D)
+    o_phi, o_phiD = offs[PHI], offs[PHI_D]
+    for i in range(3):
+        z[i] = wrap_pi(d[i])
+        r[i] = p[0]
+        for j in range(3):
+            H[i, o_phi + j] = E_S[i, j]
+            H[i, o_phiD + j] = -E_D[i, j]
+    return 3
+
+
+class SinsDrAttitude(Measurement):
+    """SINS minus DR attitude ``[yaw, pitch, roll]`` wrapped to +-pi (paper 002 eq. 44-51,
+    paper 000 Z1): ``H = euler_rows(C_S)`` on ``phi``, ``-euler_rows(C_D)`` on ``phi_D``
+    (paper 000 eq. 25-27, :func:`error_model.euler_rows`).
+
+    Parameters
+    ----------
+    sigma_rad : 1-sigma of each row [rad]
+    """
+
+    name, dof, needs_dr = "attitude", 3, True
+    fill = staticmethod(_fill_sins_dr_attitude)
+
+    def __init__(self, sigma_rad: float, **kw):
+        super().__init__(**kw)
+        self.sigma_rad = _noise1(sigma_rad, "attitude sigma_rad")
+
+    def params(self):
+        return np.array([self.sigma_rad ** 2])
+
+    def check(self, layout):
+        _need(layout, self, "phi", "phi_D")
+
+
+@fill_function
+def _fill_sins_dr_velocity(xs, xd, aux, data, p, offs, z, H, r):
+    # z_n = v_S - v_D, H_n = [dv: I, phi_D: -[v x], dk: -v, mount: -[v x] C_D]; applied as
+    # C_n^b z_n with the DR attitude, whose rows have the independent noises (lateral,
+    # forward, vertical): the sensor's white noise lies along its forward axis only
+    v = xd[K.VE:K.VU + 1]
+    C_D = dcm_of_q(xd[K.Q0:K.Q3 + 1])
+    C_bn = C_D.T
+    V = em.skew(v)
+    VC = V @ C_D                             # dv_D on the mounting angles (eq. 11)
+    body_velocity_rows(z, H, r, 0, C_bn, xs[K.VE:K.VU + 1] - xd[K.VE:K.VU + 1], p,
+                       offs[DV], offs[PHI_D], V, offs[DK], v, offs[MOUNT], VC)
+    return 3
+
+
+class SinsDrVelocity(Measurement):
+    """SINS minus DR velocity resolved in the DR body frame (paper 002 eq. 52-55; with a
+    ``mount`` block, paper 000 eq. 11's ``-[v x] C_b^n`` on the mounting angles; with ``dk``,
+    ``-v``).
+
+    Parameters
+    ----------
+    sigma_m_s : (3,) 1-sigma of the rows in body axes (lateral, forward, vertical) [m/s]
+    """
+
+    name, dof, needs_dr = "velocity", 3, True
+    fill = staticmethod(_fill_sins_dr_velocity)
+
+    def __init__(self, sigma_m_s, **kw):
+        super().__init__(**kw)
+        self.sigma_m_s = _noise3(sigma_m_s, "velocity sigma_m_s")
+
+    def params(self):
+        return self.sigma_m_s ** 2
+
+    def check(self, layout):
+        _need(layout, self, "dv", "phi_D")
+
+
+@fill_function
+def _fill_sins_dr_position(xs, xd, aux, data, p, offs, z, H, r):
+    r_m, r_n = K.radii(xs[K.LAT])
+    scale = (r_m + xs[K.H], (r_n + xs[K.H]) * math.cos(xs[K.LAT]), 1.0)
+    o_dp, o_dpD = offs[DP], offs[DP_D]
+    for i in range(3):
+        z[i] = xs[K.LAT + i] - xd[K.LAT + i]
+        r[i] = (p[0] / scale[i]) ** 2
+        H[i, o_dp + i] = 1.0
+        H[i, o_dpD + i] = -1.0
+    return 3
+
+
+class SinsDrPosition(Measurement):
+    """SINS minus DR ``[lat, lon, h]`` (rad, rad, m; paper 002 eq. 44, 52): ``I`` on ``dp``,
+    ``-I`` on ``dp_D``.
+
+    Parameters
+    ----------
+    sigma_m : 1-sigma of each row [m] (converted to rad with the radii)
+    """
+
+    name, dof, needs_dr = "position", 3, True
+    fill = staticmethod(_fill_sins_dr_position)
+
+    def __init__(self, sigma_m: float, **kw):
+        super().__init__(**kw)
+        self.sigma_m = _noise1(sigma_m, "position sigma_m")
+
+    def params(self):
+        return np.array([self.sigma_m])
+
+    def check(self, layout):
+        _need(layout, self, "dp", "dp_D")
+
+
+# ----------------------------------------------------------------------------- SINS alone
+@fill_function
+def _fill_forward_velocity(xs, xd, aux, data, p, offs, z, H, r):
+    # z_n = v_S - C_S [0, speed, 0], H_n = [dv: I, phi: -[v x], mount: -[v_s x] C_S,
+    # dk: -v_s] (error_model.sensor_velocity_rows), applied as C_n^b z_n (SINS attitude)
+    speed = data[0]
+    if math.isnan(speed):
+        return 0
+    C_S = dcm_of_q(xs[K.Q0:K.Q3 + 1])
+    C_bn = C_S.T
+    v = xs[K.VE:K.VU + 1].copy()
+    v_s = C_S[:, 1] * speed
+    V = em.skew(v)
+    VsC = em.skew(v_s) @ C_S
+    body_velocity_rows(z, H, r, 0, C_bn, v - v_s, p, offs[DV], offs[PHI], V, offs[DK], v_s,
+                       offs[MOUNT], VsC)
+    return 3
+
+
+class ForwardVelocity(Measurement):
+    """SINS velocity minus a forward-velocity sensor's speed along the SINS forward axis, in
+    body axes (velocity matching; :func:`error_model.sensor_velocity_rows`): ``C_n^b`` times
+    ``[dv: I, phi: -[v x], mount: -[v_s x] C_b^n, dk: -v_s]``.
+
+    Sample: ``[speed]`` [m/s] (NaN: none).
+
+    Parameters
+    ----------
+    sigma_m_s : (3,) 1-sigma of the rows in body axes (lateral, forward, vertical) [m/s]
+    """
+
+    name, dof, data_size = "sensor_velocity", 3, 1
+    fill = staticmethod(_fill_forward_velocity)
+
+    def __init__(self, sigma_m_s, **kw):
+        super().__init__(**kw)
+        self.sigma_m_s = _noise3(sigma_m_s, "forward velocity sigma_m_s")
+
+    def params(self):
+        return self.sigma_m_s ** 2
+
+    def check(self, layout):
+        _need(layout, self, "phi", "dv")
+
+
+@fill_function
+def _fill_nhc(xs, xd, aux, data, p, offs, z, H, r):
+    # z = [v_x, v_z] of C_n^b v (SINS); H: C_n^b on dv, -C_n^b [v x] on phi, and with the
+    # mounting terms (p[1] = 1) -[v_b x] on the mounting angles (error_model.nhc_rows)
+    C_bn = dcm_of_q(xs[K.Q0:K.Q3 + 1]).T
+    v = xs[K.VE:K.VU + 1].copy()
+    v_b = C_bn @ v
+    CV = C_bn @ em.skew(v)
+    Vb = em.skew(v_b)
+    o_dv, o_phi, o_mount = offs[DV], offs[PHI], offs[MOUNT]
+    with_mount = p[1] != 0.0 and o_mount >= 0
+    for i in range(2):
+        row = 2 * i                          # body x, then body z
+        z[i] = v_b[row]
+        r[i] = p[0]
+        for j in range(3):
+            H[i, o_dv + j] = C_bn[row, j]
+            H[i, o_phi + j] = -CV[row, j]
+            if with_mount:
+                H[i, o_mount + j] = -Vb[row, j]
+    return 2
+
+
+class Nhc(Measurement):
+    """Non-holonomic constraint: the SINS velocity's lateral and vertical body components are
+    zero for a vehicle that neither slips nor jumps (paper 000 Z2, eq. 32-38):
+    ``H = [dv: C_n^b, phi: -C_n^b [v x]]`` rows x and z, and with ``mount_terms``
+    ``-[v_b x]`` on ``mount`` (:func:`error_model.nhc_rows`; paper 000's eq. 37 as printed
+    has none).
+
+    Parameters
+    ----------
+    sigma_m_s : 1-sigma of each row [m/s]
+    mount_terms : bool, carry the mounting columns (when the layout has ``mount``)
+    """
+
+    name, dof = "nhc", 2
+    fill = staticmethod(_fill_nhc)
+
+    def __init__(self, sigma_m_s: float, mount_terms: bool = True, **kw):
+        super().__init__(**kw)
+        self.sigma_m_s = _noise1(sigma_m_s, "NHC sigma_m_s")
+        self.mount_terms = bool(mount_terms)
+
+    def params(self):
+        return np.array([self.sigma_m_s ** 2, 1.0 if self.mount_terms else 0.0])
+
+    def check(self, layout):
+        _need(layout, self, "phi", "dv")
+
+
+@fill_function
+def _fill_height(xs, xd, aux, data, p, offs, z, H, r):
+    if math.isnan(data[0]):
+        return 0
+    z[0] = xs[K.H] - data[0]
+    r[0] = p[0]
+    H[0, offs[DP] + 2] = 1.0
+    return 1
+
+
+class Height(Measurement):
+    """SINS minus barometric (or any reference) height: ``1`` on ``dp_h``.
+
+    Sample: ``[h]`` [m] (NaN: none). Parameters: ``sigma_m`` [m].
+    """
+
+    name, dof, data_size = "height", 1, 1
+    fill = staticmethod(_fill_height)
+
+    def __init__(self, sigma_m: float, **kw):
+        super().__init__(**kw)
+        self.sigma_m = _noise1(sigma_m, "height sigma_m")
+
+    def params(self):
+        return np.array([self.sigma_m ** 2])
+
+    def check(self, layout):
+        _need(layout, self, "dp")
+
+
+@fill_function
+def _fill_position(xs, xd, aux, data, p, offs, z, H, r):
+    if math.isnan(data[0]) or math.isnan(data[1]) or math.isnan(data[2]):
+        return 0
+    r_m, r_n = K.radii(xs[K.LAT])
+    scale = (r_m + xs[K.H], (r_n + xs[K.H]) * math.cos(xs[K.LAT]), 1.0)
+    for i in range(3):
+        z[i] = xs[K.LAT + i] - data[i]
+        r[i] = (p[i] / scale[i]) ** 2
+        H[i, offs[DP] + i] = 1.0
+    return 3
+
+
+class Position(Measurement):
+    """SINS minus a position fix ``[lat, lon, h]`` (rad, rad, m): ``I`` on ``dp``.
+
+    Sample: ``[lat, lon, h]``. Parameters: ``sigma_m`` (3,) north, east, up [m].
+    """
+
+    name, dof, data_size = "position_fix", 3, 3
+    fill = staticmethod(_fill_position)
+
+    def __init__(self, sigma_m, **kw):
+        super().__init__(**kw)
+        self.sigma_m = _noise3(sigma_m, "position sigma_m")
+
+    def params(self):
+        return self.sigma_m.copy()
+
+    def check(self, layout):
+        _need(layout, self, "dp")
+
+
+@fill_function
+def _fill_zero_velocity(xs, xd, aux, data, p, offs, z, H, r):
+    for i in range(3):
+        z[i] = xs[K.VE + i]
+        r[i] = p[i]
+        H[i, offs[DV] + i] = 1.0
+    return 3
+
+
+class ZeroVelocity(Measurement):
+    """Zero-velocity update while parked (paper 003 eq. 11-13): ``z = v_SINS``, ``I`` on
+    ``dv``. Parameters: ``sigma_m_s`` (3,) E, N, U [m/s] (the sway of a parked vehicle)."""
+
+    name, dof = "zero_velocity", 3
+    fill = staticmethod(_fill_zero_velocity)
+
+    def __init__(self, sigma_m_s, **kw):
+        super().__init__(**kw)
+        self.sigma_m_s = _noise3(sigma_m_s, "zero-velocity sigma_m_s")
+
+    def params(self):
+        return self.sigma_m_s ** 2
+
+    def check(self, layout):
+        _need(layout, self, "dv")
+
+
+@fill_function
+def _fill_zero_rate(xs, xd, aux, data, p, offs, z, H, r):
+    # parked: the gyros measure the Earth rate, w_ib_b = C_n^b w_ie_n + eps + noise. With
+    # C_n^b(computed) = C_n^b (I + [phi x]) the predicted rate is off by -C_n^b [w_ie x] phi,
+    # so z = w_ib_b - C_n^b(computed) w_ie_n = eps + C_n^b [w_ie x] phi + noise
+    # and a latitude error moves the predicted Earth rate: -C_n^b d(w_ie)/d(lat) on dp_lat
+    C_bn = dcm_of_q(xs[K.Q0:K.Q3 + 1]).T
+    lat = xs[K.LAT]
+    w_ie = K.omega_ie_n(lat)
+    W = em.skew(np.array([w_ie[0], w_ie[1], w_ie[2]]))
+    CW = C_bn @ W
+    dw = (0.0, -K.OMEGA_IE * math.sin(lat), K.OMEGA_IE * math.cos(lat))
+    o_phi, o_eps, o_dp = offs[PHI], offs[EPS], offs[DP]
+    for i in range(3):
+        pred = 0.0
+        dpred = 0.0
+        for j in range(3):
+            pred += C_bn[i, j] * w_ie[j]
+            dpred += C_bn[i, j] * dw[j]
+            H[i, o_phi + j] = CW[i, j]
+        z[i] = aux[1 + i] - pred
+        r[i] = p[i]
+        H[i, o_eps + i] = 1.0
+        if o_dp >= 0:
+            H[i, o_dp] = -dpred
+    return 3
+
+
+class ZeroAngularRate(Measurement):
+    """Zero angular rate (w.r.t. the Earth) while parked: the epoch's mean compensated gyro
+    rate minus the Earth rate in the computed body frame; ``I`` on ``eps``,
+    ``C_n^b [w_ie x]`` on ``phi``, ``-C_n^b d w_ie / d lat`` on ``dp_lat``. Parameters: ``sigma_rad_s`` (3,) x, y, z [rad/s]: the
+    rate noise over one filter epoch plus the vehicle's sway rate."""
+
+    name, dof = "zero_rate", 3
+    fill = staticmethod(_fill_zero_rate)
+
+    def __init__(self, sigma_rad_s, **kw):
+        super().__init__(**kw)
+        self.sigma_rad_s = _noise3(sigma_rad_s, "zero-rate sigma_rad_s")
+
+    def params(self):
+        return self.sigma_rad_s ** 2
+
+    def check(self, layout):
+        _need(layout, self, "phi", "eps")

@@ -1,0 +1,95 @@
+"""Small numba operations on the navigation kernel state shared by the filter engines.
+
+The kernel state is ``x = [lat, lon, h, vE, vN, vU, q0, q1, q2, q3]`` of
+:mod:`inmotion.core._kernels` with its step memory; these functions read its attitude
+(:func:`dcm_of_q`, :func:`euler_ypr`), compensate IMU rows by the fed-back sensor errors
+(:func:`compensated_row`) and apply closed-loop corrections (:func:`correct_nav`,
+:func:`corrected_sins`) with the DESIGN misalignment convention
+``C_b^n(computed) = (I - [phi x]) C_b^n(true)``.
+"""
+from __future__ import annotations
+
+import math
+
+import numba
+import numpy as np
+
+from ..core import _kernels as K
+
+__all__ = ["dcm_of_q", "compensated_row", "euler_ypr", "wrap_pi", "correct_nav",
+           "corrected_sins"]
+
+
+@numba.njit(cache=True)
+def dcm_of_q(q):
+    """``C_b^n`` (3, 3) of a unit quaternion ``q_nb`` (array of 4): its columns are the body
+    axes in n, ``C[:, j] = q (x) e_j (x) q*`` (:func:`inmotion.core._kernels.qrotate`)."""
+    qt = (q[0], q[1], q[2], q[3])
+    C = np.empty((3, 3))
+    for j in range(3):
+        e = (1.0 if j == 0 else 0.0, 1.0 if j == 1 else 0.0, 1.0 if j == 2 else 0.0)
+        c = K.qrotate(qt, e)
+        C[0, j], C[1, j], C[2, j] = c[0], c[1], c[2]
+    return C
+
+
+@numba.njit(cache=True)
+def compensated_row(dtheta, dvel, k, dt, bias_g, bias_a):
+    """IMU row ``k`` less the accumulated gyro drift and accelerometer bias estimates over its
+    interval ``dt`` [s]: ``(dtheta_k - eps dt, dvel_k - nabla dt)`` as two 3-tuples."""
+    dth = (dtheta[k, 0] - bias_g[0] * dt, dtheta[k, 1] - bias_g[1] * dt,
+           dtheta[k, 2] - bias_g[2] * dt)
+    dvl = (dvel[k, 0] - bias_a[0] * dt, dvel[k, 1] - bias_a[1] * dt,
+           dvel[k, 2] - bias_a[2] * dt)
+    return dth, dvl
+
+
+@numba.njit(cache=True)
+def euler_ypr(C):
+    """``[yaw, pitch, roll]`` [rad] of ``C_b^n`` in the DESIGN convention (``yaw =
+    atan2(C12, C22)``, ``pitch = asin(C32)``, ``roll = atan2(-C31, C33)``), in the row order
+    of the attitude measurement (paper 000 eq. 23, paper 002 eq. 44)."""
+    return np.array([math.atan2(C[0, 1], C[1, 1]), math.asin(min(1.0, max(-1.0, C[2, 1]))),
+                     math.atan2(-C[2, 0], C[2, 2])])
+
+
+@numba.njit(cache=True)
+def wrap_pi(a):
+    return (a + math.pi) % (2.0 * math.pi) - math.pi
+
+
+@numba.njit(cache=True)
+def correct_nav(x, mem, phi, dv, dp, with_velocity):
+    """Closed-loop feedback into a kernel nav state, as ``Strapdown.correct`` does.
+
+    ``q <- q(phi) (x) q`` (DESIGN misalignment, ``C_computed = (I - [phi x]) C_true``);
+    ``v -= dv`` (if ``with_velocity``), ``[lat, lon, h] -= dp``; the epoch-earlier latitude,
+    height and velocity kept for midpoint extrapolation shift by the same amounts.
+    """
+    q = K.qnormalize(K.qmul(K.quat_from_rotvec((phi[0], phi[1], phi[2])), K.get_q(x)))
+    K.set_q(x, q)
+    if with_velocity:
+        for i in range(3):
+            x[K.VE + i] -= dv[i]
+            mem[K.M_V_OLD + i] -= dv[i]
+    x[K.LAT] -= dp[0]
+    x[K.LON] -= dp[1]
+    x[K.H] -= dp[2]
+    mem[K.M_LAT_OLD] -= dp[0]
+    mem[K.M_H_OLD] -= dp[2]
+
+
+@numba.njit(cache=True)
+def corrected_sins(out, xs, x, offs):
+    """``out`` = the SINS state ``xs`` corrected by the estimate ``x`` not yet fed back (the
+    open-loop output; a plain copy when the nav errors are zero, as right after feedback):
+    ``q <- q(phi) (x) q``, ``v -= dv``, ``[lat, lon, h] -= dp``."""
+    out[:] = xs
+    o_phi, o_dv, o_dp = offs[0], offs[1], offs[2]
+    nonzero = False
+    for i in range(3):
+        if x[o_phi + i] != 0.0 or x[o_dv + i] != 0.0 or x[o_dp + i] != 0.0:
+            nonzero = True
+    if nonzero:
+        correct_nav(out, np.zeros(K.NMEM), x[o_phi:o_phi + 3], x[o_dv:o_dv + 3],
+                     x[o_dp:o_dp + 3], True)

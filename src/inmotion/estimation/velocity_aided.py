@@ -1,0 +1,189 @@
+"""Feeding a logged drive to the error-state engine: a SINS aided by one forward-velocity
+sensor, with or without a dead reckoner beside it.
+
+This is how ``sins-dr`` (paper 002), ``dr-kf`` (paper 000) and ``od-velocity-kf`` run: an
+:class:`~inmotion.estimation.engine.ErrorStateFilter` with the measurement plug-ins of the
+groups chosen (:data:`GROUPS`), fed in chunks of whole filter epochs through the streaming
+API. Per chunk, the velocity sensor is resampled to the IMU rows
+(:func:`inmotion.core.deadreckoning.speed_on_epochs`: the DR's distance and speed per row), and
+every ``meas_every``-th filter epoch queues one sample of each group at the epoch's end time
+(the sensor's speed and the barometric height there as data), so every sample falls due at
+the end of its epoch. Only the outputs grow with the log.
+
+=================  ==============================================  ======================
+group              measurement                                     needs
+=================  ==============================================  ======================
+attitude           :class:`~.measurements.SinsDrAttitude`          DR
+velocity           :class:`~.measurements.SinsDrVelocity`          DR
+sensor_velocity    :class:`~.measurements.ForwardVelocity`         speed
+nhc                :class:`~.measurements.Nhc`
+position           :class:`~.measurements.SinsDrPosition`          DR
+height             :class:`~.measurements.Height`                  baro
+=================  ==============================================  ======================
+
+Samples sharing an epoch are applied in the order of that table.
+"""
+from __future__ import annotations
+
+import numpy as np
+
+from ..core.bundle import SpeedData
+from ..core.deadreckoning import speed_on_epochs
+from ..core.solution import NavState
+from ..errors import BadInput
+from . import error_model as em
+from . import measurements as ms
+from .engine import ErrorStateFilter
+from .layout import Layout
+
+__all__ = ["GROUPS", "GROUP_SIZES", "VelocityAidedRun"]
+
+#: the measurement groups, in the order they are applied within an epoch
+GROUPS = ("attitude", "velocity", "sensor_velocity", "nhc", "position", "height")
+#: rows per group
+GROUP_SIZES = {"attitude": 3, "velocity": 3, "sensor_velocity": 3, "nhc": 2, "position": 3,
+               "height": 1}
+#: IMU rows per chunk handed to the engine (rounded to whole filter epochs)
+CHUNK_ROWS = 16384
+#: sensor samples whose median period sets the gap threshold (5 periods), as dead_reckon's
+GAP_SAMPLES = 10001
+
+
+def _measurements(use, noise, gates, nhc_mount):
+    """The measurement plug-ins of the groups in ``use``, in :data:`GROUPS` order."""
+    make = {
+        "attitude": lambda g: ms.SinsDrAttitude(noise["attitude_rad"], gate=g),
+        "velocity": lambda g: ms.SinsDrVelocity(noise["velocity_b_m_s"], gate=g),
+        "sensor_velocity": lambda g: ms.ForwardVelocity(noise["velocity_b_m_s"], gate=g),
+        "nhc": lambda g: ms.Nhc(noise.get("nhc_m_s", 1.0), mount_terms=nhc_mount, gate=g),
+        "position": lambda g: ms.SinsDrPosition(noise["position_m"], gate=g),
+        "height": lambda g: ms.Height(noise["height_m"], gate=g),
+    }
+    return [make[g](float(gates.get(g, 0.0))) for g in GROUPS if use.get(g, False)]
+
+
+def _speed_on_chunk(speed: SpeedData, edges, max_gap: float, sensor: str):
+    """:func:`speed_on_epochs` on the sensor samples that cover ``edges[0] .. edges[-1]`` (one
+    more on each side, at least two): resampling and validating a chunk costs memory of the
+    chunk's size, not the log's. Distance differences inside the window are those of the whole
+    log; consecutive windows share their end samples, so every pair of samples is checked, and
+    a bad row is reported with its row number in the whole table."""
+    ts = speed.t
+    if len(ts) < 2:
+        raise BadInput(f"need at least 2 samples, got {len(ts)}", file=sensor)
+    i0 = max(0, min(int(np.searchsorted(ts, edges[0], side="right")) - 1, len(ts) - 2))
+    i1 = min(len(ts), max(int(np.searchsorted(ts, edges[-1], side="left")) + 1, i0 + 1) + 1)
+    w = slice(i0, i1)
+    window = SpeedData(ts[w], None if speed.v is None else speed.v[w],
+                       None if speed.ds is None else speed.ds[w])
+    try:
+        return speed_on_epochs(window, edges, max_gap=max_gap, what=sensor)
+    except BadInput as e:
+        raise BadInput(e.what, file=e.file, row=None if e.row is None else e.row + i0,
+                       time=e.time) from None
+
+
+class VelocityAidedRun:
+    """A SINS (+ DR) aided by one forward-velocity sensor, run over a log chunk by chunk.
+
+    Parameters
+    ----------
+    init : NavState
+        Start of the SINS and the DR.
+    layout : Layout
+        Must hold ``phi, dv, dp, eps, nabla``; ``phi_D, dp_D`` (the DR), ``mount``, ``dk``
+        optional (mounting angles and scale factor are estimated only: the DR keeps its
+        nominal mounting).
+    model : error_model.ErrorModel on ``layout``
+    P0 : (n, n) initial covariance
+    use : dict group -> bool (:data:`GROUPS`)
+    noise : dict: ``attitude_rad``, ``position_m``, ``velocity_b_m_s`` (3: lateral, forward,
+        vertical), ``height_m``, ``nhc_m_s`` (1-sigma of each row), ``dr_position_m2_s``
+        (DR position random-walk density)
+    gates : dict group -> chi-square threshold of its NIS (0: never rejected)
+    step_rows : IMU rows per filter epoch;  meas_every, out_every : in filter epochs
+    C_bm, lever_arm_b : the velocity sensor's nominal mounting and lever arm (the DR)
+    nhc_mount : the NHC rows carry the mounting columns
+    closed_loop : feed the estimate back (False: open loop);  feedback_every : measurement
+        epochs per feedback
+    """
+
+    def __init__(self, init: NavState, layout: Layout, model: em.ErrorModel, P0, *, use: dict,
+                 noise: dict, gates: dict, step_rows: int, meas_every: int = 1,
+                 out_every: int = 1, C_bm=None, lever_arm_b=None, nhc_mount: bool = True,
+                 closed_loop: bool = True, feedback_every: int = 1):
+        for name in ("phi", "dv", "dp", "eps", "nabla"):
+            if name not in layout:
+                raise ValueError(f"the velocity-aided filter needs block {name!r} in the layout")
+        self.use = {g: bool(use.get(g, False)) for g in GROUPS}
+        self.filter = ErrorStateFilter(
+            init, layout, model, P0, _measurements(self.use, noise, gates, nhc_mount),
+            step_rows=step_rows, feedback="closed" if closed_loop else "open",
+            feedback_every=feedback_every, out_every=out_every, dr_mounting=C_bm,
+            dr_lever_arm_m=lever_arm_b,
+            dr_position_m2_s=float(noise.get("dr_position_m2_s", 0.0)))
+        self.layout = layout
+        self.init = init
+        self.step = int(step_rows)
+        self.meas_every = int(meas_every)
+        self.out_every = int(out_every)
+        #: IMU rows outside the sensor's span (the DR holds its position there) and inside
+        #: sensor gaps (distance interpolated across), as :func:`dead_reckon` counts them
+        self.rows_without_speed = 0
+        self.rows_in_speed_gaps = 0
+
+    def run(self, t, dtheta, dvel, speed: SpeedData, h_baro=None, sensor="speed",
+            progress=None, dtheta_dr=None) -> dict:
+        """Process the rows of a log after ``init.t``; returns the outputs.
+
+        Parameters
+        ----------
+        t : (N,) s;  dtheta, dvel : (N, 3) rad, m/s
+        speed : SpeedData, the velocity sensor
+        h_baro : callable ``t -> h`` [m] (NaN: none) or None
+        sensor : its name for error messages
+        progress : callable(fraction) or None
+        dtheta_dr : (N, 3) rad, the DR's own gyro rows (default: the SINS's)
+
+        Returns
+        -------
+        dict of arrays ``t`` (M,), ``x_sins`` (M, 10), ``sigma`` (M, n), ``states`` (M, n),
+        ``cov_phi`` (M, 3, 3); row 0 is the state before the run, the last the end of it.
+        """
+        n_rows = len(t)
+        if n_rows == 0:
+            raise ValueError("VelocityAidedRun.run needs at least one IMU row")
+        f = self.filter
+        outs = [f.output_now()]
+        chunk = max(1, CHUNK_ROWS // self.step) * self.step
+        max_gap = 5.0 * float(np.median(np.diff(speed.t[:GAP_SAMPLES])))
+        groups = [g for g in GROUPS if self.use[g]]
+        for a in range(0, n_rows, chunk):
+            b = min(a + chunk, n_rows)
+            tc = t[a:b]
+            edges = np.concatenate([[f.t], tc])
+            ds, v, uncovered, in_gap = _speed_on_chunk(speed, edges, max_gap, sensor)
+            self.rows_without_speed += int(uncovered.sum())
+            self.rows_in_speed_gaps += int(in_gap.sum())
+            ends = np.arange(self.step, b - a + self.step, self.step)
+            ends[-1] = b - a
+            epoch = f.epochs + 1 + np.arange(len(ends))
+            rows = ends[epoch % self.meas_every == 0] - 1
+            t_meas = tc[rows]
+            hb = (h_baro(t_meas) if h_baro is not None and self.use["height"]
+                  else np.full(len(rows), np.nan))
+            for g in groups:
+                data = v[rows] if g == "sensor_velocity" else hb if g == "height" else None
+                f.add_measurement(g, t_meas, data)
+            d_dr = None if dtheta_dr is None else dtheta_dr[a:b]
+            outs.append(f.add_imu(tc, dtheta[a:b], dvel[a:b], ds=ds, speed=v,
+                                  dtheta_dr=d_dr, flush=b == n_rows))
+            if progress is not None:
+                progress(b / n_rows)
+        if f.epochs % self.out_every:   # the last epoch is written even off the output grid
+            outs.append(f.output_now())
+        return {k: np.concatenate([o[k] for o in outs]) for k in outs[0]}
+
+    def counts(self) -> dict:
+        """Per group used: samples used, rejected and mean NIS per degree of freedom."""
+        return self.filter.counts()
