@@ -7,7 +7,8 @@
     inmotion align    BUNDLE --method NAME [--config FILE] -o RESULT [options]
     inmotion navigate BUNDLE --method NAME [--config FILE] -o RESULT [options]
     inmotion evaluate RESULT --truth BUNDLE [--json]
-    inmotion methods
+    inmotion methods [NAME]
+    inmotion scenarios
     inmotion demo
 
 ``align`` / ``navigate`` options: ``--init truth|meta|RESULT`` (default: truth if the bundle
@@ -19,9 +20,10 @@ out_stride=10`` gives an int and ``--set mounting_arcmin=[3,0,-4]`` a list),
 ``--allow-imu-gaps`` (integrate across IMU gaps; by default a bundle with one is refused,
 see :mod:`inmotion.io.bundle`). ``info`` always reads IMU gaps and lists them.
 
-Global options ``--quiet`` (no progress, no notes), ``--json`` (print the command's summary as
+Global options ``--quiet``/``-q`` (no progress, no notes), ``--json`` (print the command's summary as
 JSON on stdout), ``--debug`` (tracebacks on internal failures). Exit status 0 on success, 2 on
-bad input (one line ``inmotion: error: ...`` on stderr), 1 on an internal failure.
+bad input (one line ``inmotion: error: ...`` on stderr), 1 on an internal failure. The
+global options are accepted anywhere on the line (:func:`hoist_global_options`).
 
 The CLI is the only place that reads files and prints; methods get a :class:`Bundle`, a
 configuration object and a :class:`NavState`.
@@ -53,6 +55,7 @@ class _Cli(click.Group):
     """A group that maps exceptions to exit statuses: BadInput -> 2, anything else -> 1."""
 
     def main(self, args=None, prog_name=None, complete_var=None, standalone_mode=True, **extra):
+        args = hoist_global_options(list(args) if args is not None else sys.argv[1:])
         try:
             rv = super().main(args=args, prog_name=prog_name or "inmotion",
                               complete_var=complete_var, standalone_mode=False, **extra)
@@ -68,12 +71,33 @@ class _Cli(click.Group):
             click.echo("inmotion: aborted", err=True)
             sys.exit(1)
         except Exception as e:  # an internal failure: say so, in one line unless --debug
-            if "--debug" in (args if args is not None else sys.argv[1:]):
+            if "--debug" in args:
                 traceback.print_exc()
             click.echo(f"inmotion: internal error: {type(e).__name__}: {e} "
                        "(rerun with --debug for the traceback)", err=True)
             sys.exit(1)
         sys.exit(rv if isinstance(rv, int) else 0)
+
+
+#: options of the group that a user may type anywhere on the line
+GLOBAL_FLAGS = ("-q", "--quiet", "--json", "--debug")
+
+
+def hoist_global_options(args: list[str]) -> list[str]:
+    """``args`` with the global flags moved in front of the subcommand.
+
+    ``inmotion navigate B -m sins -o R -q`` then means ``inmotion -q navigate B ...``; a
+    subcommand's own ``--json`` / ``--quiet`` mean the same as the global ones. Nothing after
+    ``--`` moves.
+    """
+    if "--" in args:
+        i = args.index("--")
+        head, tail = args[:i], args[i:]
+    else:
+        head, tail = args, []
+    flags = [a for a in head if a in GLOBAL_FLAGS]
+    rest = [a for a in head if a not in GLOBAL_FLAGS]
+    return list(dict.fromkeys(flags)) + rest + tail
 
 
 class _Opts:
@@ -157,9 +181,16 @@ def main():
 # --------------------------------------------------------------------------- simulate
 
 def _load_scenario(name_or_path: str):
-    from ..sim.scenario import find_scenario, load_scenario
+    from ..sim.scenario import find_scenario, load_scenario, shipped_scenarios
     p = Path(name_or_path)
     if not p.is_file():
+        stem = name_or_path[:-5] if name_or_path.endswith(".yaml") else name_or_path
+        shipped = shipped_scenarios()
+        if stem not in shipped:
+            from .method_docs import did_you_mean
+            raise BadInput(f"no scenario file or shipped scenario named {name_or_path!r}"
+                           f"{did_you_mean(stem, shipped)} ('inmotion scenarios' lists the "
+                           "shipped ones)")
         try:
             p = find_scenario(name_or_path)
         except BadInput:
@@ -442,9 +473,12 @@ def _spec(method, kind=None):
     try:
         spec = registry.get(method)
     except KeyError:
-        known = ", ".join(s.name for s in registry.methods(kind))
-        raise BadInput(f"unknown method {method!r}; known {kind or ''} methods: "
-                       f"{known}") from None
+        from .method_docs import did_you_mean
+        names = [s.name for s in registry.methods(kind)]
+        hint = did_you_mean(method, [s.name for s in registry.methods()])
+        kind_text = f"{kind} " if kind else ""
+        raise BadInput(f"unknown method {method!r}{hint} (known {kind_text}methods: "
+                       f"{', '.join(names)}; 'inmotion methods' lists them)") from None
     if kind is not None and spec.kind != kind:
         raise BadInput(f"{method!r} is a{'n' if spec.kind == 'align' else ''} {spec.kind} "
                        f"method; use 'inmotion {spec.kind}'")
@@ -456,7 +490,11 @@ def run_method(ctx, bundle, spec, config, init_state, window):
     start, end = window
     b = bundle.window(start, end)
     if len(b.imu.t) < 2:
-        raise BadInput(f"the window {start} .. {end} s holds fewer than 2 IMU rows")
+        t0, t1 = float(bundle.imu.t[0]), float(bundle.imu.t[-1])
+        lo = f"{start:g}" if start is not None else "the start"
+        hi = f"{end:g} s" if end is not None else "the end"
+        raise BadInput(f"the window {lo} .. {hi} holds fewer than 2 IMU rows; the drive "
+                       f"covers {t0:g}-{t1:g} s")
     run, _ = spec.load()
     t0 = time.perf_counter()
     with _progress(ctx, spec.name) as progress:
@@ -589,10 +627,21 @@ def evaluate(ctx, result, truth_bundle, as_json):
 # --------------------------------------------------------------------------- methods
 
 @cli.command()
+@click.argument("name", required=False)
 @_json_option
 @click.pass_context
-def methods(ctx, as_json):
-    """List every method: name, kind, what it is."""
+def methods(ctx, name, as_json):
+    """List every method (name, kind, what it is); with NAME, that method's settings.
+
+    ``inmotion methods NAME`` prints every setting of the method (name with its unit, default,
+    allowed range, meaning), the sensors it needs, whether it needs an initial attitude, and
+    its paper.
+    """
+    from .method_docs import method_detail, method_text
+    if name is not None:
+        spec = _spec(name)
+        _emit(ctx, method_detail(spec.name), method_text(spec.name), as_json)
+        return
     specs = registry.methods()
     data = [{"name": s.name, "kind": s.kind, "needs_attitude": s.needs_attitude,
              "summary": s.summary} for s in specs]
@@ -601,6 +650,32 @@ def methods(ctx, as_json):
         click.echo(json.dumps(data, indent=2))
     else:
         click.echo(text)
+
+
+# --------------------------------------------------------------------------- scenarios
+
+def scenario_list() -> list[dict]:
+    """The shipped scenarios: ``[{"name", "description", "duration_s"}]``."""
+    import yaml
+    from ..sim.scenario import scenario_dir, shipped_scenarios
+    out = []
+    for name in shipped_scenarios():
+        try:
+            d = yaml.safe_load((scenario_dir() / f"{name}.yaml").read_text()) or {}
+        except yaml.YAMLError:
+            d = {}
+        out.append({"name": name, "description": str(d.get("description") or "").strip()})
+    return out
+
+
+@cli.command()
+@_json_option
+@click.pass_context
+def scenarios(ctx, as_json):
+    """List the shipped scenarios, one line each (simulate one with ``inmotion simulate NAME``)."""
+    data = scenario_list()
+    w = max(len(d["name"]) for d in data)
+    _emit(ctx, data, "\n".join(f"{d['name']:{w}s}  {d['description']}" for d in data), as_json)
 
 
 # --------------------------------------------------------------------------- demo
@@ -733,3 +808,7 @@ cli.add_command(montecarlo); cli.add_command(report)
 
 from .reproduce_cmds import reproduce  # noqa: E402  (issue 8: paper reproductions)
 cli.add_command(reproduce)
+
+
+if __name__ == "__main__":  # python -m inmotion.cli.main
+    main()

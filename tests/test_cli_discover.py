@@ -1,0 +1,99 @@
+"""Finding things from the command line (issue 18): ``inmotion methods NAME``, ``inmotion
+scenarios``, "did you mean", global options anywhere, messages without Python ``None``."""
+import json
+
+import pytest
+from click.testing import CliRunner
+
+from inmotion import registry
+from inmotion.cli.main import cli, hoist_global_options
+from inmotion.cli.method_docs import SENSORS, method_detail, settings, unit_of
+
+SCENARIO = """\
+name: discover_small
+start: {lat_deg: 34.0, lon_deg: 108.0, h_m: 400.0, heading_deg: 10.0, speed_m_s: 0.0}
+segments:
+  - {kind: rest, duration_s: 2}
+  - {kind: accelerate, to_speed_m_s: 5.0, accel_m_s2: 2.0}
+  - {kind: cruise, duration_s: 3}
+sensors:
+  radar: {rate_hz: 10}
+"""
+
+
+def run(*args):
+    return CliRunner().invoke(cli, [str(a) for a in args])
+
+
+@pytest.fixture(scope="module")
+def bundle(tmp_path_factory):
+    d = tmp_path_factory.mktemp("disc")
+    (d / "s.yaml").write_text(SCENARIO)
+    r = run("-q", "simulate", d / "s.yaml", "-o", d / "b")
+    assert r.exit_code == 0, r.output
+    return d / "b"
+
+
+@pytest.mark.parametrize("spec", registry.methods(), ids=lambda s: s.name)
+def test_every_setting_has_a_description_and_the_method_its_sensors(spec):
+    _, config = spec.load()
+    for s in settings(config):
+        assert s.meaning, f"{spec.name}: {s.name} has no description"
+        assert "None" not in s.meaning
+    assert spec.name in SENSORS
+
+
+def test_units_from_names():
+    assert unit_of("gyro_drift_deg_h") == "deg/h"
+    assert unit_of("accel_vrw_ug_sqrt_hz") == "ug/sqrt(Hz)"
+    assert unit_of("gyro_bias_rw_deg_h_sqrt_h") == "deg/h/sqrt(h)"
+    assert unit_of("init_velocity_sigma_m_s") == "m/s"
+    assert unit_of("fdi") == ""
+
+
+def test_methods_name_prints_settings_sensors_paper():
+    r = run("methods", "sins-dr")
+    assert r.exit_code == 0, r.output
+    assert "gyro_drift_deg_h [deg/h]" in r.output
+    assert "paper 002" in r.output and "needs:" in r.output
+    assert "None" not in r.output
+    r = run("methods", "fkf", "--json")
+    d = json.loads(r.stdout)
+    assert d["paper"]["number"] == "003" and "odometer" in d["sensors"]
+    beta = next(s for s in d["settings"] if s["name"] == "beta_od")
+    assert beta["default"] == 0.5 and beta["allowed"] == "> 0, <= 1"
+    assert method_detail("sins")["settings"][0]["name"] == "height_damping"
+
+
+def test_scenarios_lists_shipped_ones():
+    r = run("scenarios")
+    assert r.exit_code == 0
+    lines = r.stdout.splitlines()
+    assert any(line.startswith("paper002_hour ") and "3600 s" in line for line in lines)
+    assert {d["name"] for d in json.loads(run("--json", "scenarios").stdout)} >= {"demo"}
+
+
+def test_did_you_mean():
+    r = run("methods", "sins-kf")
+    assert r.exit_code == 2 and "did you mean 'sins' or 'sins-dr'" in r.stderr
+    r = run("simulate", "paper002_hours", "-o", "unused")
+    assert r.exit_code == 2 and "did you mean 'paper002_hour'" in r.stderr
+
+
+def test_global_options_anywhere(bundle, tmp_path):
+    assert hoist_global_options(["navigate", "b", "-q", "--json"]) == ["-q", "--json",
+                                                                       "navigate", "b"]
+    assert hoist_global_options(["x", "--", "-q"]) == ["x", "--", "-q"]
+    r = run("navigate", bundle, "-m", "sins", "-o", tmp_path / "r", "-q", "--json")
+    assert r.exit_code == 0, r.output
+    assert json.loads(r.stdout)["method"] == "sins"
+    assert r.stderr == ""
+    r = run("info", bundle, "--debug", "--quiet")
+    assert r.exit_code == 0, r.output
+
+
+def test_window_message_says_what_the_drive_covers(bundle, tmp_path):
+    r = run("navigate", bundle, "-m", "sins", "--start", 5000, "-o", tmp_path / "r")
+    assert r.exit_code == 2
+    assert "None" not in r.stderr
+    assert "the drive covers 0-" in r.stderr and "5000 .. the end" in r.stderr
