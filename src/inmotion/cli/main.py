@@ -173,7 +173,7 @@ def cli(ctx, quiet, as_json, debug):
     ctx.obj = _Opts(quiet, as_json, debug)
 
 
-def main():
+def main() -> None:
     """Console-script entry point."""
     cli.main()
 

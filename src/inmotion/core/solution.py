@@ -6,7 +6,6 @@ All SI: latitude and longitude in rad, height in m, velocity ENU in m/s, Euler a
 from __future__ import annotations
 
 from dataclasses import dataclass, field
-from typing import Optional
 
 import numpy as np
 

@@ -23,6 +23,7 @@ them for shorter runs).
 from __future__ import annotations
 
 import numpy as np
+from numpy.typing import ArrayLike
 import pandas as pd
 
 from ..core import rotations
@@ -43,7 +44,7 @@ ERROR_KEYS = ("pitch_arcmin", "roll_arcmin", "yaw_arcmin",
 LAST_WINDOW_S = 100.0
 
 
-def interpolate_truth(truth: Truth, t) -> Truth:
+def interpolate_truth(truth: Truth, t: ArrayLike) -> Truth:
     """Truth linearly interpolated to times ``t`` [s] (inside the truth's span).
 
     Euler angles are unwrapped before interpolation and yaw re-wrapped to [0, 2 pi), so

@@ -29,12 +29,13 @@ import json
 import math
 import time
 from pathlib import Path
-from typing import Optional
+from typing import Optional, Union
 
 import numpy as np
 import pandas as pd
 import yaml
 
+from .._typing import PathLike
 from ..errors import BadInput
 from . import plots
 from .stats import compare_rows, final_error_columns, point_statistics
@@ -425,7 +426,9 @@ def _collection(page: _Page, root: Path, paper) -> None:
 
 
 # ----------------------------------------------------------------------------- entry point
-def build_report(path, output=None, *, paper=None, title: Optional[str] = None) -> Path:
+def build_report(path: PathLike, output: Optional[PathLike] = None, *,
+                 paper: Union[None, dict, PathLike] = None,
+                 title: Optional[str] = None) -> Path:
     """Write the HTML report of ``path`` (a campaign, a result folder or a folder of them).
 
     Parameters

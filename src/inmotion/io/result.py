@@ -29,6 +29,7 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
+from .._typing import PathLike
 from ..core import rotations
 from ..core.bundle import Truth
 from ..core.solution import Solution, StateUnit
@@ -75,7 +76,7 @@ def _final_values(sol: Solution) -> dict:
             "yaw_deg": float(np.mod(e[2], 360.0))}
 
 
-def write_result(solution: Solution, path, truth: Truth | None = None,
+def write_result(solution: Solution, path: PathLike, truth: Truth | None = None,
                  summary_extra: dict | None = None) -> dict:
     """Write a result folder; return the summary written to ``summary.json``.
 
@@ -117,14 +118,14 @@ def write_result(solution: Solution, path, truth: Truth | None = None,
     return summary
 
 
-def write_errors(solution: Solution, truth: Truth, folder) -> dict:
+def write_errors(solution: Solution, truth: Truth, folder: PathLike) -> dict:
     """Write ``errors.csv`` into ``folder`` and return the ``errors`` block."""
     err = error_series(solution, truth)
     _write_csv(err, Path(folder) / "errors.csv")
     return errors_block(err)
 
 
-def write_summary(summary: dict, folder) -> None:
+def write_summary(summary: dict, folder: PathLike) -> None:
     """``summary.json`` (NaN and inf written as null), atomically."""
     text = json.dumps(_json_safe(summary), indent=2, allow_nan=False)
     atomic_write(Path(folder) / "summary.json", lambda p: Path(p).write_text(text + "\n"))
@@ -157,7 +158,7 @@ def _read_csv(p: Path) -> pd.DataFrame:
     return df
 
 
-def read_summary(path) -> dict:
+def read_summary(path: PathLike) -> dict:
     """The parsed ``summary.json`` of a result folder."""
     p = Path(path) / "summary.json"
     if not p.is_file():
@@ -169,7 +170,7 @@ def read_summary(path) -> dict:
         raise BadInput(f"malformed JSON at line {e.lineno}: {e.msg}", file=p) from None
 
 
-def read_result(path) -> Solution:
+def read_result(path: PathLike) -> Solution:
     """Read a result folder back into a :class:`Solution` (SI inside).
 
     ``info`` gets the summary's ``info`` plus ``method``, ``config``, ``timing`` and, if
