@@ -97,3 +97,16 @@ def test_window_message_says_what_the_drive_covers(bundle, tmp_path):
     assert r.exit_code == 2
     assert "None" not in r.stderr
     assert "the drive covers 0-" in r.stderr and "5000 .. the end" in r.stderr
+
+
+def test_real_data_folder_from_option_env_or_cwd(monkeypatch, tmp_path):
+    from inmotion.evaluate import reproduce_real as rr
+    monkeypatch.setenv("INMOTION_REAL_DATA", str(tmp_path / "mine"))
+    assert rr.default_data_root() == tmp_path / "mine"
+    monkeypatch.delenv("INMOTION_REAL_DATA")
+    (tmp_path / "shared" / "data" / "real").mkdir(parents=True)
+    (tmp_path / "clone").mkdir()
+    monkeypatch.chdir(tmp_path / "clone")
+    assert rr.default_data_root() == (tmp_path / "shared" / "data" / "real").resolve()
+    r = run("reproduce", "real", "--data", tmp_path / "nothing", "-o", tmp_path / "out", "-q")
+    assert r.exit_code == 2 and "real data folder not found" in r.stderr
