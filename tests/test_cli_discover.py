@@ -110,3 +110,31 @@ def test_real_data_folder_from_option_env_or_cwd(monkeypatch, tmp_path):
     assert rr.default_data_root() == (tmp_path / "shared" / "data" / "real").resolve()
     r = run("reproduce", "real", "--data", tmp_path / "nothing", "-o", tmp_path / "out", "-q")
     assert r.exit_code == 2 and "real data folder not found" in r.stderr
+
+
+def test_parquet_result_and_default_output_rate(bundle, tmp_path):
+    """navigate writes 1 row per second by default, every row with --output-rate all, Parquet
+    with --format parquet; evaluate, report and --init read a Parquet result back."""
+    import pandas as pd
+    from inmotion.io.result import read_result
+    a = json.loads(run("--json", "-q", "navigate", bundle, "-m", "dr", "-o", tmp_path / "a").stdout)
+    sol = pd.read_csv(tmp_path / "a" / "solution.csv")
+    assert len(sol) == a["epochs"] and sol["t"].iloc[-1] == pytest.approx(a["final"]["t_s"])
+    assert sol["t"].diff().iloc[1:-1].round(6).eq(1.0).all() and a["output_rate_hz"] == 1.0
+    assert a["config"]["out_stride"] == 100                     # the method's own stride set
+    b = json.loads(run("--json", "-q", "navigate", bundle, "-m", "dr", "--output-rate", "all",
+                       "--format", "parquet", "-o", tmp_path / "b").stdout)
+    assert b["format"] == "parquet" and b["epochs"] > 10 * a["epochs"]
+    assert (tmp_path / "b" / "solution.parquet").is_file()
+    assert not (tmp_path / "b" / "solution.csv").exists()
+    assert (tmp_path / "b" / "errors.parquet").is_file()
+    assert b["errors"]["final"] == pytest.approx(a["errors"]["final"], abs=1e-6)  # same end
+    assert len(read_result(tmp_path / "b").t) == b["epochs"]
+    e = run("--json", "evaluate", tmp_path / "b", "--truth", bundle)
+    assert e.exit_code == 0, e.output
+    assert run("-q", "report", tmp_path / "b").exit_code == 0
+    c = run("-q", "navigate", bundle, "-m", "sins", "--init", tmp_path / "b", "--start", 5,
+            "-o", tmp_path / "c")
+    assert c.exit_code == 0, c.output
+    r = run("navigate", bundle, "-m", "dr", "--output-rate", "fast", "-o", tmp_path / "x")
+    assert r.exit_code == 2 and "--output-rate" in r.stderr

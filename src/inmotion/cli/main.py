@@ -17,7 +17,10 @@ has it, else meta), ``--init-error 'pitch=1deg,roll=1deg,yaw=30arcmin,vE=0.1m/s,
 ``--start`` / ``--end`` [s], ``--mode M`` (sets the configuration field ``mode``) and
 ``--set key=value`` (any configuration field; the value is read as YAML, so ``--set
 out_stride=10`` gives an int and ``--set mounting_arcmin=[3,0,-4]`` a list),
-``--allow-imu-gaps`` (integrate across IMU gaps; by default a bundle with one is refused,
+``--format csv|parquet`` (result tables), ``--output-rate HZ|all`` (rows per second written;
+navigate: 1 Hz by default unless the method's own ``out_stride`` / ``output_rate_hz`` is
+set, align: every row the method outputs), ``--allow-imu-gaps`` (integrate across IMU gaps; by
+default a bundle with one is refused,
 see :mod:`inmotion.io.bundle`). ``info`` always reads IMU gaps and lists them.
 
 Global options ``--quiet``/``-q`` (no progress, no notes), ``--json`` (print the command's summary as
@@ -508,11 +511,61 @@ def run_method(ctx, bundle, spec, config, init_state, window):
     return sol, b
 
 
+#: default ``--output-rate`` per command [Hz]; None: every row the method outputs
+DEFAULT_OUTPUT_RATE = {"navigate": 1.0, "align": None}
+
+#: configuration fields by which a method sets its own output rate
+_OUTPUT_FIELDS = ("out_stride", "output_rate_hz", "output_interval_s")
+
+
+def parse_output_rate(text) -> float | None:
+    """``--output-rate``: a rate in Hz (> 0), or ``all`` for every row the method outputs."""
+    if text is None or isinstance(text, (int, float)):
+        return text
+    if str(text).strip().lower() in ("all", "every", "0"):
+        return None
+    try:
+        rate = float(str(text).lower().removesuffix("hz"))
+    except ValueError:
+        raise BadInput(f"--output-rate: {text!r} is neither a rate in Hz nor 'all'") from None
+    if not (rate > 0 and math.isfinite(rate)):
+        raise BadInput(f"--output-rate: {text!r} must be a rate > 0 Hz, or 'all'")
+    return rate
+
+
+def apply_output_rate(config, bundle, rate_hz: float | None, explicit: bool):
+    """``(config, thin_rate_hz)``: the configuration with its own output field set for
+    ``rate_hz`` where the method has one and the user did not set it, and the rate at which to
+    thin the solution afterwards (None: keep every row).
+
+    With ``explicit`` False (the command's default rate), a method whose output field the user
+    set (``--set out_stride=...``, ``--config``) keeps it and is not thinned.
+    """
+    import numpy as np
+    fields = type(config).model_fields
+    own = [f for f in _OUTPUT_FIELDS if f in fields]
+    user_set = [f for f in own if f in config.model_fields_set]
+    if rate_hz is None or (user_set and not explicit):
+        return config, None
+    if "out_stride" in own and "out_stride" not in user_set:
+        dt = float(np.median(np.diff(bundle.imu.t))) if len(bundle.imu.t) > 1 else 0.0
+        if dt > 0:
+            stride = max(1, int(round(1.0 / (rate_hz * dt))))
+            config = config.model_copy(update={"out_stride": stride})
+    elif "output_rate_hz" in own and "output_rate_hz" not in user_set:
+        top = getattr(config, "filter_rate_hz", rate_hz)
+        config = config.model_copy(update={"output_rate_hz": min(rate_hz, top)})
+    return config, rate_hz
+
+
 def _run_command(ctx, kind, bundle_path, method, config_file, output, init, init_error,
-                 start, end, mode, sets, as_json, allow_imu_gaps=False):
-    from ..io.result import write_result
+                 start, end, mode, sets, as_json, allow_imu_gaps=False, fmt="csv",
+                 output_rate=None):
+    from ..io.result import thin, write_result
     spec = _spec(method, kind)
     config = build_config(spec, config_file, mode, sets)
+    explicit = output_rate is not None
+    rate = parse_output_rate(output_rate) if explicit else DEFAULT_OUTPUT_RATE.get(kind)
     err = parse_init_error(init_error) if init_error else None
     bundle = _read_bundle(ctx, bundle_path, allow_imu_gaps)
     if init is None:
@@ -522,11 +575,15 @@ def _run_command(ctx, kind, bundle_path, method, config_file, output, init, init
         state = perturb(state, err)
     if start is None and init_desc.startswith("result"):
         start = state.t
+    config, thin_rate = apply_output_rate(config, bundle, rate, explicit)
     sol, b = run_method(ctx, bundle, spec, config, state, (start, end))
+    if thin_rate is not None:
+        sol = thin(sol, thin_rate)
     extra = {"bundle": str(bundle_path), "bundle_name": bundle.name,
              "init": {"from": init_desc, "error": init_error, "t_s": state.t},
-             "window": {"start_s": start, "end_s": end}}
-    summary = write_result(sol, output, truth=b.truth, summary_extra=extra)
+             "window": {"start_s": start, "end_s": end},
+             "output_rate_hz": thin_rate}
+    summary = write_result(sol, output, truth=b.truth, summary_extra=extra, fmt=fmt)
     _emit(ctx, summary, _run_text(summary, output), as_json)
 
 
@@ -574,6 +631,11 @@ def _method_options(f):
                      help="Set a configuration field (repeatable)."),
         click.option("--allow-imu-gaps", is_flag=True,
                      help="Integrate across IMU gaps instead of refusing the bundle."),
+        click.option("--format", "fmt", type=click.Choice(["csv", "parquet"]), default="csv",
+                     show_default=True, help="Format of the result tables."),
+        click.option("--output-rate", default=None, metavar="HZ|all",
+                     help="Rows written per second (navigate default 1 Hz unless the method's "
+                          "own out_stride / output_rate_hz is set; align default all)."),
         _json_option,
     ]
     for o in reversed(opts):
@@ -585,20 +647,25 @@ def _method_options(f):
 @_method_options
 @click.pass_context
 def align(ctx, bundle, method, config_file, output, init, init_error, start, end, mode, sets,
-          allow_imu_gaps, as_json):
+          allow_imu_gaps, fmt, output_rate, as_json):
     """Run an alignment method on BUNDLE and write a result folder."""
     _run_command(ctx, "align", bundle, method, config_file, output, init, init_error, start, end,
-                 mode, sets, as_json, allow_imu_gaps)
+                 mode, sets, as_json, allow_imu_gaps, fmt, output_rate)
 
 
 @cli.command()
 @_method_options
 @click.pass_context
 def navigate(ctx, bundle, method, config_file, output, init, init_error, start, end, mode, sets,
-             allow_imu_gaps, as_json):
-    """Run a navigation method on BUNDLE and write a result folder."""
+             allow_imu_gaps, fmt, output_rate, as_json):
+    """Run a navigation method on BUNDLE and write a result folder.
+
+    The result holds 1 row per second unless ``--output-rate`` (or the method's own
+    ``out_stride`` / ``output_rate_hz``) says otherwise: a 1 h drive at 100 Hz would otherwise
+    write 360 000 rows.
+    """
     _run_command(ctx, "navigate", bundle, method, config_file, output, init, init_error, start,
-                 end, mode, sets, as_json, allow_imu_gaps)
+                 end, mode, sets, as_json, allow_imu_gaps, fmt, output_rate)
 
 
 # --------------------------------------------------------------------------- evaluate

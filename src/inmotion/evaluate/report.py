@@ -2,7 +2,7 @@
 
 What ``DIR`` is decides what the page shows:
 
-- a **result folder** (``summary.json``, ``solution.csv``, ``errors.csv`` of
+- a **result folder** (``summary.json``, ``solution``, ``errors`` tables (CSV or Parquet) of
   :mod:`inmotion.io.result`): error curves with the method's +-3 sigma envelopes, the plan view
   of the estimated and true tracks, the ``errors`` block, the configuration;
 - a **campaign directory** (``campaign.json`` and ``results/`` of
@@ -218,7 +218,7 @@ def _versions_section(page: _Page, used: Optional[dict]) -> None:
 
 
 def _result_section(page: _Page, root: Path, paper=None, level=2) -> list:
-    from ..io.result import read_result, read_summary
+    from ..io.result import find_table, read_result, read_summary, read_table
     summary = read_summary(root)
     page.add(f"<h{level}>Run: {_e(summary.get('method') or root.name)} "
              f"<small>({_e(root)})</small></h{level}>")
@@ -231,9 +231,9 @@ def _result_section(page: _Page, root: Path, paper=None, level=2) -> list:
                  f"{_fmt(block.get('duration_s'))} s; errors are estimate minus truth.</p>")
         page.add(_table(["error"] + stats, [[k] + [block[s].get(k) for s in stats] for k in keys]))
     solution = read_result(root)
-    errors_path = root / "errors.csv"
-    if errors_path.is_file():
-        err = pd.read_csv(errors_path)
+    errors_path = find_table(root, "errors")
+    if errors_path is not None:
+        err = read_table(errors_path)
         t = err["t"].to_numpy()
         sigma = _sigma_on(solution, t)
         page.figure(f"{root.name}-errors", plots.error_curves(
@@ -251,10 +251,11 @@ def _result_section(page: _Page, root: Path, paper=None, level=2) -> list:
 def _states_figure(page: _Page, root: Path) -> None:
     """The estimated states of ``states.csv`` with their ±3σ (``sigma_<column>``): those with a
     sigma first (the calibrated quantities), at most :data:`MAX_STATE_PANELS`."""
-    path = root / "states.csv"
-    if not path.is_file():
+    from ..io.result import find_table, read_table
+    path = find_table(root, "states")
+    if path is None:
         return
-    df = pd.read_csv(path)
+    df = read_table(path)
     names = [c for c in df.columns if c != "t" and not c.startswith("sigma_")]
     names = ([c for c in names if f"sigma_{c}" in df] + [c for c in names if f"sigma_{c}" not in df])
     names = names[:MAX_STATE_PANELS]
@@ -282,8 +283,10 @@ def _result_tracks(solution, root: Path) -> list:
     lat0, lon0, h0 = solution.lat[0], solution.lon[0], solution.h[0]
     north, east = local_ne_offsets(solution.lat, solution.lon, lat0, lon0, h0)
     tracks = [("estimate", east, north)]
-    if (root / "errors.csv").is_file():
-        err = pd.read_csv(root / "errors.csv")
+    from ..io.result import find_table, read_table
+    path = find_table(root, "errors")
+    if path is not None:
+        err = read_table(path)
         if {"north_m", "east_m"} <= set(err.columns):
             t = err["t"].to_numpy()
             tracks.append(("truth", np.interp(t, solution.t, east) - err["east_m"].to_numpy(),
