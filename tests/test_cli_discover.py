@@ -138,3 +138,30 @@ def test_parquet_result_and_default_output_rate(bundle, tmp_path):
     assert c.exit_code == 0, c.output
     r = run("navigate", bundle, "-m", "dr", "--output-rate", "fast", "-o", tmp_path / "x")
     assert r.exit_code == 2 and "--output-rate" in r.stderr
+
+
+def test_exports_ned_csv_geojson_and_kf_gins_of_a_parquet_result(bundle, tmp_path):
+    import numpy as np
+    import pandas as pd
+    r = run("-q", "navigate", bundle, "-m", "sins", "--format", "parquet", "-o", tmp_path / "r")
+    assert r.exit_code == 0, r.output
+    assert run("-q", "export", "ned-csv", tmp_path / "r", "-o", tmp_path / "t.csv").exit_code == 0
+    text = (tmp_path / "t.csv").read_text()
+    assert text.startswith("# frames:") and "R_z(yaw) R_y(pitch) R_x(roll)" in text
+    df = pd.read_csv(tmp_path / "t.csv", comment="#")
+    last = pd.read_parquet(tmp_path / "r" / "solution.parquet").iloc[-1]
+    assert df["yaw_deg"].iloc[-1] == pytest.approx(last["yaw"], abs=1e-4)   # heading alike
+    assert df["vN_m_s"].iloc[-1] == pytest.approx(last["vN"], abs=1e-4)
+    assert df["vD_m_s"].iloc[-1] == pytest.approx(-last["vU"], abs=1e-4)
+    assert df["pitch_deg"].iloc[-1] == pytest.approx(last["pitch"], abs=1e-3)  # level road
+    assert df["north_m"].iloc[0] == 0.0 and np.hypot(df["north_m"], df["east_m"]).max() > 10
+    r = run("-q", "export", "geojson", tmp_path / "r", "-o", tmp_path / "t.geojson")
+    assert r.exit_code == 0, r.output
+    g = json.loads((tmp_path / "t.geojson").read_text())
+    line = g["features"][0]["geometry"]
+    assert line["type"] == "LineString"
+    lon, lat, _ = line["coordinates"][-1]
+    assert lat == pytest.approx(last["lat"], abs=1e-8)
+    assert lon == pytest.approx(last["lon"], abs=1e-8)
+    assert run("-q", "export", "kf-gins", tmp_path / "r", "-o", tmp_path / "t.nav").exit_code == 0
+    assert len(np.loadtxt(tmp_path / "t.nav")) == len(df)
