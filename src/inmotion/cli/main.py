@@ -1,4 +1,4 @@
-"""The ``inmotion`` command line (``shared/DESIGN.md``, "The command line").
+"""The ``inmotion`` command line (``docs/cli.md``).
 
 ::
 

@@ -225,10 +225,16 @@ def methods_markdown() -> str:
         out += ["", "| setting | unit | default | allowed | meaning |",
                 "| --- | --- | --- | --- | --- |"]
         for s in d["settings"]:
-            out.append(f"| `{s['name']}` | {s['unit'] or '-'} | {_value_text(s['default'])} | "
-                       f"{s['allowed'].replace('|', '&#124;')} | "
-                       f"{s['meaning'].replace('|', '&#124;')} |")
+            out.append(f"| `{s['name']}` | {s['unit'] or '-'} | "
+                       f"{_md(_value_text(s['default']))} | {_md(s['allowed'])} | "
+                       f"{_md(s['meaning'])} |")
     return "\n".join(out) + "\n"
+
+
+def _md(text: str) -> str:
+    """``text`` safe in a markdown table cell: no column breaks, no link brackets."""
+    return (text.replace("|", "&#124;").replace("[", "\\[").replace("]", "\\]")
+            .replace("*", "\\*").replace("_", "\\_"))
 
 
 def did_you_mean(name: str, candidates: Iterable[str]) -> str:

@@ -110,7 +110,7 @@ class BaroData:
 @dataclass
 class Truth:
     """Reference trajectory: ``lat, lon`` [rad], ``h`` [m], ``vel_n`` ENU [m/s] (N, 3),
-    ``euler`` = [pitch, roll, yaw] [rad] (N, 3), at ``t`` [s]."""
+    ``euler`` = ``[pitch, roll, yaw]`` [rad] (N, 3), at ``t`` [s]."""
 
     t: np.ndarray
     lat: np.ndarray

@@ -1,6 +1,6 @@
 """Errors of a solution against truth, and the ``errors`` block of ``summary.json``.
 
-Errors are estimate minus truth (``shared/DESIGN.md``, "The result"):
+Errors are estimate minus truth (``docs/result.md``):
 
 - attitude: Euler differences ``[pitch, roll, yaw]`` wrapped to [-180, 180) deg (so yaw 359 deg
   against truth 1 deg is -2 deg), and the misalignment ``phi`` = ``[phi_E, phi_N, phi_U]`` of
