@@ -14,7 +14,7 @@ from typing import Any, Iterable, Optional
 
 from .. import registry
 
-__all__ = ["PAPERS", "SENSORS", "Setting", "settings", "unit_of", "paper_of", "method_detail",
+__all__ = ["PAPERS", "SENSORS", "ESTIMATES", "Setting", "settings", "unit_of", "paper_of", "method_detail",
            "method_text", "methods_markdown", "did_you_mean"]
 
 #: the five papers: number -> citation
@@ -57,6 +57,41 @@ SENSORS = {
     "fkf": ("imu", "odometer", "ldv", "baro (optional, use_baro)"),
     "fine-mux": ("imu", "odometer", "ldv"),
     "adaptive": ("imu", "odometer and/or ldv", "baro (optional)"),
+}
+
+_KF = ("misalignment phi, velocity dv and position dp errors, gyro drift eps, accelerometer "
+       "bias nabla")
+#: method -> what it estimates (its state vector or its output), in words
+ESTIMATES = {
+    "sins": "position, velocity and attitude by strapdown mechanization; no error states",
+    "dr": "attitude from the gyros, position from the velocity sensor's distance; no error "
+          "states",
+    "sins-dr": "22 states: " + _KF + ", the DR's misalignment phi_D and position dp_D, the "
+               "sensor scale factor dk (paper 002)",
+    "dr-kf": "25 states: " + _KF + ", phi_D, dp_D, the mounting angles mount_x/y/z, the scale "
+             "factor dk (paper 000 eq. 21)",
+    "od-velocity-kf": "19 states: " + _KF + ", the mounting angles, the scale factor dk",
+    "imada-vb": "the attitude at the window's start C_b^n(0) by the q-method, then C_b^n(t) "
+                "along the gyros; quality: the eigenvalue gap",
+    "imada-vn": "as imada-vb, with the navigation-velocity model",
+    "imada-dual": "as imada-vb, with the dual velocity model",
+    "mimada": "as imada-vb, in levels (multistage)",
+    "mimada-dual": "as imada-vb, in levels with the dual model at the later ones",
+    "usque": "attitude (quaternion, GRP error) by an unscented filter; optionally the scale "
+             "factor, accelerometer bias, gyro drift and the initial speed error",
+    "ausque": "as usque, with adaptive measurement noise",
+    "usque-hinf": "as usque, with an H-infinity covariance update",
+    "ausquhe": "as usque, with adaptive noise and adaptive H-infinity gamma",
+    "oba": "attitude by optimization-based alignment (q-method on observation vectors)",
+    "coarse-inertial": "attitude from gravity in the inertial frame (parked or moving)",
+    "parked-kf": "12 states: misalignment, velocity error, gyro drift, accelerometer bias",
+    "od-kf": "21 states: " + _KF + ", odometer scale factor dk, mounting mount_x/mount_z, "
+             "lever arm (paper 003 eq. 14-26)",
+    "ldv-kf": "21 states as od-kf, for the LDV",
+    "nhc-kf": "15 states: " + _KF + " (paper 003 eq. 27-31)",
+    "fkf": "the 21 states of od-kf and ldv-kf in two sub-filters, fused (federated)",
+    "fine-mux": "coarse attitude on the fault-tolerant speed, then the fine method's states",
+    "adaptive": "parked / moving detection, then the states of the stage it chooses",
 }
 
 # unit suffixes of field names, longest first
@@ -170,6 +205,7 @@ def method_detail(name: str) -> dict:
     return {"name": spec.name, "kind": spec.kind, "summary": spec.summary,
             "needs_attitude": spec.needs_attitude,
             "sensors": list(SENSORS.get(spec.name, ("imu",))),
+            "estimates": ESTIMATES.get(spec.name, ""),
             "paper": {"number": paper, "citation": PAPERS.get(paper)} if paper else None,
             "config_class": f"{config.__module__}.{config.__name__}",
             "settings": [s.__dict__ for s in settings(config)]}
@@ -180,6 +216,7 @@ def method_text(name: str) -> str:
     d = method_detail(name)
     lines = [f"{d['name']} ({d['kind']}): {d['summary']}",
              f"  needs:    {', '.join(d['sensors'])}",
+             f"  estimates: {d['estimates']}",
              "  initial attitude: " + ("needed (--init truth | meta | RESULT)"
                                        if d["needs_attitude"] else "not needed (found by the "
                                                                    "method)")]
@@ -217,6 +254,7 @@ def methods_markdown() -> str:
         d = method_detail(spec.name)
         out += ["", f"## {spec.name}", "", f"{spec.kind}: {spec.summary}.", "",
                 f"- needs: {', '.join(d['sensors'])}",
+                f"- estimates: {d['estimates']}",
                 "- initial attitude: " + ("needed" if d["needs_attitude"]
                                           else "not needed (the method finds it)")]
         if d["paper"]:
