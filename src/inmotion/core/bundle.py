@@ -1,6 +1,6 @@
 """One drive in memory: the sensors' data and, where known, the truth, all in SI units.
 
-This is the in-memory twin of the bundle folder of ``shared/DESIGN.md``. Files (degrees,
+This is the in-memory twin of the bundle folder of ``docs/bundle.md``. Files (degrees,
 CSV/Parquet, validation) are the business of :mod:`inmotion.io.bundle`; here every angle is
 in rad, latitude and longitude in rad, and every array is float64 on one time base ``t`` [s].
 
