@@ -96,7 +96,7 @@ def test_window_message_says_what_the_drive_covers(bundle, tmp_path):
     r = run("navigate", bundle, "-m", "sins", "--start", 5000, "-o", tmp_path / "r")
     assert r.exit_code == 2
     assert "None" not in r.stderr
-    assert "the drive covers 0-" in r.stderr and "5000 .. the end" in r.stderr
+    assert "the drive covers 0-" in r.stderr and "from 5000 s to the end" in r.stderr
 
 
 def test_real_data_folder_from_option_env_or_cwd(monkeypatch, tmp_path):

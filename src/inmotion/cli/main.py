@@ -494,9 +494,9 @@ def run_method(ctx, bundle, spec, config, init_state, window):
     b = bundle.window(start, end)
     if len(b.imu.t) < 2:
         t0, t1 = float(bundle.imu.t[0]), float(bundle.imu.t[-1])
-        lo = f"{start:g}" if start is not None else "the start"
+        lo = f"{start:g} s" if start is not None else "the start"
         hi = f"{end:g} s" if end is not None else "the end"
-        raise BadInput(f"the window {lo} .. {hi} holds fewer than 2 IMU rows; the drive "
+        raise BadInput(f"the window from {lo} to {hi} holds fewer than 2 IMU rows; the drive "
                        f"covers {t0:g}-{t1:g} s")
     run, _ = spec.load()
     t0 = time.perf_counter()
