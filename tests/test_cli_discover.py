@@ -165,3 +165,15 @@ def test_exports_ned_csv_geojson_and_kf_gins_of_a_parquet_result(bundle, tmp_pat
     assert lon == pytest.approx(last["lon"], abs=1e-8)
     assert run("-q", "export", "kf-gins", tmp_path / "r", "-o", tmp_path / "t.nav").exit_code == 0
     assert len(np.loadtxt(tmp_path / "t.nav")) == len(df)
+
+
+@pytest.mark.parametrize("name", ["sins-dr", "fkf", "usque", "adaptive", "dr"])
+def test_config_template_round_trips(name, tmp_path):
+    """``inmotion methods NAME --template`` is a valid configuration equal to the defaults."""
+    import yaml
+    r = run("methods", name, "--template")
+    assert r.exit_code == 0, r.output
+    data = yaml.safe_load(r.stdout)
+    _, config = registry.get(name).load()
+    assert config.model_validate(data) == config()
+    assert "# " in r.stdout.splitlines()[3]

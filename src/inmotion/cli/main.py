@@ -695,18 +695,26 @@ def evaluate(ctx, result, truth_bundle, as_json):
 
 @cli.command()
 @click.argument("name", required=False)
+@click.option("--template", is_flag=True,
+              help="With NAME: print a YAML configuration with every setting at its default "
+                   "and its unit, range and meaning as comments (for --config).")
 @_json_option
 @click.pass_context
-def methods(ctx, name, as_json):
+def methods(ctx, name, template, as_json):
     """List every method (name, kind, what it is); with NAME, that method's settings.
 
     ``inmotion methods NAME`` prints every setting of the method (name with its unit, default,
     allowed range, meaning), the sensors it needs, whether it needs an initial attitude, and
     its paper.
     """
-    from .method_docs import method_detail, method_text
+    from .method_docs import config_template, method_detail, method_text
+    if template and name is None:
+        raise BadInput("--template needs a method NAME")
     if name is not None:
         spec = _spec(name)
+        if template:
+            click.echo(config_template(spec.name), nl=False)
+            return
         _emit(ctx, method_detail(spec.name), method_text(spec.name), as_json)
         return
     specs = registry.methods()

@@ -14,7 +14,7 @@ from typing import Any, Iterable, Optional
 
 from .. import registry
 
-__all__ = ["PAPERS", "SENSORS", "ESTIMATES", "Setting", "settings", "unit_of", "paper_of", "method_detail",
+__all__ = ["PAPERS", "SENSORS", "ESTIMATES", "config_template", "Setting", "settings", "unit_of", "paper_of", "method_detail",
            "method_text", "methods_markdown", "did_you_mean"]
 
 #: the five papers: number -> citation
@@ -232,6 +232,20 @@ def method_text(name: str) -> str:
     for r in rows:
         lines.append(f"    {r[0]:{w0}s}  {r[1]:{w1}s}  {r[2]:{w2}s}  {r[3]}")
     return "\n".join(lines)
+
+
+def config_template(name: str) -> str:
+    """A YAML configuration of the method with every setting at its default and its unit,
+    range and meaning as a comment: edit it and pass it to ``--config``."""
+    import json
+    d = method_detail(name)
+    lines = [f"# {d['name']} ({d['kind']}): {d['summary']}",
+             f"# inmotion {d['kind']} BUNDLE --method {d['name']} --config THIS_FILE -o RESULT",
+             "# every setting below is at its default; units are in the names"]
+    for s in d["settings"]:
+        text = json.dumps(s["default"])            # JSON is YAML: null, true, "quoted"
+        lines.append(f"{s['name']}: {text}    # {s['meaning']}; allowed: {s['allowed']}")
+    return "\n".join(lines) + "\n"
 
 
 def methods_markdown() -> str:
