@@ -23,10 +23,10 @@ set, align: every row the method outputs), ``--allow-imu-gaps`` (integrate acros
 default a bundle with one is refused,
 see :mod:`inmotion.io.bundle`). ``info`` always reads IMU gaps and lists them.
 
-Global options ``--quiet``/``-q`` (no progress, no notes), ``--json`` (print the command's summary as
-JSON on stdout), ``--debug`` (tracebacks on internal failures). Exit status 0 on success, 2 on
-bad input (one line ``inmotion: error: ...`` on stderr), 1 on an internal failure. The
-global options are accepted anywhere on the line (:func:`hoist_global_options`).
+Global options ``--quiet``/``-q`` (no progress, no notes), ``--json`` (print the command's
+summary as JSON on stdout), ``--debug`` (tracebacks on internal failures). Exit status 0 on
+success, 2 on bad input (one line ``inmotion: error: ...`` on stderr), 1 on an internal
+failure. The global options are accepted anywhere on the line (:func:`hoist_global_options`).
 
 The CLI is the only place that reads files and prints; methods get a :class:`Bundle`, a
 configuration object and a :class:`NavState`.

@@ -14,8 +14,9 @@ from typing import Any, Iterable, Optional
 
 from .. import registry
 
-__all__ = ["PAPERS", "SENSORS", "ESTIMATES", "config_template", "Setting", "settings", "unit_of", "paper_of", "method_detail",
-           "method_text", "methods_markdown", "did_you_mean"]
+__all__ = ["PAPERS", "SENSORS", "ESTIMATES", "config_template", "Setting", "settings",
+           "unit_of", "paper_of", "method_detail", "method_text", "methods_markdown",
+           "did_you_mean"]
 
 #: the five papers: number -> citation
 PAPERS = {
@@ -256,7 +257,8 @@ def methods_markdown() -> str:
            "`inmotion methods NAME` prints the same on the command line. Settings carry their",
            "unit in the name; set them with `--set NAME=VALUE` or in a YAML file given to",
            "`--config`.", "",
-           "| method | kind | needs | initial attitude | paper |", "| --- | --- | --- | --- | --- |"]
+           "| method | kind | needs | initial attitude | paper |",
+           "| --- | --- | --- | --- | --- |"]
     for spec in registry.methods():
         p = paper_of(spec.summary)
         out.append(f"| [`{spec.name}`](#{spec.name}) | {spec.kind} | "
