@@ -65,45 +65,81 @@ class NhcKfConfig(BaseModel):
     """Common configuration (human units in the field names)."""
 
     model_config = ConfigDict(extra="forbid")
-    filter_rate_hz: float = Field(10.0, gt=0)
-    measurement_period_s: float = Field(0.5, gt=0)
+    filter_rate_hz: float = Field(
+        10.0, gt=0,
+        description="Kalman prediction (and model relinearization) rate [Hz], rounded to whole "
+                    "IMU rows")
+    measurement_period_s: float = Field(0.5, gt=0, description="measurement update period [s]")
     main_period_s: float = Field(10.0, gt=0, description="fusion and feedback period")
-    output_interval_s: float = Field(1.0, gt=0)
-    use_baro: bool = True
+    output_interval_s: float = Field(1.0, gt=0, description="spacing of the output rows [s]")
+    use_baro: bool = Field(
+        True,
+        description="add the barometric height measurement h_SINS - h_baro (needs a baro table)")
     mounting_from_meta: bool = Field(True, description="nominal IMU-to-vehicle mounting from "
                                      "meta vehicle_mounting_arcmin (else zero)")
     # priors (1-sigma)
-    init_tilt_sigma_deg: float = Field(0.5, gt=0)
-    init_heading_sigma_deg: float = Field(2.0, gt=0)
-    init_velocity_sigma_m_s: float = Field(0.2, gt=0)
-    init_position_sigma_m: float = Field(5.0, gt=0)
-    gyro_drift_deg_h: float = Field(0.01, ge=0)
-    accel_bias_ug: float = Field(100.0, ge=0)
+    init_tilt_sigma_deg: float = Field(
+        0.5, gt=0, description="initial 1-sigma of the level (pitch, roll) error [deg]")
+    init_heading_sigma_deg: float = Field(
+        2.0, gt=0, description="initial 1-sigma of the heading error [deg]")
+    init_velocity_sigma_m_s: float = Field(
+        0.2, gt=0, description="initial 1-sigma of the velocity error per axis [m/s]")
+    init_position_sigma_m: float = Field(
+        5.0, gt=0, description="initial 1-sigma of the position error per axis [m]")
+    gyro_drift_deg_h: float = Field(
+        0.01, ge=0, description="1-sigma gyro drift (constant bias) per axis [deg/h]")
+    accel_bias_ug: float = Field(
+        100.0, ge=0, description="1-sigma accelerometer bias per axis [ug]")
     # noise
-    gyro_arw_deg_sqrt_h: float = Field(0.001, ge=0)
-    accel_vrw_ug_sqrt_hz: float = Field(10.0, ge=0)
-    nhc_noise_m_s: float = Field(0.1, gt=0)
-    baro_noise_m: float = Field(10.0, gt=0)
-    keep_test_statistics: bool = False
+    gyro_arw_deg_sqrt_h: float = Field(
+        0.001, ge=0, description="gyro angle random walk [deg/sqrt(h)]")
+    accel_vrw_ug_sqrt_hz: float = Field(
+        10.0, ge=0, description="accelerometer velocity random walk [ug/sqrt(Hz)]")
+    nhc_noise_m_s: float = Field(
+        0.1, gt=0,
+        description="1-sigma of the NHC pseudo-measurement (lateral and vertical velocity) [m/s]")
+    baro_noise_m: float = Field(
+        10.0, gt=0, description="1-sigma of the barometric height measurement [m]")
+    keep_test_statistics: bool = Field(
+        False,
+        description="keep the chi-square test statistics series in the result's info")
 
 
 class AidedKfConfig(NhcKfConfig):
     """``od-kf`` / ``ldv-kf``: one sensor sub-filter (21 states) with FDI and NHC fallback."""
 
-    measurement: Literal["displacement", "velocity"] = "displacement"
+    measurement: Literal["displacement", "velocity"] = Field(
+        "displacement",
+        description="sensor measurement: displacement (body-frame increment) or velocity (n "
+                    "frame, eq. 23-24)")
     main_period_s: float = Field(1.0, gt=0, description="feedback period")
     mounting_from_meta: bool = Field(False, description="nominal mounting from meta; the "
                                      "mount states estimate the rest (paper: all of it)")
-    od_noise_m_s: list[float] = Field([0.05, 0.02, 0.05], min_length=3, max_length=3)
-    ldv_noise_m_s: list[float] = Field([0.05, 0.02, 0.05], min_length=3, max_length=3)
-    od_scale_sigma_ppm: float = Field(3000.0, ge=0)
-    ldv_scale_sigma_ppm: float = Field(1000.0, ge=0)
-    mount_sigma_arcmin: float = Field(30.0, ge=0)
-    lever_sigma_m: float = Field(0.05, ge=0)
-    fdi: bool = True
-    false_alarm_rate: float = Field(1e-3, gt=0, lt=1)
-    return_after_s: float = Field(1.0, ge=0)
-    nhc_fallback: bool = True
+    od_noise_m_s: list[float] = Field(
+        [0.05, 0.02, 0.05], min_length=3, max_length=3,
+        description="odometer row 1-sigma [right, forward, up] [m/s]")
+    ldv_noise_m_s: list[float] = Field(
+        [0.05, 0.02, 0.05], min_length=3, max_length=3,
+        description="LDV row 1-sigma [right, forward, up] [m/s]")
+    od_scale_sigma_ppm: float = Field(
+        3000.0, ge=0,
+        description="initial 1-sigma of the odometer scale-factor error [ppm]")
+    ldv_scale_sigma_ppm: float = Field(
+        1000.0, ge=0, description="initial 1-sigma of the LDV scale-factor error [ppm]")
+    mount_sigma_arcmin: float = Field(
+        30.0, ge=0, description="initial 1-sigma of the mounting angles [arcmin]")
+    lever_sigma_m: float = Field(
+        0.05, ge=0, description="initial 1-sigma of the lever-arm error per axis [m]")
+    fdi: bool = Field(
+        True, description="chi-square residual fault detection and isolation per channel")
+    false_alarm_rate: float = Field(
+        1e-3, gt=0, lt=1, description="false-alarm probability of the chi-square test")
+    return_after_s: float = Field(
+        1.0, ge=0,
+        description="an isolated channel returns after its test passes for this long [s]")
+    nhc_fallback: bool = Field(
+        True,
+        description="the vehicle-constraint filter takes over while the channel is isolated")
 
 
 class FkfConfig(AidedKfConfig):
@@ -111,8 +147,11 @@ class FkfConfig(AidedKfConfig):
     main filter period 10 s)."""
 
     main_period_s: float = Field(10.0, gt=0, description="main filter period")
-    beta_od: float = Field(0.5, gt=0, le=1)
-    beta_ldv: float = Field(0.5, gt=0, le=1)
+    beta_od: float = Field(
+        0.5, gt=0, le=1,
+        description="information-sharing factor of the odometer sub-filter")
+    beta_ldv: float = Field(
+        0.5, gt=0, le=1, description="information-sharing factor of the LDV sub-filter")
 
 
 def _config(config, cls):

@@ -43,6 +43,7 @@ from __future__ import annotations
 
 import argparse
 import json
+import os
 import time
 from pathlib import Path
 
@@ -154,9 +155,23 @@ EMS_OD_KF = {**EMS_NHC_KF, "measurement": "velocity", "fdi": False,
              "od_scale_sigma_ppm": 1000.0}
 
 
+#: environment variable naming the folder of the real drives (``inmotion reproduce real --data``)
+DATA_ENV = "INMOTION_REAL_DATA"
+
+
 def default_data_root() -> Path:
-    """``../shared/data/real`` from the repository root (this file is src/inmotion/evaluate)."""
-    return Path(__file__).resolve().parents[3].parent / "shared" / "data" / "real"
+    """The folder of the real drives: ``$INMOTION_REAL_DATA`` if set, else the first
+    ``shared/data/real`` found in the working directory's parent or further up (the project's
+    layout, ``../shared/data/real`` from a clone), else ``../shared/data/real`` (absent)."""
+    env = os.environ.get(DATA_ENV)
+    if env:
+        return Path(env).expanduser()
+    cwd = Path.cwd().resolve()
+    for base in (cwd, *cwd.parents):
+        p = base / "shared" / "data" / "real"
+        if p.is_dir():
+            return p
+    return cwd.parent / "shared" / "data" / "real"
 
 
 def reference_calibration(bundle: Bundle, min_speed=3.0) -> dict:
