@@ -19,6 +19,36 @@ Theoretical limits (steady state of the equations above, the errors the filter c
 ``phi_E = -nabla_N / g``, ``phi_N = nabla_E / g`` and ``phi_U = -eps_E / (omega_ie cos L) +
 tan L nabla_E / g``, with the drift and bias resolved in n (the tests check them on a
 simulated parked run).
+
+The specific force in ``A`` (issue 15, found on the ring-laser-gyro log of PSINS)
+    ``[f_n x]`` couples the heading error into the horizontal velocity through the horizontal
+    specific force (``dv_E_dot = f_N phi_U - f_U phi_N``). ``A`` is built once per filter step
+    (``filter_rate_hz``, 0.1 s by default) and held over the step, so ``f`` must be the mean
+    specific force over that step, ``sum(dvel) / sum(dt)`` of the step's compensated rows
+    (:func:`step_specific_force`), the quantity the discrete transition integrates. The
+    single last row (``Strapdown.f_b``, 10 ms) is the wrong one on a real parked vehicle:
+    its horizontal part is accelerometer quantization (1.2 mm/s per count = 0.12 m/s^2 in
+    10 ms) plus engine vibration, 0.13-0.18 m/s^2 rms, uncorrelated from one filter step to
+    the next, so the model's ``int f_N phi_U dt`` random-walks (0.3 m/s rms over 300 s against
+    a true heading signal of about 0.9 m/s from a 2 deg error): the filter learns a heading
+    it cannot see, its heading sigma collapses and the estimate stalls (ended 7-40 arcmin
+    from the integral methods with sigma 2 arcmin; from the right heading it wandered 8
+    arcmin off). The simulator did not show it because its 25 Hz vibration sampled at the
+    10 Hz filter epochs alternates in sign (lag-1 correlation -1), which cancels. With the
+    step mean the filter lands within 0.4 arcmin of the integral methods from 0.5-10 deg
+    heading starts on every 300 s window of that log.
+
+Noise and prior defaults from the sensor specification
+    ``gyro_drift_deg_h``, ``gyro_arw_deg_sqrt_h``, ``accel_bias_ug``, ``accel_vrw_ug_sqrt_hz``
+    not set in the configuration are taken from ``meta['imu']`` of the bundle when it gives
+    them (the simulator's spelling ``imu: {gyro: {drift_deg_h, arw_deg_sqrt_h,
+    drift_markov_deg_h}, accel: {bias_ug, vrw_ug_sqrt_hz | vrw_m_s_sqrt_h, bias_markov_ug}}``,
+    which the importers also write, marked ``source: documented``): a per-axis list counts
+    by its largest magnitude, a Markov (instability) part is added in quadrature. The drift
+    prior sets the heading sigma's floor ``sigma_eps / (omega_ie cos L)`` (unobservable
+    drift), so a prior below the real sensor's makes the filter claim a heading it cannot
+    have. ``Solution.info['config_source']`` says for each of these fields where its value
+    came from (``config``, ``meta.imu (documented)``, ``meta.imu (simulated)``, ``default``).
 """
 from __future__ import annotations
 
@@ -39,7 +69,8 @@ from ..estimation.kalman import KalmanFilter
 from ..estimation.layout import Layout
 from .aided_kf import _config
 
-__all__ = ["ParkedKfConfig", "PARKED_LAYOUT", "parked_F", "run_parked_kf"]
+__all__ = ["ParkedKfConfig", "PARKED_LAYOUT", "parked_F", "run_parked_kf", "step_specific_force",
+           "spec_from_meta", "config_with_spec"]
 
 ARCMIN = np.pi / 180.0 / 60.0
 DEG_H = np.pi / 180.0 / 3600.0
@@ -94,6 +125,67 @@ def _Qc(cfg):
     return Q
 
 
+SPEC_FIELDS = ("gyro_drift_deg_h", "gyro_arw_deg_sqrt_h", "accel_bias_ug", "accel_vrw_ug_sqrt_hz")
+
+
+def _magnitude(v):
+    """A spec value as one non-negative number: a per-axis list by its largest magnitude."""
+    if v is None:
+        return None
+    a = np.abs(np.atleast_1d(np.asarray(v, dtype=float)))
+    return float(a.max()) if a.size and np.isfinite(a).all() else None
+
+
+def spec_from_meta(meta) -> tuple[dict, str]:
+    """``({field: value}, origin)``: the IMU specification in ``meta['imu']`` as
+    :class:`ParkedKfConfig` fields (module docstring), and where it came from."""
+    imu = (meta or {}).get("imu") if isinstance(meta, dict) else None
+    if not isinstance(imu, dict):
+        return {}, ""
+    gyro = imu.get("gyro") if isinstance(imu.get("gyro"), dict) else {}
+    acc = imu.get("accel") if isinstance(imu.get("accel"), dict) else {}
+    out = {}
+    drift, mk = _magnitude(gyro.get("drift_deg_h")), _magnitude(gyro.get("drift_markov_deg_h"))
+    if drift is not None:
+        out["gyro_drift_deg_h"] = float(np.hypot(drift, mk or 0.0))
+    if _magnitude(gyro.get("arw_deg_sqrt_h")) is not None:
+        out["gyro_arw_deg_sqrt_h"] = _magnitude(gyro.get("arw_deg_sqrt_h"))
+    bias, bmk = _magnitude(acc.get("bias_ug")), _magnitude(acc.get("bias_markov_ug"))
+    if bias is not None:
+        out["accel_bias_ug"] = float(np.hypot(bias, bmk or 0.0))
+    vrw = _magnitude(acc.get("vrw_ug_sqrt_hz"))
+    if vrw is None and _magnitude(acc.get("vrw_m_s_sqrt_h")) is not None:
+        vrw = _magnitude(acc.get("vrw_m_s_sqrt_h")) / 60.0 / UG      # m/s/sqrt(h) -> ug/sqrt(Hz)
+    if vrw is not None:
+        out["accel_vrw_ug_sqrt_hz"] = vrw
+    origin = ("meta.imu (documented)" if imu.get("source") == "documented"
+              else "meta.imu (simulated)" if meta.get("simulated") else "meta.imu")
+    return out, origin
+
+
+def config_with_spec(cfg: ParkedKfConfig, meta) -> tuple[ParkedKfConfig, dict]:
+    """``cfg`` with the :data:`SPEC_FIELDS` it does not set taken from ``meta['imu']``, and
+    ``{field: origin}`` for each of them."""
+    spec, origin = spec_from_meta(meta)
+    src, upd = {}, {}
+    for f in SPEC_FIELDS:
+        if f in cfg.model_fields_set:
+            src[f] = "config"
+        elif f in spec:
+            upd[f], src[f] = spec[f], origin
+        else:
+            src[f] = "default"
+    return (cfg.model_copy(update=upd) if upd else cfg), src
+
+
+def step_specific_force(dvel, dt, bias_a) -> np.ndarray:
+    """Mean specific force [m/s^2] in b over one filter step: ``(sum(dvel) - bias_a sum(dt))
+    / sum(dt)`` of its rows (``dvel`` (M, 3) [m/s], ``dt`` (M,) [s], ``bias_a`` [m/s^2] the
+    accelerometer bias fed back so far). See the module docstring for why not the last row."""
+    T = float(np.sum(dt))
+    return (np.asarray(dvel).sum(axis=0) - np.asarray(bias_a) * T) / T
+
+
 def run_parked_kf(bundle: Bundle, config: ParkedKfConfig | dict | None = None,
                   init: NavState | None = None, progress: Optional[Callable] = None,
                   end_s: float | None = None) -> Solution:
@@ -103,7 +195,7 @@ def run_parked_kf(bundle: Bundle, config: ParkedKfConfig | dict | None = None,
     drives off). Returns the SINS attitude at the output interval, ``sigma`` of ``phi`` and
     the estimated drift and bias in ``states``.
     """
-    cfg = _config(config, ParkedKfConfig)
+    cfg, cfg_source = config_with_spec(_config(config, ParkedKfConfig), bundle.meta)
     if init is None:
         raise BadInput("parked-kf needs an initial attitude (--init truth, a coarse alignment "
                        "result, or meta.yaml)")
@@ -135,7 +227,8 @@ def run_parked_kf(bundle: Bundle, config: ParkedKfConfig | dict | None = None,
         t_prev = tt[-1]
         x = sins.x
         C = dcm_from_quat(x[6:10])
-        kf.set_model(parked_F(init.lat, C, C @ sins.f_b), Qc)
+        f_b = step_specific_force(imu.dvel[a:b], dt, bias_a)     # not sins.f_b (last row)
+        kf.set_model(parked_F(init.lat, C, C @ f_b), Qc)
         kf.predict(dt.sum())
         kf.update(x[3:6].copy(), H, R)
         e = kf.x
@@ -158,7 +251,8 @@ def run_parked_kf(bundle: Bundle, config: ParkedKfConfig | dict | None = None,
     sigma = {k: sig[k] for k in ("phi_E", "phi_N", "phi_U")}
     sigma.update(vE=sig["dv_E"], vN=sig["dv_N"], vU=sig["dv_U"])
     states = lay.as_dict(np.array(rows["st"]))
-    info = {"method": "parked-kf", "config": cfg.model_dump(), "layout": list(lay.names),
+    info = {"method": "parked-kf", "config": cfg.model_dump(), "config_source": cfg_source,
+            "layout": list(lay.names),
             "nis_mean_per_dof": kf.nis_sum / max(kf.nis_dof, 1),
             "wall_time_s": time.perf_counter() - t_wall}
     return Solution.from_arrays(np.array(rows["t"]), lla, np.zeros((n, 3)), np.array(rows["q"]),
