@@ -53,7 +53,7 @@ Noise and prior defaults from the sensor specification
 from __future__ import annotations
 
 import time
-from typing import Callable, Optional
+from typing import Callable, Literal, Optional
 
 import numpy as np
 from pydantic import BaseModel, ConfigDict, Field
@@ -93,6 +93,9 @@ class ParkedKfConfig(BaseModel):
     accel_vrw_ug_sqrt_hz: float = Field(10.0, ge=0)
     zero_velocity_noise_m_s: float = Field(0.01, gt=0, description="vibration velocity")
     output_interval_s: float = Field(1.0, gt=0)
+    specific_force: Literal["step_mean", "last_row"] = Field(
+        "step_mean", description="f in A: the mean over the filter step (default); last_row: "
+        "the last IMU row's, the model before issue 15, kept to show its failure on real data")
 
 
 def parked_F(lat: float, C_nb, f_n) -> np.ndarray:
@@ -227,7 +230,8 @@ def run_parked_kf(bundle: Bundle, config: ParkedKfConfig | dict | None = None,
         t_prev = tt[-1]
         x = sins.x
         C = dcm_from_quat(x[6:10])
-        f_b = step_specific_force(imu.dvel[a:b], dt, bias_a)     # not sins.f_b (last row)
+        f_b = (step_specific_force(imu.dvel[a:b], dt, bias_a)
+               if cfg.specific_force == "step_mean" else sins.f_b)
         kf.set_model(parked_F(init.lat, C, C @ f_b), Qc)
         kf.predict(dt.sum())
         kf.update(x[3:6].copy(), H, R)
