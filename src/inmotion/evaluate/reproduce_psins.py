@@ -352,9 +352,12 @@ def report_lines(rlg: dict | None, mems: dict | None) -> list:
                   f"Pseudo-odometer from the FOG speed (scale {po['scale']}, noise "
                   f"{po['noise_m_s']} m/s at {po['rate_hz']:.0f} Hz, seed {po['seed']}; **not "
                   "an independent sensor**). Limits: level "
-                  f"{lim['level_limit_arcmin']:.0f} arcmin (accel bias {lim['bias_ug']:.0f} ug),"
-                  f" heading {lim['heading_limit_deg']:.0f} deg (drift {lim['drift_deg_h']:.0f}"
-                  " deg/h: not observable).", "",
+                  f"{lim['level_limit_arcmin']:.0f} arcmin from the accelerometer bias "
+                  f"({lim['bias_ug']:.0f} ug / g) for an instantaneous gravity fit, and "
+                  f"{lim['drift_deg_h'] * 50 / 60:.0f} arcmin from the gyro drift over half "
+                  f"the 100 s window ({lim['drift_deg_h']:.0f} deg/h x 50 s) for the integral "
+                  "methods; heading not observable (drift / (Omega_ie cos L) = "
+                  f"{lim['heading_limit_deg']:.0f} deg).", "",
                   "Errors at the end of the 100 s (the coarse methods' answer propagated by "
                   f"the gyros: {lim['drift_deg_h']:.0f} deg/h x 100 s is "
                   f"{lim['drift_deg_h'] / 36:.1f} deg) and, for the coarse methods, of their "
