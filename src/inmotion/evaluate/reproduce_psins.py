@@ -269,7 +269,7 @@ def psins_rows(rlg: dict | None, mems: dict | None) -> list:
         lim = rlg["limits"]
         for label, s in rlg["summary"].items():
             sig = s["sigma_heading_arcmin"]
-            rows.append({"quantity": f"PSINS RLG parked, max |heading - consensus| over "
+            rows.append({"quantity": f"PSINS RLG parked, max abs(heading - consensus) over "
                                      f"{rlg['n_windows']} x {rlg['window_s']:.0f} s, {label}",
                          "reference": lim["heading_limit_arcmin"],
                          "measured": s["max_abs_heading_dev_arcmin"], "unit": "arcmin",
