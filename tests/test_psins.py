@@ -178,8 +178,9 @@ def test_real_rlg_every_parked_method_within_the_bias_limits_with_honest_sigma()
     sigma covers its error, and the consensus heading is stable across windows within the
     limit."""
     b = import_log("psins", RLG)
-    res = rp.run_psins_rlg(b, n_windows=3)
+    res = rp.run_psins_rlg(b)
     lim = res["limits"]
+    assert res["n_windows"] == 6
     assert lim["heading_limit_arcmin"] == pytest.approx(8.3, abs=0.2)
     assert lim["level_limit_arcmin"] == pytest.approx(0.34, abs=0.01)
     for label in list(rp.PARKED_INTEGRAL) + ["parked-kf", "parked-kf from 30'"]:
@@ -188,7 +189,7 @@ def test_real_rlg_every_parked_method_within_the_bias_limits_with_honest_sigma()
     for r in res["runs"]:
         if r["run"] in ("parked-kf", "parked-kf from 30'"):
             assert abs(r["heading_dev_arcmin"]) <= r["sigma_heading_arcmin"], r
-            assert r["level_dev_arcmin"] <= 2.0 * r["sigma_level_arcmin"], r
+            assert r["level_dev_arcmin"] <= r["sigma_level_arcmin"], r
             assert r["sigma_heading_arcmin"] <= 1.5 * lim["heading_limit_arcmin"], r
     assert res["consensus_yaw_spread_arcmin"] <= 1.5 * lim["heading_limit_arcmin"]
     # the model before issue 15 fails here (the reason for the fix, kept as a config value)
