@@ -46,9 +46,9 @@ RLG_START_ERROR_DEG = 2.0
 #: the integral (attitude-determination) methods that apply to a parked vehicle
 PARKED_INTEGRAL = ("coarse-inertial", "imada-vb", "imada-dual", "mimada-dual", "oba")
 #: parked-kf runs: label -> (configuration, heading start error [deg])
+LAST_ROW = "parked-kf (pre-issue-15 model, last_row)"
 PARKED_KF_RUNS = {"parked-kf": ({}, RLG_START_ERROR_DEG),
-                  "parked-kf (pre-issue-15 model, last_row)": ({"specific_force": "last_row"},
-                                                               RLG_START_ERROR_DEG),
+                  LAST_ROW: ({"specific_force": "last_row"}, RLG_START_ERROR_DEG),
                   "parked-kf from 30'": ({}, 0.5),
                   "parked-kf from 30' (last_row)": ({"specific_force": "last_row"}, 0.5)}
 #: pseudo-odometer on the MEMS log: scale error and white noise (stated, seeded)
@@ -130,6 +130,36 @@ def _att_row(label, window, sol, C_ref, wall, note=""):
             "note": note}
 
 
+def specific_force_diagnostics(bundle: Bundle, window_s: float = RLG_WINDOW_S,
+                               filter_rate_hz: float = 10.0,
+                               heading_error_deg: float = RLG_START_ERROR_DEG) -> dict:
+    """Why the last row's specific force broke ``parked-kf`` (issue 15), in numbers, over the
+    first ``window_s`` of a parked log: the horizontal specific force (in b, the base is
+    nearly level) per IMU row and per filter step [m/s^2], the lag-1 correlation of the
+    last-row values from one filter epoch to the next, the rms of the model's spurious
+    velocity ``cumsum(f_last dt_step)`` over the window [m/s], and the true heading signal
+    ``g omega_ie cos L psi T^2 / 2`` of a ``heading_error_deg`` error at its end [m/s]."""
+    bw = bundle.window(None, float(bundle.imu.t[0]) + window_s)
+    dt = bw.imu.dt
+    step = max(1, int(round(1.0 / (filter_rate_hz * dt))))
+    f = bw.imu.dvel[:, :2] / dt
+    n = len(f) // step * step
+    f_step = bw.imu.dvel[:n, :2].reshape(-1, step, 2).sum(axis=1) / (step * dt)
+    f_last = f[step - 1:n:step]
+    f_last = f_last - f_last.mean(axis=0)
+    lag1 = [float(np.mean(f_last[:-1, j] * f_last[1:, j]) / f_last[:, j].var())
+            for j in range(2)]
+    walk = np.cumsum(f_last * step * dt, axis=0)
+    lat = np.radians(bundle.meta["initial_position"]["lat_deg"])
+    signal = (earth.G0 * earth.OMEGA_IE * np.cos(lat) * np.radians(heading_error_deg)
+              * window_s ** 2 / 2.0)
+    return {"f_row_rms_m_s2": f.std(axis=0).tolist(),
+            "f_step_rms_m_s2": f_step.std(axis=0).tolist(),
+            "lag1_corr_last_row": lag1, "spurious_velocity_rms_m_s": walk.std(axis=0).tolist(),
+            "heading_signal_m_s": float(signal), "window_s": window_s,
+            "heading_error_deg": heading_error_deg}
+
+
 def run_psins_rlg(bundle: Bundle, window_s: float = RLG_WINDOW_S,
                   n_windows: int | None = None) -> dict:
     """Every parked method on each ``window_s`` window of the RLG log (module docstring)."""
@@ -182,6 +212,7 @@ def run_psins_rlg(bundle: Bundle, window_s: float = RLG_WINDOW_S,
                 np.abs(dh) <= 3.0 * np.array(sh))),
         }
     return {"limits": lim, "window_s": window_s, "n_windows": int(len(starts)),
+            "specific_force_diagnostics": specific_force_diagnostics(bundle, window_s),
             "consensus_yaw_deg": [float(x) for x in yaw],
             "consensus_yaw_spread_arcmin": float((yaw.max() - yaw.min()) * 60.0),
             "consensus_tilt_change_arcmin": [[float(p[0]), float(p[1])] for p in level_series],
@@ -342,9 +373,27 @@ def report_lines(rlg: dict | None, mems: dict | None) -> list:
                          f"{r['yaw_deg']:.4f} | {r['pitch_deg']:.4f} | {r['roll_deg']:.4f} | "
                          f"{r['heading_dev_arcmin']:.2f} | {_f(r['sigma_heading_arcmin'], 1)} | "
                          f"{r['level_dev_arcmin']:.2f} | {_f(r['sigma_level_arcmin'])} |")
+        d = rlg["specific_force_diagnostics"]
+        old_sig = rlg["summary"][LAST_ROW]["sigma_heading_arcmin"]
         lines += ["", "The `last_row` rows are parked-kf's model before issue 15 (the last 10 ms "
                   "row's specific force in the error model; see `inmotion.align.parked_kf`): "
-                  "kept to show what the real log does to it.", ""]
+                  "kept to show what the real log does to it. Why, over the first "
+                  f"{d['window_s']:.0f} s: the horizontal specific force is "
+                  + "/".join(f"{x:.3f}" for x in d["f_row_rms_m_s2"])
+                  + " m/s^2 rms (x/y) per 10 ms row (engine vibration and 125 ug*s "
+                    "quantization) but "
+                  + "/".join(f"{x:.3f}" for x in d["f_step_rms_m_s2"])
+                  + " over a 0.1 s filter step; the last-row values at successive filter "
+                    "epochs are uncorrelated (lag-1 "
+                  + "/".join(f"{x:.2f}" for x in d["lag1_corr_last_row"])
+                  + "; the simulator's 25 Hz vibration alternates, -1), so the model's "
+                    "`int f_N phi_U dt` random-walks to "
+                  + "/".join(f"{x:.2f}" for x in d["spurious_velocity_rms_m_s"])
+                  + f" m/s rms against a true heading signal of {d['heading_signal_m_s']:.2f}"
+                    f" m/s from a {d['heading_error_deg']:g} deg error: the filter takes "
+                    "noise for heading information, its heading sigma collapses to "
+                  + "-".join(f"{x:.1f}" for x in old_sig)
+                  + " arcmin and the estimate stalls.", ""]
     if mems:
         lim = mems["limits"]
         po = mems["pseudo_odometer"]
