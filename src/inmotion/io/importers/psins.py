@@ -264,4 +264,7 @@ def import_psins(source, *, parked=1, mounting="mu0", name=None) -> Bundle:
     path = existing_file(source, "PSINS file")
     if path.suffix.lower() == ".mat":
         return _import_mat(path, str(mounting), name)
-    return _import_imu_text(path, bool(int(parked)), name)
+    flag = str(parked).strip().lower()
+    if flag not in ("1", "0", "true", "false", "yes", "no"):
+        raise BadInput(f"parked must be 1 or 0, not {parked!r}")
+    return _import_imu_text(path, flag in ("1", "true", "yes"), name)
