@@ -38,7 +38,8 @@ from .metrics import interpolate_truth
 
 __all__ = ["RLG_WINDOW_S", "RLG_START_ERROR_DEG", "PARKED_INTEGRAL", "parked_limits",
            "with_zero_speed", "consensus", "run_psins_rlg", "mems_pseudo_odometer",
-           "run_psins_mems", "psins_rows", "report_lines"]
+           "run_psins_mems", "psins_rows", "report_lines", "figure_parked",
+           "specific_force_diagnostics"]
 
 ARCMIN = np.pi / 180.0 / 60.0
 RLG_WINDOW_S = 300.0
@@ -291,6 +292,41 @@ def run_psins_mems(bundle: Bundle) -> dict:
                                                "noise_m_s": MEMS_ODO_NOISE_M_S,
                                                "rate_hz": MEMS_ODO_RATE_HZ, "seed": 0},
             "runs": rows}
+
+
+def figure_parked(rlg: dict):
+    """Heading and level of every parked method against the consensus, per window, with the
+    theory limits as bands and parked-kf's 1-sigma as error bars (``real_psins_parked.png``)."""
+    from matplotlib.figure import Figure
+
+    fig = Figure(figsize=(12, 4.5), layout="constrained")
+    axes = fig.subplots(1, 2)
+    lim = rlg["limits"]
+    labels = list(rlg["summary"])
+    for ax, key, sig_key, limit, title in (
+            (axes[0], "heading_dev_arcmin", "sigma_heading_arcmin",
+             lim["heading_limit_arcmin"], "heading - consensus"),
+            (axes[1], "level_dev_arcmin", "sigma_level_arcmin", lim["level_limit_arcmin"],
+             "level - consensus")):
+        ax.axhspan(-1.5 * limit if key.startswith("heading") else 0.0, 1.5 * limit,
+                   color="0.9", label="1.5 x theory limit")
+        for i, label in enumerate(labels):
+            rr = [r for r in rlg["runs"] if r["run"] == label]
+            x = np.array([r["window_s"][0] for r in rr]) + 12.0 * (i - len(labels) / 2)
+            y = np.array([r[key] for r in rr])
+            sig = [r[sig_key] for r in rr]
+            if sig[0] is None:
+                ax.plot(x, y, "o", ms=3, label=label)
+            else:
+                ax.errorbar(x, y, yerr=np.array(sig, dtype=float), fmt="s", ms=3, capsize=2,
+                            label=f"{label} (1 sigma)")
+        ax.set_yscale("symlog", linthresh=1.0 if key.startswith("heading") else 0.1)
+        ax.set_xlabel("window start [s]")
+        ax.set_ylabel(f"{title} [arcmin]")
+        ax.set_title(f"PSINS RLG parked: {title}", loc="left", fontsize=10)
+        ax.grid(alpha=0.3)
+    axes[0].legend(fontsize=6)
+    return fig
 
 
 def psins_rows(rlg: dict | None, mems: dict | None) -> list:

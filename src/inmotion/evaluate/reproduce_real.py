@@ -711,7 +711,9 @@ def report_markdown(results: dict, rows: list) -> str:
     lines += [f"- **{k}**: {v}" for k, v in results["observability"].items()]
     lines += ["", "## Not done", ""] + [f"- {x}" for x in results["not_done"]]
     lines += ["", "Figures: `real_position_error.png`, `real_attitude_error.png`, "
-              "`real_mounting.png`.", ""]
+              "`real_mounting.png`"
+              + (", `real_psins_parked.png`" if PSINS_RLG in results["drives"] else "")
+              + ".", ""]
     return "\n".join(lines)
 
 
@@ -777,6 +779,8 @@ def reproduce(out_dir, runs=None, workers=None, seed=0, progress=True, data_root
                       "EMS (after the still period)": ems["series"]}).savefig(
         out / "real_attitude_error.png", dpi=90)
     _figure_mounting(comma).savefig(out / "real_mounting.png", dpi=90)
+    if rlg is not None:
+        rp.figure_parked(rlg).savefig(out / "real_psins_parked.png", dpi=90)
     return results
 
 
