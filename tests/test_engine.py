@@ -320,7 +320,9 @@ def test_parked_kf_on_the_engine_gives_the_former_filters_result():
     b = simulate(load_scenario(find_scenario("paper003_parked_then_drive")),
                  np.random.default_rng(0))
     init = NavState.from_truth(b.truth, euler_error=np.radians([0.3, -0.3, 2.0]))
-    s = run_parked_kf(b, {}, init, end_s=175.0)
+    former_defaults = {"gyro_drift_deg_h": 0.01, "accel_bias_ug": 100.0,   # not from meta.yaml
+                       "gyro_arw_deg_sqrt_h": 0.001, "accel_vrw_ug_sqrt_hz": 10.0}
+    s = run_parked_kf(b, former_defaults, init, end_s=175.0)
     assert np.array_equal(s.t, ref["t"])
     d = (s.euler[-1] - ref["euler"][-1]) / ARCMIN
     assert np.all(np.abs(d[:2]) < 0.1) and abs(d[2]) < 1.0, d

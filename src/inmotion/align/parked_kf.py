@@ -22,13 +22,42 @@ measured (no zero-position update, which would add information the paper's filte
 use), so it only integrates the small residual velocity error (centimetres) and is fed back
 like the rest. At rest the shared F restricted to eq. 12's states is :func:`parked_F` (a test
 checks it); the ``dp`` columns add the Earth rate's dependence on latitude, negligible here.
-The specific force in F is the filter epoch's mean (the paper's filter of the previous version
-took the last IMU row's, which aliases the engine's vibration into F).
 
 Theoretical limits (steady state of the equations above, the errors the filter cannot see):
 ``phi_E = -nabla_N / g``, ``phi_N = nabla_E / g`` and ``phi_U = -eps_E / (omega_ie cos L) +
 tan L nabla_E / g``, with the drift and bias resolved in n (the tests check them on a
 simulated parked run).
+
+The specific force in ``A`` (issue 15, found on the ring-laser-gyro log of PSINS)
+    ``[f_n x]`` couples the heading error into the horizontal velocity through the horizontal
+    specific force (``dv_E_dot = f_N phi_U - f_U phi_N``). ``A`` is built once per filter step
+    (``filter_rate_hz``, 0.1 s by default) and held over the step, so ``f`` must be the mean
+    specific force over that step, ``sum(dvel) / sum(dt)`` of the step's compensated rows,
+    the quantity the discrete transition integrates (the engine's epoch mean). The single
+    last row (``Strapdown.f_b``, 10 ms), which this filter's former own loop used, is the
+    wrong one on a real parked vehicle:
+    its horizontal part is accelerometer quantization (1.2 mm/s per count = 0.12 m/s^2 in
+    10 ms) plus engine vibration, 0.13-0.18 m/s^2 rms, uncorrelated from one filter step to
+    the next, so the model's ``int f_N phi_U dt`` random-walks (0.3 m/s rms over 300 s against
+    a true heading signal of about 0.9 m/s from a 2 deg error): the filter learns a heading
+    it cannot see, its heading sigma collapses and the estimate stalls (ended 7-40 arcmin
+    from the integral methods with sigma 2 arcmin; from the right heading it wandered 8
+    arcmin off). The simulator did not show it because its 25 Hz vibration sampled at the
+    10 Hz filter epochs alternates in sign (lag-1 correlation -1), which cancels. With the
+    step mean the filter lands within 0.4 arcmin of the integral methods from 0.5-10 deg
+    heading starts on every 300 s window of that log.
+
+Noise and prior defaults from the sensor specification
+    ``gyro_drift_deg_h``, ``gyro_arw_deg_sqrt_h``, ``accel_bias_ug``, ``accel_vrw_ug_sqrt_hz``
+    not set in the configuration are taken from ``meta['imu']`` of the bundle when it gives
+    them (the simulator's spelling ``imu: {gyro: {drift_deg_h, arw_deg_sqrt_h,
+    drift_markov_deg_h}, accel: {bias_ug, vrw_ug_sqrt_hz | vrw_m_s_sqrt_h, bias_markov_ug}}``,
+    which the importers also write, marked ``source: documented``): a per-axis list counts
+    by its largest magnitude, a Markov (instability) part is added in quadrature. The drift
+    prior sets the heading sigma's floor ``sigma_eps / (omega_ie cos L)`` (unobservable
+    drift), so a prior below the real sensor's makes the filter claim a heading it cannot
+    have. ``Solution.info['config_source']`` says for each of these fields where its value
+    came from (``config``, ``meta.imu (documented)``, ``meta.imu (simulated)``, ``default``).
 """
 from __future__ import annotations
 
@@ -49,7 +78,8 @@ from ..estimation.engine import ErrorStateFilter
 from ..estimation.layout import Layout, position_units
 from .aided_kf import _config
 
-__all__ = ["ParkedKfConfig", "PARKED_LAYOUT", "parked_F", "run_parked_kf"]
+__all__ = ["ParkedKfConfig", "PARKED_LAYOUT", "parked_F", "run_parked_kf",
+           "spec_from_meta", "config_with_spec"]
 
 ARCMIN = np.pi / 180.0 / 60.0
 DEG_H = np.pi / 180.0 / 3600.0
@@ -113,6 +143,59 @@ def _noise(cfg):
                            accel_vrw=cfg.accel_vrw_ug_sqrt_hz * UG)
 
 
+SPEC_FIELDS = ("gyro_drift_deg_h", "gyro_arw_deg_sqrt_h", "accel_bias_ug", "accel_vrw_ug_sqrt_hz")
+
+
+def _magnitude(v):
+    """A spec value as one non-negative number: a per-axis list by its largest magnitude."""
+    if v is None:
+        return None
+    a = np.abs(np.atleast_1d(np.asarray(v, dtype=float)))
+    return float(a.max()) if a.size and np.isfinite(a).all() else None
+
+
+def spec_from_meta(meta) -> tuple[dict, str]:
+    """``({field: value}, origin)``: the IMU specification in ``meta['imu']`` as
+    :class:`ParkedKfConfig` fields (module docstring), and where it came from."""
+    imu = (meta or {}).get("imu") if isinstance(meta, dict) else None
+    if not isinstance(imu, dict):
+        return {}, ""
+    gyro = imu.get("gyro") if isinstance(imu.get("gyro"), dict) else {}
+    acc = imu.get("accel") if isinstance(imu.get("accel"), dict) else {}
+    out = {}
+    drift, mk = _magnitude(gyro.get("drift_deg_h")), _magnitude(gyro.get("drift_markov_deg_h"))
+    if drift is not None:
+        out["gyro_drift_deg_h"] = float(np.hypot(drift, mk or 0.0))
+    if _magnitude(gyro.get("arw_deg_sqrt_h")) is not None:
+        out["gyro_arw_deg_sqrt_h"] = _magnitude(gyro.get("arw_deg_sqrt_h"))
+    bias, bmk = _magnitude(acc.get("bias_ug")), _magnitude(acc.get("bias_markov_ug"))
+    if bias is not None:
+        out["accel_bias_ug"] = float(np.hypot(bias, bmk or 0.0))
+    vrw = _magnitude(acc.get("vrw_ug_sqrt_hz"))
+    if vrw is None and _magnitude(acc.get("vrw_m_s_sqrt_h")) is not None:
+        vrw = _magnitude(acc.get("vrw_m_s_sqrt_h")) / 60.0 / UG      # m/s/sqrt(h) -> ug/sqrt(Hz)
+    if vrw is not None:
+        out["accel_vrw_ug_sqrt_hz"] = vrw
+    origin = ("meta.imu (documented)" if imu.get("source") == "documented"
+              else "meta.imu (simulated)" if meta.get("simulated") else "meta.imu")
+    return out, origin
+
+
+def config_with_spec(cfg: ParkedKfConfig, meta) -> tuple[ParkedKfConfig, dict]:
+    """``cfg`` with the :data:`SPEC_FIELDS` it does not set taken from ``meta['imu']``, and
+    ``{field: origin}`` for each of them."""
+    spec, origin = spec_from_meta(meta)
+    src, upd = {}, {}
+    for f in SPEC_FIELDS:
+        if f in cfg.model_fields_set:
+            src[f] = "config"
+        elif f in spec:
+            upd[f], src[f] = spec[f], origin
+        else:
+            src[f] = "default"
+    return (cfg.model_copy(update=upd) if upd else cfg), src
+
+
 def run_parked_kf(bundle: Bundle, config: ParkedKfConfig | dict | None = None,
                   init: NavState | None = None, progress: Optional[Callable] = None,
                   end_s: float | None = None) -> Solution:
@@ -122,7 +205,7 @@ def run_parked_kf(bundle: Bundle, config: ParkedKfConfig | dict | None = None,
     drives off). Returns the SINS attitude at the output interval, ``sigma`` of ``phi`` and
     the estimated drift and bias in ``states``.
     """
-    cfg = _config(config, ParkedKfConfig)
+    cfg, cfg_source = config_with_spec(_config(config, ParkedKfConfig), bundle.meta)
     if init is None:
         raise BadInput("parked-kf needs an initial attitude (--init truth, a coarse alignment "
                        "result, or meta.yaml)")
@@ -161,7 +244,8 @@ def run_parked_kf(bundle: Bundle, config: ParkedKfConfig | dict | None = None,
     sigma.update(vE=sig["dv_E"], vN=sig["dv_N"], vU=sig["dv_U"])
     states = lay.as_dict(rows["states"])
     nis = f.nis_sums()["zero_velocity"]
-    info = {"method": "parked-kf", "config": cfg.model_dump(), "layout": list(lay.names),
+    info = {"method": "parked-kf", "config": cfg.model_dump(), "config_source": cfg_source,
+            "layout": list(lay.names),
             "nis_mean_per_dof": nis[0] / max(nis[1], 1), "measurements": f.counts(),
             "wall_time_s": time.perf_counter() - t_wall}
     return Solution.from_arrays(rows["t"], xs[:, 0:3], xs[:, 3:6], xs[:, 6:10], sigma=sigma,

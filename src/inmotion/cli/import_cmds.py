@@ -6,7 +6,7 @@
     inmotion export kf-gins RESULT -o FILE [--gps-week N]
 
 ``FORMAT`` is one of :data:`inmotion.io.importers.FORMATS` (``kf-gins``, ``comma2k19``,
-``ems``, ``csv``); ``-O`` passes an importer option (``-O nav=truth.nav -O odo=odo.txt`` for
+``ems``, ``psins``, ``csv``); ``-O`` passes an importer option (``-O nav=truth.nav -O odo=odo.txt`` for
 KF-GINS, ``-O order=4`` for cubic rate integration, ``-O gyro=gyro_uncalibrated`` for
 comma2k19). Bad input (missing file, wrong layout, unknown format or option) raises
 :class:`inmotion.errors.BadInput`, which the main command turns into exit status 2.
@@ -81,7 +81,7 @@ def _summary(bundle, out) -> dict:
 @click.option("--json", "as_json", is_flag=True, help="print the summary as JSON")
 @click.option("--quiet", is_flag=True)
 def import_cmd(fmt, source, out, mapping, options, bundle_format, as_json, quiet):
-    """Import a log in FORMAT (kf-gins, comma2k19, ems, csv) from SOURCE into a bundle."""
+    """Import a log in FORMAT (kf-gins, comma2k19, ems, psins, csv) from SOURCE into a bundle."""
     from ..io.bundle import write_bundle
     from ..io.importers import get_importer
 
