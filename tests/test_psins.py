@@ -16,7 +16,7 @@ from inmotion.core import earth, rotations
 from inmotion.core.solution import NavState
 from inmotion.errors import BadInput
 from inmotion.evaluate import reproduce_psins as rp
-from inmotion.io.importers import get_importer, import_log
+from inmotion.io.importers import import_log
 from inmotion.io.importers.psins import (ARCSEC, design_euler_from_psins,
                                          psins_from_design_euler)
 
