@@ -293,7 +293,8 @@ class ErrorModel:
         for name, dens in (("eps", q.gyro_bias_rw), ("nabla", q.accel_bias_rw),
                            ("mount", q.mount_rw), ("lever", q.lever_rw)):
             if name in lay:
-                Q[lay[name], lay[name]] = dens ** 2 * np.eye(3)
+                sl = lay[name]
+                Q[sl, sl] = dens ** 2 * np.eye(sl.stop - sl.start)
         if "dk" in lay and np.isfinite(q.dk_tau):
             Q[lay["dk"], lay["dk"]] = 2.0 * q.dk_sigma ** 2 / q.dk_tau
         return Q
