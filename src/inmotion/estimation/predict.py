@@ -1,0 +1,192 @@
+"""Sparse covariance predict: the math of :func:`kalman._predict_kernel`, F's zero rows skipped.
+
+One filter epoch predicts ``x`` and ``P`` over ``dt`` with (:mod:`inmotion.estimation.kalman`)::
+
+    Phi = I + F dt + (F dt)^2 / 2
+    x  <- Phi x
+    P  <- Phi P Phi^T + dt / 2 (Phi Qc Phi^T + Qc)      (symmetric, diagonal floored at 0)
+
+The error model's ``F`` (:func:`error_model._fill_F`) is sparse: 60-115 nonzeros of
+n^2 = 484-625, all in the rows of the dynamic blocks (``phi, dv, dp, phi_D, dp_D``, and ``dk``
+when it is a Markov state); the random-constant states (``eps, nabla, mount``) have zero rows,
+i.e. identity rows of ``Phi``. :func:`predict_sparse` works on the ``na`` "active" rows only
+(16 of 22 or 25 in the package's layouts):
+
+* ``Phi = I + E``, ``E = F dt + (F dt)^2 / 2`` nonzero in the active rows only:
+  ``E_a = dt F_a + dt^2 / 2 F_aa F_a`` (``F_a`` the active rows of F, ``F_aa`` their active
+  columns, as F's other rows are zero);
+* ``Phi P Phi^T + dt/2 Phi Qc Phi^T = Phi Pt Phi^T`` with ``Pt = P + dt/2 Qc`` (Qc's few
+  entries added before, and once more after: the trapezoid's ``+ dt/2 Qc``);
+* ``A = (Phi Pt)_a = Pt_a + E_a Pt`` (na x n), the only rows of ``Phi Pt`` that differ from
+  ``Pt``;
+* ``P' = (Phi Pt) Phi^T``: between two active indices ``A[:, a] + A E_a^T`` (na x na),
+  averaged with its transpose (as the dense kernel symmetrizes); between an active ``i`` and
+  an inactive ``j`` it is ``A[i, j]``; between two inactive indices ``Pt`` (+ dt/2 Qc).
+
+The three products (``F_aa F_a``, ``E_a Pt``, ``A E_a^T``) are dense BLAS calls on the compact
+blocks (``np.dot`` with ``out``): at these sizes they beat loops over the ~170 nonzeros of
+``E_a`` in numba (measured, ``benchmarks/bench_predict.py``). About a third of the dense
+kernel's multiplications, and no allocation per call.
+
+The results equal the dense kernel's to rounding (a test checks 1e-13 relative to the size of
+the terms, random SPD ``P``, dt from 0.005 to 1 s, F of every layout of the package).
+
+The sparsity patterns (F's, from :func:`error_model.F_pattern`, and Qc's) are taken once by
+:func:`make_workspace`, which allocates the buffers. Entries of ``F`` in rows outside the
+pattern's rows, or of ``Qc`` outside its pattern, are ignored (taken as zero); ``Qc``'s
+diagonal is always in its pattern.
+
+Usage (engine)::
+
+    F = np.zeros((n, n))                                  # zeroed once (_fill_F assigns)
+    ws = make_workspace(em.F_pattern(n, offs, inv_tau_dk, dr_eps), Qc != 0)
+    ...                                                   # every epoch, in numba code:
+    em._fill_F(F, offs, lat, h, vel_n, C, f_n, inv_tau_dk, dr_eps, grav_grad)
+    predict_sparse(x, P, F, Qc, dt, ws)                   # x, P in place
+"""
+from __future__ import annotations
+
+from collections import namedtuple
+
+import numba
+import numpy as np
+
+__all__ = ["PredictWorkspace", "make_workspace", "predict_sparse"]
+
+#: index arrays and buffers of :func:`predict_sparse` (numba takes the namedtuple as is)
+PredictWorkspace = namedtuple("PredictWorkspace", [
+    "act",      # (na,) int64: active indices (rows where F may be nonzero), ascending
+    "inact",    # (n - na,) int64: the other indices (identity rows of Phi)
+    "e_ptr",    # (na + 1,) int64: pattern of E = Phi - I by active rows (F + F^2) ...
+    "e_idx",    # (nnz E,) int64: ... its column indices (for x <- Phi x)
+    "q_i",      # (nnz Qc,) int64: Qc's pattern (symmetric, with its diagonal): rows ...
+    "q_j",      # (nnz Qc,) int64: ... and columns
+    "Fa",       # (na, n) float64: F's active rows
+    "Faa",      # (na, na) float64: their active columns
+    "E",        # (na, n) float64: E's active rows
+    "ET",       # (n, na) float64: their transpose
+    "A",        # (na, n) float64: the active rows of Phi (P + dt/2 Qc)
+    "R",        # (na, na) float64: A E_a^T
+    "xa",       # (na,) float64: scratch for Phi x
+])
+
+
+def make_workspace(F_pattern, Qc_pattern=None) -> PredictWorkspace:
+    """Index arrays and buffers of :func:`predict_sparse`, allocated once per filter.
+
+    Parameters
+    ----------
+    F_pattern : (n, n) array, nonzero where F may be nonzero (e.g.
+        :func:`inmotion.estimation.error_model.F_pattern`, or ``F != 0`` of F at a generic
+        state); its zero rows are the identity rows of ``Phi``
+    Qc_pattern : (n, n) array, nonzero where Qc may be nonzero (default: the diagonal only);
+        the diagonal is always included, and the pattern is symmetrized
+
+    Returns
+    -------
+    PredictWorkspace : a namedtuple of arrays, passed as is to :func:`predict_sparse`
+        (also from numba code); one per filter (its buffers are overwritten by each call)
+    """
+    Fm = np.asarray(F_pattern) != 0
+    n = Fm.shape[0]
+    if Fm.shape != (n, n):
+        raise ValueError(f"F_pattern must be square, got {Fm.shape}")
+    Qm = np.eye(n, dtype=bool)
+    if Qc_pattern is not None:
+        q = np.asarray(Qc_pattern) != 0
+        if q.shape != (n, n):
+            raise ValueError(f"Qc_pattern must be ({n}, {n}), got {q.shape}")
+        Qm |= q | q.T
+    rows = Fm.any(axis=1)
+    act = np.flatnonzero(rows).astype(np.int64)
+    inact = np.flatnonzero(~rows).astype(np.int64)
+    na = len(act)
+    Fi = Fm.astype(np.int64)
+    Em = (Fm | ((Fi @ Fi) != 0))[act]
+    e_ptr = np.zeros(na + 1, dtype=np.int64)
+    e_ptr[1:] = np.cumsum(Em.sum(axis=1))
+    e_idx = np.flatnonzero(Em.ravel()) % n if na else np.zeros(0, dtype=np.int64)
+    q_i, q_j = (a.astype(np.int64) for a in np.nonzero(Qm))
+    return PredictWorkspace(act, inact, e_ptr, e_idx.astype(np.int64), q_i, q_j,
+                            np.zeros((na, n)), np.zeros((na, na)), np.zeros((na, n)),
+                            np.zeros((n, na)), np.zeros((na, n)), np.zeros((na, na)),
+                            np.zeros(na))
+
+
+@numba.njit(cache=True)
+def predict_sparse(x, P, F, Qc, dt, ws):
+    """In place, ``x <- Phi x``, ``P <- Phi P Phi^T + dt/2 (Phi Qc Phi^T + Qc)``, symmetric.
+
+    The same math as :func:`inmotion.estimation.kalman._predict_kernel` (second-order
+    ``Phi = I + F dt + (F dt)^2 / 2``, trapezoid ``Qd``, ``P`` symmetrized, its diagonal
+    floored at 0), on the active rows of ``ws`` only (module docstring); no allocation.
+
+    Parameters
+    ----------
+    x : (n,) float64 error state, updated in place
+    P : (n, n) float64, C-contiguous, symmetric covariance, updated in place
+    F : (n, n) float64 continuous system matrix (rows outside ``ws``'s active rows ignored)
+    Qc : (n, n) float64 continuous process-noise density (entries outside ``ws``'s Qc
+        pattern ignored)
+    dt : float, step [s]
+    ws : :class:`PredictWorkspace` from :func:`make_workspace` for this ``n`` and pattern
+    """
+    n = x.shape[0]
+    act, inact, e_ptr, e_idx = ws.act, ws.inact, ws.e_ptr, ws.e_idx
+    q_i, q_j = ws.q_i, ws.q_j
+    Fa, Faa, E, ET, A, R, xa = ws.Fa, ws.Faa, ws.E, ws.ET, ws.A, ws.R, ws.xa
+    na = act.shape[0]
+    hdt = 0.5 * dt
+    hdt2 = 0.5 * dt * dt
+    if na > 0:
+        # E_a = dt F_a + dt^2/2 F_aa F_a
+        for a in range(na):
+            i = act[a]
+            for c in range(n):
+                Fa[a, c] = F[i, c]
+            for b in range(na):
+                Faa[a, b] = F[i, act[b]]
+        np.dot(Faa, Fa, E)
+        for a in range(na):
+            for c in range(n):
+                e = dt * Fa[a, c] + hdt2 * E[a, c]
+                E[a, c] = e
+                ET[c, a] = e
+        # x <- x + E x
+        for a in range(na):
+            s = x[act[a]]
+            for p in range(e_ptr[a], e_ptr[a + 1]):
+                k = e_idx[p]
+                s += E[a, k] * x[k]
+            xa[a] = s
+        for a in range(na):
+            x[act[a]] = xa[a]
+    # Pt = P + dt/2 Qc
+    for p in range(q_i.shape[0]):
+        P[q_i[p], q_j[p]] += hdt * Qc[q_i[p], q_j[p]]
+    if na > 0:
+        # A = Pt_a + E_a Pt;  R = A E_a^T
+        np.dot(E, P, A)
+        for a in range(na):
+            i = act[a]
+            for c in range(n):
+                A[a, c] += P[i, c]
+        np.dot(A, ET, R)
+        for b in range(na):
+            j = act[b]
+            for a in range(b + 1):
+                i = act[a]
+                s = 0.5 * ((A[a, j] + R[a, b]) + (A[b, i] + R[b, a]))
+                P[i, j] = s
+                P[j, i] = s
+            for m in range(inact.shape[0]):
+                c = inact[m]
+                s = A[b, c]
+                P[j, c] = s
+                P[c, j] = s
+    # + dt/2 Qc; diagonal floored at 0
+    for p in range(q_i.shape[0]):
+        P[q_i[p], q_j[p]] += hdt * Qc[q_i[p], q_j[p]]
+    for i in range(n):
+        if P[i, i] < 0.0:
+            P[i, i] = 0.0
