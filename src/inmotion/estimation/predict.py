@@ -57,16 +57,11 @@ __all__ = ["PredictWorkspace", "make_workspace", "predict_sparse"]
 PredictWorkspace = namedtuple("PredictWorkspace", [
     "act",      # (na,) int64: active indices (rows where F may be nonzero), ascending
     "inact",    # (n - na,) int64: the other indices (identity rows of Phi)
-    "e_ptr",    # (na + 1,) int64: pattern of E = Phi - I by active rows (F + F^2) ...
-    "e_idx",    # (nnz E,) int64: ... its column indices (for x <- Phi x)
-    "q_i",      # (nnz Qc,) int64: Qc's pattern (symmetric, with its diagonal): rows ...
-    "q_j",      # (nnz Qc,) int64: ... and columns
-    "Fa",       # (na, n) float64: F's active rows
-    "Faa",      # (na, na) float64: their active columns
+    "q",        # (2, nnz Qc) int64: Qc's pattern (symmetric, with its diagonal): rows, columns
     "E",        # (na, n) float64: E's active rows
-    "ET",       # (n, na) float64: their transpose
-    "A",        # (na, n) float64: the active rows of Phi (P + dt/2 Qc)
-    "R",        # (na, na) float64: A E_a^T
+    "ET",       # (n, na) float64: Phi's active rows transposed (E_a^T + I on act)
+    "A",        # (na, n) float64: the active rows of Phi (P + dt/2 Qc) (first F_a)
+    "R",        # (na, na) float64: A Phi_a^T (first F_aa)
     "xa",       # (na,) float64: scratch for Phi x
 ])
 
@@ -101,16 +96,9 @@ def make_workspace(F_pattern, Qc_pattern=None) -> PredictWorkspace:
     act = np.flatnonzero(rows).astype(np.int64)
     inact = np.flatnonzero(~rows).astype(np.int64)
     na = len(act)
-    Fi = Fm.astype(np.int64)
-    Em = (Fm | ((Fi @ Fi) != 0))[act]
-    e_ptr = np.zeros(na + 1, dtype=np.int64)
-    e_ptr[1:] = np.cumsum(Em.sum(axis=1))
-    e_idx = np.flatnonzero(Em.ravel()) % n if na else np.zeros(0, dtype=np.int64)
-    q_i, q_j = (a.astype(np.int64) for a in np.nonzero(Qm))
-    return PredictWorkspace(act, inact, e_ptr, e_idx.astype(np.int64), q_i, q_j,
-                            np.zeros((na, n)), np.zeros((na, na)), np.zeros((na, n)),
-                            np.zeros((n, na)), np.zeros((na, n)), np.zeros((na, na)),
-                            np.zeros(na))
+    q = np.array(np.nonzero(Qm), dtype=np.int64).reshape(2, -1)
+    return PredictWorkspace(act, inact, q, np.zeros((na, n)), np.zeros((n, na)),
+                            np.zeros((na, n)), np.zeros((na, na)), np.zeros(na))
 
 
 @numba.njit(cache=True)
@@ -132,9 +120,9 @@ def predict_sparse(x, P, F, Qc, dt, ws):
     ws : :class:`PredictWorkspace` from :func:`make_workspace` for this ``n`` and pattern
     """
     n = x.shape[0]
-    act, inact, e_ptr, e_idx = ws.act, ws.inact, ws.e_ptr, ws.e_idx
-    q_i, q_j = ws.q_i, ws.q_j
-    Fa, Faa, E, ET, A, R, xa = ws.Fa, ws.Faa, ws.E, ws.ET, ws.A, ws.R, ws.xa
+    act, inact, q = ws.act, ws.inact, ws.q
+    E, ET, A, R, xa = ws.E, ws.ET, ws.A, ws.R, ws.xa
+    Fa, Faa = A, R                          # F_a, F_aa in the buffers of A, R (used later)
     na = act.shape[0]
     hdt = 0.5 * dt
     hdt2 = 0.5 * dt * dt
@@ -152,20 +140,16 @@ def predict_sparse(x, P, F, Qc, dt, ws):
                 e = dt * Fa[a, c] + hdt2 * E[a, c]
                 E[a, c] = e
                 ET[c, a] = e
+            ET[act[a], a] += 1.0            # ET = Phi_a^T on the active columns
         # x <- x + E x
+        np.dot(E, x, xa)
         for a in range(na):
-            s = x[act[a]]
-            for p in range(e_ptr[a], e_ptr[a + 1]):
-                k = e_idx[p]
-                s += E[a, k] * x[k]
-            xa[a] = s
-        for a in range(na):
-            x[act[a]] = xa[a]
+            x[act[a]] += xa[a]
     # Pt = P + dt/2 Qc
-    for p in range(q_i.shape[0]):
-        P[q_i[p], q_j[p]] += hdt * Qc[q_i[p], q_j[p]]
+    for p in range(q.shape[1]):
+        P[q[0, p], q[1, p]] += hdt * Qc[q[0, p], q[1, p]]
     if na > 0:
-        # A = Pt_a + E_a Pt;  R = A E_a^T
+        # A = Pt_a + E_a Pt;  R = A Phi_a^T = A[:, act] + A E_a^T
         np.dot(E, P, A)
         for a in range(na):
             i = act[a]
@@ -176,7 +160,7 @@ def predict_sparse(x, P, F, Qc, dt, ws):
             j = act[b]
             for a in range(b + 1):
                 i = act[a]
-                s = 0.5 * ((A[a, j] + R[a, b]) + (A[b, i] + R[b, a]))
+                s = 0.5 * (R[a, b] + R[b, a])
                 P[i, j] = s
                 P[j, i] = s
             for m in range(inact.shape[0]):
@@ -185,8 +169,8 @@ def predict_sparse(x, P, F, Qc, dt, ws):
                 P[j, c] = s
                 P[c, j] = s
     # + dt/2 Qc; diagonal floored at 0
-    for p in range(q_i.shape[0]):
-        P[q_i[p], q_j[p]] += hdt * Qc[q_i[p], q_j[p]]
+    for p in range(q.shape[1]):
+        P[q[0, p], q[1, p]] += hdt * Qc[q[0, p], q[1, p]]
     for i in range(n):
         if P[i, i] < 0.0:
             P[i, i] = 0.0
