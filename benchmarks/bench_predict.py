@@ -11,14 +11,17 @@ numba loop (no Python between calls; the first batch compiles / loads and is not
 * after: ``error_model._fill_F`` into an ``F`` zeroed once, and ``predict.predict_sparse``;
 * each part alone.
 
-Per call: the median (and the minimum) over ``B`` batches of ``N`` calls; per hour: the median
-times 360,000 (one predict per 100 Hz IMU epoch). Reference (issue 13): the dense 22-state
+Per call: the median (and the minimum) over ``B`` batches of ``N`` calls of this thread's CPU
+time (``time.thread_time``: on a shared machine the wall time also counts the time other
+processes hold the core); per hour: the median times 360,000 (one predict per 100 Hz IMU
+epoch). Reference (issue 13): the dense 22-state
 predict costs 4.3 us a call; the predict should reach about 0.3 us a call (0.1 s per hour).
 The outputs of both paths are compared once (F bitwise; x and P to rounding).
 """
 from __future__ import annotations
 
 import argparse
+import os
 import time
 
 import numba
@@ -124,14 +127,14 @@ def _loop_sparse(calls, x, P, F, Qc, dt, ws):
 
 
 def _per_call(fn, make_args, calls, batches):
-    """Median and minimum seconds per call over ``batches`` batches (one warm-up batch)."""
+    """Median and minimum CPU seconds per call over ``batches`` batches (after a warm-up)."""
     fn(1, *make_args())
     times = []
     for _ in range(batches + 1):
         args = make_args()
-        t0 = time.perf_counter()
+        t0 = time.thread_time()
         fn(calls, *args)
-        times.append((time.perf_counter() - t0) / calls)
+        times.append((time.thread_time() - t0) / calls)
     times = np.array(times[1:])
     return float(np.median(times)), float(times.min())
 
@@ -193,7 +196,7 @@ def bench_layout(name, layout, calls, batches, dt=0.01):
     for label, fn, make in rows:
         med, best = _per_call(fn, make, calls, batches)
         out[label] = med
-        print(f"  {label:66s} {med * 1e6:7.3f} us/call (min {best * 1e6:.3f})   "
+        print(f"  {name:7s} {label:64s} {med * 1e6:7.3f} us/call (min {best * 1e6:.3f})   "
               f"{med * CALLS_PER_HOUR:6.3f} s per hour at 100 Hz")
     b, a = out[rows[0][0]], out[rows[1][0]]
     print(f"  {name} speed-up, fill + predict: {b / a:.1f}x")
@@ -205,8 +208,9 @@ def main(argv=None):
     ap.add_argument("--calls", type=int, default=20000, help="calls per timed batch")
     ap.add_argument("--batches", type=int, default=15)
     args = ap.parse_args(argv)
-    print(f"per-call times: median of {args.batches} batches of {args.calls} calls, dt = 0.01 s; "
-          f"per hour = {CALLS_PER_HOUR} calls (100 Hz)")
+    print(f"per-call CPU times: median of {args.batches} batches of {args.calls} calls, "
+          f"dt = 0.01 s; per hour = {CALLS_PER_HOUR} calls (100 Hz); "
+          f"load average {os.getloadavg()[0]:.2f} on {os.cpu_count()} cores")
     for name, lay in (("sins-dr", LAYOUT_SINS_DR), ("dr-kf", LAYOUT_DR_KF)):
         bench_layout(name, lay, args.calls, args.batches)
 
