@@ -58,11 +58,12 @@ PredictWorkspace = namedtuple("PredictWorkspace", [
     "act",      # (na,) int64: active indices (rows where F may be nonzero), ascending
     "inact",    # (n - na,) int64: the other indices (identity rows of Phi)
     "q",        # (2, nnz Qc) int64: Qc's pattern (symmetric, with its diagonal): rows, columns
-    "E",        # (na, n) float64: E's active rows
-    "ET",       # (n, na) float64: Phi's active rows transposed (E_a^T + I on act)
-    "A",        # (na, n) float64: the active rows of Phi (P + dt/2 Qc) (first F_a)
-    "R",        # (na, na) float64: A Phi_a^T (first F_aa)
-    "xa",       # (na,) float64: scratch for Phi x
+    "FaT",      # (n, na) float64: F's active rows, transposed
+    "FaaT",     # (na, na) float64: their active columns
+    "PhiT",     # (n, na) float64: Phi's active rows, transposed
+    "A",        # (na, n) float64: the active rows of Phi (P + dt/2 Qc)
+    "R",        # (na, na) float64: A Phi_a^T
+    "xa",       # (na,) float64: the active entries of Phi x
 ])
 
 
@@ -97,8 +98,9 @@ def make_workspace(F_pattern, Qc_pattern=None) -> PredictWorkspace:
     inact = np.flatnonzero(~rows).astype(np.int64)
     na = len(act)
     q = np.array(np.nonzero(Qm), dtype=np.int64).reshape(2, -1)
-    return PredictWorkspace(act, inact, q, np.zeros((na, n)), np.zeros((n, na)),
-                            np.zeros((na, n)), np.zeros((na, na)), np.zeros(na))
+    return PredictWorkspace(act, inact, q, np.zeros((n, na)), np.zeros((na, na)),
+                            np.zeros((n, na)), np.zeros((na, n)), np.zeros((na, na)),
+                            np.zeros(na))
 
 
 @numba.njit(cache=True)
@@ -121,41 +123,36 @@ def predict_sparse(x, P, F, Qc, dt, ws):
     """
     n = x.shape[0]
     act, inact, q = ws.act, ws.inact, ws.q
-    E, ET, A, R, xa = ws.E, ws.ET, ws.A, ws.R, ws.xa
-    Fa, Faa = A, R                          # F_a, F_aa in the buffers of A, R (used later)
+    FaT, FaaT, PhiT, A, R, xa = ws.FaT, ws.FaaT, ws.PhiT, ws.A, ws.R, ws.xa
     na = act.shape[0]
     hdt = 0.5 * dt
     hdt2 = 0.5 * dt * dt
     if na > 0:
-        # E_a = dt F_a + dt^2/2 F_aa F_a
+        # Phi_a^T = I_a + dt F_a^T + dt^2/2 F_a^T F_aa^T  (F's other rows are zero)
+        for c in range(n):
+            for a in range(na):
+                FaT[c, a] = F[act[a], c]
+        for b in range(na):
+            k = act[b]
+            for a in range(na):
+                FaaT[b, a] = FaT[k, a]
+        np.dot(FaT, FaaT, PhiT)
+        for c in range(n):
+            for a in range(na):
+                PhiT[c, a] = dt * FaT[c, a] + hdt2 * PhiT[c, a]
         for a in range(na):
-            i = act[a]
-            for c in range(n):
-                Fa[a, c] = F[i, c]
-            for b in range(na):
-                Faa[a, b] = F[i, act[b]]
-        np.dot(Faa, Fa, E)
+            PhiT[act[a], a] += 1.0
+        # x <- Phi x
+        np.dot(PhiT.T, x, xa)
         for a in range(na):
-            for c in range(n):
-                e = dt * Fa[a, c] + hdt2 * E[a, c]
-                E[a, c] = e
-                ET[c, a] = e
-            ET[act[a], a] += 1.0            # ET = Phi_a^T on the active columns
-        # x <- x + E x
-        np.dot(E, x, xa)
-        for a in range(na):
-            x[act[a]] += xa[a]
+            x[act[a]] = xa[a]
     # Pt = P + dt/2 Qc
     for p in range(q.shape[1]):
         P[q[0, p], q[1, p]] += hdt * Qc[q[0, p], q[1, p]]
     if na > 0:
-        # A = Pt_a + E_a Pt;  R = A Phi_a^T = A[:, act] + A E_a^T
-        np.dot(E, P, A)
-        for a in range(na):
-            i = act[a]
-            for c in range(n):
-                A[a, c] += P[i, c]
-        np.dot(A, ET, R)
+        # A = Phi_a Pt;  R = A Phi_a^T
+        np.dot(PhiT.T, P, A)
+        np.dot(A, PhiT, R)
         for b in range(na):
             j = act[b]
             for a in range(b + 1):
