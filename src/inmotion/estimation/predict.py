@@ -142,8 +142,13 @@ def predict_sparse(x, P, F, Qc, dt, ws):
                 PhiT[c, a] = dt * FaT[c, a] + hdt2 * PhiT[c, a]
         for a in range(na):
             PhiT[act[a], a] += 1.0
-        # x <- Phi x
-        np.dot(PhiT.T, x, xa)
+        # x <- Phi x (rows of PhiT: contiguous over the active rows)
+        for a in range(na):
+            xa[a] = 0.0
+        for c in range(n):
+            xc = x[c]
+            for a in range(na):
+                xa[a] += PhiT[c, a] * xc
         for a in range(na):
             x[act[a]] = xa[a]
     # Pt = P + dt/2 Qc
