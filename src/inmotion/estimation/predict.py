@@ -12,29 +12,31 @@ when it is a Markov state); the random-constant states (``eps, nabla, mount``) h
 i.e. identity rows of ``Phi``. :func:`predict_sparse` works on the ``na`` "active" rows only
 (16 of 22 or 25 in the package's layouts):
 
-* ``Phi = I + E``, ``E = F dt + (F dt)^2 / 2`` nonzero in the active rows only:
-  ``E_a = dt F_a + dt^2 / 2 F_aa F_a`` (``F_a`` the active rows of F, ``F_aa`` their active
-  columns, as F's other rows are zero);
+* ``Phi_a`` (the active rows of ``Phi``) ``= I_a + dt F_a + dt^2/2 F_aa F_a``, ``F_a`` the
+  active rows of F and ``F_aa`` their active columns (F's other rows are zero); it is built
+  transposed, ``Phi_a^T`` (n x na), the one form both products below take without a copy;
 * ``Phi P Phi^T + dt/2 Phi Qc Phi^T = Phi Pt Phi^T`` with ``Pt = P + dt/2 Qc`` (Qc's few
   entries added before, and once more after: the trapezoid's ``+ dt/2 Qc``);
-* ``A = (Phi Pt)_a = Pt_a + E_a Pt`` (na x n), the only rows of ``Phi Pt`` that differ from
-  ``Pt``;
-* ``P' = (Phi Pt) Phi^T``: between two active indices ``A[:, a] + A E_a^T`` (na x na),
-  averaged with its transpose (as the dense kernel symmetrizes); between an active ``i`` and
-  an inactive ``j`` it is ``A[i, j]``; between two inactive indices ``Pt`` (+ dt/2 Qc).
+* ``A = Phi_a Pt`` (na x n), the only rows of ``Phi Pt`` that differ from ``Pt``;
+* ``P' = (Phi Pt) Phi^T``: between two active indices ``R = A Phi_a^T`` (na x na), averaged
+  with its transpose (as the dense kernel symmetrizes); between an active ``i`` and an
+  inactive ``j`` it is ``A[i, j]``; between two inactive indices ``Pt`` (+ dt/2 Qc).
 
-The three products (``F_aa F_a``, ``E_a Pt``, ``A E_a^T``) are dense BLAS calls on the compact
-blocks (``np.dot`` with ``out``): at these sizes they beat loops over the ~170 nonzeros of
-``E_a`` in numba (measured, ``benchmarks/bench_predict.py``). About a third of the dense
-kernel's multiplications, and no allocation per call.
+The three products (``F_a^T F_aa^T``, ``Phi_a Pt``, ``A Phi_a^T``) are dense BLAS calls on the
+compact blocks (``np.dot`` with ``out``; 19,000 multiplications for n = 22, against 53,000 in
+the dense kernel, and no allocation per call). Measured (``benchmarks/bench_predict.py``), at
+these sizes BLAS beats numba loops over E's ~170 nonzeros, a sparse product list for
+``F_aa F_a``, and row-blocked loops; FMA contraction (``fastmath={'contract'}``) changes
+nothing measurable (the arithmetic is in BLAS). What remains is numba's fixed cost per call
+and per loop (about half of the time).
 
 The results equal the dense kernel's to rounding (a test checks 1e-13 relative to the size of
 the terms, random SPD ``P``, dt from 0.005 to 1 s, F of every layout of the package).
 
 The sparsity patterns (F's, from :func:`error_model.F_pattern`, and Qc's) are taken once by
-:func:`make_workspace`, which allocates the buffers. Entries of ``F`` in rows outside the
-pattern's rows, or of ``Qc`` outside its pattern, are ignored (taken as zero); ``Qc``'s
-diagonal is always in its pattern.
+:func:`make_workspace`, which allocates the buffers. Rows of ``F`` outside the pattern's
+nonzero rows, and entries of ``Qc`` outside its pattern, are ignored (taken as zero); ``Qc``'s
+diagonal is always in its pattern. ``P`` and ``F`` must be C-contiguous float64.
 
 Usage (engine)::
 
