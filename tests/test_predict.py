@@ -217,3 +217,35 @@ def test_chained_steps_in_numba_follow_the_dense_kernel(name):
     assert np.max(np.abs(P1 - P0) / np.outer(d, d)) < 1e-12
     assert np.array_equal(P1, P1.T)
     assert np.max(np.abs(x1 - x0) / (np.abs(x0) + d)) < 1e-12
+
+
+@numba.njit
+def _fill_and_predict(calls, x, P, F, Qc, dt, ws, offs, st_f, C):
+    for _ in range(calls):
+        em._fill_F(F, offs, st_f[0], st_f[1], st_f[2:5], C, st_f[5:8], 1.0 / 300.0, True, True)
+        predict_sparse(x, P, F, Qc, dt, ws)
+
+
+def test_fill_F_and_predict_sparse_allocate_nothing_per_call():
+    """NRT's allocation count of a compiled loop does not grow with its number of calls (only
+    the arguments' entry into compiled code counts)."""
+    try:
+        from numba.core.runtime import _nrt_python, rtsys
+        _nrt_python.memsys_enable_stats()
+    except (ImportError, AttributeError):            # pragma: no cover - numba internals
+        pytest.skip("numba's NRT statistics are not available")
+    lay = LAYOUT_DR_KF
+    n, offs = lay.n, em._offsets(lay)
+    rng = np.random.default_rng(7)
+    st = _state(rng)
+    Qc = _model_Qc(lay, rng)
+    ws = make_workspace(em.F_pattern(n, offs, 1.0 / 300.0, True), Qc)
+    st_f = np.concatenate([[st[0], st[1]], st[2], st[4]])
+    x, P, F = rng.standard_normal(n), _spd(rng, n, 1.0), np.zeros((n, n))
+    counts = []
+    for calls in (1, 1, 300):
+        a0 = rtsys.get_allocation_stats().alloc
+        _fill_and_predict(calls, x, P, F, Qc, 0.01, ws, offs, st_f, st[3])
+        counts.append(rtsys.get_allocation_stats().alloc - a0)
+    assert counts[1] > 0                              # the statistics are live
+    assert counts[1] == counts[2]
