@@ -249,3 +249,13 @@ def test_fill_F_and_predict_sparse_allocate_nothing_per_call():
         counts.append(rtsys.get_allocation_stats().alloc - a0)
     assert counts[1] > 0                              # the statistics are live
     assert counts[1] == counts[2]
+
+
+def test_predict_sparse_with_no_dynamic_state_adds_dt_qc():
+    n = 4
+    rng = np.random.default_rng(8)
+    P, x, Qc = _spd(rng, n, 0.0), rng.standard_normal(n), np.diag(rng.uniform(0.1, 1.0, n))
+    ws = make_workspace(np.zeros((n, n)))
+    x1, P1 = x.copy(), P.copy()
+    predict_sparse(x1, P1, np.zeros((n, n)), Qc, 0.1, ws)
+    assert np.array_equal(x1, x) and np.allclose(P1, P + 0.1 * Qc, rtol=1e-15, atol=0.0)
