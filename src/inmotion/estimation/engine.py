@@ -23,7 +23,8 @@ What happens per IMU row and per filter epoch (one numba loop, :func:`_advance`)
    DR its own gyro rows (``dtheta_dr``: a second gyro triad, or a simulation study);
 2. after ``step_rows`` rows (a filter epoch) ``F`` is built at the SINS state with the epoch's
    mean specific force (:func:`inmotion.estimation.error_model._fill_F`) and ``x, P`` are
-   predicted over the epoch (second-order transition, trapezoid ``Q_d``); the process noise
+   predicted over the epoch (second-order transition, trapezoid ``Q_d``) on F's nonzero rows
+   only (:func:`inmotion.estimation.predict.predict_sparse`); the process noise
    is the model's ``G q G^T`` plus, with a DR, the random walk of the DR position driven by
    the velocity sensor's white noise (``dr_position_m2_s``, isotropic in E, N, U);
 3. every queued measurement sample whose time is at or before the epoch's end is applied, in
@@ -77,10 +78,11 @@ from ..core import _kernels as K
 from ..core.solution import NavState
 from . import error_model as em
 from .federated import fuse_kernel
-from .kalman import _predict_kernel, sequential_joseph
+from .kalman import sequential_joseph
 from .layout import DP, DP_D, DV, EPS, NABLA, PHI, PHI_D, Layout
 from .measurements import ACC_SIZE, AUX_SIZE, Measurement, accumulator_function, fill_function
 from .nav_ops import compensated_row, correct_nav, dcm_of_q
+from .predict import make_workspace, predict_sparse
 
 __all__ = ["ErrorStateFilter", "LocalFilter", "FEEDBACK_BLOCKS", "MAX_MEASUREMENTS",
            "EVENT_DETECTED", "EVENT_RETURNED", "EVENT_MODE", "MODE_FUSED", "MODE_NONE"]
@@ -109,7 +111,7 @@ _State = namedtuple("_State", "xs ms xd md X P fed_back bias_g bias_a acc ints u
 _Const = namedtuple("_Const", "offs offs9 Qc q_dr_m2_s inv_tau_dk dr_eps grav_grad with_dr "
                               "step out_every fb_mask fb_states feedback_every C_bm l_b gates "
                               "params dofs local r_scale isolate return_tests primary fallback "
-                              "n_common need_nb has_acc log_nis")
+                              "n_common need_nb has_acc log_nis ws")
 #: the output buffers of one call
 _Out = namedtuple("_Out", "t xs sigma states cov_phi mode local_x local_sig n")
 
@@ -314,23 +316,28 @@ def _apply(S, C, fills, j, l, z, H, r, m, xw, Pw, t_now, first):
             S.rejected[j] += 1
 
 
-@numba.njit(cache=True)
-def _epoch_end(S, C, fills, t_now, qt, qj, qd, qi, O, F, Q, aux, z, H, r, xw, Pw, x_g, P_g):
+@numba.njit(cache=True, inline="always")
+def _epoch_end(S, C, fills, t_now, qt, qj, qd, qi, O, F, Q, aux, z, H, r, xw, Pw, x_g, P_g, W):
     """Close a filter epoch: predict, apply the due samples, feed back, output. Returns the
     next queue index."""
     sum_dt = S.acc[_A_DT]
-    C_S = dcm_of_q(S.xs[K.Q0:K.Q3 + 1])
-    f_b = np.empty(3)
+    C_S, f_b, f_n, vel = W
+    xs = S.xs
+    K.dcm_from_quat_into((xs[K.Q0], xs[K.Q0 + 1], xs[K.Q0 + 2], xs[K.Q3]), C_S)
     for i in range(3):
         f_b[i] = S.acc[_A_F + i] / sum_dt
-    f_n = C_S @ f_b
-    F[:, :] = 0.0
-    em._fill_F(F, C.offs9, S.xs[K.LAT], S.xs[K.H], S.xs[K.VE:K.VU + 1].copy(), C_S, f_n,
-               C.inv_tau_dk, C.dr_eps, C.grav_grad)
+        vel[i] = xs[K.VE + i]
+    for i in range(3):
+        f_n[i] = C_S[i, 0] * f_b[0] + C_S[i, 1] * f_b[1] + C_S[i, 2] * f_b[2]
+    # F was zeroed once: _fill_F overwrites its structural entries (error_model.F_pattern)
+    em._fill_F(F, C.offs9, xs[K.LAT], xs[K.H], vel, C_S, f_n, C.inv_tau_dk, C.dr_eps,
+               C.grav_grad)
     for l in range(S.X.shape[0]):
-        _dr_position_noise(Q, C.Qc[l], C.offs[DP_D] if C.with_dr else -1, S.xs[K.LAT],
-                           S.xs[K.H], C.q_dr_m2_s)
-        _predict_kernel(S.X[l], S.P[l], F, Q, sum_dt)
+        if C.with_dr:
+            _dr_position_noise(Q, C.Qc[l], C.offs[DP_D], S.xs[K.LAT], S.xs[K.H], C.q_dr_m2_s)
+            predict_sparse(S.X[l], S.P[l], F, Q, sum_dt, C.ws)
+        else:
+            predict_sparse(S.X[l], S.P[l], F, C.Qc[l], sum_dt, C.ws)
     S.ints[_I_EPOCHS] += 1
     S.t_end[0] = t_now
     aux[0] = t_now
@@ -399,6 +406,7 @@ def _advance(S, C, fills, accs, t, dtheta, dvel, dt, ds, v, dth_dr, rows, qt, qj
     P_g = np.zeros((n, n))
     th_nb = np.zeros(3)
     v_old = np.zeros(3)
+    W = (np.empty((3, 3)), np.empty(3), np.empty(3), np.empty(3))   # epoch-end work arrays
     nan = np.nan
     own_dr_gyro = dth_dr.shape[0] > 0
     qi = 0
@@ -442,10 +450,10 @@ def _advance(S, C, fills, accs, t, dtheta, dvel, dt, ds, v, dth_dr, rows, qt, qj
             S.acc[_A_W + i] += dth[i]
         if S.acc[_A_ROWS] >= C.step:
             qi = _epoch_end(S, C, fills, t[k], qt, qj, qd, qi, O, F, Q, aux, z, H, r, xw, Pw,
-                            x_g, P_g)
+                            x_g, P_g, W)
     if flush and S.acc[_A_ROWS] > 0:
         qi = _epoch_end(S, C, fills, t[t.shape[0] - 1], qt, qj, qd, qi, O, F, Q, aux, z, H,
-                        r, xw, Pw, x_g, P_g)
+                        r, xw, Pw, x_g, P_g, W)
     return qi
 
 
@@ -599,8 +607,14 @@ class ErrorStateFilter:
         Qc = np.stack([np.ascontiguousarray(model.Qc() if lf.Qc is None else lf.Qc)
                        for lf in locals_])
         offs = layout.offsets()
+        offs9 = tuple(int(o) for o in em._offsets(layout))
+        q_pattern = (Qc != 0).any(axis=0)
+        if with_dr:                     # the DR position random walk (dp_D's diagonal)
+            q_pattern[layout["dp_D"], layout["dp_D"]] = True
+        ws = make_workspace(em.F_pattern(n, offs9, 1.0 / model.noise.dk_tau,
+                                         bool(model.dr_sees_gyro_drift)), q_pattern)
         self._C = _Const(
-            offs=offs, offs9=tuple(int(o) for o in em._offsets(layout)), Qc=Qc,
+            offs=offs, offs9=offs9, Qc=Qc,
             q_dr_m2_s=float(dr_position_m2_s), inv_tau_dk=1.0 / model.noise.dk_tau,
             dr_eps=bool(model.dr_sees_gyro_drift), grav_grad=bool(model.gravity_gradient),
             with_dr=with_dr, step=self.step, out_every=self.out_every, fb_mask=fb_mask,
@@ -618,7 +632,7 @@ class ErrorStateFilter:
             n_common=int(n_common),
             need_nb=bool(has_acc.any() or any(m.needs_body_rate for m in measurements)),
             has_acc=has_acc, log_nis=per_meas(lambda m: m.isolate or m.log_nis, False,
-                                                np.bool_))
+                                                np.bool_), ws=ws)
         self._fills = tuple([m.fill for m in measurements]
                             + [_noop_fill] * (M - len(measurements)))
         self._accs = tuple([m.accumulate if m.accumulate is not None else _noop_acc
