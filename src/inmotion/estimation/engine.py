@@ -80,7 +80,8 @@ from . import error_model as em
 from .federated import fuse_kernel
 from .kalman import sequential_joseph
 from .layout import DP, DP_D, DV, EPS, NABLA, PHI, PHI_D, Layout
-from .measurements import ACC_SIZE, AUX_SIZE, Measurement, accumulator_function, fill_function
+from .measurements import (ACC_SIZE, AUX_FB, AUX_SIZE, AUX_T, AUX_WIB, AUX_WNB, Measurement,
+                           accumulator_function, fill_function)
 from .nav_ops import compensated_row, correct_nav, dcm_of_q
 from .predict import make_workspace, predict_sparse
 
@@ -380,11 +381,11 @@ def _epoch_end(S, C, fills, t_now, qt, qj, qd, qi, O, F, Q, aux, z, H, r, xw, Pw
     S.t_end[0] = t_now
     if C.record:                     # the forward pass of a smoother: Phi, P_k|k-1
         _record_predict(S, C)
-    aux[0] = t_now
+    aux[AUX_T] = t_now
     for i in range(3):
-        aux[1 + i] = S.acc[_A_W + i] / sum_dt
-        aux[4 + i] = f_b[i]
-        aux[7 + i] = S.acc[_A_NB + i] / sum_dt
+        aux[AUX_WIB + i] = S.acc[_A_W + i] / sum_dt
+        aux[AUX_FB + i] = f_b[i]
+        aux[AUX_WNB + i] = S.acc[_A_NB + i] / sum_dt
     applied = False
     while qi < qt.shape[0] and qt[qi] <= t_now:
         j = qj[qi]
@@ -789,7 +790,7 @@ class ErrorStateFilter:
         rows = self._rows(row_data, m)
         dt = np.diff(np.concatenate([[self.t], t])) if m else np.zeros(0)
         self._merge_pending()
-        n_ep = (int(self._S.acc[0]) + m) // self.step + 1
+        n_ep = (int(self._S.acc[_A_ROWS]) + m) // self.step + 1
         cap = n_ep // self.out_every + 1 if max_out is None else int(max_out)
         O = self._out(cap, n_ep if self._C.record else 0)
         used = _advance(self._S, self._C, self._fills, self._accs, t, dtheta, dvel, dt, ds,
@@ -903,9 +904,9 @@ class ErrorStateFilter:
         for a measurement's :meth:`~inmotion.estimation.measurements.Measurement.rows`."""
         S = self._S
         aux = np.zeros(AUX_SIZE)
-        aux[0] = self.t
-        aux[1:4] = S.ms[K.M_WIB:K.M_WIB + 3]
-        aux[4:7] = S.ms[K.M_FB:K.M_FB + 3]
+        aux[AUX_T] = self.t
+        aux[AUX_WIB:AUX_WIB + 3] = S.ms[K.M_WIB:K.M_WIB + 3]
+        aux[AUX_FB:AUX_FB + 3] = S.ms[K.M_FB:K.M_FB + 3]
         return S.xs.copy(), S.xd.copy(), aux, np.zeros(ACC_SIZE)
 
     def counts(self) -> dict:
