@@ -41,3 +41,21 @@ def test_methods_that_gate_do_not_import_scipy_stats():
     mods = _modules_after("import inmotion.navigate.sins_dr, inmotion.align.dr_kalman, "
                           "inmotion.align.aided_kf, inmotion.align.strategy")
     assert "scipy.stats" not in mods
+
+
+def _cli_modules(*args):
+    code = ("import sys\nsys.argv = ['inmotion', *%r]\nfrom inmotion.cli.main import main\n"
+            "try:\n    main()\nexcept SystemExit:\n    pass\n"
+            "print('MODULES', ' '.join(sys.modules))" % (list(args),))
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True,
+                         check=True).stdout
+    return set(out.rsplit("MODULES", 1)[1].split())
+
+
+@pytest.mark.parametrize("args", [("--help",), ("methods",), ("navigate", "--help"),
+                                  ("montecarlo", "--help"), ("import", "--help")])
+def test_the_cli_help_and_listing_import_nothing_heavy(args):
+    mods = _cli_modules(*args)
+    heavy = {m.split(".")[0] for m in mods} & {"numpy", "numba", "scipy", "pandas", "pyarrow",
+                                               "matplotlib", "dask", "pydantic", "yaml"}
+    assert not heavy, f"inmotion {' '.join(args)} imports {sorted(heavy)}"

@@ -667,3 +667,6 @@ cli.add_command(montecarlo); cli.add_command(report)
 
 from .reproduce_cmds import reproduce  # noqa: E402  (issue 8: paper reproductions)
 cli.add_command(reproduce)
+
+if __name__ == "__main__":          # python -m inmotion.cli.main (e.g. with -X importtime)
+    main()
