@@ -42,11 +42,12 @@ def test_import_inmotion_is_cheap_and_names_load_on_first_use():
 
 
 def test_public_functions_have_numpydoc_docstrings_with_units():
-    for name in ("simulate", "methods", "method_config", "run", "initial_state", "error_series",
-                 "read_bundle", "write_bundle"):
+    for name in ("simulate", "load_scenario", "methods", "method_config", "run",
+                 "initial_state", "error_series", "read_bundle", "write_bundle", "read_result",
+                 "write_result"):
         doc = getattr(inmotion, name).__doc__
         assert doc and "Parameters\n" in doc, name
-    for name in ("simulate", "run", "error_series"):
+    for name in ("simulate", "run", "error_series", "read_result"):
         doc = getattr(inmotion, name).__doc__
         assert "Returns\n" in doc and re.search(r"\[(m|s|rad|m/s)\]", doc), name
     from inmotion import api

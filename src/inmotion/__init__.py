@@ -56,7 +56,7 @@ _LAZY = {
     "read_result": "inmotion.io.result:read_result",
     "write_result": "inmotion.io.result:write_result",
     "simulate": "inmotion.api:simulate",
-    "load_scenario": "inmotion.sim.scenario:load_scenario",
+    "load_scenario": "inmotion.api:load_scenario",
     "scenarios": "inmotion.api:scenarios",
     "methods": "inmotion.api:methods",
     "method_config": "inmotion.api:method_config",

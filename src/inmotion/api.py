@@ -34,7 +34,7 @@ if TYPE_CHECKING:                       # pragma: no cover - typing only
     from .core.solution import NavState, Solution
     from .sim.scenario import Scenario
 
-__all__ = ["simulate", "scenarios", "methods", "method_config", "read_config_file",
+__all__ = ["simulate", "load_scenario", "scenarios", "methods", "method_config", "read_config_file",
            "validate_config", "initial_state", "cut", "run_spec", "run", "evaluate",
            "error_series"]
 
@@ -72,13 +72,36 @@ def simulate(scenario: Union[str, Path, dict, "Scenario"],
     """
     import numpy as np
 
-    from .sim.scenario import load_scenario
     from .sim.simulate import simulate as _simulate
     if rng is None:
         rng = 0
     if not isinstance(rng, np.random.Generator):
         rng = np.random.default_rng(rng)
     return _simulate(load_scenario(scenario), rng)
+
+
+def load_scenario(source: Union[str, Path, dict, "Scenario"]) -> "Scenario":
+    """A validated scenario (the pydantic model of the scenario YAML; ``docs/scenarios.md``).
+
+    Parameters
+    ----------
+    source : str, Path, dict or Scenario
+        A YAML file, a shipped scenario name (:func:`scenarios`), a dict of the YAML's content,
+        or a Scenario (returned as is). Units are in the field names (``duration_s``,
+        ``to_speed_m_s``, ``drift_deg_h``, ``bias_ug``, ``lever_arm_m``).
+
+    Returns
+    -------
+    Scenario
+        Edit a copy with ``scenario.model_dump()`` and pass the dict to :func:`simulate`.
+
+    Raises
+    ------
+    BadInput
+        The file is missing or not valid YAML, or a field is wrong (its name and the file).
+    """
+    from .sim.scenario import load_scenario as _load
+    return _load(source)
 
 
 def scenarios() -> list[str]:
