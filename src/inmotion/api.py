@@ -8,19 +8,20 @@
     inmotion.evaluate(sol, b)["final"]["horizontal_m"]    # errors against truth [m]
 
 Every function here imports what it needs when called, so ``import inmotion`` stays cheap (no
-numba, scipy or pandas). The command line runs methods through :func:`run_spec` and starts
-them through :func:`initial_state`, so a method run from Python and one run by
-``inmotion navigate`` / ``inmotion align`` are the same call.
+numba, scipy or pandas). :func:`run` is the command line's own code path: it starts a method
+with the helper behind ``--init`` (:func:`inmotion.cli.main._initial_state`), reads a
+configuration file with the one behind ``--config`` (:func:`inmotion.cli.main.build_config`)
+and runs the method with :func:`inmotion.cli.main.run_method` (the window, the timing, the
+configuration echo), so a method run from Python and one run by ``inmotion navigate`` /
+``inmotion align`` are the same call.
 
 Units: SI inside (rad, m, s, m/s), latitude and longitude in rad; configurations carry their
 unit in each field name (``gyro_drift_deg_h``), as in the YAML files.
 """
 from __future__ import annotations
 
-import math
-import time
 from pathlib import Path
-from typing import TYPE_CHECKING, Callable, Optional, Union
+from typing import TYPE_CHECKING, Optional, Union
 
 from . import registry
 from .errors import BadInput
@@ -34,9 +35,8 @@ if TYPE_CHECKING:                       # pragma: no cover - typing only
     from .core.solution import NavState, Solution
     from .sim.scenario import Scenario
 
-__all__ = ["simulate", "load_scenario", "scenarios", "methods", "method_config", "read_config_file",
-           "validate_config", "initial_state", "cut", "run_spec", "run", "evaluate",
-           "error_series"]
+__all__ = ["simulate", "load_scenario", "scenarios", "methods", "method_config",
+           "initial_state", "run", "evaluate", "error_series"]
 
 #: what ``init`` of :func:`run` may be
 InitLike = Union[None, str, Path, "NavState", "Solution"]
@@ -135,10 +135,8 @@ def methods(kind: Optional[str] = None) -> list[registry.MethodSpec]:
 def _spec(method: Union[str, registry.MethodSpec]) -> registry.MethodSpec:
     if isinstance(method, registry.MethodSpec):
         return method
-    try:
-        return registry.get(method)
-    except KeyError as e:
-        raise BadInput(str(e.args[0])) from None
+    from .cli.main import _spec as cli_spec
+    return cli_spec(method)
 
 
 def method_config(method: Union[str, registry.MethodSpec],
@@ -163,51 +161,32 @@ def method_config(method: Union[str, registry.MethodSpec],
     BadInput
         An unknown field or a value out of range (the first three problems).
     """
+    import pydantic
     spec = _spec(method)
     _, Config = spec.load()
-    file = None
-    if config is None:
+    if isinstance(config, (str, Path)):
+        from .cli.main import build_config          # what --config FILE does
+        cfg = build_config(spec, config)
+        if not fields:
+            return cfg
+        data = cfg.model_dump()
+    elif config is None:
         data = {}
     elif isinstance(config, Config):
         data = config.model_dump()
     elif isinstance(config, dict):
         data = dict(config)
-    elif isinstance(config, (str, Path)):
-        file = config
-        data = read_config_file(config)
     else:
         raise TypeError(f"config must be None, a dict, a {Config.__name__} or a file, got "
                         f"{type(config).__name__}")
     data.update(fields)
-    return validate_config(spec, data, file)
-
-
-def read_config_file(path: Union[str, Path]) -> dict:
-    """The mapping in a YAML / JSON configuration file (BadInput if missing or malformed)."""
-    import yaml
-    p = Path(path)
-    if not p.is_file():
-        raise BadInput("configuration file does not exist", file=p)
-    try:
-        data = yaml.safe_load(p.read_text()) or {}
-    except yaml.YAMLError as e:
-        raise BadInput(f"malformed YAML: {str(e).splitlines()[0]}", file=p) from None
-    if not isinstance(data, dict):
-        raise BadInput("configuration must be a mapping (key: value)", file=p)
-    return data
-
-
-def validate_config(spec: registry.MethodSpec, data: dict, file=None) -> "BaseModel":
-    """``data`` validated by the method's configuration class; BadInput naming the first three
-    problems (and ``file``) otherwise."""
-    import pydantic
-    _, Config = spec.load()
     try:
         return Config.model_validate(data)
     except pydantic.ValidationError as e:
         errs = "; ".join(f"{'.'.join(map(str, er['loc'])) or 'config'}: {er['msg']}"
                          for er in e.errors()[:3])
-        raise BadInput(f"configuration of {spec.name!r}: {errs}", file=file) from None
+        raise BadInput(f"configuration of {spec.name!r}: {errs}",
+                       file=config if isinstance(config, (str, Path)) else None) from None
 
 
 def initial_state(bundle: "Bundle", init: InitLike = None, start: Optional[float] = None,
@@ -238,85 +217,20 @@ def initial_state(bundle: "Bundle", init: InitLike = None, start: Optional[float
         init = "truth" if bundle.truth is not None else "meta"
     if isinstance(init, NavState):
         return init, "state"
-    if isinstance(init, str) and init == "truth":
-        if bundle.truth is None:
-            raise BadInput("--init truth: the bundle has no truth table")
-        return NavState.from_truth(bundle.truth, start), "truth"
-    if isinstance(init, str) and init == "meta":
-        t0 = start if start is not None else float(bundle.imu.t[0])
-        return _init_from_meta(bundle, t0, needs_attitude), "meta"
-    if isinstance(init, Solution):
-        sol, desc = init, "solution"
-    else:
-        p = Path(init)
-        if not p.exists():
-            raise BadInput(f"--init must be truth, meta or a result folder; {str(init)!r} is "
-                           "none of them", file=p)
-        from .io.result import read_result
-        sol, desc = read_result(p), f"result {p}"
+    if not isinstance(init, Solution):
+        from .cli.main import _initial_state          # --init truth | meta | RESULT
+        return _initial_state(None, bundle, str(init), start, needs_attitude)
     if start is None:
-        return sol.final_state(), desc
-    if start < sol.t[0] or start > sol.t[-1]:
-        raise BadInput(f"--start {start:g} s is outside the result's time span "
-                       f"({sol.t[0]:.6g} .. {sol.t[-1]:.6g} s)",
-                       file=None if desc == "solution" else Path(init))
-    return sol.state_at(start), desc
-
-
-def _init_from_meta(bundle, t0, needs_attitude):
-    """Initial state from ``meta.yaml`` (:func:`inmotion.io.bundle.meta_initial`).
-
-    Velocity defaults to rest; a method that needs attitude needs ``initial_attitude``
-    (methods that find the attitude themselves get level, north-pointing and ignore it).
-    """
-    import numpy as np
-
-    from .core.solution import NavState
-    from .io.bundle import meta_initial
-    ini = meta_initial(bundle.meta, "meta.yaml")
-    if any(ini[k] is None for k in ("lat_deg", "lon_deg", "h_m")):
-        raise BadInput("--init meta: meta.yaml has no initial position "
-                       "(initial_position: {lat_deg, lon_deg, h_m})")
-    if ini["euler_deg"] is None and needs_attitude:
-        raise BadInput("--init meta: the method needs an initial attitude but meta.yaml has no "
-                       "initial_attitude {pitch_deg, roll_deg, yaw_deg}; use --init truth or "
-                       "--init RESULT (e.g. a coarse alignment's)")
-    euler = np.radians(ini["euler_deg"] or [0.0, 0.0, 0.0])
-    return NavState.from_euler(t0, math.radians(ini["lat_deg"]), math.radians(ini["lon_deg"]),
-                               ini["h_m"], ini["vel_n_m_s"] or [0.0, 0.0, 0.0], euler)
-
-
-def cut(bundle: "Bundle", start: Optional[float] = None,
-        end: Optional[float] = None) -> "Bundle":
-    """``bundle`` cut to ``start <= t <= end`` [s] (None: open); BadInput if fewer than two
-    IMU rows are left. Always a new Bundle (its own arrays), as methods have always had."""
-    b = bundle.window(start, end)
-    if len(b.imu.t) < 2:
-        raise BadInput(f"the window {start} .. {end} s holds fewer than 2 IMU rows")
-    return b
-
-
-def run_spec(spec: registry.MethodSpec, bundle: "Bundle", config: "BaseModel",
-             init: Optional["NavState"],
-             progress: Optional[Callable[[float], None]] = None) -> "Solution":
-    """Run a registered method on ``bundle`` (already :func:`cut`): the one call behind
-    :func:`run` and the command line. ``info`` gets ``method``, ``config`` (the echo, human
-    units) and ``timing["wall_s"]``."""
-    fn, _ = spec.load()
-    t0 = time.perf_counter()
-    sol = fn(bundle, config, init, progress=progress)
-    wall = time.perf_counter() - t0
-    sol.info.setdefault("method", spec.name)
-    sol.info.setdefault("config", config.model_dump(mode="json"))
-    timing = dict(sol.info.get("timing") or {})
-    timing["wall_s"] = wall
-    sol.info["timing"] = timing
-    return sol
+        return init.final_state(), "solution"
+    if start < init.t[0] or start > init.t[-1]:
+        raise BadInput(f"start {start:g} s is outside the solution's time span "
+                       f"({init.t[0]:.6g} .. {init.t[-1]:.6g} s)")
+    return init.state_at(start), "solution"
 
 
 def run(method: str, bundle: "Bundle", config: Union[None, dict, "BaseModel", str, Path] = None,
-        init: InitLike = None, *, start: Optional[float] = None, end: Optional[float] = None,
-        progress: Optional[Callable[[float], None]] = None) -> "Solution":
+        init: InitLike = None, *, start: Optional[float] = None,
+        end: Optional[float] = None) -> "Solution":
     """Run a method by name, as ``inmotion navigate`` / ``inmotion align`` does.
 
     Parameters
@@ -335,8 +249,6 @@ def run(method: str, bundle: "Bundle", config: Union[None, dict, "BaseModel", st
         (or at ``start``), and then ``start`` defaults to that time.
     start, end : float, optional
         Time window [s] of the bundle to run on.
-    progress : callable, optional
-        ``progress(fraction)`` for long runs.
 
     Returns
     -------
@@ -351,12 +263,17 @@ def run(method: str, bundle: "Bundle", config: Union[None, dict, "BaseModel", st
         Unknown method, invalid configuration, a start the bundle cannot give, a sensor the
         method needs and the bundle lacks.
     """
+    import click
+
+    from .cli import main as cli
     spec = _spec(method)
     cfg = method_config(spec, config)
     state, desc = initial_state(bundle, init, start, spec.needs_attitude)
-    if start is None and desc != "truth" and desc != "meta" and desc != "state":
-        start = state.t                  # continue from where a result ended
-    return run_spec(spec, cut(bundle, start, end), cfg, state, progress)
+    if start is None and (desc == "solution" or desc.startswith("result")):
+        start = state.t                  # continue from where a result ended, as the CLI does
+    with click.Context(cli.cli, obj=cli._Opts(quiet=True)) as ctx:
+        sol, _ = cli.run_method(ctx, bundle, spec, cfg, state, (start, end))
+    return sol
 
 
 # --------------------------------------------------------------------------- evaluation

@@ -336,11 +336,50 @@ def perturb(state, err: dict):
     return NavState.from_euler(state.t, lat, lon, state.h + err.get("up", 0.0), vel, euler)
 
 
+def _init_from_meta(bundle, t0, needs_attitude):
+    """Initial state from ``meta.yaml`` (:func:`inmotion.io.bundle.meta_initial`).
+
+    Velocity defaults to rest; a method that needs attitude needs ``initial_attitude``
+    (methods that find the attitude themselves get level, north-pointing and ignore it).
+    """
+    import numpy as np
+    from ..core.solution import NavState
+    from ..io.bundle import meta_initial
+    ini = meta_initial(bundle.meta, "meta.yaml")
+    if any(ini[k] is None for k in ("lat_deg", "lon_deg", "h_m")):
+        raise BadInput("--init meta: meta.yaml has no initial position "
+                       "(initial_position: {lat_deg, lon_deg, h_m})")
+    if ini["euler_deg"] is None and needs_attitude:
+        raise BadInput("--init meta: the method needs an initial attitude but meta.yaml has no "
+                       "initial_attitude {pitch_deg, roll_deg, yaw_deg}; use --init truth or "
+                       "--init RESULT (e.g. a coarse alignment's)")
+    euler = np.radians(ini["euler_deg"] or [0.0, 0.0, 0.0])
+    return NavState.from_euler(t0, math.radians(ini["lat_deg"]), math.radians(ini["lon_deg"]),
+                               ini["h_m"], ini["vel_n_m_s"] or [0.0, 0.0, 0.0], euler)
+
+
 def _initial_state(ctx, bundle, init, start, needs_attitude):
-    """``(NavState or None, description)`` for ``--init truth|meta|RESULT``
-    (:func:`inmotion.api.initial_state`)."""
-    from ..api import initial_state
-    return initial_state(bundle, init, start, needs_attitude)
+    """``(NavState or None, description)`` for ``--init truth|meta|RESULT``."""
+    from ..core.solution import NavState
+    if init == "truth":
+        if bundle.truth is None:
+            raise BadInput("--init truth: the bundle has no truth table")
+        return NavState.from_truth(bundle.truth, start), "truth"
+    if init == "meta":
+        t0 = start if start is not None else float(bundle.imu.t[0])
+        return _init_from_meta(bundle, t0, needs_attitude), "meta"
+    p = Path(init)
+    if not p.exists():
+        raise BadInput(f"--init must be truth, meta or a result folder; {init!r} is none "
+                       "of them", file=p)
+    from ..io.result import read_result
+    sol = read_result(p)
+    if start is None:
+        return sol.final_state(), f"result {p}"
+    if start < sol.t[0] or start > sol.t[-1]:
+        raise BadInput(f"--start {start:g} s is outside the result's time span "
+                       f"({sol.t[0]:.6g} .. {sol.t[-1]:.6g} s)", file=p)
+    return sol.state_at(start), f"result {p}"
 
 
 # --------------------------------------------------------------------------- run a method
@@ -373,12 +412,30 @@ def _merge(a: dict, b: dict) -> dict:
 
 def build_config(spec, config_file=None, mode=None, sets=()):
     """The method's pydantic configuration from a YAML/JSON file, ``--mode`` and ``--set``."""
-    from ..api import read_config_file, validate_config
-    data = read_config_file(config_file) if config_file else {}
+    import pydantic
+    import yaml
+    _, Config = spec.load()
+    data = {}
+    if config_file:
+        p = Path(config_file)
+        if not p.is_file():
+            raise BadInput("configuration file does not exist", file=p)
+        try:
+            data = yaml.safe_load(p.read_text()) or {}
+        except yaml.YAMLError as e:
+            raise BadInput(f"malformed YAML: {str(e).splitlines()[0]}", file=p) from None
+        if not isinstance(data, dict):
+            raise BadInput("configuration must be a mapping (key: value)", file=p)
     if mode is not None:
         data["mode"] = mode
     data = _merge(data, _parse_sets(sets))
-    return validate_config(spec, data, config_file)
+    try:
+        return Config.model_validate(data)
+    except pydantic.ValidationError as e:
+        errs = "; ".join(f"{'.'.join(map(str, er['loc'])) or 'config'}: {er['msg']}"
+                         for er in e.errors()[:3])
+        raise BadInput(f"configuration of {spec.name!r}: {errs}",
+                       file=config_file) from None
 
 
 def _spec(method, kind=None):
@@ -395,12 +452,21 @@ def _spec(method, kind=None):
 
 
 def run_method(ctx, bundle, spec, config, init_state, window):
-    """Run ``spec`` on ``bundle`` cut to ``window`` = (start, end); return the Solution and
-    the cut bundle (:func:`inmotion.api.run_spec`, the same call as ``inmotion.run``)."""
-    from ..api import cut, run_spec
-    b = cut(bundle, *window)
+    """Run ``spec`` on ``bundle`` cut to ``window`` = (start, end); return the Solution."""
+    start, end = window
+    b = bundle.window(start, end)
+    if len(b.imu.t) < 2:
+        raise BadInput(f"the window {start} .. {end} s holds fewer than 2 IMU rows")
+    run, _ = spec.load()
+    t0 = time.perf_counter()
     with _progress(ctx, spec.name) as progress:
-        sol = run_spec(spec, b, config, init_state, progress)
+        sol = run(b, config, init_state, progress=progress)
+    wall = time.perf_counter() - t0
+    sol.info.setdefault("method", spec.name)
+    sol.info.setdefault("config", config.model_dump(mode="json"))
+    timing = dict(sol.info.get("timing") or {})
+    timing["wall_s"] = wall
+    sol.info["timing"] = timing
     return sol, b
 
 
