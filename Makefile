@@ -6,7 +6,7 @@ STAMP  := $(VENV)/.installed-stamp
 export OPENBLAS_NUM_THREADS ?= 1
 export MKL_NUM_THREADS ?= 1
 
-.PHONY: install warmup test demo bench clean
+.PHONY: install warmup test lint docs demo bench clean
 
 $(STAMP): pyproject.toml
 	test -x $(PY) || $(PYTHON) -m venv $(VENV)
@@ -21,8 +21,22 @@ install: $(STAMP)
 warmup: $(STAMP)
 	$(PY) -m inmotion.warmup
 
-test: $(STAMP)
+lint: $(STAMP)
+	$(PY) -m ruff check src tests benchmarks tools docs
+
+test: lint
 	$(PY) -m pytest -q -n 2 --dist loadfile
+
+DOCS_STAMP := $(VENV)/.docs-stamp
+
+$(DOCS_STAMP): $(STAMP) pyproject.toml
+	$(PY) -m pip install -q -e '.[docs]'
+	touch $(DOCS_STAMP)
+
+# the documentation site (user guide, reference, API from the docstrings) into site/;
+# --strict: every warning is an error
+docs: $(DOCS_STAMP)
+	$(PY) -m mkdocs build --strict -d site
 
 demo: $(STAMP)
 	$(VENV)/bin/inmotion demo
@@ -31,4 +45,4 @@ bench: $(STAMP)
 	$(PY) benchmarks/run_all.py
 
 clean:
-	rm -rf $(VENV) build *.egg-info src/*.egg-info .pytest_cache
+	rm -rf $(VENV) build site *.egg-info src/*.egg-info .pytest_cache

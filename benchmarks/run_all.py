@@ -126,6 +126,19 @@ BENCHES = {
                rf"\[3\][\s\S]*?speed-up 1 -> 2 workers: {_NUM}x", "x", 1.6, ">"),
     ), "issue 8: engine overhead under 20 ms per run; paper 004 near-linear 1 -> 2 workers "
        "(10 runs per point here: the per-run rate is the same as with 50)"),
+    "bench_predict.py": Bench(("--calls", "10000", "--batches", "15"), 300, tuple(
+        Figure(f"{lay}: {what} per call", rf"^\s+{lay}\s+{re.escape(label)}\s+{_NUM} us/call", "us",
+               limit)
+        for lay in ("sins-dr", "dr-kf")
+        for what, label, limit in (
+            ("old np.zeros + _fill_F + dense predict", "before: np.zeros + _fill_F (array form) + "
+             "dense _predict_kernel", None),
+            ("new _fill_F + predict_sparse", "after: _fill_F (scalar, F reused) + predict_sparse",
+             None),
+            ("new _fill_F", "_fill_F, scalar (after)", None),
+            ("new predict_sparse", "predict_sparse (after)", 0.3))),
+        "issue 13: the covariance predict of every 100 Hz epoch at about 0.3 us a call (CPU time "
+        "per call, median of batches)"),
 }
 
 

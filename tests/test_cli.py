@@ -88,7 +88,8 @@ def test_info(bundle):
 
 
 def test_sins_reproduces_truth_through_files(bundle, tmp_path):
-    s = run_json("navigate", bundle, "--method", "sins", "-o", tmp_path / "r")
+    s = run_json("navigate", bundle, "--method", "sins", "--output-rate", "all",
+                 "-o", tmp_path / "r")
     f = s["errors"]["final"]
     assert set(f) == DESIGN_KEYS
     assert s["errors"]["max_abs_last_100s"]["horizontal_m"] < 1e-3
@@ -377,7 +378,8 @@ def test_imu_gap_listed_by_info_and_allowed_on_request(copy, tmp_path):
     info = run_json("info", copy)
     (gap,) = info["tables"]["imu"]["gaps"]
     assert gap["row"] == 301 and gap["duration_s"] == pytest.approx(0.21)
-    s = run_json("navigate", copy, "-m", "dr", "--allow-imu-gaps", "-o", tmp_path / "r")
+    s = run_json("navigate", copy, "-m", "dr", "--allow-imu-gaps", "--output-rate", "all",
+                 "-o", tmp_path / "r")
     assert s["epochs"] == 2001 - 20
 
 

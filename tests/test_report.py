@@ -88,15 +88,22 @@ def test_result_report_shows_the_constructed_errors(result_dir, tmp_path):
     page = out.read_text()
     assert_self_contained(page)
     imgs = images(page)
-    assert len(imgs) == 3                                   # errors, plan view, states
+    assert len(imgs) == 4          # |errors| log scale, converged errors, position error, states
     for b64 in imgs:
         assert base64.b64decode(b64).startswith(PNG_MAGIC)
     saved = sorted((tmp_path / "r_figures").glob("*.png"))
     assert {base64.b64encode(p.read_bytes()).decode() for p in saved} == set(imgs)
-    row = re.search(r"<td class=\"l\">yaw_arcmin</td><td class=\"\">([^<]+)</td>", page)
+    row = re.search(r"<td class=\"l\">yaw_arcmin</td><td class=\"l\">arcmin</td>"
+                    r"<td class=\"\">([^<]+)</td>", page)
     assert abs(float(row.group(1)) - 2.0) < 1e-3
-    row = re.search(r"<td class=\"l\">horizontal_m</td><td class=\"\">([^<]+)</td>", page)
+    row = re.search(r"<td class=\"l\">horizontal_m</td><td class=\"l\">m</td>"
+                    r"<td class=\"\">([^<]+)</td>", page)
     assert abs(float(row.group(1)) - 5.0) < 1e-3
+    # headers and rows in words, the final error in % of distance, every state panel explained
+    assert "RMS, last 100 s" in page and "heading (yaw) error" in page
+    assert "% of distance travelled" in page
+    from inmotion.evaluate.plots import state_words
+    assert state_words("dk_ppm") == ("dk", "ppm", "velocity sensor scale-factor error")
     assert "gain_per_s" in page and "constructed" in page and "dk_ppm" in page
 
 
@@ -283,3 +290,25 @@ def test_reports_load_and_render_in_a_real_browser(campaign_dir, result_dir, tmp
         assert found["widths"] == [int.from_bytes(p[16:20], "big") for p in pngs]
         assert found["tables"] >= 2
         assert found["fetched"] == []                   # nothing loaded from anywhere
+
+
+def test_result_page_screenshot_in_a_real_browser(result_dir, tmp_path):
+    """The single-result page as an engineer sees it: headless Chromium renders it to a PNG
+    that is not blank (figures and tables drawn)."""
+    exe = shutil.which("chromium") or shutil.which("chromium-browser")
+    if exe is None:
+        pytest.skip("no chromium: `apt-get install -y chromium` (.ci/run installs it)")
+    from matplotlib.image import imread
+    page = build_report(result_dir, tmp_path / "shot.html")
+    shot = tmp_path / "shot.png"
+    cmd = [exe, "--headless", "--no-sandbox", "--disable-gpu", "--hide-scrollbars",
+           "--disable-background-networking", "--disable-component-update", "--disable-sync",
+           "--no-first-run", f"--user-data-dir={tmp_path / 'chromium-profile'}",
+           "--window-size=1280,3000", f"--screenshot={shot}", page.as_uri()]
+    subprocess.run(cmd, capture_output=True, text=True, timeout=120)
+    assert shot.is_file() and shot.read_bytes().startswith(PNG_MAGIC)
+    img = imread(shot)
+    assert img.shape[0] >= 2000 and img.shape[1] >= 1200
+    gray = img[..., :3].mean(axis=2)
+    assert gray.std() > 0.05                             # not a blank page
+    assert (gray < 0.5).mean() > 0.005                   # text and lines drawn

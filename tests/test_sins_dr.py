@@ -478,7 +478,8 @@ def test_cli_navigate_sins_dr_with_mode(tmp_path, short_drive, mode):
     write_bundle(short_drive.window(None, 120.0), bpath)
     out = tmp_path / "r"
     res = CliRunner().invoke(cli, ["--quiet", "navigate", str(bpath), "--method", "sins-dr",
-                                   "--mode", mode, "-o", str(out)], catch_exceptions=False)
+                                   "--mode", mode, "--output-rate", "all", "-o", str(out)],
+                       catch_exceptions=False)
     assert res.exit_code == 0, res.output
     summary = json.loads((out / "summary.json").read_text())
     assert summary["method"] == "sins-dr" and summary["config"]["mode"] == mode

@@ -3,8 +3,8 @@
 A strapdown inertial navigation system (SINS) aided by the vehicle's own velocity sensors
 (Doppler radar, laser Doppler velocimeter (LDV), odometer), with no satellite signal.
 
-Conventions (the charter every module keeps; see ``shared/DESIGN.md``)
------------------------------------------------------------------------
+Conventions (the charter every module keeps; see ``docs/conventions.md``)
+--------------------------------------------------------------------------
 Frames
     ``n``  navigation frame, East-North-Up (ENU), at the vehicle's position.
     ``b``  body frame, Right-Forward-Up (x right, y forward, z up). The IMU frame equals b

@@ -16,6 +16,7 @@ from __future__ import annotations
 
 import importlib
 from dataclasses import dataclass
+from typing import Any, Callable
 
 __all__ = ["MethodSpec", "methods", "get", "register"]
 
@@ -29,7 +30,7 @@ class MethodSpec:
     needs_attitude: bool  #: False: the method finds the attitude itself and ignores init's
     summary: str         #: one line for ``inmotion methods``
 
-    def load(self):
+    def load(self) -> tuple[Callable[..., Any], type]:
         """``(run, ConfigClass)``, imported now."""
         return _resolve(self.entry), _resolve(self.config)
 

@@ -17,8 +17,15 @@
     global fusion (eq. 36) and feedback every ``main_period_s``; chi-square residual FDI per
     channel (eq. 40-42, false-alarm rate ``false_alarm_rate``) and reconfiguration of Table 1.
 
-The engine is :mod:`inmotion.align.aided_engine`. Every detection, return and change of the
-output filter is in ``Solution.info["events"]`` as ``{"t_s", "event", "channel",
+All four run on the package's one error-state engine
+(:class:`inmotion.estimation.engine.ErrorStateFilter`) as a bank of local filters on the one
+SINS: one per velocity sensor (primary, :class:`~inmotion.estimation.measurements.
+SensorVelocityNav` or :class:`~inmotion.estimation.measurements.DisplacementIncrement`, with
+FDI isolation) and the vehicle-constraint filter (fallback, :class:`~inmotion.estimation.
+measurements.Nhc` in the vehicle frame), the barometric height shared by all with the noise
+scaled by ``1 / beta`` (eq. 33-35); the engine's Table 1 policy picks, fuses (eq. 36) and
+feeds back. Every detection, return and change of the output filter is in
+``Solution.info["events"]`` as ``{"t_s", "event", "channel",
 "test_value", "threshold"}`` (``event``: ``detected`` (the channel is isolated at once),
 ``returned``, ``mode``).
 
@@ -40,14 +47,16 @@ from ..core import earth, rotations
 from ..core import _kernels as K
 from ..core.bundle import Bundle
 from ..core.deadreckoning import speed_on_epochs
-from ..core.mechanization import Strapdown, _baro_on_imu, start_row
+from ..core.mechanization import _baro_on_imu, start_row
 from ..core.solution import NavState, Solution, StateUnit
 from ..errors import BadInput
 from ..estimation import chi2
 from ..estimation import error_model as em
+from ..estimation import measurements as ms
 from ..estimation.aiding_rows import NHC_LAYOUT, SUB_LAYOUT
+from ..estimation.engine import (EVENT_DETECTED, EVENT_MODE, MODE_FUSED, MODE_NONE,
+                                 ErrorStateFilter, LocalFilter)
 from ..estimation.layout import position_units
-from . import aided_engine as eng
 
 __all__ = ["AidedKfConfig", "FkfConfig", "NhcKfConfig", "run_od_kf", "run_ldv_kf",
            "run_nhc_kf", "run_fkf", "run_aided"]
@@ -65,45 +74,81 @@ class NhcKfConfig(BaseModel):
     """Common configuration (human units in the field names)."""
 
     model_config = ConfigDict(extra="forbid")
-    filter_rate_hz: float = Field(10.0, gt=0)
-    measurement_period_s: float = Field(0.5, gt=0)
+    filter_rate_hz: float = Field(
+        10.0, gt=0,
+        description="Kalman prediction (and model relinearization) rate [Hz], rounded to whole "
+                    "IMU rows")
+    measurement_period_s: float = Field(0.5, gt=0, description="measurement update period [s]")
     main_period_s: float = Field(10.0, gt=0, description="fusion and feedback period")
-    output_interval_s: float = Field(1.0, gt=0)
-    use_baro: bool = True
+    output_interval_s: float = Field(1.0, gt=0, description="spacing of the output rows [s]")
+    use_baro: bool = Field(
+        True,
+        description="add the barometric height measurement h_SINS - h_baro (needs a baro table)")
     mounting_from_meta: bool = Field(True, description="nominal IMU-to-vehicle mounting from "
                                      "meta vehicle_mounting_arcmin (else zero)")
     # priors (1-sigma)
-    init_tilt_sigma_deg: float = Field(0.5, gt=0)
-    init_heading_sigma_deg: float = Field(2.0, gt=0)
-    init_velocity_sigma_m_s: float = Field(0.2, gt=0)
-    init_position_sigma_m: float = Field(5.0, gt=0)
-    gyro_drift_deg_h: float = Field(0.01, ge=0)
-    accel_bias_ug: float = Field(100.0, ge=0)
+    init_tilt_sigma_deg: float = Field(
+        0.5, gt=0, description="initial 1-sigma of the level (pitch, roll) error [deg]")
+    init_heading_sigma_deg: float = Field(
+        2.0, gt=0, description="initial 1-sigma of the heading error [deg]")
+    init_velocity_sigma_m_s: float = Field(
+        0.2, gt=0, description="initial 1-sigma of the velocity error per axis [m/s]")
+    init_position_sigma_m: float = Field(
+        5.0, gt=0, description="initial 1-sigma of the position error per axis [m]")
+    gyro_drift_deg_h: float = Field(
+        0.01, ge=0, description="1-sigma gyro drift (constant bias) per axis [deg/h]")
+    accel_bias_ug: float = Field(
+        100.0, ge=0, description="1-sigma accelerometer bias per axis [ug]")
     # noise
-    gyro_arw_deg_sqrt_h: float = Field(0.001, ge=0)
-    accel_vrw_ug_sqrt_hz: float = Field(10.0, ge=0)
-    nhc_noise_m_s: float = Field(0.1, gt=0)
-    baro_noise_m: float = Field(10.0, gt=0)
-    keep_test_statistics: bool = False
+    gyro_arw_deg_sqrt_h: float = Field(
+        0.001, ge=0, description="gyro angle random walk [deg/sqrt(h)]")
+    accel_vrw_ug_sqrt_hz: float = Field(
+        10.0, ge=0, description="accelerometer velocity random walk [ug/sqrt(Hz)]")
+    nhc_noise_m_s: float = Field(
+        0.1, gt=0,
+        description="1-sigma of the NHC pseudo-measurement (lateral and vertical velocity) [m/s]")
+    baro_noise_m: float = Field(
+        10.0, gt=0, description="1-sigma of the barometric height measurement [m]")
+    keep_test_statistics: bool = Field(
+        False,
+        description="keep the chi-square test statistics series in the result's info")
 
 
 class AidedKfConfig(NhcKfConfig):
     """``od-kf`` / ``ldv-kf``: one sensor sub-filter (21 states) with FDI and NHC fallback."""
 
-    measurement: Literal["displacement", "velocity"] = "displacement"
+    measurement: Literal["displacement", "velocity"] = Field(
+        "displacement",
+        description="sensor measurement: displacement (body-frame increment) or velocity (n "
+                    "frame, eq. 23-24)")
     main_period_s: float = Field(1.0, gt=0, description="feedback period")
     mounting_from_meta: bool = Field(False, description="nominal mounting from meta; the "
                                      "mount states estimate the rest (paper: all of it)")
-    od_noise_m_s: list[float] = Field([0.05, 0.02, 0.05], min_length=3, max_length=3)
-    ldv_noise_m_s: list[float] = Field([0.05, 0.02, 0.05], min_length=3, max_length=3)
-    od_scale_sigma_ppm: float = Field(3000.0, ge=0)
-    ldv_scale_sigma_ppm: float = Field(1000.0, ge=0)
-    mount_sigma_arcmin: float = Field(30.0, ge=0)
-    lever_sigma_m: float = Field(0.05, ge=0)
-    fdi: bool = True
-    false_alarm_rate: float = Field(1e-3, gt=0, lt=1)
-    return_after_s: float = Field(1.0, ge=0)
-    nhc_fallback: bool = True
+    od_noise_m_s: list[float] = Field(
+        [0.05, 0.02, 0.05], min_length=3, max_length=3,
+        description="odometer row 1-sigma [right, forward, up] [m/s]")
+    ldv_noise_m_s: list[float] = Field(
+        [0.05, 0.02, 0.05], min_length=3, max_length=3,
+        description="LDV row 1-sigma [right, forward, up] [m/s]")
+    od_scale_sigma_ppm: float = Field(
+        3000.0, ge=0,
+        description="initial 1-sigma of the odometer scale-factor error [ppm]")
+    ldv_scale_sigma_ppm: float = Field(
+        1000.0, ge=0, description="initial 1-sigma of the LDV scale-factor error [ppm]")
+    mount_sigma_arcmin: float = Field(
+        30.0, ge=0, description="initial 1-sigma of the mounting angles [arcmin]")
+    lever_sigma_m: float = Field(
+        0.05, ge=0, description="initial 1-sigma of the lever-arm error per axis [m]")
+    fdi: bool = Field(
+        True, description="chi-square residual fault detection and isolation per channel")
+    false_alarm_rate: float = Field(
+        1e-3, gt=0, lt=1, description="false-alarm probability of the chi-square test")
+    return_after_s: float = Field(
+        1.0, ge=0,
+        description="an isolated channel returns after its test passes for this long [s]")
+    nhc_fallback: bool = Field(
+        True,
+        description="the vehicle-constraint filter takes over while the channel is isolated")
 
 
 class FkfConfig(AidedKfConfig):
@@ -111,8 +156,11 @@ class FkfConfig(AidedKfConfig):
     main filter period 10 s)."""
 
     main_period_s: float = Field(10.0, gt=0, description="main filter period")
-    beta_od: float = Field(0.5, gt=0, le=1)
-    beta_ldv: float = Field(0.5, gt=0, le=1)
+    beta_od: float = Field(
+        0.5, gt=0, le=1,
+        description="information-sharing factor of the odometer sub-filter")
+    beta_ldv: float = Field(
+        0.5, gt=0, le=1, description="information-sharing factor of the LDV sub-filter")
 
 
 def _config(config, cls):
@@ -142,20 +190,34 @@ def _sins_prior(cfg, lat, h):
         "eps": (cfg.gyro_drift_deg_h * DEG_H) ** 2, "nabla": (cfg.accel_bias_ug * UG) ** 2})
 
 
-def _channel(bundle, name, cfg, beta, P15, Q15):
-    speed = getattr(bundle, name)
+NS = NHC_LAYOUT.n      #: the common SINS error states (fused, fed back)
+NSUB = SUB_LAYOUT.n   #: states of a velocity-sensor sub-filter
+CHUNK_ROWS = 16384
+#: the global estimate's source, as this method family names it (paper 003 Table 1)
+MODE_NAMES = {0: "fused", 1: "channel 0 alone", 2: "channel 1 alone", 3: "nhc", 4: "sins"}
+
+
+def _pad(M15, n=NSUB):
+    out = np.zeros((n, n))
+    out[:NS, :NS] = M15
+    return out
+
+
+def _channel(bundle, name, cfg, beta, P15, Q15, c, C_vb0, thr, ret):
+    """The local filter of one velocity sensor (eq. 33-35: SINS part shared by ``1 /
+    beta``) and its measurement."""
     lever = np.asarray(bundle.meta.get("lever_arms_m", {}).get(name, [0.0, 0.0, 0.0]), float)
     short = "od" if name == "odometer" else "ldv"
-    P = np.zeros((eng.NSUB, eng.NSUB))
-    P[:eng.NS, :eng.NS] = P15
+    P = _pad(P15 / beta)
     P[SUB_LAYOUT["dk"], SUB_LAYOUT["dk"]] = (getattr(cfg, f"{short}_scale_sigma_ppm") * 1e-6) ** 2
     P[SUB_LAYOUT["mount"], SUB_LAYOUT["mount"]] = np.eye(2) * (cfg.mount_sigma_arcmin * ARCMIN) ** 2
     P[SUB_LAYOUT["lever"], SUB_LAYOUT["lever"]] = np.eye(3) * cfg.lever_sigma_m ** 2
-    Q = np.zeros((eng.NSUB, eng.NSUB))
-    Q[:eng.NS, :eng.NS] = Q15
-    return {"name": name, "speed": speed, "lever_b": lever, "beta": beta, "P0": P, "Qc": Q,
-            "sigma_m_s": np.asarray(getattr(cfg, f"{short}_noise_m_s"), float),
-            "form": cfg.measurement}
+    kind = ms.DisplacementIncrement if cfg.measurement == "displacement" else ms.SensorVelocityNav
+    meas = kind(np.asarray(getattr(cfg, f"{short}_noise_m_s"), float), lever_arm_m=lever,
+                vehicle_mounting=C_vb0, local=c, isolate=thr > 0, return_tests=ret, gate=thr,
+                name=name)
+    meas.log_nis = True
+    return LocalFilter(P, _pad(Q15 / beta), r_scale=1.0 / beta), meas
 
 
 def _check_init(init, bundle):
@@ -186,51 +248,124 @@ def run_aided(bundle: Bundle, cfg, init: NavState, sensors: tuple, *, method: st
     betas = {"odometer": getattr(cfg, "beta_od", 1.0), "ldv": getattr(cfg, "beta_ldv", 1.0)}
     if len(sensors) == 1:
         betas = {s: 1.0 for s in betas}
-    channels = [_channel(bundle, s, cfg, betas[s], P15, Q15) for s in sensors]
     use_nhc = nhc_only or getattr(cfg, "nhc_fallback", False)
-    nhc = {"P0": P15, "Qc": Q15, "sigma_m_s": cfg.nhc_noise_m_s} if use_nhc else None
     fdi = getattr(cfg, "fdi", False)
     thr = chi2.threshold(cfg.false_alarm_rate, 3) if fdi else 0.0
     ret = max(1, int(round(getattr(cfg, "return_after_s", 1.0) / (meas_every * t_ep))))
     A = np.zeros(3)
     if cfg.mounting_from_meta:
         A = np.asarray(bundle.meta.get("vehicle_mounting_arcmin", [0.0, 0.0, 0.0]), float) * ARCMIN
-    sd = Strapdown(init)
-    e = eng.Engine(sd._x, sd._mem, channels, rotations.mounting_dcm(A), nhc, cfg.baro_noise_m,
-                   thr, ret, step, meas_every, fuse_every, out_every, nhc_only=nhc_only)
-    h_baro = None
-    if cfg.use_baro and bundle.baro is not None:
-        def h_baro(t):
-            return _baro_on_imu(bundle.baro, t, 5.0)
-    x0 = sd._x.copy()
-    res = e.run(imu.t[k0:], imu.dtheta[k0:], imu.dvel[k0:], init.t, h_baro=h_baro,
-                progress=progress, speed_on_epochs=speed_on_epochs)
-    return _solution(res, e, init, x0, cfg, method, sensors, thr, time.perf_counter() - t_wall)
+    C_vb0 = rotations.mounting_dcm(A)
+    locals_, meas = [], []
+    for c, s_ in enumerate(sensors):
+        lf, m = _channel(bundle, s_, cfg, betas[s_], P15, Q15, c, C_vb0, thr, ret)
+        locals_.append(lf)
+        meas.append(m)
+    lay = SUB_LAYOUT if sensors else NHC_LAYOUT
+    pad = _pad if sensors else (lambda M: M)
+    if use_nhc:
+        locals_.append(LocalFilter(pad(P15), pad(Q15), role="primary" if nhc_only
+                                   else "fallback"))
+        meas.append(ms.Nhc(cfg.nhc_noise_m_s, mount_terms=False, vehicle_mounting=C_vb0,
+                           local=len(locals_) - 1))
+    use_baro = cfg.use_baro and bundle.baro is not None
+    if use_baro:
+        meas.append(ms.Height(cfg.baro_noise_m, local=None))
+    n_ep = -(-(len(imu.t) - k0) // step)
+    f = ErrorStateFilter(init, lay, em.ErrorModel(lay, _noise(cfg)), locals_, meas,
+                         step_rows=step, feedback_every=fuse_every // meas_every,
+                         out_every=out_every, n_common=NS,
+                         max_nis=(n_ep // meas_every + 1) * max(len(sensors), 1))
+    res = _feed(f, bundle, k0, sensors, meas_every, use_nhc, use_baro, progress)
+    return _solution(res, f, init, cfg, method, sensors, thr, time.perf_counter() - t_wall,
+                     P15)
 
 
-def _events(res, sensors, thr):
+def _feed(f, bundle, k0, sensors, meas_every, use_nhc, use_baro, progress):
+    """The bundle through the engine chunk by chunk: per chunk each sensor resampled to the
+    IMU rows (distance per row for the accumulators, NaN where not covered or in a gap), and
+    at every ``meas_every``-th epoch end a sample of each sensor, the NHC and the height."""
+    imu = bundle.imu
+    t, n = imu.t[k0:], len(imu.t) - k0
+    step = f.step
+    chunk = max(1, CHUNK_ROWS // step) * step
+    outs = []
+    for a in range(0, n, chunk):
+        b = min(a + chunk, n)
+        tc = t[a:b]
+        edges = np.concatenate([[f.t], tc])
+        ends = np.arange(step, b - a + step, step)
+        ends[-1] = b - a
+        epoch = f.epochs + 1 + np.arange(len(ends))
+        rows = ends[epoch % meas_every == 0] - 1
+        t_meas = tc[rows]
+        row_data = {}
+        for s_ in sensors:
+            ds, v, unc, gap = speed_on_epochs(getattr(bundle, s_), edges, what=s_)
+            ds[unc | gap] = np.nan               # no measurement over these rows
+            v[unc | gap] = np.nan
+            row_data[s_] = ds
+            m = f.measurements[f._index[s_]]
+            f.add_measurement(s_, t_meas, v[rows] if m.data_size else None)
+        if use_nhc:
+            f.add_measurement("nhc", t_meas)
+        if use_baro:
+            f.add_measurement("height", t_meas, _baro_on_imu(bundle.baro, t_meas, 5.0))
+        outs.append(f.add_imu(tc, imu.dtheta[k0 + a:k0 + b], imu.dvel[k0 + a:k0 + b],
+                              row_data=row_data, flush=b == n))
+        if progress is not None:
+            progress(b / n)
+    return {k: np.concatenate([o[k] for o in outs]) for k in outs[0]}
+
+
+def _old_mode(mode, n_channels):
+    """The engine's source code as :data:`MODE_NAMES`' key."""
+    if mode == MODE_FUSED:
+        return 0
+    if mode == MODE_NONE:
+        return 4
+    return 1 + mode if mode < n_channels else 3
+
+
+def _events(f, sensors, thr):
     names = list(sensors)
     out = []
-    for t, c, kind, val in res["events"]:
+    ev, dropped = f.events()
+    for t, c, kind, val in ev:
         k = int(kind)
-        if k == eng.EVENT_MODE:
-            mode = int(val)
-            label = eng.MODE_NAMES[mode]
+        if k == EVENT_MODE:
+            mode = _old_mode(int(val), len(sensors))
+            label = MODE_NAMES[mode]
             if mode in (1, 2):
                 label = f"{names[mode - 1]} alone"
             out.append({"t_s": float(t), "event": "mode", "mode": label})
         else:
-            out.append({"t_s": float(t), "event": "detected" if k == eng.EVENT_DETECTED
+            out.append({"t_s": float(t), "event": "detected" if k == EVENT_DETECTED
                         else "returned", "channel": names[int(c)], "test_value": float(val),
                         "threshold": thr})
-    return out
+    return out, dropped
 
 
-def _solution(res, e, init, x0, cfg, method, sensors, thr, wall):
+def _test_statistics(f, sensors):
+    """The channels' test statistics per measurement epoch: ``(t (K,), lambda (K, C))``,
+    NaN where a channel was not tested."""
+    s = f.nis_series()
+    C = max(len(sensors), 1)
+    t = np.unique(s[:, 0]) if len(s) else np.zeros(0)
+    lam = np.full((len(t), C), np.nan)
+    if len(s):
+        lam[np.searchsorted(t, s[:, 0]), s[:, 1].astype(int)] = s[:, 2]
+    return t, lam
+
+
+def _solution(res, f, init, cfg, method, sensors, thr, wall, P15):
     t = np.concatenate([[init.t], res["t"]])
-    x = np.vstack([x0, res["x"]])
-    P0 = e.channels[0]["P0"][:eng.NS, :eng.NS] if sensors else e.Pn0
-    sig = np.vstack([np.sqrt(np.diagonal(P0)), res["sigma"]])
+    first = np.zeros(10)
+    first[[K.LAT, K.LON, K.H]] = init.lat, init.lon, init.h
+    first[K.VE:K.VU + 1] = init.vel_n
+    first[K.Q0:K.Q3 + 1] = init.q_nb
+    x = np.vstack([first, res["x_sins"]])
+    sig = np.vstack([np.sqrt(np.diagonal(P15)), res["sigma"][:, :NS]])
     lay = NHC_LAYOUT
     s = lay.as_dict(sig)
     r_m, r_n = earth.radii(x[:, K.LAT])
@@ -238,29 +373,33 @@ def _solution(res, e, init, x0, cfg, method, sensors, thr, wall):
              "vE": s["dv_E"], "vN": s["dv_N"], "vU": s["dv_U"],
              "north": s["dp_lat"] * (r_m + x[:, K.H]),
              "east": s["dp_lon"] * (r_n + x[:, K.H]) * np.cos(x[:, K.LAT]), "h": s["dp_h"]}
-    states = lay.as_dict(np.vstack([np.zeros(eng.NS), res["states"]]))
+    states = lay.as_dict(np.vstack([np.zeros(NS), res["states"][:, :NS]]))
     units = lay.unit_map(position_units(init.lat, init.h))
     for c, name in enumerate(sensors):
         short = "od" if name == "odometer" else "ldv"
         for i, (st, u) in enumerate(zip(_SENSOR_STATES, _SENSOR_UNITS)):
-            states[f"{short}_{st}"] = np.concatenate([[0.0], res["sensor"][:, c, i]])
-            states[f"sigma_{short}_{st}"] = np.concatenate([[np.sqrt(e.channels[c]["P0"][
-                eng.NS + i, eng.NS + i])], res["sensor_sigma"][:, c, i]])
+            states[f"{short}_{st}"] = np.concatenate([[0.0], res["local_x"][:, c, NS + i]])
+            states[f"sigma_{short}_{st}"] = np.concatenate([[np.sqrt(f.locals[c].P0[
+                NS + i, NS + i])], res["local_sigma"][:, c, NS + i]])
             units[f"{short}_{st}"] = u
             units[f"sigma_{short}_{st}"] = u
-    counts = {name: {"tests": int(e.counts[c, 0]), "exceedances_while_healthy":
-                     int(e.counts[c, 1]), "updates": int(e.counts[c, 2])}
-              for c, name in enumerate(sensors)}
+    cnt = f.counts()
+    counts = {name: {"tests": cnt[name].get("tests", cnt[name]["used"] + cnt[name]["rejected"]),
+                     "exceedances_while_healthy": cnt[name].get("exceedances_while_healthy", 0),
+                     "updates": cnt[name]["used"]}
+              for name in sensors}
+    events, dropped = _events(f, sensors, thr)
+    modes = np.array([_old_mode(int(m), len(sensors)) for m in res["mode"]], dtype=np.int64)
     info = {"method": method, "config": cfg.model_dump(), "sensors": list(sensors),
             "layout_subfilter": list(SUB_LAYOUT.names), "layout_common": list(lay.names),
-            "events": _events(res, sensors, thr), "events_dropped": res["events_dropped"],
+            "events": events, "events_dropped": dropped,
             "fdi_threshold": thr, "tests": counts,
-            "output_mode": [eng.MODE_NAMES[int(m)] for m in res["mode"][-1:]],
-            "wall_time_s": wall}
+            "output_mode": [MODE_NAMES[int(m)] for m in modes[-1:]],
+            "measurements": cnt, "wall_time_s": wall}
     if cfg.keep_test_statistics:
-        info["test_statistics"] = {"t": res["lambda_t"], "lambda": res["lambda"],
-                                   "channels": list(sensors), "mode_t": res["t"],
-                                   "mode": res["mode"]}
+        lam_t, lam = _test_statistics(f, sensors)
+        info["test_statistics"] = {"t": lam_t, "lambda": lam, "channels": list(sensors),
+                                   "mode_t": res["t"], "mode": modes}
     return Solution.from_arrays(t, x[:, K.LAT:K.H + 1], x[:, K.VE:K.VU + 1],
                                 x[:, K.Q0:K.Q3 + 1], sigma=sigma, states=states,
                                 state_units=units, info=info)

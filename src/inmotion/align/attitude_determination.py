@@ -47,13 +47,16 @@ class Inputs:
 
 
 def initial_position(bundle: Bundle, init: Optional[NavState]) -> tuple[float, float, float]:
-    """``(lat, lon, h)`` [rad, rad, m]: from ``init``, else ``meta.yaml``, else the first truth row."""
+    """``(lat, lon, h)`` [rad, rad, m]: from ``init``, else ``meta.yaml`` (``initial_position:
+    {lat_deg, lon_deg, h_m}`` or top-level ``lat_deg, lon_deg, h_m``), else the first truth row."""
     if init is not None:
         return float(init.lat), float(init.lon), float(init.h)
     meta = bundle.meta or {}
-    if all(k in meta for k in ("lat_deg", "lon_deg")):
-        return np.radians(float(meta["lat_deg"])), np.radians(float(meta["lon_deg"])), \
-            float(meta.get("h_m", 0.0))
+    pos = meta.get("initial_position")          # the importers' spelling (io.bundle.meta_initial)
+    for d in ((pos if isinstance(pos, dict) else {}), meta):
+        if all(k in d for k in ("lat_deg", "lon_deg")):
+            return np.radians(float(d["lat_deg"])), np.radians(float(d["lon_deg"])), \
+                float(d.get("h_m", 0.0))
     if bundle.truth is not None:
         return float(bundle.truth.lat[0]), float(bundle.truth.lon[0]), float(bundle.truth.h[0])
     raise BadInput("no initial position: give --init, or lat_deg/lon_deg in meta.yaml",

@@ -54,14 +54,24 @@ class CoarseInertialConfig(BaseModel):
     mode: Literal["auto", "parked", "moving"] = Field(
         "auto", description="parked: no velocity sensor used (zero velocity); moving: needs "
                             "one; auto: moving if the bundle has a velocity sensor")
-    velocity_sensor: Optional[Literal["radar", "ldv", "odometer"]] = None
+    velocity_sensor: Optional[Literal["radar", "ldv", "odometer"]] = Field(
+        None,
+        description="forward-velocity sensor: radar, ldv or odometer; None: the first present")
     lowpass_time_constant_s: Optional[float] = Field(1.0, gt=0.0, le=60.0,
                                                      description="low-pass of the vectors; None: off")
-    center_vectors: bool = True
-    initial_speed_fit_s: float = Field(1.0, ge=0.0, le=30.0)
-    update_interval_s: float = Field(0.1, gt=0.0, le=60.0)
-    output_interval_s: float = Field(1.0, gt=0.0, le=600.0)
-    min_window_s: float = Field(10.0, ge=0.0)
+    center_vectors: bool = Field(
+        True,
+        description="q-method on centred vectors: a constant offset (error of v^b(0), base "
+                    "vibration) is estimated away")
+    initial_speed_fit_s: float = Field(
+        1.0, ge=0.0, le=30.0,
+        description="line fit of v^b(0) over this window [s]; 0: raw sample (paper)")
+    update_interval_s: float = Field(
+        0.1, gt=0.0, le=60.0,
+        description="re-solve the running q-method answer this often [s]")
+    output_interval_s: float = Field(
+        1.0, gt=0.0, le=600.0, description="spacing of the output rows [s]")
+    min_window_s: float = Field(10.0, ge=0.0, description="shortest window accepted [s]")
 
 
 def run_coarse_inertial(bundle: Bundle, config: CoarseInertialConfig,

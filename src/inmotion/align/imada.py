@@ -99,7 +99,9 @@ class ImadaConfig(BaseModel):
 class MimadaConfig(ImadaConfig):
     """Multistage: ``levels`` passes, the first ``imada-vb`` (paper 004: 2 levels)."""
 
-    levels: int = Field(2, ge=2, le=10)
+    levels: int = Field(
+        2, ge=2, le=10,
+        description="number of passes, the first one imada-vb (paper 004: 2)")
 
 
 def _single(bundle, config, init, model, method) -> Solution:

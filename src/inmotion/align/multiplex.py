@@ -60,13 +60,21 @@ class MuxConfig(BaseModel):
 
     model_config = ConfigDict(extra="forbid")
     coarse_window_s: float = Field(600.0, gt=0, description="coarse alignment window")
-    fault_tolerant_coarse: bool = True
-    speed_tolerance_m_s: float = Field(0.15, gt=0)
-    pitch_time_constant_s: float = Field(1.0, gt=0)
+    fault_tolerant_coarse: bool = Field(
+        True,
+        description="coarse stage on the fault-tolerant speed (odometer / LDV / IMU voting)")
+    speed_tolerance_m_s: float = Field(
+        0.15, gt=0,
+        description="a speed channel is healthy while it agrees with the IMU prediction within "
+                    "this [m/s]")
+    pitch_time_constant_s: float = Field(
+        1.0, gt=0,
+        description="low-pass time constant of the pitch used by the IMU speed prediction [s]")
     coarse_sensor: Optional[Literal["odometer", "ldv"]] = Field(
         None, description="the one sensor of a non-fault-tolerant coarse stage (default: "
                           "ldv if present)")
-    fine_method: Literal["fkf", "od-kf", "ldv-kf", "nhc-kf"] = "fkf"
+    fine_method: Literal["fkf", "od-kf", "ldv-kf", "nhc-kf"] = Field(
+        "fkf", description="the fine alignment method that follows the coarse stage")
     fine: dict = Field(default_factory=dict, description="configuration of the fine method")
     coarse: dict = Field(default_factory=dict, description="coarse-inertial configuration")
 

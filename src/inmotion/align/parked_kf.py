@@ -12,13 +12,52 @@ State (eq. 12): ``phi`` (misalignment, DESIGN convention), ``dv`` (velocity erro
 :func:`inmotion.estimation.error_model.transport_jacobians`). Measurement (eq. 13):
 ``Z = v_SINS`` (the true velocity is zero), ``H = [0 I 0 0]``; its noise covers the base's
 vibration velocity. Closed loop: after every update the attitude and velocity errors are fed
-back into the SINS, the drift and bias into the IMU compensation, and the SINS position is
-held at the parked position.
+back into the SINS, the drift and bias into the IMU compensation.
+
+The filter runs on the package's one error-state engine
+(:class:`inmotion.estimation.engine.ErrorStateFilter`) with the shared error model on the
+layout ``phi, dv, dp, eps, nabla``: eq. 12's twelve states plus the position error, which the
+engine's model carries. The paper ignores the position error; here it is estimated but not
+measured (no zero-position update, which would add information the paper's filter does not
+use), so it only integrates the small residual velocity error (centimetres) and is fed back
+like the rest. At rest the shared F restricted to eq. 12's states is :func:`parked_F` (a test
+checks it); the ``dp`` columns add the Earth rate's dependence on latitude, negligible here.
 
 Theoretical limits (steady state of the equations above, the errors the filter cannot see):
 ``phi_E = -nabla_N / g``, ``phi_N = nabla_E / g`` and ``phi_U = -eps_E / (omega_ie cos L) +
 tan L nabla_E / g``, with the drift and bias resolved in n (the tests check them on a
 simulated parked run).
+
+The specific force in ``A`` (issue 15, found on the ring-laser-gyro log of PSINS)
+    ``[f_n x]`` couples the heading error into the horizontal velocity through the horizontal
+    specific force (``dv_E_dot = f_N phi_U - f_U phi_N``). ``A`` is built once per filter step
+    (``filter_rate_hz``, 0.1 s by default) and held over the step, so ``f`` must be the mean
+    specific force over that step, ``sum(dvel) / sum(dt)`` of the step's compensated rows,
+    the quantity the discrete transition integrates (the engine's epoch mean). The single
+    last row (``Strapdown.f_b``, 10 ms), which this filter's former own loop used, is the
+    wrong one on a real parked vehicle:
+    its horizontal part is accelerometer quantization (1.2 mm/s per count = 0.12 m/s^2 in
+    10 ms) plus engine vibration, 0.13-0.18 m/s^2 rms, uncorrelated from one filter step to
+    the next, so the model's ``int f_N phi_U dt`` random-walks (0.3 m/s rms over 300 s against
+    a true heading signal of about 0.9 m/s from a 2 deg error): the filter learns a heading
+    it cannot see, its heading sigma collapses and the estimate stalls (ended 7-40 arcmin
+    from the integral methods with sigma 2 arcmin; from the right heading it wandered 8
+    arcmin off). The simulator did not show it because its 25 Hz vibration sampled at the
+    10 Hz filter epochs alternates in sign (lag-1 correlation -1), which cancels. With the
+    step mean the filter lands within 0.4 arcmin of the integral methods from 0.5-10 deg
+    heading starts on every 300 s window of that log.
+
+Noise and prior defaults from the sensor specification
+    ``gyro_drift_deg_h``, ``gyro_arw_deg_sqrt_h``, ``accel_bias_ug``, ``accel_vrw_ug_sqrt_hz``
+    not set in the configuration are taken from ``meta['imu']`` of the bundle when it gives
+    them (the simulator's spelling ``imu: {gyro: {drift_deg_h, arw_deg_sqrt_h,
+    drift_markov_deg_h}, accel: {bias_ug, vrw_ug_sqrt_hz | vrw_m_s_sqrt_h, bias_markov_ug}}``,
+    which the importers also write, marked ``source: documented``): a per-axis list counts
+    by its largest magnitude, a Markov (instability) part is added in quadrature. The drift
+    prior sets the heading sigma's floor ``sigma_eps / (omega_ie cos L)`` (unobservable
+    drift), so a prior below the real sensor's makes the filter claim a heading it cannot
+    have. ``Solution.info['config_source']`` says for each of these fields where its value
+    came from (``config``, ``meta.imu (documented)``, ``meta.imu (simulated)``, ``default``).
 """
 from __future__ import annotations
 
@@ -30,38 +69,51 @@ from pydantic import BaseModel, ConfigDict, Field
 
 from ..core import earth
 from ..core.bundle import Bundle
-from ..core.rotations import dcm_from_quat
-from ..core.mechanization import Strapdown, _first_row
+from ..core.mechanization import _first_row
 from ..core.solution import NavState, Solution
 from ..errors import BadInput
 from ..estimation import error_model as em
-from ..estimation.kalman import KalmanFilter
-from ..estimation.layout import Layout
+from ..estimation import measurements as ms
+from ..estimation.engine import ErrorStateFilter
+from ..estimation.layout import Layout, position_units
 from .aided_kf import _config
 
-__all__ = ["ParkedKfConfig", "PARKED_LAYOUT", "parked_F", "run_parked_kf"]
+__all__ = ["ParkedKfConfig", "PARKED_LAYOUT", "parked_F", "run_parked_kf",
+           "spec_from_meta", "config_with_spec"]
 
 ARCMIN = np.pi / 180.0 / 60.0
 DEG_H = np.pi / 180.0 / 3600.0
 UG = earth.G0 * 1e-6
 #: eq. 12: the 12 states
 PARKED_LAYOUT = Layout(["phi", "dv", "eps", "nabla"])
+#: the engine's layout: eq. 12 plus the position error
+ENGINE_LAYOUT = Layout(["phi", "dv", "dp", "eps", "nabla"])
 
 
 class ParkedKfConfig(BaseModel):
     """Configuration of ``parked-kf`` (human units)."""
 
     model_config = ConfigDict(extra="forbid")
-    filter_rate_hz: float = Field(10.0, gt=0)
-    init_tilt_sigma_deg: float = Field(0.5, gt=0)
-    init_heading_sigma_deg: float = Field(5.0, gt=0)
-    init_velocity_sigma_m_s: float = Field(0.1, gt=0)
-    gyro_drift_deg_h: float = Field(0.01, ge=0)
-    accel_bias_ug: float = Field(100.0, ge=0)
-    gyro_arw_deg_sqrt_h: float = Field(0.001, ge=0)
-    accel_vrw_ug_sqrt_hz: float = Field(10.0, ge=0)
+    filter_rate_hz: float = Field(
+        10.0, gt=0,
+        description="Kalman prediction (and model relinearization) rate [Hz], rounded to whole "
+                    "IMU rows")
+    init_tilt_sigma_deg: float = Field(
+        0.5, gt=0, description="initial 1-sigma of the level (pitch, roll) error [deg]")
+    init_heading_sigma_deg: float = Field(
+        5.0, gt=0, description="initial 1-sigma of the heading error [deg]")
+    init_velocity_sigma_m_s: float = Field(
+        0.1, gt=0, description="initial 1-sigma of the velocity error per axis [m/s]")
+    gyro_drift_deg_h: float = Field(
+        0.01, ge=0, description="1-sigma gyro drift (constant bias) per axis [deg/h]")
+    accel_bias_ug: float = Field(
+        100.0, ge=0, description="1-sigma accelerometer bias per axis [ug]")
+    gyro_arw_deg_sqrt_h: float = Field(
+        0.001, ge=0, description="gyro angle random walk [deg/sqrt(h)]")
+    accel_vrw_ug_sqrt_hz: float = Field(
+        10.0, ge=0, description="accelerometer velocity random walk [ug/sqrt(Hz)]")
     zero_velocity_noise_m_s: float = Field(0.01, gt=0, description="vibration velocity")
-    output_interval_s: float = Field(1.0, gt=0)
+    output_interval_s: float = Field(1.0, gt=0, description="spacing of the output rows [s]")
 
 
 def parked_F(lat: float, C_nb, f_n) -> np.ndarray:
@@ -80,18 +132,68 @@ def parked_F(lat: float, C_nb, f_n) -> np.ndarray:
 
 def _prior(cfg):
     tilt, head = np.deg2rad(cfg.init_tilt_sigma_deg), np.deg2rad(cfg.init_heading_sigma_deg)
-    return PARKED_LAYOUT.diag({"phi": np.array([tilt, tilt, head]) ** 2,
+    return ENGINE_LAYOUT.diag({"phi": np.array([tilt, tilt, head]) ** 2,
                                "dv": cfg.init_velocity_sigma_m_s ** 2,
                                "eps": (cfg.gyro_drift_deg_h * DEG_H) ** 2,
                                "nabla": (cfg.accel_bias_ug * UG) ** 2})
 
 
-def _Qc(cfg):
-    lay = PARKED_LAYOUT
-    Q = np.zeros((lay.n, lay.n))
-    Q[lay["phi"], lay["phi"]] = (np.deg2rad(cfg.gyro_arw_deg_sqrt_h) / 60.0) ** 2 * np.eye(3)
-    Q[lay["dv"], lay["dv"]] = (cfg.accel_vrw_ug_sqrt_hz * UG) ** 2 * np.eye(3)
-    return Q
+def _noise(cfg):
+    return em.ProcessNoise(gyro_arw=np.deg2rad(cfg.gyro_arw_deg_sqrt_h) / 60.0,
+                           accel_vrw=cfg.accel_vrw_ug_sqrt_hz * UG)
+
+
+SPEC_FIELDS = ("gyro_drift_deg_h", "gyro_arw_deg_sqrt_h", "accel_bias_ug", "accel_vrw_ug_sqrt_hz")
+
+
+def _magnitude(v):
+    """A spec value as one non-negative number: a per-axis list by its largest magnitude."""
+    if v is None:
+        return None
+    a = np.abs(np.atleast_1d(np.asarray(v, dtype=float)))
+    return float(a.max()) if a.size and np.isfinite(a).all() else None
+
+
+def spec_from_meta(meta) -> tuple[dict, str]:
+    """``({field: value}, origin)``: the IMU specification in ``meta['imu']`` as
+    :class:`ParkedKfConfig` fields (module docstring), and where it came from."""
+    imu = (meta or {}).get("imu") if isinstance(meta, dict) else None
+    if not isinstance(imu, dict):
+        return {}, ""
+    gyro = imu.get("gyro") if isinstance(imu.get("gyro"), dict) else {}
+    acc = imu.get("accel") if isinstance(imu.get("accel"), dict) else {}
+    out = {}
+    drift, mk = _magnitude(gyro.get("drift_deg_h")), _magnitude(gyro.get("drift_markov_deg_h"))
+    if drift is not None:
+        out["gyro_drift_deg_h"] = float(np.hypot(drift, mk or 0.0))
+    if _magnitude(gyro.get("arw_deg_sqrt_h")) is not None:
+        out["gyro_arw_deg_sqrt_h"] = _magnitude(gyro.get("arw_deg_sqrt_h"))
+    bias, bmk = _magnitude(acc.get("bias_ug")), _magnitude(acc.get("bias_markov_ug"))
+    if bias is not None:
+        out["accel_bias_ug"] = float(np.hypot(bias, bmk or 0.0))
+    vrw = _magnitude(acc.get("vrw_ug_sqrt_hz"))
+    if vrw is None and _magnitude(acc.get("vrw_m_s_sqrt_h")) is not None:
+        vrw = _magnitude(acc.get("vrw_m_s_sqrt_h")) / 60.0 / UG      # m/s/sqrt(h) -> ug/sqrt(Hz)
+    if vrw is not None:
+        out["accel_vrw_ug_sqrt_hz"] = vrw
+    origin = ("meta.imu (documented)" if imu.get("source") == "documented"
+              else "meta.imu (simulated)" if meta.get("simulated") else "meta.imu")
+    return out, origin
+
+
+def config_with_spec(cfg: ParkedKfConfig, meta) -> tuple[ParkedKfConfig, dict]:
+    """``cfg`` with the :data:`SPEC_FIELDS` it does not set taken from ``meta['imu']``, and
+    ``{field: origin}`` for each of them."""
+    spec, origin = spec_from_meta(meta)
+    src, upd = {}, {}
+    for f in SPEC_FIELDS:
+        if f in cfg.model_fields_set:
+            src[f] = "config"
+        elif f in spec:
+            upd[f], src[f] = spec[f], origin
+        else:
+            src[f] = "default"
+    return (cfg.model_copy(update=upd) if upd else cfg), src
 
 
 def run_parked_kf(bundle: Bundle, config: ParkedKfConfig | dict | None = None,
@@ -103,7 +205,7 @@ def run_parked_kf(bundle: Bundle, config: ParkedKfConfig | dict | None = None,
     drives off). Returns the SINS attitude at the output interval, ``sigma`` of ``phi`` and
     the estimated drift and bias in ``states``.
     """
-    cfg = _config(config, ParkedKfConfig)
+    cfg, cfg_source = config_with_spec(_config(config, ParkedKfConfig), bundle.meta)
     if init is None:
         raise BadInput("parked-kf needs an initial attitude (--init truth, a coarse alignment "
                        "result, or meta.yaml)")
@@ -113,55 +215,41 @@ def run_parked_kf(bundle: Bundle, config: ParkedKfConfig | dict | None = None,
     k1 = len(imu.t) if end_s is None else int(np.searchsorted(imu.t, end_s, side="right"))
     if k1 - k0 < 2:
         raise BadInput(f"no IMU rows after the start t={init.t:.6g} s", file="imu")
-    lay = PARKED_LAYOUT
+    lay = ENGINE_LAYOUT
     still = NavState(init.t, init.lat, init.lon, init.h, np.zeros(3), init.q_nb)
-    sins = Strapdown(still)
-    kf = KalmanFilter(lay.zeros(), _prior(cfg))
-    Qc = _Qc(cfg)
-    R = np.eye(3) * cfg.zero_velocity_noise_m_s ** 2
-    H = np.zeros((3, lay.n))
-    H[:, lay["dv"]] = np.eye(3)
     step = max(1, int(round(1.0 / (cfg.filter_rate_hz * imu.dt))))
     out_every = max(1, int(round(cfg.output_interval_s / (step * imu.dt))))
-    bias_g, bias_a, fed = np.zeros(3), np.zeros(3), lay.zeros()
-    rows = {"t": [init.t], "q": [init.q_nb.copy()], "sig": [kf.sigma()], "st": [fed.copy()]}
-    t_prev = init.t
-    ends = list(range(k0 + step, k1, step)) + [k1]
-    for i, b in enumerate(ends, start=1):
-        a = ends[i - 2] if i > 1 else k0
-        tt = imu.t[a:b]
-        dt = np.diff(np.concatenate([[t_prev], tt]))
-        sins.run(imu.dtheta[a:b] - bias_g * dt[:, None], imu.dvel[a:b] - bias_a * dt[:, None], tt)
-        t_prev = tt[-1]
-        x = sins.x
-        C = dcm_from_quat(x[6:10])
-        kf.set_model(parked_F(init.lat, C, C @ sins.f_b), Qc)
-        kf.predict(dt.sum())
-        kf.update(x[3:6].copy(), H, R)
-        e = kf.x
-        sins.correct(phi=e[lay["phi"]], dvel_n=e[lay["dv"]])
-        sins._x[0:3] = (init.lat, init.lon, init.h)           # parked: position held
-        bias_g += e[lay["eps"]]
-        bias_a += e[lay["nabla"]]
-        fed += e
-        kf.reset([lay["phi"], lay["dv"], lay["eps"], lay["nabla"]])
-        if i % out_every == 0 or b == k1:
-            rows["t"].append(tt[-1])
-            rows["q"].append(sins.x[6:10].copy())
-            rows["sig"].append(kf.sigma())
-            rows["st"].append(fed.copy())
-        if progress is not None and i % 100 == 0:
-            progress(i / len(ends))
-    n = len(rows["t"])
-    lla = np.tile([init.lat, init.lon, init.h], (n, 1))
-    sig = lay.as_dict(np.array(rows["sig"]))
+    meas = [ms.ZeroVelocity(cfg.zero_velocity_noise_m_s)]
+    f = ErrorStateFilter(still, lay, em.ErrorModel(lay, _noise(cfg)),
+                         _prior(cfg), meas, step_rows=step,
+                         out_every=out_every)
+    t = imu.t[k0:k1]
+    ends = np.r_[np.arange(step - 1, len(t), step), len(t) - 1]
+    t_meas = np.unique(t[ends])
+    f.add_measurement("zero_velocity", t_meas)
+    outs = [f.output_now()]
+    chunk = step * max(1, 16384 // step)
+    for a in range(0, len(t), chunk):
+        b = min(a + chunk, len(t))
+        outs.append(f.add_imu(t[a:b], imu.dtheta[k0 + a:k0 + b], imu.dvel[k0 + a:k0 + b],
+                              flush=b == len(t)))
+        if progress is not None:
+            progress(b / len(t))
+    if f.epochs % out_every:                    # the last epoch is written even off the grid
+        outs.append(f.output_now())
+    rows = {k: np.concatenate([o[k] for o in outs]) for k in outs[0]}
+    xs = rows["x_sins"]
+    sig = lay.as_dict(rows["sigma"])
     sigma = {k: sig[k] for k in ("phi_E", "phi_N", "phi_U")}
     sigma.update(vE=sig["dv_E"], vN=sig["dv_N"], vU=sig["dv_U"])
-    states = lay.as_dict(np.array(rows["st"]))
-    info = {"method": "parked-kf", "config": cfg.model_dump(), "layout": list(lay.names),
-            "nis_mean_per_dof": kf.nis_sum / max(kf.nis_dof, 1),
+    states = lay.as_dict(rows["states"])
+    nis = f.nis_sums()["zero_velocity"]
+    info = {"method": "parked-kf", "config": cfg.model_dump(), "config_source": cfg_source,
+            "layout": list(lay.names),
+            "nis_mean_per_dof": nis[0] / max(nis[1], 1), "measurements": f.counts(),
             "wall_time_s": time.perf_counter() - t_wall}
-    return Solution.from_arrays(np.array(rows["t"]), lla, np.zeros((n, 3)), np.array(rows["q"]),
-                                sigma=sigma, states=states, state_units=lay.unit_map(),
+    return Solution.from_arrays(rows["t"], xs[:, 0:3], xs[:, 3:6], xs[:, 6:10], sigma=sigma,
+                                states=states,
+                                state_units=lay.unit_map(position_units(init.lat, init.h)),
                                 info=info)
 

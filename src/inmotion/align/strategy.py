@@ -51,12 +51,20 @@ class AdaptiveConfig(BaseModel):
     model_config = ConfigDict(extra="forbid")
     parked_speed_noise_m_s: list[float] = Field([0.02, 0.02], min_length=2, max_length=2,
                                                 description="[odometer, ldv] 1-sigma parked")
-    false_alarm_rate: float = Field(1e-4, gt=0, lt=1)
-    confirm_s: float = Field(0.5, ge=0)
-    test_rate_hz: float = Field(10.0, gt=0)
-    parked_coarse_s: float = Field(60.0, gt=0)
-    fine_method: Literal["fkf", "od-kf", "ldv-kf"] = "fkf"
-    fine: dict = Field(default_factory=dict)
+    false_alarm_rate: float = Field(
+        1e-4, gt=0, lt=1, description="false-alarm probability of the chi-square test")
+    confirm_s: float = Field(
+        0.5, ge=0,
+        description="moving is declared after the test exceeds its threshold for this long [s]")
+    test_rate_hz: float = Field(
+        10.0, gt=0, description="rate of the parked/moving chi-square test [Hz]")
+    parked_coarse_s: float = Field(
+        60.0, gt=0,
+        description="parked this long or longer: parked coarse + parked-kf (Strategy 1) [s]")
+    fine_method: Literal["fkf", "od-kf", "ldv-kf"] = Field(
+        "fkf", description="the fine alignment method that follows the coarse stage")
+    fine: dict = Field(
+        default_factory=dict, description="configuration of the fine method (a mapping)")
     parked: dict = Field(default_factory=dict, description="parked-kf configuration")
     coarse: dict = Field(default_factory=dict, description="coarse-inertial configuration")
     mux: dict = Field(default_factory=dict, description="fine-mux configuration (Strategy 2)")

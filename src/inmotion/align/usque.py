@@ -180,52 +180,101 @@ class UsqueConfig(BaseModel):
     """
 
     model_config = ConfigDict(extra="forbid")
-    sensor: Literal["ldv", "radar", "odometer"] = "ldv"
-    vectors: Literal["own", "obs_vectors"] = "own"
-    update_rate_hz: float = Field(100.0, gt=0)
-    sigma0_deg: tuple[float, float, float] = (3.0, 3.0, 12.0)
-    process_noise_deg: float = Field(1e-7, ge=0)
-    meas_noise_m_s: float = Field(0.07, gt=0)
-    grp_a: float = Field(1.0, ge=0, le=1)
-    grp_f: Optional[float] = Field(None, gt=0)
-    ut_sigma: float = Field(1.0, gt=0, le=1)
-    ut_kappa: float = Field(0.0, ge=0)
-    ut_zeta: float = 2.0
-    estimate_scale: bool = False
-    scale_sigma0_ppm: float = Field(1000.0, gt=0)
-    estimate_accel_bias: bool = False
-    accel_bias_sigma0_ug: float = Field(100.0, gt=0)
-    estimate_gyro_drift: bool = False
-    gyro_drift_sigma0_deg_h: float = Field(0.01, gt=0)
-    estimate_initial_speed_error: bool = False
-    initial_speed_sigma0_m_s: float = Field(0.1, gt=0)
-    adaptive_r: bool = False
-    fading_factor: float = Field(0.99, gt=0, lt=1)
-    r_min_m_s: float = Field(0.05, gt=0)
-    r_max_m_s: float = Field(1.0, gt=0)
-    hinf: Literal["none", "fixed", "adaptive"] = "none"
-    gamma_deg_sqrt_s: float = Field(100.0, gt=0)
-    k0: float = Field(30.0, gt=0)
-    gamma_min_deg: float = Field(0.1, gt=0)
-    gamma_max_deg: float = Field(30.0, gt=0)
-    hinf_margin: float = Field(1.2, gt=1)
-    v0_fit_s: float = Field(1.0, ge=0)
+    sensor: Literal["ldv", "radar", "odometer"] = Field(
+        "ldv", description="forward-velocity sensor of the measurement (paper: ldv)")
+    vectors: Literal["own", "obs_vectors"] = Field(
+        "own",
+        description="measurement source: own (streaming, exact Earth-rate term) or obs_vectors "
+                    "(paper 001 eq. 13-19 as printed)")
+    update_rate_hz: float = Field(
+        100.0, gt=0, description="filter update rate [Hz] (paper: 100, every IMU row)")
+    sigma0_deg: tuple[float, float, float] = Field(
+        (3.0, 3.0, 12.0),
+        description="initial 1-sigma attitude error about x, y, z [deg] (paper: 3, 3, 12)")
+    process_noise_deg: float = Field(
+        1e-7, ge=0,
+        description="1-sigma process noise per update and axis [deg] (paper: 1e-7, overconfident;"
+                    " ARW*sqrt(dt) is consistent)")
+    meas_noise_m_s: float = Field(
+        0.07, gt=0,
+        description="initial 1-sigma measurement noise per axis [m/s] (paper: 0.07)")
+    grp_a: float = Field(1.0, ge=0, le=1, description="GRP parameter a of paper 001 eq. 20")
+    grp_f: Optional[float] = Field(
+        None, gt=0, description="GRP parameter f of eq. 20; None: 2 (a + 1)")
+    ut_sigma: float = Field(
+        1.0, gt=0, le=1, description="sigma-point spread parameter of eq. 24-26")
+    ut_kappa: float = Field(0.0, ge=0, description="sigma-point parameter kappa of eq. 24-26")
+    ut_zeta: float = Field(2.0, description="sigma-point parameter zeta of eq. 24-26")
+    estimate_scale: bool = Field(
+        False,
+        description="add the velocity sensor's scale-factor error dk to the state (paper: no)")
+    scale_sigma0_ppm: float = Field(1000.0, gt=0, description="initial 1-sigma of dk [ppm]")
+    estimate_accel_bias: bool = Field(
+        False, description="add the accelerometer bias to the state (not in the paper)")
+    accel_bias_sigma0_ug: float = Field(
+        100.0, gt=0, description="initial 1-sigma of the accelerometer bias [ug]")
+    estimate_gyro_drift: bool = Field(
+        False, description="add the gyro drift to the state (not in the paper)")
+    gyro_drift_sigma0_deg_h: float = Field(
+        0.01, gt=0, description="initial 1-sigma of the gyro drift [deg/h]")
+    estimate_initial_speed_error: bool = Field(
+        False,
+        description="add dv0, the error of the sample taken as v^b(0) (not in the paper)")
+    initial_speed_sigma0_m_s: float = Field(0.1, gt=0, description="initial 1-sigma of dv0 [m/s]")
+    adaptive_r: bool = Field(
+        False,
+        description="adaptive measurement noise with a fading factor (paper 001 eq. 42-45)")
+    fading_factor: float = Field(
+        0.99, gt=0, lt=1,
+        description="fading factor c of the adaptive R, eq. 43 (paper: 0.9 to 0.999)")
+    r_min_m_s: float = Field(
+        0.05, gt=0, description="lower bound of the adaptive R as 1-sigma [m/s]")
+    r_max_m_s: float = Field(
+        1.0, gt=0, description="upper bound of the adaptive R as 1-sigma [m/s]")
+    hinf: Literal["none", "fixed", "adaptive"] = Field(
+        "none",
+        description="covariance update: none (Kalman), fixed (H-infinity, fixed gamma) or "
+                    "adaptive (eq. 55-56)")
+    gamma_deg_sqrt_s: float = Field(
+        100.0, gt=0,
+        description="fixed H-infinity gamma per unit time [deg sqrt(s)] (hinf = fixed)")
+    k0: float = Field(
+        30.0, gt=0,
+        description="coefficient of the adaptive gamma, eq. 55 (30: ~30 s memory)")
+    gamma_min_deg: float = Field(0.1, gt=0, description="lower bound of the adaptive gamma [deg]")
+    gamma_max_deg: float = Field(30.0, gt=0, description="upper bound of the adaptive gamma [deg]")
+    hinf_margin: float = Field(
+        1.2, gt=1,
+        description="H-infinity steps only with gamma >= hinf_margin * gamma_a (> 1)")
+    v0_fit_s: float = Field(
+        1.0, ge=0,
+        description="vectors = obs_vectors only: line-fit window for v^b(0) [s] (0: raw sample)")
 
 
 class AusqueConfig(UsqueConfig):
     """``ausque``: USQUE with the adaptive measurement noise (eq. 38-45)."""
-    adaptive_r: bool = True
+    adaptive_r: bool = Field(
+        True,
+        description="adaptive measurement noise with a fading factor (paper 001 eq. 42-45)")
 
 
 class UsqueHinfConfig(UsqueConfig):
     """``usque-hinf``: USQUE with the H-infinity covariance update, fixed gamma (eq. 46-52)."""
-    hinf: Literal["none", "fixed", "adaptive"] = "fixed"
+    hinf: Literal["none", "fixed", "adaptive"] = Field(
+        "fixed",
+        description="covariance update: none (Kalman), fixed (H-infinity, fixed gamma) or "
+                    "adaptive (eq. 55-56)")
 
 
 class AusquheConfig(UsqueConfig):
     """``ausquhe``: adaptive R and adaptive-gamma H-infinity update (eq. 38-56)."""
-    adaptive_r: bool = True
-    hinf: Literal["none", "fixed", "adaptive"] = "adaptive"
+    adaptive_r: bool = Field(
+        True,
+        description="adaptive measurement noise with a fading factor (paper 001 eq. 42-45)")
+    hinf: Literal["none", "fixed", "adaptive"] = Field(
+        "adaptive",
+        description="covariance update: none (Kalman), fixed (H-infinity, fixed gamma) or "
+                    "adaptive (eq. 55-56)")
 
 
 # ----------------------------------------------------------------------------- inputs

@@ -6,7 +6,7 @@
     inmotion export kf-gins RESULT -o FILE [--gps-week N]
 
 ``FORMAT`` is one of :data:`inmotion.io.importers.FORMATS` (``kf-gins``, ``comma2k19``,
-``ems``, ``csv``); ``-O`` passes an importer option (``-O nav=truth.nav -O odo=odo.txt`` for
+``ems``, ``psins``, ``csv``); ``-O`` passes an importer option (``-O nav=truth.nav -O odo=odo.txt`` for
 KF-GINS, ``-O order=4`` for cubic rate integration, ``-O gyro=gyro_uncalibrated`` for
 comma2k19). Bad input (missing file, wrong layout, unknown format or option) raises
 :class:`inmotion.errors.BadInput`, which the main command turns into exit status 2.
@@ -15,6 +15,7 @@ from __future__ import annotations
 
 import inspect
 import json
+from pathlib import Path
 
 import click
 
@@ -22,7 +23,7 @@ from ..errors import BadInput
 
 __all__ = ["import_cmd", "export_cmd", "parse_options"]
 
-EXPORT_FORMATS = ("kf-gins",)
+EXPORT_FORMATS = ("kf-gins", "ned-csv", "geojson")
 
 
 def _value(text):
@@ -80,7 +81,7 @@ def _summary(bundle, out) -> dict:
 @click.option("--json", "as_json", is_flag=True, help="print the summary as JSON")
 @click.option("--quiet", is_flag=True)
 def import_cmd(fmt, source, out, mapping, options, bundle_format, as_json, quiet):
-    """Import a log in FORMAT (kf-gins, comma2k19, ems, csv) from SOURCE into a bundle."""
+    """Import a log in FORMAT (kf-gins, comma2k19, ems, psins, csv) from SOURCE into a bundle."""
     from ..io.bundle import write_bundle
     from ..io.importers import get_importer
 
@@ -109,11 +110,22 @@ def import_cmd(fmt, source, out, mapping, options, bundle_format, as_json, quiet
               help="GNSS week written in column 1")
 @click.option("--quiet", is_flag=True)
 def export_cmd(fmt, result, out, gps_week, quiet):
-    """Export a RESULT folder's solution in FORMAT (kf-gins: an 11-column .nav file)."""
+    """Export a RESULT folder's solution in FORMAT: kf-gins (an 11-column .nav file), ned-csv
+    (NED / FRD table with its convention in the header, :mod:`inmotion.io.export`) or geojson
+    (the track for a map)."""
+    from ..io.export import EXPORTERS
     from ..io.importers.kf_gins import export_kf_gins
 
-    if str(fmt).lower().replace("_", "-") not in EXPORT_FORMATS:
+    fmt = str(fmt).lower().replace("_", "-")
+    if fmt not in EXPORT_FORMATS:
         raise BadInput(f"unknown export format {fmt!r}; choose from {', '.join(EXPORT_FORMATS)}")
-    path = export_kf_gins(result, out, gps_week=gps_week)
+    if fmt in EXPORTERS:
+        path = EXPORTERS[fmt](result, out)
+    else:
+        src = result
+        if (Path(result) / "summary.json").is_file():    # CSV or Parquet result folder
+            from ..io.result import read_result
+            src = read_result(result)
+        path = export_kf_gins(src, out, gps_week=gps_week)
     if not (quiet or _group_flag("quiet")):
         click.echo(f"wrote {path}")

@@ -1,4 +1,4 @@
-"""The ``inmotion`` command line (``shared/DESIGN.md``, "The command line").
+"""The ``inmotion`` command line (``docs/cli.md``).
 
 ::
 
@@ -7,7 +7,8 @@
     inmotion align    BUNDLE --method NAME [--config FILE] -o RESULT [options]
     inmotion navigate BUNDLE --method NAME [--config FILE] -o RESULT [options]
     inmotion evaluate RESULT --truth BUNDLE [--json]
-    inmotion methods
+    inmotion methods [NAME]
+    inmotion scenarios
     inmotion demo
 
 ``align`` / ``navigate`` options: ``--init truth|meta|RESULT`` (default: truth if the bundle
@@ -16,12 +17,16 @@ has it, else meta), ``--init-error 'pitch=1deg,roll=1deg,yaw=30arcmin,vE=0.1m/s,
 ``--start`` / ``--end`` [s], ``--mode M`` (sets the configuration field ``mode``) and
 ``--set key=value`` (any configuration field; the value is read as YAML, so ``--set
 out_stride=10`` gives an int and ``--set mounting_arcmin=[3,0,-4]`` a list),
-``--allow-imu-gaps`` (integrate across IMU gaps; by default a bundle with one is refused,
+``--format csv|parquet`` (result tables), ``--output-rate HZ|all`` (rows per second written;
+navigate: 1 Hz by default unless the method's own ``out_stride`` / ``output_rate_hz`` is
+set, align: every row the method outputs), ``--allow-imu-gaps`` (integrate across IMU gaps; by
+default a bundle with one is refused,
 see :mod:`inmotion.io.bundle`). ``info`` always reads IMU gaps and lists them.
 
-Global options ``--quiet`` (no progress, no notes), ``--json`` (print the command's summary as
-JSON on stdout), ``--debug`` (tracebacks on internal failures). Exit status 0 on success, 2 on
-bad input (one line ``inmotion: error: ...`` on stderr), 1 on an internal failure.
+Global options ``--quiet``/``-q`` (no progress, no notes), ``--json`` (print the command's
+summary as JSON on stdout), ``--debug`` (tracebacks on internal failures). Exit status 0 on
+success, 2 on bad input (one line ``inmotion: error: ...`` on stderr), 1 on an internal
+failure. The global options are accepted anywhere on the line (:func:`hoist_global_options`).
 
 The CLI is the only place that reads files and prints; methods get a :class:`Bundle`, a
 configuration object and a :class:`NavState`.
@@ -53,6 +58,7 @@ class _Cli(click.Group):
     """A group that maps exceptions to exit statuses: BadInput -> 2, anything else -> 1."""
 
     def main(self, args=None, prog_name=None, complete_var=None, standalone_mode=True, **extra):
+        args = hoist_global_options(list(args) if args is not None else sys.argv[1:])
         try:
             rv = super().main(args=args, prog_name=prog_name or "inmotion",
                               complete_var=complete_var, standalone_mode=False, **extra)
@@ -68,12 +74,33 @@ class _Cli(click.Group):
             click.echo("inmotion: aborted", err=True)
             sys.exit(1)
         except Exception as e:  # an internal failure: say so, in one line unless --debug
-            if "--debug" in (args if args is not None else sys.argv[1:]):
+            if "--debug" in args:
                 traceback.print_exc()
             click.echo(f"inmotion: internal error: {type(e).__name__}: {e} "
                        "(rerun with --debug for the traceback)", err=True)
             sys.exit(1)
         sys.exit(rv if isinstance(rv, int) else 0)
+
+
+#: options of the group that a user may type anywhere on the line
+GLOBAL_FLAGS = ("-q", "--quiet", "--json", "--debug")
+
+
+def hoist_global_options(args: list[str]) -> list[str]:
+    """``args`` with the global flags moved in front of the subcommand.
+
+    ``inmotion navigate B -m sins -o R -q`` then means ``inmotion -q navigate B ...``; a
+    subcommand's own ``--json`` / ``--quiet`` mean the same as the global ones. Nothing after
+    ``--`` moves.
+    """
+    if "--" in args:
+        i = args.index("--")
+        head, tail = args[:i], args[i:]
+    else:
+        head, tail = args, []
+    flags = [a for a in head if a in GLOBAL_FLAGS]
+    rest = [a for a in head if a not in GLOBAL_FLAGS]
+    return list(dict.fromkeys(flags)) + rest + tail
 
 
 class _Opts:
@@ -149,7 +176,7 @@ def cli(ctx, quiet, as_json, debug):
     ctx.obj = _Opts(quiet, as_json, debug)
 
 
-def main():
+def main() -> None:
     """Console-script entry point."""
     cli.main()
 
@@ -157,9 +184,16 @@ def main():
 # --------------------------------------------------------------------------- simulate
 
 def _load_scenario(name_or_path: str):
-    from ..sim.scenario import find_scenario, load_scenario
+    from ..sim.scenario import find_scenario, load_scenario, shipped_scenarios
     p = Path(name_or_path)
     if not p.is_file():
+        stem = name_or_path[:-5] if name_or_path.endswith(".yaml") else name_or_path
+        shipped = shipped_scenarios()
+        if stem not in shipped:
+            from .method_docs import did_you_mean
+            raise BadInput(f"no scenario file or shipped scenario named {name_or_path!r}"
+                           f"{did_you_mean(stem, shipped)} ('inmotion scenarios' lists the "
+                           "shipped ones)")
         try:
             p = find_scenario(name_or_path)
         except BadInput:
@@ -442,9 +476,12 @@ def _spec(method, kind=None):
     try:
         spec = registry.get(method)
     except KeyError:
-        known = ", ".join(s.name for s in registry.methods(kind))
-        raise BadInput(f"unknown method {method!r}; known {kind or ''} methods: "
-                       f"{known}") from None
+        from .method_docs import did_you_mean
+        names = [s.name for s in registry.methods(kind)]
+        hint = did_you_mean(method, [s.name for s in registry.methods()])
+        kind_text = f"{kind} " if kind else ""
+        raise BadInput(f"unknown method {method!r}{hint} (known {kind_text}methods: "
+                       f"{', '.join(names)}; 'inmotion methods' lists them)") from None
     if kind is not None and spec.kind != kind:
         raise BadInput(f"{method!r} is a{'n' if spec.kind == 'align' else ''} {spec.kind} "
                        f"method; use 'inmotion {spec.kind}'")
@@ -456,7 +493,11 @@ def run_method(ctx, bundle, spec, config, init_state, window):
     start, end = window
     b = bundle.window(start, end)
     if len(b.imu.t) < 2:
-        raise BadInput(f"the window {start} .. {end} s holds fewer than 2 IMU rows")
+        t0, t1 = float(bundle.imu.t[0]), float(bundle.imu.t[-1])
+        lo = f"{start:g} s" if start is not None else "the start"
+        hi = f"{end:g} s" if end is not None else "the end"
+        raise BadInput(f"the window from {lo} to {hi} holds fewer than 2 IMU rows; the drive "
+                       f"covers {t0:g}-{t1:g} s")
     run, _ = spec.load()
     t0 = time.perf_counter()
     with _progress(ctx, spec.name) as progress:
@@ -470,11 +511,61 @@ def run_method(ctx, bundle, spec, config, init_state, window):
     return sol, b
 
 
+#: default ``--output-rate`` per command [Hz]; None: every row the method outputs
+DEFAULT_OUTPUT_RATE = {"navigate": 1.0, "align": None}
+
+#: configuration fields by which a method sets its own output rate
+_OUTPUT_FIELDS = ("out_stride", "output_rate_hz", "output_interval_s")
+
+
+def parse_output_rate(text) -> float | None:
+    """``--output-rate``: a rate in Hz (> 0), or ``all`` for every row the method outputs."""
+    if text is None or isinstance(text, (int, float)):
+        return text
+    if str(text).strip().lower() in ("all", "every", "0"):
+        return None
+    try:
+        rate = float(str(text).lower().removesuffix("hz"))
+    except ValueError:
+        raise BadInput(f"--output-rate: {text!r} is neither a rate in Hz nor 'all'") from None
+    if not (rate > 0 and math.isfinite(rate)):
+        raise BadInput(f"--output-rate: {text!r} must be a rate > 0 Hz, or 'all'")
+    return rate
+
+
+def apply_output_rate(config, bundle, rate_hz: float | None, explicit: bool):
+    """``(config, thin_rate_hz)``: the configuration with its own output field set for
+    ``rate_hz`` where the method has one and the user did not set it, and the rate at which to
+    thin the solution afterwards (None: keep every row).
+
+    With ``explicit`` False (the command's default rate), a method whose output field the user
+    set (``--set out_stride=...``, ``--config``) keeps it and is not thinned.
+    """
+    import numpy as np
+    fields = type(config).model_fields
+    own = [f for f in _OUTPUT_FIELDS if f in fields]
+    user_set = [f for f in own if f in config.model_fields_set]
+    if rate_hz is None or (user_set and not explicit):
+        return config, None
+    if "out_stride" in own and "out_stride" not in user_set:
+        dt = float(np.median(np.diff(bundle.imu.t))) if len(bundle.imu.t) > 1 else 0.0
+        if dt > 0:
+            stride = max(1, int(round(1.0 / (rate_hz * dt))))
+            config = config.model_copy(update={"out_stride": stride})
+    elif "output_rate_hz" in own and "output_rate_hz" not in user_set:
+        top = getattr(config, "filter_rate_hz", rate_hz)
+        config = config.model_copy(update={"output_rate_hz": min(rate_hz, top)})
+    return config, rate_hz
+
+
 def _run_command(ctx, kind, bundle_path, method, config_file, output, init, init_error,
-                 start, end, mode, sets, as_json, allow_imu_gaps=False):
-    from ..io.result import write_result
+                 start, end, mode, sets, as_json, allow_imu_gaps=False, fmt="csv",
+                 output_rate=None):
+    from ..io.result import thin, write_result
     spec = _spec(method, kind)
     config = build_config(spec, config_file, mode, sets)
+    explicit = output_rate is not None
+    rate = parse_output_rate(output_rate) if explicit else DEFAULT_OUTPUT_RATE.get(kind)
     err = parse_init_error(init_error) if init_error else None
     bundle = _read_bundle(ctx, bundle_path, allow_imu_gaps)
     if init is None:
@@ -484,11 +575,15 @@ def _run_command(ctx, kind, bundle_path, method, config_file, output, init, init
         state = perturb(state, err)
     if start is None and init_desc.startswith("result"):
         start = state.t
+    config, thin_rate = apply_output_rate(config, bundle, rate, explicit)
     sol, b = run_method(ctx, bundle, spec, config, state, (start, end))
+    if thin_rate is not None:
+        sol = thin(sol, thin_rate)
     extra = {"bundle": str(bundle_path), "bundle_name": bundle.name,
              "init": {"from": init_desc, "error": init_error, "t_s": state.t},
-             "window": {"start_s": start, "end_s": end}}
-    summary = write_result(sol, output, truth=b.truth, summary_extra=extra)
+             "window": {"start_s": start, "end_s": end},
+             "output_rate_hz": thin_rate}
+    summary = write_result(sol, output, truth=b.truth, summary_extra=extra, fmt=fmt)
     _emit(ctx, summary, _run_text(summary, output), as_json)
 
 
@@ -536,6 +631,11 @@ def _method_options(f):
                      help="Set a configuration field (repeatable)."),
         click.option("--allow-imu-gaps", is_flag=True,
                      help="Integrate across IMU gaps instead of refusing the bundle."),
+        click.option("--format", "fmt", type=click.Choice(["csv", "parquet"]), default="csv",
+                     show_default=True, help="Format of the result tables."),
+        click.option("--output-rate", default=None, metavar="HZ|all",
+                     help="Rows written per second (navigate default 1 Hz unless the method's "
+                          "own out_stride / output_rate_hz is set; align default all)."),
         _json_option,
     ]
     for o in reversed(opts):
@@ -547,20 +647,25 @@ def _method_options(f):
 @_method_options
 @click.pass_context
 def align(ctx, bundle, method, config_file, output, init, init_error, start, end, mode, sets,
-          allow_imu_gaps, as_json):
+          allow_imu_gaps, fmt, output_rate, as_json):
     """Run an alignment method on BUNDLE and write a result folder."""
     _run_command(ctx, "align", bundle, method, config_file, output, init, init_error, start, end,
-                 mode, sets, as_json, allow_imu_gaps)
+                 mode, sets, as_json, allow_imu_gaps, fmt, output_rate)
 
 
 @cli.command()
 @_method_options
 @click.pass_context
 def navigate(ctx, bundle, method, config_file, output, init, init_error, start, end, mode, sets,
-             allow_imu_gaps, as_json):
-    """Run a navigation method on BUNDLE and write a result folder."""
+             allow_imu_gaps, fmt, output_rate, as_json):
+    """Run a navigation method on BUNDLE and write a result folder.
+
+    The result holds 1 row per second unless ``--output-rate`` (or the method's own
+    ``out_stride`` / ``output_rate_hz``) says otherwise: a 1 h drive at 100 Hz would otherwise
+    write 360 000 rows.
+    """
     _run_command(ctx, "navigate", bundle, method, config_file, output, init, init_error, start,
-                 end, mode, sets, as_json, allow_imu_gaps)
+                 end, mode, sets, as_json, allow_imu_gaps, fmt, output_rate)
 
 
 # --------------------------------------------------------------------------- evaluate
@@ -589,10 +694,29 @@ def evaluate(ctx, result, truth_bundle, as_json):
 # --------------------------------------------------------------------------- methods
 
 @cli.command()
+@click.argument("name", required=False)
+@click.option("--template", is_flag=True,
+              help="With NAME: print a YAML configuration with every setting at its default "
+                   "and its unit, range and meaning as comments (for --config).")
 @_json_option
 @click.pass_context
-def methods(ctx, as_json):
-    """List every method: name, kind, what it is."""
+def methods(ctx, name, template, as_json):
+    """List every method (name, kind, what it is); with NAME, that method's settings.
+
+    ``inmotion methods NAME`` prints every setting of the method (name with its unit, default,
+    allowed range, meaning), the sensors it needs, whether it needs an initial attitude, and
+    its paper.
+    """
+    from .method_docs import config_template, method_detail, method_text
+    if template and name is None:
+        raise BadInput("--template needs a method NAME")
+    if name is not None:
+        spec = _spec(name)
+        if template:
+            click.echo(config_template(spec.name), nl=False)
+            return
+        _emit(ctx, method_detail(spec.name), method_text(spec.name), as_json)
+        return
     specs = registry.methods()
     data = [{"name": s.name, "kind": s.kind, "needs_attitude": s.needs_attitude,
              "summary": s.summary} for s in specs]
@@ -601,6 +725,32 @@ def methods(ctx, as_json):
         click.echo(json.dumps(data, indent=2))
     else:
         click.echo(text)
+
+
+# --------------------------------------------------------------------------- scenarios
+
+def scenario_list() -> list[dict]:
+    """The shipped scenarios: ``[{"name", "description", "duration_s"}]``."""
+    import yaml
+    from ..sim.scenario import scenario_dir, shipped_scenarios
+    out = []
+    for name in shipped_scenarios():
+        try:
+            d = yaml.safe_load((scenario_dir() / f"{name}.yaml").read_text()) or {}
+        except yaml.YAMLError:
+            d = {}
+        out.append({"name": name, "description": str(d.get("description") or "").strip()})
+    return out
+
+
+@cli.command()
+@_json_option
+@click.pass_context
+def scenarios(ctx, as_json):
+    """List the shipped scenarios, one line each (simulate one with ``inmotion simulate NAME``)."""
+    data = scenario_list()
+    w = max(len(d["name"]) for d in data)
+    _emit(ctx, data, "\n".join(f"{d['name']:{w}s}  {d['description']}" for d in data), as_json)
 
 
 # --------------------------------------------------------------------------- demo
@@ -734,5 +884,6 @@ cli.add_command(montecarlo); cli.add_command(report)
 from .reproduce_cmds import reproduce  # noqa: E402  (issue 8: paper reproductions)
 cli.add_command(reproduce)
 
-if __name__ == "__main__":          # python -m inmotion.cli.main (e.g. with -X importtime)
+
+if __name__ == "__main__":  # python -m inmotion.cli.main
     main()

@@ -17,6 +17,7 @@ rows. An unknown PAPER is bad input (exit status 2), with the valid names.
 from __future__ import annotations
 
 import json
+import os
 from pathlib import Path
 
 import click
@@ -55,12 +56,21 @@ def _rows_text(summary: dict) -> list:
               help="Base seed.")
 @click.option("--reuse", is_flag=True,
               help="Skip papers whose results already exist in the folder; re-read them.")
+@click.option("--data", "data_dir", type=click.Path(file_okay=False), default=None,
+              envvar="INMOTION_REAL_DATA", show_envvar=True,
+              help="Folder of the real drives for 'real' (default: $INMOTION_REAL_DATA, else "
+                   "../shared/data/real from the working directory).")
 @click.option("--quiet", "-q", is_flag=True, help="No progress.")
 @click.option("--json", "as_json", is_flag=True, help="Print the summary rows as JSON.")
 @click.pass_context
-def reproduce(ctx, paper, output, runs, workers, seed, reuse, quiet, as_json):
-    """Reproduce PAPER (000 001 002 003 004 real, or all) in simulation, beside the paper."""
+def reproduce(ctx, paper, output, runs, workers, seed, reuse, data_dir, quiet, as_json):
+    """Reproduce PAPER (000 001 002 003 004 real, or all) in simulation, beside the paper.
+
+    ``real`` runs the real drives found in ``--data DIR`` (or ``$INMOTION_REAL_DATA``).
+    """
     from ..evaluate import reproduce as rp
+    if data_dir is not None:            # reproduce_real reads it (also in worker processes)
+        os.environ["INMOTION_REAL_DATA"] = str(Path(data_dir).resolve())
     quiet = quiet or _root_flag(ctx, "quiet")
     as_json = as_json or _root_flag(ctx, "json")
     out = Path(output)

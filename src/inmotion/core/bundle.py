@@ -1,6 +1,6 @@
 """One drive in memory: the sensors' data and, where known, the truth, all in SI units.
 
-This is the in-memory twin of the bundle folder of ``shared/DESIGN.md``. Files (degrees,
+This is the in-memory twin of the bundle folder of ``docs/bundle.md``. Files (degrees,
 CSV/Parquet, validation) are the business of :mod:`inmotion.io.bundle`; here every angle is
 in rad, latitude and longitude in rad, and every array is float64 on one time base ``t`` [s].
 
@@ -54,7 +54,7 @@ class ImuData:
         """Median sample period [s]."""
         return float(np.median(np.diff(self.t)))
 
-    def window(self, start=None, end=None) -> "ImuData":
+    def window(self, start: Optional[float] = None, end: Optional[float] = None) -> "ImuData":
         m = _mask(self.t, start, end)
         return ImuData(self.t[m], self.dtheta[m], self.dvel[m])
 
@@ -85,7 +85,7 @@ class SpeedData:
         dt = np.concatenate([dt[:1], dt]) if len(dt) else np.ones(1)
         return self.ds / dt
 
-    def window(self, start=None, end=None) -> "SpeedData":
+    def window(self, start: Optional[float] = None, end: Optional[float] = None) -> "SpeedData":
         m = _mask(self.t, start, end)
         return SpeedData(self.t[m], None if self.v is None else self.v[m],
                          None if self.ds is None else self.ds[m])
@@ -102,7 +102,7 @@ class BaroData:
         self.t = _as_1d("baro.t", self.t)
         self.h = _as_1d("baro.h", self.h)
 
-    def window(self, start=None, end=None) -> "BaroData":
+    def window(self, start: Optional[float] = None, end: Optional[float] = None) -> "BaroData":
         m = _mask(self.t, start, end)
         return BaroData(self.t[m], self.h[m])
 
@@ -110,7 +110,7 @@ class BaroData:
 @dataclass
 class Truth:
     """Reference trajectory: ``lat, lon`` [rad], ``h`` [m], ``vel_n`` ENU [m/s] (N, 3),
-    ``euler`` = [pitch, roll, yaw] [rad] (N, 3), at ``t`` [s]."""
+    ``euler`` = ``[pitch, roll, yaw]`` [rad] (N, 3), at ``t`` [s]."""
 
     t: np.ndarray
     lat: np.ndarray
@@ -130,7 +130,7 @@ class Truth:
     def C_nb(self) -> np.ndarray:
         return rotations.dcm_from_euler(self.euler)
 
-    def window(self, start=None, end=None) -> "Truth":
+    def window(self, start: Optional[float] = None, end: Optional[float] = None) -> "Truth":
         m = _mask(self.t, start, end)
         return Truth(self.t[m], self.lat[m], self.lon[m], self.h[m], self.vel_n[m], self.euler[m])
 
@@ -169,7 +169,7 @@ class Bundle:
         raise ValueError(f"bundle {self.name!r} has no velocity sensor"
                          + (f" {which!r}" if which else f" (looked for {', '.join(names)})"))
 
-    def window(self, start=None, end=None) -> "Bundle":
+    def window(self, start: Optional[float] = None, end: Optional[float] = None) -> "Bundle":
         """The same drive cut to ``start <= t <= end`` [s] (None: open)."""
         def cut(x):
             return None if x is None else x.window(start, end)

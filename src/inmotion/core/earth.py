@@ -13,6 +13,7 @@ mechanization alike, so they cannot cause a mismatch).
 from __future__ import annotations
 
 import numpy as np
+from numpy.typing import ArrayLike
 
 A = 6378137.0                      #: semi-major axis [m]
 F = 1.0 / 298.257223563            #: flattening
@@ -31,7 +32,7 @@ __all__ = ["A", "F", "E2", "OMEGA_IE", "G0", "radii", "gravity", "gravity_n",
            "enu_from_ecef_matrix", "local_ne_offsets"]
 
 
-def radii(lat):
+def radii(lat: ArrayLike) -> tuple[np.ndarray, np.ndarray]:
     """Meridian and prime-vertical radii of curvature ``(R_M, R_N)`` [m] at latitude [rad]."""
     s2 = np.sin(lat) ** 2
     w = 1.0 - E2 * s2
@@ -40,7 +41,7 @@ def radii(lat):
     return r_m, r_n
 
 
-def gravity(lat, h):
+def gravity(lat: ArrayLike, h: ArrayLike) -> np.ndarray:
     """Normal gravity magnitude [m/s^2] at latitude [rad] and ellipsoidal height [m].
 
     Somigliana's formula with the height series
@@ -51,20 +52,20 @@ def gravity(lat, h):
     return g0 * (1.0 - 2.0 * (1.0 + F + M_GRAV - 2.0 * F * s2) * h / A + 3.0 * h * h / (A * A))
 
 
-def gravity_n(lat, h):
+def gravity_n(lat: ArrayLike, h: ArrayLike) -> np.ndarray:
     """Gravity vector in ENU ``[0, 0, -g]`` (..., 3)."""
     g = np.asarray(gravity(lat, h), dtype=float)
     z = np.zeros_like(g)
     return np.stack([z, z, -g], axis=-1)
 
 
-def omega_ie_n(lat):
+def omega_ie_n(lat: ArrayLike) -> np.ndarray:
     """Earth rate in n (ENU): ``[0, w cos L, w sin L]`` [rad/s] (..., 3)."""
     lat = np.asarray(lat, dtype=float)
     return np.stack([np.zeros_like(lat), OMEGA_IE * np.cos(lat), OMEGA_IE * np.sin(lat)], -1)
 
 
-def omega_en_n(lat, h, vel_n):
+def omega_en_n(lat: ArrayLike, h: ArrayLike, vel_n: ArrayLike) -> np.ndarray:
     """Transport rate ``[-vN/(R_M+h), vE/(R_N+h), vE tan L/(R_N+h)]`` [rad/s] (..., 3)."""
     vel_n = np.asarray(vel_n, dtype=float)
     r_m, r_n = radii(lat)
@@ -72,7 +73,7 @@ def omega_en_n(lat, h, vel_n):
     return np.stack([-vn / (r_m + h), ve / (r_n + h), ve * np.tan(lat) / (r_n + h)], -1)
 
 
-def position_rate(lat, h, vel_n):
+def position_rate(lat: ArrayLike, h: ArrayLike, vel_n: ArrayLike) -> np.ndarray:
     """``[dlat/dt, dlon/dt, dh/dt]`` [rad/s, rad/s, m/s] from the ENU velocity."""
     vel_n = np.asarray(vel_n, dtype=float)
     r_m, r_n = radii(lat)
@@ -81,7 +82,7 @@ def position_rate(lat, h, vel_n):
                      vel_n[..., 2]], -1)
 
 
-def lla_to_ecef(lat, lon, h):
+def lla_to_ecef(lat: ArrayLike, lon: ArrayLike, h: ArrayLike) -> np.ndarray:
     """ECEF position [m] (..., 3) of geodetic latitude, longitude [rad] and height [m]."""
     _, r_n = radii(lat)
     cl = np.cos(lat)
@@ -89,7 +90,7 @@ def lla_to_ecef(lat, lon, h):
                      (r_n * (1.0 - E2) + h) * np.sin(lat)], -1)
 
 
-def ecef_to_lla(r_e):
+def ecef_to_lla(r_e: ArrayLike) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """Geodetic ``(lat, lon, h)`` [rad, rad, m] of ECEF positions (..., 3); Bowring + 3 iterations."""
     r_e = np.asarray(r_e, dtype=float)
     x, y, z = r_e[..., 0], r_e[..., 1], r_e[..., 2]
@@ -105,7 +106,7 @@ def ecef_to_lla(r_e):
     return lat, lon, h
 
 
-def enu_from_ecef_matrix(lat, lon):
+def enu_from_ecef_matrix(lat: ArrayLike, lon: ArrayLike) -> np.ndarray:
     """``C_e^n``: the matrix taking ECEF vectors to ENU at (lat, lon) [rad]; (..., 3, 3)."""
     lat = np.asarray(lat, dtype=float)
     lon = np.asarray(lon, dtype=float)
@@ -116,7 +117,8 @@ def enu_from_ecef_matrix(lat, lon):
                      np.stack([cl * co, cl * so, sl], -1)], -2)
 
 
-def local_ne_offsets(lat, lon, lat0, lon0, h=0.0):
+def local_ne_offsets(lat: ArrayLike, lon: ArrayLike, lat0: float, lon0: float,
+                     h: ArrayLike = 0.0) -> tuple[np.ndarray, np.ndarray]:
     """North and East offsets [m] of (lat, lon) from (lat0, lon0) with the local radii.
 
     Accurate to well below a metre over tens of kilometres; used for position errors.

@@ -15,7 +15,10 @@ modified Rodrigues parameters; the USQUE default is ``a = 1, f = 2 (a + 1)``.
 """
 from __future__ import annotations
 
+from typing import Optional
+
 import numpy as np
+from numpy.typing import ArrayLike
 
 __all__ = [
     "skew", "vee", "rot_x", "rot_y", "rot_z",
@@ -37,7 +40,7 @@ def _check(x, tail, name):
     return x
 
 
-def skew(v):
+def skew(v: ArrayLike) -> np.ndarray:
     """Skew-symmetric matrix ``[v x]`` with ``[v x] @ w = cross(v, w)``; (..., 3) -> (..., 3, 3)."""
     v = _check(v, (3,), "v")
     out = np.zeros(v.shape[:-1] + (3, 3))
@@ -50,7 +53,7 @@ def skew(v):
     return out
 
 
-def vee(m):
+def vee(m: ArrayLike) -> np.ndarray:
     """Inverse of :func:`skew` (antisymmetric part): (..., 3, 3) -> (..., 3)."""
     m = _check(m, (3, 3), "m")
     return 0.5 * np.stack([m[..., 2, 1] - m[..., 1, 2],
@@ -71,28 +74,28 @@ def _elementary(angle, i, j):
     return out
 
 
-def rot_x(angle):
+def rot_x(angle: ArrayLike) -> np.ndarray:
     """Active rotation about x by ``angle`` [rad]: ``[[1,0,0],[0,c,-s],[0,s,c]]``."""
     return _elementary(angle, 1, 2)
 
 
-def rot_y(angle):
+def rot_y(angle: ArrayLike) -> np.ndarray:
     """Active rotation about y by ``angle`` [rad]: ``[[c,0,s],[0,1,0],[-s,0,c]]``."""
     return _elementary(angle, 2, 0)
 
 
-def rot_z(angle):
+def rot_z(angle: ArrayLike) -> np.ndarray:
     """Active rotation about z by ``angle`` [rad]: ``[[c,-s,0],[s,c,0],[0,0,1]]``."""
     return _elementary(angle, 0, 1)
 
 
-def dcm_from_euler(euler):
+def dcm_from_euler(euler: ArrayLike) -> np.ndarray:
     """``C_b^n = R_z(-yaw) R_x(pitch) R_y(roll)`` from ``[pitch, roll, yaw]`` [rad]."""
     e = _check(euler, (3,), "euler")
     return rot_z(-e[..., 2]) @ rot_x(e[..., 0]) @ rot_y(e[..., 1])
 
 
-def euler_from_dcm(C):
+def euler_from_dcm(C: ArrayLike) -> np.ndarray:
     """``[pitch, roll, yaw]`` [rad] from ``C_b^n``; pitch in [-pi/2, pi/2], yaw in [0, 2 pi)."""
     C = _check(C, (3, 3), "C")
     pitch = np.arcsin(np.clip(C[..., 2, 1], -1.0, 1.0))
@@ -101,14 +104,14 @@ def euler_from_dcm(C):
     return np.stack([pitch, roll, yaw], axis=-1)
 
 
-def quat_normalize(q):
+def quat_normalize(q: ArrayLike) -> np.ndarray:
     """Unit quaternion with non-negative scalar part (the canonical sign)."""
     q = _check(q, (4,), "q")
     q = q / np.linalg.norm(q, axis=-1, keepdims=True)
     return np.where(q[..., :1] < 0, -q, q)
 
 
-def dcm_from_quat(q):
+def dcm_from_quat(q: ArrayLike) -> np.ndarray:
     """``C_b^n`` from the scalar-first quaternion ``q_nb`` (normalized first)."""
     q = _check(q, (4,), "q")
     q = q / np.linalg.norm(q, axis=-1, keepdims=True)
@@ -126,7 +129,7 @@ def dcm_from_quat(q):
     return C
 
 
-def quat_from_dcm(C):
+def quat_from_dcm(C: ArrayLike) -> np.ndarray:
     """Scalar-first ``q_nb`` from ``C_b^n`` (Shepperd's method: largest pivot, no cancellation)."""
     C = _check(C, (3, 3), "C")
     tr = C[..., 0, 0] + C[..., 1, 1] + C[..., 2, 2]
@@ -153,7 +156,7 @@ def quat_from_dcm(C):
     return quat_normalize(q)
 
 
-def quat_multiply(p, q):
+def quat_multiply(p: ArrayLike, q: ArrayLike) -> np.ndarray:
     """Hamilton product ``p (x) q`` of scalar-first quaternions (broadcasts)."""
     p = _check(p, (4,), "p")
     q = _check(q, (4,), "q")
@@ -165,18 +168,18 @@ def quat_multiply(p, q):
                      p0 * q3 + p1 * q2 - p2 * q1 + p3 * q0], axis=-1)
 
 
-def quat_conjugate(q):
+def quat_conjugate(q: ArrayLike) -> np.ndarray:
     """``q*``: the inverse rotation of a unit quaternion."""
     q = _check(q, (4,), "q")
     return q * np.array([1.0, -1.0, -1.0, -1.0])
 
 
-def quat_rotate(q, v):
+def quat_rotate(q: ArrayLike, v: ArrayLike) -> np.ndarray:
     """``q (x) v (x) q*``: the vector ``v`` (..., 3) rotated by ``q`` (..., 4)."""
     return np.einsum("...ij,...j->...i", dcm_from_quat(q), _check(v, (3,), "v"))
 
 
-def quat_from_rotvec(r):
+def quat_from_rotvec(r: ArrayLike) -> np.ndarray:
     """Quaternion of the rotation vector ``r`` [rad] (exact, series near zero)."""
     r = _check(r, (3,), "r")
     a = np.linalg.norm(r, axis=-1, keepdims=True)
@@ -187,7 +190,7 @@ def quat_from_rotvec(r):
     return np.concatenate([np.cos(half), k * r], axis=-1)
 
 
-def rotvec_from_quat(q):
+def rotvec_from_quat(q: ArrayLike) -> np.ndarray:
     """Rotation vector [rad] of ``q``, angle in [0, pi] (the canonical sign is taken first)."""
     q = quat_normalize(q)
     s = np.linalg.norm(q[..., 1:], axis=-1, keepdims=True)
@@ -198,7 +201,7 @@ def rotvec_from_quat(q):
     return k * q[..., 1:]
 
 
-def dcm_from_rotvec(r):
+def dcm_from_rotvec(r: ArrayLike) -> np.ndarray:
     """``exp([r x])`` by Rodrigues' formula (series near zero)."""
     r = _check(r, (3,), "r")
     a = np.linalg.norm(r, axis=-1)[..., None, None]
@@ -210,12 +213,12 @@ def dcm_from_rotvec(r):
     return np.eye(3) + s * K + c * (K @ K)
 
 
-def rotvec_from_dcm(C):
+def rotvec_from_dcm(C: ArrayLike) -> np.ndarray:
     """Rotation vector [rad] of ``C`` (through the quaternion, robust near pi)."""
     return rotvec_from_quat(quat_from_dcm(C))
 
 
-def quat_from_euler(euler):
+def quat_from_euler(euler: ArrayLike) -> np.ndarray:
     """``q_nb`` from ``[pitch, roll, yaw]`` [rad]."""
     e = _check(euler, (3,), "euler")
     z = np.zeros(e.shape[:-1])
@@ -225,12 +228,12 @@ def quat_from_euler(euler):
     return quat_normalize(quat_multiply(quat_multiply(qz, qx), qy))
 
 
-def euler_from_quat(q):
+def euler_from_quat(q: ArrayLike) -> np.ndarray:
     """``[pitch, roll, yaw]`` [rad] from ``q_nb``."""
     return euler_from_dcm(dcm_from_quat(q))
 
 
-def grp_from_quat(q, a=1.0, f=None):
+def grp_from_quat(q: ArrayLike, a: float = 1.0, f: Optional[float] = None) -> np.ndarray:
     """Generalized Rodrigues parameters ``p = f q_vec / (a + q0)`` (paper 001 eq. 20).
 
     ``f`` defaults to ``2 (a + 1)``, which makes ``p`` equal the rotation angle for small angles.
@@ -241,7 +244,7 @@ def grp_from_quat(q, a=1.0, f=None):
     return f * q[..., 1:] / (a + q[..., :1])
 
 
-def quat_from_grp(p, a=1.0, f=None):
+def quat_from_grp(p: ArrayLike, a: float = 1.0, f: Optional[float] = None) -> np.ndarray:
     """Inverse of :func:`grp_from_quat` (paper 001 eq. 21).
 
     ``q0 = (-a |p|^2 + f sqrt(f^2 + (1 - a^2) |p|^2)) / (f^2 + |p|^2)``,
@@ -254,27 +257,27 @@ def quat_from_grp(p, a=1.0, f=None):
     return np.concatenate([q0, (a + q0) * p / f], axis=-1)
 
 
-def gibbs_from_quat(q):
+def gibbs_from_quat(q: ArrayLike) -> np.ndarray:
     """Gibbs vector ``q_vec / q0`` (GRP with a = 0, f = 1)."""
     return grp_from_quat(q, a=0.0, f=1.0)
 
 
-def quat_from_gibbs(g):
+def quat_from_gibbs(g: ArrayLike) -> np.ndarray:
     """Inverse of :func:`gibbs_from_quat`."""
     return quat_from_grp(g, a=0.0, f=1.0)
 
 
-def mrp_from_quat(q):
+def mrp_from_quat(q: ArrayLike) -> np.ndarray:
     """Modified Rodrigues parameters ``q_vec / (1 + q0)`` (GRP with a = 1, f = 1)."""
     return grp_from_quat(q, a=1.0, f=1.0)
 
 
-def quat_from_mrp(p):
+def quat_from_mrp(p: ArrayLike) -> np.ndarray:
     """Inverse of :func:`mrp_from_quat`."""
     return quat_from_grp(p, a=1.0, f=1.0)
 
 
-def misalignment(C_computed, C_true):
+def misalignment(C_computed: ArrayLike, C_true: ArrayLike) -> np.ndarray:
     """Misalignment ``phi`` [rad] with ``C_computed = exp(-[phi x]) C_true``.
 
     To first order this is the DESIGN definition ``C_computed = (I - [phi x]) C_true``;
@@ -284,27 +287,27 @@ def misalignment(C_computed, C_true):
                             @ np.swapaxes(_check(C_true, (3, 3), "C_true"), -1, -2))
 
 
-def apply_misalignment(C_true, phi):
+def apply_misalignment(C_true: ArrayLike, phi: ArrayLike) -> np.ndarray:
     """``exp(-[phi x]) C_true``: the attitude a system with misalignment ``phi`` computes."""
     return dcm_from_rotvec(-_check(phi, (3,), "phi")) @ _check(C_true, (3, 3), "C_true")
 
 
-def correct_attitude(C_computed, phi):
+def correct_attitude(C_computed: ArrayLike, phi: ArrayLike) -> np.ndarray:
     """Remove an estimated misalignment: ``exp([phi x]) C_computed`` (closed-loop feedback)."""
     return dcm_from_rotvec(_check(phi, (3,), "phi")) @ _check(C_computed, (3, 3), "C_computed")
 
 
-def wrap_pi(angle):
+def wrap_pi(angle: ArrayLike) -> np.ndarray:
     """Angle wrapped to [-pi, pi)."""
     return (np.asarray(angle) + np.pi) % (2 * np.pi) - np.pi
 
 
-def wrap_2pi(angle):
+def wrap_2pi(angle: ArrayLike) -> np.ndarray:
     """Angle wrapped to [0, 2 pi)."""
     return np.asarray(angle) % (2 * np.pi)
 
 
-def mounting_dcm(angles):
+def mounting_dcm(angles: ArrayLike) -> np.ndarray:
     """``C_v^b = exp([A x])`` of mounting angles ``A = [alpha, beta, gamma]`` [rad].
 
     The one mounting convention of the package (``docs/ARCHITECTURE.md``, "Vehicle frame and

@@ -6,7 +6,6 @@ All SI: latitude and longitude in rad, height in m, velocity ENU in m/s, Euler a
 from __future__ import annotations
 
 from dataclasses import dataclass, field
-from typing import Optional
 
 import numpy as np
 
@@ -42,7 +41,7 @@ class NavState:
     @classmethod
     def from_truth(cls, truth, t=None, euler_error=(0.0, 0.0, 0.0)) -> "NavState":
         """The truth row at or after ``t`` [s] (default: the first row), with ``euler_error``
-        = [pitch, roll, yaw] [rad] added to its attitude: how ``--init truth --init-error``,
+        = ``[pitch, roll, yaw]`` [rad] added to its attitude: how ``--init truth --init-error``,
         the campaigns, reproductions and benchmarks start a method from a
         :class:`~inmotion.core.bundle.Truth`."""
         row = truth.at(truth.t[0] if t is None else t)

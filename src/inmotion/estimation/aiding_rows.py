@@ -109,16 +109,6 @@ def _displacement_rows(H, offs, C_bn, T, dD_b, dW_b, dth_nb):
             H[i, o_mount + 1] = -W[i, 2]
 
 
-@numba.njit(cache=True)
-def _nhc_rows(H, o_phi, o_dv, C_vn, vel_n):
-    A = -(C_vn @ skew(vel_n))
-    for r in range(2):
-        i = 2 * r                    # rows x and z of the vehicle frame
-        for j in range(3):
-            H[r, o_dv + j] = C_vn[i, j]
-            H[r, o_phi + j] = A[i, j]
-
-
 def velocity_rows(layout, C_nb, speed_m_s, C_vb0, lever_b, omega_nb_b):
     """(3, n) rows of the velocity form (module docstring), and the implied velocity ``v_s``.
 
@@ -153,8 +143,14 @@ def displacement_rows(layout, C_nb, T, dD_n, dW_n, dth_nb):
 
 
 def nhc_vehicle_rows(layout, C_nb, vel_n, C_vb0):
-    """(2, n) NHC rows in the vehicle frame (module docstring)."""
-    H = np.zeros((2, layout.n))
-    C_vn = np.ascontiguousarray(np.asarray(C_vb0).T @ np.asarray(C_nb).T)
-    _nhc_rows(H, layout["phi"].start, layout["dv"].start, C_vn, np.asarray(vel_n, dtype=float))
+    """(2, n) NHC rows in the vehicle frame (module docstring): the rows of the one NHC
+    measurement, :class:`inmotion.estimation.measurements.Nhc` with ``C_v^b0``."""
+    from ..core.rotations import quat_from_dcm
+    from .measurements import Nhc
+
+    xs = np.zeros(10)
+    xs[3:6] = vel_n
+    xs[6:10] = quat_from_dcm(np.asarray(C_nb, dtype=float))
+    _, H, _ = Nhc(1.0, mount_terms=False, vehicle_mounting=C_vb0).rows(
+        (xs, xs, np.zeros(10)), None, layout)
     return H

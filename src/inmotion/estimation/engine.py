@@ -38,6 +38,30 @@ What happens per IMU row and per filter epoch (one numba loop, :func:`_advance`)
 5. every ``out_every``-th epoch an output row is written: the SINS corrected by the estimate
    not yet fed back, ``sigma``, the states (fed back plus current) and the ``phi`` covariance.
 
+Local filters and the federated policy (paper 003 sec. 3.1-3.2). The engine holds ``L``
+local filters on the one navigation system, all on the same layout: each measurement updates
+one of them (or, ``shared``, every one with its noise scaled by that filter's
+``r_scale = 1 / beta``, eq. 33-35), each is predicted with its own ``Q_c``. Which estimate is
+the global one follows Table 1: two or more healthy *primary* locals are fused (eq. 36,
+:func:`inmotion.estimation.federated.fuse_kernel`, over the leading ``n_common`` states), one
+alone is taken as it is, with none the *fallback* local (the vehicle-constraint filter) is, and
+with no fallback there is no estimate (the SINS runs free). Feedback applies the global
+estimate (the feedback policy's blocks) to the navigation system and subtracts it from every
+local filter, which keeps each local an estimate of the corrected system's error without
+resetting its information (non-reset mode); with one local this is the ordinary closed loop
+(the fed-back states become zero). A single filter is the case ``L = 1``.
+
+Fault detection and isolation per measurement (``isolate``, eq. 40-42): a healthy
+measurement whose NIS exceeds its gate is declared faulty and not applied; while isolated it
+is still tested (on a copy) and returns after ``return_tests`` consecutive passing tests; a
+local filter with an isolated measurement is unhealthy. Detections, returns and changes of the
+global estimate's source are logged as events, the tested NIS values as a series.
+
+Row accumulators: a measurement over an interval (paper 003's displacement increment) has an
+accumulator function called on every IMU row with the row's data (e.g. the odometer's
+distance), reset when its sample is applied; the engine then also forms the body rate with
+respect to n per row (``aux[7:10]``: its epoch mean).
+
 The whole filter state lives in the arrays of :class:`_State`, so :meth:`snapshot` /
 :meth:`restore` are copies, and a run split anywhere continues bit-identically.
 """
@@ -52,67 +76,136 @@ import numpy as np
 from ..core import _kernels as K
 from ..core.solution import NavState
 from . import error_model as em
+from .federated import fuse_kernel
 from .kalman import _predict_kernel, sequential_joseph
 from .layout import DP, DP_D, DV, EPS, NABLA, PHI, PHI_D, Layout
-from .measurements import AUX_SIZE, Measurement, fill_function
-from .nav_ops import compensated_row, correct_nav, corrected_sins, dcm_of_q
+from .measurements import ACC_SIZE, AUX_SIZE, Measurement, accumulator_function, fill_function
+from .nav_ops import compensated_row, correct_nav, dcm_of_q
 
-__all__ = ["ErrorStateFilter", "FEEDBACK_BLOCKS", "MAX_MEASUREMENTS"]
+__all__ = ["ErrorStateFilter", "LocalFilter", "FEEDBACK_BLOCKS", "MAX_MEASUREMENTS",
+           "EVENT_DETECTED", "EVENT_RETURNED", "EVENT_MODE", "MODE_FUSED", "MODE_NONE"]
 
 #: measurement kinds one filter can hold (the compiled loop takes a fixed-length tuple)
 MAX_MEASUREMENTS = 8
 #: the blocks a feedback policy can feed back
 FEEDBACK_BLOCKS = ("phi", "dv", "dp", "eps", "nabla", "phi_D", "dp_D")
+_FB_INDEX = (PHI, DV, DP, EPS, NABLA, PHI_D, DP_D)
+#: event kinds (:meth:`ErrorStateFilter.events`)
+EVENT_DETECTED, EVENT_RETURNED, EVENT_MODE = 1, 2, 3
+#: global-estimate sources besides a local filter's index
+MODE_FUSED, MODE_NONE = -1, -2
 
-# acc: epoch accumulators [rows, sum_dt, f_sum x3, w_sum x3]
-_A_ROWS, _A_DT, _A_F, _A_W = 0, 1, 2, 5
-# ints: [epochs, update epochs]
-_I_EPOCHS, _I_UPDATES = 0, 1
+# acc: epoch accumulators [rows, sum_dt, f_sum x3, w_sum x3, nb_sum x3]
+_A_ROWS, _A_DT, _A_F, _A_W, _A_NB = 0, 1, 2, 5, 8
+_A_SIZE = 11
+# ints: [epochs, update epochs, mode, events logged, NIS rows logged]
+_I_EPOCHS, _I_UPDATES, _I_MODE, _I_EV, _I_NIS = 0, 1, 2, 3, 4
 
 #: the filter's mutable state, arrays only (updated in place by the numba loop)
-_State = namedtuple("_State", "xs ms xd md x P fed_back bias_g bias_a acc ints used rejected "
-                              "nis_sum dof_sum t_end")
+_State = namedtuple("_State", "xs ms xd md X P fed_back bias_g bias_a acc ints used rejected "
+                              "nis_sum dof_sum t_end healthy normal_run tests exceed macc "
+                              "ev nis_log")
 #: the filter's constants
 _Const = namedtuple("_Const", "offs offs9 Qc q_dr_m2_s inv_tau_dk dr_eps grav_grad with_dr "
-                              "step out_every fb_mask feedback_every C_bm l_b gates params "
-                              "dofs")
+                              "step out_every fb_mask fb_states feedback_every C_bm l_b gates "
+                              "params dofs local r_scale isolate return_tests primary fallback "
+                              "n_common need_nb has_acc log_nis")
 #: the output buffers of one call
-_Out = namedtuple("_Out", "t xs sigma states cov_phi n")
+_Out = namedtuple("_Out", "t xs sigma states cov_phi mode local_x local_sig n")
 
 
 @fill_function
-def _noop_fill(xs, xd, aux, data, p, offs, z, H, r):
+def _noop_fill(xs, xd, aux, acc, data, p, offs, z, H, r):
+    return 0
+
+
+@accumulator_function
+def _noop_acc(a, xs, v_old, th_nb, dt, rd, p):
     return 0
 
 
 # ----------------------------------------------------------------------------- the loop
 @numba.njit(cache=True)
-def _feed_back(S, C):
-    """Closed loop (the policy's blocks): correct both systems, move drift and bias into the
-    IMU compensation, accumulate what was fed back, zero those states."""
-    x, offs, m = S.x, C.offs, C.fb_mask
+def _local_healthy(S, C, l):
+    for j in range(C.isolate.shape[0]):
+        if C.isolate[j] and C.local[j] == l and not S.healthy[j]:
+            return False
+    return True
+
+
+@numba.njit(cache=True)
+def _mode(S, C):
+    """Source of the global estimate (paper 003 Table 1): MODE_FUSED over two or more
+    healthy primaries, one healthy primary's index, else the fallback's, else MODE_NONE."""
+    n_ok = 0
+    last = -1
+    for l in range(C.primary.shape[0]):
+        if C.primary[l] and _local_healthy(S, C, l):
+            n_ok += 1
+            last = l
+    if n_ok >= 2:
+        return MODE_FUSED
+    if n_ok == 1:
+        return last
+    for l in range(C.fallback.shape[0]):
+        if C.fallback[l]:
+            return l
+    return MODE_NONE
+
+
+@numba.njit(cache=True)
+def _global(S, C, mode, x_g, P_g):
+    """The global estimate ``x_g`` (n,) and its covariance ``P_g`` (n, n) (NaN outside the
+    fused leading block when fused; zero with MODE_NONE)."""
+    n = x_g.shape[0]
+    if mode >= 0:
+        x_g[:] = S.X[mode]
+        P_g[:, :] = S.P[mode]
+    elif mode == MODE_FUSED:
+        nc = C.n_common
+        use = np.zeros(S.X.shape[0], dtype=np.bool_)
+        for l in range(use.shape[0]):
+            use[l] = C.primary[l] and _local_healthy(S, C, l)
+        xc = np.empty(nc)
+        Pc = np.empty((nc, nc))
+        fuse_kernel(S.X, S.P, use, nc, xc, Pc)
+        x_g[:] = np.nan
+        P_g[:, :] = np.nan
+        x_g[:nc] = xc
+        P_g[:nc, :nc] = Pc
+    else:
+        x_g[:] = 0.0
+        P_g[:, :] = 0.0
+        for i in range(n):
+            P_g[i, i] = np.nan
+
+
+@numba.njit(cache=True)
+def _feed_back(S, C, x_g):
+    """Apply the global estimate's fed-back blocks (the policy) to the navigation system and
+    the IMU compensation, accumulate them, subtract them from every local filter."""
+    offs, m = C.offs, C.fb_mask
     zero3 = np.zeros(3)
-    phi = x[offs[PHI]:offs[PHI] + 3] if m[PHI] else zero3
-    dv = x[offs[DV]:offs[DV] + 3] if m[DV] else zero3
-    dp = x[offs[DP]:offs[DP] + 3] if m[DP] else zero3
+    phi = x_g[offs[PHI]:offs[PHI] + 3] if m[PHI] else zero3
+    dv = x_g[offs[DV]:offs[DV] + 3] if m[DV] else zero3
+    dp = x_g[offs[DP]:offs[DP] + 3] if m[DP] else zero3
     correct_nav(S.xs, S.ms, phi, dv, dp, True)
     if C.with_dr and (m[PHI_D] or m[DP_D]):
         o_phiD, o_dpD = offs[PHI_D], offs[DP_D]
-        phiD = x[o_phiD:o_phiD + 3] if m[PHI_D] else zero3
-        dpD = x[o_dpD:o_dpD + 3] if m[DP_D] else zero3
+        phiD = x_g[o_phiD:o_phiD + 3] if m[PHI_D] else zero3
+        dpD = x_g[o_dpD:o_dpD + 3] if m[DP_D] else zero3
         correct_nav(S.xd, S.md, phiD, dv, dpD, False)
     for i in range(3):
         if m[EPS] and offs[EPS] >= 0:
-            S.bias_g[i] += x[offs[EPS] + i]
+            S.bias_g[i] += x_g[offs[EPS] + i]
         if m[NABLA] and offs[NABLA] >= 0:
-            S.bias_a[i] += x[offs[NABLA] + i]
-    for blk in (PHI, DV, DP, EPS, NABLA, PHI_D, DP_D):
-        o = offs[blk]
-        if o < 0 or not m[blk]:
-            continue
-        for i in range(3):
-            S.fed_back[o + i] += x[o + i]
-            x[o + i] = 0.0
+            S.bias_a[i] += x_g[offs[NABLA] + i]
+    for p in range(x_g.shape[0]):
+        if C.fb_states[p]:
+            d = x_g[p]
+            S.fed_back[p] += d
+            for l in range(S.X.shape[0]):
+                S.X[l, p] -= d
 
 
 @numba.njit(cache=True)
@@ -129,25 +222,100 @@ def _dr_position_noise(Q, Qc, o_dpD, lat, h, q_m2_s):
 
 
 @numba.njit(cache=True)
-def _write_output(S, C, O, t_now):
+def _log_event(S, t, j, kind, value):
+    i = S.ints[_I_EV]
+    if i < S.ev.shape[0]:
+        S.ev[i, 0] = t
+        S.ev[i, 1] = j
+        S.ev[i, 2] = kind
+        S.ev[i, 3] = value
+    S.ints[_I_EV] = i + 1
+
+
+@numba.njit(cache=True)
+def _log_nis(S, t, j, nis):
+    i = S.ints[_I_NIS]
+    if i < S.nis_log.shape[0]:
+        S.nis_log[i, 0] = t
+        S.nis_log[i, 1] = j
+        S.nis_log[i, 2] = nis
+    S.ints[_I_NIS] = i + 1
+
+
+@numba.njit(cache=True)
+def _write_output(S, C, O, t_now, x_g, P_g):
     i = O.n[0]
     if i >= O.t.shape[0]:
         return
+    mode = S.ints[_I_MODE]
+    _global(S, C, mode, x_g, P_g)
     O.t[i] = t_now
-    corrected_sins(O.xs[i], S.xs, S.x, C.offs)
-    n = S.x.shape[0]
-    o_phi = C.offs[PHI]
+    xo = O.xs[i]
+    xo[:] = S.xs
+    offs = C.offs
+    nonzero = False
+    for a in range(3):
+        if x_g[offs[PHI] + a] != 0.0 or x_g[offs[DV] + a] != 0.0 or x_g[offs[DP] + a] != 0.0:
+            nonzero = True
+    if nonzero:       # the SINS corrected by the estimate not yet fed back (open-loop output)
+        correct_nav(xo, np.zeros(K.NMEM), x_g[offs[PHI]:offs[PHI] + 3],
+                    x_g[offs[DV]:offs[DV] + 3], x_g[offs[DP]:offs[DP] + 3], True)
+    n = x_g.shape[0]
+    o_phi = offs[PHI]
     for p in range(n):
-        O.sigma[i, p] = math.sqrt(max(S.P[p, p], 0.0))
-        O.states[i, p] = S.fed_back[p] + S.x[p]
+        O.sigma[i, p] = math.sqrt(max(P_g[p, p], 0.0)) if not math.isnan(P_g[p, p]) else np.nan
+        O.states[i, p] = S.fed_back[p] + x_g[p]
     for a in range(3):
         for b in range(3):
-            O.cov_phi[i, a, b] = S.P[o_phi + a, o_phi + b]
+            O.cov_phi[i, a, b] = P_g[o_phi + a, o_phi + b]
+    O.mode[i] = mode
+    if O.local_x.shape[1] > 0:
+        for l in range(S.X.shape[0]):
+            for p in range(n):
+                O.local_x[i, l, p] = S.X[l, p]
+                O.local_sig[i, l, p] = math.sqrt(max(S.P[l, p, p], 0.0))
     O.n[0] = i + 1
 
 
 @numba.njit(cache=True)
-def _epoch_end(S, C, fills, t_now, qt, qj, qd, qi, O, F, Q, aux, z, H, r, xw, Pw):
+def _apply(S, C, fills, j, l, z, H, r, m, xw, Pw, t_now, first):
+    """Apply the filled rows of measurement ``j`` to local filter ``l`` (gate, FDI)."""
+    rl = r[:m] * (C.r_scale[l] if C.local[j] < 0 else 1.0)
+    if C.isolate[j]:
+        S.tests[j] += 1
+        if S.healthy[j]:
+            ok, nis = sequential_joseph(S.X[l], S.P[l], z, H, rl, 0, m, C.gates[j], xw, Pw)
+            if not ok:
+                S.exceed[j] += 1
+                S.healthy[j] = False
+                S.normal_run[j] = 0
+                _log_event(S, t_now, j, EVENT_DETECTED, nis)
+        else:             # isolated: tested on a copy, never applied until it has returned
+            ok, nis = sequential_joseph(S.X[l].copy(), S.P[l].copy(), z, H, rl, 0, m,
+                                        C.gates[j], xw, Pw)
+            if ok:
+                S.normal_run[j] += 1
+                if S.normal_run[j] >= C.return_tests[j]:
+                    S.healthy[j] = True
+                    _log_event(S, t_now, j, EVENT_RETURNED, nis)
+            else:
+                S.normal_run[j] = 0
+            ok = False
+    else:
+        ok, nis = sequential_joseph(S.X[l], S.P[l], z, H, rl, 0, m, C.gates[j], xw, Pw)
+    if C.log_nis[j] and first:
+        _log_nis(S, t_now, j, nis)
+    if first:
+        if ok:
+            S.used[j] += 1
+            S.nis_sum[j] += nis
+            S.dof_sum[j] += m
+        else:
+            S.rejected[j] += 1
+
+
+@numba.njit(cache=True)
+def _epoch_end(S, C, fills, t_now, qt, qj, qd, qi, O, F, Q, aux, z, H, r, xw, Pw, x_g, P_g):
     """Close a filter epoch: predict, apply the due samples, feed back, output. Returns the
     next queue index."""
     sum_dt = S.acc[_A_DT]
@@ -159,15 +327,17 @@ def _epoch_end(S, C, fills, t_now, qt, qj, qd, qi, O, F, Q, aux, z, H, r, xw, Pw
     F[:, :] = 0.0
     em._fill_F(F, C.offs9, S.xs[K.LAT], S.xs[K.H], S.xs[K.VE:K.VU + 1].copy(), C_S, f_n,
                C.inv_tau_dk, C.dr_eps, C.grav_grad)
-    _dr_position_noise(Q, C.Qc, C.offs[DP_D] if C.with_dr else -1, S.xs[K.LAT], S.xs[K.H],
-                       C.q_dr_m2_s)
-    _predict_kernel(S.x, S.P, F, Q, sum_dt)
+    for l in range(S.X.shape[0]):
+        _dr_position_noise(Q, C.Qc[l], C.offs[DP_D] if C.with_dr else -1, S.xs[K.LAT],
+                           S.xs[K.H], C.q_dr_m2_s)
+        _predict_kernel(S.X[l], S.P[l], F, Q, sum_dt)
     S.ints[_I_EPOCHS] += 1
     S.t_end[0] = t_now
     aux[0] = t_now
     for i in range(3):
         aux[1 + i] = S.acc[_A_W + i] / sum_dt
         aux[4 + i] = f_b[i]
+        aux[7 + i] = S.acc[_A_NB + i] / sum_dt
     applied = False
     while qi < qt.shape[0] and qt[qi] <= t_now:
         j = qj[qi]
@@ -177,35 +347,43 @@ def _epoch_end(S, C, fills, t_now, qt, qj, qd, qi, O, F, Q, aux, z, H, r, xw, Pw
             r[a] = 0.0
             for b in range(H.shape[1]):
                 H[a, b] = 0.0
-        m = fills[j](S.xs, S.xd, aux, qd[qi], C.params[j], C.offs, z, H, r)
+        m = fills[j](S.xs, S.xd, aux, S.macc[j], qd[qi], C.params[j], C.offs, z, H, r)
         applied = True
         if m > 0:
-            ok, nis = sequential_joseph(S.x, S.P, z, H, r, 0, m, C.gates[j], xw, Pw)
-            if ok:
-                S.used[j] += 1
-                S.nis_sum[j] += nis
-                S.dof_sum[j] += m
-            else:
-                S.rejected[j] += 1
+            if C.local[j] >= 0:
+                _apply(S, C, fills, j, C.local[j], z, H, r, m, xw, Pw, t_now, True)
+            else:                    # shared: every local filter, noise scaled (eq. 33-35)
+                for l in range(S.X.shape[0]):
+                    _apply(S, C, fills, j, l, z, H, r, m, xw, Pw, t_now, l == 0)
+        if C.has_acc[j]:
+            S.macc[j, :] = 0.0
         qi += 1
     if applied:
         S.ints[_I_UPDATES] += 1
-        if C.feedback_every > 0 and S.ints[_I_UPDATES] % C.feedback_every == 0:
-            _feed_back(S, C)
+        mode = _mode(S, C)
+        if mode != S.ints[_I_MODE]:
+            _log_event(S, t_now, -1, EVENT_MODE, mode)
+            S.ints[_I_MODE] = mode
+        if (C.feedback_every > 0 and S.ints[_I_UPDATES] % C.feedback_every == 0
+                and mode != MODE_NONE):
+            _global(S, C, mode, x_g, P_g)
+            _feed_back(S, C, x_g)
     if S.ints[_I_EPOCHS] % C.out_every == 0:
-        _write_output(S, C, O, t_now)
-    for i in range(S.acc.shape[0]):
+        _write_output(S, C, O, t_now, x_g, P_g)
+    for i in range(_A_SIZE):
         S.acc[i] = 0.0
     return qi
 
 
 @numba.njit(cache=True)
-def _advance(S, C, fills, t, dtheta, dvel, dt, ds, v, dth_dr, qt, qj, qd, O, flush):
+def _advance(S, C, fills, accs, t, dtheta, dvel, dt, ds, v, dth_dr, rows, qt, qj, qd, O,
+             flush):
     """Run IMU rows ``t`` (M,) through the filter (module docstring); ``ds``, ``v`` (M,) the
     DR's sensor distance and speed per row, ``dth_dr`` (M, 3) the DR's own gyro rows or an
-    empty (0, 3) array; ``qt``, ``qj``, ``qd`` the queued samples (time, kind, data).
+    empty (0, 3) array; ``rows`` (J, M, R) the measurements' row data for their
+    accumulators; ``qt``, ``qj``, ``qd`` the queued samples (time, kind, data).
     ``flush``: close a partial last epoch. Returns the number of queued samples consumed."""
-    n = S.x.shape[0]
+    n = S.X.shape[1]
     F = np.zeros((n, n))
     Q = np.zeros((n, n))
     aux = np.zeros(AUX_SIZE)
@@ -217,11 +395,18 @@ def _advance(S, C, fills, t, dtheta, dvel, dt, ds, v, dth_dr, qt, qj, qd, O, flu
     r = np.zeros(dmax)
     xw = np.empty(n)
     Pw = np.empty((n, n))
+    x_g = np.zeros(n)
+    P_g = np.zeros((n, n))
+    th_nb = np.zeros(3)
+    v_old = np.zeros(3)
     nan = np.nan
     own_dr_gyro = dth_dr.shape[0] > 0
     qi = 0
     for k in range(t.shape[0]):
         dth, dvl = compensated_row(dtheta, dvel, k, dt[k], S.bias_g, S.bias_a)
+        if C.need_nb:
+            for i in range(3):
+                v_old[i] = S.xs[K.VE + i]
         K.sins_step(S.xs, S.ms, dth, dvl, dt[k], nan, 0.0, 0.0)
         S.ms[K.M_COUNT] += 1.0
         if C.with_dr:
@@ -237,16 +422,30 @@ def _advance(S, C, fills, t, dtheta, dvel, dt, ds, v, dth_dr, qt, qj, qd, O, flu
                 g = (dtheta[k, 0], dtheta[k, 1], dtheta[k, 2])
             K.dr_step(S.xd, S.md, g, ds[k], v[k], dt[k], C.C_bm, C.l_b)
             S.md[K.M_COUNT] += 1.0
+        if C.need_nb:       # body rate w.r.t. n over the row, for rate-dependent measurements
+            Cnb = dcm_of_q(S.xs[K.Q0:K.Q3 + 1])
+            w_in = K.omega_ie_n(S.xs[K.LAT])
+            w_en = K.omega_en_n(S.xs[K.LAT], S.xs[K.H], (S.xs[K.VE], S.xs[K.VN], S.xs[K.VU]))
+            for i in range(3):
+                acc_i = 0.0
+                for jj in range(3):
+                    acc_i += Cnb[jj, i] * (w_in[jj] + w_en[jj])
+                th_nb[i] = dth[i] - acc_i * dt[k]
+                S.acc[_A_NB + i] += th_nb[i]
+            for j in range(C.has_acc.shape[0]):
+                if C.has_acc[j]:
+                    accs[j](S.macc[j], S.xs, v_old, th_nb, dt[k], rows[j, k], C.params[j])
         S.acc[_A_ROWS] += 1.0
         S.acc[_A_DT] += dt[k]
         for i in range(3):
             S.acc[_A_F + i] += dvl[i]
             S.acc[_A_W + i] += dth[i]
         if S.acc[_A_ROWS] >= C.step:
-            qi = _epoch_end(S, C, fills, t[k], qt, qj, qd, qi, O, F, Q, aux, z, H, r, xw, Pw)
+            qi = _epoch_end(S, C, fills, t[k], qt, qj, qd, qi, O, F, Q, aux, z, H, r, xw, Pw,
+                            x_g, P_g)
     if flush and S.acc[_A_ROWS] > 0:
         qi = _epoch_end(S, C, fills, t[t.shape[0] - 1], qt, qj, qd, qi, O, F, Q, aux, z, H,
-                        r, xw, Pw)
+                        r, xw, Pw, x_g, P_g)
     return qi
 
 
@@ -262,10 +461,33 @@ def _feedback_mask(feedback, layout):
         if bad:
             raise ValueError(f"feedback blocks must be among {FEEDBACK_BLOCKS}, got {bad}")
     mask = np.zeros(len(layout.offsets()), dtype=np.bool_)
-    names = ("phi", "dv", "dp", "eps", "nabla", "phi_D", "dp_D")
+    states = np.zeros(layout.n, dtype=np.bool_)
     for b in blocks:
-        mask[(PHI, DV, DP, EPS, NABLA, PHI_D, DP_D)[names.index(b)]] = True
-    return mask
+        mask[_FB_INDEX[FEEDBACK_BLOCKS.index(b)]] = True
+        if b in layout:
+            states[layout[b]] = True
+    return mask, states
+
+
+class LocalFilter:
+    """One local filter of a bank (paper 003's sub-filters and vehicle-constraint filter).
+
+    Parameters
+    ----------
+    P0 : (n, n) initial covariance;  Qc : (n, n) continuous process noise (default: the
+        model's)
+    r_scale : float, noise scale of shared measurements on this filter (``1 / beta``)
+    role : ``"primary"`` (fused when healthy) or ``"fallback"`` (the global estimate only
+        when no primary is healthy)
+    """
+
+    def __init__(self, P0, Qc=None, *, r_scale: float = 1.0, role: str = "primary"):
+        if role not in ("primary", "fallback"):
+            raise ValueError(f"role must be 'primary' or 'fallback', got {role!r}")
+        self.P0 = np.array(P0, dtype=float)
+        self.Qc = None if Qc is None else np.array(Qc, dtype=float)
+        self.r_scale = float(r_scale)
+        self.role = role
 
 
 class ErrorStateFilter:
@@ -280,10 +502,12 @@ class ErrorStateFilter:
         dead reckoner beside the SINS.
     model : error_model.ErrorModel
         On ``layout``: ``F`` (the one shared builder) and ``Q_c``.
-    P0 : (n, n) initial covariance, in the layout's SI units.
+    P0 : (n, n) initial covariance, in the layout's SI units; or a list of
+        :class:`LocalFilter` (a bank on the one navigation system).
     measurements : list of Measurement
         At most :data:`MAX_MEASUREMENTS`, with distinct names; applied in this order when
-        samples share a time.
+        samples share a time. A measurement's ``local`` attribute picks its local filter
+        (index; ``None``: every local, with the local's ``r_scale``).
     step_rows : int
         IMU rows per filter epoch (a predict per epoch).
     feedback : ``"closed"``, ``"open"`` or a list of blocks of :data:`FEEDBACK_BLOCKS`
@@ -296,16 +520,16 @@ class ErrorStateFilter:
     dr_lever_arm_m : (3,) IMU-to-sensor lever arm in b [m] (zeros by default).
     dr_position_m2_s : float
         DR position random-walk density [m^2/s] (the sensor's white noise integrated).
-
-    Attributes
-    ----------
-    layout, model, measurements, init
+    n_common : int
+        Leading states fused across primaries (bank only; default: the fed-back states).
+    max_events, max_nis : capacity of the event log and of the NIS series.
     """
 
     def __init__(self, init: NavState, layout: Layout, model: em.ErrorModel, P0,
                  measurements, *, step_rows: int = 1, feedback="closed", feedback_every: int = 1,
                  out_every: int = 1, dr_mounting=None, dr_lever_arm_m=None,
-                 dr_position_m2_s: float = 0.0):
+                 dr_position_m2_s: float = 0.0, n_common: int | None = None,
+                 max_events: int = 100000, max_nis: int = 0):
         for name in ("phi", "dv", "dp"):
             if name not in layout:
                 raise ValueError(f"the filter needs block {name!r} in the layout")
@@ -319,61 +543,98 @@ class ErrorStateFilter:
         if len(set(names)) != len(names):
             raise ValueError(f"measurement names must be distinct, got {names}")
         with_dr = "phi_D" in layout
+        n = layout.n
+        locals_ = (list(P0) if isinstance(P0, (list, tuple)) and P0
+                   and isinstance(P0[0], LocalFilter) else [LocalFilter(P0)])
+        L = len(locals_)
+        if with_dr and L > 1:
+            raise ValueError("a bank of local filters runs on the SINS alone (no DR blocks)")
+        for lf in locals_:
+            if lf.P0.shape != (n, n):
+                raise ValueError(f"P0 must be ({n}, {n}) for {layout!r}, got {lf.P0.shape}")
         for m in measurements:
             if not isinstance(m, Measurement):
                 raise TypeError(f"not a Measurement: {m!r}")
             if m.needs_dr and not with_dr:
                 raise ValueError(f"measurement {m.name!r} needs the DR blocks phi_D, dp_D")
+            loc = getattr(m, "local", 0)
+            if loc is not None and not 0 <= loc < L:
+                raise ValueError(f"measurement {m.name!r}: local filter {loc} of {L}")
             m.check(layout)
-        n = layout.n
-        P0 = np.array(P0, dtype=float)
-        if P0.shape != (n, n):
-            raise ValueError(f"P0 must be ({n}, {n}) for {layout!r}, got {P0.shape}")
         if int(step_rows) < 1 or int(out_every) < 1 or int(feedback_every) < 1:
             raise ValueError("step_rows, out_every and feedback_every must be >= 1")
         self.init = init
         self.layout = layout
         self.model = model
         self.measurements = measurements
+        self.locals = locals_
         self._index = {m.name: j for j, m in enumerate(measurements)}
         self.step = int(step_rows)
         self.out_every = int(out_every)
         x0 = _kernel_state(init)
-        fb_mask = _feedback_mask(feedback, layout)
+        fb_mask, fb_states = _feedback_mask(feedback, layout)
+        if n_common is None:
+            n_common = int(np.argmin(fb_states)) if not fb_states.all() else n
+        if L > 1 and not (fb_states[:n_common].all() and not fb_states[n_common:].any()):
+            raise ValueError("a bank fuses the leading n_common states: they must be exactly "
+                             "the fed-back ones")
         C_bm = np.eye(3) if dr_mounting is None else np.array(dr_mounting, dtype=float)
         l_b = np.zeros(3) if dr_lever_arm_m is None else np.array(dr_lever_arm_m, dtype=float)
         if C_bm.shape != (3, 3) or l_b.shape != (3,):
             raise ValueError("dr_mounting must be (3, 3) and dr_lever_arm_m (3,)")
+        M = MAX_MEASUREMENTS
         n_par = max([len(m.params()) for m in measurements] + [1])
-        params = np.zeros((MAX_MEASUREMENTS, n_par))
+        params = np.zeros((M, n_par))
         for j, m in enumerate(measurements):
             p = np.asarray(m.params(), dtype=float)
             params[j, :len(p)] = p
         self._data_size = max([m.data_size for m in measurements] + [1])
+        self._row_size = max([m.row_data_size for m in measurements] + [1])
+
+        def per_meas(f, fill, dtype=float):
+            return np.array([f(m) for m in measurements] + [fill] * (M - len(measurements)),
+                            dtype=dtype)
+
+        has_acc = per_meas(lambda m: m.accumulate is not None, False, np.bool_)
+        Qc = np.stack([np.ascontiguousarray(model.Qc() if lf.Qc is None else lf.Qc)
+                       for lf in locals_])
         offs = layout.offsets()
         self._C = _Const(
-            offs=offs, offs9=tuple(int(o) for o in em._offsets(layout)),
-            Qc=np.ascontiguousarray(model.Qc()), q_dr_m2_s=float(dr_position_m2_s),
-            inv_tau_dk=1.0 / model.noise.dk_tau, dr_eps=bool(model.dr_sees_gyro_drift),
-            grav_grad=bool(model.gravity_gradient), with_dr=with_dr, step=self.step,
-            out_every=self.out_every, fb_mask=fb_mask,
-            feedback_every=int(feedback_every) if fb_mask.any() else 0,
+            offs=offs, offs9=tuple(int(o) for o in em._offsets(layout)), Qc=Qc,
+            q_dr_m2_s=float(dr_position_m2_s), inv_tau_dk=1.0 / model.noise.dk_tau,
+            dr_eps=bool(model.dr_sees_gyro_drift), grav_grad=bool(model.gravity_gradient),
+            with_dr=with_dr, step=self.step, out_every=self.out_every, fb_mask=fb_mask,
+            fb_states=fb_states, feedback_every=int(feedback_every) if fb_mask.any() else 0,
             C_bm=np.ascontiguousarray(C_bm), l_b=l_b,
-            gates=np.array([m.gate for m in measurements]
-                           + [0.0] * (MAX_MEASUREMENTS - len(measurements))),
-            params=params,
-            dofs=np.array([m.dof for m in measurements]
-                          + [0] * (MAX_MEASUREMENTS - len(measurements)), dtype=np.int64))
+            gates=per_meas(lambda m: m.gate, 0.0), params=params,
+            dofs=per_meas(lambda m: m.dof, 0, np.int64),
+            local=per_meas(lambda m: -1 if getattr(m, "local", 0) is None else m.local, 0,
+                           np.int64),
+            r_scale=np.array([lf.r_scale for lf in locals_]),
+            isolate=per_meas(lambda m: m.isolate, False, np.bool_),
+            return_tests=per_meas(lambda m: m.return_tests, 1, np.int64),
+            primary=np.array([lf.role == "primary" for lf in locals_]),
+            fallback=np.array([lf.role == "fallback" for lf in locals_]),
+            n_common=int(n_common),
+            need_nb=bool(has_acc.any() or any(m.needs_body_rate for m in measurements)),
+            has_acc=has_acc, log_nis=per_meas(lambda m: m.isolate or m.log_nis, False,
+                                                np.bool_))
         self._fills = tuple([m.fill for m in measurements]
-                            + [_noop_fill] * (MAX_MEASUREMENTS - len(measurements)))
-        M = MAX_MEASUREMENTS
+                            + [_noop_fill] * (M - len(measurements)))
+        self._accs = tuple([m.accumulate if m.accumulate is not None else _noop_acc
+                            for m in measurements] + [_noop_acc] * (M - len(measurements)))
         self._S = _State(
             xs=x0.copy(), ms=K.new_memory(), xd=x0.copy(), md=K.new_memory(),
-            x=np.zeros(n), P=P0, fed_back=np.zeros(n), bias_g=np.zeros(3),
-            bias_a=np.zeros(3), acc=np.zeros(8), ints=np.zeros(2, dtype=np.int64),
+            X=np.zeros((L, n)), P=np.stack([lf.P0 for lf in locals_]), fed_back=np.zeros(n),
+            bias_g=np.zeros(3), bias_a=np.zeros(3), acc=np.zeros(_A_SIZE),
+            ints=np.zeros(5, dtype=np.int64),
             used=np.zeros(M, dtype=np.int64), rejected=np.zeros(M, dtype=np.int64),
             nis_sum=np.zeros(M), dof_sum=np.zeros(M, dtype=np.int64),
-            t_end=np.array([float(init.t)]))
+            t_end=np.array([float(init.t)]), healthy=np.ones(M, dtype=np.bool_),
+            normal_run=np.zeros(M, dtype=np.int64), tests=np.zeros(M, dtype=np.int64),
+            exceed=np.zeros(M, dtype=np.int64), macc=np.zeros((M, ACC_SIZE)),
+            ev=np.zeros((int(max_events), 4)), nis_log=np.zeros((int(max_nis), 3)))
+        self._S.ints[_I_MODE] = _mode(self._S, self._C)
         self.t = float(init.t)           #: time of the last IMU row processed [s]
         self.rows = 0                    #: IMU rows processed
         self._qt = np.zeros(0)
@@ -419,7 +680,8 @@ class ErrorStateFilter:
         self._qd = np.ascontiguousarray(np.concatenate(ds)[order])
 
     def add_imu(self, t, dtheta, dvel, *, ds=None, speed=None, dtheta_dr=None,
-                flush: bool = False, max_out: int | None = None) -> dict:
+                row_data: dict | None = None, flush: bool = False,
+                max_out: int | None = None) -> dict:
         """Process IMU rows: mechanization, a predict per ``step_rows`` rows, the queued
         samples that fall due, feedback.
 
@@ -430,6 +692,8 @@ class ErrorStateFilter:
         ds, speed : (M,) the DR's velocity-sensor distance [m] over each row and speed [m/s]
             at ``t`` (required when the filter has a DR)
         dtheta_dr : (M, 3) rad, the DR's own gyro rows (default: the SINS's)
+        row_data : {measurement name: (M,) or (M, R)} the per-row data of measurements with
+            an accumulator (e.g. a sensor's distance over each row)
         flush : close a partial last epoch (the end of a run)
         max_out : output rows to make room for (default: all this call can write)
 
@@ -437,7 +701,9 @@ class ErrorStateFilter:
         -------
         dict of the output rows written (every ``out_every``-th epoch): ``t`` (R,),
         ``x_sins`` (R, 10) kernel states corrected by the estimate not yet fed back,
-        ``sigma`` (R, n), ``states`` (R, n) (fed back plus current), ``cov_phi`` (R, 3, 3).
+        ``sigma`` (R, n), ``states`` (R, n) (fed back plus current), ``cov_phi`` (R, 3, 3),
+        ``mode`` (R,) the global estimate's source, and with a bank ``local_x``,
+        ``local_sigma`` (R, L, n).
         """
         t = np.ascontiguousarray(t, dtype=float).reshape(-1)
         m = len(t)
@@ -455,24 +721,53 @@ class ErrorStateFilter:
             ds = speed = np.zeros(m)
         dth_dr = (np.zeros((0, 3)) if dtheta_dr is None
                   else np.ascontiguousarray(dtheta_dr, dtype=float).reshape(m, 3))
+        rows = self._rows(row_data, m)
         dt = np.diff(np.concatenate([[self.t], t])) if m else np.zeros(0)
         self._merge_pending()
         n_ep = (int(self._S.acc[0]) + m) // self.step + 1
         cap = n_ep // self.out_every + 1 if max_out is None else int(max_out)
-        n = self.layout.n
-        O = _Out(t=np.empty(cap), xs=np.empty((cap, K.NX)), sigma=np.empty((cap, n)),
-                 states=np.empty((cap, n)), cov_phi=np.empty((cap, 3, 3)),
-                 n=np.zeros(1, dtype=np.int64))
-        used = _advance(self._S, self._C, self._fills, t, dtheta, dvel, dt, ds, speed, dth_dr,
-                        self._qt, self._qj, self._qd, O, bool(flush))
+        O = self._out(cap)
+        used = _advance(self._S, self._C, self._fills, self._accs, t, dtheta, dvel, dt, ds,
+                        speed, dth_dr, rows, self._qt, self._qj, self._qd, O, bool(flush))
         if used:
             self._qt, self._qj, self._qd = self._qt[used:], self._qj[used:], self._qd[used:]
         if m:
             self.t = float(t[-1])
             self.rows += m
+        return self._result(O)
+
+    def _rows(self, row_data, m):
+        J = len(self.measurements)
+        rows = np.full((MAX_MEASUREMENTS if J else 0, m, self._row_size), np.nan)
+        need = [j for j, ms_ in enumerate(self.measurements) if ms_.accumulate is not None]
+        row_data = row_data or {}
+        for name in row_data:
+            if name not in self._index:
+                raise KeyError(f"row data for {name!r}, which is not a measurement here")
+        for j in need:
+            name = self.measurements[j].name
+            if name not in row_data:
+                raise ValueError(f"measurement {name!r} accumulates per IMU row: add_imu "
+                                 f"needs row_data[{name!r}]")
+            d = np.asarray(row_data[name], dtype=float).reshape(m, -1)
+            rows[j, :, :d.shape[1]] = d
+        return rows
+
+    def _out(self, cap):
+        n = self.layout.n
+        L = len(self.locals) if len(self.locals) > 1 else 0
+        return _Out(t=np.empty(cap), xs=np.empty((cap, K.NX)), sigma=np.empty((cap, n)),
+                    states=np.empty((cap, n)), cov_phi=np.empty((cap, 3, 3)),
+                    mode=np.empty(cap, dtype=np.int64), local_x=np.empty((cap, L, n)),
+                    local_sig=np.empty((cap, L, n)), n=np.zeros(1, dtype=np.int64))
+
+    def _result(self, O):
         k = int(O.n[0])
-        return {"t": O.t[:k], "x_sins": O.xs[:k], "sigma": O.sigma[:k],
-                "states": O.states[:k], "cov_phi": O.cov_phi[:k]}
+        res = {"t": O.t[:k], "x_sins": O.xs[:k], "sigma": O.sigma[:k], "states": O.states[:k],
+               "cov_phi": O.cov_phi[:k], "mode": O.mode[:k]}
+        if O.local_x.shape[1]:
+            res["local_x"], res["local_sigma"] = O.local_x[:k], O.local_sig[:k]
+        return res
 
     def flush(self) -> dict:
         """Close a partial filter epoch (predict over it, apply what fell due); the outputs
@@ -483,13 +778,10 @@ class ErrorStateFilter:
     # -- output --------------------------------------------------------------------------
     def output_now(self) -> dict:
         """One output row of the current state (the same fields as :meth:`add_imu`'s)."""
+        O = self._out(1)
         n = self.layout.n
-        O = _Out(t=np.empty(1), xs=np.empty((1, K.NX)), sigma=np.empty((1, n)),
-                 states=np.empty((1, n)), cov_phi=np.empty((1, 3, 3)),
-                 n=np.zeros(1, dtype=np.int64))
-        _write_output(self._S, self._C, O, self.t)
-        return {"t": O.t, "x_sins": O.xs, "sigma": O.sigma, "states": O.states,
-                "cov_phi": O.cov_phi}
+        _write_output(self._S, self._C, O, self.t, np.zeros(n), np.zeros((n, n)))
+        return self._result(O)
 
     def state(self) -> NavState:
         """The navigation solution now: the SINS corrected by the estimate not yet fed back."""
@@ -497,48 +789,57 @@ class ErrorStateFilter:
         return NavState(self.t, x[K.LAT], x[K.LON], x[K.H], x[K.VE:K.VU + 1].copy(),
                         x[K.Q0:K.Q3 + 1].copy())
 
-    def covariance(self) -> np.ndarray:
-        """``P`` (n, n), a copy, in the layout's SI units."""
-        return self._S.P.copy()
+    def covariance(self, local: int = 0) -> np.ndarray:
+        """``P`` (n, n) of a local filter (the only one by default), a copy, SI."""
+        return self._S.P[local].copy()
 
     def sigma(self) -> dict:
-        """``{state element: 1-sigma}`` in SI (``layout.names``)."""
-        return self.layout.as_dict(np.sqrt(np.maximum(np.diagonal(self._S.P), 0.0)))
+        """``{state element: 1-sigma}`` of the global estimate, SI (``layout.names``)."""
+        return self.layout.as_dict(self.output_now()["sigma"][0])
 
     def estimate(self) -> dict:
-        """``{state element: fed back + current estimate}`` in SI: the accumulated error
-        estimate (sensor errors such as ``eps_x``, ``mount_z``, ``dk``)."""
-        return self.layout.as_dict(self._S.fed_back + self._S.x)
+        """``{state element: fed back + current estimate}`` of the global estimate, SI: the
+        accumulated error estimate (sensor errors such as ``eps_x``, ``mount_z``, ``dk``)."""
+        return self.layout.as_dict(self.output_now()["states"][0])
 
     @property
     def x(self) -> np.ndarray:
-        """The current error-state estimate (not yet fed back), a copy."""
-        return self._S.x.copy()
+        """The current error-state estimate of the (first) local filter, a copy."""
+        return self._S.X[0].copy()
 
     @property
     def epochs(self) -> int:
         return int(self._S.ints[_I_EPOCHS])
 
+    @property
+    def mode(self) -> int:
+        """The global estimate's source: a local filter's index, MODE_FUSED or MODE_NONE."""
+        return int(self._S.ints[_I_MODE])
+
     def kernel_states(self):
-        """``(xs, xd, aux)``: copies of the SINS and DR kernel states and the last epoch's
-        ``aux`` (:data:`inmotion.estimation.measurements.AUX_SIZE`) for a measurement's
-        :meth:`~inmotion.estimation.measurements.Measurement.rows`."""
+        """``(xs, xd, aux, acc)``: copies of the SINS and DR kernel states, the last row's
+        ``aux`` (:data:`inmotion.estimation.measurements.AUX_SIZE`) and a zero accumulator,
+        for a measurement's :meth:`~inmotion.estimation.measurements.Measurement.rows`."""
         S = self._S
         aux = np.zeros(AUX_SIZE)
         aux[0] = self.t
         aux[1:4] = S.ms[K.M_WIB:K.M_WIB + 3]
         aux[4:7] = S.ms[K.M_FB:K.M_FB + 3]
-        return S.xs.copy(), S.xd.copy(), aux
+        return S.xs.copy(), S.xd.copy(), aux, np.zeros(ACC_SIZE)
 
     def counts(self) -> dict:
-        """Per measurement: samples used, rejected by the gate, and mean NIS per degree of
-        freedom (``None`` before any)."""
+        """Per measurement: samples used, rejected (gate or isolation), mean NIS per degree
+        of freedom (``None`` before any), and with FDI the tests, exceedances while healthy
+        and whether it is healthy now."""
         S = self._S
         res = {}
         for j, m in enumerate(self.measurements):
             dof = int(S.dof_sum[j])
             res[m.name] = {"used": int(S.used[j]), "rejected": int(S.rejected[j]),
                            "nis_per_dof": float(S.nis_sum[j] / dof) if dof else None}
+            if m.isolate:
+                res[m.name].update(tests=int(S.tests[j]), exceedances_while_healthy=int(
+                    S.exceed[j]), healthy=bool(S.healthy[j]))
         return res
 
     def nis_sums(self) -> dict:
@@ -547,10 +848,25 @@ class ErrorStateFilter:
         return {m.name: (float(S.nis_sum[j]), int(S.dof_sum[j]))
                 for j, m in enumerate(self.measurements)}
 
+    def events(self) -> tuple:
+        """``(events, dropped)``: (E, 4) rows ``[t, measurement index (-1: mode), kind,
+        value]`` (kind :data:`EVENT_DETECTED` / :data:`EVENT_RETURNED` with the NIS,
+        :data:`EVENT_MODE` with the new source) and how many did not fit."""
+        S = self._S
+        k = int(min(S.ints[_I_EV], len(S.ev)))
+        return S.ev[:k].copy(), int(S.ints[_I_EV] - k)
+
+    def nis_series(self) -> np.ndarray:
+        """(K, 3) rows ``[t, measurement index, NIS]`` of the logged measurements (FDI-tested
+        ones and those with ``log_nis``), up to ``max_nis`` rows."""
+        S = self._S
+        return S.nis_log[:int(min(S.ints[_I_NIS], len(S.nis_log)))].copy()
+
     # -- checkpoints ---------------------------------------------------------------------
     def snapshot(self) -> dict:
-        """A copy of the whole filter state (nav systems, estimate, covariance, compensation,
-        epoch accumulators, counters, queued samples); :meth:`restore` returns to it."""
+        """A copy of the whole filter state (nav systems, estimates, covariances,
+        compensation, epoch accumulators, counters, FDI state, queued samples);
+        :meth:`restore` returns to it."""
         self._merge_pending()
         return {"S": _State(*(a.copy() for a in self._S)), "t": self.t, "rows": self.rows,
                 "queue": (self._qt.copy(), self._qj.copy(), self._qd.copy())}

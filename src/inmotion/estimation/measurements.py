@@ -5,7 +5,7 @@ it takes per sample (``data_size`` values), what it needs from the navigation st
 (``needs_dr``: the dead reckoner), its noise parameters, an optional innovation gate, and one
 numba **fill function** with the fixed signature :data:`FILL_SIG`::
 
-    fill(xs, xd, aux, data, p, offs, z, H, r) -> m
+    fill(xs, xd, aux, acc, data, p, offs, z, H, r) -> m
 
 which writes ``m <= dof`` rows of the innovation vector ``z`` (measured minus predicted, so that
 ``z = H x + noise`` for the error state ``x``), the rows of ``H`` (on the columns given by the
@@ -53,26 +53,37 @@ from numba import types
 
 from ..core import _kernels as K
 from . import error_model as em
-from .layout import DK, DP, DP_D, DV, EPS, MOUNT, PHI, PHI_D, Layout
+from .aiding_rows import _displacement_rows, _velocity_rows
+from .layout import DK, DP, DP_D, DV, EPS, LEVER, MOUNT, PHI, PHI_D, Layout
 from .nav_ops import dcm_of_q, euler_ypr, wrap_pi
 
-__all__ = ["FILL_SIG", "Measurement", "SinsDrAttitude", "SinsDrVelocity", "SinsDrPosition",
+__all__ = ["FILL_SIG", "ACC_SIG", "ACC_SIZE", "accumulator_function", "Measurement", "SinsDrAttitude", "SinsDrVelocity", "SinsDrPosition",
            "ForwardVelocity", "Nhc", "Height", "Position", "ZeroVelocity", "ZeroAngularRate",
            "fill_function", "AUX_SIZE"]
 
 warnings.filterwarnings("ignore", message="First-class function type feature is experimental")
 
 _f8 = types.float64[::1]
-#: the one signature of every fill function: (xs, xd, aux, data, p, offs, z, H, r) -> rows
-FILL_SIG = types.int64(_f8, _f8, _f8, _f8, _f8, types.int64[::1], _f8, types.float64[:, ::1],
-                       _f8)
-#: ``aux = [t, omega_ib_b x, y, z, f_b x, y, z]``
-AUX_SIZE = 7
+#: the one signature of every fill function:
+#: (xs, xd, aux, acc, data, p, offs, z, H, r) -> rows
+FILL_SIG = types.int64(_f8, _f8, _f8, _f8, _f8, _f8, types.int64[::1], _f8,
+                       types.float64[:, ::1], _f8)
+#: the one signature of every accumulator: (acc, xs, v_old, th_nb, dt, rd, p) -> 0
+ACC_SIG = types.int64(_f8, _f8, _f8, _f8, types.float64, _f8, _f8)
+#: ``aux = [t, omega_ib_b x, y, z, f_b x, y, z, omega_nb_b x, y, z]``
+AUX_SIZE = 10
+#: values of a measurement's row accumulator
+ACC_SIZE = 16
 
 
 def fill_function(func):
     """Compile ``func`` as a fill function with :data:`FILL_SIG` (cached on disk)."""
     return numba.njit(FILL_SIG, cache=True)(func)
+
+
+def accumulator_function(func):
+    """Compile ``func`` as an accumulator with :data:`ACC_SIG` (cached on disk)."""
+    return numba.njit(ACC_SIG, cache=True)(func)
 
 
 class Measurement:
@@ -88,6 +99,9 @@ class Measurement:
         leaves the state untouched and is counted.
     name : str, optional
         Overrides the class name (two measurements of one kind in one filter).
+    local : int or None, optional
+        The local filter it updates in a bank (default 0; ``None``: every local filter, the
+        noise scaled by each one's ``r_scale``).
     """
 
     name = "measurement"
@@ -95,14 +109,27 @@ class Measurement:
     data_size = 0
     needs_dr = False
     fill = None
+    #: per-row accumulator (:data:`ACC_SIG`) and the row data it takes
+    accumulate = None
+    row_data_size = 0
+    #: the local filter it updates (``None``: every one, shared)
+    local = 0
+    #: fault isolation (paper 003 eq. 42) and the passing tests before a return
+    isolate = False
+    return_tests = 1
+    #: keep the NIS series;  fill aux[7:10] (body rate w.r.t. n)
+    log_nis = False
+    needs_body_rate = False
 
-    def __init__(self, *, gate: float = 0.0, name: str | None = None):
+    def __init__(self, *, gate: float = 0.0, name: str | None = None, local="default"):
         if not (gate >= 0.0 and math.isfinite(gate)):
             raise ValueError(f"{type(self).__name__}: gate must be a finite chi-square "
                              f"threshold >= 0, got {gate!r}")
         self.gate = float(gate)
         if name is not None:
             self.name = name
+        if local != "default":
+            self.local = None if local is None else int(local)
 
     def params(self) -> np.ndarray:
         """The parameter vector ``p`` handed to the fill function (SI)."""
@@ -112,14 +139,18 @@ class Measurement:
         """The Python form: ``(z, H, R)`` at the navigation state ``nav``.
 
         ``nav`` is an :class:`~inmotion.estimation.engine.ErrorStateFilter` (its current SINS,
-        DR and epoch means) or a tuple ``(xs, xd, aux)`` of kernel arrays; ``layout`` defaults
-        to the filter's. Returns ``z`` (m,), ``H`` (m, n), ``R`` (m, m) diagonal; ``m = 0``
+        DR and last row's rates) or a tuple ``(xs, xd, aux[, acc])`` of kernel arrays;
+        ``layout`` defaults to the filter's. Returns ``z`` (m,), ``H`` (m, n), ``R`` (m, m) diagonal; ``m = 0``
         when the sample gives no measurement.
         """
         if isinstance(nav, tuple):
-            xs, xd, aux = (np.ascontiguousarray(a, dtype=float) for a in nav)
+            nav = tuple(np.ascontiguousarray(a, dtype=float) for a in nav)
+            xs, xd, aux = nav[:3]
+            acc = nav[3] if len(nav) > 3 else np.zeros(ACC_SIZE)
+            if len(aux) < AUX_SIZE:
+                aux = np.concatenate([aux, np.zeros(AUX_SIZE - len(aux))])
         else:
-            xs, xd, aux = nav.kernel_states()
+            xs, xd, aux, acc = nav.kernel_states()
             layout = layout or nav.layout
         if layout is None:
             raise ValueError("rows() needs the layout when nav is a tuple of arrays")
@@ -131,7 +162,7 @@ class Measurement:
         z = np.zeros(self.dof)
         H = np.zeros((self.dof, layout.n))
         r = np.zeros(self.dof)
-        m = self.fill(xs, xd, aux, d, np.ascontiguousarray(self.params(), dtype=float),
+        m = self.fill(xs, xd, aux, acc, d, np.ascontiguousarray(self.params(), dtype=float),
                       layout.offsets(), z, H, r)
         return z[:m], H[:m], np.diag(r[:m])
 
@@ -154,6 +185,13 @@ def _noise3(values, what):
     if not np.all(np.isfinite(v)) or np.any(v <= 0.0):
         raise ValueError(f"{what} must be finite and > 0, got {values!r}")
     return v
+
+
+def _mounting(C):
+    C = np.eye(3) if C is None else np.array(C, dtype=float)
+    if C.shape != (3, 3) or not np.all(np.isfinite(C)):
+        raise ValueError(f"a mounting matrix must be a finite (3, 3), got {C!r}")
+    return C
 
 
 def _noise1(value, what):
@@ -191,7 +229,7 @@ def body_velocity_rows(z, H, r, m, C_bn, dv_n, r_vel, o_dv, o_att, V, o_dk, dk_v
 
 # ----------------------------------------------------------------------------- SINS minus DR
 @fill_function
-def _fill_sins_dr_attitude(xs, xd, aux, data, p, offs, z, H, r):
+def _fill_sins_dr_attitude(xs, xd, aux, acc, data, p, offs, z, H, r):
     C_S = dcm_of_q(xs[K.Q0:K.Q3 + 1])
     C_D = dcm_of_q(xd[K.Q0:K.Q3 + 1])
     d = euler_ypr(C_S) - euler_ypr(C_D)
@@ -232,7 +270,7 @@ class SinsDrAttitude(Measurement):
 
 
 @fill_function
-def _fill_sins_dr_velocity(xs, xd, aux, data, p, offs, z, H, r):
+def _fill_sins_dr_velocity(xs, xd, aux, acc, data, p, offs, z, H, r):
     # z_n = v_S - v_D, H_n = [dv: I, phi_D: -[v x], dk: -v, mount: -[v x] C_D]; applied as
     # C_n^b z_n with the DR attitude, whose rows have the independent noises (lateral,
     # forward, vertical): the sensor's white noise lies along its forward axis only
@@ -271,7 +309,7 @@ class SinsDrVelocity(Measurement):
 
 
 @fill_function
-def _fill_sins_dr_position(xs, xd, aux, data, p, offs, z, H, r):
+def _fill_sins_dr_position(xs, xd, aux, acc, data, p, offs, z, H, r):
     r_m, r_n = K.radii(xs[K.LAT])
     scale = (r_m + xs[K.H], (r_n + xs[K.H]) * math.cos(xs[K.LAT]), 1.0)
     o_dp, o_dpD = offs[DP], offs[DP_D]
@@ -308,7 +346,7 @@ class SinsDrPosition(Measurement):
 
 # ----------------------------------------------------------------------------- SINS alone
 @fill_function
-def _fill_forward_velocity(xs, xd, aux, data, p, offs, z, H, r):
+def _fill_forward_velocity(xs, xd, aux, acc, data, p, offs, z, H, r):
     # z_n = v_S - C_S [0, speed, 0], H_n = [dv: I, phi: -[v x], mount: -[v_s x] C_S,
     # dk: -v_s] (error_model.sensor_velocity_rows), applied as C_n^b z_n (SINS attitude)
     speed = data[0]
@@ -352,22 +390,28 @@ class ForwardVelocity(Measurement):
 
 
 @fill_function
-def _fill_nhc(xs, xd, aux, data, p, offs, z, H, r):
-    # z = [v_x, v_z] of C_n^b v (SINS); H: C_n^b on dv, -C_n^b [v x] on phi, and with the
-    # mounting terms (p[1] = 1) -[v_b x] on the mounting angles (error_model.nhc_rows)
+def _fill_nhc(xs, xd, aux, acc, data, p, offs, z, H, r):
+    # z = [v_x, v_z] of C_v^b0^T C_n^b v (SINS, vehicle frame); H: C_vn on dv, -C_vn [v x]
+    # on phi, and with the mounting terms (p[1] = 1) -[v_b x] on the mounting angles
+    # (error_model.nhc_rows); p[2:11] is C_v^b0 row by row (identity: the IMU is the vehicle)
     C_bn = dcm_of_q(xs[K.Q0:K.Q3 + 1]).T
+    C_vb0 = np.empty((3, 3))
+    for i in range(3):
+        for j in range(3):
+            C_vb0[i, j] = p[2 + 3 * i + j]
+    C_vn = C_vb0.T @ C_bn
     v = xs[K.VE:K.VU + 1].copy()
-    v_b = C_bn @ v
-    CV = C_bn @ em.skew(v)
+    v_b = C_vn @ v
+    CV = C_vn @ em.skew(v)
     Vb = em.skew(v_b)
     o_dv, o_phi, o_mount = offs[DV], offs[PHI], offs[MOUNT]
     with_mount = p[1] != 0.0 and o_mount >= 0
     for i in range(2):
-        row = 2 * i                          # body x, then body z
+        row = 2 * i                          # vehicle x, then vehicle z
         z[i] = v_b[row]
         r[i] = p[0]
         for j in range(3):
-            H[i, o_dv + j] = C_bn[row, j]
+            H[i, o_dv + j] = C_vn[row, j]
             H[i, o_phi + j] = -CV[row, j]
             if with_mount:
                 H[i, o_mount + j] = -Vb[row, j]
@@ -381,29 +425,39 @@ class Nhc(Measurement):
     ``-[v_b x]`` on ``mount`` (:func:`error_model.nhc_rows`; paper 000's eq. 37 as printed
     has none).
 
+    With a nominal vehicle mounting ``C_v^b0`` the rows are those of the vehicle frame,
+    ``C_vn = C_v^b0^T C_n^b`` in place of ``C_n^b`` (paper 003 eq. 29-31).
+
     Parameters
     ----------
     sigma_m_s : 1-sigma of each row [m/s]
-    mount_terms : bool, carry the mounting columns (when the layout has ``mount``)
+    mount_terms : bool, carry the mounting columns (the 3-angle ``mount`` block)
+    vehicle_mounting : (3, 3) nominal ``C_v^b0`` (identity by default)
     """
 
     name, dof = "nhc", 2
     fill = staticmethod(_fill_nhc)
 
-    def __init__(self, sigma_m_s: float, mount_terms: bool = True, **kw):
+    def __init__(self, sigma_m_s: float, mount_terms: bool = True, vehicle_mounting=None,
+                 **kw):
         super().__init__(**kw)
         self.sigma_m_s = _noise1(sigma_m_s, "NHC sigma_m_s")
         self.mount_terms = bool(mount_terms)
+        self.C_vb0 = _mounting(vehicle_mounting)
 
     def params(self):
-        return np.array([self.sigma_m_s ** 2, 1.0 if self.mount_terms else 0.0])
+        return np.r_[self.sigma_m_s ** 2, 1.0 if self.mount_terms else 0.0,
+                     self.C_vb0.ravel()]
 
     def check(self, layout):
         _need(layout, self, "phi", "dv")
+        if self.mount_terms and "mount" in layout and layout["mount"].stop - \
+                layout["mount"].start != 3:
+            raise ValueError("NHC mount_terms need the 3-angle 'mount' block")
 
 
 @fill_function
-def _fill_height(xs, xd, aux, data, p, offs, z, H, r):
+def _fill_height(xs, xd, aux, acc, data, p, offs, z, H, r):
     if math.isnan(data[0]):
         return 0
     z[0] = xs[K.H] - data[0]
@@ -433,7 +487,7 @@ class Height(Measurement):
 
 
 @fill_function
-def _fill_position(xs, xd, aux, data, p, offs, z, H, r):
+def _fill_position(xs, xd, aux, acc, data, p, offs, z, H, r):
     if math.isnan(data[0]) or math.isnan(data[1]) or math.isnan(data[2]):
         return 0
     r_m, r_n = K.radii(xs[K.LAT])
@@ -466,7 +520,7 @@ class Position(Measurement):
 
 
 @fill_function
-def _fill_zero_velocity(xs, xd, aux, data, p, offs, z, H, r):
+def _fill_zero_velocity(xs, xd, aux, acc, data, p, offs, z, H, r):
     for i in range(3):
         z[i] = xs[K.VE + i]
         r[i] = p[i]
@@ -493,7 +547,7 @@ class ZeroVelocity(Measurement):
 
 
 @fill_function
-def _fill_zero_rate(xs, xd, aux, data, p, offs, z, H, r):
+def _fill_zero_rate(xs, xd, aux, acc, data, p, offs, z, H, r):
     # parked: the gyros measure the Earth rate, w_ib_b = C_n^b w_ie_n + eps + noise. With
     # C_n^b(computed) = C_n^b (I + [phi x]) the predicted rate is off by -C_n^b [w_ie x] phi,
     # so z = w_ib_b - C_n^b(computed) w_ie_n = eps + C_n^b [w_ie x] phi + noise
@@ -538,3 +592,132 @@ class ZeroAngularRate(Measurement):
 
     def check(self, layout):
         _need(layout, self, "phi", "eps")
+
+
+# ----------------------------------------------------------------------------- paper 003
+@accumulator_function
+def _acc_sensor_interval(a, xs, v_old, th_nb, dt, rd, p):
+    """Over a measurement interval: ``a = [T, Delta P (3), Delta theta_nb (3), Delta D (3),
+    Delta W (3), bad]`` with the SINS displacement ``sum v dt`` (trapezoid), the body rotation
+    w.r.t. n, the sensor's displacement ``sum C_b^n (w_b - [dtheta_nb x] l)`` and its distance
+    part ``sum C_b^n w_b`` (``w_b = C_v^b0 [0, ds, 0]``); ``bad`` = 1 once a row has no
+    sensor distance (``rd[0]`` NaN)."""
+    a[0] += dt
+    for i in range(3):
+        a[4 + i] += th_nb[i]
+        a[1 + i] += 0.5 * (v_old[i] + xs[K.VE + i]) * dt
+    ds = rd[0]
+    if math.isnan(ds):
+        a[13] = 1.0
+        return 0
+    Cnb = dcm_of_q(xs[K.Q0:K.Q3 + 1])
+    w_b = np.empty(3)
+    for i in range(3):
+        w_b[i] = p[6 + i] * ds
+    lv0, lv1, lv2 = p[3], p[4], p[5]
+    cr = np.array([th_nb[1] * lv2 - th_nb[2] * lv1, th_nb[2] * lv0 - th_nb[0] * lv2,
+                   th_nb[0] * lv1 - th_nb[1] * lv0])
+    wn = Cnb @ w_b
+    dn = Cnb @ (w_b - cr)
+    for i in range(3):
+        a[10 + i] += wn[i]
+        a[7 + i] += dn[i]
+    return 0
+
+
+@fill_function
+def _fill_sensor_velocity_n(xs, xd, aux, acc, data, p, offs, z, H, r):
+    # paper 003 eq. 23-24 (aiding_rows): z = v_SINS - C_b^n (w_b - omega_nb x l), n frame
+    v = data[0]
+    if acc[13] != 0.0 or math.isnan(v):
+        return 0
+    Cnb = dcm_of_q(xs[K.Q0:K.Q3 + 1])
+    w_b = np.empty(3)
+    for i in range(3):
+        w_b[i] = p[6 + i] * v
+    w_nb = aux[7:10].copy()
+    lv0, lv1, lv2 = p[3], p[4], p[5]
+    cr = np.array([w_nb[1] * lv2 - w_nb[2] * lv1, w_nb[2] * lv0 - w_nb[0] * lv2,
+                   w_nb[0] * lv1 - w_nb[1] * lv0])
+    u_b = w_b - cr
+    vs = Cnb @ u_b
+    for i in range(3):
+        z[i] = xs[K.VE + i] - vs[i]
+        r[i] = p[i] ** 2
+    _velocity_rows(H, (offs[PHI], offs[DV], offs[DK], offs[MOUNT], offs[LEVER]), Cnb, w_b, u_b,
+                   w_nb)
+    return 3
+
+
+@fill_function
+def _fill_displacement(xs, xd, aux, acc, data, p, offs, z, H, r):
+    # paper 003 ref. 38 (aiding_rows): z = C_n^b (Delta P - Delta D) over the interval, b frame
+    if acc[13] != 0.0 or acc[0] <= 0.0:
+        return 0
+    T = acc[0]
+    C_bn = np.ascontiguousarray(dcm_of_q(xs[K.Q0:K.Q3 + 1]).T)
+    dD = acc[7:10].copy()
+    for i in range(3):
+        zz = 0.0
+        for j in range(3):
+            zz += C_bn[i, j] * (acc[1 + j] - dD[j])
+        z[i] = zz
+        r[i] = (p[i] * T) ** 2
+    _displacement_rows(H, (offs[PHI], offs[DV], offs[DK], offs[MOUNT], offs[LEVER]), C_bn, T,
+                       C_bn @ dD, C_bn @ acc[10:13].copy(), acc[4:7].copy())
+    return 3
+
+
+class _SensorChannel(Measurement):
+    """A forward-velocity sensor of paper 003 (odometer, LDV) on a sub-filter with the
+    ``dk``, ``mount`` = ``[alpha, gamma]`` and ``lever`` blocks
+    (:data:`inmotion.estimation.aiding_rows.SUB_LAYOUT`).
+
+    Row data: the sensor's distance over each IMU row [m] (NaN: not covered; the interval's
+    sample is then skipped).
+
+    Parameters
+    ----------
+    sigma_m_s : (3,) 1-sigma per row [m/s] (right, forward, up; displacement: times ``T``)
+    lever_arm_m : (3,) nominal lever arm in b [m];  vehicle_mounting : (3, 3) nominal
+        ``C_v^b0``;  local : the local filter it updates;  isolate, return_tests : FDI
+    """
+
+    dof, row_data_size = 3, 1
+    accumulate = staticmethod(_acc_sensor_interval)
+    needs_body_rate = True
+
+    def __init__(self, sigma_m_s, *, lever_arm_m=None, vehicle_mounting=None, local=0,
+                 isolate=False, return_tests=1, **kw):
+        super().__init__(local=local, **kw)
+        self.sigma_m_s = _noise3(sigma_m_s, f"{self.name} sigma_m_s")
+        self.lever = np.zeros(3) if lever_arm_m is None else np.asarray(lever_arm_m, float)
+        self.C_vb0 = _mounting(vehicle_mounting)
+        self.isolate = bool(isolate)
+        self.return_tests = int(return_tests)
+
+    def params(self):
+        return np.r_[self.sigma_m_s, self.lever, self.C_vb0[:, 1]]
+
+    def check(self, layout):
+        _need(layout, self, "phi", "dv", "dk", "mount", "lever")
+
+
+class SensorVelocityNav(_SensorChannel):
+    """Paper 003 eq. 23-24: SINS velocity minus the sensor's forward speed mapped to the IMU
+    point (lever arm, nominal mounting) and to n, ``z = v_SINS - C_b^n (C_v^b0 [0, v, 0] -
+    omega_nb^b x l)``; rows :func:`inmotion.estimation.aiding_rows._velocity_rows`.
+    Sample: ``[v]`` [m/s] at the interval's end."""
+
+    name, data_size = "sensor_velocity_n", 1
+    fill = staticmethod(_fill_sensor_velocity_n)
+
+
+class DisplacementIncrement(_SensorChannel):
+    """Paper 003 (its ref. 38): the SINS displacement over the measurement interval minus
+    the sensor's, in b at the interval's end; rows
+    :func:`inmotion.estimation.aiding_rows._displacement_rows`. Sample: none (``[]``) at the
+    interval's end; the row accumulator gathers the interval."""
+
+    name, data_size = "displacement", 0
+    fill = staticmethod(_fill_displacement)

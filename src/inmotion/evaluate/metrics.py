@@ -1,6 +1,6 @@
 """Errors of a solution against truth, and the ``errors`` block of ``summary.json``.
 
-Errors are estimate minus truth (``shared/DESIGN.md``, "The result"):
+Errors are estimate minus truth (``docs/result.md``):
 
 - attitude: Euler differences ``[pitch, roll, yaw]`` wrapped to [-180, 180) deg (so yaw 359 deg
   against truth 1 deg is -2 deg), and the misalignment ``phi`` = ``[phi_E, phi_N, phi_U]`` of
@@ -23,6 +23,7 @@ them for shorter runs).
 from __future__ import annotations
 
 import numpy as np
+from numpy.typing import ArrayLike
 import pandas as pd
 
 from ..core import rotations
@@ -43,7 +44,7 @@ ERROR_KEYS = ("pitch_arcmin", "roll_arcmin", "yaw_arcmin",
 LAST_WINDOW_S = 100.0
 
 
-def interpolate_truth(truth: Truth, t) -> Truth:
+def interpolate_truth(truth: Truth, t: ArrayLike) -> Truth:
     """Truth linearly interpolated to times ``t`` [s] (inside the truth's span).
 
     Euler angles are unwrapped before interpolation and yaw re-wrapped to [0, 2 pi), so

@@ -8,12 +8,14 @@ Units are those of the error columns (``*_arcmin``, ``*_m_s``, ``*_m``), named o
 from __future__ import annotations
 
 import io
+import textwrap
 
 import numpy as np
 from matplotlib.figure import Figure
 
-__all__ = ["ERROR_GROUPS", "png_bytes", "error_curves", "ensemble_curves",
-           "final_distributions", "state_curves", "plan_view"]
+__all__ = ["ERROR_GROUPS", "ERROR_WORDS", "png_bytes", "error_curves", "abs_error_curves",
+           "ensemble_curves", "final_distributions", "state_curves", "state_words", "plan_view",
+           "position_error_plan"]
 
 #: rows of the error-curve figures: (title, error columns)
 ERROR_GROUPS = (
@@ -22,6 +24,40 @@ ERROR_GROUPS = (
     ("position", ("north_m", "east_m", "vertical_m")),
 )
 MAX_LINE_POINTS = 4000
+
+#: error column -> (what it is in words, unit)
+ERROR_WORDS = {
+    "pitch_arcmin": ("pitch error", "arcmin"), "roll_arcmin": ("roll error", "arcmin"),
+    "yaw_arcmin": ("heading (yaw) error", "arcmin"),
+    "phi_E_arcmin": ("misalignment about East (level)", "arcmin"),
+    "phi_N_arcmin": ("misalignment about North (level)", "arcmin"),
+    "phi_U_arcmin": ("misalignment about Up (heading)", "arcmin"),
+    "vE_m_s": ("East velocity error", "m/s"), "vN_m_s": ("North velocity error", "m/s"),
+    "vU_m_s": ("Up velocity error", "m/s"),
+    "north_m": ("North position error", "m"), "east_m": ("East position error", "m"),
+    "horizontal_m": ("horizontal position error", "m"),
+    "vertical_m": ("vertical position error", "m"),
+}
+
+#: state name prefix -> one line of meaning (``states.csv`` columns are ``<name>_<unit>``)
+STATE_MEANINGS = (
+    ("sigma_", "1-sigma of "),
+    ("eigval_gap_rel", "q-method eigenvalue gap, relative: how well the attitude is "
+                       "determined (larger is better)"),
+    ("phi_D_", "dead reckoner's misalignment"), ("dp_D_", "dead reckoner's position error"),
+    ("phi_", "misalignment estimate"), ("dv_", "velocity error estimate"),
+    ("dp_", "position error estimate"), ("eps_", "gyro drift estimate (b frame)"),
+    ("nabla_", "accelerometer bias estimate (b frame)"),
+    ("mount_x", "mounting angle about the right axis (pitch mounting)"),
+    ("mount_y", "mounting angle about the forward axis (roll mounting)"),
+    ("mount_z", "mounting angle about the up axis (yaw mounting)"),
+    ("dk", "velocity sensor scale-factor error"), ("lever_", "lever arm error"),
+    ("dv0", "error of the speed sample taken as v^b(0)"),
+    ("gamma", "H-infinity gamma"), ("R_", "adaptive measurement noise"),
+)
+_UNIT_WORDS = (("_deg_h", "deg/h"), ("_arcmin", "arcmin"), ("_ratio", "ratio"), ("_m_s", "m/s"),
+               ("_ppm", "ppm"), ("_ug", "ug"), ("_rad", "rad"), ("_deg", "deg"), ("_m", "m"),
+               ("_si", "SI"))
 
 
 def png_bytes(fig: Figure, dpi: int = 90) -> bytes:
@@ -41,6 +77,28 @@ def _unit_label(column: str) -> str:
         if column.endswith(suffix):
             return f"{column[: -len(suffix)]} [{text}]"
     return column
+
+
+def state_words(column: str) -> tuple[str, str, str]:
+    """``(name, unit, meaning)`` of a ``states.csv`` column:
+    ``"eps_x_deg_h" -> ("eps_x", "deg/h", "gyro drift estimate (b frame)")``."""
+    name, unit = column, ""
+    for suffix, text in _UNIT_WORDS:
+        if column.endswith(suffix):
+            name, unit = column[: -len(suffix)], text
+            break
+    meaning, rest = "", name
+    while True:
+        for prefix, words in STATE_MEANINGS:
+            if rest.startswith(prefix):
+                meaning += words
+                rest = rest[len(prefix):] if prefix == "sigma_" else ""
+                break
+        else:
+            break
+        if not rest:
+            break
+    return name, unit, meaning or "estimated state"
 
 
 def _grid(columns_present):
@@ -91,6 +149,29 @@ def error_curves(t, errors: dict, sigma: dict, title: str = "") -> Figure:
             ax.fill_between(t[sl], -s3, s3, color="C1", alpha=0.25, lw=0, label="±3σ (filter)")
 
     return _column_grid(errors, draw, title)
+
+
+def abs_error_curves(t, errors: dict, sigma: dict, title: str = "") -> Figure:
+    """One run: ``|error|`` of each column on a log scale with the method's 3 sigma, so the
+    converged error stays readable after a start-up transient thousands of times larger.
+
+    Parameters as :func:`error_curves`.
+    """
+    sl = _thin(len(t))
+
+    def draw(ax, col):
+        e = np.abs(np.asarray(errors[col], dtype=float)[sl])
+        floor = max(np.nanmax(e) * 1e-9, 1e-12) if np.isfinite(e).any() else 1e-12
+        ax.semilogy(t[sl], np.maximum(e, floor), lw=0.9, color="C0", label="|error|")
+        if col in sigma and np.isfinite(sigma[col]).any():
+            ax.semilogy(t[sl], 3.0 * np.asarray(sigma[col])[sl], "--", lw=1.0, color="C1",
+                        label="3σ (filter)")
+
+    fig = _column_grid(errors, draw, title)
+    for ax in fig.axes:
+        if ax.get_visible() and ax.get_ylabel():
+            ax.set_ylabel("|" + ax.get_ylabel().replace(" [", "| [", 1))
+    return fig
 
 
 def ensemble_curves(t, runs: dict, sigma: dict, title: str = "") -> Figure:
@@ -170,7 +251,7 @@ def state_curves(t, states: dict, sigma: dict, title: str = "") -> Figure:
     cols = list(states)
     ncol = min(4, max(1, len(cols)))
     nrow = max(1, -(-len(cols) // ncol))
-    fig = Figure(figsize=(3.2 * ncol, 2.3 * nrow), layout="constrained")
+    fig = Figure(figsize=(3.4 * ncol, 2.5 * nrow), layout="constrained")
     axes = np.atleast_1d(fig.subplots(nrow, ncol, squeeze=False, sharex=True)).ravel()
     sl = _thin(len(t))
     for ax, col in zip(axes, cols):
@@ -179,7 +260,9 @@ def state_curves(t, states: dict, sigma: dict, title: str = "") -> Figure:
         if col in sigma:
             s3 = 3.0 * np.asarray(sigma[col])[sl]
             ax.fill_between(t[sl], x - s3, x + s3, color="C1", alpha=0.25, lw=0)
-        ax.set_title(col, fontsize=9)
+        name, unit, meaning = state_words(col)
+        ax.set_title(f"{name} [{unit or '-'}]\n" + "\n".join(textwrap.wrap(meaning, 44)),
+                     fontsize=8)
         ax.grid(alpha=0.3)
     for ax in axes[len(cols):]:
         ax.set_visible(False)
@@ -215,4 +298,31 @@ def plan_view(tracks, title: str = "") -> Figure:
     ax.grid(alpha=0.3)
     ax.legend(loc="best", fontsize=8)
     ax.set_title(title or "plan view")
+    return fig
+
+
+def position_error_plan(t, east_err, north_err, title: str = "") -> Figure:
+    """Plan view of the horizontal position error: north error against east error [m], equal
+    scale, coloured by time, with the start, the end and the circle of the final error."""
+    t = np.asarray(t, dtype=float)
+    e, n = np.asarray(east_err, dtype=float), np.asarray(north_err, dtype=float)
+    fig = Figure(figsize=(6.5, 5.8), layout="constrained")
+    ax = fig.subplots()
+    sl = _thin(len(t))
+    sc = ax.scatter(e[sl], n[sl], c=t[sl], s=4, cmap="viridis")
+    fig.colorbar(sc, ax=ax, label="t [s]")
+    ax.plot(e[0], n[0], "o", color="green", label="start")
+    ax.plot(e[-1], n[-1], "s", color="black", label=f"end: {np.hypot(e[-1], n[-1]):.3g} m")
+    r = float(np.hypot(e[-1], n[-1]))
+    if r > 0:
+        a = np.linspace(0, 2 * np.pi, 200)
+        ax.plot(r * np.cos(a), r * np.sin(a), ":", color="0.4", lw=0.8)
+    ax.axhline(0, color="0.6", lw=0.6)
+    ax.axvline(0, color="0.6", lw=0.6)
+    ax.set_aspect("equal", adjustable="datalim")
+    ax.set_xlabel("east error [m]")
+    ax.set_ylabel("north error [m]")
+    ax.grid(alpha=0.3)
+    ax.legend(loc="best", fontsize=8)
+    ax.set_title(title or "horizontal position error (estimate minus truth)")
     return fig

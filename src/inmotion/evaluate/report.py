@@ -2,9 +2,13 @@
 
 What ``DIR`` is decides what the page shows:
 
-- a **result folder** (``summary.json``, ``solution.csv``, ``errors.csv`` of
-  :mod:`inmotion.io.result`): error curves with the method's +-3 sigma envelopes, the plan view
-  of the estimated and true tracks, the ``errors`` block, the configuration;
+- a **result folder** (``summary.json``, ``solution``, ``errors`` tables (CSV or Parquet) of
+  :mod:`inmotion.io.result`): a summary line (final horizontal error in m and in % of distance
+  travelled, heading and level error), the ``errors`` block with its rows and headers in words
+  and units, ``|error|`` on a log scale with the method's 3 sigma (the start-up transient does
+  not swamp the converged error), the errors over the converged end of the run (the last 100 s
+  or quarter) with +-3 sigma, a plan view of the horizontal position error, the estimated
+  states each with its unit and meaning, the configuration;
 - a **campaign directory** (``campaign.json`` and ``results/`` of
   :mod:`inmotion.evaluate.montecarlo`): per-point statistics of the final errors and their
   distributions, failed runs with their seeds, Monte Carlo error envelopes and the plan view where
@@ -29,12 +33,13 @@ import json
 import math
 import time
 from pathlib import Path
-from typing import Optional
+from typing import Optional, Union
 
 import numpy as np
 import pandas as pd
 import yaml
 
+from .._typing import PathLike
 from ..errors import BadInput
 from . import plots
 from .stats import compare_rows, final_error_columns, point_statistics
@@ -217,29 +222,46 @@ def _versions_section(page: _Page, used: Optional[dict]) -> None:
 
 
 def _result_section(page: _Page, root: Path, paper=None, level=2) -> list:
-    from ..io.result import read_result, read_summary
+    from ..io.result import find_table, read_result, read_summary, read_table
     summary = read_summary(root)
     page.add(f"<h{level}>Run: {_e(summary.get('method') or root.name)} "
              f"<small>({_e(root)})</small></h{level}>")
     rows = _paper_section(page, _paper_for(root, paper), None)
     block = summary.get("errors")
     if block:
+        page.add(_result_summary(summary, block))
         keys = list(block.get("final", {}))
         stats = [k for k in ("final", "rms_last_100s", "max_abs_last_100s") if k in block]
-        page.add(f"<p>distance {_fmt(block.get('distance_m'))} m over "
-                 f"{_fmt(block.get('duration_s'))} s; errors are estimate minus truth.</p>")
-        page.add(_table(["error"] + stats, [[k] + [block[s].get(k) for s in stats] for k in keys]))
+        page.add(_table(["error (estimate − truth)", "key", "unit"]
+                        + [STAT_WORDS.get(k, k) for k in stats],
+                        [[plots.ERROR_WORDS.get(k, (k, ""))[0], k,
+                          plots.ERROR_WORDS.get(k, ("", ""))[1]]
+                         + [block[s].get(k) for s in stats] for k in keys], left=3))
     solution = read_result(root)
-    errors_path = root / "errors.csv"
-    if errors_path.is_file():
-        err = pd.read_csv(errors_path)
+    errors_path = find_table(root, "errors")
+    if errors_path is not None:
+        err = read_table(errors_path)
         t = err["t"].to_numpy()
         sigma = _sigma_on(solution, t)
-        page.figure(f"{root.name}-errors", plots.error_curves(
-            t, {c: err[c].to_numpy() for c in err.columns}, sigma),
-            "errors against truth with the method's ±3σ (shaded where the method gives σ)")
-    page.figure(f"{root.name}-plan", plots.plan_view(_result_tracks(solution, root)),
-                "plan view of the drive")
+        columns = {c: err[c].to_numpy() for c in err.columns}
+        page.figure(f"{root.name}-abs-errors", plots.abs_error_curves(t, columns, sigma),
+                    "|error| against truth on a log scale, with the method's 3σ (dashed, where "
+                    "it gives one): the start-up transient and the converged error on one axis")
+        tail = t >= max(t[0], t[-1] - max(100.0, 0.25 * (t[-1] - t[0])))
+        if tail.sum() >= 2:
+            page.figure(f"{root.name}-errors-end", plots.error_curves(
+                t[tail], {c: v[tail] for c, v in columns.items()},
+                {c: v[tail] for c, v in sigma.items()}),
+                f"the converged part: errors over the last {t[-1] - t[tail][0]:.0f} s with the "
+                "method's ±3σ (shaded where it gives one)")
+        if {"north_m", "east_m"} <= set(err.columns):
+            page.figure(f"{root.name}-position-error", plots.position_error_plan(
+                t, err["east_m"].to_numpy(), err["north_m"].to_numpy()),
+                "plan view of the horizontal position error, coloured by time; the dotted "
+                "circle is the final error")
+    else:
+        page.figure(f"{root.name}-plan", plots.plan_view(_result_tracks(solution, root)),
+                    "plan view of the drive")
     _states_figure(page, root)
     page.add("<h3>Configuration</h3>" + _pre_yaml({k: summary.get(k) for k in
                                                    ("method", "config", "timing", "bundle", "init")
@@ -247,13 +269,42 @@ def _result_section(page: _Page, root: Path, paper=None, level=2) -> list:
     return rows
 
 
+#: the errors block's statistics in words
+STAT_WORDS = {"final": "final", "rms_last_100s": "RMS, last 100 s",
+              "max_abs_last_100s": "max |error|, last 100 s"}
+
+
+def _result_summary(summary: dict, block: dict) -> str:
+    """One paragraph: drive, and the final errors a navigation engineer quotes first."""
+    f = block.get("final", {})
+    d, dur = block.get("distance_m"), block.get("duration_s")
+    parts = []
+    if isinstance(d, (int, float)) and isinstance(dur, (int, float)):
+        parts.append(f"{_e(summary.get('method') or 'the method')} over {dur:.1f} s and "
+                     f"{d / 1000:.3f} km")
+    hor = f.get("horizontal_m")
+    if isinstance(hor, (int, float)):
+        pct = (f" = <b>{100 * hor / d:.3g} % of distance travelled</b>"
+               if isinstance(d, (int, float)) and d > 0 else "")
+        parts.append(f"final horizontal error <b>{hor:.3g} m</b>{pct}")
+    if isinstance(f.get("phi_U_arcmin"), (int, float)):
+        parts.append(f"heading (phi_U) {f['phi_U_arcmin']:.3g} arcmin")
+    if all(isinstance(f.get(k), (int, float)) for k in ("phi_E_arcmin", "phi_N_arcmin")):
+        parts.append(f"level {math.hypot(f['phi_E_arcmin'], f['phi_N_arcmin']):.3g} arcmin")
+    if isinstance(f.get("vertical_m"), (int, float)):
+        parts.append(f"vertical {f['vertical_m']:.3g} m")
+    return ("<p>" + "; ".join(parts) + ". Errors are estimate minus truth; the statistics "
+            "cover the last 100 s of the run.</p>")
+
+
 def _states_figure(page: _Page, root: Path) -> None:
     """The estimated states of ``states.csv`` with their ±3σ (``sigma_<column>``): those with a
     sigma first (the calibrated quantities), at most :data:`MAX_STATE_PANELS`."""
-    path = root / "states.csv"
-    if not path.is_file():
+    from ..io.result import find_table, read_table
+    path = find_table(root, "states")
+    if path is None:
         return
-    df = pd.read_csv(path)
+    df = read_table(path)
     names = [c for c in df.columns if c != "t" and not c.startswith("sigma_")]
     names = ([c for c in names if f"sigma_{c}" in df] + [c for c in names if f"sigma_{c}" not in df])
     names = names[:MAX_STATE_PANELS]
@@ -281,8 +332,10 @@ def _result_tracks(solution, root: Path) -> list:
     lat0, lon0, h0 = solution.lat[0], solution.lon[0], solution.h[0]
     north, east = local_ne_offsets(solution.lat, solution.lon, lat0, lon0, h0)
     tracks = [("estimate", east, north)]
-    if (root / "errors.csv").is_file():
-        err = pd.read_csv(root / "errors.csv")
+    from ..io.result import find_table, read_table
+    path = find_table(root, "errors")
+    if path is not None:
+        err = read_table(path)
         if {"north_m", "east_m"} <= set(err.columns):
             t = err["t"].to_numpy()
             tracks.append(("truth", np.interp(t, solution.t, east) - err["east_m"].to_numpy(),
@@ -425,7 +478,9 @@ def _collection(page: _Page, root: Path, paper) -> None:
 
 
 # ----------------------------------------------------------------------------- entry point
-def build_report(path, output=None, *, paper=None, title: Optional[str] = None) -> Path:
+def build_report(path: PathLike, output: Optional[PathLike] = None, *,
+                 paper: Union[None, dict, PathLike] = None,
+                 title: Optional[str] = None) -> Path:
     """Write the HTML report of ``path`` (a campaign, a result folder or a folder of them).
 
     Parameters

@@ -272,7 +272,8 @@ REPRODUCTIONS = {r.name: r for r in (
     Reproduction("004", "Qiao et al. 2019: multistage in-motion attitude determination "
                  "(imada, mimada)", "inmotion.evaluate.reproduce_004", "reproduce",
                  "results.json", _rows_004, 50),
-    Reproduction("real", "Real drives (comma2k19, EMS): dead reckoning and SINS against the "
+    Reproduction("real", "Real drives (comma2k19, EMS, PSINS RLG parked and MEMS/FOG): dead "
+                 "reckoning, SINS and alignment against the "
                  "reference", "inmotion.evaluate.reproduce_real", "reproduce",
                  "results.json", _rows_real, None),
 )}

@@ -32,6 +32,12 @@ EMS (511 s city drive, 20 Hz MEMS, no odometer)
     pseudo-odometer made from the reference speed (:func:`ems_pseudo_odometer`): they show
     what the gyros do to a perfect speed, nothing about an odometer.
 
+PSINS ring-laser-gyro log (parked 1847 s) and MEMS + FOG log (moving 100 s), issue 15
+    When their folders are present: every parked method on 300 s windows of the RLG log
+    against the integral methods' consensus and the theory limits, and the coarse / fine
+    methods on the MEMS log against the FOG reference, each with its sigma
+    (:mod:`inmotion.evaluate.reproduce_psins`).
+
 Observability with these sensors is in :data:`OBSERVABILITY` and the report.
 
 Output (:func:`reproduce`): ``report.md``, ``results.json`` (a list of rows ``quantity,
@@ -43,6 +49,7 @@ from __future__ import annotations
 
 import argparse
 import json
+import os
 import time
 from pathlib import Path
 
@@ -56,6 +63,7 @@ from ..core.solution import NavState
 from ..errors import BadInput
 from ..io.importers import import_log
 from ..navigate.pure import DrConfig, SinsConfig
+from . import reproduce_psins as rp
 from .metrics import error_series, interpolate_truth
 
 __all__ = ["default_data_root", "reference_calibration", "estimated_sensor",
@@ -154,9 +162,23 @@ EMS_OD_KF = {**EMS_NHC_KF, "measurement": "velocity", "fdi": False,
              "od_scale_sigma_ppm": 1000.0}
 
 
+#: environment variable naming the folder of the real drives (``inmotion reproduce real --data``)
+DATA_ENV = "INMOTION_REAL_DATA"
+
+
 def default_data_root() -> Path:
-    """``../shared/data/real`` from the repository root (this file is src/inmotion/evaluate)."""
-    return Path(__file__).resolve().parents[3].parent / "shared" / "data" / "real"
+    """The folder of the real drives: ``$INMOTION_REAL_DATA`` if set, else the first
+    ``shared/data/real`` found in the working directory's parent or further up (the project's
+    layout, ``../shared/data/real`` from a clone), else ``../shared/data/real`` (absent)."""
+    env = os.environ.get(DATA_ENV)
+    if env:
+        return Path(env).expanduser()
+    cwd = Path.cwd().resolve()
+    for base in (cwd, *cwd.parents):
+        p = base / "shared" / "data" / "real"
+        if p.is_dir():
+            return p
+    return cwd.parent / "shared" / "data" / "real"
 
 
 def reference_calibration(bundle: Bundle, min_speed=3.0) -> dict:
@@ -651,7 +673,7 @@ def report_markdown(results: dict, rows: list) -> str:
     c = results["drives"]["comma2k19_rav4_60s"]
     e = results["drives"]["ems_toronto_511s"]
     sp = e["still_period"]
-    lines = ["# Real drives: comma2k19 (60 s) and EMS Toronto (511 s)", "",
+    lines = ["# Real drives: comma2k19 (60 s), EMS Toronto (511 s) and the PSINS logs", "",
              "Reproduce: `python -m inmotion.evaluate.reproduce_real -o DIR` "
              f"(this run: {results['wall_s']:.0f} s).", "",
              "## Figures against the reference", "",
@@ -693,11 +715,15 @@ def report_markdown(results: dict, rows: list) -> str:
                                 "follow it, which is why a tight bias prior (10 deg/h) does "
                                 "better than a loose one (50 deg/h, the sensitivity run) on "
                                 "this drive.")
-    lines += ["", "## What these sensors can and cannot observe", ""]
+    lines += [""] + rp.report_lines(results["drives"].get(PSINS_RLG),
+                                    results["drives"].get(PSINS_MEMS))
+    lines += ["## What these sensors can and cannot observe", ""]
     lines += [f"- **{k}**: {v}" for k, v in results["observability"].items()]
     lines += ["", "## Not done", ""] + [f"- {x}" for x in results["not_done"]]
     lines += ["", "Figures: `real_position_error.png`, `real_attitude_error.png`, "
-              "`real_mounting.png`.", ""]
+              "`real_mounting.png`"
+              + (", `real_psins_parked.png`" if PSINS_RLG in results["drives"] else "")
+              + ".", ""]
     return "\n".join(lines)
 
 
@@ -710,6 +736,19 @@ def _jsonable(res: dict) -> dict:
         out["reference_calibration"] = {a: float(b) for a, b in
                                         out["reference_calibration"].items()}
     return out
+
+
+PSINS_RLG = "psins_rlg_parked_1847s"
+PSINS_MEMS = "psins_fog_mems_moving_100s"
+
+
+def _run_psins(root: Path):
+    """``(rlg, mems)`` results of :mod:`reproduce_psins`, None for a log not in ``root``."""
+    rlg_file = root / PSINS_RLG / "lasergyro.imu"
+    mems_file = root / PSINS_MEMS / "transfer_align_fog_mems.mat"
+    rlg = rp.run_psins_rlg(import_log("psins", rlg_file)) if rlg_file.is_file() else None
+    mems = rp.run_psins_mems(import_log("psins", mems_file)) if mems_file.is_file() else None
+    return rlg, mems
 
 
 def reproduce(out_dir, runs=None, workers=None, seed=0, progress=True, data_root=None) -> dict:
@@ -727,9 +766,14 @@ def reproduce(out_dir, runs=None, workers=None, seed=0, progress=True, data_root
         raise BadInput("real data folder not found", root)
     comma = run_comma2k19(import_log("comma2k19", root / "comma2k19_rav4_60s"))
     ems = run_ems(import_log("ems", root / "ems_toronto_511s" / "ems_data_for_lc.mat"))
-    rows = result_rows(comma, ems)
-    results = {"drives": {"comma2k19_rav4_60s": _jsonable(comma),
-                          "ems_toronto_511s": _jsonable(ems)},
+    rlg, mems = _run_psins(root)
+    rows = result_rows(comma, ems) + rp.psins_rows(rlg, mems)
+    drives = {"comma2k19_rav4_60s": _jsonable(comma), "ems_toronto_511s": _jsonable(ems)}
+    if rlg is not None:
+        drives[PSINS_RLG] = rlg
+    if mems is not None:
+        drives[PSINS_MEMS] = mems
+    results = {"drives": drives,
                "not_done": NOT_DONE, "observability": OBSERVABILITY,
                "wall_s": time.perf_counter() - t_wall}
     out = Path(out_dir)
@@ -745,6 +789,8 @@ def reproduce(out_dir, runs=None, workers=None, seed=0, progress=True, data_root
                       "EMS (after the still period)": ems["series"]}).savefig(
         out / "real_attitude_error.png", dpi=90)
     _figure_mounting(comma).savefig(out / "real_mounting.png", dpi=90)
+    if rlg is not None:
+        rp.figure_parked(rlg).savefig(out / "real_psins_parked.png", dpi=90)
     return results
 
 

@@ -1,4 +1,9 @@
-"""Result folders: what a run writes, and reading it back (``shared/DESIGN.md``, "The result").
+"""Result folders: what a run writes, and reading it back (``docs/result.md``).
+
+Tables are CSV (default) or Parquet (``fmt="parquet"``, ``--format parquet``): the same
+columns, ``solution.parquet`` instead of ``solution.csv`` and so on; readers take either.
+``summary.json`` says which (``"format"``). :func:`thin` keeps one row per output period
+(``--output-rate``).
 
 ::
 
@@ -29,6 +34,7 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
+from .._typing import PathLike
 from ..core import rotations
 from ..core.bundle import Truth
 from ..core.solution import Solution, StateUnit
@@ -37,7 +43,11 @@ from ..evaluate.metrics import error_series, errors_block
 from .bundle import _plain, atomic_write, write_csv
 
 __all__ = ["write_result", "read_result", "write_errors", "SOLUTION_COLUMNS", "SIGMA_UNITS",
-           "read_summary"]
+           "read_summary", "write_summary", "thin", "find_table", "read_table", "FORMATS"]
+
+#: table formats of a result folder (file suffixes)
+FORMATS = ("csv", "parquet")
+_TABLES = ("solution", "states", "errors")
 
 SOLUTION_COLUMNS = ("t", "lat", "lon", "h", "vE", "vN", "vU", "pitch", "roll", "yaw")
 
@@ -75,8 +85,68 @@ def _final_values(sol: Solution) -> dict:
             "yaw_deg": float(np.mod(e[2], 360.0))}
 
 
-def write_result(solution: Solution, path, truth: Truth | None = None,
-                 summary_extra: dict | None = None) -> dict:
+def thin(solution: Solution, rate_hz: float) -> Solution:
+    """``solution`` with one row per output period ``1 / rate_hz`` [s]: the first row at or
+    after each multiple of the period from the first epoch, and always the last row (so a
+    result still ends where the run ended, for ``--init RESULT``)."""
+    if rate_hz is None or rate_hz <= 0 or len(solution) < 3:
+        return solution
+    t = solution.t
+    k = np.floor((t - t[0]) * rate_hz + 1e-6)
+    keep = np.r_[True, k[1:] != k[:-1]]
+    keep[-1] = True
+    if keep.all():
+        return solution
+    return Solution(t[keep], solution.lat[keep], solution.lon[keep], solution.h[keep],
+                    solution.vel_n[keep], solution.euler[keep],
+                    sigma={k_: np.asarray(v)[keep] for k_, v in solution.sigma.items()},
+                    states={k_: np.asarray(v)[keep] for k_, v in solution.states.items()},
+                    state_units=dict(solution.state_units), info=dict(solution.info))
+
+
+def find_table(folder: PathLike, stem: str) -> Path | None:
+    """``folder/stem.csv`` or ``folder/stem.parquet``, whichever exists (None: neither)."""
+    for fmt in FORMATS:
+        p = Path(folder) / f"{stem}.{fmt}"
+        if p.is_file():
+            return p
+    return None
+
+
+def read_table(path: PathLike) -> pd.DataFrame:
+    """A result table (CSV or Parquet by its suffix); :class:`BadInput` if unreadable/empty."""
+    p = Path(path)
+    if p.suffix == ".parquet":
+        try:
+            df = pd.read_parquet(p)
+        except Exception as e:     # pyarrow raises several types for a damaged file
+            raise BadInput(f"cannot read Parquet: {str(e).strip().splitlines()[0]}",
+                           file=p) from None
+        if len(df) == 0:
+            raise BadInput("no data rows", file=p)
+        return df
+    return _read_csv(p)
+
+
+def _write_table(df: pd.DataFrame, folder: Path, stem: str, fmt: str) -> None:
+    if fmt not in FORMATS:
+        raise BadInput(f"unknown result format {fmt!r}; choose from {', '.join(FORMATS)}")
+    if fmt == "parquet":
+        atomic_write(folder / f"{stem}.parquet", lambda p: df.to_parquet(p, index=False))
+    else:
+        _write_csv(df, folder / f"{stem}.csv")
+    for other in FORMATS:          # one format per table: remove an earlier run's other one
+        if other != fmt:
+            (folder / f"{stem}.{other}").unlink(missing_ok=True)
+
+
+def _unlink_table(folder: Path, stem: str) -> None:
+    for fmt in FORMATS:
+        (folder / f"{stem}.{fmt}").unlink(missing_ok=True)
+
+
+def write_result(solution: Solution, path: PathLike, truth: Truth | None = None,
+                 summary_extra: dict | None = None, fmt: str = "csv") -> dict:
     """Write a result folder; return the summary written to ``summary.json``.
 
     Parameters
@@ -89,6 +159,8 @@ def write_result(solution: Solution, path, truth: Truth | None = None,
         If given, ``errors.csv`` and the ``errors`` block are written too.
     summary_extra : dict, optional
         Merged into the summary (e.g. ``{"bundle": ..., "timing": {...}, "init": ...}``).
+    fmt : {"csv", "parquet"}
+        Format of the tables (``summary.json`` is JSON either way).
     """
     if len(solution) == 0:
         raise BadInput("the solution has no epochs; nothing to write")
@@ -96,35 +168,46 @@ def write_result(solution: Solution, path, truth: Truth | None = None,
     folder.mkdir(parents=True, exist_ok=True)
     # rewriting a folder: it stops looking finished until the new summary lands
     (folder / "summary.json").unlink(missing_ok=True)
-    _write_csv(_solution_frame(solution), folder / "solution.csv")
+    if fmt not in FORMATS:
+        raise BadInput(f"unknown result format {fmt!r}; choose from {', '.join(FORMATS)}")
+    _write_table(_solution_frame(solution), folder, "solution", fmt)
     states = _state_columns(solution)
     if states:
         df = pd.DataFrame({"t": solution.t, **{s["column"]: np.asarray(solution.states[n]) *
                                                 s["scale"] for n, s in states.items()}})
-        _write_csv(df, folder / "states.csv")
+        _write_table(df, folder, "states", fmt)
     else:
-        (folder / "states.csv").unlink(missing_ok=True)
+        _unlink_table(folder, "states")
     if truth is None:
-        (folder / "errors.csv").unlink(missing_ok=True)
+        _unlink_table(folder, "errors")
     info = dict(solution.info)
     summary = {"method": info.pop("method", None), "config": info.pop("config", None),
                "timing": info.pop("timing", {}), "epochs": len(solution),
-               "final": _final_values(solution), "states": states, "info": info}
+               "final": _final_values(solution), "states": states, "info": info,
+               "format": fmt}
     summary.update(summary_extra or {})
     if truth is not None:
-        summary["errors"] = write_errors(solution, truth, folder)
+        summary["errors"] = write_errors(solution, truth, folder, fmt=fmt)
     write_summary(summary, folder)
     return summary
 
 
-def write_errors(solution: Solution, truth: Truth, folder) -> dict:
-    """Write ``errors.csv`` into ``folder`` and return the ``errors`` block."""
+def write_errors(solution: Solution, truth: Truth, folder: PathLike,
+                 fmt: str | None = None) -> dict:
+    """Write ``errors.csv`` (or ``.parquet``) into ``folder`` and return the ``errors`` block.
+
+    ``fmt`` None: the format of the folder's solution table (CSV if there is none).
+    """
+    folder = Path(folder)
+    if fmt is None:
+        sol = find_table(folder, "solution")
+        fmt = sol.suffix[1:] if sol is not None else "csv"
     err = error_series(solution, truth)
-    _write_csv(err, Path(folder) / "errors.csv")
+    _write_table(err, folder, "errors", fmt)
     return errors_block(err)
 
 
-def write_summary(summary: dict, folder) -> None:
+def write_summary(summary: dict, folder: PathLike) -> None:
     """``summary.json`` (NaN and inf written as null), atomically."""
     text = json.dumps(_json_safe(summary), indent=2, allow_nan=False)
     atomic_write(Path(folder) / "summary.json", lambda p: Path(p).write_text(text + "\n"))
@@ -157,7 +240,7 @@ def _read_csv(p: Path) -> pd.DataFrame:
     return df
 
 
-def read_summary(path) -> dict:
+def read_summary(path: PathLike) -> dict:
     """The parsed ``summary.json`` of a result folder."""
     p = Path(path) / "summary.json"
     if not p.is_file():
@@ -169,7 +252,7 @@ def read_summary(path) -> dict:
         raise BadInput(f"malformed JSON at line {e.lineno}: {e.msg}", file=p) from None
 
 
-def read_result(path) -> Solution:
+def read_result(path: PathLike) -> Solution:
     """Read a result folder back into a :class:`Solution` (SI inside).
 
     ``info`` gets the summary's ``info`` plus ``method``, ``config``, ``timing`` and, if
@@ -195,10 +278,10 @@ def read_result(path) -> Solution:
     if not folder.is_dir():
         raise BadInput("result folder does not exist", file=folder)
     summary = read_summary(folder)
-    p = folder / "solution.csv"
-    if not p.is_file():
-        raise BadInput("missing solution.csv", file=p)
-    df = _read_csv(p)
+    p = find_table(folder, "solution")
+    if p is None:
+        raise BadInput("missing solution.csv (or solution.parquet)", file=folder / "solution.csv")
+    df = read_table(p)
     missing = [c for c in SOLUTION_COLUMNS if c not in df.columns]
     if missing:
         raise BadInput(f"missing columns {', '.join(missing)}", file=p)
@@ -226,10 +309,10 @@ def read_result(path) -> Solution:
 def _read_states(folder: Path, smap: dict, n: int):
     if not smap:
         return {}, {}
-    p = folder / "states.csv"
-    if not p.is_file():
-        raise BadInput("missing states.csv that summary.json lists", file=p)
-    df = _read_csv(p)
+    p = find_table(folder, "states")
+    if p is None:
+        raise BadInput("missing states.csv that summary.json lists", file=folder / "states.csv")
+    df = read_table(p)
     if len(df) != n:
         raise BadInput(f"{len(df)} rows but solution.csv has {n}", file=p)
     states, units = {}, {}

@@ -50,9 +50,16 @@ class SinsConfig(BaseModel):
     """
 
     model_config = ConfigDict(extra="forbid")
-    height_damping: Literal["auto", "none", "baro"] = "auto"
-    baro_tau_s: float = Field(10.0, gt=0)
-    out_stride: int = Field(1, ge=1)
+    height_damping: Literal["auto", "none", "baro"] = Field(
+        "auto",
+        description="vertical channel: baro = damped by the barometer, none = free (diverges, "
+                    "~570 s time constant), auto = baro if the bundle has one")
+    baro_tau_s: float = Field(
+        10.0, gt=0,
+        description="time constant of the critically damped barometric height loop [s]")
+    out_stride: int = Field(
+        1, ge=1,
+        description="output the initial state, then every out_stride-th IMU epoch")
 
 
 class DrConfig(BaseModel):
@@ -85,12 +92,25 @@ class DrConfig(BaseModel):
     """
 
     model_config = ConfigDict(extra="forbid")
-    sensor: Optional[Literal["radar", "ldv", "odometer"]] = None
-    speed_scale: float = Field(1.0, gt=0)
-    mounting_arcmin: Optional[tuple[float, float, float]] = None
-    lever_arm_m: Optional[tuple[float, float, float]] = None
-    max_gap_s: Optional[float] = Field(None, gt=0)
-    out_stride: int = Field(1, ge=1)
+    sensor: Optional[Literal["radar", "ldv", "odometer"]] = Field(
+        None,
+        description="forward-velocity sensor; None: the first present of radar, ldv, odometer")
+    speed_scale: float = Field(
+        1.0, gt=0,
+        description="multiplies the sensor's speed (1 / (1 + dk) undoes a scale-factor error dk)")
+    mounting_arcmin: Optional[tuple[float, float, float]] = Field(
+        None,
+        description="IMU mounting in the vehicle [alpha, beta, gamma] [arcmin], C_v^b = exp([A "
+                    "x]); None: vehicle_mounting_arcmin of meta.yaml, else zero")
+    lever_arm_m: Optional[tuple[float, float, float]] = Field(
+        None,
+        description="the sensor's position relative to the IMU in b [x, y, z] [m]; None: from "
+                    "meta.yaml, else zero")
+    max_gap_s: Optional[float] = Field(
+        None, gt=0, description="sensor gap threshold [s]; None: 5 sensor periods")
+    out_stride: int = Field(
+        1, ge=1,
+        description="output the initial state, then every out_stride-th IMU epoch")
 
 
 def _require_init(init: Optional[NavState], method: str) -> NavState:

@@ -15,20 +15,23 @@ estimator's calibration can be checked against).
 """
 from __future__ import annotations
 
+from typing import Union
+
 import numpy as np
 
+from .._typing import PathLike
 from ..core.bundle import Bundle, ImuData, Truth
 from . import faults as faults_mod
 from .imu_errors import apply_imu_errors, draw_imu_errors
 from .profile import build_profile
-from .scenario import SPEED_SENSORS, load_scenario
+from .scenario import SPEED_SENSORS, Scenario, load_scenario
 from .sensors import geometry, simulate_baro, simulate_speed_sensor, vehicle_C_vb
 from .trajectory import generate
 
 __all__ = ["simulate", "simulate_truth"]
 
 
-def simulate_truth(scenario):
+def simulate_truth(scenario: Union[Scenario, dict, PathLike]) -> tuple:
     """``(Scenario, Profile, Trajectory)``: the error-free truth and increments of a scenario.
 
     The profile moves the vehicle frame v; the IMU is turned from it by
@@ -50,7 +53,7 @@ def _distance_output(name, sc) -> bool:
     return name == "odometer" or getattr(getattr(sc.sensors, name), "output", "speed") == "distance"
 
 
-def simulate(scenario, rng: np.random.Generator) -> Bundle:
+def simulate(scenario: Union[Scenario, dict, PathLike], rng: np.random.Generator) -> Bundle:
     """Simulate one drive.
 
     Parameters

@@ -9,6 +9,7 @@ format         source                                      module
 ``kf-gins``    KF-GINS / OB_GINS IMU text file (+ files)   :mod:`.kf_gins` (and the export)
 ``comma2k19``  a comma2k19 segment folder                  :mod:`.comma2k19`
 ``ems``        the EMS-SymINSGNSS MATLAB file              :mod:`.ems`
+``psins``      PSINS ``.imu`` counts log or transfer ``.mat``  :mod:`.psins`
 ``csv``        any CSV, with a YAML mapping                :mod:`.csv` (``docs/importers.md``)
 =============  ==========================================  ====================================
 
@@ -27,6 +28,7 @@ FORMATS = {
     "kf-gins": "inmotion.io.importers.kf_gins:import_kf_gins",
     "comma2k19": "inmotion.io.importers.comma2k19:import_comma2k19",
     "ems": "inmotion.io.importers.ems:import_ems",
+    "psins": "inmotion.io.importers.psins:import_psins",
     "csv": "inmotion.io.importers.csv:import_csv",
 }
 

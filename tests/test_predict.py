@@ -1,0 +1,261 @@
+"""The allocation-free F builder and the sparse covariance predict (issue 13).
+
+* ``_fill_F`` assigns exactly the entries of ``F_pattern`` (so an F zeroed once can be
+  refilled every epoch without clearing) and ``F_pattern`` holds every nonzero of F;
+* ``predict_sparse`` equals the dense ``kalman._predict_kernel`` to rounding (1e-13 of the
+  size of the terms) for F of every layout of the package at random states, random F on the
+  same patterns, random SPD ``P``, dt from 0.005 to 1 s; ``P`` comes out exactly symmetric;
+* the same over 200 chained steps inside a numba loop (the engine's use).
+"""
+import numba
+import numpy as np
+import pytest
+
+from inmotion.align.dr_kalman import LAYOUT_DR_KF, LAYOUT_OD_KF
+from inmotion.core.rotations import dcm_from_euler
+from inmotion.estimation import error_model as em
+from inmotion.estimation.kalman import _predict_kernel
+from inmotion.estimation.layout import Layout
+from inmotion.estimation.predict import make_workspace, predict_sparse
+from inmotion.navigate.sins_dr import LAYOUT_SINS_DR
+
+LAYOUTS = {
+    "sins15": Layout(["phi", "dv", "dp", "eps", "nabla"]),
+    "sins15+mount,dk": Layout(["phi", "dv", "dp", "eps", "nabla", "mount", "dk"]),
+    "sins15+dr": Layout(["phi", "dv", "dp", "eps", "nabla", "phi_D", "dp_D"]),
+    "sins-dr": LAYOUT_SINS_DR,
+    "dr-kf": LAYOUT_DR_KF,
+    "od-kf": LAYOUT_OD_KF,
+}
+DTS = (0.005, 0.01, 0.1, 1.0)
+
+
+def _state(rng):
+    """A random linearization point: lat, h, vel_n, C, f_n."""
+    return (rng.uniform(-1.4, 1.4), rng.uniform(-300.0, 5000.0),
+            rng.normal(0.0, 15.0, 3) * rng.choice([0.0, 1e-3, 1.0]),
+            dcm_from_euler(rng.uniform(-np.pi, np.pi, 3)),
+            rng.normal(0.0, 2.0, 3) + np.array([0.0, 0.0, 9.8]))
+
+
+def _fill(n, offs, st, itau=1.0 / 300.0, dr_eps=True, F=None):
+    F = np.zeros((n, n)) if F is None else F
+    em._fill_F(F, offs, st[0], st[1], st[2], st[3], st[4], itau, dr_eps, True)
+    return F
+
+
+def _model_Qc(layout, rng):
+    noise = em.ProcessNoise(gyro_arw=5e-5, accel_vrw=1e-3, gyro_bias_rw=1e-7,
+                            accel_bias_rw=1e-5, dk_sigma=1e-3, dk_tau=300.0, mount_rw=1e-6)
+    Qc = em.ErrorModel(layout, noise).Qc().copy()
+    if "dp_D" in layout:                            # the driver's DR position random walk
+        s = layout["dp_D"]
+        Qc[s, s] += np.diag([1e-15, 1e-15, 1e-2])
+    return Qc
+
+
+def _spd(rng, n, spread):
+    L = rng.standard_normal((n, n))
+    s = 10.0 ** rng.uniform(-spread, spread, n)
+    return (L @ L.T / n + 0.1 * np.eye(n)) * np.outer(s, s)
+
+
+def _assert_close(x1, P1, x0, P0, x, P, F, Qc, dt, tol=1e-13):
+    """``x1, P1`` (sparse) against ``x0, P0`` (dense) to ``tol`` of the size of the terms."""
+    n = len(x)
+    Fdt = F * dt
+    Phi = np.abs(np.eye(n) + Fdt + 0.5 * Fdt @ Fdt)
+    size_P = Phi @ (np.abs(P) + dt * np.abs(Qc)) @ Phi.T + dt * np.abs(Qc)
+    size_x = Phi @ np.abs(x)
+    assert np.all(np.abs(P1 - P0) <= tol * size_P)
+    assert np.all(np.abs(x1 - x0) <= tol * size_x)
+
+
+# -- the F builder ----------------------------------------------------------------------------
+
+@pytest.mark.parametrize("name", list(LAYOUTS))
+def test_fill_F_assigns_exactly_its_pattern_and_needs_no_clearing(name):
+    lay = LAYOUTS[name]
+    offs = em._offsets(lay)
+    rng = np.random.default_rng(1)
+    for extra in (0, 6):                    # F wider than the layout (aided_engine: 21 on 15)
+        n = lay.n + extra
+        for itau, dr_eps in ((1.0 / 300.0, True), (0.0, False)):
+            pat = em.F_pattern(n, offs, itau, dr_eps)
+            F_reused = np.zeros((n, n))
+            for _ in range(20):
+                st = _state(rng)
+                F = _fill(n, offs, st, itau, dr_eps)
+                assert not np.any(F[~pat])
+                marked = np.full((n, n), np.nan)
+                _fill(n, offs, st, itau, dr_eps, marked)
+                assert np.array_equal(~np.isnan(marked), pat)          # writes = pattern
+                _fill(n, offs, st, itau, dr_eps, F_reused)             # never cleared
+                assert np.array_equal(F_reused, F)
+            dk = lay["dk"].start if "dk" in lay else None
+            if dk is not None:
+                assert pat[dk, dk] == (itau != 0.0)
+
+
+def test_error_model_F_is_the_kernel_F():
+    lay = LAYOUT_DR_KF
+    rng = np.random.default_rng(2)
+    model = em.ErrorModel(lay, em.ProcessNoise(dk_tau=300.0))
+    st = _state(rng)
+    pt = em.LinPoint(lat=st[0], h=st[1], vel_n=st[2], C_nb=st[3], f_n=st[4])
+    assert np.array_equal(model.F(pt), _fill(lay.n, em._offsets(lay), st))
+
+
+# -- the sparse predict ------------------------------------------------------------------------
+
+@pytest.mark.parametrize("name", list(LAYOUTS))
+def test_predict_sparse_equals_the_dense_kernel(name):
+    lay = LAYOUTS[name]
+    n, offs = lay.n, em._offsets(lay)
+    rng = np.random.default_rng(3)
+    Qc = _model_Qc(lay, rng)
+    ws = make_workspace(em.F_pattern(n, offs, 1.0 / 300.0, True), Qc)
+    for trial in range(12):
+        F = _fill(n, offs, _state(rng))
+        if trial % 3 == 2:                  # random values on the real pattern, larger
+            F = np.where(F != 0, rng.normal(0.0, 0.3, (n, n)), 0.0)
+        P = _spd(rng, n, 1.0 if trial % 2 else 6.0)
+        x = rng.standard_normal(n)
+        for dt in DTS:
+            x0, P0, x1, P1 = x.copy(), P.copy(), x.copy(), P.copy()
+            _predict_kernel(x0, P0, F, Qc, dt)
+            predict_sparse(x1, P1, F, Qc, dt, ws)
+            assert np.array_equal(P1, P1.T)
+            _assert_close(x1, P1, x0, P0, x, P, F, Qc, dt)
+
+
+def test_predict_sparse_plain_relative_error_on_a_unit_covariance():
+    """Well-scaled P: every entry within 1e-13 of the dense kernel's, relative to max |P|."""
+    lay = LAYOUT_SINS_DR
+    n, offs = lay.n, em._offsets(lay)
+    rng = np.random.default_rng(4)
+    Qc = rng.uniform(0.1, 1.0) * np.eye(n)
+    ws = make_workspace(em.F_pattern(n, offs, 1.0 / 300.0, True))    # Qc: diagonal pattern
+    for dt in DTS:
+        F = np.where(em.F_pattern(n, offs, 1.0 / 300.0, True), rng.normal(0, 1, (n, n)), 0.0)
+        P = _spd(rng, n, 0.0)
+        x = rng.standard_normal(n)
+        x0, P0, x1, P1 = x.copy(), P.copy(), x.copy(), P.copy()
+        _predict_kernel(x0, P0, F, Qc, dt)
+        predict_sparse(x1, P1, F, Qc, dt, ws)
+        assert np.max(np.abs(P1 - P0)) <= 1e-13 * np.max(np.abs(P0))
+        assert np.max(np.abs(x1 - x0)) <= 1e-13 * np.max(np.abs(x0))
+
+
+def test_predict_sparse_floors_a_negative_diagonal_like_the_dense_kernel():
+    lay = LAYOUTS["sins15"]
+    n, offs = lay.n, em._offsets(lay)
+    rng = np.random.default_rng(5)
+    F = _fill(n, offs, _state(rng))
+    Qc = np.zeros((n, n))
+    ws = make_workspace(F != 0)
+    P = _spd(rng, n, 0.0)
+    P[0, 0] = -1.0                          # an active index
+    P[10, 10] = -1.0                        # a random-constant one
+    x = np.zeros(n)
+    P0, P1 = P.copy(), P.copy()
+    _predict_kernel(x.copy(), P0, F, Qc, 0.01)
+    predict_sparse(x.copy(), P1, F, Qc, 0.01, ws)
+    assert P0[0, 0] == P1[0, 0] == 0.0 and P0[10, 10] == P1[10, 10] == 0.0
+    assert np.allclose(P1, P0, rtol=0.0, atol=1e-13)
+
+
+def test_make_workspace_patterns():
+    lay = LAYOUT_SINS_DR
+    n, offs = lay.n, em._offsets(lay)
+    ws = make_workspace(em.F_pattern(n, offs, 1.0 / 300.0, True), np.ones((n, n)))
+    assert list(ws.act) == [*range(9), *range(15, 22)]        # SINS, DR and the Markov dk
+    assert list(ws.inact) == list(range(9, 15))               # eps, nabla: identity rows
+    assert ws.q.shape == (2, n * n)
+    ws0 = make_workspace(em.F_pattern(n, offs, 0.0, True))
+    assert 21 in ws0.inact and ws0.q.shape == (2, n)             # dk a random constant
+    with pytest.raises(ValueError):
+        make_workspace(np.ones((3, 4)))
+
+
+@numba.njit
+def _run_dense(x, P, F, Qc, offs, states, dt):
+    for k in range(states.shape[0]):
+        F[:, :] = 0.0
+        C = states[k, 5:14].reshape(3, 3).copy()
+        em._fill_F(F, offs, states[k, 0], states[k, 1], states[k, 2:5], C, states[k, 14:17],
+                   1.0 / 300.0, True, True)
+        _predict_kernel(x, P, F, Qc, dt)
+
+
+@numba.njit
+def _run_sparse(x, P, F, Qc, offs, states, dt, ws):
+    for k in range(states.shape[0]):
+        C = states[k, 5:14].reshape(3, 3).copy()
+        em._fill_F(F, offs, states[k, 0], states[k, 1], states[k, 2:5], C, states[k, 14:17],
+                   1.0 / 300.0, True, True)
+        predict_sparse(x, P, F, Qc, dt, ws)
+
+
+@pytest.mark.parametrize("name", ["sins-dr", "dr-kf"])
+def test_chained_steps_in_numba_follow_the_dense_kernel(name):
+    """The engine's use: F zeroed once, refilled and predicted 200 times in compiled code."""
+    lay = LAYOUTS[name]
+    n, offs = lay.n, em._offsets(lay)
+    rng = np.random.default_rng(6)
+    Qc = _model_Qc(lay, rng)
+    ws = make_workspace(em.F_pattern(n, offs, 1.0 / 300.0, True), Qc)
+    st0 = _state(rng)
+    states = np.array([np.concatenate([[st0[0] + 1e-6 * k, st0[1]], st0[2] + 0.01 * k,
+                                       st0[3].ravel(), st0[4]]) for k in range(200)])
+    P = _spd(rng, n, 3.0)
+    x = rng.standard_normal(n)
+    x0, P0, x1, P1 = x.copy(), P.copy(), x.copy(), P.copy()
+    _run_dense(x0, P0, np.zeros((n, n)), Qc, offs, states, 0.01)
+    _run_sparse(x1, P1, np.zeros((n, n)), Qc, offs, states, 0.01, ws)
+    d = np.sqrt(np.diag(P0))
+    assert np.max(np.abs(P1 - P0) / np.outer(d, d)) < 1e-12
+    assert np.array_equal(P1, P1.T)
+    assert np.max(np.abs(x1 - x0) / (np.abs(x0) + d)) < 1e-12
+
+
+@numba.njit
+def _fill_and_predict(calls, x, P, F, Qc, dt, ws, offs, st_f, C):
+    for _ in range(calls):
+        em._fill_F(F, offs, st_f[0], st_f[1], st_f[2:5], C, st_f[5:8], 1.0 / 300.0, True, True)
+        predict_sparse(x, P, F, Qc, dt, ws)
+
+
+def test_fill_F_and_predict_sparse_allocate_nothing_per_call():
+    """NRT's allocation count of a compiled loop does not grow with its number of calls (only
+    the arguments' entry into compiled code counts)."""
+    try:
+        from numba.core.runtime import _nrt_python, rtsys
+        _nrt_python.memsys_enable_stats()
+    except (ImportError, AttributeError):            # pragma: no cover - numba internals
+        pytest.skip("numba's NRT statistics are not available")
+    lay = LAYOUT_DR_KF
+    n, offs = lay.n, em._offsets(lay)
+    rng = np.random.default_rng(7)
+    st = _state(rng)
+    Qc = _model_Qc(lay, rng)
+    ws = make_workspace(em.F_pattern(n, offs, 1.0 / 300.0, True), Qc)
+    st_f = np.concatenate([[st[0], st[1]], st[2], st[4]])
+    x, P, F = rng.standard_normal(n), _spd(rng, n, 1.0), np.zeros((n, n))
+    counts = []
+    for calls in (1, 1, 300):
+        a0 = rtsys.get_allocation_stats().alloc
+        _fill_and_predict(calls, x, P, F, Qc, 0.01, ws, offs, st_f, st[3])
+        counts.append(rtsys.get_allocation_stats().alloc - a0)
+    assert counts[1] > 0                              # the statistics are live
+    assert counts[1] == counts[2]
+
+
+def test_predict_sparse_with_no_dynamic_state_adds_dt_qc():
+    n = 4
+    rng = np.random.default_rng(8)
+    P, x, Qc = _spd(rng, n, 0.0), rng.standard_normal(n), np.diag(rng.uniform(0.1, 1.0, n))
+    ws = make_workspace(np.zeros((n, n)))
+    x1, P1 = x.copy(), P.copy()
+    predict_sparse(x1, P1, np.zeros((n, n)), Qc, 0.1, ws)
+    assert np.array_equal(x1, x) and np.allclose(P1, P + 0.1 * Qc, rtol=1e-15, atol=0.0)
