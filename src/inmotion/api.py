@@ -63,7 +63,7 @@ def simulate(scenario: Union[str, Path, dict, "Scenario"],
     Bundle
         SI arrays: ``imu`` (increments [rad], [m/s] over ``(t[k-1], t[k]]``), the velocity
         sensors [m/s] / [m], ``baro`` [m], ``truth`` at the IMU rate (lat, lon [rad], h [m],
-        ENU velocity [m/s], Euler [pitch, roll, yaw] [rad]); ``meta`` as in ``meta.yaml``.
+        ENU velocity [m/s], Euler ``[pitch, roll, yaw]`` [rad]); ``meta`` as in ``meta.yaml``.
 
     Raises
     ------
