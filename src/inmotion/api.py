@@ -3,7 +3,7 @@
 ::
 
     import inmotion
-    b = inmotion.simulate("demo", seed=1)                 # a shipped scenario -> Bundle
+    b = inmotion.simulate("demo", 1)                      # a shipped scenario, seed 1
     sol = inmotion.run("sins-dr", b, end=120.0)           # a method by name -> Solution
     inmotion.evaluate(sol, b)["final"]["horizontal_m"]    # errors against truth [m]
 
