@@ -139,6 +139,15 @@ BENCHES = {
             ("new predict_sparse", "predict_sparse (after)", 0.3))),
         "issue 13: the covariance predict of every 100 Hz epoch at about 0.3 us a call (CPU time "
         "per call, median of batches)"),
+    "bench_engine.py": Bench(("--repeat", "2"), 400, (
+        Figure("engine, equal workload (22 states, predict at 100 Hz, velocity + NHC at 10 Hz)",
+               rf"engine equal workload: {_NUM} s CPU per hour", "s/h", 0.25),
+        Figure("sins-dr, filter 100 Hz, in-process", rf"sins-dr 100 Hz in-process: {_NUM} s CPU",
+               "s/h"),
+        Figure("CLI sins-dr 100 Hz, Parquet in, 1 Hz out", rf"CLI sins-dr 100 Hz.*: {_NUM} s wall",
+               "s", 1.0),
+        Figure("CLI fixed cost (inmotion --help)", rf"CLI fixed cost.*: {_NUM} s wall", "s", 0.4),
+    ), "issue 13: 14x KF-GINS at equal work (KF-GINS: 3.5 s CPU per hour of 100 Hz)"),
 }
 
 

@@ -4,8 +4,11 @@ plug-ins (:mod:`inmotion.estimation.measurements`).
 * every method rebuilt on the engine gives the result of the loop it replaced
   (``sins_dr_driver._run_epochs``, deleted): reference outputs in
   ``tests/data/engine_reference.npz`` were written by that loop (commit d98455b) on a fixed
-  seed; the engine reproduced them bit for bit here, and the test allows 1e-9 relative for
-  BLAS kernels that round differently on another CPU;
+  seed. The engine with the dense predict reproduced them bit for bit; with the sparse
+  predict (:mod:`inmotion.estimation.predict`, the same math summed in another order) they
+  agree to rounding: measured here within 1e-11 rad of attitude and 1e-9 of relative sigma,
+  and the test allows 1e-9 rad (0.2 milli-arcseconds), 1e-12 rad of latitude and longitude
+  (6 um), 1 um of height, 1e-8 m/s and 1e-6 relative sigma;
 * feeding a drive sample by sample through ``add_imu`` / ``add_measurement`` gives the batch
   result exactly; ``snapshot`` / ``restore`` mid-drive continues identically;
 * every built-in measurement's ``H`` against central differences of its nonlinear ``z``;
@@ -60,10 +63,11 @@ def test_rebuilt_methods_give_the_replaced_loops_result(traj1, case):
     rows = np.r_[np.arange(0, len(s.t), 97), len(s.t) - 1]
     assert np.array_equal(s.t[rows], ref[case + "/t"])
     nav = np.column_stack([s.lat, s.lon, s.h, s.vel_n, s.euler])[rows]
-    np.testing.assert_allclose(nav, ref[case + "/nav"], rtol=1e-9, atol=1e-12)
+    atol = np.r_[1e-12, 1e-12, 1e-6, [1e-8] * 3, [1e-9] * 3]
+    assert np.all(np.abs(nav - ref[case + "/nav"]) <= atol), np.abs(nav - ref[case + "/nav"]).max(0)
     keys = [str(k) for k in ref[case + "/sigma_keys"]]
     sig = np.column_stack([s.sigma[k] for k in keys])[rows]
-    np.testing.assert_allclose(sig, ref[case + "/sigma"], rtol=1e-9, atol=1e-15)
+    np.testing.assert_allclose(sig, ref[case + "/sigma"], rtol=1e-6, atol=1e-15)
 
 
 # -- streaming equals batch; checkpoints ---------------------------------------------------
@@ -340,7 +344,8 @@ def test_paper003_filters_on_the_engine_give_the_former_loops_result(scenario):
     """``od-kf``, ``ldv-kf``, ``nhc-kf`` and ``fkf`` moved from their own numba loop
     (``aided_engine._run_chunk``, commit 650ec2f; reference rows 300 and 600 in
     ``tests/data/aided_reference.npz``) to the engine's bank of local filters. ``nhc-kf`` is
-    bit-identical. The sensor filters differ in one documented way: the barometric height is
+    equal to rounding (bit-identical with the dense predict; the sparse one sums in another
+    order). The sensor filters differ in one documented way: the barometric height is
     applied to a sub-filter also at a measurement epoch where its sensor gives no sample
     (the former loop skipped both; here at the first 0.5 s, before the sensor's first
     sample), which moves the height by up to 1.6 m at 1 s; the difference then decays
@@ -364,5 +369,6 @@ def test_paper003_filters_on_the_engine_give_the_former_loops_result(scenario):
         ev = np.array([[e["t_s"], {"mode": 0, "detected": 1, "returned": 2}[e["event"]]]
                        for e in s.info["events"]]).reshape(-1, 2)
         assert np.array_equal(ev, ref[k + "events"]), label
-        if label == "nhc-kf":
-            np.testing.assert_array_equal(nav, ref[k + "nav"])
+        if label == "nhc-kf":                    # no quirk: equal to rounding
+            atol = np.r_[1e-12, 1e-12, 1e-6, [1e-8] * 3, [1e-9] * 3]
+            assert np.all(np.abs(nav - ref[k + "nav"]) <= atol), label

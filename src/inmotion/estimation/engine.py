@@ -23,7 +23,8 @@ What happens per IMU row and per filter epoch (one numba loop, :func:`_advance`)
    DR its own gyro rows (``dtheta_dr``: a second gyro triad, or a simulation study);
 2. after ``step_rows`` rows (a filter epoch) ``F`` is built at the SINS state with the epoch's
    mean specific force (:func:`inmotion.estimation.error_model._fill_F`) and ``x, P`` are
-   predicted over the epoch (second-order transition, trapezoid ``Q_d``); the process noise
+   predicted over the epoch (second-order transition, trapezoid ``Q_d``) on F's nonzero rows
+   only (:func:`inmotion.estimation.predict.predict_sparse`); the process noise
    is the model's ``G q G^T`` plus, with a DR, the random walk of the DR position driven by
    the velocity sensor's white noise (``dr_position_m2_s``, isotropic in E, N, U);
 3. every queued measurement sample whose time is at or before the epoch's end is applied, in
@@ -77,10 +78,11 @@ from ..core import _kernels as K
 from ..core.solution import NavState
 from . import error_model as em
 from .federated import fuse_kernel
-from .kalman import _predict_kernel, sequential_joseph
+from .kalman import sequential_joseph
 from .layout import DP, DP_D, DV, EPS, NABLA, PHI, PHI_D, Layout
 from .measurements import ACC_SIZE, AUX_SIZE, Measurement, accumulator_function, fill_function
 from .nav_ops import compensated_row, correct_nav, dcm_of_q
+from .predict import make_workspace, predict_sparse
 
 __all__ = ["ErrorStateFilter", "LocalFilter", "FEEDBACK_BLOCKS", "MAX_MEASUREMENTS",
            "EVENT_DETECTED", "EVENT_RETURNED", "EVENT_MODE", "MODE_FUSED", "MODE_NONE"]
@@ -109,9 +111,10 @@ _State = namedtuple("_State", "xs ms xd md X P fed_back bias_g bias_a acc ints u
 _Const = namedtuple("_Const", "offs offs9 Qc q_dr_m2_s inv_tau_dk dr_eps grav_grad with_dr "
                               "step out_every fb_mask fb_states feedback_every C_bm l_b gates "
                               "params dofs local r_scale isolate return_tests primary fallback "
-                              "n_common need_nb has_acc log_nis")
+                              "n_common need_nb has_acc log_nis ws record")
 #: the output buffers of one call
-_Out = namedtuple("_Out", "t xs sigma states cov_phi mode local_x local_sig n")
+_Out = namedtuple("_Out", "t xs sigma states cov_phi mode local_x local_sig n rec_t rec_phi "
+                          "rec_ppred rec_x rec_p rec_fed rec_xs nrec")
 
 
 @fill_function
@@ -315,24 +318,49 @@ def _apply(S, C, fills, j, l, z, H, r, m, xw, Pw, t_now, first):
 
 
 @numba.njit(cache=True)
-def _epoch_end(S, C, fills, t_now, qt, qj, qd, qi, O, F, Q, aux, z, H, r, xw, Pw, x_g, P_g):
+def _record_predict(S, C, O, t_now):
+    """The epoch's transition ``Phi`` (identity but on the predict's active rows, from its
+    workspace) and predicted covariance into the smoother's records."""
+    i = O.nrec[0]
+    O.rec_t[i] = t_now
+    Phi = O.rec_phi[i]
+    n = Phi.shape[0]
+    Phi[:, :] = 0.0
+    for p in range(n):
+        Phi[p, p] = 1.0
+    act, PhiT = C.ws.act, C.ws.PhiT
+    for a in range(act.shape[0]):
+        for c in range(n):
+            Phi[act[a], c] = PhiT[c, a]
+    O.rec_ppred[i] = S.P[0]
+
+
+@numba.njit(cache=True, inline="always")
+def _epoch_end(S, C, fills, t_now, qt, qj, qd, qi, O, F, Q, aux, z, H, r, xw, Pw, x_g, P_g, W):
     """Close a filter epoch: predict, apply the due samples, feed back, output. Returns the
     next queue index."""
     sum_dt = S.acc[_A_DT]
-    C_S = dcm_of_q(S.xs[K.Q0:K.Q3 + 1])
-    f_b = np.empty(3)
+    C_S, f_b, f_n, vel = W
+    xs = S.xs
+    K.dcm_from_quat_into((xs[K.Q0], xs[K.Q0 + 1], xs[K.Q0 + 2], xs[K.Q3]), C_S)
     for i in range(3):
         f_b[i] = S.acc[_A_F + i] / sum_dt
-    f_n = C_S @ f_b
-    F[:, :] = 0.0
-    em._fill_F(F, C.offs9, S.xs[K.LAT], S.xs[K.H], S.xs[K.VE:K.VU + 1].copy(), C_S, f_n,
-               C.inv_tau_dk, C.dr_eps, C.grav_grad)
+        vel[i] = xs[K.VE + i]
+    for i in range(3):
+        f_n[i] = C_S[i, 0] * f_b[0] + C_S[i, 1] * f_b[1] + C_S[i, 2] * f_b[2]
+    # F was zeroed once: _fill_F overwrites its structural entries (error_model.F_pattern)
+    em._fill_F(F, C.offs9, xs[K.LAT], xs[K.H], vel, C_S, f_n, C.inv_tau_dk, C.dr_eps,
+               C.grav_grad)
     for l in range(S.X.shape[0]):
-        _dr_position_noise(Q, C.Qc[l], C.offs[DP_D] if C.with_dr else -1, S.xs[K.LAT],
-                           S.xs[K.H], C.q_dr_m2_s)
-        _predict_kernel(S.X[l], S.P[l], F, Q, sum_dt)
+        if C.with_dr:
+            _dr_position_noise(Q, C.Qc[l], C.offs[DP_D], S.xs[K.LAT], S.xs[K.H], C.q_dr_m2_s)
+            predict_sparse(S.X[l], S.P[l], F, Q, sum_dt, C.ws)
+        else:
+            predict_sparse(S.X[l], S.P[l], F, C.Qc[l], sum_dt, C.ws)
     S.ints[_I_EPOCHS] += 1
     S.t_end[0] = t_now
+    if C.record:                     # the forward pass of a smoother: Phi_k, P_k|k-1
+        _record_predict(S, C, O, t_now)
     aux[0] = t_now
     for i in range(3):
         aux[1 + i] = S.acc[_A_W + i] / sum_dt
@@ -368,6 +396,13 @@ def _epoch_end(S, C, fills, t_now, qt, qj, qd, qi, O, F, Q, aux, z, H, r, xw, Pw
                 and mode != MODE_NONE):
             _global(S, C, mode, x_g, P_g)
             _feed_back(S, C, x_g)
+    if C.record:                     # ... and x_k|k, P_k|k after the feedback
+        i = O.nrec[0]
+        O.rec_x[i] = S.X[0]
+        O.rec_p[i] = S.P[0]
+        O.rec_fed[i] = S.fed_back
+        O.rec_xs[i] = S.xs
+        O.nrec[0] = i + 1
     if S.ints[_I_EPOCHS] % C.out_every == 0:
         _write_output(S, C, O, t_now, x_g, P_g)
     for i in range(_A_SIZE):
@@ -399,6 +434,7 @@ def _advance(S, C, fills, accs, t, dtheta, dvel, dt, ds, v, dth_dr, rows, qt, qj
     P_g = np.zeros((n, n))
     th_nb = np.zeros(3)
     v_old = np.zeros(3)
+    W = (np.empty((3, 3)), np.empty(3), np.empty(3), np.empty(3))   # epoch-end work arrays
     nan = np.nan
     own_dr_gyro = dth_dr.shape[0] > 0
     qi = 0
@@ -442,10 +478,10 @@ def _advance(S, C, fills, accs, t, dtheta, dvel, dt, ds, v, dth_dr, rows, qt, qj
             S.acc[_A_W + i] += dth[i]
         if S.acc[_A_ROWS] >= C.step:
             qi = _epoch_end(S, C, fills, t[k], qt, qj, qd, qi, O, F, Q, aux, z, H, r, xw, Pw,
-                            x_g, P_g)
+                            x_g, P_g, W)
     if flush and S.acc[_A_ROWS] > 0:
         qi = _epoch_end(S, C, fills, t[t.shape[0] - 1], qt, qj, qd, qi, O, F, Q, aux, z, H,
-                        r, xw, Pw, x_g, P_g)
+                        r, xw, Pw, x_g, P_g, W)
     return qi
 
 
@@ -523,13 +559,16 @@ class ErrorStateFilter:
     n_common : int
         Leading states fused across primaries (bank only; default: the fed-back states).
     max_events, max_nis : capacity of the event log and of the NIS series.
+    record : keep, per epoch, what a Rauch-Tung-Striebel smoother needs
+        (:mod:`inmotion.estimation.smoother`; one local filter only): :meth:`add_imu` then
+        returns it under ``"record"``.
     """
 
     def __init__(self, init: NavState, layout: Layout, model: em.ErrorModel, P0,
                  measurements, *, step_rows: int = 1, feedback="closed", feedback_every: int = 1,
                  out_every: int = 1, dr_mounting=None, dr_lever_arm_m=None,
                  dr_position_m2_s: float = 0.0, n_common: int | None = None,
-                 max_events: int = 100000, max_nis: int = 0):
+                 max_events: int = 100000, max_nis: int = 0, record: bool = False):
         for name in ("phi", "dv", "dp"):
             if name not in layout:
                 raise ValueError(f"the filter needs block {name!r} in the layout")
@@ -549,6 +588,8 @@ class ErrorStateFilter:
         L = len(locals_)
         if with_dr and L > 1:
             raise ValueError("a bank of local filters runs on the SINS alone (no DR blocks)")
+        if record and L > 1:
+            raise ValueError("smoother records are kept for one local filter only")
         for lf in locals_:
             if lf.P0.shape != (n, n):
                 raise ValueError(f"P0 must be ({n}, {n}) for {layout!r}, got {lf.P0.shape}")
@@ -599,8 +640,14 @@ class ErrorStateFilter:
         Qc = np.stack([np.ascontiguousarray(model.Qc() if lf.Qc is None else lf.Qc)
                        for lf in locals_])
         offs = layout.offsets()
+        offs9 = tuple(int(o) for o in em._offsets(layout))
+        q_pattern = (Qc != 0).any(axis=0)
+        if with_dr:                     # the DR position random walk (dp_D's diagonal)
+            q_pattern[layout["dp_D"], layout["dp_D"]] = True
+        ws = make_workspace(em.F_pattern(n, offs9, 1.0 / model.noise.dk_tau,
+                                         bool(model.dr_sees_gyro_drift)), q_pattern)
         self._C = _Const(
-            offs=offs, offs9=tuple(int(o) for o in em._offsets(layout)), Qc=Qc,
+            offs=offs, offs9=offs9, Qc=Qc,
             q_dr_m2_s=float(dr_position_m2_s), inv_tau_dk=1.0 / model.noise.dk_tau,
             dr_eps=bool(model.dr_sees_gyro_drift), grav_grad=bool(model.gravity_gradient),
             with_dr=with_dr, step=self.step, out_every=self.out_every, fb_mask=fb_mask,
@@ -618,7 +665,7 @@ class ErrorStateFilter:
             n_common=int(n_common),
             need_nb=bool(has_acc.any() or any(m.needs_body_rate for m in measurements)),
             has_acc=has_acc, log_nis=per_meas(lambda m: m.isolate or m.log_nis, False,
-                                                np.bool_))
+                                                np.bool_), ws=ws, record=bool(record))
         self._fills = tuple([m.fill for m in measurements]
                             + [_noop_fill] * (M - len(measurements)))
         self._accs = tuple([m.accumulate if m.accumulate is not None else _noop_acc
@@ -641,6 +688,7 @@ class ErrorStateFilter:
         self._qj = np.zeros(0, dtype=np.int64)
         self._qd = np.zeros((0, self._data_size))
         self._pending = []
+        self._fed_last = np.zeros(n)        # accumulated feedback before the last record
 
     # -- input ---------------------------------------------------------------------------
     def add_measurement(self, name: str, t, data=None):
@@ -726,7 +774,7 @@ class ErrorStateFilter:
         self._merge_pending()
         n_ep = (int(self._S.acc[0]) + m) // self.step + 1
         cap = n_ep // self.out_every + 1 if max_out is None else int(max_out)
-        O = self._out(cap)
+        O = self._out(cap, n_ep if self._C.record else 0)
         used = _advance(self._S, self._C, self._fills, self._accs, t, dtheta, dvel, dt, ds,
                         speed, dth_dr, rows, self._qt, self._qj, self._qd, O, bool(flush))
         if used:
@@ -753,13 +801,17 @@ class ErrorStateFilter:
             rows[j, :, :d.shape[1]] = d
         return rows
 
-    def _out(self, cap):
+    def _out(self, cap, rec=0):
         n = self.layout.n
         L = len(self.locals) if len(self.locals) > 1 else 0
         return _Out(t=np.empty(cap), xs=np.empty((cap, K.NX)), sigma=np.empty((cap, n)),
                     states=np.empty((cap, n)), cov_phi=np.empty((cap, 3, 3)),
                     mode=np.empty(cap, dtype=np.int64), local_x=np.empty((cap, L, n)),
-                    local_sig=np.empty((cap, L, n)), n=np.zeros(1, dtype=np.int64))
+                    local_sig=np.empty((cap, L, n)), n=np.zeros(1, dtype=np.int64),
+                    rec_t=np.empty(rec), rec_phi=np.empty((rec, n, n)),
+                    rec_ppred=np.empty((rec, n, n)), rec_x=np.empty((rec, n)),
+                    rec_p=np.empty((rec, n, n)), rec_fed=np.empty((rec, n)),
+                    rec_xs=np.empty((rec, K.NX)), nrec=np.zeros(1, dtype=np.int64))
 
     def _result(self, O):
         k = int(O.n[0])
@@ -767,6 +819,15 @@ class ErrorStateFilter:
                "cov_phi": O.cov_phi[:k], "mode": O.mode[:k]}
         if O.local_x.shape[1]:
             res["local_x"], res["local_sigma"] = O.local_x[:k], O.local_sig[:k]
+        if self._C.record:
+            r = int(O.nrec[0])
+            fed = O.rec_fed[:r]
+            fb = np.diff(np.vstack([self._fed_last[None, :], fed]), axis=0)
+            if r:
+                self._fed_last = fed[-1].copy()
+            res["record"] = {"t": O.rec_t[:r], "phi": O.rec_phi[:r], "p_pred": O.rec_ppred[:r],
+                             "x": O.rec_x[:r], "p": O.rec_p[:r], "fb": fb, "fed": fed,
+                             "xs": O.rec_xs[:r]}
         return res
 
     def flush(self) -> dict:
@@ -781,7 +842,9 @@ class ErrorStateFilter:
         O = self._out(1)
         n = self.layout.n
         _write_output(self._S, self._C, O, self.t, np.zeros(n), np.zeros((n, n)))
-        return self._result(O)
+        res = self._result(O)
+        res.pop("record", None)
+        return res
 
     def state(self) -> NavState:
         """The navigation solution now: the SINS corrected by the estimate not yet fed back."""
@@ -869,7 +932,8 @@ class ErrorStateFilter:
         :meth:`restore` returns to it."""
         self._merge_pending()
         return {"S": _State(*(a.copy() for a in self._S)), "t": self.t, "rows": self.rows,
-                "queue": (self._qt.copy(), self._qj.copy(), self._qd.copy())}
+                "queue": (self._qt.copy(), self._qj.copy(), self._qd.copy()),
+                "fed_last": self._fed_last.copy()}
 
     def restore(self, snap: dict):
         """Return to a :meth:`snapshot` of this filter (its arrays are copied again, so one
@@ -881,6 +945,7 @@ class ErrorStateFilter:
         qt, qj, qd = snap["queue"]
         self._qt, self._qj, self._qd = qt.copy(), qj.copy(), qd.copy()
         self._pending = []
+        self._fed_last = snap["fed_last"].copy()
 
 
 def _kernel_state(s: NavState) -> np.ndarray:

@@ -1,0 +1,125 @@
+"""Speed of the error-state engine at KF-GINS's workload, in-process and through the CLI.
+
+The workload of issue 13 ("equal work"): one hour of 100 Hz IMU rows (the shipped
+``paper002_hour`` drive, simulated once), mechanization and a 22-state covariance predict
+every IMU row (``phi, dv, dp, eps, nabla, mount, dk, lever``), a forward-velocity and an NHC
+measurement at 10 Hz, output at 1 Hz. KF-GINS (C++/Eigen, 21 states, predict every IMU
+epoch) spends about 3.5 s of CPU per such hour in its filter, measured on this machine.
+
+Figures (best of ``--repeat`` after a warm-up run, CPU time of this process, one BLAS
+thread):
+
+* ``engine``: :class:`inmotion.estimation.engine.ErrorStateFilter` fed the hour in chunks
+  (the streaming API, as a batch run does);
+* ``sins-dr 100 Hz``: the method ``sins-dr`` (22 states, SINS and DR) with its filter at
+  100 Hz and measurements at 10 Hz, in-process;
+* ``CLI``: ``inmotion navigate BUNDLE --method sins-dr`` on a Parquet bundle of the hour with
+  the same settings and 1 Hz output, wall time of the whole command, and ``inmotion --help``
+  (the fixed start-up cost).
+
+    OPENBLAS_NUM_THREADS=1 .venv/bin/python benchmarks/bench_engine.py [--repeat N] [--no-cli]
+"""
+from __future__ import annotations
+
+import argparse
+import os
+import subprocess
+import sys
+import tempfile
+import time
+from pathlib import Path
+
+import numpy as np
+
+from inmotion.core.solution import NavState
+from inmotion.estimation import error_model as em
+from inmotion.estimation import measurements as ms
+from inmotion.estimation.engine import ErrorStateFilter
+from inmotion.estimation.layout import Layout
+from inmotion.navigate.sins_dr import run_sins_dr
+from inmotion.sim import simulate
+from inmotion.sim.scenario import find_scenario, load_scenario
+
+LAYOUT = Layout(["phi", "dv", "dp", "eps", "nabla", "mount", "dk", "lever"])
+ARCMIN = np.pi / 180 / 60
+
+
+def engine_run(bundle, init):
+    """The equal-workload filter over the whole hour; returns the final state."""
+    lay = LAYOUT
+    model = em.ErrorModel(lay, em.ProcessNoise(gyro_arw=1e-6, accel_vrw=1e-4))
+    d = np.r_[[ARCMIN * 10] * 2, [ARCMIN * 30], [0.1] * 3, [1e-7, 1e-7, 3.0], [2e-7] * 3,
+              [2e-3] * 3, [ARCMIN * 10] * 3, [1e-3], [0.05] * 3]
+    f = ErrorStateFilter(init, lay, model, np.diag(d ** 2),
+                         [ms.ForwardVelocity([0.05, 0.1, 0.05]), ms.Nhc(0.05)],
+                         step_rows=1, out_every=100)
+    imu, radar = bundle.imu, bundle.radar
+    t = imu.t[1:]
+    chunk = 16384
+    for a in range(0, len(t), chunk):
+        b = min(a + chunk, len(t))
+        tm = radar.t[(radar.t > (t[a - 1] if a else init.t)) & (radar.t <= t[b - 1])]
+        f.add_measurement("sensor_velocity", tm, np.interp(tm, radar.t, radar.v))
+        f.add_measurement("nhc", tm)
+        f.add_imu(t[a:b], imu.dtheta[1 + a:1 + b], imu.dvel[1 + a:1 + b], flush=b == len(t))
+    return f
+
+
+def best_cpu(fn, repeat):
+    fn()                                                  # warm-up (JIT, caches)
+    best = np.inf
+    for _ in range(repeat):
+        c0 = time.process_time()
+        fn()
+        best = min(best, time.process_time() - c0)
+    return best
+
+
+def main():
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--repeat", type=int, default=3)
+    ap.add_argument("--no-cli", action="store_true")
+    args = ap.parse_args()
+    bundle = simulate(load_scenario(find_scenario("paper002_hour")), np.random.default_rng(0))
+    init = NavState.from_truth(bundle.truth)
+    hours = (bundle.imu.t[-1] - bundle.imu.t[0]) / 3600.0
+    print(f"paper002_hour: {len(bundle.imu.t) - 1} IMU rows, {hours:.3f} h at "
+          f"{1 / np.median(np.diff(bundle.imu.t)):.0f} Hz")
+    f = engine_run(bundle, init)
+    print(f"  engine: {f.epochs} predicts, counts {f.counts()}")
+    s = best_cpu(lambda: engine_run(bundle, init), args.repeat) / hours
+    print(f"engine equal workload: {s:.3f} s CPU per hour (KF-GINS 3.5 s; target 0.25 s)")
+    cfg = {"mode": "velocity-position", "filter_rate_hz": 100.0, "measurement_rate_hz": 10.0,
+           "output_rate_hz": 1.0}
+    s = best_cpu(lambda: run_sins_dr(bundle, cfg, init), args.repeat) / hours
+    print(f"sins-dr 100 Hz in-process: {s:.3f} s CPU per hour")
+    if args.no_cli:
+        return
+    from inmotion.io.bundle import write_bundle
+    exe = [sys.executable, "-m", "inmotion.cli.main"]
+    env = dict(os.environ, OPENBLAS_NUM_THREADS="1")
+    with tempfile.TemporaryDirectory() as tmp:
+        path = Path(tmp) / "hour"
+        write_bundle(bundle, path, fmt="parquet")
+        cmd = exe + ["-q", "navigate", str(path), "--method", "sins-dr", "--init", "truth",
+                     "--set", "mode=velocity-position", "--set", "filter_rate_hz=100",
+                     "--set", "measurement_rate_hz=10", "--set", "output_rate_hz=1",
+                     "-o", str(Path(tmp) / "out")]
+        walls = []
+        for i in range(args.repeat + 1):
+            t0 = time.perf_counter()
+            subprocess.run(cmd, check=True, env=env, capture_output=True)
+            if i:                                          # the first compiles / warms caches
+                walls.append(time.perf_counter() - t0)
+        print(f"CLI sins-dr 100 Hz, Parquet in, 1 Hz out: {min(walls):.2f} s wall per hour "
+              f"(target 1.0 s)")
+        walls = []
+        for _ in range(args.repeat):
+            t0 = time.perf_counter()
+            subprocess.run(exe + ["--help"], check=True, env=env, capture_output=True)
+            walls.append(time.perf_counter() - t0)
+        print(f"CLI fixed cost (inmotion --help): {min(walls):.2f} s wall (target 0.4 s)")
+
+
+if __name__ == "__main__":
+    main()
