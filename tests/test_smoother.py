@@ -90,7 +90,7 @@ def test_forward_record_spills_to_disk_beyond_its_budget(tmp_path):
     assert rec.on_disk and (tmp_path / "phi.npy").exists()
     chunk = {"t": np.arange(4.0), "phi": np.ones((4, 3, 3)), "p_pred": np.ones((4, 3, 3)),
              "x": np.ones((4, 3)), "p": np.ones((4, 3, 3)), "fb": np.zeros((4, 3)),
-             "fed": np.zeros((4, 3)), "xs": np.zeros((4, 10))}
+             "fed": np.zeros((4, 3)), "xs": np.zeros((4, 10)), "epoch": np.arange(4.0)}
     rec.append(chunk)
     rec.append(chunk)
     assert rec.size == 8 and np.array_equal(rec["t"], np.r_[np.arange(4.0), np.arange(4.0)])

@@ -106,7 +106,7 @@ _I_EPOCHS, _I_UPDATES, _I_MODE, _I_EV, _I_NIS = 0, 1, 2, 3, 4
 #: the filter's mutable state, arrays only (updated in place by the numba loop)
 _State = namedtuple("_State", "xs ms xd md X P fed_back bias_g bias_a acc ints used rejected "
                               "nis_sum dof_sum t_end healthy normal_run tests exceed macc "
-                              "ev nis_log")
+                              "ev nis_log phc ppred")
 #: the filter's constants
 _Const = namedtuple("_Const", "offs offs9 Qc q_dr_m2_s inv_tau_dk dr_eps grav_grad with_dr "
                               "step out_every fb_mask fb_states feedback_every C_bm l_b gates "
@@ -114,7 +114,7 @@ _Const = namedtuple("_Const", "offs offs9 Qc q_dr_m2_s inv_tau_dk dr_eps grav_gr
                               "n_common need_nb has_acc log_nis ws record")
 #: the output buffers of one call
 _Out = namedtuple("_Out", "t xs sigma states cov_phi mode local_x local_sig n rec_t rec_phi "
-                          "rec_ppred rec_x rec_p rec_fed rec_xs nrec")
+                          "rec_ppred rec_x rec_p rec_fed rec_xs rec_epoch nrec")
 
 
 @fill_function
@@ -318,25 +318,44 @@ def _apply(S, C, fills, j, l, z, H, r, m, xw, Pw, t_now, first):
 
 
 @numba.njit(cache=True)
-def _record_predict(S, C, O, t_now):
-    """The epoch's transition ``Phi`` (identity but on the predict's active rows, from its
-    workspace) and predicted covariance into the smoother's records."""
+def _record_predict(S, C):
+    """Compose the epoch's transition into ``S.phc`` (``Phi_k Phi_c``; ``Phi_k`` is the
+    identity but on the predict's active rows, from its workspace) and keep ``P_k|k-1``."""
+    act, PhiT = C.ws.act, C.ws.PhiT
+    na = act.shape[0]
+    n = S.phc.shape[0]
+    if na:
+        tmp = PhiT.T @ S.phc
+        for a in range(na):
+            for c in range(n):
+                S.phc[act[a], c] = tmp[a, c]
+    S.ppred[:, :] = S.P[0]
+
+
+@numba.njit(cache=True)
+def _record_epoch(S, O, t_now):
+    """One smoother record (module :mod:`~inmotion.estimation.smoother`): the transition
+    since the last record, ``P`` predicted at this epoch, ``x``, ``P`` after its updates and
+    feedback, the accumulated feedback, the corrected SINS; the composite restarts."""
     i = O.nrec[0]
     O.rec_t[i] = t_now
-    Phi = O.rec_phi[i]
-    n = Phi.shape[0]
-    Phi[:, :] = 0.0
+    O.rec_epoch[i] = S.ints[_I_EPOCHS]
+    O.rec_phi[i] = S.phc
+    O.rec_ppred[i] = S.ppred
+    O.rec_x[i] = S.X[0]
+    O.rec_p[i] = S.P[0]
+    O.rec_fed[i] = S.fed_back
+    O.rec_xs[i] = S.xs
+    O.nrec[0] = i + 1
+    n = S.phc.shape[0]
     for p in range(n):
-        Phi[p, p] = 1.0
-    act, PhiT = C.ws.act, C.ws.PhiT
-    for a in range(act.shape[0]):
         for c in range(n):
-            Phi[act[a], c] = PhiT[c, a]
-    O.rec_ppred[i] = S.P[0]
+            S.phc[p, c] = 1.0 if p == c else 0.0
 
 
 @numba.njit(cache=True, inline="always")
-def _epoch_end(S, C, fills, t_now, qt, qj, qd, qi, O, F, Q, aux, z, H, r, xw, Pw, x_g, P_g, W):
+def _epoch_end(S, C, fills, t_now, qt, qj, qd, qi, O, F, Q, aux, z, H, r, xw, Pw, x_g, P_g, W,
+               last):
     """Close a filter epoch: predict, apply the due samples, feed back, output. Returns the
     next queue index."""
     sum_dt = S.acc[_A_DT]
@@ -359,8 +378,8 @@ def _epoch_end(S, C, fills, t_now, qt, qj, qd, qi, O, F, Q, aux, z, H, r, xw, Pw
             predict_sparse(S.X[l], S.P[l], F, C.Qc[l], sum_dt, C.ws)
     S.ints[_I_EPOCHS] += 1
     S.t_end[0] = t_now
-    if C.record:                     # the forward pass of a smoother: Phi_k, P_k|k-1
-        _record_predict(S, C, O, t_now)
+    if C.record:                     # the forward pass of a smoother: Phi, P_k|k-1
+        _record_predict(S, C)
     aux[0] = t_now
     for i in range(3):
         aux[1 + i] = S.acc[_A_W + i] / sum_dt
@@ -396,13 +415,8 @@ def _epoch_end(S, C, fills, t_now, qt, qj, qd, qi, O, F, Q, aux, z, H, r, xw, Pw
                 and mode != MODE_NONE):
             _global(S, C, mode, x_g, P_g)
             _feed_back(S, C, x_g)
-    if C.record:                     # ... and x_k|k, P_k|k after the feedback
-        i = O.nrec[0]
-        O.rec_x[i] = S.X[0]
-        O.rec_p[i] = S.P[0]
-        O.rec_fed[i] = S.fed_back
-        O.rec_xs[i] = S.xs
-        O.nrec[0] = i + 1
+    if C.record and (applied or last or S.ints[_I_EPOCHS] % C.out_every == 0):
+        _record_epoch(S, O, t_now)   # only where the smoother has something to say
     if S.ints[_I_EPOCHS] % C.out_every == 0:
         _write_output(S, C, O, t_now, x_g, P_g)
     for i in range(_A_SIZE):
@@ -478,10 +492,10 @@ def _advance(S, C, fills, accs, t, dtheta, dvel, dt, ds, v, dth_dr, rows, qt, qj
             S.acc[_A_W + i] += dth[i]
         if S.acc[_A_ROWS] >= C.step:
             qi = _epoch_end(S, C, fills, t[k], qt, qj, qd, qi, O, F, Q, aux, z, H, r, xw, Pw,
-                            x_g, P_g, W)
+                            x_g, P_g, W, False)
     if flush and S.acc[_A_ROWS] > 0:
         qi = _epoch_end(S, C, fills, t[t.shape[0] - 1], qt, qj, qd, qi, O, F, Q, aux, z, H,
-                        r, xw, Pw, x_g, P_g, W)
+                        r, xw, Pw, x_g, P_g, W, True)
     return qi
 
 
@@ -559,9 +573,10 @@ class ErrorStateFilter:
     n_common : int
         Leading states fused across primaries (bank only; default: the fed-back states).
     max_events, max_nis : capacity of the event log and of the NIS series.
-    record : keep, per epoch, what a Rauch-Tung-Striebel smoother needs
-        (:mod:`inmotion.estimation.smoother`; one local filter only): :meth:`add_imu` then
-        returns it under ``"record"``.
+    record : keep what a Rauch-Tung-Striebel smoother needs
+        (:mod:`inmotion.estimation.smoother`; one local filter only), at every epoch that
+        applied samples, every output epoch and the last one, with the transition composed
+        over the epochs between: :meth:`add_imu` then returns it under ``"record"``.
     """
 
     def __init__(self, init: NavState, layout: Layout, model: em.ErrorModel, P0,
@@ -680,7 +695,9 @@ class ErrorStateFilter:
             t_end=np.array([float(init.t)]), healthy=np.ones(M, dtype=np.bool_),
             normal_run=np.zeros(M, dtype=np.int64), tests=np.zeros(M, dtype=np.int64),
             exceed=np.zeros(M, dtype=np.int64), macc=np.zeros((M, ACC_SIZE)),
-            ev=np.zeros((int(max_events), 4)), nis_log=np.zeros((int(max_nis), 3)))
+            ev=np.zeros((int(max_events), 4)), nis_log=np.zeros((int(max_nis), 3)),
+            phc=np.eye(n) if record else np.zeros((0, 0)),
+            ppred=np.zeros((n, n) if record else (0, 0)))
         self._S.ints[_I_MODE] = _mode(self._S, self._C)
         self.t = float(init.t)           #: time of the last IMU row processed [s]
         self.rows = 0                    #: IMU rows processed
@@ -811,7 +828,8 @@ class ErrorStateFilter:
                     rec_t=np.empty(rec), rec_phi=np.empty((rec, n, n)),
                     rec_ppred=np.empty((rec, n, n)), rec_x=np.empty((rec, n)),
                     rec_p=np.empty((rec, n, n)), rec_fed=np.empty((rec, n)),
-                    rec_xs=np.empty((rec, K.NX)), nrec=np.zeros(1, dtype=np.int64))
+                    rec_xs=np.empty((rec, K.NX)), rec_epoch=np.empty(rec),
+                    nrec=np.zeros(1, dtype=np.int64))
 
     def _result(self, O):
         k = int(O.n[0])
@@ -827,7 +845,7 @@ class ErrorStateFilter:
                 self._fed_last = fed[-1].copy()
             res["record"] = {"t": O.rec_t[:r], "phi": O.rec_phi[:r], "p_pred": O.rec_ppred[:r],
                              "x": O.rec_x[:r], "p": O.rec_p[:r], "fb": fb, "fed": fed,
-                             "xs": O.rec_xs[:r]}
+                             "xs": O.rec_xs[:r], "epoch": O.rec_epoch[:r]}
         return res
 
     def flush(self) -> dict:

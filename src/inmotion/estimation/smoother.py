@@ -1,7 +1,9 @@
 """Rauch-Tung-Striebel smoothing over the error-state engine's forward pass.
 
 The forward pass (:class:`inmotion.estimation.engine.ErrorStateFilter` with ``record=True``)
-stores, for every filter epoch ``k``: the transition ``Phi_k`` of the epoch's predict, the
+stores, for every recorded epoch ``k`` (one that applied measurements, an output epoch, the
+last one): the transition ``Phi_k`` since the previous record (the product of the epochs'
+transitions between them: with no update in between, the smoother needs nothing else), the
 predicted covariance ``P_k|k-1``, the updated estimate and covariance ``x_k|k``, ``P_k|k``
 *after* the epoch's feedback (the error relative to the corrected navigation state), the
 vector fed back at the epoch ``fb_k``, the accumulated feedback and the corrected navigation
@@ -44,7 +46,7 @@ __all__ = ["rts_backward", "ForwardRecord", "RECORD_FIELDS", "smooth_record"]
 #: singular in the smoother gain (machine precision times the states' dynamic range)
 PINV_RCOND = 1e-12
 #: per-epoch records of the forward pass: name -> shape after the epoch axis (n: states)
-RECORD_FIELDS = ("t", "phi", "p_pred", "x", "p", "fb", "fed", "xs")
+RECORD_FIELDS = ("t", "phi", "p_pred", "x", "p", "fb", "fed", "xs", "epoch")
 
 
 @numba.njit(cache=True)
@@ -124,7 +126,7 @@ class ForwardRecord:
         self.capacity = int(capacity)
         self.size = 0
         shapes = {"t": (), "phi": (n, n), "p_pred": (n, n), "x": (n,), "p": (n, n),
-                  "fb": (n,), "fed": (n,), "xs": (10,)}
+                  "fb": (n,), "fed": (n,), "xs": (10,), "epoch": ()}
         need = 8 * self.capacity * sum(int(np.prod(s)) for s in shapes.values())
         self._tmp = None
         self.on_disk = need > memory_budget_bytes

@@ -165,7 +165,8 @@ class VelocityAidedRun:
             rec = ForwardRecord(n, -(-n_rows // self.step) + 1)
             rec.append({"t": [f.t], "phi": np.eye(n)[None], "p_pred": f.covariance()[None],
                         "x": f.x[None], "p": f.covariance()[None], "fb": np.zeros((1, n)),
-                        "fed": np.zeros((1, n)), "xs": f.kernel_states()[0][None]})
+                        "fed": np.zeros((1, n)), "xs": f.kernel_states()[0][None],
+                        "epoch": [0.0]})
         chunk = max(1, CHUNK_ROWS // self.step) * self.step
         max_gap = 5.0 * float(np.median(np.diff(speed.t[:GAP_SAMPLES])))
         groups = [g for g in GROUPS if self.use[g]]
@@ -197,8 +198,8 @@ class VelocityAidedRun:
             outs.append(f.output_now())
         res = {k: np.concatenate([o[k] for o in outs]) for k in outs[0]}
         if rec is not None:             # the smoothed rows at the forward output's epochs
-            N = rec.size - 1
-            rows = np.unique(np.r_[np.arange(0, N + 1, self.out_every), N])
+            ep = np.asarray(rec["epoch"])
+            rows = np.flatnonzero((ep % self.out_every == 0) | (ep == ep[-1]))
             sm = smooth_record(rec, self.layout, rows)
             rec.close()
             if not np.array_equal(sm["t"], res["t"]):

@@ -39,7 +39,7 @@ from ..core import rotations
 from ..core.bundle import Truth
 from ..core.solution import Solution, StateUnit
 from ..errors import BadInput
-from ..evaluate.metrics import error_series, errors_block
+from ..evaluate.metrics import consistency_block, error_series, errors_block
 from .bundle import _plain, atomic_write, write_csv
 
 __all__ = ["write_result", "read_result", "write_errors", "SOLUTION_COLUMNS", "SIGMA_UNITS",
@@ -204,7 +204,11 @@ def write_errors(solution: Solution, truth: Truth, folder: PathLike,
         fmt = sol.suffix[1:] if sol is not None else "csv"
     err = error_series(solution, truth)
     _write_table(err, folder, "errors", fmt)
-    return errors_block(err)
+    block = errors_block(err)
+    cons = consistency_block(solution, err)
+    if cons:
+        block["consistency"] = cons
+    return block
 
 
 def write_summary(summary: dict, folder: PathLike) -> None:
