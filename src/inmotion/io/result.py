@@ -261,6 +261,22 @@ def read_result(path: PathLike) -> Solution:
 
     ``info`` gets the summary's ``info`` plus ``method``, ``config``, ``timing`` and, if
     present, ``errors``; ``state_units`` come from the summary's ``states`` map.
+
+    Parameters
+    ----------
+    path : str or Path
+        The result folder (``solution.csv``, ``summary.json``, optional ``states.csv``).
+
+    Returns
+    -------
+    Solution
+        ``t`` [s], ``lat``, ``lon`` [rad], ``h`` [m], ``vel_n`` [m/s] ENU, ``euler`` [rad],
+        ``sigma`` and ``states`` in SI.
+
+    Raises
+    ------
+    BadInput
+        A missing folder or file, a malformed table (file, row, what is wrong).
     """
     folder = Path(path)
     if not folder.is_dir():

@@ -73,7 +73,7 @@ from typing import Callable, Literal, Optional
 
 import numpy as np
 from pydantic import BaseModel, ConfigDict, Field
-from scipy.stats import chi2
+from ..estimation import chi2
 
 from ..core import earth
 from ..core.bundle import Bundle
