@@ -199,7 +199,8 @@ def _nonlinear_nav(err, truth):
 @pytest.mark.parametrize("meas, data", [
     (ms.SinsDrAttitude(1e-3), None), (ms.SinsDrVelocity([0.1, 0.2, 0.1]), None),
     (ms.SinsDrPosition(1.0), None), (ms.ForwardVelocity([0.1, 0.2, 0.1]), "speed"),
-    (ms.Nhc(0.1), None), (ms.Height(1.0), "h"), (ms.Position([1.0, 1.0, 2.0]), "pos"),
+    (ms.Nhc(0.1), None), (ms.Nhc(0.1, mount_terms=False), None), (ms.Height(1.0), "h"),
+    (ms.Position([1.0, 1.0, 2.0]), "pos"),
     (ms.ZeroVelocity([0.01] * 3), None), (ms.ZeroAngularRate([1e-5] * 3), None)])
 @pytest.mark.parametrize("yaw_deg", [359.99, 127.0])
 def test_measurement_rows_are_the_derivative_of_the_nonlinear_measurement(meas, data, yaw_deg):
@@ -218,12 +219,18 @@ def test_measurement_rows_are_the_derivative_of_the_nonlinear_measurement(meas, 
     z0, H, R = z(FULL.zeros())
     assert z0.shape == (meas.dof,) and H.shape == (meas.dof, FULL.n)
     assert np.all(np.diag(R) > 0)
+    # at zero error z is what the measurement says independently: the differences vanish,
+    # the height differs by the sample's 1 m, the position fix by its -1 m of height
+    expect = {"h": [1.0], "pos": [0.0, 0.0, -1.0]}.get(data, np.zeros(meas.dof))
+    np.testing.assert_allclose(z0, expect, atol=1e-9)
     rng = np.random.default_rng(1)
     scale = FULL.zeros()
     for b, s in (("phi", 1e-3), ("dv", 0.1), ("phi_D", 1e-3), ("dk", 1e-3), ("eps", 1e-6),
                  ("mount", 1e-3)):
         scale[FULL[b]] = s
     scale[FULL["dp"]] = scale[FULL["dp_D"]] = (1e-6, 1e-6, 1.0)
+    if isinstance(meas, ms.Nhc) and not meas.mount_terms:   # eq. 37 as printed: no mount
+        scale[FULL["mount"]] = 0.0                               # columns (test_error_model)
     for _ in range(4):
         d = rng.standard_normal(FULL.n) * scale
         eps = 1e-3
@@ -288,7 +295,7 @@ def test_a_measurement_defined_in_a_test_file_runs_through_the_engine(seed):
     """A wheel-speed sensor reading 0.5 % high: the engine, with only this new class and the
     built-in NHC, estimates the scale (``dk``) within 3 sigma of the truth, and the level
     attitude stays within 3 sigma of the simulated truth."""
-    assert isinstance(_fill_wheel_speed, numba.core.registry.CPUDispatcher)
+    assert isinstance(ms.dispatcher(_fill_wheel_speed), numba.core.registry.CPUDispatcher)
     b = simulate(WHEEL_DRIVE, np.random.default_rng(seed))
     lay = Layout(["phi", "dv", "dp", "eps", "nabla", "dk"])
     model = em.ErrorModel(lay, em.ProcessNoise(gyro_arw=1e-6, accel_vrw=1e-4))

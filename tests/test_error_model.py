@@ -86,6 +86,12 @@ def test_dr_velocity_rows_match_the_nonlinear_dr_velocity():
 
 @pytest.mark.parametrize("with_mount", [True, False])
 def test_nhc_rows_match_the_nonlinear_projection(with_mount):
+    """The one NHC measurement (:class:`inmotion.estimation.measurements.Nhc`) against the
+    nonlinear projection, with the mounting columns; without them (paper 000's eq. 37 as
+    printed) the mounting columns it misses are not zero."""
+    from inmotion.core.rotations import quat_from_dcm
+    from inmotion.estimation.measurements import AUX_SIZE, Nhc
+
     pt, C, V = _pt()
 
     def z(x):
@@ -95,7 +101,8 @@ def test_nhc_rows_match_the_nonlinear_projection(with_mount):
         return (C_hat.T @ (v_n + dv))[[0, 2]]
 
     J = _numjac(z, 10)
-    H = em.nhc_rows(LAY25, pt, with_mount=with_mount)
+    xs = np.r_[pt.lat, 0.0, pt.h, C @ np.array([0.0, V, 0.0]), quat_from_dcm(C)]
+    H = Nhc(1.0, mount_terms=with_mount).rows((xs, xs, np.zeros(AUX_SIZE)), None, LAY25)[1]
     assert np.allclose(H[:, LAY25["phi"]], J[:, 0:3], atol=1e-6)
     assert np.allclose(H[:, LAY25["dv"]], J[:, 3:6], atol=1e-9)
     if with_mount:
@@ -103,36 +110,6 @@ def test_nhc_rows_match_the_nonlinear_projection(with_mount):
     else:      # the printed eq. 37 misses the mounting columns, which are not zero
         assert np.all(H[:, LAY25["mount"]] == 0)
         assert np.max(np.abs(J[:, 6:9])) > 0.5 * V
-
-
-def test_sensor_velocity_rows_match_the_nonlinear_measurement():
-    lay = Layout(["phi", "dv", "dp", "eps", "nabla", "mount", "dk", "lever"])
-    pt, C, V = _pt()
-    w = pt.omega_nb_b
-    lever = np.array([0.5, 1.5, -0.3])
-
-    def z(x13):
-        phi, dv, A, dk = _split(x13[:10])
-        dl = x13[10:]
-        C_hat = dcm_from_rotvec(-phi) @ C
-        # truth: the sensor point (IMU + lever) moves along m's y with speed V
-        v_sensor_b = dcm_from_rotvec(A) @ np.array([0.0, V, 0.0])
-        v_imu_n = C @ (v_sensor_b - np.cross(w, lever))
-        # computed: the sensor speed mapped with the SINS attitude, nominal mount, lever + dl
-        v_meas_n = C_hat @ (np.array([0.0, (1 + dk) * V, 0.0]) - np.cross(w, lever + dl))
-        return (v_imu_n + dv) - v_meas_n
-
-    J = _numjac(z, 13)
-    pt.vel_n = C @ (np.array([0.0, V, 0.0]) - np.cross(w, lever))   # the IMU's velocity
-    H = em.sensor_velocity_rows(lay, pt, vel_sensor_n=C @ np.array([0.0, V, 0.0]))
-    for name, cols in (("phi", slice(0, 3)), ("dv", slice(3, 6)), ("mount", slice(6, 9)),
-                       ("dk", slice(9, 10)), ("lever", slice(10, 13))):
-        assert np.allclose(H[:, lay[name]], J[:, cols], atol=1e-6), name
-
-
-def test_height_row():
-    H = em.height_rows(LAY25)
-    assert H[0, LAY25.index("dp_h")] == 1.0 and H.sum() == 1.0
 
 
 # -- the printed SINS F of paper 000 -----------------------------------------------------

@@ -13,6 +13,7 @@ from pathlib import Path
 import numba
 
 from inmotion import registry
+from inmotion.estimation import measurements
 
 DOC = Path(__file__).resolve().parents[1] / "docs" / "extending.md"
 
@@ -31,7 +32,8 @@ def test_the_extending_page_runs_as_written(capsys, tmp_path, monkeypatch):
     n_specs = len(registry._SPECS)
     try:
         ns = importlib.import_module(name).__dict__
-        assert isinstance(ns["fill_wheel_speed"], numba.core.registry.CPUDispatcher)
+        assert isinstance(measurements.dispatcher(ns["fill_wheel_speed"]),
+                          numba.core.registry.CPUDispatcher)
         assert ns["f"].counts()["wheel_speed"]["used"] > 1000
         assert ns["sol"].info["method"] == "sins-wheel"
         out = capsys.readouterr().out

@@ -5,8 +5,7 @@ The shared tests (``test_error_model.py``, ``test_kalman.py``) already check ``e
 
 * the assembled measurement rows of both modes (attitude, velocity in the DR body frame,
   position, height) against central differences of the nonlinear SINS-minus-DR measurement,
-  heading across North included; with paper 000's layout (``dr-kf``: mounting block, NHC
-  group) the engine's rows equal the shared model's;
+  heading across North included (every plug-in alone: ``test_engine.py``);
 * the allocation-free sequential Joseph update against the shared kernel and the batch update;
   the numba feedback against ``Strapdown.correct`` / ``DeadReckoner.correct``;
 * the DR position random walk the filter adds, against Monte Carlo dead reckoning with a noisy
@@ -122,63 +121,6 @@ def test_velocity_rows_are_the_n_frame_rows_resolved_in_the_dr_body_frame():
     v = xd[3:6]
     assert np.allclose(C @ H[:, LAY.index("dk")], -v)
     assert np.allclose(C @ H[:, LAY["phi_D"]], -rotations.skew(v))
-
-
-@pytest.mark.parametrize("nhc_mount", [True, False])
-def test_dr_kf_rows_equal_the_shared_model_rows(nhc_mount):
-    """With paper 000's layout (``mount`` block) the engine's numba rows are the shared
-    model's (``euler_rows``, ``dr_velocity_rows`` with its mounting columns, ``nhc_rows``,
-    ``height_rows``, which test_error_model checks against the nonlinear measurements), and
-    the NHC ``z`` is the SINS velocity on body x and z."""
-    from inmotion.align.dr_kalman import LAYOUT_DR_KF as L0
-    from inmotion.estimation import error_model as em
-    C_S = rotations.dcm_from_euler(np.radians([3.0, -2.0, 211.0]))
-    C_D = rotations.dcm_from_euler(np.radians([3.1, -2.2, 210.7]))
-    xs = _nav(0.6, 1.9, 380.0, C_S @ [0.2, 14.0, -0.1], C_S)
-    xd = _nav(0.6 + 1e-6, 1.9 - 1e-6, 377.0, C_D @ [0.0, 14.1, 0.0], C_D)
-    meas = [ms.SinsDrAttitude(1e-4), ms.SinsDrVelocity(np.sqrt([1.0, 2.0, 3.0])),
-            ms.Nhc(0.3, mount_terms=nhc_mount), ms.Height(2.0)]
-    z, H, r = _stack(meas, xs, xd, L0, {"height": 379.0})
-    assert len(z) == 9
-    att = np.zeros((3, L0.n))
-    att[:, L0["phi"]] = em.euler_rows(C_S)
-    att[:, L0["phi_D"]] = -em.euler_rows(C_D)
-    pt_D = em.LinPoint(lat=xd[0], h=xd[2], vel_n=xd[3:6], C_nb=C_D, f_n=np.zeros(3))
-    vel = -em.dr_velocity_rows(L0, pt_D)
-    vel[:, L0["dv"]] += np.eye(3)
-    pt = em.LinPoint(lat=xs[0], h=xs[2], vel_n=xs[3:6], C_nb=C_S, f_n=np.zeros(3))
-    nhc = em.nhc_rows(L0, pt, with_mount=nhc_mount)
-    assert np.abs(vel[:, L0["mount"]]).max() > 1.0        # the mounting columns are there
-    assert np.allclose(H[0:3], att, atol=1e-12)
-    assert np.allclose(H[3:6], C_D.T @ vel, atol=1e-12)
-    assert np.allclose(H[6:8], nhc, atol=1e-12)
-    assert np.allclose(H[8], em.height_rows(L0)[0])
-    assert np.allclose(z[3:6], C_D.T @ (xs[3:6] - xd[3:6]), atol=1e-12)
-    assert np.allclose(z[6:8], (C_S.T @ xs[3:6])[[0, 2]], atol=1e-12)
-    assert z[8] == pytest.approx(1.0) and np.allclose(r[6:8], 0.09)
-
-
-def test_od_velocity_kf_rows_equal_the_shared_model_rows():
-    """Without DR blocks (``od-velocity-kf``) the engine's ``sensor_velocity`` group is the
-    shared model's ``sensor_velocity_rows`` (velocity matching, mounting and scale columns)
-    resolved in the SINS body frame, and ``z`` the SINS velocity minus the speed along the
-    SINS forward axis."""
-    from inmotion.align.dr_kalman import LAYOUT_OD_KF as L1
-    from inmotion.estimation import error_model as em
-    C_S = rotations.dcm_from_euler(np.radians([-1.5, 2.0, 33.0]))
-    xs = _nav(0.6, 1.9, 380.0, C_S @ [0.2, 14.0, -0.1], C_S)
-    speed = 14.3
-    z, H, r = _stack([ms.ForwardVelocity(np.sqrt([1.0, 2.0, 3.0])), ms.Nhc(0.3)], xs, xs, L1,
-                     {"sensor_velocity": speed})
-    assert len(z) == 5
-    v_s = C_S @ [0.0, speed, 0.0]
-    pt = em.LinPoint(lat=xs[0], h=xs[2], vel_n=xs[3:6], C_nb=C_S, f_n=np.zeros(3))
-    ref = em.sensor_velocity_rows(L1, pt, vel_sensor_n=v_s)
-    assert np.abs(ref[:, L1["mount"]]).max() > 1.0
-    assert np.allclose(H[0:3], C_S.T @ ref, atol=1e-12)
-    assert np.allclose(z[0:3], C_S.T @ (xs[3:6] - v_s), atol=1e-12)
-    assert np.allclose(r[0:3], [1.0, 2.0, 3.0])
-    assert np.allclose(H[3:5], em.nhc_rows(L1, pt), atol=1e-12)
 
 
 # -- the update and the feedback kernels ---------------------------------------------------

@@ -81,7 +81,7 @@ from .federated import fuse_kernel
 from .kalman import sequential_joseph
 from .layout import DP, DP_D, DV, EPS, NABLA, PHI, PHI_D, Layout
 from .measurements import (ACC_SIZE, AUX_FB, AUX_SIZE, AUX_T, AUX_WIB, AUX_WNB, Measurement,
-                           accumulator_function, fill_function)
+                           accumulator_function, dispatcher, fill_function)
 from .nav_ops import compensated_row, correct_nav, dcm_of_q
 from .predict import make_workspace, predict_sparse
 
@@ -682,10 +682,11 @@ class ErrorStateFilter:
             need_nb=bool(has_acc.any() or any(m.needs_body_rate for m in measurements)),
             has_acc=has_acc, log_nis=per_meas(lambda m: m.isolate or m.log_nis, False,
                                                 np.bool_), ws=ws, record=bool(record))
-        self._fills = tuple([m.fill for m in measurements]
-                            + [_noop_fill] * (M - len(measurements)))
-        self._accs = tuple([m.accumulate if m.accumulate is not None else _noop_acc
-                            for m in measurements] + [_noop_acc] * (M - len(measurements)))
+        self._fills = tuple([dispatcher(m.fill) for m in measurements]
+                            + [dispatcher(_noop_fill)] * (M - len(measurements)))
+        self._accs = tuple([dispatcher(m.accumulate if m.accumulate is not None else _noop_acc)
+                            for m in measurements]
+                           + [dispatcher(_noop_acc)] * (M - len(measurements)))
         self._S = _State(
             xs=x0.copy(), ms=K.new_memory(), xd=x0.copy(), md=K.new_memory(),
             X=np.zeros((L, n)), P=np.stack([lf.P0 for lf in locals_]), fed_back=np.zeros(n),

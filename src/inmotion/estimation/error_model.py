@@ -55,8 +55,7 @@ from numba.extending import intrinsic
 from ..core import _kernels as K
 
 __all__ = ["LinPoint", "ProcessNoise", "ErrorModel", "transport_jacobians", "F_pattern",
-           "dr_velocity_rows", "euler_rows", "nhc_rows", "sensor_velocity_rows",
-           "height_rows", "EULER_ROW_NAMES"]
+           "dr_velocity_rows", "euler_rows", "EULER_ROW_NAMES"]
 
 #: order of the attitude-difference measurement rows of paper 000 eq. 23: heading, pitch, roll
 EULER_ROW_NAMES = ("yaw", "pitch", "roll")
@@ -474,63 +473,3 @@ def euler_rows(C_nb):
         [-T[1, 1] / cp, T[0, 1] / cp, 0.0],
         [(T[1, 0] * T[2, 2] - T[1, 2] * T[2, 0]) / r2,
          (T[0, 2] * T[2, 0] - T[0, 0] * T[2, 2]) / r2, 0.0]])
-
-
-def nhc_rows(layout, pt: LinPoint, with_mount=True):
-    """(2, n) rows of the non-holonomic measurement ``z = [v_x, v_z]`` (paper 000 eq. 32-38).
-
-    ``z`` is the SINS velocity projected on the lateral and vertical axes (``v_b = C_n^b v``
-    with the computed attitude). Linearized, eq. 36:
-    ``d v_b = C_n^b dv - C_n^b [v x] phi`` (eq. 37 as printed, with ``T = C_b^n``).
-
-    ``with_mount``: the vehicle moves along the velocity sensor's forward axis, which the
-    mounting angles ``A`` rotate away from b's (the same geometry that makes eq. 11 true).
-    Its lateral and vertical velocity in b are then ``A x [0, V, 0]`` = ``[-gamma V, 0,
-    alpha V]``, not zero, and the rows gain ``-[v_b x]`` in the ``mount`` columns. Paper 000's
-    eq. 37 leaves them out (``with_mount=False``); with them the NHC also observes alpha and
-    gamma, and does not bias the misalignment by the mounting (a test checks the rows
-    against the nonlinear measurement).
-    """
-    lay = layout
-    H = np.zeros((2, lay.n))
-    C_bn = pt.C_nb.T
-    rows = [0, 2]
-    H[:, lay["dv"]] = C_bn[rows]
-    H[:, lay["phi"]] = -(C_bn @ skew(pt.vel_n))[rows]
-    if with_mount and "mount" in lay:
-        v_b = C_bn @ pt.vel_n
-        H[:, lay["mount"]] = -skew(v_b)[rows]
-    return H
-
-
-def sensor_velocity_rows(layout, pt: LinPoint, vel_sensor_n=None):
-    """(3, n) rows of ``z = v_SINS - C_b^n(SINS) (C_m^b [0, v, 0] - w_nb^b x l)``.
-
-    The classic SINS / velocity-sensor velocity matching (baseline ``od-velocity-kf``, paper
-    003 eq. 23-24 form): the sensor's speed ``v`` along its forward axis, mapped to the IMU
-    point with the lever arm ``l`` and to n with the SINS attitude. Its error is
-    ``[v x] phi + [v_s x] C A + dk v_s - C [w_nb^b x] dl`` (eq. 11 with the SINS attitude;
-    ``dl`` the lever-arm error, computed minus true), so
-    ``H = [dv: I, phi: -[v x], mount: -[v_s x] C, dk: -v_s, lever: C [w_nb^b x]]``,
-    with ``v`` the IMU's and ``v_s`` (``vel_sensor_n``, default ``v``) the sensor point's
-    velocity in n.
-    """
-    lay = layout
-    H = np.zeros((3, lay.n))
-    vs = pt.vel_n if vel_sensor_n is None else np.asarray(vel_sensor_n, dtype=float)
-    H[:, lay["dv"]] = np.eye(3)
-    H[:, lay["phi"]] = -skew(pt.vel_n)
-    if "mount" in lay:
-        H[:, lay["mount"]] = -skew(vs) @ pt.C_nb
-    if "dk" in lay:
-        H[:, lay["dk"]] = -vs[:, None]
-    if "lever" in lay and pt.omega_nb_b is not None:
-        H[:, lay["lever"]] = pt.C_nb @ skew(pt.omega_nb_b)
-    return H
-
-
-def height_rows(layout):
-    """(1, n) row of ``z = h_SINS - h_baro`` (barometric height; paper 000 sec. 2)."""
-    H = np.zeros((1, layout.n))
-    H[0, layout.index("dp_h")] = 1.0
-    return H

@@ -57,7 +57,8 @@ from .aiding_rows import _displacement_rows, _velocity_rows
 from .layout import DK, DP, DP_D, DV, EPS, LEVER, MOUNT, PHI, PHI_D, Layout
 from .nav_ops import dcm_of_q, euler_ypr, wrap_pi
 
-__all__ = ["FILL_SIG", "ACC_SIG", "ACC_SIZE", "accumulator_function", "Measurement", "SinsDrAttitude", "SinsDrVelocity", "SinsDrPosition",
+__all__ = ["FILL_SIG", "ACC_SIG", "ACC_SIZE", "accumulator_function", "Compiled", "dispatcher",
+           "Measurement", "SinsDrAttitude", "SinsDrVelocity", "SinsDrPosition",
            "ForwardVelocity", "Nhc", "Height", "Position", "ZeroVelocity", "ZeroAngularRate",
            "fill_function", "AUX_SIZE"]
 
@@ -83,14 +84,47 @@ ACC_T, ACC_DP, ACC_TH, ACC_D, ACC_W, ACC_BAD = 0, 1, 4, 7, 10, 13
 P_SIG, P_LEVER, P_FWD = 0, 3, 6
 
 
-def fill_function(func):
-    """Compile ``func`` as a fill function with :data:`FILL_SIG` (cached on disk)."""
-    return numba.njit(FILL_SIG, cache=True)(func)
+class Compiled:
+    """A numba function with one fixed signature, compiled (or loaded from the disk cache) on
+    first use, not at import: importing the measurements costs nothing, and a kernel that a
+    fill calls is first loaded for a Python call, not as the fill's dependency (numba 0.6x
+    then fails to box arrays that kernel returns to Python: "NRT_adapt_ndarray_to_python,
+    'descr' is NULL").
+
+    ``dispatcher`` is the compiled numba function (what the engine's loop calls through a
+    function pointer); calling the object calls it.
+    """
+
+    def __init__(self, func, sig):
+        self.py_func = func
+        self.sig = sig
+        self._dispatcher = None
+        self.__doc__ = func.__doc__
+        self.__name__ = func.__name__
+
+    @property
+    def dispatcher(self):
+        if self._dispatcher is None:
+            self._dispatcher = numba.njit(self.sig, cache=True)(self.py_func)
+        return self._dispatcher
+
+    def __call__(self, *args):
+        return self.dispatcher(*args)
 
 
-def accumulator_function(func):
-    """Compile ``func`` as an accumulator with :data:`ACC_SIG` (cached on disk)."""
-    return numba.njit(ACC_SIG, cache=True)(func)
+def fill_function(func) -> Compiled:
+    """``func`` as a fill function with :data:`FILL_SIG` (compiled on first use, cached)."""
+    return Compiled(func, FILL_SIG)
+
+
+def accumulator_function(func) -> Compiled:
+    """``func`` as an accumulator with :data:`ACC_SIG` (compiled on first use, cached)."""
+    return Compiled(func, ACC_SIG)
+
+
+def dispatcher(f):
+    """The numba function of a fill or accumulator (:class:`Compiled` or already compiled)."""
+    return f.dispatcher if isinstance(f, Compiled) else f
 
 
 class Measurement:

@@ -210,8 +210,9 @@ def observability(seconds=300.0, speed_m_s=15.0, heading_deg=30.0, lat_deg=34.25
     """
     from ..align.dr_kalman import LAYOUT_DR_KF as lay
     from ..core import earth
-    from ..core.rotations import dcm_from_euler
+    from ..core.rotations import dcm_from_euler, quat_from_dcm
     from ..estimation import error_model as em
+    from ..estimation import measurements as ms
     from ..estimation.kalman import discretize
     C = dcm_from_euler(np.array([0.0, 0.0, np.deg2rad(heading_deg)]))
     lat = np.deg2rad(lat_deg)
@@ -219,14 +220,15 @@ def observability(seconds=300.0, speed_m_s=15.0, heading_deg=30.0, lat_deg=34.25
                      f_n=np.array([0.0, 0.0, earth.gravity(lat, 380.0)]))
     model = em.ErrorModel(lay, em.ProcessNoise(dk_tau=300.0))
     Phi, _ = discretize(model.F(pt), np.zeros((lay.n, lay.n)), step_s)
-    H = np.zeros((3, lay.n))
-    H[:, lay["phi"]] = em.euler_rows(C)
-    H[:, lay["phi_D"]] = -em.euler_rows(C)
-    Hv = -em.dr_velocity_rows(lay, pt)
-    Hv[:, lay["dv"]] += np.eye(3)
-    rows = [H, Hv, em.height_rows(lay)]
+    # the rows of dr-kf's measurement plug-ins at the drive's (error-free) state; the
+    # velocity rows are in the DR body frame, a rotation that leaves the row space as it is
+    xs = np.r_[lat, 0.0, 380.0, pt.vel_n, quat_from_dcm(C)]
+    nav = (xs, xs.copy(), np.zeros(ms.AUX_SIZE))
+    plugins = [(ms.SinsDrAttitude(1.0), None), (ms.SinsDrVelocity(1.0), None),
+               (ms.Height(1.0), [380.0])]
     if use_nhc:
-        rows.append(em.nhc_rows(lay, pt, with_mount=nhc_mount_terms))
+        plugins.append((ms.Nhc(1.0, mount_terms=nhc_mount_terms), None))
+    rows = [m.rows(nav, data, lay)[1] for m, data in plugins]
     Hs = np.vstack(rows)
     # scale states to their priors so the SVD threshold means something physical
     scale = np.array([ARCMIN] * 3 + [0.1] * 3 + [15 / 6.4e6] * 2 + [15.0] + [0.03 * np.pi / 180 / 3600] * 3
