@@ -19,7 +19,6 @@ import math
 from pathlib import Path
 
 import click
-import yaml
 
 from ..errors import BadInput
 
@@ -37,10 +36,8 @@ def _parse_sets(items) -> dict:
         key, sep, value = item.partition("=")
         if not sep or not key.strip():
             raise BadInput(f"--set {item!r}: expected key=value")
-        try:
-            out[key.strip()] = yaml.safe_load(value)
-        except yaml.YAMLError:
-            raise BadInput(f"--set {item!r}: the value is not valid YAML") from None
+        from ..io.safe_yaml import load_yaml_text
+        out[key.strip()] = load_yaml_text(value, what=f"--set {key.strip()} value")
     return out
 
 

@@ -385,15 +385,17 @@ def _initial_state(ctx, bundle, init, start, needs_attitude):
 # --------------------------------------------------------------------------- run a method
 
 def _parse_sets(sets) -> dict:
-    import yaml
+    from ..io.safe_yaml import load_yaml_text
     out = {}
     for s in sets:
         key, eq, value = s.partition("=")
         if not eq or not key.strip():
             raise BadInput(f"--set {s!r}: write key=value")
         try:
-            v = yaml.safe_load(value)
-        except yaml.YAMLError:
+            v = load_yaml_text(value, what=f"--set {key.strip()} value")
+        except BadInput as e:
+            if "malformed" not in e.what:
+                raise
             v = value
         node = out
         parts = key.strip().split(".")
@@ -413,17 +415,14 @@ def _merge(a: dict, b: dict) -> dict:
 def build_config(spec, config_file=None, mode=None, sets=()):
     """The method's pydantic configuration from a YAML/JSON file, ``--mode`` and ``--set``."""
     import pydantic
-    import yaml
+    from ..io.safe_yaml import load_yaml_file
     _, Config = spec.load()
     data = {}
     if config_file:
         p = Path(config_file)
         if not p.is_file():
             raise BadInput("configuration file does not exist", file=p)
-        try:
-            data = yaml.safe_load(p.read_text()) or {}
-        except yaml.YAMLError as e:
-            raise BadInput(f"malformed YAML: {str(e).splitlines()[0]}", file=p) from None
+        data = load_yaml_file(p, "YAML") or {}
         if not isinstance(data, dict):
             raise BadInput("configuration must be a mapping (key: value)", file=p)
     if mode is not None:

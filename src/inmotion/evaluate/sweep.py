@@ -36,7 +36,6 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any, Optional
 
-import yaml
 
 from ..errors import BadInput
 
@@ -164,12 +163,8 @@ def _resolve_scenario(scenario, base_dir: Optional[Path], file):
 
 
 def _read_yaml(path: Path) -> dict:
-    try:
-        doc = yaml.safe_load(Path(path).read_text())
-    except FileNotFoundError:
-        raise BadInput("file not found", file=path) from None
-    except yaml.YAMLError as exc:
-        raise BadInput(f"not valid YAML: {exc}".replace("\n", " "), file=path) from None
+    from ..io.safe_yaml import load_yaml_file
+    doc = load_yaml_file(path, "YAML", invalid="not valid YAML")
     if not isinstance(doc, dict):
         raise BadInput("expected a mapping at the top level", file=path)
     return doc

@@ -177,13 +177,8 @@ def read_meta(folder) -> dict:
     p = Path(folder) / "meta.yaml"
     if not p.is_file():
         raise BadInput("missing meta.yaml (a bundle needs at least 'name')", file=p)
-    try:
-        meta = yaml.safe_load(p.read_text())
-    except yaml.YAMLError as e:
-        mark = getattr(e, "problem_mark", None)
-        where = f" at line {mark.line + 1}, column {mark.column + 1}" if mark else ""
-        problem = getattr(e, "problem", None) or str(e).splitlines()[0]
-        raise BadInput(f"malformed YAML{where}: {problem}", file=p) from None
+    from .safe_yaml import load_yaml_file
+    meta = load_yaml_file(p, "YAML")
     if meta is None:
         meta = {}
     if not isinstance(meta, dict):

@@ -13,7 +13,6 @@ from __future__ import annotations
 from pathlib import Path
 from typing import Annotated, List, Literal, Optional, Union
 
-import yaml
 from pydantic import (AfterValidator, BaseModel, ConfigDict, Field, ValidationError, field_validator,
                       model_validator)
 
@@ -429,10 +428,8 @@ def load_scenario(source) -> Scenario:
         file = str(path)
         if not path.is_file():
             raise BadInput("scenario file not found", file=file)
-        try:
-            data = yaml.safe_load(path.read_text())
-        except yaml.YAMLError as e:
-            raise BadInput(f"not valid YAML: {e}", file=file) from None
+        from ..io.safe_yaml import load_yaml_file
+        data = load_yaml_file(path, "scenario", invalid="not valid YAML")
         if not isinstance(data, dict):
             raise BadInput("a scenario must be a YAML mapping", file=file)
     try:
