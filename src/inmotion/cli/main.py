@@ -577,10 +577,12 @@ def evaluate(ctx, result, truth_bundle, as_json):
     bundle = _read_bundle(ctx, truth_bundle)
     if bundle.truth is None:
         raise BadInput("the bundle has no truth table", file=truth_bundle)
-    block = write_errors(sol, bundle.truth, result)
+    from ..io.safe_write import staged_folder
     summary = read_summary(result)
-    summary["errors"] = block
-    write_summary(summary, result)
+    with staged_folder(result, what="result") as folder:    # errors.csv and summary together
+        block = write_errors(sol, bundle.truth, folder)
+        summary["errors"] = block
+        write_summary(summary, folder)
     _emit(ctx, {"errors": block},
           f"{summary.get('method')} on {bundle.name}:\n{_errors_text(block)}", as_json)
 

@@ -235,7 +235,8 @@ def run_campaign(sweep: Sweep, out_dir, *, workers: Optional[int] = None,
             _drive(c, iter_tasks(sweep, skip=done), store, len(wanted), len(wanted) - n_todo,
                    n_todo, quiet, max_in_flight, max_chunk, sweep.name)
     df = store.table()
-    df.to_parquet(out / TABLE, index=False)
+    from ..io.safe_write import atomic_write
+    atomic_write(out / TABLE, lambda tmp: df.to_parquet(tmp, index=False))
     return df
 
 

@@ -61,7 +61,6 @@ from __future__ import annotations
 
 import math
 import os
-import tempfile
 import warnings
 from dataclasses import dataclass
 from pathlib import Path
@@ -73,6 +72,7 @@ import yaml
 from ..core.bundle import (BaroData, Bundle, ImuData, SpeedData, Truth, VELOCITY_SENSORS)
 from ..core.earth import G0, radii
 from ..errors import BadInput
+from .safe_write import atomic_write, refuse_partial, staged_folder
 
 __all__ = ["read_bundle", "write_bundle", "find_gaps", "Gap", "BundleGapWarning", "LIMITS",
            "TABLES", "read_meta", "meta_initial", "atomic_write", "write_csv"]
@@ -147,6 +147,7 @@ def read_bundle(path, *, max_gap_periods: float = MAX_GAP_PERIODS,
         raise BadInput("bundle folder does not exist", file=folder)
     if not folder.is_dir():
         raise BadInput("a bundle must be a folder", file=folder)
+    refuse_partial(folder, "bundle")
     meta = read_meta(folder)
     files = _locate_tables(folder, meta)
     if "imu" not in files:
@@ -511,15 +512,20 @@ def write_bundle(bundle: Bundle, path, fmt: str = "csv") -> Path:
     Path
         The folder. ``meta.yaml`` gets ``files`` set to the tables written.
 
-    Each file is written to a temporary name and renamed into place, so an interrupted write
-    never leaves a half-written table under its real name.
+    The folder is written whole or not at all (:func:`inmotion.io.safe_write.staged_folder`):
+    the new content is built in a hidden sibling and swapped in by one rename, so a writer
+    killed at any moment leaves either the old bundle, untouched, or the new one, complete.
     """
     if fmt not in ("csv", "parquet"):
         raise BadInput(f"unknown bundle format {fmt!r}; choose csv or parquet")
-    folder = Path(path)
-    folder.mkdir(parents=True, exist_ok=True)
     suffix = ".csv" if fmt == "csv" else ".parquet"
     frames = _frames(bundle)
+    with staged_folder(path, what="bundle") as folder:
+        _write_tables(folder, frames, suffix, fmt, bundle)
+    return Path(path)
+
+
+def _write_tables(folder: Path, frames: dict, suffix: str, fmt: str, bundle: Bundle) -> None:
     for name in TABLES:              # stale tables (other format, or a sensor this bundle lacks)
         for s in SUFFIXES:
             if name not in frames or s != suffix:
@@ -534,7 +540,6 @@ def write_bundle(bundle: Bundle, path, fmt: str = "csv") -> Path:
     meta["files"] = files
     text = yaml.safe_dump(meta, sort_keys=False, default_flow_style=None)
     atomic_write(folder / "meta.yaml", lambda p: Path(p).write_text(text))
-    return folder
 
 
 def _write_table(df, p, fmt):
@@ -556,20 +561,6 @@ def write_csv(df: pd.DataFrame, path) -> None:
     with open(path, "wb") as f:
         f.write((",".join(map(str, df.columns)) + "\n").encode())
         pacsv.write_csv(table, f, write_options=pacsv.WriteOptions(include_header=False))
-
-
-def atomic_write(target: Path, write) -> None:
-    """Call ``write(tmp_path)`` then rename ``tmp_path`` onto ``target`` (atomic on POSIX)."""
-    target = Path(target)
-    fd, tmp = tempfile.mkstemp(prefix=f".{target.name}.", suffix=".tmp", dir=target.parent)
-    os.close(fd)
-    try:
-        write(tmp)
-        os.replace(tmp, target)
-    except BaseException:
-        if os.path.exists(tmp):
-            os.unlink(tmp)
-        raise
 
 
 def _plain(x):

@@ -183,9 +183,14 @@ def export_kf_gins(result, out_path, *, gps_week=0) -> Path:
     vel_ned = ned_to_enu(sol.vel_n)                  # the swap is its own inverse
     table = np.column_stack([np.full(len(sol), float(gps_week)), sol.t,
                              np.rad2deg(sol.lat), np.rad2deg(sol.lon), sol.h, vel_ned, rpy])
-    out = Path(out_path)
-    out.parent.mkdir(parents=True, exist_ok=True)
-    np.savetxt(out, table, fmt=["%.0f", "%.6f", "%.11f", "%.11f", "%.4f", "%.5f", "%.5f",
-                                "%.5f", "%.8f", "%.8f", "%.8f"])
+    from ..safe_write import atomic_write, check_output_path, output_error
+    out = check_output_path(out_path, folder=False)
+    try:
+        out.parent.mkdir(parents=True, exist_ok=True)
+    except OSError as e:
+        raise output_error(out, e) from None
+    atomic_write(out, lambda tmp: np.savetxt(
+        tmp, table, fmt=["%.0f", "%.6f", "%.11f", "%.11f", "%.4f", "%.5f", "%.5f", "%.5f",
+                         "%.8f", "%.8f", "%.8f"]))
     return out
 
