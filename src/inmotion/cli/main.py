@@ -61,12 +61,22 @@ class _Cli(click.Group):
             sys.exit(2)
         except click.exceptions.Exit as e:
             sys.exit(e.exit_code)
-        except click.ClickException as e:
-            e.show()
+        except click.ClickException as e:     # usage errors: one line too, naming the option
+            msg = " ".join(e.format_message().split())
+            cmd = getattr(getattr(e, "ctx", None), "command_path", None)
+            hint = f" (see '{cmd} --help')" if cmd and isinstance(e, click.UsageError) else ""
+            click.echo(f"inmotion: error: {msg}{hint}", err=True)
             sys.exit(e.exit_code)
         except click.exceptions.Abort:
             click.echo("inmotion: aborted", err=True)
-            sys.exit(1)
+            sys.exit(130)
+        except KeyboardInterrupt:
+            click.echo("inmotion: interrupted", err=True)
+            sys.exit(130)
+        except MemoryError:
+            click.echo("inmotion: error: out of memory (the input asks for more than this "
+                       "machine has; shorten it)", err=True)
+            sys.exit(2)
         except Exception as e:  # an internal failure: say so, in one line unless --debug
             if "--debug" in (args if args is not None else sys.argv[1:]):
                 traceback.print_exc()
@@ -182,7 +192,8 @@ def _load_scenario(name_or_path: str):
 @click.argument("scenario")
 @click.option("-o", "--output", required=True, type=click.Path(file_okay=False),
               help="Bundle folder to write.")
-@click.option("--seed", type=int, default=0, show_default=True, help="Random seed.")
+@click.option("--seed", type=click.IntRange(min=0), default=0, show_default=True,
+              help="Random seed (an integer >= 0).")
 @click.option("--format", "fmt", type=click.Choice(["csv", "parquet"]), default="csv",
               show_default=True)
 @_json_option
@@ -191,7 +202,9 @@ def simulate(ctx, scenario, output, seed, fmt, as_json):
     """Simulate SCENARIO (a YAML file or a shipped scenario name) into a bundle."""
     import numpy as np
     from ..io.bundle import write_bundle
+    from ..io.safe_write import check_output_path
     from ..sim import simulate as sim
+    check_output_path(output)
     scen = _load_scenario(scenario)
     t0 = time.perf_counter()
     with _progress(ctx, "simulate") as progress:
@@ -292,6 +305,10 @@ _ANGLE_UNITS = {"deg": math.pi / 180, "arcmin": math.pi / 180 / 60,
 _INIT_ERROR_KEYS = {"pitch": _ANGLE_UNITS, "roll": _ANGLE_UNITS, "yaw": _ANGLE_UNITS,
                     "vE": {"m/s": 1.0}, "vN": {"m/s": 1.0}, "vU": {"m/s": 1.0},
                     "north": {"m": 1.0}, "east": {"m": 1.0}, "up": {"m": 1.0}}
+#: largest accepted --init-error per key (SI) and how it reads
+_INIT_ERROR_LIMITS = {**{k: (math.pi, "180 deg") for k in ("pitch", "roll", "yaw")},
+                      **{k: (100.0, "100 m/s") for k in ("vE", "vN", "vU")},
+                      **{k: (100e3, "100 km") for k in ("north", "east", "up")}}
 _ITEM = re.compile(r"^\s*([A-Za-z]+)\s*=\s*([-+]?(?:\d+\.?\d*|\.\d+)(?:[eE][-+]?\d+)?)"
                    r"\s*([A-Za-z/]*)\s*$")
 
@@ -318,6 +335,10 @@ def parse_init_error(text: str) -> dict:
             raise BadInput(f"--init-error: {key} needs a unit in {', '.join(units)}, "
                            f"got {unit!r}")
         out[key] = value * units[unit]
+        limit, what = _INIT_ERROR_LIMITS[key]
+        if not math.isfinite(out[key]) or abs(out[key]) > limit:
+            raise BadInput(f"--init-error: {key}={m.group(2)}{unit} is beyond {what}; an "
+                           "initial error that large is not an error but another start")
     if not out:
         raise BadInput("--init-error: empty; write e.g. 'pitch=1deg,roll=1deg,yaw=1deg'")
     return out
@@ -364,6 +385,11 @@ def _initial_state(ctx, bundle, init, start, needs_attitude):
     if init == "truth":
         if bundle.truth is None:
             raise BadInput("--init truth: the bundle has no truth table")
+        tt = bundle.truth.t
+        t0 = tt[0] if start is None else start
+        if not tt[0] - 1e-9 <= t0 <= tt[-1]:
+            raise BadInput(f"--init truth: the truth table covers {tt[0]:.6g} .. {tt[-1]:.6g} s, "
+                           f"not the start {t0:.6g} s")
         return NavState.from_truth(bundle.truth, start), "truth"
     if init == "meta":
         t0 = start if start is not None else float(bundle.imu.t[0])
@@ -428,13 +454,20 @@ def build_config(spec, config_file=None, mode=None, sets=()):
     if mode is not None:
         data["mode"] = mode
     data = _merge(data, _parse_sets(sets))
+    from ..config_checks import check_config, check_values
     try:
-        return Config.model_validate(data)
+        check_values(data)          # NaN before pydantic: its message would not name the field
+    except BadInput as e:
+        raise BadInput(f"configuration of {spec.name!r}: {e.what}", file=config_file) from None
+    try:
+        config = Config.model_validate(data)
     except pydantic.ValidationError as e:
         errs = "; ".join(f"{'.'.join(map(str, er['loc'])) or 'config'}: {er['msg']}"
                          for er in e.errors()[:3])
         raise BadInput(f"configuration of {spec.name!r}: {errs}",
                        file=config_file) from None
+    check_config(config, spec.name, file=config_file)
+    return config
 
 
 def _spec(method, kind=None):
@@ -455,7 +488,11 @@ def run_method(ctx, bundle, spec, config, init_state, window):
     start, end = window
     b = bundle.window(start, end)
     if len(b.imu.t) < 2:
-        raise BadInput(f"the window {start} .. {end} s holds fewer than 2 IMU rows")
+        span = f"{bundle.imu.t[0]:.6g} .. {bundle.imu.t[-1]:.6g} s"
+        lo = "the start" if start is None else f"{start:g} s"
+        hi = "the end" if end is None else f"{end:g} s"
+        raise BadInput(f"the window {lo} .. {hi} holds fewer than 2 IMU rows (the IMU covers "
+                       f"{span}); check --start / --end")
     run, _ = spec.load()
     t0 = time.perf_counter()
     with _progress(ctx, spec.name) as progress:
@@ -472,9 +509,16 @@ def run_method(ctx, bundle, spec, config, init_state, window):
 def _run_command(ctx, kind, bundle_path, method, config_file, output, init, init_error,
                  start, end, mode, sets, as_json, allow_imu_gaps=False):
     from ..io.result import write_result
+    from ..io.safe_write import check_output_path
+    for opt, v in (("--start", start), ("--end", end)):
+        if v is not None and not math.isfinite(v):
+            raise BadInput(f"{opt} {v}: not a finite time [s]")
+    if start is not None and end is not None and end <= start:
+        raise BadInput(f"--end {end:g} s is not after --start {start:g} s")
     spec = _spec(method, kind)
     config = build_config(spec, config_file, mode, sets)
     err = parse_init_error(init_error) if init_error else None
+    check_output_path(output)
     bundle = _read_bundle(ctx, bundle_path, allow_imu_gaps)
     if init is None:
         init = "truth" if bundle.truth is not None else "meta"
@@ -610,7 +654,8 @@ DEMO_SCENARIO = "demo"
 
 
 @cli.command()
-@click.option("--seed", type=int, default=0, show_default=True, help="Random seed.")
+@click.option("--seed", type=click.IntRange(min=0), default=0, show_default=True,
+              help="Random seed (an integer >= 0).")
 @click.option("--keep", type=click.Path(file_okay=False), default=None,
               help="Keep the bundle and results in this folder instead of a temporary one.")
 @_json_option

@@ -157,7 +157,7 @@ def open_client(workers: Optional[int] = None, scheduler: Optional[str] = None, 
         return
     from distributed import Client, LocalCluster
     if scheduler:
-        with Client(scheduler) as c:
+        with _connect(Client, scheduler) as c:
             yield c
         return
     n = workers or os.cpu_count() or 1
@@ -167,6 +167,23 @@ def open_client(workers: Optional[int] = None, scheduler: Optional[str] = None, 
                       dashboard_address="127.0.0.1:0", silence_logs=logging.ERROR,
                       env=WORKER_ENV) as cluster, Client(cluster) as c:
         yield c
+
+
+#: seconds to wait for a scheduler given by address
+CONNECT_TIMEOUT_S = 5.0
+
+
+def _connect(Client, address: str):
+    """A client of the scheduler at ``address``, or BadInput within CONNECT_TIMEOUT_S."""
+    import re
+    if not re.match(r"^[a-z]+://[^\s]+:\d+$|^[^\s:/]+:\d+$", str(address)):
+        raise BadInput(f"--scheduler {address!r}: expected an address like tcp://host:8786")
+    try:
+        return Client(address, timeout=CONNECT_TIMEOUT_S)
+    except (OSError, TimeoutError, ValueError) as exc:
+        reason = " ".join(str(exc).split())[:160] or type(exc).__name__
+        raise BadInput(f"--scheduler {address}: no Dask scheduler answers there within "
+                       f"{CONNECT_TIMEOUT_S:g} s ({reason})") from None
 
 
 def _progress(total, initial, quiet, desc):

@@ -112,10 +112,14 @@ def validate_spec(spec: dict) -> None:
         _, config_cls = registry.get(spec["method"]).load()
     except KeyError as exc:
         raise BadInput(str(exc.args[0])) from None
+    from ..config_checks import check_config
     try:
-        config_cls(**(spec.get("method_options") or {}))
+        config = config_cls(**(spec.get("method_options") or {}))
     except ValidationError as exc:
         raise BadInput(f"method_options for {spec['method']!r}: {_first_error(exc)}") from None
+    except TypeError as exc:
+        raise BadInput(f"method_options for {spec['method']!r}: {exc}") from None
+    check_config(config, spec["method"])
     parse_init_error(spec.get("init_error"))
     from ..sim.scenario import load_scenario
     try:

@@ -75,7 +75,8 @@ from ..errors import BadInput
 from .safe_write import atomic_write, refuse_partial, staged_folder
 
 __all__ = ["read_bundle", "write_bundle", "find_gaps", "Gap", "BundleGapWarning", "LIMITS",
-           "TABLES", "read_meta", "meta_initial", "atomic_write", "write_csv"]
+           "TABLES", "read_meta", "meta_initial", "atomic_write", "write_csv", "check_bundle",
+           "check_imu", "check_clocks"]
 
 #: the tables a bundle may hold, in write order
 TABLES = ("imu",) + VELOCITY_SENSORS + ("baro", "truth")
@@ -91,6 +92,9 @@ LIMITS = {
     "specific_force_m_s2": 100.0 * G0,  # 100 g
     "speed_m_s": 150.0,                 # 540 km/h: no land vehicle
     "baro_h_m": (-1000.0, 20000.0),
+    "imu_rate_hz": (1.0, 100000.0),     # outside: time not in seconds
+    "sustained_rate_rad_s": 3.0,        # turn rate averaged over 1 s (170 deg/s)
+    "clock_span_ratio": 50.0,           # a table spanning 50x the IMU's time: other units
 }
 
 #: a step longer than this many median sample periods is a gap
@@ -170,7 +174,31 @@ def read_bundle(path, *, max_gap_periods: float = MAX_GAP_PERIODS,
         _check_gaps("truth", truth.t, files["truth"], max_gap_periods, error=False)
     if truth is None:
         _check_initial_position(meta, folder / "meta.yaml")
-    return Bundle(imu=imu, meta=meta, baro=baro, truth=truth, **speeds)
+    bundle = Bundle(imu=imu, meta=meta, baro=baro, truth=truth, **speeds)
+    check_clocks(bundle, files)
+    return bundle
+
+
+def check_clocks(bundle: Bundle, files=None) -> None:
+    """Every other table must share the IMU's clock and time unit: some of its samples
+    inside the IMU's span, and a span not 50 times longer or shorter than the IMU's.
+    ``files`` maps table names to what to call them in messages."""
+    t_imu = bundle.imu.t
+    a, b = float(t_imu[0]), float(t_imu[-1])
+    for name in TABLES[1:]:
+        x = getattr(bundle, name)
+        if x is None or len(x.t) == 0:
+            continue
+        where = (files or {}).get(name, name)
+        t0, t1 = float(x.t[0]), float(x.t[-1])
+        if t1 < a or t0 > b:
+            raise BadInput(f"its times {t0:.6g} .. {t1:.6g} s have no sample inside the IMU's "
+                           f"{a:.6g} .. {b:.6g} s: another clock, or another time unit?",
+                           file=where)
+        ratio = LIMITS["clock_span_ratio"]
+        if len(x.t) > 2 and b - a > 0 and not (1.0 / ratio < (t1 - t0) / (b - a) < ratio):
+            raise BadInput(f"its times span {t1 - t0:.6g} s but the IMU's span {b - a:.6g} s: "
+                           "are both in seconds?", file=where)
 
 
 def read_meta(folder) -> dict:
@@ -254,6 +282,9 @@ def _columns(df: pd.DataFrame, names, path: Path) -> dict:
 def _numeric(df, col, path, t):
     """Column ``col`` as finite float64, or BadInput at the first bad row."""
     s = df[col]
+    if pd.api.types.is_datetime64_any_dtype(s) or pd.api.types.is_timedelta64_dtype(s):
+        raise BadInput(f"column {col!r} holds {s.dtype} timestamps; write plain numbers in "
+                       "seconds", file=path)
     x = pd.to_numeric(s, errors="coerce").to_numpy(dtype=float)
     bad = ~np.isfinite(x)
     if bad.any():
@@ -305,13 +336,52 @@ def _imu_from(df, path) -> ImuData:
     c = _columns(df, IMU_COLUMNS, path)
     dtheta = np.column_stack([c["dtheta_x"], c["dtheta_y"], c["dtheta_z"]])
     dvel = np.column_stack([c["dvel_x"], c["dvel_y"], c["dvel_z"]])
-    dt = _row_dt(c["t"])
-    _check_limit(np.linalg.norm(dtheta, axis=1) / dt, LIMITS["gyro_rate_rad_s"],
-                 "angular rate |dtheta|/dt =", "rad/s", path, c["t"])
-    _check_limit(np.linalg.norm(dvel, axis=1) / dt, LIMITS["specific_force_m_s2"],
-                 "specific force |dvel|/dt =", "m/s^2", path, c["t"])
-    _check_gravity(np.linalg.norm(dvel, axis=1) / dt, path)
+    check_imu(c["t"], dtheta, dvel, path)
     return ImuData(c["t"], dtheta, dvel)
+
+
+def check_imu(t, dtheta, dvel, path) -> None:
+    """Physical plausibility of IMU increments (see the module notes); BadInput naming
+    ``path``, the row and the time."""
+    if len(t) < 2:
+        raise BadInput(f"the IMU table has {len(t)} row; it needs at least 2 (one interval)",
+                       file=path, row=1, time=float(t[0]))
+    period = float(np.median(np.diff(t)))
+    lo, hi = LIMITS["imu_rate_hz"]
+    if not lo <= 1.0 / period <= hi:
+        raise BadInput(f"IMU rate {1.0 / period:.4g} Hz (median step {period:.4g}) is outside "
+                       f"{lo:g} .. {hi:g} Hz: is t in seconds?", file=path)
+    dt = _row_dt(t)
+    _check_limit(np.linalg.norm(dtheta, axis=1) / dt, LIMITS["gyro_rate_rad_s"],
+                 "angular rate |dtheta|/dt =", "rad/s", path, t)
+    _check_limit(np.linalg.norm(dvel, axis=1) / dt, LIMITS["specific_force_m_s2"],
+                 "specific force |dvel|/dt =", "m/s^2", path, t)
+    _check_sustained_rate(t, dtheta, path)
+    _check_gravity(np.linalg.norm(dvel, axis=1) / dt, path)
+
+
+def _check_sustained_rate(t, dtheta, path) -> None:
+    """The turn rate over any whole second stays below ``LIMITS["sustained_rate_rad_s"]``
+    (3 rad/s, 170 deg/s: no land vehicle turns that fast for a second; vibration averages out
+    over the second). Increments in degrees read 57 times too large and trip it in a turn."""
+    if t[-1] - t[0] < 1.0:
+        return
+    c = np.vstack([np.zeros((1, 3)), np.cumsum(dtheta, axis=0)])
+    tt = np.concatenate([[t[0] - (t[1] - t[0])], t])
+    j = np.searchsorted(tt, tt + 1.0)
+    ok = j < len(tt)
+    i = np.flatnonzero(ok)
+    if not len(i):
+        return
+    rate = np.linalg.norm(c[j[i]] - c[i], axis=1) / (tt[j[i]] - tt[i])
+    limit = LIMITS["sustained_rate_rad_s"]
+    if (rate > limit).any():
+        k = i[int(np.argmax(rate > limit))]
+        r = float(rate[int(np.argmax(rate > limit))])
+        raise BadInput(f"the turn rate over one second is {r:.4g} rad/s ({np.degrees(r):.4g} "
+                       f"deg/s), beyond any land vehicle (limit {limit:g} rad/s): are dtheta "
+                       "increments in degrees instead of radians?", file=path,
+                       row=int(min(k, len(t) - 1)) + 1, time=float(t[min(k, len(t) - 1)]))
 
 
 def _check_gravity(f, path):
@@ -368,6 +438,42 @@ def _truth_from(df, path) -> Truth:
     truth = Truth(t, np.radians(c["lat"]), np.radians(c["lon"]), c["h"], vel_n, euler)
     _check_truth_consistency(truth, path)
     return truth
+
+
+def check_bundle(bundle: Bundle, source) -> None:
+    """The checks :func:`read_bundle` makes on the files, made on a bundle in memory (an
+    importer's output, before it is written): BadInput naming ``source`` and the table."""
+    def name(table):
+        return f"{source} ({table})"
+    arrays = [("imu", "t", bundle.imu.t)]
+    for tb in TABLES[1:]:
+        x = getattr(bundle, tb)
+        if x is not None:
+            arrays.append((tb, "t", x.t))
+    for tb, col, t in arrays:
+        bad = ~np.isfinite(t)
+        if bad.any():
+            i = int(np.argmax(bad))
+            raise BadInput(f"time {t[i]} is not a finite number", file=name(tb), row=i + 1)
+        _check_increasing(t, name(tb))
+    check_imu(bundle.imu.t, bundle.imu.dtheta, bundle.imu.dvel, name("imu"))
+    for tb in VELOCITY_SENSORS:
+        s = getattr(bundle, tb)
+        if s is not None and s.v is not None:
+            _check_limit(np.nan_to_num(s.v, nan=0.0), LIMITS["speed_m_s"], "speed v =", "m/s",
+                         name(tb), s.t)
+    tr = bundle.truth
+    if tr is not None:
+        for col, x in (("lat", tr.lat), ("lon", tr.lon), ("h", tr.h)):
+            bad = ~np.isfinite(x)
+            if bad.any():
+                i = int(np.argmax(bad))
+                raise BadInput(f"{col} is not a finite number", file=name("truth"), row=i + 1,
+                               time=float(tr.t[i]))
+        _check_limit(np.degrees(tr.lat), 90.0, "latitude", "deg", name("truth"), tr.t)
+        _check_limit(np.degrees(tr.euler[:, 0]), 90.0, "pitch", "deg", name("truth"), tr.t)
+        _check_truth_consistency(tr, name("truth"))
+    check_clocks(bundle, {tb: name(tb) for tb in TABLES})
 
 
 def _check_truth_consistency(truth: Truth, path):
