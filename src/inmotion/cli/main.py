@@ -212,6 +212,8 @@ def simulate(ctx, scenario, output, seed, fmt, as_json):
         if progress:
             progress(1.0)
     sim_s = time.perf_counter() - t0
+    from ..io.bundle import check_bundle
+    check_bundle(bundle, f"scenario {scenario}")      # what it asks for must read back
     write_bundle(bundle, output, fmt=fmt)
     info = _bundle_info(bundle)
     info.update(bundle=str(output), seed=seed, simulate_s=sim_s)

@@ -26,6 +26,10 @@ SPEED_SENSORS = ("radar", "ldv", "odometer")
 
 #: largest accepted IMU-in-vehicle mounting angle per axis [arcmin]
 MAX_MOUNTING_ARCMIN = 1800.0
+#: largest lateral acceleration of a turn [g] (a road vehicle grips up to about 1 g)
+MAX_LATERAL_G = 1.5
+#: most IMU rows a scenario may ask for (about 2.4 GB while simulating; 27.8 h at 100 Hz)
+MAX_IMU_ROWS = 10_000_000
 
 Vec3 = Annotated[List[float], Field(min_length=3, max_length=3)]
 ScalarOr3 = Union[float, Vec3]
@@ -43,7 +47,7 @@ MisalignmentArcsec = Annotated[List[float], AfterValidator(_three_or_six)]
 
 
 class _Model(BaseModel):
-    model_config = ConfigDict(extra="forbid")
+    model_config = ConfigDict(extra="forbid", allow_inf_nan=False)
 
 
 # ----------------------------------------------------------------------------- start, vehicle
@@ -231,7 +235,7 @@ class Imu(_Model):
     """The IMU. ``constant_errors``: ``fixed`` uses the drift, bias, scale factor and
     misalignment values as given; ``random`` draws each axis once per run from a zero-mean
     normal with the given value as 1-sigma (the drawn values are written to meta)."""
-    rate_hz: float = Field(100.0, gt=0.0, le=10000.0)
+    rate_hz: float = Field(100.0, ge=10.0, le=10000.0)
     gyro: Gyro = Gyro()
     accel: Accel = Accel()
     constant_errors: Literal["fixed", "random"] = "fixed"
@@ -400,11 +404,30 @@ class Scenario(_Model):
         return [n for n in ("radar", "ldv", "odometer", "baro") if getattr(self.sensors, n)]
 
 
+def _known_keys() -> set:
+    """Every field name of the scenario schema (for "did you mean")."""
+    out, todo = set(), list(_Model.__subclasses__())
+    while todo:
+        cls = todo.pop()
+        out.update(cls.model_fields)
+        todo.extend(cls.__subclasses__())
+    return out
+
+
 def _format_error(e: ValidationError) -> str:
-    err = e.errors()[0]
-    loc = ".".join(str(x) for x in err["loc"] if not str(x).startswith("function-after"))
+    import difflib
+    errors = e.errors()
+    extra = [x for x in errors if x["type"] == "extra_forbidden"]
+    err = extra[0] if extra else errors[0]
+    loc = ".".join(str(x) for x in err["loc"]
+                   if not str(x).startswith(("function-after", "list[")) and str(x) != "float")
     msg = err["msg"].removeprefix("Value error, ")
-    more = f" (and {len(e.errors()) - 1} more)" if len(e.errors()) > 1 else ""
+    if extra:
+        key = str(err["loc"][-1])
+        close = difflib.get_close_matches(key, sorted(_known_keys()), n=1, cutoff=0.6)
+        msg = f"unknown key {key!r}" + (f"; did you mean {close[0]!r}?" if close else "")
+        errors = extra
+    more = f" (and {len(errors) - 1} more)" if len(errors) > 1 else ""
     return f"{loc}: {msg}{more}" if loc else msg + more
 
 
@@ -442,9 +465,18 @@ def load_scenario(source) -> Scenario:
 
 def _check_motion(sc: Scenario, file: str) -> None:
     """Segment sequences that no vehicle can drive (turning or climbing at standstill ...)."""
+    import math
     v = sc.start.speed_m_s
+    duration = 0.0
     for i, seg in enumerate(sc.segments):
         where = f"segments.{i} ({seg.kind})"
+        if seg.kind == "turn":
+            lateral = v * math.radians(seg.rate_deg_s)
+            if lateral > MAX_LATERAL_G * 9.80665:
+                raise BadInput(f"{where}: turning at {seg.rate_deg_s:g} deg/s at {v:g} m/s is a "
+                               f"lateral acceleration of {lateral / 9.80665:.3g} g; no road "
+                               f"vehicle holds more than {MAX_LATERAL_G:g} g", file=file)
+        duration += _segment_duration(seg, v)
         if seg.kind in ("rest", "wait") and v != 0.0:
             raise BadInput(f"{where}: the vehicle must be stopped to {seg.kind} "
                            f"(speed is {v} m/s; add a stop first)", file=file)
@@ -460,6 +492,26 @@ def _check_motion(sc: Scenario, file: str) -> None:
             v = seg.to_speed_m_s
         elif seg.kind == "stop":
             v = 0.0
+    rows = duration * sc.imu.rate_hz
+    if rows > MAX_IMU_ROWS:
+        raise BadInput(f"the drive lasts about {duration / 3600:.4g} h, {rows:.3g} IMU rows at "
+                       f"{sc.imu.rate_hz:g} Hz; at most {MAX_IMU_ROWS:.3g} rows are simulated "
+                       "at once (split the drive, or lower imu.rate_hz)", file=file)
+
+
+def _segment_duration(seg, v) -> float:
+    """About how long a segment lasts [s] (blends not counted)."""
+    if hasattr(seg, "duration_s"):
+        return float(seg.duration_s)
+    if seg.kind == "turn":
+        return abs(seg.angle_deg) / seg.rate_deg_s
+    if seg.kind == "accelerate":
+        return abs(seg.to_speed_m_s - v) / seg.accel_m_s2
+    if seg.kind == "decelerate":
+        return abs(v - seg.to_speed_m_s) / seg.decel_m_s2
+    if seg.kind == "stop":
+        return v / seg.decel_m_s2
+    return 0.0
 
 
 def scenario_dir() -> Path:
