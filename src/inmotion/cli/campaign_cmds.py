@@ -126,10 +126,16 @@ def montecarlo(ctx, scenario, output, method, runs, seed, workers, scheduler, re
         df = run_campaign(sweep, out, workers=workers, scheduler=scheduler, resume=resume,
                           retry_failed=retry_failed, quiet=quiet)
     except KeyboardInterrupt:
+        import shlex
+        import sys
         from ..evaluate.store import ResultStore
         n = len(ResultStore(out).done())
-        click.echo(f"inmotion: interrupted; {n} finished runs are kept in {out}: "
-                   "run the same command with --resume to complete the campaign", err=True)
+        total = len(sweep.points) * sweep.runs
+        argv = [a for a in sys.argv[1:] if a != "--resume"]
+        again = ("inmotion " + " ".join(shlex.quote(a) for a in argv) + " --resume"
+                 if argv else "the same command with --resume")
+        click.echo(f"inmotion: interrupted; {n} of {total} runs are saved in {out}; to "
+                   f"complete the campaign run: {again}", err=True)
         ctx.exit(130)
     summary = _summary(df, sweep)
     if report:
