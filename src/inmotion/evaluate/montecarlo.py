@@ -212,11 +212,15 @@ def _quiet_shutdown() -> None:
 CONNECT_TIMEOUT_S = 5.0
 
 
-def _connect(Client, address: str):
-    """A client of the scheduler at ``address``, or BadInput within CONNECT_TIMEOUT_S."""
+def _check_address(address: str) -> None:
     import re
     if not re.match(r"^[a-z]+://[^\s]+:\d+$|^[^\s:/]+:\d+$", str(address)):
         raise BadInput(f"--scheduler {address!r}: expected an address like tcp://host:8786")
+
+
+def _connect(Client, address: str):
+    """A client of the scheduler at ``address``, or BadInput within CONNECT_TIMEOUT_S."""
+    _check_address(address)
     try:
         return Client(address, timeout=CONNECT_TIMEOUT_S)
     except (OSError, TimeoutError, ValueError) as exc:
@@ -277,6 +281,8 @@ def run_campaign(sweep: Sweep, out_dir, *, workers: Optional[int] = None,
     """
     out = Path(out_dir)
     check_size(sweep)
+    if scheduler and client is None:
+        _check_address(scheduler)
     store = ResultStore(out)
     if validate:
         _validate(sweep)

@@ -58,8 +58,8 @@ def check_output_path(path, folder: bool = True) -> Path:
         limit = 255
     for part in p.parts:
         if len(os.fsencode(part)) > limit:
-            raise BadInput(f"the name {part[:40]}... is {len(os.fsencode(part))} bytes long, "
-                           f"more than the {limit} the file system allows", file=p)
+            raise BadInput(f"the name {part[:40]}... is too long ({len(os.fsencode(part))} "
+                           f"bytes; the file system allows {limit})", file=p)
     if p.is_symlink() and not p.exists():
         raise BadInput(f"is a dangling symbolic link (to {os.readlink(p)}); remove it or "
                        "choose another output", file=p)
