@@ -1,0 +1,287 @@
+"""Issue 16, property-based: hypothesis over the table readers, the YAML loaders, the option
+parsers and the configuration / scenario validators.
+
+Every generated input either is accepted (and then its values are finite and in range) or is
+refused with one :class:`BadInput` line that names the thing at fault; no other exception, no
+traceback, no ``None`` in the message. Example counts are small (the whole file runs in a few
+seconds) and derandomized, so a failure reproduces.
+"""
+from __future__ import annotations
+
+import math
+import shutil
+import sys
+from pathlib import Path
+
+import numpy as np
+import pandas as pd
+import pytest
+import yaml
+from hypothesis import HealthCheck, given, settings
+from hypothesis import strategies as st
+
+sys.path.insert(0, str(Path(__file__).parent))
+from fuzz_common import SCENARIO, expect_ok, invoke  # noqa: E402
+from test_io_bundle import make_bundle  # noqa: E402
+
+from inmotion import registry  # noqa: E402
+from inmotion.cli.main import build_config, parse_init_error  # noqa: E402
+from inmotion.config_checks import check_config  # noqa: E402
+from inmotion.errors import BadInput  # noqa: E402
+from inmotion.io.bundle import read_bundle, write_bundle  # noqa: E402
+from inmotion.io.safe_yaml import load_yaml_text  # noqa: E402
+from inmotion.sim.scenario import load_scenario  # noqa: E402
+
+FAST = settings(max_examples=25, deadline=None, derandomize=True,
+                suppress_health_check=[HealthCheck.function_scoped_fixture,
+                                       HealthCheck.too_slow])
+
+
+def _one_line(e: BadInput) -> str:
+    s = str(e)
+    assert "\n" not in s and "None" not in s and "Traceback" not in s, s
+    return s
+
+
+# --------------------------------------------------------------------------- table readers
+
+@pytest.fixture(scope="module")
+def bundle_dir(tmp_path_factory):
+    d = tmp_path_factory.mktemp("props") / "b"
+    write_bundle(make_bundle(np.random.default_rng(7), n=200), d)
+    return d
+
+
+BAD_TOKENS = st.one_of(
+    st.sampled_from(["nan", "NaN", "inf", "-inf", "", "abc", "1e999", "-1e999", "1.2.3", "--1",
+                     "0x10", "\u221e", "null", "true"]),
+    st.text(alphabet="abcdefghijklmnopqrstuvwxyz_!?", min_size=1, max_size=8))
+TABLE_COLUMNS = {"imu.csv": ["t", "dtheta_x", "dtheta_y", "dtheta_z", "dvel_x", "dvel_y",
+                             "dvel_z"],
+                 "radar.csv": ["t", "v"], "odometer.csv": ["t", "ds"], "baro.csv": ["t", "h"],
+                 "truth.csv": ["t", "lat", "lon", "h", "vE", "vN", "vU", "pitch", "roll", "yaw"]}
+
+
+@FAST
+@given(table=st.sampled_from(sorted(TABLE_COLUMNS)), data=st.data(), token=BAD_TOKENS)
+def test_a_bad_cell_names_file_and_row(bundle_dir, tmp_path_factory, table, data, token):
+    d = Path(shutil.copytree(bundle_dir, tmp_path_factory.mktemp("cell") / "b"))
+    df = pd.read_csv(d / table, dtype=str, keep_default_na=False)
+    col = data.draw(st.sampled_from(TABLE_COLUMNS[table]))
+    row = data.draw(st.integers(0, len(df) - 1))
+    df.loc[row, col] = token
+    df.to_csv(d / table, index=False)
+    with pytest.raises(BadInput) as ei:
+        read_bundle(d)
+    msg = _one_line(ei.value)
+    assert table in msg and f"row {row + 1}" in msg and repr(col) in msg, msg
+
+
+@FAST
+@given(table=st.sampled_from(sorted(TABLE_COLUMNS)), data=st.data())
+def test_time_not_increasing_names_file_and_row(bundle_dir, tmp_path_factory, table, data):
+    d = Path(shutil.copytree(bundle_dir, tmp_path_factory.mktemp("time") / "b"))
+    df = pd.read_csv(d / table)
+    i = data.draw(st.integers(1, len(df) - 1))
+    back = data.draw(st.floats(0.0, 5.0))
+    df.loc[i, "t"] = df.loc[i - 1, "t"] - back
+    df.to_csv(d / table, index=False)
+    with pytest.raises(BadInput) as ei:
+        read_bundle(d)
+    msg = _one_line(ei.value)
+    assert table in msg and "row" in msg, msg
+
+
+@FAST
+@given(scale=st.sampled_from([1e-3, 1e3, 1e6, 1e9]), table=st.sampled_from(
+    ["radar.csv", "odometer.csv", "baro.csv", "truth.csv"]))
+def test_a_table_on_another_time_unit_is_refused(bundle_dir, tmp_path_factory, scale, table):
+    d = Path(shutil.copytree(bundle_dir, tmp_path_factory.mktemp("unit") / "b"))
+    df = pd.read_csv(d / table)
+    df["t"] = df["t"] * scale
+    df.to_csv(d / table, index=False)
+    with pytest.raises(BadInput) as ei:
+        read_bundle(d)
+    assert table in _one_line(ei.value)
+
+
+# --------------------------------------------------------------------------- YAML loaders
+
+@settings(max_examples=200, deadline=None, derandomize=True)
+@given(text=st.text(alphabet=st.characters(codec="utf-8"), max_size=200))
+def test_yaml_loader_never_fails_otherwise(text):
+    try:
+        load_yaml_text(text, file="x.yaml")
+    except BadInput as e:
+        assert str(e).startswith("x.yaml: "), e
+        _one_line(e)
+
+
+@settings(max_examples=60, deadline=None, derandomize=True)
+@given(text=st.text(alphabet="[]{}:-&*ab ,\n'\"#!|>", max_size=300))
+def test_yaml_loader_on_structure_characters(text):
+    try:
+        load_yaml_text(text, file="x.yaml")
+    except BadInput as e:
+        _one_line(e)
+
+
+YAML_VALUES = st.recursive(
+    st.one_of(st.none(), st.booleans(), st.integers(-10**6, 10**6),
+              st.floats(allow_nan=False, allow_infinity=False, width=32),
+              st.text(alphabet="abcxyz _-", max_size=10)),
+    lambda inner: st.one_of(st.lists(inner, max_size=4),
+                            st.dictionaries(st.text(alphabet="abcxyz_", min_size=1, max_size=6),
+                                            inner, max_size=4)),
+    max_leaves=30)
+
+
+@settings(max_examples=60, deadline=None, derandomize=True)
+@given(doc=YAML_VALUES)
+def test_yaml_loader_reads_valid_documents_back(doc):
+    assert load_yaml_text(yaml.safe_dump(doc)) == doc
+
+
+@settings(max_examples=15, deadline=None, derandomize=True)
+@given(depth=st.integers(101, 5000), fanout=st.integers(2, 9), levels=st.integers(7, 12))
+def test_yaml_loader_bounds(depth, fanout, levels):
+    with pytest.raises(BadInput, match="nested"):
+        load_yaml_text("a: " + "[" * depth + "]" * depth)
+    with pytest.raises(BadInput, match="nested"):
+        load_yaml_text("- " * depth + "x")
+    bomb = "a0: &a0 [" + ", ".join(["x"] * fanout) + "]\n" + "".join(
+        f"a{i}: &a{i} [" + ", ".join([f"*a{i - 1}"] * fanout) + "]\n" for i in range(1, levels))
+    if fanout ** levels > 2_000_000:
+        with pytest.raises(BadInput, match="aliases"):
+            load_yaml_text(bomb)
+
+
+# --------------------------------------------------------------------------- option parsers
+
+UNITS = {"pitch": ["deg", "arcmin", "arcsec", "rad", "mrad"], "yaw": ["deg", "arcmin"],
+         "vE": ["m/s"], "north": ["m"], "up": ["m"]}
+
+
+@settings(max_examples=150, deadline=None, derandomize=True)
+@given(text=st.text(max_size=60))
+def test_init_error_parser_random_text(text):
+    try:
+        out = parse_init_error(text)
+    except BadInput as e:
+        assert "--init-error" in _one_line(e)
+        return
+    for k, v in out.items():
+        assert math.isfinite(v) and abs(v) <= 100e3, (k, v)
+
+
+@settings(max_examples=100, deadline=None, derandomize=True)
+@given(key=st.sampled_from(sorted(UNITS)), data=st.data(),
+       value=st.floats(allow_nan=False, allow_infinity=False, width=64))
+def test_init_error_parser_values(key, data, value):
+    unit = data.draw(st.sampled_from(UNITS[key]))
+    text = f"{key}={value!r}{unit}"
+    try:
+        out = parse_init_error(text)
+    except BadInput as e:
+        msg = _one_line(e)
+        assert "--init-error" in msg and key in msg, msg
+        return
+    assert math.isfinite(out[key])
+
+
+METHODS = ["sins", "dr", "dr-kf", "usque", "od-kf", "imada-vb", "sins-dr"]
+FIELD_VALUES = st.one_of(
+    st.floats(), st.integers(-10**20, 10**20), st.text(max_size=6),
+    st.lists(st.floats(), max_size=4), st.sampled_from([".nan", ".inf", "-.inf", "1e-300",
+                                                        "1e308", "[1e308,0,0]", "-1", "[]"]))
+
+
+@settings(max_examples=120, deadline=None, derandomize=True)
+@given(method=st.sampled_from(METHODS), data=st.data(), value=FIELD_VALUES)
+def test_config_fields_any_value(method, data, value):
+    spec = registry.get(method)
+    _, Config = spec.load()
+    field = data.draw(st.sampled_from(sorted(Config.model_fields)))
+    text = value if isinstance(value, str) else yaml.safe_dump(value, default_flow_style=True
+                                                               ).strip().removesuffix("...")
+    try:
+        cfg = build_config(spec, sets=[f"{field}={text.strip()}"])
+    except BadInput as e:
+        msg = _one_line(e)
+        assert method in msg and field in msg, msg
+        return
+    check_config(cfg, method)              # accepted: passes the plausibility checks
+
+
+SCENARIO_PATHS = [("start", "heading_deg"), ("start", "speed_m_s"), ("start", "lat_deg"),
+                  ("imu", "rate_hz"), ("segments", 0, "duration_s"), ("segments", 1, "rate_deg_s"),
+                  ("segments", 1, "angle_deg"), ("sensors", "radar", "rate_hz"),
+                  ("sensors", "odometer", "pulses_per_m"), ("imu", "gyro")]
+
+
+@settings(max_examples=80, deadline=None, derandomize=True)
+@given(path=st.sampled_from(SCENARIO_PATHS), value=st.one_of(
+    st.floats(), st.integers(-10**12, 10**12), st.text(max_size=5), st.none(),
+    st.lists(st.floats(), max_size=3)))
+def test_scenario_fields_any_value(path, value):
+    doc = yaml.safe_load(SCENARIO)
+    node = doc
+    for k in path[:-1]:
+        node = node.setdefault(k, {}) if isinstance(k, str) else node[k]
+    node[path[-1]] = value
+    try:
+        sc = load_scenario(doc)
+    except BadInput as e:
+        msg = _one_line(e)
+        assert str(path[-1]) in msg or "segments" in msg or "drive" in msg, msg
+        return
+    assert math.isfinite(sc.start.heading_deg) and 10 <= sc.imu.rate_hz <= 10000
+
+
+@settings(max_examples=40, deadline=None, derandomize=True)
+@given(key=st.sampled_from(["duration_s", "heading_deg", "rate_hz", "segments", "start"]),
+       data=st.data())
+def test_scenario_typos_name_the_key_meant(key, data):
+    i = data.draw(st.integers(0, len(key) - 1))
+    typo = key[:i] + key[i + 1:]                # one letter dropped
+    if typo in ("start",) or len(typo) < 4:
+        return
+    text = SCENARIO.replace(f"{key}:", f"{typo}:", 1)
+    if text == SCENARIO:
+        return
+    with pytest.raises(BadInput) as ei:
+        load_scenario(yaml.safe_load(text))
+    msg = _one_line(ei.value)
+    assert repr(typo) in msg, msg
+
+
+# --------------------------------------------------------------------------- the CLI's options
+
+@pytest.fixture(scope="module")
+def cli_bundle(tmp_path_factory):
+    d = tmp_path_factory.mktemp("cliprops")
+    (d / "s.yaml").write_text(SCENARIO)
+    expect_ok(["simulate", d / "s.yaml", "-o", d / "b", "--seed", 2])
+    return d / "b"
+
+
+@settings(max_examples=12, deadline=None, derandomize=True,
+          suppress_health_check=[HealthCheck.function_scoped_fixture])
+@given(start=st.one_of(st.none(), st.floats(), st.sampled_from(["x", "1e", "--"])),
+       end=st.one_of(st.none(), st.floats()))
+def test_window_options_any_value(cli_bundle, tmp_path_factory, start, end):
+    out = tmp_path_factory.mktemp("win") / "r"
+    args = ["navigate", cli_bundle, "-m", "sins", "-o", out]
+    if start is not None:
+        args += ["--start", start]
+    if end is not None:
+        args += ["--end", end]
+    code, stdout, err, secs, mib, exc = invoke(args)
+    if code == 0:
+        df = pd.read_csv(out / "solution.csv")
+        assert np.isfinite(df.to_numpy(float)[:, :10]).all()
+    else:
+        lines = err.strip().splitlines()
+        assert code == 2 and len(lines) == 1 and lines[0].startswith("inmotion: error:"), err
+        assert "None" not in lines[0] and ("--start" in lines[0] or "--end" in lines[0]
+                                           or "IMU" in lines[0] or "truth" in lines[0]), lines
