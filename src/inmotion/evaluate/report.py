@@ -149,7 +149,9 @@ def detect_kind(path: Path) -> str:
 
 
 def _is_member(p: Path) -> bool:
-    return p.is_dir() and ((p / "campaign.json").is_file() or (p / "summary.json").is_file())
+    """A campaign or result folder (not a hidden one: a writer's unfinished sibling)."""
+    return (p.is_dir() and not p.name.startswith(".")
+            and ((p / "campaign.json").is_file() or (p / "summary.json").is_file()))
 
 
 def load_paper(source) -> Optional[dict]:
