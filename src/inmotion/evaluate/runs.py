@@ -64,6 +64,9 @@ def parse_init_error(value) -> dict:
             angles[INIT_ANGLES.index(name)] = float(v) * _ANGLE_UNITS_RAD[unit]
         except (TypeError, ValueError):
             raise BadInput(f"init_error: {key} must be a number, got {v!r}") from None
+        if isinstance(v, bool) or not abs(angles[INIT_ANGLES.index(name)]) <= np.pi:
+            raise BadInput(f"init_error: {key} = {v!r} is beyond 180 deg (or not a finite "
+                           "number)")
     return {"angles_rad": angles, "distribution": dist}
 
 

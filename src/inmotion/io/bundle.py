@@ -212,7 +212,23 @@ def read_meta(folder) -> dict:
         meta = {}
     if not isinstance(meta, dict):
         raise BadInput(f"must be a YAML mapping (key: value), got {type(meta).__name__}", file=p)
+    for key, types, what in (("name", (str, int, float), "a text"),
+                             ("sensors", (dict,), "a mapping of sensor specifications"),
+                             ("faults", (list,), "a list of faults"),
+                             ("initial_position", (dict,), "a mapping {lat_deg, lon_deg, h_m}"),
+                             ("initial_attitude", (dict,), "a mapping {pitch_deg, roll_deg, "
+                                                           "yaw_deg}"),
+                             ("initial_velocity", (dict,), "a mapping {vE_m_s, vN_m_s, vU_m_s}"),
+                             ("vehicle_mounting_arcmin", (list,), "a list of 3 angles")):
+        v = meta.get(key)
+        if v is not None and (not isinstance(v, types) or isinstance(v, bool)):
+            raise BadInput(f"{key!r} must be {what}, got {_short(v)}", file=p)
     return meta
+
+
+def _short(v, n=60) -> str:
+    r = repr(v)
+    return r if len(r) <= n else r[:n] + "..."
 
 
 def _locate_tables(folder: Path, meta: dict) -> dict:
