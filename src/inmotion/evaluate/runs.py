@@ -104,6 +104,10 @@ def initial_state(truth, init_error, rng: np.random.Generator):
 
 
 # ---------------------------------------------------------------------------- the real run
+#: the keys of a default_run specification (a sweep's base without its campaign keys)
+SPEC_KEYS = ("scenario", "method", "method_options", "init_error", "save_arrays", "description")
+
+
 def validate_spec(spec: dict) -> None:
     """Check one point of a :func:`default_run` campaign before anything runs."""
     from pydantic import ValidationError
@@ -111,6 +115,14 @@ def validate_spec(spec: dict) -> None:
     for key in ("scenario", "method"):
         if key not in spec:
             raise BadInput(f"the campaign needs a {key!r} (sweep file or --{key})")
+    import difflib
+    for key in spec:
+        if key not in SPEC_KEYS:
+            close = difflib.get_close_matches(str(key), SPEC_KEYS, n=1)
+            hint = (f"; did you mean {close[0]!r}?" if close else
+                    f"; a grid key is a dotted path into one of {', '.join(SPEC_KEYS)} "
+                    "(e.g. scenario.start.speed_m_s)")
+            raise BadInput(f"unknown key {key!r} in the run specification{hint}")
     try:
         _, config_cls = registry.get(spec["method"]).load()
     except KeyError as exc:

@@ -307,7 +307,7 @@ def _numeric(df, col, path, t):
         i = int(np.argmax(bad))
         raw = s.iloc[i]
         what = ("NaN or empty" if raw is None or (isinstance(raw, float) and math.isnan(raw))
-                or str(raw).strip() == "" else repr(raw))
+                or str(raw).strip() == "" else _short(raw, 40))
         kind = "not a finite number" if _is_number(raw) else "not a number"
         tt = None if t is None or not np.isfinite(t[i]) else float(t[i])
         raise BadInput(f"column {col!r}: value {what} is {kind}", file=path, row=i + 1, time=tt)
