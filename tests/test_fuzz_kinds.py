@@ -173,6 +173,11 @@ def _deg_imu(c):
     _edit_csv(c.bundle / "imu.csv", f)
 
 
+def _truth_from(c, t0):
+    df = _csv(c.bundle / "truth.csv")
+    df[df.t >= t0].to_csv(c.bundle / "truth.csv", index=False)
+
+
 def _result_edit(c, fn):
     _edit_csv(c.result / "solution.csv", fn)
 
@@ -219,8 +224,7 @@ KINDS = [
         ["align", c.bundle, "-m", "usque", "-o", c.out, "--set", "sigma0_deg=[.nan,3,12]"],
         ["sigma0_deg", "nan"])),
     ("truth-not-covering-start", "internal", lambda c: (
-        _edit_csv(c.bundle / "truth.csv", lambda df: df.drop(df.index[df.t < 6], inplace=True))
-        or _nav(c, "--start", 2), ["--init truth", "2 s"])),
+        _truth_from(c, 6.0) or _nav(c, "--start", 2), ["--init truth", "2 s"])),
     ("import-csv-no-mapping", "internal", lambda c: (
         ["import", "csv", _csv_log(c)[0], "-o", c.out], ["--mapping"])),
     ("import-ems-order-3", "internal", lambda c: (
@@ -322,6 +326,23 @@ KINDS = [
         _scenario(c, "duration_s: 6", "duraton_s: 6"), ["duraton_s", "duration_s"])),
     ("empty-window", "message", lambda c: (_nav(c, "--start", 1000, "--init", "meta"),
                                            ["--start", "IMU"])),
+    # ---- found while fixing the above
+    ("meta-key-wrong-type", "found", lambda c: (
+        _write(c.bundle / "meta.yaml", "name: x\nfaults: 7\n") and ["info", c.bundle],
+        ["meta.yaml", "'faults'"])),
+    ("cell-value-megabyte", "found", lambda c: (
+        _edit_csv(c.bundle / "radar.csv", lambda df: df.__setitem__(
+            "v", df.v.astype(object).where(df.index != 2, "x" * 10**6))) or ["info", c.bundle],
+        ["radar.csv", "row 3", "'v'"])),
+    ("campaign-init-error-1e999", "found", lambda c: (
+        ["montecarlo", _write(c.tmp / "s.yaml", c.scenario), "--method", "dr", "--runs", 1,
+         "--init-error", "yaw=1e999deg", "-o", c.out], ["init_error", "yaw"])),
+    ("campaign-method-option-nan", "found", lambda c: (
+        ["montecarlo", _write(c.tmp / "s.yaml", c.scenario), "--method", "dr", "--runs", 1,
+         "--set", "speed_scale=.nan", "-o", c.out], ["speed_scale", "nan"])),
+    ("sweep-grid-key-outside-spec", "found", lambda c: (
+        ["montecarlo", _sweep(c, "grid: {start.speed_m_s: [5, 10]}"), "-o", c.out],
+        ["'start'", "scenario.start.speed_m_s"])),
     # ---- writes that lost or mixed data
     ("half-written-bundle", "write", lambda c: (
         _write(c.bundle / PARTIAL_MARKER, "") and ["info", c.bundle], ["half-written bundle"])),

@@ -127,7 +127,11 @@ def validate_spec(spec: dict) -> None:
         _, config_cls = registry.get(spec["method"]).load()
     except KeyError as exc:
         raise BadInput(str(exc.args[0])) from None
-    from ..config_checks import check_config
+    from ..config_checks import check_config, check_values
+    try:
+        check_values(spec.get("method_options") or {})
+    except BadInput as exc:
+        raise BadInput(f"method_options for {spec['method']!r}: {exc.what}") from None
     try:
         config = config_cls(**(spec.get("method_options") or {}))
     except ValidationError as exc:
