@@ -176,6 +176,8 @@ def default_run(spec: dict, rng: np.random.Generator) -> dict:
     t0 = time.perf_counter()
     solution = run(bundle, config, init)
     method_s = time.perf_counter() - t0
+    from ..io.result import check_solution
+    check_solution(solution, hint=" (the method diverged)")   # an error row, never NaN stats
     series = error_series(solution, bundle.truth)
     out = {"errors": errors_block(series), "method_s": method_s,
            "init_error": {f"{n}_arcmin": float(d) * 10800.0 / np.pi
