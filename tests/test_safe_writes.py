@@ -280,3 +280,23 @@ def test_unwritable_output_is_bad_input(tmp_path):
             write_bundle(make_bundle(np.random.default_rng(1), n=50), ro / "b")
     finally:
         ro.chmod(0o700)
+
+
+def test_an_unrelated_folder_is_never_replaced(tmp_path):
+    """Writing a result or a bundle onto a user's folder that is not one (a home, /tmp, a
+    project) is refused, and the folder is left as it was; an empty folder is fine and keeps
+    its permissions."""
+    mine = tmp_path / "mine"
+    mine.mkdir()
+    (mine / "thesis.tex").write_text("years of work")
+    with pytest.raises(BadInput, match="not a result folder"):
+        write_result(make_solution(np.random.default_rng(1)), mine)
+    with pytest.raises(BadInput, match="not a bundle folder"):
+        write_bundle(make_bundle(np.random.default_rng(1), n=50), mine)
+    assert sorted(p.name for p in mine.iterdir()) == ["thesis.tex"]
+    empty = tmp_path / "empty"
+    empty.mkdir()
+    empty.chmod(0o750)
+    write_result(make_solution(np.random.default_rng(1)), empty)
+    assert empty.stat().st_mode & 0o777 == 0o750
+    assert (empty / "summary.json").is_file()

@@ -22,6 +22,7 @@ import ctypes
 import errno
 import os
 import shutil
+import stat
 import uuid
 from pathlib import Path
 
@@ -161,6 +162,30 @@ def _link_or_copy(s, d):
         shutil.copy2(s, d)
 
 
+#: files that make an existing folder one this package may replace, per kind of folder
+OWNED_BY = {"bundle": ("meta.yaml",), "result": ("summary.json", "solution.csv")}
+
+
+def _check_replaceable(target: Path, what: str) -> None:
+    """An existing, non-empty folder is replaced only if it is a folder of this kind (a bundle
+    with its ``meta.yaml``, a result with its ``summary.json``...), never a user's unrelated
+    folder (a home, ``/tmp``, a project), nor a mount point."""
+    if not target.is_dir():
+        return
+    if os.path.ismount(target):
+        raise BadInput(f"is a mount point; write the {what} into a folder inside it",
+                       file=target)
+    try:
+        empty = not any(os.scandir(target))
+    except OSError as e:
+        raise output_error(target, e, "cannot read") from None
+    marks = OWNED_BY.get(what)
+    if empty or marks is None or any((target / m).exists() for m in marks):
+        return
+    raise BadInput(f"exists and holds other files but is not a {what} folder (no "
+                   f"{' or '.join(marks)}); write into a new or empty folder", file=target)
+
+
 @contextlib.contextmanager
 def staged_folder(target, keep_existing: bool = True, what: str = "folder"):
     """Build the folder ``target`` in a hidden sibling and put it in place whole on success.
@@ -168,10 +193,13 @@ def staged_folder(target, keep_existing: bool = True, what: str = "folder"):
     Yields the sibling's path; everything written into it must go through
     :func:`atomic_write` (or be new files), since carried-over files are hard links to the
     old folder's. On an exception the sibling is deleted and ``target`` is left as it was.
+    An existing non-empty folder is replaced only if it is of the kind ``what`` (see
+    :data:`OWNED_BY`); it keeps its permissions.
     """
     target = check_output_path(target, folder=True)
     if target.is_symlink():
         target = target.resolve()
+    _check_replaceable(target, what)
     try:
         target.parent.mkdir(parents=True, exist_ok=True)
         tmp = _tmp_name(target, ".partial")
@@ -181,8 +209,10 @@ def staged_folder(target, keep_existing: bool = True, what: str = "folder"):
     try:
         (tmp / PARTIAL_MARKER).write_text("written by inmotion; unfinished while this file "
                                           "exists\n")
-        if keep_existing and target.is_dir():
-            _carry_over(target, tmp)
+        if target.is_dir():
+            os.chmod(tmp, stat.S_IMODE(os.stat(target).st_mode))
+            if keep_existing:
+                _carry_over(target, tmp)
         yield tmp
         os.unlink(tmp / PARTIAL_MARKER)
         if target.exists():
