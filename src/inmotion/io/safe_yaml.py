@@ -5,11 +5,12 @@ import mapping, a ``--set`` value) is read by :func:`load_yaml_file` or :func:`l
 which raise :class:`inmotion.errors.BadInput` (exit status 2) instead of running out of memory
 or stack:
 
-- a file larger than :data:`MAX_BYTES` (16 MiB; a bundle's ``meta.yaml`` is a few kB);
+- a file larger than :data:`MAX_BYTES` (64 MiB; a bundle's ``meta.yaml`` is a few kB);
 - bytes that are not UTF-8 (the message gives the byte offset);
 - nesting deeper than :data:`MAX_DEPTH` (a document 50,000 levels deep would exhaust Python's
   stack);
-- a document whose aliases expand to more than :data:`MAX_NODES` nodes ("billion laughs":
+- a document whose aliases expand to more than :data:`MAX_NODES` nodes and more than ten times
+  the nodes it writes out ("billion laughs":
   nine lines of anchors and aliases that expand to 10^9 strings). The expanded size is counted
   on the composed node graph (each node's size computed once) before any Python object is
   built, so the check itself costs no more than the file's own size.
@@ -25,11 +26,13 @@ from ..errors import BadInput
 __all__ = ["load_yaml_file", "load_yaml_text", "MAX_BYTES", "MAX_DEPTH", "MAX_NODES"]
 
 #: largest YAML file read [bytes]
-MAX_BYTES = 16 * 1024 * 1024
+MAX_BYTES = 64 * 1024 * 1024
 #: deepest nesting of mappings and sequences
 MAX_DEPTH = 100
-#: most nodes a document may expand to once its aliases are resolved
+#: most nodes a document may expand to once its aliases are resolved, unless that is less than
+#: EXPANSION_FACTOR times the nodes written (a large file without aliases is not a bomb)
 MAX_NODES = 1_000_000
+EXPANSION_FACTOR = 10
 
 
 def _too_deep(text: str) -> bool:
@@ -61,8 +64,9 @@ class _Recursive(Exception):
     pass
 
 
-def _expanded_size(root) -> tuple[int, int]:
-    """(nodes after alias expansion, nesting depth) of a composed node graph, iteratively."""
+def _expanded_size(root) -> tuple[int, int, int]:
+    """(nodes after alias expansion, nesting depth, distinct nodes) of a composed node graph,
+    iteratively."""
     size, depth, visiting = {}, {}, set()
     stack = [(root, False)]
     while stack:
@@ -89,10 +93,10 @@ def _expanded_size(root) -> tuple[int, int]:
         for c in children:
             n += size.get(id(c), 1)        # a child still on the stack is a recursive alias
             d = max(d, depth.get(id(c), 1))
-            if n > MAX_NODES:
+            if n > MAX_NODES and n > EXPANSION_FACTOR * distinct:
                 break
         size[key], depth[key] = min(n, MAX_NODES + 1), d + 1
-    return size[id(root)], depth[id(root)]
+    return size[id(root)], depth[id(root)], len(size)
 
 
 def load_yaml_text(text: str, file=None, what: str = "YAML", invalid: str = "malformed YAML"):
@@ -110,7 +114,7 @@ def load_yaml_text(text: str, file=None, what: str = "YAML", invalid: str = "mal
             if node is None:
                 return None
             try:
-                n, depth = _expanded_size(node)
+                n, depth, distinct = _expanded_size(node)
             except _Recursive:
                 raise BadInput(f"{what} has an alias (*name) inside the value it names",
                                file=file) from None
