@@ -93,9 +93,7 @@ def _expanded_size(root) -> tuple[int, int, int]:
         for c in children:
             n += size.get(id(c), 1)        # a child still on the stack is a recursive alias
             d = max(d, depth.get(id(c), 1))
-            if n > MAX_NODES and n > EXPANSION_FACTOR * distinct:
-                break
-        size[key], depth[key] = min(n, MAX_NODES + 1), d + 1
+        size[key], depth[key] = min(n, 10**15), d + 1
     return size[id(root)], depth[id(root)], len(size)
 
 
@@ -118,7 +116,7 @@ def load_yaml_text(text: str, file=None, what: str = "YAML", invalid: str = "mal
             except _Recursive:
                 raise BadInput(f"{what} has an alias (*name) inside the value it names",
                                file=file) from None
-            if n > MAX_NODES:
+            if n > MAX_NODES and n > EXPANSION_FACTOR * distinct:
                 raise BadInput(f"{what} expands to more than {MAX_NODES} values through its "
                                "aliases (*name); write the values out", file=file)
             if depth > MAX_DEPTH:
