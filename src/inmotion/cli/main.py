@@ -66,7 +66,7 @@ class _Cli(click.Group):
             cmd = getattr(getattr(e, "ctx", None), "command_path", None)
             hint = f" (see '{cmd} --help')" if cmd and isinstance(e, click.UsageError) else ""
             click.echo(f"inmotion: error: {msg}{hint}", err=True)
-            sys.exit(e.exit_code)
+            sys.exit(2)                        # all of click's are about the user's input
         except click.exceptions.Abort:
             click.echo("inmotion: aborted", err=True)
             sys.exit(130)
