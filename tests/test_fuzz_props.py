@@ -285,3 +285,42 @@ def test_window_options_any_value(cli_bundle, tmp_path_factory, start, end):
         assert code == 2 and len(lines) == 1 and lines[0].startswith("inmotion: error:"), err
         assert "None" not in lines[0] and ("--start" in lines[0] or "--end" in lines[0]
                                            or "IMU" in lines[0] or "truth" in lines[0]), lines
+
+
+@pytest.fixture(scope="module")
+def small_bundle(cli_bundle):
+    from inmotion.io.bundle import read_bundle
+    return read_bundle(cli_bundle)
+
+
+RUN_VALUES = st.one_of(
+    st.sampled_from(["0", "1e-90", "1e-7", "1e-3", "1e7", "9e6", "-1e11", "1e300", "[1e6,0,0]",
+                     "999999999", "true", "[0,0,0]", "-1"]),
+    st.floats(-1e13, 1e13).map(repr))
+
+
+@settings(max_examples=40, deadline=None, derandomize=True,
+          suppress_health_check=[HealthCheck.function_scoped_fixture])
+@given(method=st.sampled_from(["sins", "dr", "sins-dr", "dr-kf", "imada-vb"]), data=st.data(),
+       value=RUN_VALUES)
+def test_any_accepted_configuration_runs_to_a_finite_result(small_bundle, method, data, value):
+    """Whatever value a field gets: refused (naming the field), or the method runs and its
+    solution is finite and possible, or the solution is refused before it is written."""
+    import warnings
+    from inmotion.core.solution import NavState
+    from inmotion.io.result import check_solution
+    spec = registry.get(method)
+    run, Config = spec.load()
+    field = data.draw(st.sampled_from(sorted(Config.model_fields)))
+    try:
+        cfg = build_config(spec, sets=[f"{field}={value}"])
+    except BadInput as e:
+        assert field in _one_line(e)
+        return
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", RuntimeWarning)
+        try:
+            sol = run(small_bundle, cfg, NavState.from_truth(small_bundle.truth, None))
+            check_solution(sol)
+        except BadInput as e:
+            _one_line(e)

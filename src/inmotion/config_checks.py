@@ -10,9 +10,10 @@ validated model (nested mappings and lists too) and refuses, naming the field:
   later (``baro_tau_s=1e-300``, ``lever_arm_m=[1e308, 1e308, 0]``);
 - a negative noise, sigma, random walk, rate or time constant (names containing ``noise``,
   ``sigma``, ``arw``, ``vrw``, ``_rw_``; names ending ``_hz``, ``_s``);
-- a time [s] between 0 and 1 ms, exclusive (shorter than any IMU period), a rate above
-  100 kHz, a lever arm beyond 100 m, a mounting angle beyond 30 deg, an angle in degrees
-  beyond 360.
+- a time [s] between 0 and 1 ms, exclusive (shorter than any IMU period) or above 30 years,
+  a rate above 100 kHz or below 1e-6 Hz, a lever arm beyond 100 m, a mounting angle beyond
+  30 deg, an angle in degrees beyond 360, a length beyond 1e7 m (the Earth), a speed beyond
+  1e4 m/s, a ppm beyond 1e6, arcmin / arcsec beyond a full turn.
 
 It is applied where configurations are validated (``inmotion align/navigate`` via
 ``build_config``, campaign points via ``inmotion.evaluate.runs``), so the method modules keep
@@ -28,6 +29,9 @@ __all__ = ["check_config", "check_values", "MAX_ABS", "MIN_ABS"]
 
 MAX_ABS = 1e12
 MIN_ABS = 1e-100
+#: (field name suffix, largest magnitude, unit): beyond any vehicle or the Earth itself
+_UNIT_LIMITS = (("_m_s", 1e4, "m/s"), ("_m", 1e7, "m"), ("_ppm", 1e6, "ppm"),
+                ("_arcmin", 21600.0, "arcmin"), ("_arcsec", 1296000.0, "arcsec"))
 _NONNEG = ("noise", "sigma", "arw", "vrw", "_rw_")
 
 
@@ -45,8 +49,15 @@ def _rules(name: str, x: float):
         return f"{x:g} must not be negative"
     if low.endswith("_s") and 0 < x < 1e-3:
         return f"{x:g} s is shorter than any IMU period (1 ms)"
+    if low.endswith("_s") and x > 1e9:
+        return f"{x:g} s is longer than 30 years"
     if low.endswith("_hz") and x > 1e5:
         return f"{x:g} Hz is above 100 kHz"
+    if low.endswith("_hz") and 0 < x < 1e-6:
+        return f"{x:g} Hz is below 1e-6 Hz (a period of 11 days)"
+    for suffix, limit, unit in _UNIT_LIMITS:
+        if low.endswith(suffix) and ax > limit:
+            return f"{x:g} {unit} is beyond {limit:g} {unit}"
     if "lever_arm" in low and low.endswith("_m") and ax > 100.0:
         return f"{x:g} m is not a lever arm on a vehicle (limit 100 m)"
     if "mounting" in low and low.endswith("_arcmin") and ax > 1800.0:
