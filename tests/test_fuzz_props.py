@@ -324,3 +324,51 @@ def test_any_accepted_configuration_runs_to_a_finite_result(small_bundle, method
             check_solution(sol)
         except BadInput as e:
             _one_line(e)
+
+
+# --------------------------------------------------------------------------- importers
+
+TOKENS = st.one_of(st.floats(-1e6, 1e6).map(lambda x: f"{x:.6g}"),
+                   st.sampled_from(["nan", "inf", "x", "", "1e999", "#", ",", "\t", "\x00",
+                                    "\xff", "-"]))
+
+
+@settings(max_examples=30, deadline=None, derandomize=True,
+          suppress_health_check=[HealthCheck.function_scoped_fixture])
+@given(rows=st.lists(st.lists(TOKENS, min_size=5, max_size=9), min_size=1, max_size=30),
+       sep=st.sampled_from([" ", ",", "\t"]))
+def test_kf_gins_reader_any_table(tmp_path_factory, rows, sep):
+    d = tmp_path_factory.mktemp("kfg")
+    src = d / "imu.txt"
+    src.write_bytes("\n".join(sep.join(r) for r in rows).encode("utf-8", "surrogatepass"))
+    code, out, err, secs, mib, exc = invoke(["import", "kf-gins", src, "-o", d / "b"])
+    lines = err.strip().splitlines()
+    if code == 0:
+        return
+    assert code == 2 and len(lines) == 1, (code, err, exc)
+    assert "imu.txt" in lines[0] and "None" not in lines[0], lines[0]
+
+
+MAPPING_KEYS = st.sampled_from(["time", "imu", "kind", "gyro", "accel", "columns", "unit",
+                                "axes", "odometer", "truth", "name", "delimiter", "colum"])
+
+
+@settings(max_examples=30, deadline=None, derandomize=True,
+          suppress_health_check=[HealthCheck.function_scoped_fixture])
+@given(doc=st.recursive(
+    st.one_of(st.none(), st.integers(-5, 5), st.floats(allow_nan=True), st.text(max_size=6),
+              st.sampled_from(["rad/s", "deg/s", "s", "ms", "rate", "increment", "forward",
+                               "gx", "time"])),
+    lambda inner: st.one_of(st.lists(inner, max_size=3),
+                            st.dictionaries(MAPPING_KEYS, inner, max_size=4)), max_leaves=20))
+def test_csv_mapping_any_document(tmp_path_factory, doc):
+    d = tmp_path_factory.mktemp("map")
+    (d / "log.csv").write_text("time,gx,gy,gz,ax,ay,az\n" + "".join(
+        f"{i * 0.01},0,0,0,0,0,9.8\n" for i in range(50)))
+    (d / "m.yaml").write_text(yaml.safe_dump(doc))
+    code, out, err, secs, mib, exc = invoke(["import", "csv", d / "log.csv", "--mapping",
+                                             d / "m.yaml", "-o", d / "b"])
+    lines = err.strip().splitlines()
+    assert code in (0, 2), (code, err, exc)
+    if code == 2:
+        assert len(lines) == 1 and ("m.yaml" in lines[0] or "log.csv" in lines[0]), lines
