@@ -110,6 +110,13 @@ def montecarlo(ctx, scenario, output, method, runs, seed, workers, scheduler, re
     from ..evaluate.sweep import load_sweep
     if workers and scheduler:
         raise BadInput("give --workers or --scheduler, not both")
+    import os
+    cores = os.cpu_count() or 1
+    if workers and workers > max(64, 4 * cores):
+        raise BadInput(f"--workers {workers}: more than {max(64, 4 * cores)} worker processes "
+                       f"on {cores} cores; use --scheduler for a cluster")
+    from ..io.safe_write import check_output_path
+    check_output_path(output)
     quiet = quiet or _root_flag(ctx, "quiet")
     as_json = as_json or _root_flag(ctx, "json")
     overrides = {"method": method, "runs": runs, "seed": seed, "init_error": init_error}
@@ -164,6 +171,9 @@ def report(ctx, directory, output, paper, title, as_json):
     One self-contained page (figures embedded, works offline); PNG figures beside it.
     """
     from ..evaluate.report import build_report
+    if output is not None:
+        from ..io.safe_write import check_output_path
+        check_output_path(output, folder=False)
     page = build_report(directory, output, paper=paper, title=title)
     figures = sorted(str(p) for p in page.parent.glob(f"{page.stem}_figures/*.png"))
     if as_json or _root_flag(ctx, "json"):

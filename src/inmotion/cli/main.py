@@ -29,6 +29,7 @@ configuration object and a :class:`NavState`.
 from __future__ import annotations
 
 import contextlib
+import errno
 import json
 import math
 import re
@@ -73,17 +74,35 @@ class _Cli(click.Group):
         except KeyboardInterrupt:
             click.echo("inmotion: interrupted", err=True)
             sys.exit(130)
+        except OSError as e:                  # a path the user gave that cannot be written
+            if e.errno not in _PATH_ERRNOS:
+                _internal(e, args)
+            from ..io.safe_write import output_error
+            click.echo(f"inmotion: error: {output_error(e.filename or '?', e, 'cannot use')}",
+                       err=True)
+            sys.exit(2)
         except MemoryError:
             click.echo("inmotion: error: out of memory (the input asks for more than this "
                        "machine has; shorten it)", err=True)
             sys.exit(2)
         except Exception as e:  # an internal failure: say so, in one line unless --debug
-            if "--debug" in (args if args is not None else sys.argv[1:]):
-                traceback.print_exc()
-            click.echo(f"inmotion: internal error: {type(e).__name__}: {e} "
-                       "(rerun with --debug for the traceback)", err=True)
-            sys.exit(1)
+            _internal(e, args)
         sys.exit(rv if isinstance(rv, int) else 0)
+
+
+#: errors of a path the user gave (no such folder, a file in the way, no permission ...)
+_PATH_ERRNOS = {errno.ENOTDIR, errno.ENAMETOOLONG, errno.EACCES, errno.EPERM, errno.EROFS,
+                errno.ENOSPC, errno.EDQUOT, errno.EISDIR, errno.ELOOP, errno.EEXIST,
+                errno.ENOENT}
+
+
+def _internal(e, args):
+    if "--debug" in (args if args is not None else sys.argv[1:]):
+        traceback.print_exc()
+    msg = " ".join(f"{type(e).__name__}: {e}".split())
+    click.echo(f"inmotion: internal error: {msg} (rerun with --debug for the traceback)",
+               err=True)
+    sys.exit(1)
 
 
 class _Opts:
@@ -674,6 +693,9 @@ def demo(ctx, seed, keep, as_json):
     from ..io.bundle import write_bundle
     from ..io.result import write_result
     from ..sim import simulate as sim
+    if keep:
+        from ..io.safe_write import check_output_path
+        check_output_path(keep)
     with contextlib.ExitStack() as stack:
         root = Path(keep) if keep else Path(stack.enter_context(
             tempfile.TemporaryDirectory(prefix="inmotion-demo-")))

@@ -63,7 +63,8 @@ def reproduce(ctx, paper, output, runs, workers, seed, reuse, quiet, as_json):
     from ..evaluate import reproduce as rp
     quiet = quiet or _root_flag(ctx, "quiet")
     as_json = as_json or _root_flag(ctx, "json")
-    out = Path(output)
+    from ..io.safe_write import check_output_path
+    out = check_output_path(output)
     if paper == "all":
         def note(text):
             if not quiet:
