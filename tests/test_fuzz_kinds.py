@@ -343,6 +343,21 @@ KINDS = [
     ("sweep-grid-key-outside-spec", "found", lambda c: (
         ["montecarlo", _sweep(c, "grid: {start.speed_m_s: [5, 10]}"), "-o", c.out],
         ["'start'", "scenario.start.speed_m_s"])),
+    ("report-output-under-a-file", "found", lambda c: (
+        ["report", c.result, "-o", _write(c.tmp / "f", "x") / "p.html"], ["p.html", "a file"])),
+    ("report-output-dangling-symlink", "found", lambda c: (
+        os.symlink(c.tmp / "nowhere", c.tmp / "p.html") or
+        ["report", c.result, "-o", c.tmp / "p.html"], ["p.html", "dangling"])),
+    ("demo-keep-under-a-file", "found", lambda c: (
+        ["demo", "--keep", _write(c.tmp / "f", "x") / "d"], ["f/d", "a file"])),
+    ("reproduce-output-under-a-file", "found", lambda c: (
+        ["reproduce", "004", "-o", _write(c.tmp / "f", "x") / "d"], ["f/d", "a file"])),
+    ("montecarlo-workers-100000", "found", lambda c: (
+        ["montecarlo", _write(c.tmp / "s.yaml", c.scenario), "--method", "dr", "--runs", 1,
+         "--workers", 100000, "-o", c.out], ["--workers", "100000"])),
+    ("result-into-an-unrelated-folder", "found", lambda c: (
+        _write(c.tmp / "thesis.tex", "x") and _nav(c)[:-1] + [c.tmp],
+        ["not a result folder"])),
     # ---- writes that lost or mixed data
     ("half-written-bundle", "write", lambda c: (
         _write(c.bundle / PARTIAL_MARKER, "") and ["info", c.bundle], ["half-written bundle"])),
