@@ -723,6 +723,13 @@ def demo(ctx, seed, keep, as_json):
                            err=True)
                 failed.append(spec.name)
                 continue
+            try:
+                from ..io.result import check_solution
+                check_solution(sol)
+            except BadInput as e:           # diverged on the demo drive: the method's fault
+                click.echo(f"inmotion: {spec.name}: internal error: {e}", err=True)
+                failed.append(spec.name)
+                continue
             summary = write_result(sol, root / spec.name, truth=b.truth,
                                    summary_extra={"bundle": str(root / "bundle")})
             rows.append(_demo_summary(spec.name, summary))
