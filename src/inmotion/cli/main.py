@@ -767,6 +767,8 @@ def _demo_alignment_chain(ctx, bundle, root, failed) -> list:
             if state is None:
                 state, _ = _initial_state(ctx, bundle, "truth", start, spec.needs_attitude)
             sol, b = run_method(ctx, bundle, spec, build_config(spec), state, (start, end))
+            from ..io.result import check_solution
+            check_solution(sol)
         except Exception as e:              # report and stop the chain, keep the rest
             click.echo(f"inmotion: {name}: error in the alignment chain: {type(e).__name__}: {e}",
                        err=True)
