@@ -40,7 +40,16 @@ Validation (each failure is one :class:`inmotion.errors.BadInput` naming file, r
   ``dvel`` above 100 g, a speed above 150 m/s, a barometric height outside -1 km .. 20 km,
   truth latitude beyond +-90 deg or pitch beyond +-90 deg;
 - units that do not add up: a mean specific force far from gravity (``dvel`` not in m/s), a
-  truth whose positions and velocities describe different distances (lat/lon in rad).
+  truth whose positions and velocities describe different distances (lat/lon in rad), a turn
+  rate above 3 rad/s sustained over a second (``dtheta`` in degrees), an IMU rate outside
+  5 Hz .. 100 kHz (time not in seconds), a time column stored as timestamps;
+- clocks that do not match (:func:`check_clocks`): a table with no sample inside the IMU's
+  time span (another clock), or spanning more than 50 times the IMU's (another time unit);
+- an IMU table of fewer than 2 rows; ``meta.yaml`` keys of the wrong type (``sensors`` not a
+  mapping, ``faults`` not a list ...); a half-written folder (:mod:`inmotion.io.safe_write`).
+
+:func:`check_bundle` makes the same checks on a bundle in memory (an importer's output, the
+simulator's), naming its source.
 
 Gaps (a time step longer than ``max_gap_periods`` = 5 median sample periods):
 
