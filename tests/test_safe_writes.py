@@ -300,3 +300,29 @@ def test_an_unrelated_folder_is_never_replaced(tmp_path):
     write_result(make_solution(np.random.default_rng(1)), empty)
     assert empty.stat().st_mode & 0o777 == 0o750
     assert (empty / "summary.json").is_file()
+
+
+def test_simulate_killed_while_overwriting_keeps_old_bundle(tmp_path):
+    """The issue's report: ``simulate`` killed with -9 while overwriting a bundle left the new
+    imu.csv with the old other tables, and ``inmotion info`` accepted it."""
+    from click.testing import CliRunner
+    from inmotion.cli.main import cli
+    sys.path.insert(0, TESTS)
+    from fuzz_common import SCENARIO
+    (tmp_path / "s.yaml").write_text(SCENARIO)
+    target = tmp_path / "drive"
+    r = CliRunner().invoke(cli, ["--quiet", "simulate", str(tmp_path / "s.yaml"), "-o",
+                                 str(target), "--seed", "1"])
+    assert r.exit_code == 0, r.output
+    before = _snapshot(target)
+    _run_killed(tmp_path, f"""
+        from inmotion.cli.main import cli
+        cli.main(["--quiet", "simulate", {str(tmp_path / 's.yaml')!r}, "-o", {str(target)!r},
+                  "--seed", "2"])
+    """, 2)
+    assert _snapshot(target) == before
+    partial = _partials(tmp_path)
+    assert len(partial) == 1
+    r = CliRunner().invoke(cli, ["--quiet", "info", str(partial[0])])
+    assert r.exit_code == 2 and "half-written bundle" in r.stderr, r.stderr
+    assert CliRunner().invoke(cli, ["--quiet", "info", str(target)]).exit_code == 0
