@@ -326,3 +326,18 @@ def test_simulate_killed_while_overwriting_keeps_old_bundle(tmp_path):
     r = CliRunner().invoke(cli, ["--quiet", "info", str(partial[0])])
     assert r.exit_code == 2 and "half-written bundle" in r.stderr, r.stderr
     assert CliRunner().invoke(cli, ["--quiet", "info", str(target)]).exit_code == 0
+
+
+def test_a_killed_writers_sibling_is_removed_by_the_next_write(tmp_path):
+    target = tmp_path / "drive"
+    write_bundle(make_bundle(np.random.default_rng(1)), target)
+    _run_killed(tmp_path, f"""
+        import numpy as np
+        from test_io_bundle import make_bundle
+        from inmotion.io.bundle import write_bundle
+        write_bundle(make_bundle(np.random.default_rng(2)), {str(target)!r})
+    """, 1)
+    assert len(_partials(tmp_path)) == 1
+    write_bundle(make_bundle(np.random.default_rng(3)), target)
+    assert _partials(tmp_path) == []
+    read_bundle(target)

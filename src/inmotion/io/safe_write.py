@@ -141,6 +141,29 @@ def _exchange(a: Path, b: Path) -> bool:
     raise OSError(err, os.strerror(err), str(b))
 
 
+def _remove_stale(target: Path) -> None:
+    """Delete the unfinished siblings of ``target`` that killed writers left (their process,
+    named in the marker, is gone); a live writer's sibling is left alone."""
+    for p in target.parent.glob(f".{glob_escape(target.name[:60])}.*.partial"):
+        try:
+            pid = int((p / PARTIAL_MARKER).read_text().split("\n", 1)[0].partition("=")[2])
+        except (OSError, ValueError):
+            continue
+        if pid == os.getpid():
+            continue
+        try:
+            os.kill(pid, 0)
+        except ProcessLookupError:
+            shutil.rmtree(p, ignore_errors=True)
+        except OSError:
+            pass
+
+
+def glob_escape(name: str) -> str:
+    import glob
+    return glob.escape(name)
+
+
 def _carry_over(src: Path, dst: Path) -> None:
     """Hard-link (else copy) what ``src`` holds into ``dst``, skipping the marker."""
     for entry in os.scandir(src):
@@ -207,8 +230,9 @@ def staged_folder(target, keep_existing: bool = True, what: str = "folder"):
     except OSError as e:
         raise output_error(target, e) from None
     try:
-        (tmp / PARTIAL_MARKER).write_text("written by inmotion; unfinished while this file "
-                                          "exists\n")
+        (tmp / PARTIAL_MARKER).write_text(f"pid={os.getpid()}\nwritten by inmotion; "
+                                          "unfinished while this file exists\n")
+        _remove_stale(target)
         if target.is_dir():
             os.chmod(tmp, stat.S_IMODE(os.stat(target).st_mode))
             if keep_existing:
