@@ -186,6 +186,18 @@ def _unsorted(df):
     df.loc[[3, 4], "t"] = df.loc[[4, 3], "t"].to_numpy()
 
 
+def _damaged_campaign(c):
+    (c.tmp / "s.yaml").write_text(c.scenario)
+    from inmotion.evaluate.store import ResultStore
+    store = ResultStore(c.tmp / "mc")
+    store.write({"point_id": 0, "run_index": 0, "seed": 0, "status": "ok"})
+    store.close()
+    (c.tmp / "mc" / "campaign.json").write_text("{}")
+    part = next((c.tmp / "mc" / "results").glob("point-*/part-*.parquet"))
+    part.write_bytes(b"garbage")
+    return True
+
+
 def _write(p, data):
     p = Path(p)
     if isinstance(data, bytes):
@@ -358,6 +370,8 @@ KINDS = [
     ("result-into-an-unrelated-folder", "found", lambda c: (
         _write(c.tmp / "thesis.tex", "x") and _nav(c)[:-1] + [c.tmp],
         ["not a result folder"])),
+    ("campaign-part-damaged", "found", lambda c: (
+        _damaged_campaign(c) and ["report", c.tmp / "mc"], ["part-", "unreadable"])),
     # ---- writes that lost or mixed data
     ("half-written-bundle", "write", lambda c: (
         _write(c.bundle / PARTIAL_MARKER, "") and ["info", c.bundle], ["half-written bundle"])),
