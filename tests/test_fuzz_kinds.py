@@ -372,6 +372,13 @@ KINDS = [
         ["not a result folder"])),
     ("campaign-part-damaged", "found", lambda c: (
         _damaged_campaign(c) and ["report", c.tmp / "mc"], ["part-", "unreadable"])),
+    ("summary-not-an-object", "found", lambda c: (
+        _write(c.result / "summary.json", "[1, 2]") and ["evaluate", c.result, "--truth",
+                                                         c.bundle],
+        ["summary.json", "JSON object"])),
+    ("init-result-on-another-clock", "found", lambda c: (
+        _result_edit(c, lambda df: df.__setitem__("t", df.t + 1e5)) or
+        _nav(c, "--init", c.result), ["--init", "IMU time span"])),
     # ---- writes that lost or mixed data
     ("half-written-bundle", "write", lambda c: (
         _write(c.bundle / PARTIAL_MARKER, "") and ["info", c.bundle], ["half-written bundle"])),

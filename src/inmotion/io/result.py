@@ -201,9 +201,18 @@ def read_summary(path) -> dict:
         raise BadInput("missing summary.json (not a result folder, or the run did not finish)",
                        file=p)
     try:
-        return json.loads(p.read_text())
+        summary = json.loads(p.read_text())
     except json.JSONDecodeError as e:
         raise BadInput(f"malformed JSON at line {e.lineno}: {e.msg}", file=p) from None
+    except (UnicodeDecodeError, RecursionError) as e:
+        raise BadInput(f"not a JSON summary ({type(e).__name__})", file=p) from None
+    if not isinstance(summary, dict):
+        raise BadInput(f"must be a JSON object, got {type(summary).__name__}", file=p)
+    for key, types in (("states", dict), ("info", dict)):
+        if summary.get(key) is not None and not isinstance(summary[key], types):
+            raise BadInput(f"{key!r} must be a JSON object, got {type(summary[key]).__name__}",
+                           file=p)
+    return summary
 
 
 def read_result(path) -> Solution:
@@ -258,6 +267,11 @@ def _read_states(folder: Path, smap: dict, n: int):
         raise BadInput(f"{len(df)} rows but solution.csv has {n}", file=p)
     states, units = {}, {}
     for name, s in smap.items():
+        if not (isinstance(s, dict) and isinstance(s.get("column"), str)
+                and isinstance(s.get("unit"), str) and isinstance(s.get("scale"), (int, float))
+                and s["scale"] != 0):
+            raise BadInput(f"summary.json: states.{name} must be {{column, unit, scale}}, got "
+                           f"{s!r}"[:160], file=p)
         if s["column"] not in df.columns:
             raise BadInput(f"missing column {s['column']}", file=p)
         states[name] = pd.to_numeric(df[s["column"]], errors="coerce").to_numpy(float) / s["scale"]
