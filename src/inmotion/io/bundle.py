@@ -310,6 +310,8 @@ def _numeric(df, col, path, t):
     if pd.api.types.is_datetime64_any_dtype(s) or pd.api.types.is_timedelta64_dtype(s):
         raise BadInput(f"column {col!r} holds {s.dtype} timestamps; write plain numbers in "
                        "seconds", file=path)
+    if pd.api.types.is_bool_dtype(s):
+        raise BadInput(f"column {col!r} holds true/false values, not numbers", file=path)
     x = pd.to_numeric(s, errors="coerce").to_numpy(dtype=float)
     bad = ~np.isfinite(x)
     if bad.any():
