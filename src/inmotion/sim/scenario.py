@@ -46,8 +46,36 @@ def _three_or_six(v):
 MisalignmentArcsec = Annotated[List[float], AfterValidator(_three_or_six)]
 
 
+#: magnitudes a scenario's numbers may have (0 aside): no drive needs more, and beyond them
+#: the simulator overflows or divides by almost zero
+MAX_MAGNITUDE, MIN_MAGNITUDE = 1e9, 1e-12
+#: the slowest sensor or IMU rate [Hz]
+MIN_RATE_HZ = 0.01
+
+
+def _plausible(name: str, v) -> None:
+    if isinstance(v, (list, tuple)):
+        for x in v:
+            _plausible(name, x)
+        return
+    if isinstance(v, bool) or not isinstance(v, (int, float)):
+        return
+    x = abs(float(v))
+    if x > MAX_MAGNITUDE or 0 < x < MIN_MAGNITUDE:
+        raise ValueError(f"{name} = {v:g} is outside the plausible range "
+                         f"{MIN_MAGNITUDE:g} .. {MAX_MAGNITUDE:g} (or 0)")
+    if name.endswith("_hz") and x < MIN_RATE_HZ:
+        raise ValueError(f"{name} = {v:g} Hz is below {MIN_RATE_HZ:g} Hz")
+
+
 class _Model(BaseModel):
     model_config = ConfigDict(extra="forbid", allow_inf_nan=False)
+
+    @model_validator(mode="after")
+    def _magnitudes(self):
+        for name in type(self).model_fields:
+            _plausible(name, getattr(self, name))
+        return self
 
 
 # ----------------------------------------------------------------------------- start, vehicle
