@@ -372,3 +372,71 @@ def test_csv_mapping_any_document(tmp_path_factory, doc):
     assert code in (0, 2), (code, err, exc)
     if code == 2:
         assert len(lines) == 1 and ("m.yaml" in lines[0] or "log.csv" in lines[0]), lines
+
+
+RICH_SCENARIO = yaml.safe_load("""
+name: rich
+start: {lat_deg: 34.0, lon_deg: 108.0, h_m: 400.0, heading_deg: 20.0, speed_m_s: 8.0}
+vehicle_mounting_arcmin: [3, 10, 5]
+segments:
+  - {kind: cruise, duration_s: 4}
+  - {kind: turn, angle_deg: 60, rate_deg_s: 10}
+  - {kind: climb, pitch_deg: 4, duration_s: 5}
+  - {kind: cruise, duration_s: 3}
+disturbances:
+  side_slips: [{t_s: 2, duration_s: 1, speed_m_s: 0.5}]
+  jumps: [{t_s: 5, duration_s: 0.5, height_m: 0.05}]
+  vibration: [{start_s: 1, end_s: 10, frequency_hz: 20, angular_amplitude_arcsec: 10,
+               linear_amplitude_mm: 0.1}]
+imu: {rate_hz: 50.0, gyro: {drift_deg_h: 0.01, arw_deg_sqrt_h: 0.01, drift_markov_deg_h: 0.01,
+                            drift_markov_tau_s: 100},
+      accel: {bias_ug: 50, vrw_ug_sqrt_hz: 10}}
+sensors:
+  radar: {rate_hz: 10, noise_m_s: 0.05, scale_markov_sigma_ppm: 1000, scale_markov_tau_s: 300,
+          lever_arm_m: [0, 1, 0]}
+  odometer: {rate_hz: 10, pulses_per_m: 100}
+  ldv: {rate_hz: 10, output: distance}
+  baro: {rate_hz: 10, noise_m: 1}
+faults:
+  - {sensor: radar, kind: outliers, start_s: 3, end_s: 6, probability: 0.1, magnitude_m_s: 1}
+""")
+
+
+def _number_paths(d, pre=()):
+    if isinstance(d, dict):
+        for k, v in d.items():
+            yield from _number_paths(v, pre + (k,))
+    elif isinstance(d, list):
+        for i, v in enumerate(d):
+            yield from _number_paths(v, pre + (i,))
+    elif isinstance(d, (int, float)) and not isinstance(d, bool):
+        yield pre
+
+
+@settings(max_examples=40, deadline=None, derandomize=True)
+@given(path=st.sampled_from(list(_number_paths(RICH_SCENARIO))),
+       value=st.sampled_from([0, -1, 1e-9, 1e9, 1e300, -1e300, 0.5, 89.9, 1e-300, 1000, 300,
+                              1e-4, float("nan"), float("inf")]))
+def test_simulate_any_number_gives_a_valid_bundle_or_one_line(path, value):
+    """A number anywhere in a rich scenario set to an extreme: refused in one line naming the
+    field, or simulated into a bundle that passes every check a read would make."""
+    import copy
+    import warnings
+    from inmotion.io.bundle import check_bundle
+    from inmotion.sim import simulate
+    doc = copy.deepcopy(RICH_SCENARIO)
+    node = doc
+    for k in path[:-1]:
+        node = node[k]
+    node[path[-1]] = value
+    try:
+        sc = load_scenario(doc)
+    except BadInput as e:
+        _one_line(e)
+        return
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", RuntimeWarning)
+        try:
+            check_bundle(simulate(sc, np.random.default_rng(0)), "scenario")
+        except BadInput as e:
+            _one_line(e)
