@@ -440,3 +440,17 @@ def test_simulate_any_number_gives_a_valid_bundle_or_one_line(path, value):
             check_bundle(simulate(sc, np.random.default_rng(0)), "scenario")
         except BadInput as e:
             _one_line(e)
+
+
+@settings(max_examples=150, deadline=None, derandomize=True)
+@given(text=st.one_of(st.text(max_size=40), st.builds(
+    lambda k, v, u: f"{k}={v}{u}", st.sampled_from(["pitch", "roll", "yaw", "x"]),
+    st.text(alphabet="0123456789.eE+-", max_size=8), st.sampled_from(["deg", "rad", "arcmin", ""]))))
+def test_campaign_init_error_parser_random_text(text):
+    from inmotion.evaluate.runs import parse_init_error as campaign_init_error
+    try:
+        out = campaign_init_error(text)
+    except BadInput as e:
+        _one_line(e)
+        return
+    assert np.isfinite(out["angles_rad"]).all() and (np.abs(out["angles_rad"]) <= np.pi).all()

@@ -73,7 +73,8 @@ def parse_init_error(value) -> dict:
 def _parse_init_text(text: str) -> dict:
     out = {}
     for item in filter(None, (s.strip() for s in text.split(","))):
-        m = re.fullmatch(r"(pitch|roll|yaw)\s*=\s*([-+0-9.eE]+)\s*(deg|arcmin|arcsec|rad)", item)
+        m = re.fullmatch(r"(pitch|roll|yaw)\s*=\s*([-+]?(?:\d+\.?\d*|\.\d+)(?:[eE][-+]?\d+)?)"
+                         r"\s*(deg|arcmin|arcsec|rad)", item)
         if not m:
             raise BadInput(f"init error {item!r}: expected NAME=VALUEUNIT, e.g. 'yaw=5deg' "
                            f"(NAME pitch/roll/yaw, UNIT deg/arcmin/arcsec/rad)")
