@@ -454,3 +454,35 @@ def test_campaign_init_error_parser_random_text(text):
         _one_line(e)
         return
     assert np.isfinite(out["angles_rad"]).all() and (np.abs(out["angles_rad"]) <= np.pi).all()
+
+
+SWEEP_KEYS = st.sampled_from(["scenario.start.speed_m_s", "method", "method_options.speed_scale",
+                              "scenario", "start.x", "", "a..b", "init_error", "scenario.imu",
+                              "method_options", "scenario.segments.0"])
+SWEEP_VALUES = st.one_of(st.none(), st.integers(-3, 3), st.floats(), st.text(max_size=5),
+                         st.sampled_from(["dr", "sins", "nope", "paper004_v20"]),
+                         st.lists(st.floats(), max_size=2), st.dictionaries(
+                             st.sampled_from(["a", "lat_deg"]), st.floats(), max_size=2))
+
+
+@settings(max_examples=60, deadline=None, derandomize=True)
+@given(grid=st.one_of(st.none(), st.integers(), st.dictionaries(
+    st.one_of(SWEEP_KEYS, st.integers(0, 3)),
+    st.one_of(st.lists(SWEEP_VALUES, max_size=3), SWEEP_VALUES), max_size=3)),
+       runs=st.one_of(st.integers(-2, 10**12), st.floats(), st.none(), st.text(max_size=3)),
+       seed=st.one_of(st.integers(-2, 2**70), st.none(), st.floats()))
+def test_sweep_documents_any_content(grid, runs, seed):
+    """A sweep with any grid, runs and seed: refused in one line, or valid points whose every
+    specification passes the run function's check (so no run fails on input later)."""
+    from inmotion.evaluate.montecarlo import _validate, check_size
+    from inmotion.evaluate.sweep import load_sweep
+    doc = {"name": "fz", "scenario": yaml.safe_load(SCENARIO), "method": "dr", "grid": grid,
+           "runs": runs, "seed": seed}
+    try:
+        sweep = load_sweep(doc)
+        check_size(sweep)
+        _validate(sweep)
+    except BadInput as e:
+        _one_line(e)
+        return
+    assert 1 <= sweep.runs <= 10**7 and len(sweep.points) <= 10**4

@@ -127,6 +127,9 @@ def expand_grid(base: dict, grid: dict) -> list:
         Dotted path -> non-empty list of values.
     """
     for key, values in grid.items():
+        if not isinstance(key, str) or not all(key.split(".")):
+            raise BadInput(f"grid key {key!r}: expected a dotted path such as "
+                           "scenario.start.speed_m_s")
         if not isinstance(values, list) or not values:
             raise BadInput(f"grid key {key!r}: expected a non-empty list of values, "
                            f"got {_short_repr(values)}")

@@ -470,6 +470,9 @@ def load_scenario(source) -> Scenario:
     if isinstance(source, Scenario):
         return source
     file = None
+    if not isinstance(source, (dict, str, Path)):
+        raise BadInput(f"a scenario must be a mapping, a file or a shipped name, got "
+                       f"{type(source).__name__} {source!r}"[:160])
     if isinstance(source, dict):
         data = source
     else:
