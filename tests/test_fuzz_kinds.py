@@ -379,6 +379,9 @@ KINDS = [
     ("init-result-on-another-clock", "found", lambda c: (
         _result_edit(c, lambda df: df.__setitem__("t", df.t + 1e5)) or
         _nav(c, "--init", c.result), ["--init", "IMU time span"])),
+    ("campaign-manifest-wrong-shape", "found", lambda c: (
+        _damaged_campaign(c) and _write(c.tmp / "mc" / "campaign.json", '{"points": 3}') and
+        ["report", c.tmp / "mc"], ["campaign.json", "'runs'"])),
     # ---- writes that lost or mixed data
     ("half-written-bundle", "write", lambda c: (
         _write(c.bundle / PARTIAL_MARKER, "") and ["info", c.bundle], ["half-written bundle"])),

@@ -108,11 +108,28 @@ def read_results(out_dir):
 def _read_manifest(out: Path) -> dict:
     path = out / MANIFEST
     try:
-        return json.loads(path.read_text())
+        manifest = json.loads(path.read_text())
     except FileNotFoundError:
         raise BadInput("not a campaign directory (no campaign.json)", file=out) from None
-    except json.JSONDecodeError as exc:
+    except (json.JSONDecodeError, UnicodeDecodeError, RecursionError) as exc:
         raise BadInput(f"corrupt campaign manifest: {exc}", file=path) from None
+    _check_manifest(manifest, path)
+    return manifest
+
+
+def _check_manifest(m, path) -> None:
+    """The shape :func:`Sweep.manifest` writes; BadInput naming what is wrong."""
+    def bad(what):
+        raise BadInput(f"corrupt campaign manifest: {what}", file=path)
+    if not isinstance(m, dict):
+        bad(f"a JSON object expected, got {type(m).__name__}")
+    for key, types in (("runs", int), ("seed", int), ("run", str), ("points", list)):
+        if not isinstance(m.get(key), types) or isinstance(m.get(key), bool):
+            bad(f"{key!r} missing or not {types.__name__}")
+    for i, p in enumerate(m["points"]):
+        if not (isinstance(p, dict) and isinstance(p.get("point_id"), int)
+                and isinstance(p.get("params"), dict) and isinstance(p.get("spec"), dict)):
+            bad(f"points[{i}] is not {{point_id, label, params, spec}}")
 
 
 def _identity(manifest: dict) -> dict:
