@@ -192,7 +192,9 @@ def _damaged_campaign(c):
     store = ResultStore(c.tmp / "mc")
     store.write({"point_id": 0, "run_index": 0, "seed": 0, "status": "ok"})
     store.close()
-    (c.tmp / "mc" / "campaign.json").write_text("{}")
+    (c.tmp / "mc" / "campaign.json").write_text(json.dumps(
+        {"name": "x", "runs": 1, "seed": 0, "run": "inmotion.evaluate.runs:default_run",
+         "points": [{"point_id": 0, "label": "base", "params": {}, "spec": {}}]}))
     part = next((c.tmp / "mc" / "results").glob("point-*/part-*.parquet"))
     part.write_bytes(b"garbage")
     return True
