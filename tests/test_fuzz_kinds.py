@@ -92,6 +92,21 @@ def _kf_gins_nav(c, lat=None):
     return p
 
 
+def _kf_gins_gnss(c, lat):
+    tr = _csv(c.bundle / "truth.csv").iloc[::50]
+    n = len(tr)
+    p = c.tmp / "gnss.txt"
+    np.savetxt(p, np.column_stack([tr.t + 1000.0, np.full(n, lat), tr.lon, tr.h, np.ones((n, 3))]))
+    return p
+
+
+def _kf_gins_odo(c, v):
+    t = _csv(c.bundle / "radar.csv").t
+    p = c.tmp / "odo.txt"
+    np.savetxt(p, np.column_stack([t + 1000.0, np.full(len(t), v)]))
+    return p
+
+
 def _csv_log(c, gyro_unit_in_data="rad/s"):
     imu = _csv(c.bundle / "imu.csv")
     dt = np.median(np.diff(imu.t))
@@ -384,6 +399,12 @@ KINDS = [
     ("campaign-manifest-wrong-shape", "found", lambda c: (
         _damaged_campaign(c) and _write(c.tmp / "mc" / "campaign.json", '{"points": 3}') and
         ["report", c.tmp / "mc"], ["campaign.json", "'runs'"])),
+    ("kf-gins-gnss-lat-3000", "found", lambda c: (
+        ["import", "kf-gins", _kf_gins_imu(c), "-O", f"gnss={_kf_gins_gnss(c, 3000.0)}",
+         "-o", c.out], ["latitude 3000"])),
+    ("kf-gins-odometer-impossible", "found", lambda c: (
+        ["import", "kf-gins", _kf_gins_imu(c), "-O", f"odo={_kf_gins_odo(c, 1e6)}",
+         "-o", c.out], ["odo.txt", "speed"])),
     # ---- writes that lost or mixed data
     ("half-written-bundle", "write", lambda c: (
         _write(c.bundle / PARTIAL_MARKER, "") and ["info", c.bundle], ["half-written bundle"])),

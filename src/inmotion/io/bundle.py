@@ -470,8 +470,12 @@ def _truth_from(df, path) -> Truth:
 def check_bundle(bundle: Bundle, source) -> None:
     """The checks :func:`read_bundle` makes on the files, made on a bundle in memory (an
     importer's output, before it is written): BadInput naming ``source`` and the table."""
+    src = bundle.meta.get("source") if isinstance(bundle.meta.get("source"), dict) else {}
+
     def name(table):
-        return f"{source} ({table})"
+        own = src.get(table)                   # the file an importer read this table from
+        is_file = isinstance(own, str) and Path(own).suffix != "" and " " not in own
+        return f"{own if is_file else source} ({table})"
     arrays = [("imu", "t", bundle.imu.t)]
     for tb in TABLES[1:]:
         x = getattr(bundle, tb)
@@ -501,6 +505,7 @@ def check_bundle(bundle: Bundle, source) -> None:
         _check_limit(np.degrees(tr.euler[:, 0]), 90.0, "pitch", "deg", name("truth"), tr.t)
         _check_truth_consistency(tr, name("truth"))
     check_clocks(bundle, {tb: name(tb) for tb in TABLES})
+    meta_initial(bundle.meta, f"{source} (meta)")      # an initial latitude beyond +-90 deg
 
 
 def _check_truth_consistency(truth: Truth, path):
