@@ -99,7 +99,7 @@ def import_cmd(fmt, source, out, mapping, options, bundle_format, as_json, quiet
                 and p.name not in opts):
             flag = "--mapping FILE" if p.name == "mapping" else f"-O {p.name}=VALUE"
             raise BadInput(f"import {fmt}: needs {flag}")
-    check_output_path(out)
+    check_output_path(out, kind="bundle")
     bundle = importer(source, **opts)
     check_bundle(bundle, source)
     write_bundle(bundle, out, bundle_format)

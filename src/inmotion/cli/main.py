@@ -223,7 +223,7 @@ def simulate(ctx, scenario, output, seed, fmt, as_json):
     from ..io.bundle import write_bundle
     from ..io.safe_write import check_output_path
     from ..sim import simulate as sim
-    check_output_path(output)
+    check_output_path(output, kind="bundle")
     scen = _load_scenario(scenario)
     t0 = time.perf_counter()
     with _progress(ctx, "simulate") as progress:
@@ -545,7 +545,7 @@ def _run_command(ctx, kind, bundle_path, method, config_file, output, init, init
     spec = _spec(method, kind)
     config = build_config(spec, config_file, mode, sets)
     err = parse_init_error(init_error) if init_error else None
-    check_output_path(output)
+    check_output_path(output, kind="result")
     bundle = _read_bundle(ctx, bundle_path, allow_imu_gaps)
     if init is None:
         init = "truth" if bundle.truth is not None else "meta"

@@ -46,10 +46,11 @@ def output_error(path, e: OSError, what: str = "cannot write") -> BadInput:
     return BadInput(f"{what}: {reason}", file=path)
 
 
-def check_output_path(path, folder: bool = True) -> Path:
+def check_output_path(path, folder: bool = True, kind: str | None = None) -> Path:
     """Refuse an output path that cannot be written (before any work is done): a dangling
     symbolic link, a file where a folder is wanted (or the reverse), a name longer than the
-    file system allows, a parent that is a file or not writable."""
+    file system allows, a parent that is a file or not writable; with ``kind`` ("bundle",
+    "result"), an existing folder that is not one of that kind (see :func:`staged_folder`)."""
     p = Path(path)
     if str(path) == "":
         raise BadInput("the output path is empty")
@@ -74,6 +75,8 @@ def check_output_path(path, folder: bool = True) -> Path:
     if not os.access(anc, os.W_OK | os.X_OK) and not (p.exists() and folder
                                                      and os.access(p, os.W_OK)):
         raise BadInput(f"no permission to write in {anc}", file=p)
+    if kind is not None:
+        _check_replaceable(p.resolve() if p.is_symlink() else p, kind)
     return p
 
 
