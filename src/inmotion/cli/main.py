@@ -424,8 +424,9 @@ def _initial_state(ctx, bundle, init, start, needs_attitude):
     t_imu = bundle.imu.t
     t0 = sol.t[-1] if start is None else start
     if not t_imu[0] - 1.0 <= t0 <= t_imu[-1]:
-        raise BadInput(f"--init: the result {'ends' if start is None else 'starts'} at "
-                       f"{t0:.6g} s, outside the bundle's IMU time span ({t_imu[0]:.6g} .. "
+        what = (f"--init: the result ends at {t0:.6g} s," if start is None
+                else f"--start {t0:.6g} s is")
+        raise BadInput(f"{what} outside the bundle's IMU time span ({t_imu[0]:.6g} .. "
                        f"{t_imu[-1]:.6g} s): another drive or another clock?", file=p)
     if start is None:
         return sol.final_state(), f"result {p}"
