@@ -128,8 +128,8 @@ def _write_result_files(solution, folder: Path, truth, summary_extra) -> dict:
 
 def check_solution(sol: Solution, file=None, hint: str = _DIVERGED) -> None:
     """Refuse a solution that no vehicle can have: NaN or infinite values, latitude or pitch
-    beyond +-90 deg, time not increasing, a speed above 150 m/s (a diverged method, or input
-    in the wrong units). Raises :class:`BadInput` naming the first bad epoch."""
+    beyond +-90 deg, time not increasing, a speed above 1000 m/s, a height beyond 1000 km (a
+    diverged method, or input in the wrong units). Raises :class:`BadInput` naming the first bad epoch."""
     t = np.asarray(sol.t, dtype=float)
     cols = {"t": t, "lat": sol.lat, "lon": sol.lon, "h": sol.h, "vE": sol.vel_n[:, 0],
             "vN": sol.vel_n[:, 1], "vU": sol.vel_n[:, 2], "pitch": sol.euler[:, 0],
