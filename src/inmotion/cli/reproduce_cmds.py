@@ -17,7 +17,6 @@ rows. An unknown PAPER is bad input (exit status 2), with the valid names.
 from __future__ import annotations
 
 import json
-from pathlib import Path
 
 import click
 

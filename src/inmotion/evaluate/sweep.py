@@ -230,12 +230,12 @@ def load_sweep(source, *, overrides: Optional[dict] = None) -> Sweep:
     base["scenario"] = _resolve_scenario(base.get("scenario"), base_dir, file)
     if base["scenario"] is None:
         base.pop("scenario")
-    runs = _check_int(doc, "runs", 1, 1, file, MAX_RUNS)
+    runs = _check_int(doc, "runs", 1, 1, file, MAX_RUNS)      # before a large grid expands
+    seed = _check_int(doc, "seed", 0, 0, file, 2**63 - 1)
     try:
         points = expand_grid(base, grid)
     except BadInput as exc:
         raise BadInput(exc.what, file=file) from None
     return Sweep(name=str(doc.get("name", Path(file).stem if file else "campaign")),
-                 points=points, runs=_check_int(doc, "runs", 1, 1, file, MAX_RUNS),
-                 seed=_check_int(doc, "seed", 0, 0, file, 2**63 - 1), run=run, paper=doc.get("paper"),
+                 points=points, runs=runs, seed=seed, run=run, paper=doc.get("paper"),
                  source=str(file) if file else None, base=base, grid=grid)
