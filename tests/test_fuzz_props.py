@@ -486,3 +486,55 @@ def test_sweep_documents_any_content(grid, runs, seed):
         _one_line(e)
         return
     assert 1 <= sweep.runs <= 10**7 and len(sweep.points) <= 10**4
+
+
+# --------------------------------------------------------------------------- any command line
+
+@pytest.fixture(scope="module")
+def cli_paths(cli_bundle, tmp_path_factory):
+    d = tmp_path_factory.mktemp("argv")
+    expect_ok(["navigate", cli_bundle, "-m", "sins", "-o", d / "r", "--end", 5])
+    (d / "s.yaml").write_text(SCENARIO)
+    (d / "afile").write_text("x")
+    (d / "garbage.txt").write_bytes(bytes(range(256)))
+    return {"B": str(cli_bundle), "R": str(d / "r"), "S": str(d / "s.yaml"),
+            "F": str(d / "afile"), "G": str(d / "garbage.txt"), "N": str(d / "nope"),
+            "D": str(d)}
+
+
+ARG_VALUES = ["B", "R", "S", "F", "G", "N", "nan", "inf", "-1", "0", "1e9", "5", "x", "",
+              "sins", "dr", "imada-vb", "truth", "meta", "yaw=1deg", "pitch=1e999deg", "a=b",
+              "speed_scale=2", "out_stride=0", "--", "kf-gins", "csv", "{}", "[1"]
+COMMANDS = {
+    "info": (["B"], ["--json"]),
+    "navigate": (["B"], ["--method", "--init", "--init-error", "--start", "--end", "--set",
+                         "--config", "--mode"]),
+    "align": (["B"], ["--method", "--init", "--init-error", "--start", "--end", "--set"]),
+    "evaluate": (["R"], ["--truth"]),
+    "export": (["kf-gins", "R"], ["--gps-week"]),
+    "import": (["kf-gins", "G"], ["-O", "--mapping", "--bundle-format"]),
+    "simulate": (["S"], ["--seed", "--format"]),
+    "report": (["R"], ["--title", "--paper"]),
+}
+
+
+@settings(max_examples=60, deadline=None, derandomize=True,
+          suppress_health_check=[HealthCheck.function_scoped_fixture])
+@given(cmd=st.sampled_from(sorted(COMMANDS)), data=st.data())
+def test_any_command_line_exits_0_or_2(cli_paths, tmp_path_factory, cmd, data):
+    """Random arguments and options for every command: exit 0, or exit 2 with one line and no
+    ``None``; never an internal error, never a traceback."""
+    pos, opts = COMMANDS[cmd]
+    value = st.sampled_from(ARG_VALUES).map(lambda v: cli_paths.get(v, v))
+    args = [cmd] + [data.draw(st.one_of(st.just(cli_paths.get(p, p)), value)) for p in pos]
+    for _ in range(data.draw(st.integers(0, 4))):
+        opt = data.draw(st.sampled_from(opts))
+        args += [opt] if opt == "--json" else [opt, data.draw(value)]
+    if cmd not in ("info", "evaluate"):
+        args += ["-o", str(tmp_path_factory.mktemp("o") / "out")]
+    code, out, err, secs, mib, exc = invoke(args)
+    lines = err.strip().splitlines()
+    assert code in (0, 2), (args, code, err, exc)
+    if code == 2:
+        assert len(lines) == 1 and lines[0].startswith("inmotion: error: "), (args, err)
+        assert "None" not in lines[0] and "Traceback" not in err, (args, err)
