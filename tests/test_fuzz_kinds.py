@@ -405,6 +405,9 @@ KINDS = [
     ("kf-gins-odometer-impossible", "found", lambda c: (
         ["import", "kf-gins", _kf_gins_imu(c), "-O", f"odo={_kf_gins_odo(c, 1e6)}",
          "-o", c.out], ["odo.txt", "speed"])),
+    ("export-result-lat-3000", "found", lambda c: (
+        _result_edit(c, lambda df: df.__setitem__("lat", 3000.0)) or
+        ["export", "kf-gins", c.result, "-o", c.tmp / "x.nav"], ["solution.csv", "latitude"])),
     # ---- writes that lost or mixed data
     ("half-written-bundle", "write", lambda c: (
         _write(c.bundle / PARTIAL_MARKER, "") and ["info", c.bundle], ["half-written bundle"])),

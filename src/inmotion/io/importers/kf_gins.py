@@ -164,8 +164,13 @@ def _read_solution_csv(result_dir) -> Solution:
     bad = np.flatnonzero(~np.isfinite(a).all(axis=1))
     if len(bad):
         raise BadInput("value that is not a finite number", path, row=int(bad[0]) + 1)
-    return Solution(a[:, 0], np.deg2rad(a[:, 1]), np.deg2rad(a[:, 2]), a[:, 3], a[:, 4:7],
-                    np.deg2rad(a[:, 7:10]))
+    from ..result import check_solution
+    from ..safe_write import refuse_partial
+    refuse_partial(Path(result_dir), "result")
+    sol = Solution(a[:, 0], np.deg2rad(a[:, 1]), np.deg2rad(a[:, 2]), a[:, 3], a[:, 4:7],
+                   np.deg2rad(a[:, 7:10]))
+    check_solution(sol, file=path, hint="")       # latitude 3000 deg, unsorted rows ...
+    return sol
 
 
 def export_kf_gins(result, out_path, *, gps_week=0) -> Path:
