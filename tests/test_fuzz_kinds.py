@@ -408,6 +408,10 @@ KINDS = [
     ("export-result-lat-3000", "found", lambda c: (
         _result_edit(c, lambda df: df.__setitem__("lat", 3000.0)) or
         ["export", "kf-gins", c.result, "-o", c.tmp / "x.nav"], ["solution.csv", "latitude"])),
+    ("meta-files-outside-the-bundle", "found", lambda c: (
+        _write(c.bundle / "meta.yaml", (c.bundle / "meta.yaml").read_text().replace(
+            "imu: imu.csv", "imu: ../../imu.csv")) and ["info", c.bundle],
+        ["meta.yaml", "outside the bundle"])),
     # ---- writes that lost or mixed data
     ("half-written-bundle", "write", lambda c: (
         _write(c.bundle / PARTIAL_MARKER, "") and ["info", c.bundle], ["half-written bundle"])),

@@ -259,6 +259,10 @@ def _locate_tables(folder: Path, meta: dict) -> dict:
         fname = str(fname)
         if Path(fname).suffix:                 # a file name: that file must be there
             p = folder / fname
+            if folder.resolve() not in p.resolve().parents:
+                raise BadInput(f"'files' lists {fname!r} for {name!r}, outside the bundle "
+                               "folder; a bundle's tables live in its folder",
+                               file=folder / "meta.yaml")
             if not p.is_file():
                 raise BadInput(f"missing file {fname!r} that meta.yaml lists for {name!r}",
                                file=p)
