@@ -538,3 +538,33 @@ def test_any_command_line_exits_0_or_2(cli_paths, tmp_path_factory, cmd, data):
     if code == 2:
         assert len(lines) == 1 and lines[0].startswith("inmotion: error: "), (args, err)
         assert "None" not in lines[0] and "Traceback" not in err, (args, err)
+
+
+@pytest.mark.parametrize("path", [p for p in _number_paths(RICH_SCENARIO)
+                                  if any(k in str(p[-1]) for k in ("noise", "vrw", "arw", "sigma",
+                                                                   "bias", "drift", "amplitude"))])
+def test_zero_error_terms_are_always_accepted(path):
+    """An error-free sensor (every noise, random walk, bias, drift or amplitude 0) is valid:
+    the plausibility checks must not take a noise density (``vrw_ug_sqrt_hz``) for a rate."""
+    import copy
+    doc = copy.deepcopy(RICH_SCENARIO)
+    node = doc
+    for k in path[:-1]:
+        node = node[k]
+    node[path[-1]] = 0
+    load_scenario(doc)
+
+
+@pytest.mark.parametrize("method", ["sins", "dr", "sins-dr", "dr-kf", "od-kf", "usque", "imada-vb"])
+def test_zero_noise_fields_pass_the_config_checks(method):
+    spec = registry.get(method)
+    _, Config = spec.load()
+    for field in Config.model_fields:
+        if any(k in field for k in ("noise", "vrw", "arw", "sigma")):
+            default = Config().model_dump()[field]
+            zero = [0.0] * len(default) if isinstance(default, (list, tuple)) else 0.0
+            try:
+                cfg = Config.model_validate({field: zero})
+            except Exception:                # the method's own schema wants it positive
+                continue
+            check_config(cfg, method)

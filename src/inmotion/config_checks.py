@@ -51,9 +51,10 @@ def _rules(name: str, x: float):
         return f"{x:g} s is shorter than any IMU period (1 ms)"
     if low.endswith("_s") and x > 1e9:
         return f"{x:g} s is longer than 30 years"
-    if low.endswith("_hz") and x > 1e5:
+    rate = low.endswith("_hz") and not low.endswith("sqrt_hz")     # not a noise density
+    if rate and x > 1e5:
         return f"{x:g} Hz is above 100 kHz"
-    if low.endswith("_hz") and 0 < x < 1e-6:
+    if rate and 0 < x < 1e-6:
         return f"{x:g} Hz is below 1e-6 Hz (a period of 11 days)"
     for suffix, limit, unit in _UNIT_LIMITS:
         if low.endswith(suffix) and ax > limit:

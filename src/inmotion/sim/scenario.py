@@ -64,7 +64,7 @@ def _plausible(name: str, v) -> None:
     if x > MAX_MAGNITUDE or 0 < x < MIN_MAGNITUDE:
         raise ValueError(f"{name} = {v:g} is outside the plausible range "
                          f"{MIN_MAGNITUDE:g} .. {MAX_MAGNITUDE:g} (or 0)")
-    if name.endswith("_hz") and x < MIN_RATE_HZ:
+    if name.endswith(("rate_hz", "frequency_hz")) and 0 < x < MIN_RATE_HZ:
         raise ValueError(f"{name} = {v:g} Hz is below {MIN_RATE_HZ:g} Hz")
 
 
