@@ -85,16 +85,24 @@ def test_nan_sigma_and_info_written_as_null(tmp_path):
 
 
 def test_crash_keeps_written_files(tmp_path, monkeypatch):
-    """A failure while writing a later file leaves earlier files whole and no temp files."""
+    """Issue 16: a failure while writing leaves the earlier result whole (summary.json too) and
+    no temporary files or folders; a first write that fails leaves nothing."""
     a = make_solution(np.random.default_rng(4))
+    b = make_solution(np.random.default_rng(5))
     import inmotion.io.result as result
+    write_result(a, tmp_path / "r")
+    before = {p.name: p.read_bytes() for p in (tmp_path / "r").iterdir()}
 
     def boom(*args, **kw):
         raise RuntimeError("disk full")
     monkeypatch.setattr(result, "write_summary", boom)
     with pytest.raises(RuntimeError):
-        write_result(a, tmp_path / "r")
-    assert len(pd.read_csv(tmp_path / "r" / "solution.csv")) == len(a)
+        write_result(b, tmp_path / "r")
+    with pytest.raises(RuntimeError):
+        write_result(b, tmp_path / "new")
+    assert {p.name: p.read_bytes() for p in (tmp_path / "r").iterdir()} == before
+    assert len(read_result(tmp_path / "r")) == len(a)
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["r"]
     assert not list((tmp_path / "r").glob(".*tmp"))
 
 

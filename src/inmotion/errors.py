@@ -6,6 +6,9 @@ failure (exit 1).
 """
 from __future__ import annotations
 
+import math
+import re
+
 __all__ = ["BadInput"]
 
 
@@ -14,6 +17,11 @@ class BadInput(ValueError):
     ``time`` [s] and what is wrong. ``str()`` is the one message the user sees."""
 
     def __init__(self, what: str, file=None, row=None, time=None):
+        # the user wrote YAML or typed options: a missing value is "null" to them, never
+        # Python's None (``'runs' must be an integer >= 1, got null``)
+        what = re.sub(r"\bNone\b", "null", str(what))
+        if time is not None and not math.isfinite(time):
+            time = None
         self.what, self.file, self.row, self.time = what, file, row, time
         where = []
         if file is not None:

@@ -31,16 +31,13 @@ def _root_flag(ctx, name: str) -> bool:
 
 def _parse_sets(items) -> dict:
     """``("gain=2", "mode=[1,2]") -> {"gain": 2, "mode": [1, 2]}`` (values read as YAML)."""
-    import yaml
     out = {}
     for item in items:
         key, sep, value = item.partition("=")
         if not sep or not key.strip():
             raise BadInput(f"--set {item!r}: expected key=value")
-        try:
-            out[key.strip()] = yaml.safe_load(value)
-        except yaml.YAMLError:
-            raise BadInput(f"--set {item!r}: the value is not valid YAML") from None
+        from ..io.safe_yaml import load_yaml_text
+        out[key.strip()] = load_yaml_text(value, what=f"--set {key.strip()} value")
     return out
 
 
@@ -113,6 +110,13 @@ def montecarlo(ctx, scenario, output, method, runs, seed, workers, scheduler, re
     from ..evaluate.sweep import load_sweep
     if workers and scheduler:
         raise BadInput("give --workers or --scheduler, not both")
+    import os
+    cores = os.cpu_count() or 1
+    if workers and workers > max(64, 4 * cores):
+        raise BadInput(f"--workers {workers}: more than {max(64, 4 * cores)} worker processes "
+                       f"on {cores} cores; use --scheduler for a cluster")
+    from ..io.safe_write import check_output_path
+    check_output_path(output)
     quiet = quiet or _root_flag(ctx, "quiet")
     as_json = as_json or _root_flag(ctx, "json")
     overrides = {"method": method, "runs": runs, "seed": seed, "init_error": init_error}
@@ -129,10 +133,16 @@ def montecarlo(ctx, scenario, output, method, runs, seed, workers, scheduler, re
         df = run_campaign(sweep, out, workers=workers, scheduler=scheduler, resume=resume,
                           retry_failed=retry_failed, quiet=quiet)
     except KeyboardInterrupt:
+        import shlex
+        import sys
         from ..evaluate.store import ResultStore
         n = len(ResultStore(out).done())
-        click.echo(f"inmotion: interrupted; {n} finished runs are kept in {out}: "
-                   "run the same command with --resume to complete the campaign", err=True)
+        total = len(sweep.points) * sweep.runs
+        argv = [a for a in sys.argv[1:] if a != "--resume"]
+        again = ("inmotion " + " ".join(shlex.quote(a) for a in argv) + " --resume"
+                 if argv else "the same command with --resume")
+        click.echo(f"inmotion: interrupted; {n} of {total} runs are saved in {out}; to "
+                   f"complete the campaign run: {again}", err=True)
         ctx.exit(130)
     summary = _summary(df, sweep)
     if report:
@@ -161,6 +171,9 @@ def report(ctx, directory, output, paper, title, as_json):
     One self-contained page (figures embedded, works offline); PNG figures beside it.
     """
     from ..evaluate.report import build_report
+    if output is not None:
+        from ..io.safe_write import check_output_path
+        check_output_path(output, folder=False)
     page = build_report(directory, output, paper=paper, title=title)
     figures = sorted(str(p) for p in page.parent.glob(f"{page.stem}_figures/*.png"))
     if as_json or _root_flag(ctx, "json"):

@@ -85,13 +85,24 @@ def import_cmd(fmt, source, out, mapping, options, bundle_format, as_json, quiet
     from ..io.bundle import write_bundle
     from ..io.importers import get_importer
 
+    from ..io.bundle import check_bundle
+    from ..io.safe_write import check_output_path
+
     importer = get_importer(fmt)
     opts = parse_options(options, importer)
+    params = inspect.signature(importer).parameters
     if mapping is not None:
-        if "mapping" not in inspect.signature(importer).parameters:
+        if "mapping" not in params:
             raise BadInput(f"--mapping is only for the csv format, not {fmt!r}")
         opts["mapping"] = mapping
+    for p in params.values():
+        if (p.kind == inspect.Parameter.KEYWORD_ONLY and p.default is inspect.Parameter.empty
+                and p.name not in opts):
+            flag = "--mapping FILE" if p.name == "mapping" else f"-O {p.name}=VALUE"
+            raise BadInput(f"import {fmt}: needs {flag}")
+    check_output_path(out, kind="bundle")
     bundle = importer(source, **opts)
+    check_bundle(bundle, source)
     write_bundle(bundle, out, bundle_format)
     s = _summary(bundle, out)
     if as_json or _group_flag("json"):

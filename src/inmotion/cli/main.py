@@ -34,6 +34,7 @@ configuration object and a :class:`NavState`.
 from __future__ import annotations
 
 import contextlib
+import errno
 import json
 import math
 import re
@@ -67,19 +68,47 @@ class _Cli(click.Group):
             sys.exit(2)
         except click.exceptions.Exit as e:
             sys.exit(e.exit_code)
-        except click.ClickException as e:
-            e.show()
-            sys.exit(e.exit_code)
+        except click.ClickException as e:     # usage errors: one line too, naming the option
+            msg = " ".join(e.format_message().split())
+            cmd = getattr(getattr(e, "ctx", None), "command_path", None)
+            hint = f" (see '{cmd} --help')" if cmd and isinstance(e, click.UsageError) else ""
+            click.echo(f"inmotion: error: {msg}{hint}", err=True)
+            sys.exit(2)                        # all of click's are about the user's input
         except click.exceptions.Abort:
             click.echo("inmotion: aborted", err=True)
-            sys.exit(1)
+            sys.exit(130)
+        except KeyboardInterrupt:
+            click.echo("inmotion: interrupted", err=True)
+            sys.exit(130)
+        except OSError as e:                  # a path the user gave that cannot be written
+            if e.errno not in _PATH_ERRNOS:
+                _internal(e, args)
+            from ..io.safe_write import output_error
+            click.echo(f"inmotion: error: {output_error(e.filename or '?', e, 'cannot use')}",
+                       err=True)
+            sys.exit(2)
+        except MemoryError:
+            click.echo("inmotion: error: out of memory (the input asks for more than this "
+                       "machine has; shorten it)", err=True)
+            sys.exit(2)
         except Exception as e:  # an internal failure: say so, in one line unless --debug
-            if "--debug" in args:
-                traceback.print_exc()
-            click.echo(f"inmotion: internal error: {type(e).__name__}: {e} "
-                       "(rerun with --debug for the traceback)", err=True)
-            sys.exit(1)
+            _internal(e, args)
         sys.exit(rv if isinstance(rv, int) else 0)
+
+
+#: errors of a path the user gave (no such folder, a file in the way, no permission ...)
+_PATH_ERRNOS = {errno.ENOTDIR, errno.ENAMETOOLONG, errno.EACCES, errno.EPERM, errno.EROFS,
+                errno.ENOSPC, errno.EDQUOT, errno.EISDIR, errno.ELOOP, errno.EEXIST,
+                errno.ENOENT}
+
+
+def _internal(e, args):
+    if "--debug" in (args if args is not None else sys.argv[1:]):
+        traceback.print_exc()
+    msg = " ".join(f"{type(e).__name__}: {e}".split())
+    click.echo(f"inmotion: internal error: {msg} (rerun with --debug for the traceback)",
+               err=True)
+    sys.exit(1)
 
 
 #: options of the group that a user may type anywhere on the line
@@ -216,7 +245,8 @@ def _load_scenario(name_or_path: str):
 @click.argument("scenario")
 @click.option("-o", "--output", required=True, type=click.Path(file_okay=False),
               help="Bundle folder to write.")
-@click.option("--seed", type=int, default=0, show_default=True, help="Random seed.")
+@click.option("--seed", type=click.IntRange(min=0), default=0, show_default=True,
+              help="Random seed (an integer >= 0).")
 @click.option("--format", "fmt", type=click.Choice(["csv", "parquet"]), default="csv",
               show_default=True)
 @_json_option
@@ -225,7 +255,9 @@ def simulate(ctx, scenario, output, seed, fmt, as_json):
     """Simulate SCENARIO (a YAML file or a shipped scenario name) into a bundle."""
     import numpy as np
     from ..io.bundle import write_bundle
+    from ..io.safe_write import check_output_path
     from ..sim import simulate as sim
+    check_output_path(output, kind="bundle")
     scen = _load_scenario(scenario)
     t0 = time.perf_counter()
     with _progress(ctx, "simulate") as progress:
@@ -233,6 +265,8 @@ def simulate(ctx, scenario, output, seed, fmt, as_json):
         if progress:
             progress(1.0)
     sim_s = time.perf_counter() - t0
+    from ..io.bundle import check_bundle
+    check_bundle(bundle, f"scenario {scenario}")      # what it asks for must read back
     write_bundle(bundle, output, fmt=fmt)
     info = _bundle_info(bundle)
     info.update(bundle=str(output), seed=seed, simulate_s=sim_s)
@@ -326,6 +360,10 @@ _ANGLE_UNITS = {"deg": math.pi / 180, "arcmin": math.pi / 180 / 60,
 _INIT_ERROR_KEYS = {"pitch": _ANGLE_UNITS, "roll": _ANGLE_UNITS, "yaw": _ANGLE_UNITS,
                     "vE": {"m/s": 1.0}, "vN": {"m/s": 1.0}, "vU": {"m/s": 1.0},
                     "north": {"m": 1.0}, "east": {"m": 1.0}, "up": {"m": 1.0}}
+#: largest accepted --init-error per key (SI) and how it reads
+_INIT_ERROR_LIMITS = {**{k: (math.pi, "180 deg") for k in ("pitch", "roll", "yaw")},
+                      **{k: (100.0, "100 m/s") for k in ("vE", "vN", "vU")},
+                      **{k: (100e3, "100 km") for k in ("north", "east", "up")}}
 _ITEM = re.compile(r"^\s*([A-Za-z]+)\s*=\s*([-+]?(?:\d+\.?\d*|\.\d+)(?:[eE][-+]?\d+)?)"
                    r"\s*([A-Za-z/]*)\s*$")
 
@@ -352,6 +390,10 @@ def parse_init_error(text: str) -> dict:
             raise BadInput(f"--init-error: {key} needs a unit in {', '.join(units)}, "
                            f"got {unit!r}")
         out[key] = value * units[unit]
+        limit, what = _INIT_ERROR_LIMITS[key]
+        if not math.isfinite(out[key]) or abs(out[key]) > limit:
+            raise BadInput(f"--init-error: {key}={m.group(2)}{unit} is beyond {what}; an "
+                           "initial error that large is not an error but another start")
     if not out:
         raise BadInput("--init-error: empty; write e.g. 'pitch=1deg,roll=1deg,yaw=1deg'")
     return out
@@ -398,6 +440,11 @@ def _initial_state(ctx, bundle, init, start, needs_attitude):
     if init == "truth":
         if bundle.truth is None:
             raise BadInput("--init truth: the bundle has no truth table")
+        tt = bundle.truth.t
+        t0 = tt[0] if start is None else start
+        if not tt[0] - 1e-9 <= t0 <= tt[-1]:
+            raise BadInput(f"--init truth: the truth table covers {tt[0]:.6g} .. {tt[-1]:.6g} s, "
+                           f"not the start {t0:.6g} s")
         return NavState.from_truth(bundle.truth, start), "truth"
     if init == "meta":
         t0 = start if start is not None else float(bundle.imu.t[0])
@@ -408,6 +455,13 @@ def _initial_state(ctx, bundle, init, start, needs_attitude):
                        "of them", file=p)
     from ..io.result import read_result
     sol = read_result(p)
+    t_imu = bundle.imu.t
+    t0 = sol.t[-1] if start is None else start
+    if not t_imu[0] - 1.0 <= t0 <= t_imu[-1]:
+        what = (f"--init: the result ends at {t0:.6g} s," if start is None
+                else f"--start {t0:.6g} s is")
+        raise BadInput(f"{what} outside the bundle's IMU time span ({t_imu[0]:.6g} .. "
+                       f"{t_imu[-1]:.6g} s): another drive or another clock?", file=p)
     if start is None:
         return sol.final_state(), f"result {p}"
     if start < sol.t[0] or start > sol.t[-1]:
@@ -419,15 +473,17 @@ def _initial_state(ctx, bundle, init, start, needs_attitude):
 # --------------------------------------------------------------------------- run a method
 
 def _parse_sets(sets) -> dict:
-    import yaml
+    from ..io.safe_yaml import load_yaml_text
     out = {}
     for s in sets:
         key, eq, value = s.partition("=")
         if not eq or not key.strip():
             raise BadInput(f"--set {s!r}: write key=value")
         try:
-            v = yaml.safe_load(value)
-        except yaml.YAMLError:
+            v = load_yaml_text(value, what=f"--set {key.strip()} value")
+        except BadInput as e:
+            if "malformed" not in e.what:
+                raise
             v = value
         node = out
         parts = key.strip().split(".")
@@ -447,29 +503,33 @@ def _merge(a: dict, b: dict) -> dict:
 def build_config(spec, config_file=None, mode=None, sets=()):
     """The method's pydantic configuration from a YAML/JSON file, ``--mode`` and ``--set``."""
     import pydantic
-    import yaml
+    from ..io.safe_yaml import load_yaml_file
     _, Config = spec.load()
     data = {}
     if config_file:
         p = Path(config_file)
         if not p.is_file():
             raise BadInput("configuration file does not exist", file=p)
-        try:
-            data = yaml.safe_load(p.read_text()) or {}
-        except yaml.YAMLError as e:
-            raise BadInput(f"malformed YAML: {str(e).splitlines()[0]}", file=p) from None
+        data = load_yaml_file(p, "YAML") or {}
         if not isinstance(data, dict):
             raise BadInput("configuration must be a mapping (key: value)", file=p)
     if mode is not None:
         data["mode"] = mode
     data = _merge(data, _parse_sets(sets))
+    from ..config_checks import check_config, check_values
     try:
-        return Config.model_validate(data)
+        check_values(data)          # NaN before pydantic: its message would not name the field
+    except BadInput as e:
+        raise BadInput(f"configuration of {spec.name!r}: {e.what}", file=config_file) from None
+    try:
+        config = Config.model_validate(data)
     except pydantic.ValidationError as e:
         errs = "; ".join(f"{'.'.join(map(str, er['loc'])) or 'config'}: {er['msg']}"
                          for er in e.errors()[:3])
         raise BadInput(f"configuration of {spec.name!r}: {errs}",
                        file=config_file) from None
+    check_config(config, spec.name, file=config_file)
+    return config
 
 
 def _spec(method, kind=None):
@@ -562,11 +622,18 @@ def _run_command(ctx, kind, bundle_path, method, config_file, output, init, init
                  start, end, mode, sets, as_json, allow_imu_gaps=False, fmt="csv",
                  output_rate=None):
     from ..io.result import thin, write_result
+    from ..io.safe_write import check_output_path
+    for opt, v in (("--start", start), ("--end", end)):
+        if v is not None and not math.isfinite(v):
+            raise BadInput(f"{opt} {v}: not a finite time [s]")
+    if start is not None and end is not None and end <= start:
+        raise BadInput(f"--end {end:g} s is not after --start {start:g} s")
     spec = _spec(method, kind)
     config = build_config(spec, config_file, mode, sets)
     explicit = output_rate is not None
     rate = parse_output_rate(output_rate) if explicit else DEFAULT_OUTPUT_RATE.get(kind)
     err = parse_init_error(init_error) if init_error else None
+    check_output_path(output, kind="result")
     bundle = _read_bundle(ctx, bundle_path, allow_imu_gaps)
     if init is None:
         init = "truth" if bundle.truth is not None else "meta"
@@ -683,10 +750,12 @@ def evaluate(ctx, result, truth_bundle, as_json):
     bundle = _read_bundle(ctx, truth_bundle)
     if bundle.truth is None:
         raise BadInput("the bundle has no truth table", file=truth_bundle)
-    block = write_errors(sol, bundle.truth, result)
+    from ..io.safe_write import staged_folder
     summary = read_summary(result)
-    summary["errors"] = block
-    write_summary(summary, result)
+    with staged_folder(result, what="result") as folder:    # errors.csv and summary together
+        block = write_errors(sol, bundle.truth, folder)
+        summary["errors"] = block
+        write_summary(summary, folder)
     _emit(ctx, {"errors": block},
           f"{summary.get('method')} on {bundle.name}:\n{_errors_text(block)}", as_json)
 
@@ -759,7 +828,8 @@ DEMO_SCENARIO = "demo"
 
 
 @cli.command()
-@click.option("--seed", type=int, default=0, show_default=True, help="Random seed.")
+@click.option("--seed", type=click.IntRange(min=0), default=0, show_default=True,
+              help="Random seed (an integer >= 0).")
 @click.option("--keep", type=click.Path(file_okay=False), default=None,
               help="Keep the bundle and results in this folder instead of a temporary one.")
 @_json_option
@@ -776,6 +846,9 @@ def demo(ctx, seed, keep, as_json):
     from ..io.bundle import write_bundle
     from ..io.result import write_result
     from ..sim import simulate as sim
+    if keep:
+        from ..io.safe_write import check_output_path
+        check_output_path(keep)
     with contextlib.ExitStack() as stack:
         root = Path(keep) if keep else Path(stack.enter_context(
             tempfile.TemporaryDirectory(prefix="inmotion-demo-")))
@@ -801,6 +874,13 @@ def demo(ctx, seed, keep, as_json):
             except Exception as e:          # a broken method must not hide the others
                 click.echo(f"inmotion: {spec.name}: internal error: {type(e).__name__}: {e}",
                            err=True)
+                failed.append(spec.name)
+                continue
+            try:
+                from ..io.result import check_solution
+                check_solution(sol)
+            except BadInput as e:           # diverged on the demo drive: the method's fault
+                click.echo(f"inmotion: {spec.name}: internal error: {e}", err=True)
                 failed.append(spec.name)
                 continue
             summary = write_result(sol, root / spec.name, truth=b.truth,
@@ -840,6 +920,8 @@ def _demo_alignment_chain(ctx, bundle, root, failed) -> list:
             if state is None:
                 state, _ = _initial_state(ctx, bundle, "truth", start, spec.needs_attitude)
             sol, b = run_method(ctx, bundle, spec, build_config(spec), state, (start, end))
+            from ..io.result import check_solution
+            check_solution(sol)
         except Exception as e:              # report and stop the chain, keep the rest
             click.echo(f"inmotion: {name}: error in the alignment chain: {type(e).__name__}: {e}",
                        err=True)

@@ -73,7 +73,8 @@ def reproduce(ctx, paper, output, runs, workers, seed, reuse, data_dir, quiet, a
         os.environ["INMOTION_REAL_DATA"] = str(Path(data_dir).resolve())
     quiet = quiet or _root_flag(ctx, "quiet")
     as_json = as_json or _root_flag(ctx, "json")
-    out = Path(output)
+    from ..io.safe_write import check_output_path
+    out = check_output_path(output)
     if paper == "all":
         def note(text):
             if not quiet:

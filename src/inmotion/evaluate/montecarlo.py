@@ -37,7 +37,7 @@ from typing import Optional
 from ..errors import BadInput
 from .campaign import Task, _resolve, error_record, execute_task, execute_tasks
 from .store import ResultStore
-from .sweep import Sweep
+from .sweep import MAX_RUNS, Sweep
 
 __all__ = ["run_campaign", "iter_tasks", "rerun", "read_results", "versions", "open_client"]
 
@@ -49,6 +49,16 @@ MAX_CHUNK = 256
 #: environment of local workers: one BLAS thread each, the cores are the workers
 WORKER_ENV = {"OPENBLAS_NUM_THREADS": "1", "MKL_NUM_THREADS": "1", "OMP_NUM_THREADS": "1",
               "NUMBA_NUM_THREADS": "1"}
+
+
+def check_size(sweep: Sweep) -> None:
+    """Refuse a campaign larger than :data:`MAX_RUNS` runs (its store and table would not fit
+    a machine; split it into several campaigns)."""
+    n = len(sweep.points) * sweep.runs
+    if n > MAX_RUNS:
+        raise BadInput(f"the campaign asks for {len(sweep.points)} point(s) x {sweep.runs} runs "
+                       f"= {n:.3g} runs; at most {MAX_RUNS:.3g} (split it into several "
+                       "campaigns)", file=sweep.source)
 
 
 def versions() -> dict:
@@ -98,11 +108,28 @@ def read_results(out_dir):
 def _read_manifest(out: Path) -> dict:
     path = out / MANIFEST
     try:
-        return json.loads(path.read_text())
+        manifest = json.loads(path.read_text())
     except FileNotFoundError:
         raise BadInput("not a campaign directory (no campaign.json)", file=out) from None
-    except json.JSONDecodeError as exc:
+    except (json.JSONDecodeError, UnicodeDecodeError, RecursionError) as exc:
         raise BadInput(f"corrupt campaign manifest: {exc}", file=path) from None
+    _check_manifest(manifest, path)
+    return manifest
+
+
+def _check_manifest(m, path) -> None:
+    """The shape :func:`Sweep.manifest` writes; BadInput naming what is wrong."""
+    def bad(what):
+        raise BadInput(f"corrupt campaign manifest: {what}", file=path)
+    if not isinstance(m, dict):
+        bad(f"a JSON object expected, got {type(m).__name__}")
+    for key, types in (("runs", int), ("seed", int), ("run", str), ("points", list)):
+        if not isinstance(m.get(key), types) or isinstance(m.get(key), bool):
+            bad(f"{key!r} missing or not {types.__name__}")
+    for i, p in enumerate(m["points"]):
+        if not (isinstance(p, dict) and isinstance(p.get("point_id"), int)
+                and isinstance(p.get("params"), dict) and isinstance(p.get("spec"), dict)):
+            bad(f"points[{i}] is not {{point_id, label, params, spec}}")
 
 
 def _identity(manifest: dict) -> dict:
@@ -157,16 +184,66 @@ def open_client(workers: Optional[int] = None, scheduler: Optional[str] = None, 
         return
     from distributed import Client, LocalCluster
     if scheduler:
-        with Client(scheduler) as c:
+        with _connect(Client, scheduler) as c:
             yield c
         return
     n = workers or os.cpu_count() or 1
     if n < 1:
         raise BadInput(f"--workers must be at least 1, got {workers}")
-    with LocalCluster(n_workers=n, threads_per_worker=1, processes=True,
-                      dashboard_address="127.0.0.1:0", silence_logs=logging.ERROR,
-                      env=WORKER_ENV) as cluster, Client(cluster) as c:
-        yield c
+    with _workers_ignore_sigint():
+        cluster = LocalCluster(n_workers=n, threads_per_worker=1, processes=True,
+                               dashboard_address="127.0.0.1:0", silence_logs=logging.ERROR,
+                               env=WORKER_ENV)
+    try:
+        with cluster, Client(cluster) as c:
+            yield c
+    except KeyboardInterrupt:
+        _quiet_shutdown()
+        raise
+
+
+@contextlib.contextmanager
+def _workers_ignore_sigint():
+    """Ctrl-C goes to the whole terminal's process group; the worker processes started here
+    inherit SIGINT ignored (kept across exec), so only this process sees it and stops the
+    campaign cleanly, without a traceback from every worker."""
+    import signal
+    import threading
+    if threading.current_thread() is not threading.main_thread():
+        yield
+        return
+    old = signal.signal(signal.SIGINT, signal.SIG_IGN)
+    try:
+        yield
+    finally:
+        signal.signal(signal.SIGINT, old)
+
+
+def _quiet_shutdown() -> None:
+    """After Ctrl-C: no scheduler / comm error logs while the cluster is torn down."""
+    for name in ("distributed", "tornado", "asyncio"):
+        logging.getLogger(name).setLevel(logging.CRITICAL + 1)
+
+
+#: seconds to wait for a scheduler given by address
+CONNECT_TIMEOUT_S = 5.0
+
+
+def _check_address(address: str) -> None:
+    import re
+    if not re.match(r"^[a-z]+://[^\s]+:\d+$|^[^\s:/]+:\d+$", str(address)):
+        raise BadInput(f"--scheduler {address!r}: expected an address like tcp://host:8786")
+
+
+def _connect(Client, address: str):
+    """A client of the scheduler at ``address``, or BadInput within CONNECT_TIMEOUT_S."""
+    _check_address(address)
+    try:
+        return Client(address, timeout=CONNECT_TIMEOUT_S)
+    except (OSError, TimeoutError, ValueError) as exc:
+        reason = " ".join(str(exc).split())[:160] or type(exc).__name__
+        raise BadInput(f"--scheduler {address}: no Dask scheduler answers there within "
+                       f"{CONNECT_TIMEOUT_S:g} s ({reason})") from None
 
 
 def _progress(total, initial, quiet, desc):
@@ -220,6 +297,9 @@ def run_campaign(sweep: Sweep, out_dir, *, workers: Optional[int] = None,
         One row per run, sorted by ``(point_id, run_index)``; also written to ``table.parquet``.
     """
     out = Path(out_dir)
+    check_size(sweep)
+    if scheduler and client is None:
+        _check_address(scheduler)
     store = ResultStore(out)
     if validate:
         _validate(sweep)
@@ -228,14 +308,18 @@ def run_campaign(sweep: Sweep, out_dir, *, workers: Optional[int] = None,
     if resume and retry_failed:
         store.remove(_failed_keys(store))
     done = store.done()
-    wanted = {(p.point_id, k) for p in sweep.points for k in range(sweep.runs)}
-    n_todo = len(wanted - done)
+    # counted, never listed: a campaign of 10^7 runs plans in constant memory
+    pids = {p.point_id for p in sweep.points}
+    total = len(pids) * sweep.runs
+    n_done = sum(1 for pid, k in done if pid in pids and 0 <= k < sweep.runs)
+    n_todo = total - n_done
     if n_todo > 0:
         with open_client(workers, scheduler, client) as c, store:
-            _drive(c, iter_tasks(sweep, skip=done), store, len(wanted), len(wanted) - n_todo,
+            _drive(c, iter_tasks(sweep, skip=done), store, total, n_done,
                    n_todo, quiet, max_in_flight, max_chunk, sweep.name)
     df = store.table()
-    df.to_parquet(out / TABLE, index=False)
+    from ..io.safe_write import atomic_write
+    atomic_write(out / TABLE, lambda tmp: df.to_parquet(tmp, index=False))
     return df
 
 

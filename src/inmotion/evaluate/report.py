@@ -154,7 +154,9 @@ def detect_kind(path: Path) -> str:
 
 
 def _is_member(p: Path) -> bool:
-    return p.is_dir() and ((p / "campaign.json").is_file() or (p / "summary.json").is_file())
+    """A campaign or result folder (not a hidden one: a writer's unfinished sibling)."""
+    return (p.is_dir() and not p.name.startswith(".")
+            and ((p / "campaign.json").is_file() or (p / "summary.json").is_file()))
 
 
 def load_paper(source) -> Optional[dict]:
@@ -163,12 +165,10 @@ def load_paper(source) -> Optional[dict]:
         return None
     if isinstance(source, (str, Path)):
         p = Path(source)
-        try:
-            source = yaml.safe_load(p.read_text())
-        except FileNotFoundError:
-            raise BadInput("paper figures file not found", file=p) from None
-        except yaml.YAMLError as exc:
-            raise BadInput(f"not valid YAML/JSON: {exc}".replace("\n", " "), file=p) from None
+        from ..io.safe_yaml import load_yaml_file
+        if not p.is_file():
+            raise BadInput("paper figures file not found", file=p)
+        source = load_yaml_file(p, "paper figures", invalid="not valid YAML")
     if isinstance(source, list):
         source = {"rows": source}
     if not isinstance(source, dict) or not isinstance(source.get("rows", []), list):

@@ -64,13 +64,17 @@ def parse_init_error(value) -> dict:
             angles[INIT_ANGLES.index(name)] = float(v) * _ANGLE_UNITS_RAD[unit]
         except (TypeError, ValueError):
             raise BadInput(f"init_error: {key} must be a number, got {v!r}") from None
+        if isinstance(v, bool) or not abs(angles[INIT_ANGLES.index(name)]) <= np.pi:
+            raise BadInput(f"init_error: {key} = {v!r} is beyond 180 deg (or not a finite "
+                           "number)")
     return {"angles_rad": angles, "distribution": dist}
 
 
 def _parse_init_text(text: str) -> dict:
     out = {}
     for item in filter(None, (s.strip() for s in text.split(","))):
-        m = re.fullmatch(r"(pitch|roll|yaw)\s*=\s*([-+0-9.eE]+)\s*(deg|arcmin|arcsec|rad)", item)
+        m = re.fullmatch(r"(pitch|roll|yaw)\s*=\s*([-+]?(?:\d+\.?\d*|\.\d+)(?:[eE][-+]?\d+)?)"
+                         r"\s*(deg|arcmin|arcsec|rad)", item)
         if not m:
             raise BadInput(f"init error {item!r}: expected NAME=VALUEUNIT, e.g. 'yaw=5deg' "
                            f"(NAME pitch/roll/yaw, UNIT deg/arcmin/arcsec/rad)")
@@ -101,6 +105,10 @@ def initial_state(truth, init_error, rng: np.random.Generator):
 
 
 # ---------------------------------------------------------------------------- the real run
+#: the keys of a default_run specification (a sweep's base without its campaign keys)
+SPEC_KEYS = ("scenario", "method", "method_options", "init_error", "save_arrays", "description")
+
+
 def validate_spec(spec: dict) -> None:
     """Check one point of a :func:`default_run` campaign before anything runs."""
     from pydantic import ValidationError
@@ -108,14 +116,30 @@ def validate_spec(spec: dict) -> None:
     for key in ("scenario", "method"):
         if key not in spec:
             raise BadInput(f"the campaign needs a {key!r} (sweep file or --{key})")
+    import difflib
+    for key in spec:
+        if key not in SPEC_KEYS:
+            close = difflib.get_close_matches(str(key), SPEC_KEYS, n=1)
+            hint = (f"; did you mean {close[0]!r}?" if close else
+                    f"; a grid key is a dotted path into one of {', '.join(SPEC_KEYS)} "
+                    "(e.g. scenario.start.speed_m_s)")
+            raise BadInput(f"unknown key {key!r} in the run specification{hint}")
     try:
         _, config_cls = registry.get(spec["method"]).load()
     except KeyError as exc:
         raise BadInput(str(exc.args[0])) from None
+    from ..config_checks import check_config, check_values
     try:
-        config_cls(**(spec.get("method_options") or {}))
+        check_values(spec.get("method_options") or {})
+    except BadInput as exc:
+        raise BadInput(f"method_options for {spec['method']!r}: {exc.what}") from None
+    try:
+        config = config_cls(**(spec.get("method_options") or {}))
     except ValidationError as exc:
         raise BadInput(f"method_options for {spec['method']!r}: {_first_error(exc)}") from None
+    except TypeError as exc:
+        raise BadInput(f"method_options for {spec['method']!r}: {exc}") from None
+    check_config(config, spec["method"])
     parse_init_error(spec.get("init_error"))
     from ..sim.scenario import load_scenario
     try:
@@ -153,6 +177,8 @@ def default_run(spec: dict, rng: np.random.Generator) -> dict:
     t0 = time.perf_counter()
     solution = run(bundle, config, init)
     method_s = time.perf_counter() - t0
+    from ..io.result import check_solution
+    check_solution(solution, hint=" (the method diverged)")   # an error row, never NaN stats
     series = error_series(solution, bundle.truth)
     out = {"errors": errors_block(series), "method_s": method_s,
            "init_error": {f"{n}_arcmin": float(d) * 10800.0 / np.pi

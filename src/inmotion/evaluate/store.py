@@ -162,11 +162,23 @@ class ResultStore:
                         pass            # the line a kill cut short: that run is not finished
         return out
 
+    @staticmethod
+    def _read_part(path, columns=None):
+        """A Parquet part, or BadInput naming it (a part is written whole and renamed, so a
+        broken one was damaged after the campaign wrote it)."""
+        try:
+            return pq.read_table(path, columns=columns)
+        except (OSError, ValueError, pa.ArrowException) as exc:
+            from ..errors import BadInput
+            raise BadInput(f"unreadable results part ({' '.join(str(exc).split())[:120]}); "
+                           "delete it and run the campaign again with --resume to redo its "
+                           "runs", file=path) from None
+
     def done(self) -> set:
         """``{(point_id, run_index)}`` of every recorded run."""
         keys = set()
         for p in self.part_files():
-            t = pq.read_table(p, columns=list(KEY))
+            t = self._read_part(p, columns=list(KEY))
             keys.update(zip(t.column(0).to_pylist(), t.column(1).to_pylist()))
         keys.update((r["point_id"], r["run_index"]) for r in self._journal_records())
         return keys
@@ -174,7 +186,7 @@ class ResultStore:
     def table(self):
         """Every recorded run, one row each, sorted by ``(point_id, run_index)`` (pandas)."""
         import pandas as pd
-        tables = [pq.read_table(p) for p in self.part_files()]
+        tables = [self._read_part(p) for p in self.part_files()]
         journal = self._journal_records()
         if journal:
             tables.append(_table(journal))
@@ -216,7 +228,7 @@ class ResultStore:
         if journal:
             self._write_parts(journal)
         for p in self.part_files():
-            t = pq.read_table(p)
+            t = self._read_part(p)
             mask = [(a, b) not in keys for a, b in zip(t.column("point_id").to_pylist(),
                                                        t.column("run_index").to_pylist())]
             if not all(mask):

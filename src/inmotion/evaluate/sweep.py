@@ -36,7 +36,6 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any, Optional
 
-import yaml
 
 from ..errors import BadInput
 
@@ -45,6 +44,9 @@ __all__ = ["Point", "Sweep", "load_sweep", "expand_grid", "set_path", "point_lab
 #: keys of a sweep file that describe the campaign rather than a run
 CAMPAIGN_KEYS = ("name", "runs", "seed", "run", "grid", "paper")
 DEFAULT_RUN = "inmotion.evaluate.runs:default_run"
+#: most points a grid may expand to, and most runs a campaign may hold
+MAX_POINTS = 10_000
+MAX_RUNS = 10_000_000
 #: a file with none of these keys is a plain scenario
 SWEEP_MARKERS = {"grid", "scenario", "run", "runs", "seed", "method", "paper"}
 
@@ -125,8 +127,19 @@ def expand_grid(base: dict, grid: dict) -> list:
         Dotted path -> non-empty list of values.
     """
     for key, values in grid.items():
+        if not isinstance(key, str) or not all(key.split(".")):
+            raise BadInput(f"grid key {key!r}: expected a dotted path such as "
+                           "scenario.start.speed_m_s")
         if not isinstance(values, list) or not values:
-            raise BadInput(f"grid key {key!r}: expected a non-empty list of values, got {values!r}")
+            raise BadInput(f"grid key {key!r}: expected a non-empty list of values, "
+                           f"got {_short_repr(values)}")
+    n = 1
+    for values in grid.values():
+        n *= len(values)
+    if n > MAX_POINTS:
+        sizes = " x ".join(str(len(v)) for v in grid.values())
+        raise BadInput(f"the grid has {sizes} = {n:.3g} points; at most {MAX_POINTS} (each "
+                       "point is listed in campaign.json; split the sweep)")
     keys = list(grid)
     points = []
     for pid, combo in enumerate(itertools.product(*(grid[k] for k in keys))):
@@ -137,10 +150,21 @@ def expand_grid(base: dict, grid: dict) -> list:
     return points
 
 
-def _check_int(doc, key, default, minimum, file):
+def _short_repr(v, n=60) -> str:
+    r = repr(v)
+    return r if len(r) <= n else r[:n] + "..."
+
+
+def _check_int(doc, key, default, minimum, file, maximum=None):
     value = doc.get(key, default)
+    if isinstance(value, float) and value.is_integer() and key == "runs":
+        value = int(value)                      # YAML reads 1e6 as a float
     if isinstance(value, bool) or not isinstance(value, int) or value < minimum:
-        raise BadInput(f"{key!r} must be an integer >= {minimum}, got {value!r}", file=file)
+        raise BadInput(f"{key!r} must be an integer >= {minimum}, got {_short_repr(value)}",
+                       file=file)
+    if maximum is not None and value > maximum:
+        raise BadInput(f"{key!r} = {value:.3g} is more than the {maximum:.3g} a campaign may "
+                       "hold; split it", file=file)
     return value
 
 
@@ -164,12 +188,8 @@ def _resolve_scenario(scenario, base_dir: Optional[Path], file):
 
 
 def _read_yaml(path: Path) -> dict:
-    try:
-        doc = yaml.safe_load(Path(path).read_text())
-    except FileNotFoundError:
-        raise BadInput("file not found", file=path) from None
-    except yaml.YAMLError as exc:
-        raise BadInput(f"not valid YAML: {exc}".replace("\n", " "), file=path) from None
+    from ..io.safe_yaml import load_yaml_file
+    doc = load_yaml_file(path, "YAML", invalid="not valid YAML")
     if not isinstance(doc, dict):
         raise BadInput("expected a mapping at the top level", file=path)
     return doc
@@ -210,11 +230,12 @@ def load_sweep(source, *, overrides: Optional[dict] = None) -> Sweep:
     base["scenario"] = _resolve_scenario(base.get("scenario"), base_dir, file)
     if base["scenario"] is None:
         base.pop("scenario")
+    runs = _check_int(doc, "runs", 1, 1, file, MAX_RUNS)      # before a large grid expands
+    seed = _check_int(doc, "seed", 0, 0, file, 2**63 - 1)
     try:
         points = expand_grid(base, grid)
     except BadInput as exc:
         raise BadInput(exc.what, file=file) from None
     return Sweep(name=str(doc.get("name", Path(file).stem if file else "campaign")),
-                 points=points, runs=_check_int(doc, "runs", 1, 1, file),
-                 seed=_check_int(doc, "seed", 0, 0, file), run=run, paper=doc.get("paper"),
+                 points=points, runs=runs, seed=seed, run=run, paper=doc.get("paper"),
                  source=str(file) if file else None, base=base, grid=grid)

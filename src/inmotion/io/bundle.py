@@ -40,7 +40,16 @@ Validation (each failure is one :class:`inmotion.errors.BadInput` naming file, r
   ``dvel`` above 100 g, a speed above 150 m/s, a barometric height outside -1 km .. 20 km,
   truth latitude beyond +-90 deg or pitch beyond +-90 deg;
 - units that do not add up: a mean specific force far from gravity (``dvel`` not in m/s), a
-  truth whose positions and velocities describe different distances (lat/lon in rad).
+  truth whose positions and velocities describe different distances (lat/lon in rad), a turn
+  rate above 3 rad/s sustained over a second (``dtheta`` in degrees), an IMU rate outside
+  5 Hz .. 100 kHz (time not in seconds), a time column stored as timestamps;
+- clocks that do not match (:func:`check_clocks`): a table with no sample inside the IMU's
+  time span (another clock), or spanning more than 50 times the IMU's (another time unit);
+- an IMU table of fewer than 2 rows; ``meta.yaml`` keys of the wrong type (``sensors`` not a
+  mapping, ``faults`` not a list ...); a half-written folder (:mod:`inmotion.io.safe_write`).
+
+:func:`check_bundle` makes the same checks on a bundle in memory (an importer's output, the
+simulator's), naming its source.
 
 Gaps (a time step longer than ``max_gap_periods`` = 5 median sample periods):
 
@@ -60,8 +69,6 @@ is exact.
 from __future__ import annotations
 
 import math
-import os
-import tempfile
 import warnings
 from dataclasses import dataclass
 from pathlib import Path
@@ -73,9 +80,11 @@ import yaml
 from ..core.bundle import (BaroData, Bundle, ImuData, SpeedData, Truth, VELOCITY_SENSORS)
 from ..core.earth import G0, radii
 from ..errors import BadInput
+from .safe_write import atomic_write, refuse_partial, staged_folder
 
 __all__ = ["read_bundle", "write_bundle", "find_gaps", "Gap", "BundleGapWarning", "LIMITS",
-           "TABLES", "read_meta", "meta_initial", "atomic_write", "write_csv"]
+           "TABLES", "read_meta", "meta_initial", "atomic_write", "write_csv", "check_bundle",
+           "check_imu", "check_clocks"]
 
 #: the tables a bundle may hold, in write order
 TABLES = ("imu",) + VELOCITY_SENSORS + ("baro", "truth")
@@ -91,6 +100,9 @@ LIMITS = {
     "specific_force_m_s2": 100.0 * G0,  # 100 g
     "speed_m_s": 150.0,                 # 540 km/h: no land vehicle
     "baro_h_m": (-1000.0, 20000.0),
+    "imu_rate_hz": (5.0, 100000.0),     # outside: time not in seconds
+    "sustained_rate_rad_s": 3.0,        # turn rate averaged over 1 s (170 deg/s)
+    "clock_span_ratio": 50.0,           # a table spanning 50x the IMU's time: other units
 }
 
 #: a step longer than this many median sample periods is a gap
@@ -147,6 +159,7 @@ def read_bundle(path, *, max_gap_periods: float = MAX_GAP_PERIODS,
         raise BadInput("bundle folder does not exist", file=folder)
     if not folder.is_dir():
         raise BadInput("a bundle must be a folder", file=folder)
+    refuse_partial(folder, "bundle")
     meta = read_meta(folder)
     files = _locate_tables(folder, meta)
     if "imu" not in files:
@@ -169,7 +182,31 @@ def read_bundle(path, *, max_gap_periods: float = MAX_GAP_PERIODS,
         _check_gaps("truth", truth.t, files["truth"], max_gap_periods, error=False)
     if truth is None:
         _check_initial_position(meta, folder / "meta.yaml")
-    return Bundle(imu=imu, meta=meta, baro=baro, truth=truth, **speeds)
+    bundle = Bundle(imu=imu, meta=meta, baro=baro, truth=truth, **speeds)
+    check_clocks(bundle, files)
+    return bundle
+
+
+def check_clocks(bundle: Bundle, files=None) -> None:
+    """Every other table must share the IMU's clock and time unit: some of its samples
+    inside the IMU's span, and a span not 50 times longer than the IMU's.
+    ``files`` maps table names to what to call them in messages."""
+    t_imu = bundle.imu.t
+    a, b = float(t_imu[0]), float(t_imu[-1])
+    for name in TABLES[1:]:
+        x = getattr(bundle, name)
+        if x is None or len(x.t) == 0:
+            continue
+        where = (files or {}).get(name, name)
+        t0, t1 = float(x.t[0]), float(x.t[-1])
+        if t1 < a or t0 > b:
+            raise BadInput(f"its times {t0:.6g} .. {t1:.6g} s have no sample inside the IMU's "
+                           f"{a:.6g} .. {b:.6g} s: another clock, or another time unit?",
+                           file=where)
+        ratio = LIMITS["clock_span_ratio"]     # (a table may cover a short part of the drive)
+        if len(x.t) > 2 and b - a > 0 and (t1 - t0) / (b - a) > ratio:
+            raise BadInput(f"its times span {t1 - t0:.6g} s but the IMU's span {b - a:.6g} s: "
+                           "are both in seconds?", file=where)
 
 
 def read_meta(folder) -> dict:
@@ -177,18 +214,29 @@ def read_meta(folder) -> dict:
     p = Path(folder) / "meta.yaml"
     if not p.is_file():
         raise BadInput("missing meta.yaml (a bundle needs at least 'name')", file=p)
-    try:
-        meta = yaml.safe_load(p.read_text())
-    except yaml.YAMLError as e:
-        mark = getattr(e, "problem_mark", None)
-        where = f" at line {mark.line + 1}, column {mark.column + 1}" if mark else ""
-        problem = getattr(e, "problem", None) or str(e).splitlines()[0]
-        raise BadInput(f"malformed YAML{where}: {problem}", file=p) from None
+    from .safe_yaml import load_yaml_file
+    meta = load_yaml_file(p, "YAML")
     if meta is None:
         meta = {}
     if not isinstance(meta, dict):
         raise BadInput(f"must be a YAML mapping (key: value), got {type(meta).__name__}", file=p)
+    for key, types, what in (("name", (str, int, float), "a text"),
+                             ("sensors", (dict,), "a mapping of sensor specifications"),
+                             ("faults", (list,), "a list of faults"),
+                             ("initial_position", (dict,), "a mapping {lat_deg, lon_deg, h_m}"),
+                             ("initial_attitude", (dict,), "a mapping {pitch_deg, roll_deg, "
+                                                           "yaw_deg}"),
+                             ("initial_velocity", (dict,), "a mapping {vE_m_s, vN_m_s, vU_m_s}"),
+                             ("vehicle_mounting_arcmin", (list,), "a list of 3 angles")):
+        v = meta.get(key)
+        if v is not None and (not isinstance(v, types) or isinstance(v, bool)):
+            raise BadInput(f"{key!r} must be {what}, got {_short(v)}", file=p)
     return meta
+
+
+def _short(v, n=60) -> str:
+    r = repr(v)
+    return r if len(r) <= n else r[:n] + "..."
 
 
 def _locate_tables(folder: Path, meta: dict) -> dict:
@@ -211,6 +259,10 @@ def _locate_tables(folder: Path, meta: dict) -> dict:
         fname = str(fname)
         if Path(fname).suffix:                 # a file name: that file must be there
             p = folder / fname
+            if folder.resolve() not in p.resolve().parents:
+                raise BadInput(f"'files' lists {fname!r} for {name!r}, outside the bundle "
+                               "folder; a bundle's tables live in its folder",
+                               file=folder / "meta.yaml")
             if not p.is_file():
                 raise BadInput(f"missing file {fname!r} that meta.yaml lists for {name!r}",
                                file=p)
@@ -258,13 +310,18 @@ def _columns(df: pd.DataFrame, names, path: Path) -> dict:
 def _numeric(df, col, path, t):
     """Column ``col`` as finite float64, or BadInput at the first bad row."""
     s = df[col]
+    if pd.api.types.is_datetime64_any_dtype(s) or pd.api.types.is_timedelta64_dtype(s):
+        raise BadInput(f"column {col!r} holds {s.dtype} timestamps; write plain numbers in "
+                       "seconds", file=path)
+    if pd.api.types.is_bool_dtype(s):
+        raise BadInput(f"column {col!r} holds true/false values, not numbers", file=path)
     x = pd.to_numeric(s, errors="coerce").to_numpy(dtype=float)
     bad = ~np.isfinite(x)
     if bad.any():
         i = int(np.argmax(bad))
         raw = s.iloc[i]
         what = ("NaN or empty" if raw is None or (isinstance(raw, float) and math.isnan(raw))
-                or str(raw).strip() == "" else repr(raw))
+                or str(raw).strip() == "" else _short(raw, 40))
         kind = "not a finite number" if _is_number(raw) else "not a number"
         tt = None if t is None or not np.isfinite(t[i]) else float(t[i])
         raise BadInput(f"column {col!r}: value {what} is {kind}", file=path, row=i + 1, time=tt)
@@ -309,13 +366,52 @@ def _imu_from(df, path) -> ImuData:
     c = _columns(df, IMU_COLUMNS, path)
     dtheta = np.column_stack([c["dtheta_x"], c["dtheta_y"], c["dtheta_z"]])
     dvel = np.column_stack([c["dvel_x"], c["dvel_y"], c["dvel_z"]])
-    dt = _row_dt(c["t"])
-    _check_limit(np.linalg.norm(dtheta, axis=1) / dt, LIMITS["gyro_rate_rad_s"],
-                 "angular rate |dtheta|/dt =", "rad/s", path, c["t"])
-    _check_limit(np.linalg.norm(dvel, axis=1) / dt, LIMITS["specific_force_m_s2"],
-                 "specific force |dvel|/dt =", "m/s^2", path, c["t"])
-    _check_gravity(np.linalg.norm(dvel, axis=1) / dt, path)
+    check_imu(c["t"], dtheta, dvel, path)
     return ImuData(c["t"], dtheta, dvel)
+
+
+def check_imu(t, dtheta, dvel, path) -> None:
+    """Physical plausibility of IMU increments (see the module notes); BadInput naming
+    ``path``, the row and the time."""
+    if len(t) < 2:
+        raise BadInput(f"the IMU table has {len(t)} row; it needs at least 2 (one interval)",
+                       file=path, row=1, time=float(t[0]))
+    period = float(np.median(np.diff(t)))
+    lo, hi = LIMITS["imu_rate_hz"]
+    if not lo <= 1.0 / period <= hi:
+        raise BadInput(f"IMU rate {1.0 / period:.4g} Hz (median step {period:.4g}) is outside "
+                       f"{lo:g} .. {hi:g} Hz: is t in seconds?", file=path)
+    dt = _row_dt(t)
+    _check_limit(np.linalg.norm(dtheta, axis=1) / dt, LIMITS["gyro_rate_rad_s"],
+                 "angular rate |dtheta|/dt =", "rad/s", path, t)
+    _check_limit(np.linalg.norm(dvel, axis=1) / dt, LIMITS["specific_force_m_s2"],
+                 "specific force |dvel|/dt =", "m/s^2", path, t)
+    _check_sustained_rate(t, dtheta, path)
+    _check_gravity(np.linalg.norm(dvel, axis=1) / dt, path)
+
+
+def _check_sustained_rate(t, dtheta, path) -> None:
+    """The turn rate over any whole second stays below ``LIMITS["sustained_rate_rad_s"]``
+    (3 rad/s, 170 deg/s: no land vehicle turns that fast for a second; vibration averages out
+    over the second). Increments in degrees read 57 times too large and trip it in a turn."""
+    if t[-1] - t[0] < 1.0:
+        return
+    c = np.vstack([np.zeros((1, 3)), np.cumsum(dtheta, axis=0)])
+    tt = np.concatenate([[t[0] - (t[1] - t[0])], t])
+    j = np.searchsorted(tt, tt + 1.0)
+    ok = j < len(tt)
+    i = np.flatnonzero(ok)
+    if not len(i):
+        return
+    rate = np.linalg.norm(c[j[i]] - c[i], axis=1) / (tt[j[i]] - tt[i])
+    limit = LIMITS["sustained_rate_rad_s"]
+    if (rate > limit).any():
+        k = i[int(np.argmax(rate > limit))]
+        r = float(rate[int(np.argmax(rate > limit))])
+        raise BadInput(f"the turn rate over one second is {r:.4g} rad/s ({np.degrees(r):.4g} "
+                       f"deg/s), beyond any land vehicle (limit {limit:g} rad/s): are dtheta "
+                       "increments in degrees instead of radians?", file=path,
+                       row=int(min(k, len(t) - 1)) + 1, time=float(t[min(k, len(t) - 1)]))
 
 
 def _check_gravity(f, path):
@@ -372,6 +468,47 @@ def _truth_from(df, path) -> Truth:
     truth = Truth(t, np.radians(c["lat"]), np.radians(c["lon"]), c["h"], vel_n, euler)
     _check_truth_consistency(truth, path)
     return truth
+
+
+def check_bundle(bundle: Bundle, source) -> None:
+    """The checks :func:`read_bundle` makes on the files, made on a bundle in memory (an
+    importer's output, before it is written): BadInput naming ``source`` and the table."""
+    src = bundle.meta.get("source") if isinstance(bundle.meta.get("source"), dict) else {}
+
+    def name(table):
+        own = src.get(table)                   # the file an importer read this table from
+        is_file = isinstance(own, str) and Path(own).suffix != "" and " " not in own
+        return f"{own if is_file else source} ({table})"
+    arrays = [("imu", "t", bundle.imu.t)]
+    for tb in TABLES[1:]:
+        x = getattr(bundle, tb)
+        if x is not None:
+            arrays.append((tb, "t", x.t))
+    for tb, col, t in arrays:
+        bad = ~np.isfinite(t)
+        if bad.any():
+            i = int(np.argmax(bad))
+            raise BadInput(f"time {t[i]} is not a finite number", file=name(tb), row=i + 1)
+        _check_increasing(t, name(tb))
+    check_imu(bundle.imu.t, bundle.imu.dtheta, bundle.imu.dvel, name("imu"))
+    for tb in VELOCITY_SENSORS:
+        s = getattr(bundle, tb)
+        if s is not None and s.v is not None:
+            _check_limit(np.nan_to_num(s.v, nan=0.0), LIMITS["speed_m_s"], "speed v =", "m/s",
+                         name(tb), s.t)
+    tr = bundle.truth
+    if tr is not None:
+        for col, x in (("lat", tr.lat), ("lon", tr.lon), ("h", tr.h)):
+            bad = ~np.isfinite(x)
+            if bad.any():
+                i = int(np.argmax(bad))
+                raise BadInput(f"{col} is not a finite number", file=name("truth"), row=i + 1,
+                               time=float(tr.t[i]))
+        _check_limit(np.degrees(tr.lat), 90.0, "latitude", "deg", name("truth"), tr.t)
+        _check_limit(np.degrees(tr.euler[:, 0]), 90.0, "pitch", "deg", name("truth"), tr.t)
+        _check_truth_consistency(tr, name("truth"))
+    check_clocks(bundle, {tb: name(tb) for tb in TABLES})
+    meta_initial(bundle.meta, f"{source} (meta)")      # an initial latitude beyond +-90 deg
 
 
 def _check_truth_consistency(truth: Truth, path):
@@ -516,15 +653,20 @@ def write_bundle(bundle: Bundle, path, fmt: str = "csv") -> Path:
     Path
         The folder. ``meta.yaml`` gets ``files`` set to the tables written.
 
-    Each file is written to a temporary name and renamed into place, so an interrupted write
-    never leaves a half-written table under its real name.
+    The folder is written whole or not at all (:func:`inmotion.io.safe_write.staged_folder`):
+    the new content is built in a hidden sibling and swapped in by one rename, so a writer
+    killed at any moment leaves either the old bundle, untouched, or the new one, complete.
     """
     if fmt not in ("csv", "parquet"):
         raise BadInput(f"unknown bundle format {fmt!r}; choose csv or parquet")
-    folder = Path(path)
-    folder.mkdir(parents=True, exist_ok=True)
     suffix = ".csv" if fmt == "csv" else ".parquet"
     frames = _frames(bundle)
+    with staged_folder(path, what="bundle") as folder:
+        _write_tables(folder, frames, suffix, fmt, bundle)
+    return Path(path)
+
+
+def _write_tables(folder: Path, frames: dict, suffix: str, fmt: str, bundle: Bundle) -> None:
     for name in TABLES:              # stale tables (other format, or a sensor this bundle lacks)
         for s in SUFFIXES:
             if name not in frames or s != suffix:
@@ -539,7 +681,6 @@ def write_bundle(bundle: Bundle, path, fmt: str = "csv") -> Path:
     meta["files"] = files
     text = yaml.safe_dump(meta, sort_keys=False, default_flow_style=None)
     atomic_write(folder / "meta.yaml", lambda p: Path(p).write_text(text))
-    return folder
 
 
 def _write_table(df, p, fmt):
@@ -561,20 +702,6 @@ def write_csv(df: pd.DataFrame, path) -> None:
     with open(path, "wb") as f:
         f.write((",".join(map(str, df.columns)) + "\n").encode())
         pacsv.write_csv(table, f, write_options=pacsv.WriteOptions(include_header=False))
-
-
-def atomic_write(target: Path, write) -> None:
-    """Call ``write(tmp_path)`` then rename ``tmp_path`` onto ``target`` (atomic on POSIX)."""
-    target = Path(target)
-    fd, tmp = tempfile.mkstemp(prefix=f".{target.name}.", suffix=".tmp", dir=target.parent)
-    os.close(fd)
-    try:
-        write(tmp)
-        os.replace(tmp, target)
-    except BaseException:
-        if os.path.exists(tmp):
-            os.unlink(tmp)
-        raise
 
 
 def _plain(x):

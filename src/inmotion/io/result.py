@@ -19,11 +19,12 @@ columns, ``solution.parquet`` instead of ``solution.csv`` and so on; readers tak
                    columns map, and with truth the ``errors`` block
     errors.csv     with truth: the error series of inmotion.evaluate.metrics.error_series
 
-Every file is written to a temporary file in the folder and renamed into place, solution
-first and ``summary.json`` last: a crash never leaves a half-written file under its real name
-and never loses files already written. Rewriting a folder first removes its ``summary.json``
-(a folder without one is an unfinished run) and at the end any ``states.csv`` /
-``errors.csv`` of an earlier run that this one does not produce.
+A result folder is written whole or not at all (:func:`inmotion.io.safe_write.staged_folder`):
+the files are written into a hidden sibling, which then takes the folder's place in one rename,
+so a run killed or failing while writing leaves the earlier result as it was; ``states.csv`` /
+``errors.csv`` of an earlier run that this one does not produce are dropped, other files kept.
+A solution holding NaN or impossible values (:func:`check_solution`) is refused, never written.
+:func:`read_result` refuses a half-written folder, unsorted rows and impossible values.
 """
 from __future__ import annotations
 
@@ -40,10 +41,12 @@ from ..core.bundle import Truth
 from ..core.solution import Solution, StateUnit
 from ..errors import BadInput
 from ..evaluate.metrics import consistency_block, error_series, errors_block
-from .bundle import _plain, atomic_write, write_csv
+from .bundle import _plain, write_csv
+from .safe_write import atomic_write, refuse_partial, staged_folder
 
 __all__ = ["write_result", "read_result", "write_errors", "SOLUTION_COLUMNS", "SIGMA_UNITS",
-           "read_summary", "write_summary", "thin", "find_table", "read_table", "FORMATS"]
+           "read_summary", "write_summary", "thin", "find_table", "read_table", "FORMATS",
+           "check_solution"]
 
 #: table formats of a result folder (file suffixes)
 FORMATS = ("csv", "parquet")
@@ -164,12 +167,19 @@ def write_result(solution: Solution, path: PathLike, truth: Truth | None = None,
     """
     if len(solution) == 0:
         raise BadInput("the solution has no epochs; nothing to write")
-    folder = Path(path)
-    folder.mkdir(parents=True, exist_ok=True)
-    # rewriting a folder: it stops looking finished until the new summary lands
-    (folder / "summary.json").unlink(missing_ok=True)
     if fmt not in FORMATS:
         raise BadInput(f"unknown result format {fmt!r}; choose from {', '.join(FORMATS)}")
+    check_solution(solution)
+    with staged_folder(path, what="result") as folder:
+        summary = _write_result_files(solution, folder, truth, summary_extra, fmt)
+    return summary
+
+
+_DIVERGED = (" (the method diverged, or its input or configuration is wrong); nothing "
+             "written")
+
+
+def _write_result_files(solution, folder: Path, truth, summary_extra, fmt) -> dict:
     _write_table(_solution_frame(solution), folder, "solution", fmt)
     states = _state_columns(solution)
     if states:
@@ -190,6 +200,34 @@ def write_result(solution: Solution, path: PathLike, truth: Truth | None = None,
         summary["errors"] = write_errors(solution, truth, folder, fmt=fmt)
     write_summary(summary, folder)
     return summary
+
+
+def check_solution(sol: Solution, file=None, hint: str = _DIVERGED) -> None:
+    """Refuse a solution that no vehicle can have: NaN or infinite values, latitude or pitch
+    beyond +-90 deg, time not increasing, a speed above 1000 m/s, a height beyond 1000 km (a
+    diverged method, or input in the wrong units). Raises :class:`BadInput` naming the first bad epoch."""
+    t = np.asarray(sol.t, dtype=float)
+    cols = {"t": t, "lat": sol.lat, "lon": sol.lon, "h": sol.h, "vE": sol.vel_n[:, 0],
+            "vN": sol.vel_n[:, 1], "vU": sol.vel_n[:, 2], "pitch": sol.euler[:, 0],
+            "roll": sol.euler[:, 1], "yaw": sol.euler[:, 2]}
+    src = file if file is not None else "solution"
+    for name, x in cols.items():
+        bad = ~np.isfinite(np.asarray(x, dtype=float))
+        if bad.any():
+            i = int(np.argmax(bad))
+            tt = float(t[i]) if np.isfinite(t[i]) else None
+            raise BadInput(f"{name} is not a finite number{hint}", file=src, row=i + 1,
+                           time=tt)
+    checks = [(np.abs(sol.lat) > np.pi / 2 + 1e-9, "latitude beyond +-90 deg"),
+              (np.abs(sol.euler[:, 0]) > np.pi / 2 + 1e-9, "pitch beyond +-90 deg"),
+              (np.linalg.norm(sol.vel_n, axis=1) > 1000.0, "speed above 1000 m/s"),
+              (np.abs(sol.h) > 1e6, "height beyond +-1000 km")]
+    if len(t) > 1:
+        checks.append((np.concatenate([[False], np.diff(t) <= 0]), "time not increasing"))
+    for bad, what in checks:
+        if bad.any():
+            i = int(np.argmax(bad))
+            raise BadInput(f"{what}{hint}", file=src, row=i + 1, time=float(t[i]))
 
 
 def write_errors(solution: Solution, truth: Truth, folder: PathLike,
@@ -251,9 +289,18 @@ def read_summary(path: PathLike) -> dict:
         raise BadInput("missing summary.json (not a result folder, or the run did not finish)",
                        file=p)
     try:
-        return json.loads(p.read_text())
+        summary = json.loads(p.read_text())
     except json.JSONDecodeError as e:
         raise BadInput(f"malformed JSON at line {e.lineno}: {e.msg}", file=p) from None
+    except (UnicodeDecodeError, RecursionError) as e:
+        raise BadInput(f"not a JSON summary ({type(e).__name__})", file=p) from None
+    if not isinstance(summary, dict):
+        raise BadInput(f"must be a JSON object, got {type(summary).__name__}", file=p)
+    for key, types in (("states", dict), ("info", dict)):
+        if summary.get(key) is not None and not isinstance(summary[key], types):
+            raise BadInput(f"{key!r} must be a JSON object, got {type(summary[key]).__name__}",
+                           file=p)
+    return summary
 
 
 def read_result(path: PathLike) -> Solution:
@@ -281,6 +328,7 @@ def read_result(path: PathLike) -> Solution:
     folder = Path(path)
     if not folder.is_dir():
         raise BadInput("result folder does not exist", file=folder)
+    refuse_partial(folder, "result")
     summary = read_summary(folder)
     p = find_table(folder, "solution")
     if p is None:
@@ -305,9 +353,11 @@ def read_result(path: PathLike) -> Solution:
             info[k] = summary[k]
     euler = np.radians(vals[:, 7:10])
     euler[:, 2] = rotations.wrap_2pi(euler[:, 2])
-    return Solution(vals[:, 0], np.radians(vals[:, 1]), np.radians(vals[:, 2]), vals[:, 3],
-                    vals[:, 4:7], euler, sigma=sigma, states=states, state_units=units,
-                    info=info)
+    sol = Solution(vals[:, 0], np.radians(vals[:, 1]), np.radians(vals[:, 2]), vals[:, 3],
+                   vals[:, 4:7], euler, sigma=sigma, states=states, state_units=units,
+                   info=info)
+    check_solution(sol, file=p, hint="")
+    return sol
 
 
 def _read_states(folder: Path, smap: dict, n: int):
@@ -321,6 +371,11 @@ def _read_states(folder: Path, smap: dict, n: int):
         raise BadInput(f"{len(df)} rows but solution.csv has {n}", file=p)
     states, units = {}, {}
     for name, s in smap.items():
+        if not (isinstance(s, dict) and isinstance(s.get("column"), str)
+                and isinstance(s.get("unit"), str) and isinstance(s.get("scale"), (int, float))
+                and s["scale"] != 0):
+            raise BadInput(f"summary.json: states.{name} must be {{column, unit, scale}}, got "
+                           f"{s!r}"[:160], file=p)
         if s["column"] not in df.columns:
             raise BadInput(f"missing column {s['column']}", file=p)
         states[name] = pd.to_numeric(df[s["column"]], errors="coerce").to_numpy(float) / s["scale"]

@@ -13,7 +13,6 @@ from __future__ import annotations
 from pathlib import Path
 from typing import Annotated, List, Literal, Optional, Union
 
-import yaml
 from pydantic import (AfterValidator, BaseModel, ConfigDict, Field, ValidationError, field_validator,
                       model_validator)
 
@@ -27,6 +26,10 @@ SPEED_SENSORS = ("radar", "ldv", "odometer")
 
 #: largest accepted IMU-in-vehicle mounting angle per axis [arcmin]
 MAX_MOUNTING_ARCMIN = 1800.0
+#: largest lateral acceleration of a turn [g] (a road vehicle grips up to about 1 g)
+MAX_LATERAL_G = 1.5
+#: most IMU rows a scenario may ask for (about 2.4 GB while simulating; 27.8 h at 100 Hz)
+MAX_IMU_ROWS = 10_000_000
 
 Vec3 = Annotated[List[float], Field(min_length=3, max_length=3)]
 ScalarOr3 = Union[float, Vec3]
@@ -43,8 +46,36 @@ def _three_or_six(v):
 MisalignmentArcsec = Annotated[List[float], AfterValidator(_three_or_six)]
 
 
+#: magnitudes a scenario's numbers may have (0 aside): no drive needs more, and beyond them
+#: the simulator overflows or divides by almost zero
+MAX_MAGNITUDE, MIN_MAGNITUDE = 1e9, 1e-12
+#: the slowest sensor or IMU rate [Hz]
+MIN_RATE_HZ = 0.01
+
+
+def _plausible(name: str, v) -> None:
+    if isinstance(v, (list, tuple)):
+        for x in v:
+            _plausible(name, x)
+        return
+    if isinstance(v, bool) or not isinstance(v, (int, float)):
+        return
+    x = abs(float(v))
+    if x > MAX_MAGNITUDE or 0 < x < MIN_MAGNITUDE:
+        raise ValueError(f"{name} = {v:g} is outside the plausible range "
+                         f"{MIN_MAGNITUDE:g} .. {MAX_MAGNITUDE:g} (or 0)")
+    if name.endswith(("rate_hz", "frequency_hz")) and 0 < x < MIN_RATE_HZ:
+        raise ValueError(f"{name} = {v:g} Hz is below {MIN_RATE_HZ:g} Hz")
+
+
 class _Model(BaseModel):
-    model_config = ConfigDict(extra="forbid")
+    model_config = ConfigDict(extra="forbid", allow_inf_nan=False)
+
+    @model_validator(mode="after")
+    def _magnitudes(self):
+        for name in type(self).model_fields:
+            _plausible(name, getattr(self, name))
+        return self
 
 
 # ----------------------------------------------------------------------------- start, vehicle
@@ -232,7 +263,7 @@ class Imu(_Model):
     """The IMU. ``constant_errors``: ``fixed`` uses the drift, bias, scale factor and
     misalignment values as given; ``random`` draws each axis once per run from a zero-mean
     normal with the given value as 1-sigma (the drawn values are written to meta)."""
-    rate_hz: float = Field(100.0, gt=0.0, le=10000.0)
+    rate_hz: float = Field(100.0, ge=10.0, le=10000.0)
     gyro: Gyro = Gyro()
     accel: Accel = Accel()
     constant_errors: Literal["fixed", "random"] = "fixed"
@@ -401,11 +432,30 @@ class Scenario(_Model):
         return [n for n in ("radar", "ldv", "odometer", "baro") if getattr(self.sensors, n)]
 
 
+def _known_keys() -> set:
+    """Every field name of the scenario schema (for "did you mean")."""
+    out, todo = set(), list(_Model.__subclasses__())
+    while todo:
+        cls = todo.pop()
+        out.update(cls.model_fields)
+        todo.extend(cls.__subclasses__())
+    return out
+
+
 def _format_error(e: ValidationError) -> str:
-    err = e.errors()[0]
-    loc = ".".join(str(x) for x in err["loc"] if not str(x).startswith("function-after"))
+    import difflib
+    errors = e.errors()
+    extra = [x for x in errors if x["type"] == "extra_forbidden"]
+    err = extra[0] if extra else errors[0]
+    loc = ".".join(str(x) for x in err["loc"]
+                   if not str(x).startswith(("function-after", "list[")) and str(x) != "float")
     msg = err["msg"].removeprefix("Value error, ")
-    more = f" (and {len(e.errors()) - 1} more)" if len(e.errors()) > 1 else ""
+    if extra:
+        key = str(err["loc"][-1])
+        close = difflib.get_close_matches(key, sorted(_known_keys()), n=1, cutoff=0.6)
+        msg = f"unknown key {key!r}" + (f"; did you mean {close[0]!r}?" if close else "")
+        errors = extra
+    more = f" (and {len(errors) - 1} more)" if len(errors) > 1 else ""
     return f"{loc}: {msg}{more}" if loc else msg + more
 
 
@@ -420,6 +470,9 @@ def load_scenario(source) -> Scenario:
     if isinstance(source, Scenario):
         return source
     file = None
+    if not isinstance(source, (dict, str, Path)):
+        raise BadInput(f"a scenario must be a mapping, a file or a shipped name, got "
+                       f"{type(source).__name__} {source!r}"[:160])
     if isinstance(source, dict):
         data = source
     else:
@@ -429,10 +482,8 @@ def load_scenario(source) -> Scenario:
         file = str(path)
         if not path.is_file():
             raise BadInput("scenario file not found", file=file)
-        try:
-            data = yaml.safe_load(path.read_text())
-        except yaml.YAMLError as e:
-            raise BadInput(f"not valid YAML: {e}", file=file) from None
+        from ..io.safe_yaml import load_yaml_file
+        data = load_yaml_file(path, "scenario", invalid="not valid YAML")
         if not isinstance(data, dict):
             raise BadInput("a scenario must be a YAML mapping", file=file)
     try:
@@ -445,9 +496,18 @@ def load_scenario(source) -> Scenario:
 
 def _check_motion(sc: Scenario, file: str) -> None:
     """Segment sequences that no vehicle can drive (turning or climbing at standstill ...)."""
+    import math
     v = sc.start.speed_m_s
+    duration = 0.0
     for i, seg in enumerate(sc.segments):
         where = f"segments.{i} ({seg.kind})"
+        if seg.kind == "turn":
+            lateral = v * math.radians(seg.rate_deg_s)
+            if lateral > MAX_LATERAL_G * 9.80665:
+                raise BadInput(f"{where}: turning at {seg.rate_deg_s:g} deg/s at {v:g} m/s is a "
+                               f"lateral acceleration of {lateral / 9.80665:.3g} g; no road "
+                               f"vehicle holds more than {MAX_LATERAL_G:g} g", file=file)
+        duration += _segment_duration(seg, v)
         if seg.kind in ("rest", "wait") and v != 0.0:
             raise BadInput(f"{where}: the vehicle must be stopped to {seg.kind} "
                            f"(speed is {v} m/s; add a stop first)", file=file)
@@ -463,6 +523,26 @@ def _check_motion(sc: Scenario, file: str) -> None:
             v = seg.to_speed_m_s
         elif seg.kind == "stop":
             v = 0.0
+    rows = duration * sc.imu.rate_hz
+    if rows > MAX_IMU_ROWS:
+        raise BadInput(f"the drive lasts about {duration / 3600:.4g} h, {rows:.3g} IMU rows at "
+                       f"{sc.imu.rate_hz:g} Hz; at most {MAX_IMU_ROWS:.3g} rows are simulated "
+                       "at once (split the drive, or lower imu.rate_hz)", file=file)
+
+
+def _segment_duration(seg, v) -> float:
+    """About how long a segment lasts [s] (blends not counted)."""
+    if hasattr(seg, "duration_s"):
+        return float(seg.duration_s)
+    if seg.kind == "turn":
+        return abs(seg.angle_deg) / seg.rate_deg_s
+    if seg.kind == "accelerate":
+        return abs(seg.to_speed_m_s - v) / seg.accel_m_s2
+    if seg.kind == "decelerate":
+        return abs(v - seg.to_speed_m_s) / seg.decel_m_s2
+    if seg.kind == "stop":
+        return v / seg.decel_m_s2
+    return 0.0
 
 
 def scenario_dir() -> Path:

@@ -36,7 +36,7 @@ from ...core.bundle import Bundle, ImuData, SpeedData, Truth
 from ...errors import BadInput
 from ..resample import check_times, find_gaps, interpolate_at, rates_to_increments
 from .axes import C_b_src, FRD
-from .tables import check_finite, existing_dir
+from .tables import as_float, check_finite, check_order, existing_dir
 
 __all__ = ["IMU_AXES", "CAMERA_AXES", "import_comma2k19", "read_signal"]
 
@@ -58,8 +58,10 @@ def _load_npy(path, what):
 def read_signal(folder, ncols=None):
     """``(t, value)`` of one signal folder; ``value`` reshaped to (N, ncols) when given."""
     folder = Path(folder)
-    t = _load_npy(folder / "t", folder.name + " t").astype(float).reshape(-1)
-    value = _load_npy(folder / "value", folder.name + " value").astype(float)
+    t = as_float(_load_npy(folder / "t", folder.name + " t"), folder / "t",
+                 folder.name + " t").reshape(-1)
+    value = as_float(_load_npy(folder / "value", folder.name + " value"), folder / "value",
+                     folder.name + " value")
     if value.shape[0] != len(t) or (ncols is not None and value.size != len(t) * ncols):
         raise BadInput(f"value has shape {value.shape} for {len(t)} times"
                        + (f" (expected ({len(t)}, {ncols}))" if ncols else ""), folder)
@@ -138,6 +140,7 @@ def import_comma2k19(source, *, gyro="gyro", order=2, name=None) -> Bundle:
         Missing folder or file, arrays of the wrong shape, non-finite values, times not
         increasing.
     """
+    order = check_order(order)
     root = existing_dir(source, "comma2k19 segment folder")
     if gyro not in ("gyro", "gyro_uncalibrated"):
         raise BadInput(f"gyro must be 'gyro' or 'gyro_uncalibrated', got {gyro!r}")

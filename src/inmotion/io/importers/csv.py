@@ -24,7 +24,6 @@ from typing import Literal, Optional
 
 import numpy as np
 import pandas as pd
-import yaml
 from pydantic import BaseModel, ConfigDict, ValidationError, field_validator
 
 from ...core.bundle import Bundle, ImuData, SpeedData, Truth, VELOCITY_SENSORS
@@ -138,10 +137,8 @@ def load_mapping(mapping) -> tuple[CsvMapping, Optional[Path]]:
         raw = mapping
     else:
         where = existing_file(mapping, "CSV mapping file")
-        try:
-            raw = yaml.safe_load(where.read_text())
-        except yaml.YAMLError as exc:
-            raise BadInput(f"mapping is not valid YAML ({exc})", where) from None
+        from ..safe_yaml import load_yaml_file
+        raw = load_yaml_file(where, "CSV mapping", invalid="not valid YAML")
         if not isinstance(raw, dict):
             raise BadInput("mapping must be a YAML dictionary", where)
     try:

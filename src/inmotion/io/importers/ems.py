@@ -28,7 +28,7 @@ from ...core.bundle import Bundle, ImuData, Truth
 from ...errors import BadInput
 from ..resample import check_times, find_gaps, rates_to_increments
 from .axes import C_b_src, FRD, design_euler_from_ned_rpy
-from .tables import check_finite, existing_file
+from .tables import as_float, check_finite, check_order, existing_file
 
 __all__ = ["IMU_AXES", "import_ems"]
 
@@ -56,17 +56,17 @@ def _load_struct(path, var):
 
 
 def _fields(s, path):
-    n = np.asarray(s.time).size
+    n = as_float(s.time, path, "field 'time'").size
     out = {}
     for f in _FIELDS_N:
-        a = np.asarray(getattr(s, f), dtype=float).reshape(-1)
+        a = as_float(getattr(s, f), path, f"field {f!r}").reshape(-1)
         if f == "h" and a.size == 1:
             a = np.full(n, float(a[0]))
         if a.size != n:
             raise BadInput(f"field {f!r} has {a.size} values for {n} times", path)
         out[f] = a
     for f in _FIELDS_N3:
-        a = np.asarray(getattr(s, f), dtype=float)
+        a = as_float(getattr(s, f), path, f"field {f!r}")
         if a.shape != (n, 3):
             raise BadInput(f"field {f!r} has shape {a.shape}, expected ({n}, 3)", path)
         out[f] = a
@@ -86,6 +86,7 @@ def import_ems(source, *, var="ems_data", order=2, name=None) -> Bundle:
     order : 2 (trapezoid) or 4 (cubic) integration of rates to increments
     name : bundle name (default: the file's stem)
     """
+    order = check_order(order)
     path = existing_file(source, "EMS MATLAB file")
     d = _fields(_load_struct(path, var), path)
     t_src = d["time"]

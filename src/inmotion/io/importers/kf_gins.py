@@ -164,8 +164,13 @@ def _read_solution_csv(result_dir) -> Solution:
     bad = np.flatnonzero(~np.isfinite(a).all(axis=1))
     if len(bad):
         raise BadInput("value that is not a finite number", path, row=int(bad[0]) + 1)
-    return Solution(a[:, 0], np.deg2rad(a[:, 1]), np.deg2rad(a[:, 2]), a[:, 3], a[:, 4:7],
-                    np.deg2rad(a[:, 7:10]))
+    from ..result import check_solution
+    from ..safe_write import refuse_partial
+    refuse_partial(Path(result_dir), "result")
+    sol = Solution(a[:, 0], np.deg2rad(a[:, 1]), np.deg2rad(a[:, 2]), a[:, 3], a[:, 4:7],
+                   np.deg2rad(a[:, 7:10]))
+    check_solution(sol, file=path, hint="")       # latitude 3000 deg, unsorted rows ...
+    return sol
 
 
 def export_kf_gins(result, out_path, *, gps_week=0) -> Path:
@@ -183,9 +188,14 @@ def export_kf_gins(result, out_path, *, gps_week=0) -> Path:
     vel_ned = ned_to_enu(sol.vel_n)                  # the swap is its own inverse
     table = np.column_stack([np.full(len(sol), float(gps_week)), sol.t,
                              np.rad2deg(sol.lat), np.rad2deg(sol.lon), sol.h, vel_ned, rpy])
-    out = Path(out_path)
-    out.parent.mkdir(parents=True, exist_ok=True)
-    np.savetxt(out, table, fmt=["%.0f", "%.6f", "%.11f", "%.11f", "%.4f", "%.5f", "%.5f",
-                                "%.5f", "%.8f", "%.8f", "%.8f"])
+    from ..safe_write import atomic_write, check_output_path, output_error
+    out = check_output_path(out_path, folder=False)
+    try:
+        out.parent.mkdir(parents=True, exist_ok=True)
+    except OSError as e:
+        raise output_error(out, e) from None
+    atomic_write(out, lambda tmp: np.savetxt(
+        tmp, table, fmt=["%.0f", "%.6f", "%.11f", "%.11f", "%.4f", "%.5f", "%.5f", "%.5f",
+                         "%.8f", "%.8f", "%.8f"]))
     return out
 

@@ -57,7 +57,7 @@ def read_text_table(path, ncols, what="table") -> np.ndarray:
 
 
 def _first_data_line(p):
-    with open(p) as f:
+    with open(p, encoding="utf-8", errors="replace") as f:
         for line in f:
             if line.strip() and not line.lstrip().startswith("#"):
                 return line
@@ -81,7 +81,7 @@ def _fast_parse(p):
 def _diagnose(p, allowed, what):
     """Walk the file and raise BadInput at the first malformed row."""
     width, row = None, 0
-    with open(p) as f:
+    with open(p, encoding="utf-8", errors="replace") as f:
         for line in f:
             fields = line.split("#", 1)[0].replace(",", " ").split()
             if not fields:
@@ -104,9 +104,24 @@ def _diagnose(p, allowed, what):
         raise BadInput(f"{what} has no data rows", p)
 
 
+def as_float(a, file, what) -> np.ndarray:
+    """``a`` as a float64 array, or BadInput if it holds text or objects that are no numbers."""
+    try:
+        return np.asarray(a, dtype=float)
+    except (TypeError, ValueError) as exc:
+        raise BadInput(f"{what}: not numbers ({str(exc).splitlines()[0][:80]})", file) from None
+
+
+def check_order(order) -> int:
+    """The rate-integration order option: 2 (trapezoid) or 4 (cubic)."""
+    if order not in (2, 4) or isinstance(order, bool):
+        raise BadInput(f"option order={order!r}: must be 2 (trapezoid) or 4 (cubic)")
+    return int(order)
+
+
 def check_finite(data, file, what, t=None, first_row=1):
     """BadInput at the first row of ``data`` (N, ...) holding a NaN, inf or non-number."""
-    data = np.asarray(data, dtype=float)
+    data = as_float(data, file, what)
     bad = ~np.isfinite(data.reshape(len(data), -1)).all(axis=1)
     if bad.any():
         i = int(np.flatnonzero(bad)[0])
