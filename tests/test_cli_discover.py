@@ -95,7 +95,13 @@ def test_global_options_anywhere(bundle, tmp_path):
 def test_window_message_says_what_the_drive_covers(bundle, tmp_path):
     r = run("navigate", bundle, "-m", "sins", "--start", 5000, "-o", tmp_path / "r")
     assert r.exit_code == 2
-    assert "None" not in r.stderr
+    assert "None" not in r.stderr and "5000 s" in r.stderr
+    # the start is checked against the truth first (--init truth), else against the IMU
+    assert ("the truth table covers 0 .. " in r.stderr
+            or ("the drive covers 0-" in r.stderr and "from 5000 s to the end" in r.stderr))
+    r = run("navigate", bundle, "-m", "sins", "--init", "meta", "--start", 5000, "-o",
+            tmp_path / "r")
+    assert r.exit_code == 2 and "None" not in r.stderr
     assert "the drive covers 0-" in r.stderr and "from 5000 s to the end" in r.stderr
 
 

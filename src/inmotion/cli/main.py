@@ -557,7 +557,7 @@ def run_method(ctx, bundle, spec, config, init_state, window):
         lo = f"{start:g} s" if start is not None else "the start"
         hi = f"{end:g} s" if end is not None else "the end"
         raise BadInput(f"the window from {lo} to {hi} holds fewer than 2 IMU rows; the drive "
-                       f"covers {t0:g}-{t1:g} s")
+                       f"covers {t0:g}-{t1:g} s (check --start / --end)")
     run, _ = spec.load()
     t0 = time.perf_counter()
     with _progress(ctx, spec.name) as progress:
