@@ -753,6 +753,164 @@ def scenarios(ctx, as_json):
     _emit(ctx, data, "\n".join(f"{d['name']:{w}s}  {d['description']}" for d in data), as_json)
 
 
+# --------------------------------------------------------------------------- process
+
+def _process_init(ctx, bundle, init):
+    """``(NavState or None, InitInfo dict)`` for ``process --init truth|meta|RESULT``."""
+    import numpy as np
+    if init is None:
+        return None, {"source": "none"}
+    if init == "meta":
+        from ..io.bundle import meta_initial
+        ini = meta_initial(bundle.meta, "meta.yaml")
+        state, _ = _initial_state(ctx, bundle, "meta", None, False)
+        return state, {"source": "meta", "has_attitude": ini["euler_deg"] is not None,
+                       "heading_sigma_deg": 2.0, "tilt_sigma_deg": 1.0}
+    state, desc = _initial_state(ctx, bundle, init, None, True)
+    if init == "truth":
+        return state, {"source": "truth", "has_attitude": True, "heading_sigma_deg": 0.1,
+                       "tilt_sigma_deg": 0.05}
+    from ..io.result import read_result
+    sol = read_result(init)
+
+    def sig(*keys):
+        v = [float(np.degrees(sol.sigma[k][-1])) for k in keys
+             if k in sol.sigma and len(sol.sigma[k]) and np.isfinite(sol.sigma[k][-1])]
+        return max(max(v), 1e-3) if v else None
+    return state, {"source": desc, "has_attitude": True,
+                   "heading_sigma_deg": sig("phi_U") or 2.0,
+                   "tilt_sigma_deg": sig("phi_E", "phi_N") or 1.0}
+
+
+def _load_process_config(config_file, sets):
+    import pydantic
+    import yaml
+    from ..process import ProcessConfig
+    data = {}
+    if config_file:
+        p = Path(config_file)
+        if not p.is_file():
+            raise BadInput("configuration file does not exist", file=p)
+        try:
+            data = yaml.safe_load(p.read_text()) or {}
+        except yaml.YAMLError as e:
+            raise BadInput(f"malformed YAML: {str(e).splitlines()[0]}", file=p) from None
+        if not isinstance(data, dict):
+            raise BadInput("configuration must be a mapping (key: value)", file=p)
+    data = _merge(data, _parse_sets(sets))
+    try:
+        return ProcessConfig.model_validate(data)
+    except pydantic.ValidationError as e:
+        errs = "; ".join(f"{'.'.join(map(str, er['loc'])) or 'config'}: {er['msg']}"
+                         for er in e.errors()[:3])
+        raise BadInput(f"process configuration: {errs}", file=config_file) from None
+
+
+def run_process_to(ctx, bundle, output, cfg, init=None, fmt="csv", output_rate=None,
+                   bundle_path=None, report=True) -> dict:
+    """Run :func:`inmotion.process.run_process` on ``bundle``, write the result (and its HTML
+    report) to ``output``; return the summary."""
+    from ..io.result import thin, write_result
+    from ..process import run_process
+    state, ii = _process_init(ctx, bundle, init)
+    rate = parse_output_rate(output_rate) if output_rate is not None else 1.0
+    t0 = time.perf_counter()
+    with _progress(ctx, "process") as progress:
+        sol = run_process(bundle, cfg, state, ii, progress=progress)
+    wall = time.perf_counter() - t0
+    sol.info["timing"] = {"wall_s": wall}
+    if rate is not None:
+        sol = thin(sol, rate)
+    extra = {"bundle": str(bundle_path) if bundle_path else None, "bundle_name": bundle.name,
+             "init": {"from": ii.get("source"), "t_s": None if state is None else state.t},
+             "output_rate_hz": rate, "stages": sol.info.get("stages"),
+             "heading": sol.info.get("heading")}
+    summary = write_result(sol, output, truth=bundle.truth, summary_extra=extra, fmt=fmt)
+    if report:
+        from ..evaluate.report import build_report
+        try:
+            page = build_report(output)
+            summary["report"] = str(page)
+        except Exception as e:              # the result stands without its page
+            _note(ctx, f"warning: the HTML report failed: {type(e).__name__}: {e}")
+    return summary
+
+
+def _stage_lines(summary: dict) -> list[str]:
+    lines = []
+    for s in summary.get("stages") or []:
+        end = f"{s['end_s']:.2f}" if s.get("end_s") is not None else "-"
+        att = s.get("attitude_end_deg") or s.get("attitude_start_deg")
+        sig = s.get("sigma_end_arcmin")
+        extra = ""
+        if att:
+            extra += f"  yaw {att['yaw'] % 360:.3f} deg"
+        if sig and "phi_U" in sig:
+            extra += f" (1-sigma {sig['phi_U']:.3g} arcmin)"
+        lines.append(f"  {s['stage']:16s} {s['method']:22s} {s['start_s']:10.2f} .. {end:>10s} s"
+                     f"{extra}\n      {s['why']}")
+    h = summary.get("heading") or {}
+    if h:
+        lines.append(f"  heading: {h.get('source')}: {h.get('why')}")
+    return lines
+
+
+def _process_text(summary: dict, output) -> str:
+    lines = [f"process: {summary['epochs']} epochs, wrote {output}", "stages:"]
+    lines += _stage_lines(summary)
+    f = summary["final"]
+    lines.append(f"  final t={f['t_s']:.3f} s  lat={f['lat_deg']:.8f} lon={f['lon_deg']:.8f} deg "
+                 f"h={f['h_m']:.2f} m  yaw={f['yaw_deg']:.4f} deg")
+    if "errors" in summary:
+        lines.append(_errors_text(summary["errors"]))
+    if summary.get("report"):
+        lines.append(f"  report: {summary['report']}")
+    return "\n".join(lines)
+
+
+@cli.command()
+@click.argument("bundle_path", metavar="BUNDLE", type=click.Path())
+@click.option("-o", "--output", required=True, type=click.Path(file_okay=False),
+              help="Result folder to write.")
+@click.option("--config", "config_file", type=click.Path(),
+              help="YAML/JSON process configuration (inmotion.process.ProcessConfig).")
+@click.option("--set", "sets", multiple=True, metavar="KEY=VALUE",
+              help="Set a configuration field (repeatable; methods.od-kf.measurement=velocity).")
+@click.option("--init", default=None,
+              help="truth | meta | RESULT: start position (and the heading where the IMU "
+                   "cannot find it); default: none (position from meta.yaml).")
+@click.option("--smooth", is_flag=True,
+              help="Forward-backward smoothing: NOT AVAILABLE YET (exits with status 2).")
+@click.option("--allow-imu-gaps", is_flag=True,
+              help="Integrate across IMU gaps instead of refusing the bundle.")
+@click.option("--format", "fmt", type=click.Choice(["csv", "parquet"]), default="csv",
+              show_default=True, help="Format of the result tables.")
+@click.option("--output-rate", default=None, metavar="HZ|all",
+              help="Rows written per second (default 1 Hz).")
+@click.option("--no-report", is_flag=True, help="Do not write the HTML report.")
+@_json_option
+@click.pass_context
+def process(ctx, bundle_path, output, config_file, sets, init, smooth, allow_imu_gaps, fmt,
+            output_rate, no_report, as_json):
+    """The main job in one command: parked / moving detection, alignment, navigation.
+
+    Finds the parked and moving segments (paper 003's chi-square test), aligns parked (coarse
+    + zero-velocity fine) or in motion (coarse + fine), navigates to the end with the aiding
+    the bundle has (radar: dr-kf then sins-dr; odometer / LDV: fkf, od-kf or ldv-kf; none:
+    nhc-kf; barometer if present; fault detection on), and writes ONE result with the log of
+    its stages (summary.json 'stages', 'heading') and report.html. An IMU that cannot
+    gyrocompass (a MEMS) takes its heading from --init. Rules: ``inmotion.process``.
+    """
+    if smooth:
+        raise BadInput("--smooth: forward-backward smoothing is not available yet (issue 14); "
+                       "run without --smooth for the forward solution")
+    cfg = _load_process_config(config_file, sets)
+    bundle = _read_bundle(ctx, bundle_path, allow_imu_gaps)
+    summary = run_process_to(ctx, bundle, output, cfg, init, fmt, output_rate, bundle_path,
+                             report=not no_report)
+    _emit(ctx, summary, _process_text(summary, output), as_json)
+
+
 # --------------------------------------------------------------------------- demo
 
 DEMO_SCENARIO = "demo"
