@@ -92,7 +92,12 @@ class ProcessConfig(BaseModel):
                     "gyrocompass (its drift over a long window spoils the level) [s]")
     fine_s: float = Field(
         300.0, gt=0,
-        description="radar: dr-kf fine alignment this long before sins-dr navigates [s]")
+        description="radar: dr-kf fine alignment at least this long before sins-dr navigates "
+                    "[s]")
+    handover_heading_sigma_arcmin: float = Field(
+        10.0, gt=0,
+        description="radar: dr-kf hands over to sins-dr once its heading sigma is at most "
+                    "this [arcmin] (else it runs to the end)")
     max_gyrocompass_heading_sigma_deg: float = Field(
         3.0, gt=0,
         description="the IMU finds the heading if its gyrocompass heading sigma "
@@ -233,6 +238,13 @@ def _sig_deg(sol: Solution, key: str, floor: float) -> float:
 def _attitude_deg(state: NavState) -> dict:
     e = np.degrees(state.euler)
     return {"pitch": float(e[0]), "roll": float(e[1]), "yaw": float(e[2] % 360.0)}
+
+
+def _head(sol: Solution, t1: float) -> Solution:
+    """The rows of ``sol`` at or before ``t1`` (for the stage log)."""
+    m = sol.t <= t1 + 1e-9
+    return Solution(sol.t[m], sol.lat[m], sol.lon[m], sol.h[m], sol.vel_n[m], sol.euler[m],
+                    sigma={k: v[m] for k, v in sol.sigma.items()})
 
 
 def _concat(parts):
@@ -394,8 +406,10 @@ def run_process(bundle: Bundle, config: ProcessConfig | dict | None = None,
         else:
             st = parked.state_at(min(t_move, float(parked.t[-1])))
             handover = NavState(t_move, st.lat, st.lon, st.h, np.zeros(3), st.q_nb)
-            tilt_sig = 3 * max(_sig_deg(parked, "phi_E", 1e-3), _sig_deg(parked, "phi_N", 1e-3))
-            h_sig = 3 * _sig_deg(parked, "phi_U", 1e-2)
+            # the parked result's sigma, inflated by half for the change of model at the switch
+            tilt_sig = 1.5 * max(_sig_deg(parked, "phi_E", 1e-3),
+                                 _sig_deg(parked, "phi_N", 1e-3))
+            h_sig = 1.5 * _sig_deg(parked, "phi_U", 1e-2)
             if from_init:
                 h_sig = max(h_sig, head_sig)
     else:
@@ -446,6 +460,17 @@ def run_process(bundle: Bundle, config: ProcessConfig | dict | None = None,
         "sensors_used": sorted({s for p in parts for s in registry.sensors_used(p.info)}),
         "imu_spec": {"values": spec, "from": spec_origin or "none (method defaults)"},
         "init": ii.model_dump(), "wall_time_s": time.perf_counter() - w0})
+    if from_init and "phi_U" in sol.sigma:
+        # the heading is not observable: its sigma cannot fall below the init's, grown by the
+        # gyro drift over the time since (the filters' linear models, far from their operating
+        # point with a MEMS's drift, may claim more)
+        drift = math.radians(float(spec.get("gyro_drift_deg_h", MEMS_CLASS["gyro_drift_deg_h"]))
+                             ) / 3600.0
+        floor = np.hypot(math.radians(head_sig), drift * np.maximum(sol.t - t0, 0.0))
+        sol.sigma["phi_U"] = np.fmax(sol.sigma["phi_U"], floor)
+        sol.info["heading_sigma_rule"] = (
+            f"max(filter, hypot(init sigma {head_sig:.3g} deg, drift "
+            f"{math.degrees(drift) * 3600:.3g} deg/h x time since {t0:.6g} s))")
     if from_init:
         sol.info["heading_note"] = ("heading not observable by this IMU: taken from init "
                                     f"({ii.source}) with 1-sigma {head_sig:.3g} deg; its "
@@ -484,20 +509,31 @@ def _navigate(bundle, cfg, state, tilt_sig, head_sig, spec, log, progress):
     if "radar" in speed:
         from .align.dr_kalman import DrKfConfig, run_dr_kf
         from .navigate.sins_dr import SinsDrConfig, run_sins_dr
-        t1 = t0 + cfg.fine_s
-        if t_end - t1 < 30.0:
-            t1 = t_end
         dcfg = _cfg(DrKfConfig, {**prior, "velocity_sensor": "radar"}, cfg, "dr-kf", spec)
-        fine = run_dr_kf(bundle.window(None, t1), dcfg, state,
+        fine = run_dr_kf(bundle, dcfg, state,
                          progress=None if progress is None else lambda f: progress(0.5 * f))
-        log("fine", "dr-kf", t0, t1, "radar present: SINS / radar-DR fine alignment in motion "
-            "(paper 000), chi-square gate", fine)
+        sig_u = np.degrees(fine.sigma["phi_U"]) * 60.0
+        ok = np.flatnonzero((fine.t >= t0 + cfg.fine_s) & (sig_u <= cfg.handover_heading_sigma_arcmin)
+                            & (fine.t <= t_end - 30.0))
+        t1 = float(fine.t[ok[0]]) if len(ok) else t_end
+        if len(ok):
+            why = (f"radar present: SINS / radar-DR fine alignment in motion (paper 000), "
+                   f"chi-square gate, until its heading sigma is {sig_u[ok[0]]:.3g} arcmin <= "
+                   f"{cfg.handover_heading_sigma_arcmin:g} after at least {cfg.fine_s:g} s")
+        else:
+            why = ("radar present: SINS / radar-DR fine alignment in motion (paper 000), "
+                   f"chi-square gate; its heading sigma did not reach "
+                   f"{cfg.handover_heading_sigma_arcmin:g} arcmin with 30 s left after "
+                   f"{cfg.fine_s:g} s, so it runs to the end")
+        log("fine", "dr-kf", t0, t1, why, _head(fine, t1))
         out = [fine]
-        if t1 < t_end:
-            st = fine.final_state()
-            base = {"init_tilt_sigma_arcmin": 3 * 60 * max(_sig_deg(fine, "phi_E", 1e-3),
-                                                           _sig_deg(fine, "phi_N", 1e-3)),
-                    "init_heading_sigma_arcmin": 3 * 60 * _sig_deg(fine, "phi_U", 1e-3),
+        if len(ok):
+            k = int(ok[0])
+            st = fine.state_at(t1)
+            base = {"init_tilt_sigma_arcmin": 1.5 * 60 * max(
+                        float(np.degrees(fine.sigma["phi_E"][k])),
+                        float(np.degrees(fine.sigma["phi_N"][k])), 1e-3),
+                    "init_heading_sigma_arcmin": 1.5 * max(float(sig_u[k]), 0.01),
                     "velocity_sensor": "radar", "gate_probability": cfg.gate_probability}
             ncfg = _cfg(SinsDrConfig, base, cfg, "sins-dr", spec)
             nav = run_sins_dr(bundle, ncfg, st,

@@ -923,17 +923,19 @@ DEMO_SCENARIO = "demo"
 @_json_option
 @click.pass_context
 def demo(ctx, seed, keep, as_json):
-    """Simulate the built-in drive, run every navigation method, print their errors.
+    """Simulate the built-in drive and run ``inmotion process`` on it; print its errors.
 
-    Every registered ``navigate`` method runs from the first truth row with its default
-    configuration; a method that does not fit the drive (BadInput, e.g. a missing sensor) is
-    skipped with a note; one that fails internally is reported and makes the exit status 1
-    after the table is printed.
+    The main job (``process``, no attitude given): its stages with the errors at the end of
+    each, then, for comparison, every registered ``navigate`` method started from the first
+    truth row with its default configuration (a method that does not fit the drive is skipped
+    with a note; one that fails internally is reported and makes the exit status 1 after the
+    tables are printed). The process result and its HTML report are in ``--keep DIR/process``.
     """
     import numpy as np
     from ..io.bundle import write_bundle
     from ..io.result import write_result
     from ..sim import simulate as sim
+    from ..process import ProcessConfig
     with contextlib.ExitStack() as stack:
         root = Path(keep) if keep else Path(stack.enter_context(
             tempfile.TemporaryDirectory(prefix="inmotion-demo-")))
@@ -947,7 +949,17 @@ def demo(ctx, seed, keep, as_json):
         _note(ctx, f"simulated {DEMO_SCENARIO!r} in {time.perf_counter() - t0:.1f} s")
         write_bundle(bundle, root / "bundle")
         bundle = _read_bundle(ctx, root / "bundle")
-        rows, failed = [], []
+        failed, proc_rows, proc = [], [], None
+        try:
+            proc = run_process_to(ctx, bundle, root / "process", ProcessConfig(),
+                                  bundle_path=root / "bundle", report=keep is not None)
+            proc_rows = _demo_process_rows(proc, root / "process")
+        except BadInput as e:
+            _note(ctx, f"process: skipped ({e})")
+        except Exception as e:
+            click.echo(f"inmotion: process: internal error: {type(e).__name__}: {e}", err=True)
+            failed.append("process")
+        rows = []
         for spec in registry.methods("navigate"):
             try:
                 config = build_config(spec)
@@ -964,48 +976,45 @@ def demo(ctx, seed, keep, as_json):
             summary = write_result(sol, root / spec.name, truth=b.truth,
                                    summary_extra={"bundle": str(root / "bundle")})
             rows.append(_demo_summary(spec.name, summary))
-        chain = _demo_alignment_chain(ctx, bundle, root, failed)
-    text = _demo_table(rows) + "\n(navigation from the first truth row, every navigate method)"
-    if chain:
-        text += ("\n\nIn-motion alignment with no initial attitude, then navigation "
-                 "(each stage starts where the previous one ended):\n" + _demo_table(chain))
-    _emit(ctx, {"scenario": DEMO_SCENARIO, "seed": seed, "methods": rows,
-                "alignment_chain": chain, "failed": failed}, text, as_json)
+    parts = []
+    if proc_rows:
+        parts.append(_demo_table(proc_rows) + "\n(inmotion process, no attitude given: each "
+                     "stage's errors at its end; the last row is the whole result)\n"
+                     + "\n".join(_stage_lines(proc)))
+    parts.append(_demo_table(rows) + "\n(for comparison: navigation from the first truth row, "
+                 "every navigate method)")
+    _emit(ctx, {"scenario": DEMO_SCENARIO, "seed": seed,
+                "process": {"rows": proc_rows, "stages": (proc or {}).get("stages"),
+                            "heading": (proc or {}).get("heading")},
+                "methods": rows, "failed": failed}, "\n\n".join(parts), as_json)
     return 1 if failed else 0
 
 
-#: the demo's main job: (stage label, method, start s, end s); the drive starts moving at 30 s
-DEMO_CHAIN = (("coarse", "mimada-dual", 40.0, 160.0),
-              ("fine", "dr-kf", 160.0, 400.0),
-              ("navigate", "sins-dr", 400.0, None))
-
-
-def _demo_alignment_chain(ctx, bundle, root, failed) -> list:
-    """Coarse alignment in motion (no attitude given: position and velocity from the truth row
-    at the window start), fine alignment from the coarse result, navigation from the fine one."""
-    from ..io.result import write_result
-    rows, state = [], None
-    if bundle.imu.t[-1] < DEMO_CHAIN[-1][2] + 10.0:
-        _note(ctx, "the drive is too short for the alignment chain; skipped")
-        return rows
-    for label, name, start, end in DEMO_CHAIN:
-        try:
-            spec = registry.get(name)
-        except KeyError:
-            _note(ctx, f"{name}: not registered; alignment chain stops")
-            break
-        try:
-            if state is None:
-                state, _ = _initial_state(ctx, bundle, "truth", start, spec.needs_attitude)
-            sol, b = run_method(ctx, bundle, spec, build_config(spec), state, (start, end))
-        except Exception as e:              # report and stop the chain, keep the rest
-            click.echo(f"inmotion: {name}: error in the alignment chain: {type(e).__name__}: {e}",
-                       err=True)
-            failed.append(name)
-            break
-        summary = write_result(sol, root / f"chain-{label}-{name}", truth=b.truth)
-        rows.append(_demo_summary(f"{label}: {name}", summary))
-        state = sol.final_state()
+def _demo_process_rows(summary: dict, folder) -> list:
+    """One table row per stage of a process result (errors at the stage's end), then the
+    whole result."""
+    import numpy as np
+    from ..io.result import find_table, read_table
+    err = read_table(find_table(folder, "errors"))
+    t = err["t"].to_numpy()
+    rows = []
+    for s in summary.get("stages") or []:
+        if s.get("end_s") is None or s["stage"] == "detect" or s["end_s"] <= s["start_s"]:
+            continue
+        # a coarse stage's product is the attitude at its start (multiplexing): shown there
+        t_at = s["start_s"] if "coarse" in s["stage"] else s["end_s"]
+        k = int(min(np.searchsorted(t, t_at - 1e-6), len(t) - 1))
+        e = err.iloc[k]
+        d = float(e["distance_m"])
+        rows.append({"method": f"{s['stage']}: {s['method'].split()[0]}",
+                     "duration_s": s["end_s"] - s["start_s"], "distance_m": d,
+                     "horizontal_m": float(e["horizontal_m"]),
+                     "horizontal_pct": 100 * float(e["horizontal_m"]) / d if d > 0 else None,
+                     "heading_arcmin": float(e["yaw_arcmin"]),
+                     "level_arcmin": math.hypot(float(e["phi_E_arcmin"]),
+                                                float(e["phi_N_arcmin"])),
+                     "run_s": None})
+    rows.append(_demo_summary("process", summary))
     return rows
 
 
@@ -1022,14 +1031,16 @@ def _demo_summary(name, summary) -> dict:
 
 
 def _demo_table(rows) -> str:
-    head = (f"{'method':21s} {'duration s':>10s} {'distance km':>11s} {'horiz. m':>10s} "
+    w = max([21] + [len(r["method"]) for r in rows])
+    head = (f"{'method':{w}s} {'duration s':>10s} {'distance km':>11s} {'horiz. m':>10s} "
             f"{'% dist':>8s} {'heading arcmin':>14s} {'level arcmin':>12s} {'run s':>7s}")
     lines = [head, "-" * len(head)]
     for r in rows:
         pct = f"{r['horizontal_pct']:8.3f}" if r["horizontal_pct"] is not None else f"{'-':>8s}"
-        lines.append(f"{r['method']:21s} {r['duration_s']:10.1f} {r['distance_m'] / 1000:11.3f} "
+        lines.append(f"{r['method']:{w}s} {r['duration_s']:10.1f} {r['distance_m'] / 1000:11.3f} "
                      f"{r['horizontal_m']:10.2f} {pct} {r['heading_arcmin']:14.3f} "
-                     f"{r['level_arcmin']:12.3f} {r['run_s']:7.2f}")
+                     f"{r['level_arcmin']:12.3f} "
+                     + (f"{r['run_s']:7.2f}" if r["run_s"] is not None else f"{'-':>7s}"))
     return "\n".join(lines)
 
 
