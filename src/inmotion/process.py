@@ -482,7 +482,10 @@ def _coarse_moving(bundle, cfg, init, t0, t1, speed):
     """In-motion coarse alignment over ``[t0, t1]``: the attitude at ``t0``."""
     from .align.coarse_inertial import CoarseInertialConfig, run_coarse_inertial
     from .align.multiplex import MuxConfig, coarse_fault_tolerant
-    if "odometer" in speed or "ldv" in speed:
+    if "odometer" in speed and "ldv" in speed:
+        # two speed channels and the IMU vote (paper 003 sec. 3.2.1); with one channel the
+        # vote has no second sensor, and a noisy channel would hand the speed to the drifting
+        # IMU bridge: the sensor itself is used then
         mux = MuxConfig(coarse_window_s=t1 - t0,
                         coarse=dict(cfg.methods.get("coarse-inertial") or {}))
         sol, C0 = coarse_fault_tolerant(bundle, mux, init, t0, t1)
@@ -490,13 +493,17 @@ def _coarse_moving(bundle, cfg, init, t0, t1, speed):
         return C0, {"attitude_start_deg": sol.info["attitude_start_deg"],
                     "speed_sensor": "fault-tolerant " + " / ".join(used + ["imu"])}, \
             "coarse-inertial (fault-tolerant speed, fine-mux)"
-    ccfg = _cfg(CoarseInertialConfig, {"mode": "moving", "velocity_sensor": "radar"}, cfg,
+    name = next(s for s in ("ldv", "radar", "odometer") if s in speed)
+    ccfg = _cfg(CoarseInertialConfig, {"mode": "moving", "velocity_sensor": name}, cfg,
                 "coarse-inertial", {})
-    win = Bundle(bundle.imu.window(t0, t1), bundle.meta, bundle.radar, None, None, None, None)
+    # the IMU cut to the window, the sensor whole (a real log's speed may stop just short of
+    # a window's ends)
+    win = Bundle(bundle.imu.window(t0, t1), bundle.meta,
+                 **{name: getattr(bundle, name)})
     sol = run_coarse_inertial(win, ccfg, init)
     a = sol.info["attitude_start_deg"]
     C0 = rotations.dcm_from_euler(np.radians([a["pitch"], a["roll"], a["yaw"]]))
-    return C0, {"attitude_start_deg": a, "speed_sensor": "radar"}, "coarse-inertial"
+    return C0, {"attitude_start_deg": a, "speed_sensor": name}, "coarse-inertial"
 
 
 def _navigate(bundle, cfg, state, tilt_sig, head_sig, spec, log, progress):
