@@ -124,6 +124,18 @@ class ProcessConfig(BaseModel):
     confirm_s: float = Field(
         0.5, ge=0, description="moving is declared after the test exceeds its threshold for "
                                "this long [s]")
+    still_accel_m_s2: float = Field(
+        0.15, gt=0,
+        description="no velocity sensor: the vehicle is still at the start while every 0.25 s "
+                    "mean specific force stays this close to the still mean [m/s^2]")
+    still_gyro_deg_s: float = Field(
+        0.25, gt=0, description="... and every 0.25 s mean rate this close [deg/s]")
+    min_still_s: float = Field(
+        1.0, gt=0, description="a still start shorter than this is ignored [s]")
+    residual_gyro_drift_deg_h: float = Field(
+        10.0, gt=0,
+        description="gyro drift prior after the still-start bias of an IMU that cannot "
+                    "gyrocompass is removed (its in-run change) [deg/h]")
     gate_probability: float = Field(
         0.9999, gt=0.5, le=1.0,
         description="chi-square gate of sins-dr's measurements (fault detection; 1: off)")
@@ -269,6 +281,40 @@ def _initial_speed(bundle, t0):
 
 # --------------------------------------------------------------------------- the plan
 
+def still_start(bundle: Bundle, t0: float, accel_m_s2: float = 0.15, gyro_deg_s: float = 0.25,
+                block_s: float = 0.25) -> Optional[float]:
+    """End [s] of the still period at the start of a drive with no velocity sensor, or None.
+
+    The IMU alone: the 0.25 s block means of the specific force and the rate are compared
+    with the mean of the blocks before them; the vehicle is still while every block stays
+    within ``accel_m_s2`` and ``gyro_deg_s`` of it (driving off shows at once in the forward
+    specific force, a turn in the rate; block means average the engine's vibration away).
+    """
+    imu = bundle.imu
+    k0 = int(np.searchsorted(imu.t, t0 + 1e-9))
+    t = imu.t[k0:]
+    if len(t) < 4:
+        return None
+    dt = np.diff(imu.t[k0 - 1:] if k0 > 0 else np.r_[t[0] - imu.dt, t])
+    n = max(1, int(round(block_s / float(np.median(dt)))))
+    nb = len(t) // n
+    if nb < 3:
+        return None
+    T = dt[:nb * n].reshape(nb, n).sum(1)
+    f = imu.dvel[k0:k0 + nb * n].reshape(nb, n, 3).sum(1) / T[:, None]
+    w = imu.dtheta[k0:k0 + nb * n].reshape(nb, n, 3).sum(1) / T[:, None]
+    end = None
+    for j in range(1, nb):
+        fm, wm = f[:j].mean(0), w[:j].mean(0)
+        if (np.abs(f[j] - fm).max() > accel_m_s2
+                or np.degrees(np.abs(w[j] - wm).max()) > gyro_deg_s):
+            end = j
+            break
+    if end is None:
+        return float(t[nb * n - 1])
+    return float(t[end * n - 1]) if end > 1 else None
+
+
 def plan(bundle: Bundle, cfg: ProcessConfig, t0: float) -> dict:
     """Parked / moving detection: ``{"t_move", "parked_s", "detector", "why", ...}``."""
     from .align.strategy import detect_motion
@@ -288,11 +334,22 @@ def plan(bundle: Bundle, cfg: ProcessConfig, t0: float) -> dict:
     else:
         motion = bundle.meta.get("motion") if isinstance(bundle.meta, dict) else None
         parked = isinstance(motion, dict) and bool(motion.get("parked"))
-        t_sw = None if parked else t0
-        why = ("no velocity sensor; meta.yaml says motion: parked" if parked else
-               "no velocity sensor and meta.yaml does not say parked: taken as moving from "
-               "the start (no zero-velocity stage)")
-        det = {"detector": "meta.yaml motion" if parked else "none"}
+        t_still = None if parked else still_start(bundle, t0, cfg.still_accel_m_s2,
+                                                   cfg.still_gyro_deg_s)
+        if parked:
+            t_sw, why, det = None, "no velocity sensor; meta.yaml says motion: parked", \
+                {"detector": "meta.yaml motion"}
+        elif t_still is not None and t_still - t0 >= cfg.min_still_s:
+            t_sw = t_still if t_still < float(bundle.imu.t[-1]) - 1.0 else None
+            why = ("no velocity sensor: IMU stillness test (0.25 s means of specific force "
+                   f"within {cfg.still_accel_m_s2:g} m/s^2, rate within "
+                   f"{cfg.still_gyro_deg_s:g} deg/s): still until {t_still:.2f} s")
+            det = {"detector": "imu stillness"}
+        else:
+            t_sw = t0
+            why = ("no velocity sensor, meta.yaml does not say parked and the IMU shows no "
+                   "still start: taken as moving from the start (no zero-velocity stage)")
+            det = {"detector": "none"}
     parked_s = (t_sw if t_sw is not None else t_end) - t0
     return {"t_move": t_sw, "parked_s": float(parked_s), "why": why, **det}
 
@@ -362,7 +419,7 @@ def run_process(bundle: Bundle, config: ProcessConfig | dict | None = None,
     else:
         head["source"] = "found by the IMU (gyrocompassing)"
     moving_no_sensor = not speed and t_move is not None and parked_s < cfg.parked_coarse_s
-    if moving_no_sensor and (init is None or not ii.has_attitude):
+    if moving_no_sensor and (init is None or not ii.has_attitude) and parked_s <= 0:
         raise BadInput("the bundle has no velocity sensor and the vehicle moves from the "
                        "start: the level attitude cannot be found in motion; give it with "
                        "--init truth|meta|RESULT")
@@ -438,6 +495,20 @@ def run_process(bundle: Bundle, config: ProcessConfig | dict | None = None,
             handover = NavState(t0, lat, lon, h, C0 @ np.array([0.0, v0, 0.0]),
                                 rotations.quat_from_dcm(C0))
             tilt_sig, h_sig = 1.0, (head_sig if from_init else 3.0)
+        elif parked_s > 0:
+            # a short still start, no velocity sensor: level from the accelerometers, heading
+            # from init, and (an IMU that cannot gyrocompass) the gyro bias measured as the
+            # still mean rate minus the Earth rate
+            bundle, handover, tilt_sig, h_sig, spec, rm = _still_stage(
+                bundle, cfg, init, ii, t0, t_move, (lat, lon, h), yaw0 if from_init else None,
+                head_sig, spec, from_init)
+            log("still start", "imu", t0, t_move,
+                f"still {parked_s:.2f} s < {cfg.parked_coarse_s:g} s, no velocity sensor: "
+                "level from the still specific force, heading from init"
+                + ("; gyro bias removed (still mean rate minus the Earth rate), drift prior "
+                   f"{spec['gyro_drift_deg_h']:g} deg/h" if rm is not None else ""),
+                attitude_start_deg=_attitude_deg(handover),
+                **({"gyro_bias_deg_h": rm} if rm is not None else {}))
         else:
             e = init.euler
             C0 = rotations.dcm_from_euler(np.array([e[0], e[1], yaw0 if from_init else e[2]]))
@@ -476,6 +547,42 @@ def run_process(bundle: Bundle, config: ProcessConfig | dict | None = None,
                                     f"({ii.source}) with 1-sigma {head_sig:.3g} deg; its "
                                     "sigma grows with the gyro drift")
     return sol
+
+
+def _still_stage(bundle, cfg, init, ii, t0, t1, pos, yaw0, head_sig, spec, from_init):
+    """The short still start of a drive with no velocity sensor (see :func:`run_process`):
+    ``(bundle (gyro bias removed if so), state at t1, tilt sigma, heading sigma, spec,
+    bias deg/h or None)``."""
+    from .core.bundle import ImuData
+    lat, lon, h = pos
+    imu = bundle.imu
+    m = (imu.t > t0) & (imu.t <= t1)
+    dt = np.diff(imu.t, prepend=imu.t[0] - imu.dt)
+    f = imu.dvel[m].sum(0) / dt[m].sum()
+    pitch = math.atan2(f[1], math.hypot(f[0], f[2]))
+    roll = math.atan2(-f[0], f[2])
+    if yaw0 is None:
+        if init is None or not ii.has_attitude:
+            raise BadInput("the bundle has no velocity sensor and the still start is too short "
+                           "to find the heading; give it with --init truth|meta|RESULT")
+        yaw0 = float(init.euler[2])
+    C = rotations.dcm_from_euler(np.array([pitch, roll, yaw0]))
+    state = NavState(t1, lat, lon, h, np.zeros(3), rotations.quat_from_dcm(C))
+    still_s = float(dt[m].sum())
+    # level from a still accelerometer triad: its bias over g, ~ 0.1 deg for a MEMS
+    tilt_sig = max(math.degrees(float(spec.get("accel_bias_ug", 1000.0)) * 1e-6), 0.05)
+    bias = None
+    if from_init:
+        w = imu.dtheta[m].sum(0) / still_s
+        w_e = C.T @ (earth.OMEGA_IE * np.array([0.0, math.cos(lat), math.sin(lat)]))
+        b = w - w_e
+        dth = imu.dtheta - np.outer(dt, b)
+        bundle = Bundle(ImuData(imu.t, dth, imu.dvel), bundle.meta, bundle.radar, bundle.ldv,
+                        bundle.odometer, bundle.baro, bundle.truth)
+        spec = {**spec, "gyro_drift_deg_h": min(float(spec.get("gyro_drift_deg_h", 1e9)),
+                                                cfg.residual_gyro_drift_deg_h)}
+        bias = (np.degrees(b) * 3600.0).tolist()
+    return bundle, state, tilt_sig, head_sig, spec, bias
 
 
 def _coarse_moving(bundle, cfg, init, t0, t1, speed):
