@@ -4,6 +4,7 @@
 
     inmotion simulate SCENARIO.yaml|NAME -o BUNDLE [--seed N] [--format csv|parquet]
     inmotion info BUNDLE
+    inmotion process  BUNDLE -o RESULT [--config FILE] [--init truth|meta|RESULT]
     inmotion align    BUNDLE --method NAME [--config FILE] -o RESULT [options]
     inmotion navigate BUNDLE --method NAME [--config FILE] -o RESULT [options]
     inmotion evaluate RESULT --truth BUNDLE [--json]
