@@ -409,8 +409,11 @@ def run_process(bundle: Bundle, config: ProcessConfig | dict | None = None,
     yaw0, head_sig = None, None
     if from_init:
         if init is None or not ii.has_attitude:
-            raise BadInput(f"the heading cannot be found from this bundle ({head['why']}); "
-                           "give it with --init truth|meta|RESULT")
+            given = ("" if init is None else
+                     f"; the init given ({ii.source}) has no attitude (meta.yaml: "
+                     "initial_attitude {pitch_deg, roll_deg, yaw_deg})")
+            raise BadInput(f"the heading cannot be found from this bundle ({head['why']})"
+                           f"{given}; give it with --init truth|meta|RESULT")
         yaw0 = float(init.euler[2])
         head_sig = cfg.init_heading_sigma_deg or ii.heading_sigma_deg or 2.0
         head["source"] = f"init ({ii.source})"
