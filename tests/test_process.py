@@ -214,7 +214,7 @@ def test_cli_process_writes_one_result_with_its_log(od_only, tmp_path):
     assert r.exit_code == 0, r.output
     s = json.loads(r.stdout)
     assert s["method"] == "process" and s["stages"][0]["stage"] == "detect"
-    assert (tmp_path / "r" / "report.html").is_file()
+    assert "<h3>Stages</h3>" in (tmp_path / "r" / "report.html").read_text()
     assert (tmp_path / "r" / "errors.csv").is_file()
     disk = json.loads((tmp_path / "r" / "summary.json").read_text())
     assert disk["info"]["heading"]["can"] and disk["info"]["sensors_used"] == ["odometer"]
