@@ -23,7 +23,10 @@ drive with the aiding the bundle has (``inmotion process``, issue 14).
    at 45 deg latitude; every navigation-grade IMU passes, every MEMS fails). Unknown (no spec,
    no parked period): it cannot. When it cannot, the heading comes from ``init`` (truth,
    meta, a result) with the sigma of that source (``heading_source`` in ``info``); without
-   ``init`` the run stops with ``BadInput`` saying so.
+   ``init`` the run stops with ``BadInput`` saying so. A gyrocompass-grade IMU also needs
+   time: a coarse window shorter than ``min_gyrocompass_s`` (60 s; the Earth turns 0.25 deg
+   in a minute) is treated the same way, and a log parked throughout must be parked for
+   ``parked_coarse_s``.
 4. **Alignment.**
    parked for ``parked_coarse_s`` or longer: parked coarse alignment (``coarse-inertial``,
    mode parked) over the first ``parked_coarse_s``, then the zero-velocity fine alignment
@@ -86,6 +89,10 @@ class ProcessConfig(BaseModel):
         120.0, gt=0, description="window of the in-motion coarse alignment [s]")
     min_window_s: float = Field(
         10.0, gt=0, description="shortest coarse window accepted [s]")
+    min_gyrocompass_s: float = Field(
+        60.0, gt=0,
+        description="shortest coarse window from which the heading is taken as found by "
+                    "gyrocompassing (shorter: the heading comes from init) [s]")
     mems_coarse_window_s: float = Field(
         15.0, gt=0,
         description="window of the in-motion coarse alignment of an IMU that cannot "
@@ -401,7 +408,22 @@ def run_process(bundle: Bundle, config: ProcessConfig | dict | None = None,
     head = heading_observability(bundle, lat, t0, t_move if t_move is not None else t_end,
                                  cfg.max_gyrocompass_heading_sigma_deg, cfg.min_parked_check_s)
     from_init = not head["can"]
-    if from_init:           # not a gyrocompassing IMU: MEMS-class priors where meta is silent
+    if t_move is None and parked_s < cfg.parked_coarse_s:
+        raise BadInput(f"the vehicle is parked through the whole log ({parked_s:.1f} s); the "
+                       f"parked alignment needs {cfg.parked_coarse_s:g} s (parked_coarse_s)")
+    span = (parked_s if parked_s >= cfg.parked_coarse_s else
+            (min(t_end, t0 + cfg.coarse_window_s) - t0 if speed else 0.0))
+    if head["can"] and span < cfg.min_gyrocompass_s:
+        # the Earth turns too little during the window for the coarse stage to see it
+        head["can"] = False
+        head["why"] += (f"; but the coarse window holds only {span:.1f} s < "
+                        f"{cfg.min_gyrocompass_s:g} s (min_gyrocompass_s): too short to "
+                        "gyrocompass")
+        from_init = True
+    if from_init and not head["can"] and head.get("drift_deg_h") is not None \
+            and head["drift_deg_h"] / OMEGA_DEG_H < 0.1:
+        pass                # a navigation-grade IMU on a short drive: its own priors stay
+    elif from_init:         # not a gyrocompassing IMU: MEMS-class priors where meta is silent
         spec = {**{k: v for k, v in MEMS_CLASS.items() if k not in spec}, **spec}
         spec_origin = (spec_origin + " + " if spec_origin else "") + "MEMS class defaults"
     if "vehicle_mounting_arcmin" not in (bundle.meta or {}):
