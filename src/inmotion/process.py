@@ -638,6 +638,33 @@ def _coarse_moving(bundle, cfg, init, t0, t1, speed):
     return C0, {"attitude_start_deg": a, "speed_sensor": name}, "coarse-inertial"
 
 
+def _sensor_spec(bundle, cls) -> dict:
+    """Settings of the paper 003 filters from ``meta.yaml``'s sensor specs
+    (``sensors.<name>.noise_m_s``, ``scale_factor_sigma_ppm``): the forward row noise is at
+    least the sensor's white noise (a 0.3 m/s LDV against the default 0.02 m/s row would fail
+    every chi-square test and be isolated for good), the scale-factor prior its stated
+    sigma."""
+    sensors = (bundle.meta or {}).get("sensors") if isinstance(bundle.meta, dict) else None
+    out = {}
+    if not isinstance(sensors, dict):
+        return out
+    fields = cls.model_fields
+    for name, short in (("odometer", "od"), ("ldv", "ldv")):
+        sp = sensors.get(name)
+        if not isinstance(sp, dict) or getattr(bundle, name) is None:
+            continue
+        noise = sp.get("noise_m_s")
+        key = f"{short}_noise_m_s"
+        if isinstance(noise, (int, float)) and noise > 0 and key in fields:
+            base = list(fields[key].default)
+            out[key] = [max(base[0], noise), max(base[1], float(noise)), max(base[2], noise)]
+        sig = sp.get("scale_factor_sigma_ppm")
+        key = f"{short}_scale_sigma_ppm"
+        if isinstance(sig, (int, float)) and sig > 0 and key in fields:
+            out[key] = max(float(sig), 100.0)
+    return out
+
+
 def _navigate(bundle, cfg, state, tilt_sig, head_sig, spec, log, progress):
     """Fine alignment and navigation from ``state`` to the end (module docstring, rule 5)."""
     speed = _speed_sensors(bundle)
@@ -691,7 +718,7 @@ def _navigate(bundle, cfg, state, tilt_sig, head_sig, spec, log, progress):
            "nhc-kf": ak.run_nhc_kf}[name]
     cls = {"fkf": ak.FkfConfig, "od-kf": ak.AidedKfConfig, "ldv-kf": ak.AidedKfConfig,
            "nhc-kf": ak.NhcKfConfig}[name]
-    fcfg = _cfg(cls, prior, cfg, name, spec)
+    fcfg = _cfg(cls, {**prior, **_sensor_spec(bundle, cls)}, cfg, name, spec)
     sol = run(bundle, fcfg, state, progress=progress)
     why = {"fkf": "odometer and LDV: federated filter with chi-square FDI and Table 1 "
                   "reconfiguration (paper 003)",
