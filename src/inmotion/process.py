@@ -662,6 +662,13 @@ def _sensor_spec(bundle, cls) -> dict:
         key = f"{short}_scale_sigma_ppm"
         if isinstance(sig, (int, float)) and sig > 0 and key in fields:
             out[key] = max(float(sig), 100.0)
+    sp = sensors.get("radar")
+    if isinstance(sp, dict) and bundle.radar is not None:
+        noise = sp.get("noise_m_s")
+        if isinstance(noise, (int, float)) and noise > 0:
+            for key in ("velocity_noise_m_s", "speed_noise_m_s"):
+                if key in fields:
+                    out[key] = max(float(fields[key].default), float(noise))
     return out
 
 
@@ -675,7 +682,8 @@ def _navigate(bundle, cfg, state, tilt_sig, head_sig, spec, log, progress):
     if "radar" in speed:
         from .align.dr_kalman import DrKfConfig, run_dr_kf
         from .navigate.sins_dr import SinsDrConfig, run_sins_dr
-        dcfg = _cfg(DrKfConfig, {**prior, "velocity_sensor": "radar"}, cfg, "dr-kf", spec)
+        dcfg = _cfg(DrKfConfig, {**prior, "velocity_sensor": "radar",
+                                 **_sensor_spec(bundle, DrKfConfig)}, cfg, "dr-kf", spec)
         fine = run_dr_kf(bundle, dcfg, state,
                          progress=None if progress is None else lambda f: progress(0.5 * f))
         sig_u = np.degrees(fine.sigma["phi_U"]) * 60.0
@@ -700,7 +708,8 @@ def _navigate(bundle, cfg, state, tilt_sig, head_sig, spec, log, progress):
                         float(np.degrees(fine.sigma["phi_E"][k])),
                         float(np.degrees(fine.sigma["phi_N"][k])), 1e-3),
                     "init_heading_sigma_arcmin": 1.5 * max(float(sig_u[k]), 0.01),
-                    "velocity_sensor": "radar", "gate_probability": cfg.gate_probability}
+                    "velocity_sensor": "radar", "gate_probability": cfg.gate_probability,
+                    **_sensor_spec(bundle, SinsDrConfig)}
             ncfg = _cfg(SinsDrConfig, base, cfg, "sins-dr", spec)
             nav = run_sins_dr(bundle, ncfg, st,
                               progress=None if progress is None else
