@@ -6,15 +6,20 @@ STAMP  := $(VENV)/.installed-stamp
 export OPENBLAS_NUM_THREADS ?= 1
 export MKL_NUM_THREADS ?= 1
 
-.PHONY: install test lint docs demo bench clean
+.PHONY: install warmup test lint docs demo bench clean
 
 $(STAMP): pyproject.toml
 	test -x $(PY) || $(PYTHON) -m venv $(VENV)
 	$(PY) -m pip install -q --upgrade pip
 	$(PY) -m pip install -q -e '.[test]'
+	$(PY) -m inmotion.warmup || echo "inmotion: warm-up failed; numba compiles at first use instead"
 	touch $(STAMP)
 
 install: $(STAMP)
+
+# compile the numba kernels the demo uses (part of install; again after editing a kernel)
+warmup: $(STAMP)
+	$(PY) -m inmotion.warmup
 
 lint: $(STAMP)
 	$(PY) -m ruff check src tests benchmarks tools docs

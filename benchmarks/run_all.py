@@ -144,6 +144,8 @@ BENCHES = {
                rf"engine equal workload: {_NUM} s CPU per hour", "s/h", 0.25),
         Figure("sins-dr, filter 100 Hz, in-process", rf"sins-dr 100 Hz in-process: {_NUM} s CPU",
                "s/h"),
+        Figure("sins-dr, filter 100 Hz, smoothed, in-process",
+               rf"sins-dr 100 Hz smoothed .*: {_NUM} s CPU", "s/h", 3.0),
         Figure("CLI sins-dr 100 Hz, Parquet in, 1 Hz out", rf"CLI sins-dr 100 Hz.*: {_NUM} s wall",
                "s", 1.0),
         Figure("CLI fixed cost (inmotion --help)", rf"CLI fixed cost.*: {_NUM} s wall", "s", 0.4),

@@ -142,3 +142,34 @@ def test_truth_yaw_interpolated_across_north():
     err = error_series(sol, tr)
     assert abs(err["yaw_arcmin"].iloc[0]) < 1e-9
     assert abs(err["phi_U_arcmin"].iloc[0]) < 1e-9
+
+
+def test_consistency_block_is_chi_square_for_errors_drawn_with_the_sigma():
+    """Errors drawn from N(0, sigma^2) per axis give a mean NEES near 3 inside its band; a
+    sigma ten times too small (an overconfident filter) puts it far above."""
+    import pandas as pd
+
+    from inmotion.core.solution import Solution
+    from inmotion.evaluate.metrics import ARCMIN_PER_RAD, consistency_block
+
+    rng = np.random.default_rng(4)
+    n = 2001
+    t = np.arange(n) * 0.1
+    sig = {"phi_E": np.full(n, 1e-4), "phi_N": np.full(n, 2e-4), "phi_U": np.full(n, 1e-3),
+           "vE": np.full(n, 0.01), "vN": np.full(n, 0.02), "vU": np.full(n, 0.05)}
+    sol = Solution(t, np.zeros(n), np.zeros(n), np.zeros(n), np.zeros((n, 3)),
+                   np.zeros((n, 3)), sigma=sig)
+    e = {"t": t}
+    for c, k, scale in (("phi_E_arcmin", "phi_E", ARCMIN_PER_RAD),
+                        ("phi_N_arcmin", "phi_N", ARCMIN_PER_RAD),
+                        ("phi_U_arcmin", "phi_U", ARCMIN_PER_RAD),
+                        ("vE_m_s", "vE", 1.0), ("vN_m_s", "vN", 1.0), ("vU_m_s", "vU", 1.0)):
+        e[c] = rng.standard_normal(n) * sig[k] * scale
+    block = consistency_block(sol, pd.DataFrame(e))
+    assert set(block) == {"attitude", "velocity"}          # no position sigma given
+    for g in block.values():
+        assert g["rows"] == n - 1 and g["in_band"] and abs(g["mean"] - 3.0) < 0.3
+        assert 0.0 <= g["fraction_rows_above_99"] < 0.02
+    sol.sigma = {k: v / 10 for k, v in sig.items()}
+    bad = consistency_block(sol, pd.DataFrame(e))
+    assert not bad["attitude"]["in_band"] and bad["attitude"]["mean"] > 200

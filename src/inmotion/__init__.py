@@ -29,6 +29,68 @@ Randomness
     Every random draw goes through a ``numpy.random.Generator`` passed in.
 Error states
     Indexed by name through a layout object, never by bare numbers.
+
+The Python API
+--------------
+``import inmotion`` is cheap (no numba, scipy or pandas); each name below is imported on first
+use (module ``__getattr__``)::
+
+    b = inmotion.simulate("demo", seed)                 # or inmotion.read_bundle(folder)
+    sol = inmotion.run("sins-dr", b, {"filter_rate_hz": 10})
+    inmotion.evaluate(sol, b)                            # the errors block vs truth
+
+Bundles: ``read_bundle``, ``write_bundle``, ``Bundle``; results: ``read_result``,
+``write_result``, ``Solution``, ``NavState``; simulation: ``simulate``, ``load_scenario``,
+``scenarios``; methods: ``methods``, ``method_config``, ``run``, ``initial_state``;
+evaluation: ``evaluate``, ``error_series``; the streaming filter: ``ErrorStateFilter``,
+``Layout``, ``ErrorModel``, ``ProcessNoise`` and the ``measurements`` module; errors:
+``BadInput``. Extending (a new measurement, a new method): ``docs/extending.md``.
 """
 
 __version__ = "0.1.0"
+
+#: public name -> "module" (the module itself) or "module:attribute", imported on first use
+_LAZY = {
+    "read_bundle": "inmotion.io.bundle:read_bundle",
+    "write_bundle": "inmotion.io.bundle:write_bundle",
+    "read_result": "inmotion.io.result:read_result",
+    "write_result": "inmotion.io.result:write_result",
+    "simulate": "inmotion.api:simulate",
+    "load_scenario": "inmotion.api:load_scenario",
+    "scenarios": "inmotion.api:scenarios",
+    "methods": "inmotion.api:methods",
+    "method_config": "inmotion.api:method_config",
+    "run": "inmotion.api:run",
+    "initial_state": "inmotion.api:initial_state",
+    "evaluate": "inmotion.evaluate",        # the package, callable as api.evaluate
+    "error_series": "inmotion.api:error_series",
+    "ErrorStateFilter": "inmotion.estimation.engine:ErrorStateFilter",
+    "Layout": "inmotion.estimation.layout:Layout",
+    "ErrorModel": "inmotion.estimation.error_model:ErrorModel",
+    "ProcessNoise": "inmotion.estimation.error_model:ProcessNoise",
+    "measurements": "inmotion.estimation.measurements",
+    "Bundle": "inmotion.core.bundle:Bundle",
+    "NavState": "inmotion.core.solution:NavState",
+    "Solution": "inmotion.core.solution:Solution",
+    "BadInput": "inmotion.errors:BadInput",
+}
+
+__all__ = sorted(_LAZY) + ["__version__"]
+
+
+def __getattr__(name):
+    try:
+        target = _LAZY[name]
+    except KeyError:
+        raise AttributeError(f"module 'inmotion' has no attribute {name!r}") from None
+    import importlib
+    mod, _, attr = target.partition(":")
+    value = importlib.import_module(mod)
+    if attr:
+        value = getattr(value, attr)
+    globals()[name] = value            # later look-ups skip __getattr__
+    return value
+
+
+def __dir__():
+    return sorted(set(globals()) | set(_LAZY))

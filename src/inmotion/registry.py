@@ -9,7 +9,8 @@ use only its position and velocity, or nothing). An optional keyword ``progress`
 callable ``progress(fraction)`` for long work. Methods never read files and never print.
 
 Each method module adds itself to ``_SPECS`` below, one line per method; entries are imported
-lazily, so listing methods imports nothing heavy.
+lazily, so listing methods imports nothing heavy. A method outside the package (a user's own
+module, ``docs/extending.md``) is added at run time with :func:`register`.
 """
 from __future__ import annotations
 
@@ -18,8 +19,8 @@ import importlib
 from dataclasses import dataclass
 from typing import Any, Callable
 
-__all__ = ["MethodSpec", "methods", "get", "SPEED_SENSORS", "REQUIRES", "present_sensors",
-           "missing_sensors", "runnable", "check_sensors", "sensors_used"]
+__all__ = ["MethodSpec", "methods", "get", "register", "SPEED_SENSORS", "REQUIRES",
+           "present_sensors", "missing_sensors", "runnable", "check_sensors", "sensors_used"]
 
 
 @dataclass(frozen=True)
@@ -100,6 +101,20 @@ def get(name: str) -> MethodSpec:
         if s.name == name:
             return s
     raise KeyError(f"unknown method {name!r}; known: {', '.join(s.name for s in _SPECS)}")
+
+
+def register(spec: MethodSpec) -> MethodSpec:
+    """Add a method defined outside the package (its ``entry`` and ``config`` point at any
+    importable module, e.g. ``f"{__name__}:run_mine"``); ``inmotion.run`` then finds it by
+    name. Raises ``ValueError`` if the name is taken or not lower-case hyphenated."""
+    if not spec.name or spec.name != spec.name.lower() or " " in spec.name:
+        raise ValueError(f"a method name is lower-case and hyphenated, got {spec.name!r}")
+    if any(s.name == spec.name for s in _SPECS):
+        raise ValueError(f"a method named {spec.name!r} is already registered")
+    if spec.kind not in ("align", "navigate"):
+        raise ValueError(f"kind must be 'align' or 'navigate', got {spec.kind!r}")
+    _SPECS.append(spec)
+    return spec
 
 
 # --------------------------------------------------------------------------- sensors
@@ -190,5 +205,3 @@ def sensors_used(info: dict) -> list[str]:
         if isinstance(v, (list, tuple)) and all(isinstance(x, str) for x in v) and v:
             return list(v)
     return []
-
-

@@ -70,7 +70,7 @@ from typing import Callable, Literal, Optional
 
 import numpy as np
 from pydantic import BaseModel, ConfigDict, Field, ValidationError
-from scipy.stats import chi2
+from ..estimation import chi2
 
 from ..core import earth
 from ..core.bundle import Bundle
@@ -143,6 +143,10 @@ class OdVelocityKfConfig(BaseModel):
     keep_covariance: bool = Field(
         False,
         description="keep the attitude covariance series in the result's info (memory)")
+    smooth: bool = Field(
+        False,
+        description="forward-backward: Rauch-Tung-Striebel smoothing over the whole run "
+                    "(estimation.smoother); sigma_forward_* keeps the forward filter's sigma")
     # priors
     init_tilt_sigma_deg: float = Field(
         1.0, gt=0, description="initial 1-sigma of the level (pitch, roll) error [deg]")
@@ -322,7 +326,7 @@ def _engine_filter(bundle: Bundle, cfg, init: NavState, with_dr: bool):
                         use=use, noise=noise, gates=_gates(cfg.gate_probability),
                         step_rows=step, meas_every=meas_every, out_every=1,
                         nhc_mount=cfg.nhc_mount_terms, closed_loop=cfg.closed_loop,
-                        feedback_every=feedback_every)
+                        feedback_every=feedback_every, smooth=cfg.smooth)
     return filt, rows, (sensor_name, speed)
 
 
@@ -344,8 +348,15 @@ def _engine_solution(filt: VelocityAidedRun, out: dict, cfg, method: str, sensor
             "measurement_every_filter_steps": filt.meas_every,
             "measurements_used": used, "measurements_rejected": rejected,
             "nis_mean_per_dof": nis / max(dof, 1), "wall_time_s": wall}
-    return _pack(filt.layout, filt.init, cfg, info, out["t"], xs[:, 0:3], xs[:, 3:6],
-                 xs[:, 6:10], out["sigma"], out["states"], out["cov_phi"])
+    info["smoothed"] = bool(cfg.smooth)
+    sol = _pack(filt.layout, filt.init, cfg, info, out["t"], xs[:, 0:3], xs[:, 3:6],
+                xs[:, 6:10], out["sigma"], out["states"], out["cov_phi"])
+    if "sigma_forward" in out:          # the forward filter's sigma beside the smoothed one
+        fwd = filt.layout.as_dict(out["sigma_forward"])
+        for name in ("phi_E", "phi_N", "phi_U"):
+            sol.states[f"sigma_forward_{name}"] = fwd[name]
+            sol.state_units[f"sigma_forward_{name}"] = sol.state_units[name]
+    return sol
 
 
 def _config(config, cls):

@@ -19,7 +19,6 @@ import math
 from pathlib import Path
 
 import click
-import yaml
 
 from ..errors import BadInput
 
@@ -32,6 +31,7 @@ def _root_flag(ctx, name: str) -> bool:
 
 def _parse_sets(items) -> dict:
     """``("gain=2", "mode=[1,2]") -> {"gain": 2, "mode": [1, 2]}`` (values read as YAML)."""
+    import yaml
     out = {}
     for item in items:
         key, sep, value = item.partition("=")

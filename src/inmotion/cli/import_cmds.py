@@ -18,7 +18,6 @@ import json
 from pathlib import Path
 
 import click
-import numpy as np
 
 from ..errors import BadInput
 
@@ -60,6 +59,7 @@ def _group_flag(name) -> bool:
 
 
 def _summary(bundle, out) -> dict:
+    import numpy as np
     sensors = [s for s in ("odometer", "radar", "ldv", "baro") if getattr(bundle, s) is not None]
     t = bundle.imu.t
     return {"bundle": str(out), "name": bundle.name, "imu_rows": int(len(t)),

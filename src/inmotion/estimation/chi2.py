@@ -13,13 +13,65 @@ chi-square with 2 degrees of freedom; above ``T_lambda`` the vehicle moves.
 
 The paper prints the decision rule of eq. 42 with the two outcomes swapped ("lambda <= T:
 faulted"); its text (and eq. 45) say the opposite, which is what is implemented.
+
+Quantiles (:func:`ppf`, :func:`isf`, :func:`threshold`) call the ``scipy.special`` functions
+``scipy.stats.chi2`` itself calls (``2 gammaincinv(dof/2, p)``, ``chdtri(dof, q)``), imported
+on first use: ``scipy.stats`` costs about
+half a second of imports, ``scipy.special`` a fraction of it, and only a run that needs a
+quantile pays even that. ``chi2.ppf(p, dof)`` here is a drop-in for
+``scipy.stats.chi2.ppf(p, dof)`` (the same values, bit for bit).
 """
 from __future__ import annotations
 
 import numpy as np
-from scipy.stats import chi2 as _chi2
 
-__all__ = ["threshold", "statistic", "exceeds"]
+__all__ = ["ppf", "isf", "threshold", "statistic", "exceeds"]
+
+
+def _chdtri(dof, upper):
+    from scipy.special import chdtri
+    return chdtri(dof, upper)
+
+
+def _lower(dof, p):
+    from scipy.special import gammaincinv
+    return 2.0 * gammaincinv(dof / 2.0, p)
+
+
+def _scalar_or_array(x):
+    x = np.asarray(x, dtype=float)
+    return float(x) if x.ndim == 0 else x
+
+
+def ppf(p, dof):
+    """The ``p`` quantile of ``chi2(dof)``: ``x`` with ``P(X <= x) = p``.
+
+    Parameters
+    ----------
+    p : float or array, probability in [0, 1] (0 gives 0, 1 gives inf, outside: NaN)
+    dof : int or array, degrees of freedom (> 0)
+
+    Returns
+    -------
+    float, or an array of the broadcast shape: the value of ``scipy.stats.chi2.ppf(p, dof)``.
+    """
+    p = np.asarray(p, dtype=float)
+    dof = np.asarray(dof, dtype=float)
+    x = np.asarray(_lower(dof, p), dtype=float)
+    x = np.where(p == 0.0, 0.0, np.where(p == 1.0, np.inf, x))
+    x = np.where((p < 0.0) | (p > 1.0) | ~(dof > 0.0) | np.isnan(p), np.nan, x)
+    return _scalar_or_array(x)
+
+
+def isf(q, dof):
+    """The upper ``q`` quantile of ``chi2(dof)``: ``x`` with ``P(X > x) = q``; the value of
+    ``scipy.stats.chi2.isf(q, dof)`` (``q`` in [0, 1]: 0 gives inf, 1 gives 0)."""
+    q = np.asarray(q, dtype=float)
+    dof = np.asarray(dof, dtype=float)
+    x = np.asarray(_chdtri(dof, q), dtype=float)
+    x = np.where(q == 0.0, np.inf, np.where(q == 1.0, 0.0, x))
+    x = np.where((q < 0.0) | (q > 1.0) | ~(dof > 0.0) | np.isnan(q), np.nan, x)
+    return _scalar_or_array(x)
 
 
 def threshold(false_alarm_rate: float, dof: int) -> float:
@@ -34,7 +86,7 @@ def threshold(false_alarm_rate: float, dof: int) -> float:
         raise ValueError(f"false_alarm_rate must be in (0, 1), got {false_alarm_rate}")
     if dof < 1:
         raise ValueError(f"dof must be >= 1, got {dof}")
-    return float(_chi2.isf(false_alarm_rate, dof))
+    return float(isf(false_alarm_rate, dof))
 
 
 def statistic(r, C) -> np.ndarray:

@@ -80,7 +80,8 @@ from . import error_model as em
 from .federated import fuse_kernel
 from .kalman import sequential_joseph
 from .layout import DP, DP_D, DV, EPS, NABLA, PHI, PHI_D, Layout
-from .measurements import ACC_SIZE, AUX_SIZE, Measurement, accumulator_function, fill_function
+from .measurements import (ACC_SIZE, AUX_FB, AUX_SIZE, AUX_T, AUX_WIB, AUX_WNB, Measurement,
+                           accumulator_function, fill_function)
 from .nav_ops import compensated_row, correct_nav, dcm_of_q
 from .predict import make_workspace, predict_sparse
 
@@ -106,14 +107,15 @@ _I_EPOCHS, _I_UPDATES, _I_MODE, _I_EV, _I_NIS = 0, 1, 2, 3, 4
 #: the filter's mutable state, arrays only (updated in place by the numba loop)
 _State = namedtuple("_State", "xs ms xd md X P fed_back bias_g bias_a acc ints used rejected "
                               "nis_sum dof_sum t_end healthy normal_run tests exceed macc "
-                              "ev nis_log")
+                              "ev nis_log phc ppred")
 #: the filter's constants
 _Const = namedtuple("_Const", "offs offs9 Qc q_dr_m2_s inv_tau_dk dr_eps grav_grad with_dr "
                               "step out_every fb_mask fb_states feedback_every C_bm l_b gates "
                               "params dofs local r_scale isolate return_tests primary fallback "
-                              "n_common need_nb has_acc log_nis ws")
+                              "n_common need_nb has_acc log_nis ws record")
 #: the output buffers of one call
-_Out = namedtuple("_Out", "t xs sigma states cov_phi mode local_x local_sig n")
+_Out = namedtuple("_Out", "t xs sigma states cov_phi mode local_x local_sig n rec_t rec_phi "
+                          "rec_ppred rec_x rec_p rec_fed rec_xs rec_epoch nrec")
 
 
 @fill_function
@@ -316,8 +318,45 @@ def _apply(S, C, fills, j, l, z, H, r, m, xw, Pw, t_now, first):
             S.rejected[j] += 1
 
 
+@numba.njit(cache=True)
+def _record_predict(S, C):
+    """Compose the epoch's transition into ``S.phc`` (``Phi_k Phi_c``; ``Phi_k`` is the
+    identity but on the predict's active rows, from its workspace) and keep ``P_k|k-1``."""
+    act, PhiT = C.ws.act, C.ws.PhiT
+    na = act.shape[0]
+    n = S.phc.shape[0]
+    if na:
+        tmp = PhiT.T @ S.phc
+        for a in range(na):
+            for c in range(n):
+                S.phc[act[a], c] = tmp[a, c]
+    S.ppred[:, :] = S.P[0]
+
+
+@numba.njit(cache=True)
+def _record_epoch(S, O, t_now):
+    """One smoother record (module :mod:`~inmotion.estimation.smoother`): the transition
+    since the last record, ``P`` predicted at this epoch, ``x``, ``P`` after its updates and
+    feedback, the accumulated feedback, the corrected SINS; the composite restarts."""
+    i = O.nrec[0]
+    O.rec_t[i] = t_now
+    O.rec_epoch[i] = S.ints[_I_EPOCHS]
+    O.rec_phi[i] = S.phc
+    O.rec_ppred[i] = S.ppred
+    O.rec_x[i] = S.X[0]
+    O.rec_p[i] = S.P[0]
+    O.rec_fed[i] = S.fed_back
+    O.rec_xs[i] = S.xs
+    O.nrec[0] = i + 1
+    n = S.phc.shape[0]
+    for p in range(n):
+        for c in range(n):
+            S.phc[p, c] = 1.0 if p == c else 0.0
+
+
 @numba.njit(cache=True, inline="always")
-def _epoch_end(S, C, fills, t_now, qt, qj, qd, qi, O, F, Q, aux, z, H, r, xw, Pw, x_g, P_g, W):
+def _epoch_end(S, C, fills, t_now, qt, qj, qd, qi, O, F, Q, aux, z, H, r, xw, Pw, x_g, P_g, W,
+               last):
     """Close a filter epoch: predict, apply the due samples, feed back, output. Returns the
     next queue index."""
     sum_dt = S.acc[_A_DT]
@@ -340,11 +379,13 @@ def _epoch_end(S, C, fills, t_now, qt, qj, qd, qi, O, F, Q, aux, z, H, r, xw, Pw
             predict_sparse(S.X[l], S.P[l], F, C.Qc[l], sum_dt, C.ws)
     S.ints[_I_EPOCHS] += 1
     S.t_end[0] = t_now
-    aux[0] = t_now
+    if C.record:                     # the forward pass of a smoother: Phi, P_k|k-1
+        _record_predict(S, C)
+    aux[AUX_T] = t_now
     for i in range(3):
-        aux[1 + i] = S.acc[_A_W + i] / sum_dt
-        aux[4 + i] = f_b[i]
-        aux[7 + i] = S.acc[_A_NB + i] / sum_dt
+        aux[AUX_WIB + i] = S.acc[_A_W + i] / sum_dt
+        aux[AUX_FB + i] = f_b[i]
+        aux[AUX_WNB + i] = S.acc[_A_NB + i] / sum_dt
     applied = False
     while qi < qt.shape[0] and qt[qi] <= t_now:
         j = qj[qi]
@@ -375,6 +416,8 @@ def _epoch_end(S, C, fills, t_now, qt, qj, qd, qi, O, F, Q, aux, z, H, r, xw, Pw
                 and mode != MODE_NONE):
             _global(S, C, mode, x_g, P_g)
             _feed_back(S, C, x_g)
+    if C.record and (applied or last or S.ints[_I_EPOCHS] % C.out_every == 0):
+        _record_epoch(S, O, t_now)   # only where the smoother has something to say
     if S.ints[_I_EPOCHS] % C.out_every == 0:
         _write_output(S, C, O, t_now, x_g, P_g)
     for i in range(_A_SIZE):
@@ -450,10 +493,10 @@ def _advance(S, C, fills, accs, t, dtheta, dvel, dt, ds, v, dth_dr, rows, qt, qj
             S.acc[_A_W + i] += dth[i]
         if S.acc[_A_ROWS] >= C.step:
             qi = _epoch_end(S, C, fills, t[k], qt, qj, qd, qi, O, F, Q, aux, z, H, r, xw, Pw,
-                            x_g, P_g, W)
+                            x_g, P_g, W, False)
     if flush and S.acc[_A_ROWS] > 0:
         qi = _epoch_end(S, C, fills, t[t.shape[0] - 1], qt, qj, qd, qi, O, F, Q, aux, z, H,
-                        r, xw, Pw, x_g, P_g, W)
+                        r, xw, Pw, x_g, P_g, W, True)
     return qi
 
 
@@ -531,13 +574,17 @@ class ErrorStateFilter:
     n_common : int
         Leading states fused across primaries (bank only; default: the fed-back states).
     max_events, max_nis : capacity of the event log and of the NIS series.
+    record : keep what a Rauch-Tung-Striebel smoother needs
+        (:mod:`inmotion.estimation.smoother`; one local filter only), at every epoch that
+        applied samples, every output epoch and the last one, with the transition composed
+        over the epochs between: :meth:`add_imu` then returns it under ``"record"``.
     """
 
     def __init__(self, init: NavState, layout: Layout, model: em.ErrorModel, P0,
                  measurements, *, step_rows: int = 1, feedback="closed", feedback_every: int = 1,
                  out_every: int = 1, dr_mounting=None, dr_lever_arm_m=None,
                  dr_position_m2_s: float = 0.0, n_common: int | None = None,
-                 max_events: int = 100000, max_nis: int = 0):
+                 max_events: int = 100000, max_nis: int = 0, record: bool = False):
         for name in ("phi", "dv", "dp"):
             if name not in layout:
                 raise ValueError(f"the filter needs block {name!r} in the layout")
@@ -557,6 +604,8 @@ class ErrorStateFilter:
         L = len(locals_)
         if with_dr and L > 1:
             raise ValueError("a bank of local filters runs on the SINS alone (no DR blocks)")
+        if record and L > 1:
+            raise ValueError("smoother records are kept for one local filter only")
         for lf in locals_:
             if lf.P0.shape != (n, n):
                 raise ValueError(f"P0 must be ({n}, {n}) for {layout!r}, got {lf.P0.shape}")
@@ -632,7 +681,7 @@ class ErrorStateFilter:
             n_common=int(n_common),
             need_nb=bool(has_acc.any() or any(m.needs_body_rate for m in measurements)),
             has_acc=has_acc, log_nis=per_meas(lambda m: m.isolate or m.log_nis, False,
-                                                np.bool_), ws=ws)
+                                                np.bool_), ws=ws, record=bool(record))
         self._fills = tuple([m.fill for m in measurements]
                             + [_noop_fill] * (M - len(measurements)))
         self._accs = tuple([m.accumulate if m.accumulate is not None else _noop_acc
@@ -647,7 +696,9 @@ class ErrorStateFilter:
             t_end=np.array([float(init.t)]), healthy=np.ones(M, dtype=np.bool_),
             normal_run=np.zeros(M, dtype=np.int64), tests=np.zeros(M, dtype=np.int64),
             exceed=np.zeros(M, dtype=np.int64), macc=np.zeros((M, ACC_SIZE)),
-            ev=np.zeros((int(max_events), 4)), nis_log=np.zeros((int(max_nis), 3)))
+            ev=np.zeros((int(max_events), 4)), nis_log=np.zeros((int(max_nis), 3)),
+            phc=np.eye(n) if record else np.zeros((0, 0)),
+            ppred=np.zeros((n, n) if record else (0, 0)))
         self._S.ints[_I_MODE] = _mode(self._S, self._C)
         self.t = float(init.t)           #: time of the last IMU row processed [s]
         self.rows = 0                    #: IMU rows processed
@@ -655,6 +706,7 @@ class ErrorStateFilter:
         self._qj = np.zeros(0, dtype=np.int64)
         self._qd = np.zeros((0, self._data_size))
         self._pending = []
+        self._fed_last = np.zeros(n)        # accumulated feedback before the last record
 
     # -- input ---------------------------------------------------------------------------
     def add_measurement(self, name: str, t, data=None):
@@ -738,9 +790,9 @@ class ErrorStateFilter:
         rows = self._rows(row_data, m)
         dt = np.diff(np.concatenate([[self.t], t])) if m else np.zeros(0)
         self._merge_pending()
-        n_ep = (int(self._S.acc[0]) + m) // self.step + 1
+        n_ep = (int(self._S.acc[_A_ROWS]) + m) // self.step + 1
         cap = n_ep // self.out_every + 1 if max_out is None else int(max_out)
-        O = self._out(cap)
+        O = self._out(cap, n_ep if self._C.record else 0)
         used = _advance(self._S, self._C, self._fills, self._accs, t, dtheta, dvel, dt, ds,
                         speed, dth_dr, rows, self._qt, self._qj, self._qd, O, bool(flush))
         if used:
@@ -767,13 +819,18 @@ class ErrorStateFilter:
             rows[j, :, :d.shape[1]] = d
         return rows
 
-    def _out(self, cap):
+    def _out(self, cap, rec=0):
         n = self.layout.n
         L = len(self.locals) if len(self.locals) > 1 else 0
         return _Out(t=np.empty(cap), xs=np.empty((cap, K.NX)), sigma=np.empty((cap, n)),
                     states=np.empty((cap, n)), cov_phi=np.empty((cap, 3, 3)),
                     mode=np.empty(cap, dtype=np.int64), local_x=np.empty((cap, L, n)),
-                    local_sig=np.empty((cap, L, n)), n=np.zeros(1, dtype=np.int64))
+                    local_sig=np.empty((cap, L, n)), n=np.zeros(1, dtype=np.int64),
+                    rec_t=np.empty(rec), rec_phi=np.empty((rec, n, n)),
+                    rec_ppred=np.empty((rec, n, n)), rec_x=np.empty((rec, n)),
+                    rec_p=np.empty((rec, n, n)), rec_fed=np.empty((rec, n)),
+                    rec_xs=np.empty((rec, K.NX)), rec_epoch=np.empty(rec),
+                    nrec=np.zeros(1, dtype=np.int64))
 
     def _result(self, O):
         k = int(O.n[0])
@@ -781,6 +838,15 @@ class ErrorStateFilter:
                "cov_phi": O.cov_phi[:k], "mode": O.mode[:k]}
         if O.local_x.shape[1]:
             res["local_x"], res["local_sigma"] = O.local_x[:k], O.local_sig[:k]
+        if self._C.record:
+            r = int(O.nrec[0])
+            fed = O.rec_fed[:r]
+            fb = np.diff(np.vstack([self._fed_last[None, :], fed]), axis=0)
+            if r:
+                self._fed_last = fed[-1].copy()
+            res["record"] = {"t": O.rec_t[:r], "phi": O.rec_phi[:r], "p_pred": O.rec_ppred[:r],
+                             "x": O.rec_x[:r], "p": O.rec_p[:r], "fb": fb, "fed": fed,
+                             "xs": O.rec_xs[:r], "epoch": O.rec_epoch[:r]}
         return res
 
     def flush(self) -> dict:
@@ -795,7 +861,9 @@ class ErrorStateFilter:
         O = self._out(1)
         n = self.layout.n
         _write_output(self._S, self._C, O, self.t, np.zeros(n), np.zeros((n, n)))
-        return self._result(O)
+        res = self._result(O)
+        res.pop("record", None)
+        return res
 
     def state(self) -> NavState:
         """The navigation solution now: the SINS corrected by the estimate not yet fed back."""
@@ -836,9 +904,9 @@ class ErrorStateFilter:
         for a measurement's :meth:`~inmotion.estimation.measurements.Measurement.rows`."""
         S = self._S
         aux = np.zeros(AUX_SIZE)
-        aux[0] = self.t
-        aux[1:4] = S.ms[K.M_WIB:K.M_WIB + 3]
-        aux[4:7] = S.ms[K.M_FB:K.M_FB + 3]
+        aux[AUX_T] = self.t
+        aux[AUX_WIB:AUX_WIB + 3] = S.ms[K.M_WIB:K.M_WIB + 3]
+        aux[AUX_FB:AUX_FB + 3] = S.ms[K.M_FB:K.M_FB + 3]
         return S.xs.copy(), S.xd.copy(), aux, np.zeros(ACC_SIZE)
 
     def counts(self) -> dict:
@@ -883,7 +951,8 @@ class ErrorStateFilter:
         :meth:`restore` returns to it."""
         self._merge_pending()
         return {"S": _State(*(a.copy() for a in self._S)), "t": self.t, "rows": self.rows,
-                "queue": (self._qt.copy(), self._qj.copy(), self._qd.copy())}
+                "queue": (self._qt.copy(), self._qj.copy(), self._qd.copy()),
+                "fed_last": self._fed_last.copy()}
 
     def restore(self, snap: dict):
         """Return to a :meth:`snapshot` of this filter (its arrays are copied again, so one
@@ -895,6 +964,7 @@ class ErrorStateFilter:
         qt, qj, qd = snap["queue"]
         self._qt, self._qj, self._qd = qt.copy(), qj.copy(), qd.copy()
         self._pending = []
+        self._fed_last = snap["fed_last"].copy()
 
 
 def _kernel_state(s: NavState) -> np.ndarray:

@@ -70,10 +70,17 @@ FILL_SIG = types.int64(_f8, _f8, _f8, _f8, _f8, _f8, types.int64[::1], _f8,
                        types.float64[:, ::1], _f8)
 #: the one signature of every accumulator: (acc, xs, v_old, th_nb, dt, rd, p) -> 0
 ACC_SIG = types.int64(_f8, _f8, _f8, _f8, types.float64, _f8, _f8)
-#: ``aux = [t, omega_ib_b x, y, z, f_b x, y, z, omega_nb_b x, y, z]``
+#: ``aux = [t, omega_ib_b x, y, z, f_b x, y, z, omega_nb_b x, y, z]``: its named slots
+AUX_T, AUX_WIB, AUX_FB, AUX_WNB = 0, 1, 4, 7
 AUX_SIZE = 10
 #: values of a measurement's row accumulator
 ACC_SIZE = 16
+#: slots of paper 003's interval accumulator (:func:`_acc_sensor_interval`): interval length,
+#: SINS displacement, body rotation, sensor displacement, its distance part, "a row had no
+#: sensor distance"
+ACC_T, ACC_DP, ACC_TH, ACC_D, ACC_W, ACC_BAD = 0, 1, 4, 7, 10, 13
+#: parameter slots of paper 003's sensor channels: row sigmas, lever arm, C_v^b0's y column
+P_SIG, P_LEVER, P_FWD = 0, 3, 6
 
 
 def fill_function(func):
@@ -566,7 +573,7 @@ def _fill_zero_rate(xs, xd, aux, acc, data, p, offs, z, H, r):
             pred += C_bn[i, j] * w_ie[j]
             dpred += C_bn[i, j] * dw[j]
             H[i, o_phi + j] = CW[i, j]
-        z[i] = aux[1 + i] - pred
+        z[i] = aux[AUX_WIB + i] - pred
         r[i] = p[i]
         H[i, o_eps + i] = 1.0
         if o_dp >= 0:
@@ -602,26 +609,26 @@ def _acc_sensor_interval(a, xs, v_old, th_nb, dt, rd, p):
     w.r.t. n, the sensor's displacement ``sum C_b^n (w_b - [dtheta_nb x] l)`` and its distance
     part ``sum C_b^n w_b`` (``w_b = C_v^b0 [0, ds, 0]``); ``bad`` = 1 once a row has no
     sensor distance (``rd[0]`` NaN)."""
-    a[0] += dt
+    a[ACC_T] += dt
     for i in range(3):
-        a[4 + i] += th_nb[i]
-        a[1 + i] += 0.5 * (v_old[i] + xs[K.VE + i]) * dt
+        a[ACC_TH + i] += th_nb[i]
+        a[ACC_DP + i] += 0.5 * (v_old[i] + xs[K.VE + i]) * dt
     ds = rd[0]
     if math.isnan(ds):
-        a[13] = 1.0
+        a[ACC_BAD] = 1.0
         return 0
     Cnb = dcm_of_q(xs[K.Q0:K.Q3 + 1])
     w_b = np.empty(3)
     for i in range(3):
-        w_b[i] = p[6 + i] * ds
-    lv0, lv1, lv2 = p[3], p[4], p[5]
+        w_b[i] = p[P_FWD + i] * ds
+    lv0, lv1, lv2 = p[P_LEVER], p[P_LEVER + 1], p[P_LEVER + 2]
     cr = np.array([th_nb[1] * lv2 - th_nb[2] * lv1, th_nb[2] * lv0 - th_nb[0] * lv2,
                    th_nb[0] * lv1 - th_nb[1] * lv0])
     wn = Cnb @ w_b
     dn = Cnb @ (w_b - cr)
     for i in range(3):
-        a[10 + i] += wn[i]
-        a[7 + i] += dn[i]
+        a[ACC_W + i] += wn[i]
+        a[ACC_D + i] += dn[i]
     return 0
 
 
@@ -629,21 +636,21 @@ def _acc_sensor_interval(a, xs, v_old, th_nb, dt, rd, p):
 def _fill_sensor_velocity_n(xs, xd, aux, acc, data, p, offs, z, H, r):
     # paper 003 eq. 23-24 (aiding_rows): z = v_SINS - C_b^n (w_b - omega_nb x l), n frame
     v = data[0]
-    if acc[13] != 0.0 or math.isnan(v):
+    if acc[ACC_BAD] != 0.0 or math.isnan(v):
         return 0
     Cnb = dcm_of_q(xs[K.Q0:K.Q3 + 1])
     w_b = np.empty(3)
     for i in range(3):
-        w_b[i] = p[6 + i] * v
-    w_nb = aux[7:10].copy()
-    lv0, lv1, lv2 = p[3], p[4], p[5]
+        w_b[i] = p[P_FWD + i] * v
+    w_nb = aux[AUX_WNB:AUX_WNB + 3].copy()
+    lv0, lv1, lv2 = p[P_LEVER], p[P_LEVER + 1], p[P_LEVER + 2]
     cr = np.array([w_nb[1] * lv2 - w_nb[2] * lv1, w_nb[2] * lv0 - w_nb[0] * lv2,
                    w_nb[0] * lv1 - w_nb[1] * lv0])
     u_b = w_b - cr
     vs = Cnb @ u_b
     for i in range(3):
         z[i] = xs[K.VE + i] - vs[i]
-        r[i] = p[i] ** 2
+        r[i] = p[P_SIG + i] ** 2
     _velocity_rows(H, (offs[PHI], offs[DV], offs[DK], offs[MOUNT], offs[LEVER]), Cnb, w_b, u_b,
                    w_nb)
     return 3
@@ -652,19 +659,20 @@ def _fill_sensor_velocity_n(xs, xd, aux, acc, data, p, offs, z, H, r):
 @fill_function
 def _fill_displacement(xs, xd, aux, acc, data, p, offs, z, H, r):
     # paper 003 ref. 38 (aiding_rows): z = C_n^b (Delta P - Delta D) over the interval, b frame
-    if acc[13] != 0.0 or acc[0] <= 0.0:
+    if acc[ACC_BAD] != 0.0 or acc[ACC_T] <= 0.0:
         return 0
-    T = acc[0]
+    T = acc[ACC_T]
     C_bn = np.ascontiguousarray(dcm_of_q(xs[K.Q0:K.Q3 + 1]).T)
-    dD = acc[7:10].copy()
+    dD = acc[ACC_D:ACC_D + 3].copy()
     for i in range(3):
         zz = 0.0
         for j in range(3):
-            zz += C_bn[i, j] * (acc[1 + j] - dD[j])
+            zz += C_bn[i, j] * (acc[ACC_DP + j] - dD[j])
         z[i] = zz
-        r[i] = (p[i] * T) ** 2
+        r[i] = (p[P_SIG + i] * T) ** 2
     _displacement_rows(H, (offs[PHI], offs[DV], offs[DK], offs[MOUNT], offs[LEVER]), C_bn, T,
-                       C_bn @ dD, C_bn @ acc[10:13].copy(), acc[4:7].copy())
+                       C_bn @ dD, C_bn @ acc[ACC_W:ACC_W + 3].copy(),
+                       acc[ACC_TH:ACC_TH + 3].copy())
     return 3
 
 

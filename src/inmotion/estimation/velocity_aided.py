@@ -35,6 +35,7 @@ from . import error_model as em
 from . import measurements as ms
 from .engine import ErrorStateFilter
 from .layout import Layout
+from .smoother import ForwardRecord, smooth_record
 
 __all__ = ["GROUPS", "GROUP_SIZES", "VelocityAidedRun"]
 
@@ -106,12 +107,14 @@ class VelocityAidedRun:
     nhc_mount : the NHC rows carry the mounting columns
     closed_loop : feed the estimate back (False: open loop);  feedback_every : measurement
         epochs per feedback
+    smooth : forward-backward: record the forward pass and return the Rauch-Tung-Striebel
+        smoothed outputs (:mod:`inmotion.estimation.smoother`)
     """
 
     def __init__(self, init: NavState, layout: Layout, model: em.ErrorModel, P0, *, use: dict,
                  noise: dict, gates: dict, step_rows: int, meas_every: int = 1,
                  out_every: int = 1, C_bm=None, lever_arm_b=None, nhc_mount: bool = True,
-                 closed_loop: bool = True, feedback_every: int = 1):
+                 closed_loop: bool = True, feedback_every: int = 1, smooth: bool = False):
         for name in ("phi", "dv", "dp", "eps", "nabla"):
             if name not in layout:
                 raise ValueError(f"the velocity-aided filter needs block {name!r} in the layout")
@@ -121,7 +124,8 @@ class VelocityAidedRun:
             step_rows=step_rows, feedback="closed" if closed_loop else "open",
             feedback_every=feedback_every, out_every=out_every, dr_mounting=C_bm,
             dr_lever_arm_m=lever_arm_b,
-            dr_position_m2_s=float(noise.get("dr_position_m2_s", 0.0)))
+            dr_position_m2_s=float(noise.get("dr_position_m2_s", 0.0)), record=smooth)
+        self.smooth = bool(smooth)
         self.layout = layout
         self.init = init
         self.step = int(step_rows)
@@ -155,6 +159,14 @@ class VelocityAidedRun:
             raise ValueError("VelocityAidedRun.run needs at least one IMU row")
         f = self.filter
         outs = [f.output_now()]
+        rec = None
+        if self.smooth:                 # record 0: the start (x = 0, P0), epoch k at record k
+            n = self.layout.n
+            rec = ForwardRecord(n, -(-n_rows // self.step) + 1)
+            rec.append({"t": [f.t], "phi": np.eye(n)[None], "p_pred": f.covariance()[None],
+                        "x": f.x[None], "p": f.covariance()[None], "fb": np.zeros((1, n)),
+                        "fed": np.zeros((1, n)), "xs": f.kernel_states()[0][None],
+                        "epoch": [0.0]})
         chunk = max(1, CHUNK_ROWS // self.step) * self.step
         max_gap = 5.0 * float(np.median(np.diff(speed.t[:GAP_SAMPLES])))
         groups = [g for g in GROUPS if self.use[g]]
@@ -178,11 +190,22 @@ class VelocityAidedRun:
             d_dr = None if dtheta_dr is None else dtheta_dr[a:b]
             outs.append(f.add_imu(tc, dtheta[a:b], dvel[a:b], ds=ds, speed=v,
                                   dtheta_dr=d_dr, flush=b == n_rows))
+            if rec is not None:
+                rec.append(outs[-1].pop("record"))
             if progress is not None:
                 progress(b / n_rows)
         if f.epochs % self.out_every:   # the last epoch is written even off the output grid
             outs.append(f.output_now())
-        return {k: np.concatenate([o[k] for o in outs]) for k in outs[0]}
+        res = {k: np.concatenate([o[k] for o in outs]) for k in outs[0]}
+        if rec is not None:             # the smoothed rows at the forward output's epochs
+            ep = np.asarray(rec["epoch"])
+            rows = np.flatnonzero((ep % self.out_every == 0) | (ep == ep[-1]))
+            sm = smooth_record(rec, self.layout, rows)
+            rec.close()
+            if not np.array_equal(sm["t"], res["t"]):
+                raise RuntimeError("smoothed rows do not fall on the forward output rows")
+            res.update(sm)
+        return res
 
     def counts(self) -> dict:
         """Per group used: samples used, rejected and mean NIS per degree of freedom."""

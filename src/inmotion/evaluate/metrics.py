@@ -141,3 +141,48 @@ def errors_block(errors: pd.DataFrame, window_s: float = LAST_WINDOW_S) -> dict:
     block["distance_m"] = float(errors["distance_m"].to_numpy()[-1])
     block["duration_s"] = float(t[-1] - t[0])
     return block
+
+
+#: consistency groups: name -> (error-series columns, their scale to SI, solution sigma keys)
+NEES_GROUPS = {
+    "attitude": (("phi_E_arcmin", "phi_N_arcmin", "phi_U_arcmin"), 1.0 / ARCMIN_PER_RAD,
+                 ("phi_E", "phi_N", "phi_U")),
+    "velocity": (("vE_m_s", "vN_m_s", "vU_m_s"), 1.0, ("vE", "vN", "vU")),
+    "position": (("north_m", "east_m", "vertical_m"), 1.0, ("north", "east", "h")),
+}
+
+
+def consistency_block(solution: Solution, errors: pd.DataFrame) -> dict:
+    """The ``consistency`` block of ``summary.json``: does the filter's sigma cover its error?
+
+    For each group of :data:`NEES_GROUPS` whose sigmas the solution reports, the normalized
+    estimation error squared per row, ``NEES = sum_i (e_i / sigma_i)^2`` over the group's
+    three axes (the solution's per-axis sigmas; cross-covariances are not in the result
+    files, so this is the diagonal NEES), skipping the first row (the prior) and rows with
+    a zero sigma. Reported: ``mean`` (3 for a consistent filter), ``band_95`` (the 95 %
+    band of a mean of ``rows`` independent chi-square(3) values, a loose check since errors
+    are correlated in time), ``in_band`` and ``fraction_rows_above_99`` (rows above the
+    chi-square(3) 99 % point, 11.34: 1 % expected). Groups without sigmas are left out.
+    """
+    from scipy.special import chdtri       # chi-square quantiles (upper tail), no scipy.stats
+
+    inside = (solution.t >= errors["t"].iloc[0]) & (solution.t <= errors["t"].iloc[-1])
+    block = {}
+    for name, (cols, scale, keys) in NEES_GROUPS.items():
+        if not all(k in solution.sigma for k in keys):
+            continue
+        e = np.column_stack([errors[c].to_numpy() * scale for c in cols])
+        s = np.column_stack([np.asarray(solution.sigma[k])[inside] for k in keys])
+        ok = np.all(s > 0, axis=1) & np.all(np.isfinite(s), axis=1) & np.all(np.isfinite(e),
+                                                                             axis=1)
+        ok[0] = False
+        if not ok.any():
+            continue
+        nees = np.sum((e[ok] / s[ok]) ** 2, axis=1)
+        n = len(nees)
+        lo, hi = chdtri(3 * n, 0.975) / n, chdtri(3 * n, 0.025) / n
+        m = float(nees.mean())
+        block[name] = {"mean": m, "dof": 3, "rows": n, "band_95": [float(lo), float(hi)],
+                       "in_band": bool(lo <= m <= hi),
+                       "fraction_rows_above_99": float(np.mean(nees > chdtri(3, 0.01)))}
+    return block

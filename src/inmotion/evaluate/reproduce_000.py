@@ -49,7 +49,7 @@ import time
 from pathlib import Path
 
 import numpy as np
-from scipy.stats import chi2
+from ..estimation import chi2
 
 from ..core.bundle import row_at_or_after
 from .repro_common import run_tasks

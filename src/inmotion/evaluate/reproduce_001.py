@@ -231,7 +231,7 @@ def nees_stats(nees, windows, dof=3) -> dict:
     quantiles. Returns ``{"band": (lo, hi), "mean": [per window], "inside": [fraction of the
     window's 1-s epochs with the average inside the band]}``.
     """
-    from scipy.stats import chi2
+    from ..estimation import chi2
     A = np.asarray(nees, dtype=float)
     n = A.shape[0]
     lo, hi = chi2.ppf([0.025, 0.975], dof * n) / n

@@ -39,7 +39,7 @@ from ..core import rotations
 from ..core.bundle import Truth
 from ..core.solution import Solution, StateUnit
 from ..errors import BadInput
-from ..evaluate.metrics import error_series, errors_block
+from ..evaluate.metrics import consistency_block, error_series, errors_block
 from .bundle import _plain, atomic_write, write_csv
 
 __all__ = ["write_result", "read_result", "write_errors", "SOLUTION_COLUMNS", "SIGMA_UNITS",
@@ -204,7 +204,11 @@ def write_errors(solution: Solution, truth: Truth, folder: PathLike,
         fmt = sol.suffix[1:] if sol is not None else "csv"
     err = error_series(solution, truth)
     _write_table(err, folder, "errors", fmt)
-    return errors_block(err)
+    block = errors_block(err)
+    cons = consistency_block(solution, err)
+    if cons:
+        block["consistency"] = cons
+    return block
 
 
 def write_summary(summary: dict, folder: PathLike) -> None:
@@ -257,6 +261,22 @@ def read_result(path: PathLike) -> Solution:
 
     ``info`` gets the summary's ``info`` plus ``method``, ``config``, ``timing`` and, if
     present, ``errors``; ``state_units`` come from the summary's ``states`` map.
+
+    Parameters
+    ----------
+    path : str or Path
+        The result folder (``solution.csv``, ``summary.json``, optional ``states.csv``).
+
+    Returns
+    -------
+    Solution
+        ``t`` [s], ``lat``, ``lon`` [rad], ``h`` [m], ``vel_n`` [m/s] ENU, ``euler`` [rad],
+        ``sigma`` and ``states`` in SI.
+
+    Raises
+    ------
+    BadInput
+        A missing folder or file, a malformed table (file, row, what is wrong).
     """
     folder = Path(path)
     if not folder.is_dir():

@@ -73,7 +73,7 @@ from typing import Callable, Literal, Optional
 
 import numpy as np
 from pydantic import BaseModel, ConfigDict, Field
-from scipy.stats import chi2
+from ..estimation import chi2
 
 from ..core import earth
 from ..core.bundle import Bundle
@@ -144,6 +144,10 @@ class SinsDrConfig(BaseModel):
     gate_probability: float = Field(
         1.0, gt=0.5, le=1.0,
         description="chi-square gate probability per measurement group (1: no gate)")
+    smooth: bool = Field(
+        False,
+        description="forward-backward: Rauch-Tung-Striebel smoothing over the whole run "
+                    "(estimation.smoother); sigma_forward_* keeps the forward filter's sigma")
     dr_sees_gyro_drift: bool = Field(
         True,
         description="keep the -C_b^n eps term in the DR attitude rows (False: paper 000's printed"
@@ -289,7 +293,7 @@ def build_filter(bundle: Bundle, cfg: SinsDrConfig, init: NavState):
     filt = VelocityAidedRun(init, lay, model, initial_covariance(lay, cfg, init.lat, init.h),
                         use=use, noise=noise, gates=gates, step_rows=step,
                         meas_every=meas_every, out_every=out_every, C_bm=C_bm,
-                        lever_arm_b=l_b)
+                        lever_arm_b=l_b, smooth=cfg.smooth)
     return filt, slice(k0, len(imu.t)), (name, speed)
 
 
@@ -317,7 +321,7 @@ def _solution(filt: VelocityAidedRun, out: dict, cfg: SinsDrConfig, sensor: str,
             "filter_step_rows": filt.step, "measurement_every_filter_steps": filt.meas_every,
             "measurements": filt.counts(), "timing": {"run_s": wall},
             "rows_without_speed": filt.rows_without_speed,
-            "rows_in_speed_gaps": filt.rows_in_speed_gaps}
+            "rows_in_speed_gaps": filt.rows_in_speed_gaps, "smoothed": bool(cfg.smooth)}
     return Solution.from_arrays(out["t"], xs[:, 0:3], xs[:, 3:6], xs[:, 6:10], sigma=sigma,
                                 states=lay.as_dict(out["states"]),
                                 state_units=lay.unit_map(position_units(filt.init.lat,

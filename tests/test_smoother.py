@@ -1,0 +1,135 @@
+"""The RTS smoother (:mod:`inmotion.estimation.smoother`) against the batch least-squares
+solution of a linear Gaussian system, with closed-loop resets in the forward pass; and the
+engine's forward records smoothed on a simulated drive, against simulated truth."""
+import numpy as np
+import pytest
+
+from inmotion.estimation.smoother import ForwardRecord, rts_backward
+
+
+def _linear_problem(rng, n=4, m=2, N=40):
+    Phi = np.stack([np.eye(n) + 0.1 * rng.standard_normal((n, n)) for _ in range(N)])
+    Q = np.stack([np.diag(rng.uniform(0.01, 0.1, n)) for _ in range(N)])
+    H = np.stack([rng.standard_normal((m, n)) for _ in range(N)])
+    R = np.stack([np.diag(rng.uniform(0.1, 1.0, m)) for _ in range(N)])
+    m0, P0 = rng.standard_normal(n), np.diag(rng.uniform(0.5, 2.0, n))
+    x = rng.multivariate_normal(m0, P0)
+    z = []
+    for k in range(N):
+        if k:
+            x = Phi[k] @ x + rng.multivariate_normal(np.zeros(n), Q[k])
+        z.append(H[k] @ x + rng.multivariate_normal(np.zeros(m), R[k]))
+    return Phi, Q, H, R, m0, P0, np.array(z)
+
+
+def _forward(Phi, Q, H, R, m0, P0, z, reset_every):
+    """A Kalman filter on the error relative to a nominal state that absorbs the estimate
+    every ``reset_every`` epochs (closed loop), recording what the engine records."""
+    N, n = len(z), len(m0)
+    nom = m0.copy()                 # nominal; error estimate relative to it
+    dx, P = np.zeros(n), P0.copy()
+    rec = {k: [] for k in ("phi", "p_pred", "x", "p", "fb", "nom")}
+    for k in range(N):
+        if k:
+            nom = Phi[k] @ nom
+            dx = Phi[k] @ dx
+            P = Phi[k] @ P @ Phi[k].T + Q[k]
+        rec["phi"].append(Phi[k])
+        rec["p_pred"].append(P.copy())
+        S = H[k] @ P @ H[k].T + R[k]
+        K = P @ H[k].T @ np.linalg.inv(S)
+        dx = dx + K @ (z[k] - H[k] @ (nom + dx))
+        IKH = np.eye(n) - K @ H[k]
+        P = IKH @ P @ IKH.T + K @ R[k] @ K.T
+        fb = dx.copy() if reset_every and k % reset_every == 0 else np.zeros(n)
+        nom, dx = nom + fb, dx - fb
+        for key, v in (("x", dx), ("p", P), ("fb", fb), ("nom", nom)):
+            rec[key].append(np.array(v, dtype=float, copy=True))
+    return {k: np.array(v) for k, v in rec.items()}
+
+
+def _batch_least_squares(Phi, Q, H, R, m0, P0, z):
+    """The MAP estimate of all states at once (normal equations) and its covariance."""
+    N, n = len(z), len(m0)
+    J = np.zeros((N * n, N * n))
+    g = np.zeros(N * n)
+
+    def add(rows, A, W, b):             # || A x - b ||^2_W over the state blocks in rows
+        idx = np.concatenate([np.arange(r * n, (r + 1) * n) for r in rows])
+        J[np.ix_(idx, idx)] += A.T @ W @ A
+        g[idx] += A.T @ W @ b
+
+    add([0], np.eye(n), np.linalg.inv(P0), m0)
+    for k in range(1, N):
+        add([k - 1, k], np.hstack([-Phi[k], np.eye(n)]), np.linalg.inv(Q[k]), np.zeros(n))
+    for k in range(N):
+        add([k], H[k], np.linalg.inv(R[k]), z[k])
+    cov = np.linalg.inv(J)
+    return np.linalg.solve(J, g).reshape(N, n), np.stack(
+        [cov[k * n:(k + 1) * n, k * n:(k + 1) * n] for k in range(N)])
+
+
+@pytest.mark.parametrize("reset_every", [0, 1, 3])
+def test_rts_equals_batch_least_squares_on_a_linear_gaussian_system(reset_every):
+    rng = np.random.default_rng(reset_every + 1)
+    prob = _linear_problem(rng)
+    rec = _forward(*prob, reset_every=reset_every)
+    N, n = rec["x"].shape
+    xs, Ps = np.empty((N, n)), np.empty((N, n, n))
+    rts_backward(rec["x"], rec["p"], rec["phi"], rec["p_pred"], rec["fb"], xs, Ps)
+    ref_x, ref_P = _batch_least_squares(*prob)
+    np.testing.assert_allclose(rec["nom"] + xs, ref_x, rtol=1e-9, atol=1e-9)
+    np.testing.assert_allclose(Ps, ref_P, rtol=1e-8, atol=1e-10)
+    # and the smoother is no worse than the filter anywhere
+    Pf = rec["p"]
+    assert np.all(np.trace(Ps, axis1=1, axis2=2) <= np.trace(Pf, axis1=1, axis2=2) + 1e-12)
+
+
+def test_forward_record_spills_to_disk_beyond_its_budget(tmp_path):
+    rec = ForwardRecord(3, 10, memory_budget_bytes=100, folder=tmp_path)
+    assert rec.on_disk and (tmp_path / "phi.npy").exists()
+    chunk = {"t": np.arange(4.0), "phi": np.ones((4, 3, 3)), "p_pred": np.ones((4, 3, 3)),
+             "x": np.ones((4, 3)), "p": np.ones((4, 3, 3)), "fb": np.zeros((4, 3)),
+             "fed": np.zeros((4, 3)), "xs": np.zeros((4, 10)), "epoch": np.arange(4.0)}
+    rec.append(chunk)
+    rec.append(chunk)
+    assert rec.size == 8 and np.array_equal(rec["t"], np.r_[np.arange(4.0), np.arange(4.0)])
+    with pytest.raises(ValueError, match="holds 10 epochs"):
+        rec.append(chunk)
+    mem = ForwardRecord(3, 10)
+    assert not mem.on_disk
+
+
+def test_dr_kf_smoothed_against_truth_is_better_early_and_consistent():
+    """``dr-kf`` with ``smooth=True`` over paper 000's trajectory 1 started 2 deg off in
+    heading, 3 seeds: over the first 120 s (forward heading not yet converged) the smoothed
+    heading error is far below the forward one, nowhere worse than the forward filter's
+    final accuracy, and the smoothed attitude NEES (3 dof) stays in its band."""
+    from inmotion.align import dr_kalman
+    from inmotion.core import rotations
+    from inmotion.core.solution import NavState
+    from inmotion.sim import simulate
+    from inmotion.sim.scenario import find_scenario, load_scenario
+
+    arcmin = np.pi / 180 / 60
+    nees = []
+    for seed in range(3):
+        b = simulate(load_scenario(find_scenario("paper000_traj1")), np.random.default_rng(seed))
+        init = NavState.from_truth(b.truth, euler_error=np.radians([0.5, 0.5, 2.0]))
+        out = {}
+        for smooth in (False, True):
+            s = dr_kalman.run_dr_kf(b, {"smooth": smooth}, init)
+            k = np.searchsorted(b.truth.t, s.t)
+            phi = np.array([rotations.misalignment(a, c) for a, c in zip(
+                rotations.dcm_from_euler(s.euler), rotations.dcm_from_euler(b.truth.euler[k]))])
+            sig = np.column_stack([s.sigma[c] for c in ("phi_E", "phi_N", "phi_U")])
+            out[smooth] = (s.t, phi, sig)
+        t, pf, _ = out[False]
+        _, ps, ss = out[True]
+        early = t <= 120.0
+        assert np.abs(ps[early, 2]).max() < 0.2 * np.abs(pf[early, 2]).max()
+        assert np.abs(ps[:, 2]).max() < 3 * ss[-1, 2] + np.abs(pf[-1, 2])
+        assert np.abs(ps[early, 2]).max() < 15 * arcmin
+        nees.append(np.sum((ps / ss) ** 2, axis=1))
+    m = np.mean(np.concatenate(nees))
+    assert 1.0 < m < 6.0, m            # 3 dof; correlated over time, so a loose band
