@@ -166,23 +166,29 @@ def test_demo_runs_end_to_end(scenario_file, monkeypatch):
     assert r.exit_code == 0, r.output
     lines = r.stdout.splitlines()
     assert lines[0].split()[0] == "method"
-    rows = {line.split()[0]: line.split() for line in lines[2:]}
-    assert {"sins", "dr"} <= set(rows)
+    rows = {line.split()[0]: line.split() for line in lines
+            if line.strip() and not line.startswith((" ", "-", "("))}
+    assert {"sins", "dr", "process"} <= set(rows)
     assert float(rows["sins"][3]) < 0.01           # horizontal error [m] of error-free SINS
     d = run_json("demo")
     assert {m["method"] for m in d["methods"]} >= {"sins", "dr"}
+    assert d["process"]["rows"][-1]["method"] == "process"
 
 
-def test_demo_alignment_chain_on_the_shipped_drive():
-    """The demo's main job: coarse in-motion alignment with no attitude, then fine alignment.
-    Bounds: coarse level within a few arcmin (accelerometer bias 50 ug ~ 0.2'), fine heading
-    within 10' (gyrocompass limit drift / (omega_ie cos L) = 0.01 deg/h -> ~2.7' 1-sigma here)."""
+def test_demo_process_on_the_shipped_drive():
+    """The demo's main job is ``inmotion process`` with no attitude given: parked 31 s (< 60 s),
+    so in-motion coarse alignment from the start, radar fine alignment (dr-kf) and sins-dr to
+    the end. Bounds: coarse level within a few arcmin (accelerometer bias 50 ug ~ 0.2'),
+    final heading within 15' (gyrocompass limit drift / (omega_ie cos L) = 0.01 deg/h -> 2.8'
+    1-sigma; the filters report 4-8'), level within 1', position within 0.3 % of 8.7 km."""
     d = run_json("demo")
-    chain = {r["method"].split(":")[0]: r for r in d["alignment_chain"]}
-    assert set(chain) == {"coarse", "fine", "navigate"}, d["alignment_chain"]
-    assert chain["coarse"]["level_arcmin"] < 5.0
-    assert abs(chain["fine"]["heading_arcmin"]) < 10.0
-    assert chain["fine"]["level_arcmin"] < 1.0
+    rows = {r["method"].split(":")[0]: r for r in d["process"]["rows"]}
+    assert set(rows) == {"moving coarse", "fine", "navigate", "process"}, rows
+    assert rows["moving coarse"]["level_arcmin"] < 5.0
+    p = rows["process"]
+    assert abs(p["heading_arcmin"]) < 15.0 and p["level_arcmin"] < 1.0, p
+    assert p["horizontal_pct"] < 0.3, p
+    assert d["process"]["heading"]["can"]
 
 
 def test_shipped_demo_scenario_exists():

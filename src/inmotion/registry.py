@@ -14,11 +14,13 @@ module, ``docs/extending.md``) is added at run time with :func:`register`.
 """
 from __future__ import annotations
 
+import functools
 import importlib
 from dataclasses import dataclass
 from typing import Any, Callable
 
-__all__ = ["MethodSpec", "methods", "get", "register"]
+__all__ = ["MethodSpec", "methods", "get", "register", "SPEED_SENSORS", "REQUIRES",
+           "present_sensors", "missing_sensors", "runnable", "check_sensors", "sensors_used"]
 
 
 @dataclass(frozen=True)
@@ -31,8 +33,26 @@ class MethodSpec:
     summary: str         #: one line for ``inmotion methods``
 
     def load(self) -> tuple[Callable[..., Any], type]:
-        """``(run, ConfigClass)``, imported now."""
-        return _resolve(self.entry), _resolve(self.config)
+        """``(run, ConfigClass)``, imported now.
+
+        ``run`` first checks the bundle against the method's sensor needs
+        (:func:`check_sensors`: ``BadInput`` naming what is missing and the methods that can
+        run instead) and records in ``Solution.info`` the sensors the bundle has
+        (``sensors_present``) and those the method used (``sensors_used``).
+        """
+        run = _resolve(self.entry)
+        name = self.name
+
+        @functools.wraps(run)
+        def checked(bundle, *args, **kwargs):
+            check_sensors(name, bundle)
+            sol = run(bundle, *args, **kwargs)
+            info = getattr(sol, "info", None)
+            if isinstance(info, dict):
+                info.setdefault("sensors_present", present_sensors(bundle))
+                info.setdefault("sensors_used", sensors_used(info))
+            return sol
+        return checked, _resolve(self.config)
 
 
 def _resolve(path):
@@ -95,3 +115,93 @@ def register(spec: MethodSpec) -> MethodSpec:
         raise ValueError(f"kind must be 'align' or 'navigate', got {spec.kind!r}")
     _SPECS.append(spec)
     return spec
+
+
+# --------------------------------------------------------------------------- sensors
+
+#: the forward-velocity sensors a bundle may hold, in the order ``sensor: auto`` prefers them
+#: where a method does not say otherwise
+SPEED_SENSORS = ("radar", "ldv", "odometer")
+_ANY_SPEED = SPEED_SENSORS
+
+#: method -> what it needs beyond the IMU: a tuple of alternatives, each of which must be met
+#: by one sensor of the bundle (``()``: the IMU alone). With the default ``sensor: auto`` a
+#: method picks among the sensors present; an explicitly chosen sensor that is absent is the
+#: method's own error.
+REQUIRES: dict[str, tuple[tuple[str, ...], ...]] = {
+    "sins": (), "parked-kf": (), "nhc-kf": (), "coarse-inertial": (),
+    "dr": (_ANY_SPEED,), "sins-dr": (_ANY_SPEED,), "dr-kf": (_ANY_SPEED,),
+    "od-velocity-kf": (_ANY_SPEED,), "imada-vb": (_ANY_SPEED,), "imada-vn": (_ANY_SPEED,),
+    "imada-dual": (_ANY_SPEED,), "mimada": (_ANY_SPEED,), "mimada-dual": (_ANY_SPEED,),
+    "oba": (_ANY_SPEED,), "usque": (_ANY_SPEED,), "ausque": (_ANY_SPEED,),
+    "usque-hinf": (_ANY_SPEED,), "ausquhe": (_ANY_SPEED,),
+    "od-kf": (("odometer",),), "ldv-kf": (("ldv",),), "fkf": (("odometer",), ("ldv",)),
+    "fine-mux": (("odometer", "ldv"),), "adaptive": (("odometer", "ldv"),),
+}
+
+
+def present_sensors(bundle) -> list[str]:
+    """The aiding tables the bundle holds with at least one row (velocity sensors, ``baro``)."""
+    out = []
+    for name in SPEED_SENSORS + ("baro",):
+        x = getattr(bundle, name, None)
+        if x is not None and len(getattr(x, "t", ())) > 0:
+            out.append(name)
+    return out
+
+
+def _present(bundle_or_names) -> set[str]:
+    if isinstance(bundle_or_names, (set, frozenset, list, tuple)):
+        return set(bundle_or_names)
+    return set(present_sensors(bundle_or_names))
+
+
+def missing_sensors(name: str, bundle_or_names) -> list[str]:
+    """What the method ``name`` needs that the bundle (or a collection of sensor names) lacks,
+    one entry per unmet need (``"odometer"``, ``"radar, ldv or odometer"``); ``[]`` if it can
+    run."""
+    have = _present(bundle_or_names)
+    out = []
+    for alts in REQUIRES.get(name, ()):
+        if not have.intersection(alts):
+            out.append(alts[0] if len(alts) == 1 else
+                       ", ".join(alts[:-1]) + f" or {alts[-1]}")
+    return out
+
+
+def runnable(bundle_or_names, kind: str | None = None) -> list[str]:
+    """The methods (of one kind if given) whose sensor needs the bundle meets, in registration
+    order."""
+    have = _present(bundle_or_names)
+    return [s.name for s in methods(kind) if not missing_sensors(s.name, have)]
+
+
+def check_sensors(name: str, bundle) -> None:
+    """``BadInput`` if the method ``name`` cannot run on ``bundle``'s sensors: what is missing
+    and which methods of the same kind can run instead."""
+    miss = missing_sensors(name, bundle)
+    if not miss:
+        return
+    from .errors import BadInput
+    have = present_sensors(bundle)
+    kind = get(name).kind
+    alt = runnable(bundle, kind)
+    other = runnable(bundle, "navigate" if kind == "align" else "align")
+    raise BadInput(
+        f"{name} needs {' and '.join(miss)}, but bundle {getattr(bundle, 'name', '?')!r} has "
+        f"{', '.join(have) if have else 'no aiding sensor (IMU only)'}; {kind} methods that "
+        f"can run on it: {', '.join(alt) or 'none'}"
+        + (f" (and {'navigate' if kind == 'align' else 'align'}: {', '.join(other)})"
+           if other else "") + "; or 'inmotion process' picks the stages itself")
+
+
+def sensors_used(info: dict) -> list[str]:
+    """The sensors a method's ``info`` says it used (``sensors``, ``sensor``,
+    ``velocity_sensor``), as a list (empty when it says none)."""
+    for key in ("sensors_used", "sensors", "velocity_sensor", "sensor"):
+        v = info.get(key)
+        if isinstance(v, str) and v:
+            return [v]
+        if isinstance(v, (list, tuple)) and all(isinstance(x, str) for x in v) and v:
+            return list(v)
+    return []

@@ -8,8 +8,8 @@ Numba compiles each kernel at its first call and caches it on disk beside the so
 (``cache=True``, ``__pycache__/*.nbi, *.nbc``); a fresh clone's first ``make demo`` would
 otherwise spend minutes compiling. This runs the demo's own code path quietly on a short
 stretch of the built-in ``demo`` drive: the simulation, the bundle written and read back,
-every ``navigate`` method from the first truth row, the in-motion alignment chain (coarse,
-fine, navigation, each on ``S`` seconds), the result files with their errors. The kernels are
+every ``navigate`` method from the first truth row, the main job (``process``: alignment
+and navigation stages) on a window of the drive, the result files with their errors. The kernels are
 compiled for the same argument types the demo uses, so the demo then only loads them.
 It prints one line (what it compiled, how long it took) and exits 0 even if a method fails
 (numba then compiles that method's kernels at its first use instead).
@@ -83,22 +83,11 @@ def warm_up(seconds: float = 30.0, verbose: bool = False) -> dict:
                                         (None, t_move + seconds))
                 write_result(sol, root / spec.name, truth=b.truth)
             step(spec.name, nav)
-        state = None
-        start = t_move + 10.0
-        for label, name, _, _ in cli.DEMO_CHAIN:
-            def chain(name=name, start=start, state=state):
-                spec = registry.get(name)
-                if state is None:
-                    state, _ = cli._initial_state(ctx, bundle, "truth", start,
-                                                  spec.needs_attitude)
-                sol, b = cli.run_method(ctx, bundle, spec, cli.build_config(spec), state,
-                                        (start, start + seconds))
-                write_result(sol, root / f"chain-{label}", truth=b.truth)
-                return sol.final_state()
-            state = step(f"{label}: {name}", chain)
-            if state is None:
-                break
-            start += seconds
+        def process():                   # the demo's main job, on a window of the drive
+            from .process import ProcessConfig
+            cli.run_process_to(ctx, bundle.window(None, t_move + 4 * seconds),
+                               root / "process", ProcessConfig(), init="truth", report=False)
+        step("process", process)
     return {"steps": steps, "failed": failed, "total_s": time.perf_counter() - t_all}
 
 

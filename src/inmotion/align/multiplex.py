@@ -45,7 +45,7 @@ from .attitude_determination import initial_position
 from .coarse_inertial import CoarseInertialConfig, run_coarse_inertial
 from .velocity_source import initial_speed, speed_on_imu_times
 
-__all__ = ["MuxConfig", "fault_tolerant_speed", "coarse_fault_tolerant", "run_multiplexed",
+__all__ = ["auto_fine_method", "MuxConfig", "fault_tolerant_speed", "coarse_fault_tolerant", "last_covered", "run_multiplexed",
            "run_fine_mux", "FINE_METHODS"]
 
 #: the fine alignments ``fine-mux`` can run after the coarse stage
@@ -53,6 +53,16 @@ FINE_METHODS = {"fkf": (ak.run_fkf, ak.FkfConfig), "od-kf": (ak.run_od_kf, ak.Ai
                 "ldv-kf": (ak.run_ldv_kf, ak.AidedKfConfig),
                 "nhc-kf": (ak.run_nhc_kf, ak.NhcKfConfig)}
 _CHANNELS = ("odometer", "ldv")
+
+
+def auto_fine_method(bundle: Bundle, choice: str = "auto") -> str:
+    """The fine method ``choice`` names, or for ``auto`` the one the bundle's sensors fit:
+    ``fkf`` with odometer and LDV, ``od-kf`` / ``ldv-kf`` with one of them, ``nhc-kf`` with
+    neither."""
+    if choice != "auto":
+        return choice
+    od, ldv = bundle.odometer is not None, bundle.ldv is not None
+    return "fkf" if od and ldv else "od-kf" if od else "ldv-kf" if ldv else "nhc-kf"
 
 
 class MuxConfig(BaseModel):
@@ -73,8 +83,10 @@ class MuxConfig(BaseModel):
     coarse_sensor: Optional[Literal["odometer", "ldv"]] = Field(
         None, description="the one sensor of a non-fault-tolerant coarse stage (default: "
                           "ldv if present)")
-    fine_method: Literal["fkf", "od-kf", "ldv-kf", "nhc-kf"] = Field(
-        "fkf", description="the fine alignment method that follows the coarse stage")
+    fine_method: Literal["auto", "fkf", "od-kf", "ldv-kf", "nhc-kf"] = Field(
+        "auto", description="the fine alignment method that follows the coarse stage; auto: "
+                            "fkf with odometer and LDV, od-kf or ldv-kf with one of them "
+                            "(info: fine_method)")
     fine: dict = Field(default_factory=dict, description="configuration of the fine method")
     coarse: dict = Field(default_factory=dict, description="coarse-inertial configuration")
 
@@ -150,7 +162,9 @@ def coarse_fault_tolerant(bundle: Bundle, cfg: MuxConfig, init: Optional[NavStat
     events = []
     ccfg = CoarseInertialConfig(**{"mode": "moving", **cfg.coarse})
     if cfg.fault_tolerant_coarse:
-        v, _, events = fault_tolerant_speed(win, win.imu.t, cfg.speed_tolerance_m_s,
+        # the speeds from the whole log: a window cut at t0, t1 may lose the samples either
+        # side of its ends (a real log's irregular CAN speed)
+        v, _, events = fault_tolerant_speed(bundle, win.imu.t, cfg.speed_tolerance_m_s,
                                             cfg.pitch_time_constant_s)
         win = Bundle(win.imu, win.meta, None, SpeedData(win.imu.t, v=v), None, win.baro, win.truth)
         ccfg = ccfg.model_copy(update={"velocity_sensor": "ldv"})
@@ -188,24 +202,39 @@ def first_covered(bundle: Bundle, t_from: float) -> float:
     return float(bundle.imu.t[k])
 
 
+def last_covered(bundle: Bundle, t_to: float | None = None,
+                 channels=_CHANNELS) -> float:
+    """The last IMU time at or before ``t_to`` (default: the end) at which every sensor of
+    ``channels`` present still has a speed (a real log's speed may end a few ms before its
+    IMU)."""
+    t_max = float(bundle.imu.t[-1]) if t_to is None else float(t_to)
+    for c in channels:
+        sp = getattr(bundle, c)
+        if sp is not None and len(sp.t):
+            t_max = min(t_max, float(sp.t[-1]))
+    k = int(np.searchsorted(bundle.imu.t, t_max + 1e-9, side="right")) - 1
+    return float(bundle.imu.t[max(k, 0)])
+
+
 def run_multiplexed(bundle: Bundle, cfg: MuxConfig, init: Optional[NavState] = None,
                     progress: Optional[Callable] = None) -> Solution:
     """Coarse over the window, attitude back-derived to its start, fine from the start to the
     end of the log (module docstring)."""
     t0 = first_covered(bundle, float(bundle.imu.t[0]) if init is None else float(init.t))
-    t1 = min(t0 + cfg.coarse_window_s, float(bundle.imu.t[-1]))
+    t1 = last_covered(bundle, t0 + cfg.coarse_window_s)
     w0 = time.perf_counter()
     coarse, C0 = coarse_fault_tolerant(bundle, cfg, init, t0, t1)
     w_coarse = time.perf_counter() - w0
     start = _start_state(bundle, C0, t0, init)
-    run, cls = FINE_METHODS[cfg.fine_method]
+    fine_method = auto_fine_method(bundle, cfg.fine_method)
+    run, cls = FINE_METHODS[fine_method]
     w1 = time.perf_counter()
     sol = run(bundle, ak._config(cfg.fine, cls), start, progress=progress)
     w_fine = time.perf_counter() - w1
     data_s = float(bundle.imu.t[-1] - t0)
     factor = data_s / max(w_fine, 1e-9)
     sol.info.update({
-        "method": "fine-mux", "mux_config": cfg.model_dump(),
+        "method": "fine-mux", "mux_config": cfg.model_dump(), "fine_method": fine_method,
         "multiplexing": {"t_start_s": t0, "coarse_end_s": t1,
                          "attitude_start_deg": coarse.info["attitude_start_deg"],
                          "coarse_attitude_end_deg": coarse.info["attitude_end_deg"],

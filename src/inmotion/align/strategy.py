@@ -38,7 +38,8 @@ from ..estimation import chi2
 from . import aided_kf as ak
 from .attitude_determination import initial_position
 from .coarse_inertial import CoarseInertialConfig, run_coarse_inertial
-from .multiplex import FINE_METHODS, MuxConfig, first_covered, run_multiplexed
+from .multiplex import (FINE_METHODS, MuxConfig, auto_fine_method, first_covered,
+                        last_covered, run_multiplexed)
 from .parked_kf import ParkedKfConfig, run_parked_kf
 from .velocity_source import speed_on_imu_times
 
@@ -61,8 +62,9 @@ class AdaptiveConfig(BaseModel):
     parked_coarse_s: float = Field(
         60.0, gt=0,
         description="parked this long or longer: parked coarse + parked-kf (Strategy 1) [s]")
-    fine_method: Literal["fkf", "od-kf", "ldv-kf"] = Field(
-        "fkf", description="the fine alignment method that follows the coarse stage")
+    fine_method: Literal["auto", "fkf", "od-kf", "ldv-kf"] = Field(
+        "auto", description="the fine alignment method that follows the coarse stage; auto: fkf "
+                            "with odometer and LDV, od-kf or ldv-kf with one of them")
     fine: dict = Field(
         default_factory=dict, description="configuration of the fine method (a mapping)")
     parked: dict = Field(default_factory=dict, description="parked-kf configuration")
@@ -71,9 +73,11 @@ class AdaptiveConfig(BaseModel):
 
 
 def detect_motion(bundle: Bundle, t0: float, noise_m_s, false_alarm_rate: float,
-                  confirm_s: float, rate_hz: float):
+                  confirm_s: float, rate_hz: float, radar_noise_m_s: float | None = None):
     """Switch time [s] from parked to moving (eq. 43-45), or None if the vehicle never moves.
 
+    ``noise_m_s`` = [odometer, ldv] parked 1-sigma [m/s]; with neither sensor in the bundle and
+    ``radar_noise_m_s`` given, the radar's speed is the test's one channel.
     Returns ``(t_switch, lambda_at_switch, threshold)``.
     """
     t_imu = bundle.imu.t
@@ -81,6 +85,7 @@ def detect_motion(bundle: Bundle, t0: float, noise_m_s, false_alarm_rate: float,
     step = max(1, int(round(1.0 / (rate_hz * bundle.imu.dt))))
     k0 = int(np.searchsorted(t_imu, t0 - 1e-9))
     t = t_imu[k0::step]
+    t = t[t <= last_covered(bundle, channels=("odometer", "ldv", "radar")) + 1e-9]
     lam = np.zeros(len(t))
     dof = 0
     for s, name in zip(noise_m_s, ("odometer", "ldv")):
@@ -90,6 +95,9 @@ def detect_motion(bundle: Bundle, t0: float, noise_m_s, false_alarm_rate: float,
         v = speed_on_imu_times(name, sp, t)
         lam += (v / s) ** 2
         dof += 1
+    if dof == 0 and radar_noise_m_s is not None and bundle.radar is not None:
+        lam += (speed_on_imu_times("radar", bundle.radar, t) / radar_noise_m_s) ** 2
+        dof = 1
     if dof == 0:
         raise BadInput(f"bundle {bundle.name!r} has neither odometer nor ldv: adaptive "
                        "alignment needs one to tell parked from moving")
@@ -151,7 +159,8 @@ def run_adaptive(bundle: Bundle, config: AdaptiveConfig | dict | None = None,
     if t_sw is not None:
         events.append({"t_s": t_sw, "event": "switch", "state": "moving",
                        "test_value": lam_sw, "threshold": thr})
-    run_fine, cls = FINE_METHODS[cfg.fine_method]
+    fine_method = auto_fine_method(bundle, cfg.fine_method)
+    run_fine, cls = FINE_METHODS[fine_method]
     if parked_s >= cfg.parked_coarse_s:
         strategy = "1: parked coarse + parked-kf, then in-motion fine from the parked result"
         coarse, parked = _parked_stage(bundle, cfg, init, t0, t_sw if t_sw else t_end)
@@ -176,10 +185,12 @@ def run_adaptive(bundle: Bundle, config: AdaptiveConfig | dict | None = None,
                              for k in ("phi_E", "phi_N", "phi_U")}, **info_fine})
     else:
         strategy = "2: in-motion coarse (fault tolerant) + fine with information multiplexing"
-        mux = MuxConfig(**{"fine_method": cfg.fine_method, "fine": cfg.fine, **cfg.mux})
+        mux = MuxConfig(**{"fine_method": fine_method, "fine": cfg.fine, **cfg.mux})
         sol = run_multiplexed(bundle, mux, init, progress)
         events += sol.info.get("events", [])
     sol.info.update({"method": "adaptive", "config": cfg.model_dump(), "strategy": strategy,
+                     "fine_method": fine_method,
+                     "sensors": [c for c in ("odometer", "ldv") if getattr(bundle, c) is not None],
                      "switch_time_s": t_sw, "parked_s": parked_s, "events": events,
                      "wall_time_s": time.perf_counter() - w0})
     return sol

@@ -180,8 +180,9 @@ class UsqueConfig(BaseModel):
     """
 
     model_config = ConfigDict(extra="forbid")
-    sensor: Literal["ldv", "radar", "odometer"] = Field(
-        "ldv", description="forward-velocity sensor of the measurement (paper: ldv)")
+    sensor: Literal["auto", "ldv", "radar", "odometer"] = Field(
+        "auto", description="forward-velocity sensor of the measurement; auto: the first present "
+                            "of ldv (the paper's), radar, odometer (info: sensor)")
     vectors: Literal["own", "obs_vectors"] = Field(
         "own",
         description="measurement source: own (streaming, exact Earth-rate term) or obs_vectors "
@@ -462,6 +463,7 @@ def run(bundle: Bundle, config: UsqueConfig, init: Optional[NavState] = None,
     Solution at the update epochs (the first row is the start, before any update).
     """
     t_start = time.perf_counter()
+    config, auto = _resolve_sensor(config, bundle)
     if config.vectors == "obs_vectors":
         return _run_obs_vectors(bundle, config, init, method, t_start)
     imu = bundle.imu
@@ -484,7 +486,7 @@ def run(bundle: Bundle, config: UsqueConfig, init: Optional[NavState] = None,
         raise ValueError(f"engine must be 'numba' or 'numpy', got {engine!r}")
     if progress is not None:
         progress(1.0)
-    info = {"method": method, "config": config.model_dump(),
+    info = {"method": method, "config": config.model_dump(), "sensor": config.sensor,
             "timing_s": time.perf_counter() - t_start, "update_stride_rows": stride,
             "final_R_m_s": out.R[-1].tolist(), "hinf_floor_hits": int(flt.floor_hits),
             "start_attitude": "q = [1 0 0 0] (C_b^n = I), the paper's start"}
@@ -529,7 +531,7 @@ def _run_obs_vectors(bundle, config, init, method, t_start):
     out.q_ib[:] = vr.q_b0b
     out.lla[:] = np.stack([vr.lat, vr.lon, vr.h], -1)
     i_speed = np.searchsorted(imu.t, vr.t).clip(0, len(imu.t) - 1)
-    info = {"method": method, "config": config.model_dump(),
+    info = {"method": method, "config": config.model_dump(), "sensor": config.sensor,
             "timing_s": time.perf_counter() - t_start, "update_stride_rows": 2,
             "final_R_m_s": out.R[-1].tolist(), "hinf_floor_hits": int(hits),
             "vectors": "inmotion.align.obs_vectors (MODEL_VB_EARTH)",
@@ -628,6 +630,18 @@ class _Outputs:
             units[name] = umap[name]
         return Solution.from_arrays(t, self.lla, vel_n, q_bn, sigma=sigma, states=states,
                                     state_units=units, info=info)
+
+
+def _resolve_sensor(config, bundle):
+    """``(config with a concrete sensor, was_auto)``: ``sensor: auto`` becomes the first present
+    of ldv, radar, odometer."""
+    if config.sensor != "auto":
+        return config, False
+    for name in ("ldv", "radar", "odometer"):
+        if getattr(bundle, name) is not None:
+            return config.model_copy(update={"sensor": name}), True
+    raise BadInput(f"bundle {bundle.name!r} has no velocity sensor (looked for ldv, radar, "
+                   "odometer); the unscented alignments need a forward-velocity sensor")
 
 
 def run_usque(bundle, config: UsqueConfig, init=None, progress=None) -> Solution:

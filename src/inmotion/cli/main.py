@@ -4,6 +4,7 @@
 
     inmotion simulate SCENARIO.yaml|NAME -o BUNDLE [--seed N] [--format csv|parquet]
     inmotion info BUNDLE
+    inmotion process  BUNDLE -o RESULT [--config FILE] [--init truth|meta|RESULT]
     inmotion align    BUNDLE --method NAME [--config FILE] -o RESULT [options]
     inmotion navigate BUNDLE --method NAME [--config FILE] -o RESULT [options]
     inmotion evaluate RESULT --truth BUNDLE [--json]
@@ -822,6 +823,173 @@ def scenarios(ctx, as_json):
     _emit(ctx, data, "\n".join(f"{d['name']:{w}s}  {d['description']}" for d in data), as_json)
 
 
+# --------------------------------------------------------------------------- process
+
+def _process_init(ctx, bundle, init):
+    """``(NavState or None, InitInfo dict)`` for ``process --init truth|meta|RESULT``."""
+    import numpy as np
+    if init is None:
+        return None, {"source": "none"}
+    if init == "meta":
+        from ..io.bundle import meta_initial
+        ini = meta_initial(bundle.meta, "meta.yaml")
+        state, _ = _initial_state(ctx, bundle, "meta", None, False)
+        return state, {"source": "meta", "has_attitude": ini["euler_deg"] is not None,
+                       "heading_sigma_deg": 2.0, "tilt_sigma_deg": 1.0}
+    state, desc = _initial_state(ctx, bundle, init, None, True)
+    if init == "truth":
+        return state, {"source": "truth", "has_attitude": True, "heading_sigma_deg": 0.1,
+                       "tilt_sigma_deg": 0.05}
+    from ..io.result import read_result
+    sol = read_result(init)
+
+    def sig(*keys):
+        v = [float(np.degrees(sol.sigma[k][-1])) for k in keys
+             if k in sol.sigma and len(sol.sigma[k]) and np.isfinite(sol.sigma[k][-1])]
+        return max(max(v), 1e-3) if v else None
+    return state, {"source": desc, "has_attitude": True,
+                   "heading_sigma_deg": sig("phi_U") or 2.0,
+                   "tilt_sigma_deg": sig("phi_E", "phi_N") or 1.0}
+
+
+def _load_process_config(config_file, sets):
+    import pydantic
+    import yaml
+    from ..process import ProcessConfig
+    data = {}
+    if config_file:
+        p = Path(config_file)
+        if not p.is_file():
+            raise BadInput("configuration file does not exist", file=p)
+        try:
+            data = yaml.safe_load(p.read_text()) or {}
+        except yaml.YAMLError as e:
+            raise BadInput(f"malformed YAML: {str(e).splitlines()[0]}", file=p) from None
+        if not isinstance(data, dict):
+            raise BadInput("configuration must be a mapping (key: value)", file=p)
+    data = _merge(data, _parse_sets(sets))
+    try:
+        return ProcessConfig.model_validate(data)
+    except pydantic.ValidationError as e:
+        errs = "; ".join(f"{'.'.join(map(str, er['loc'])) or 'config'}: {er['msg']}"
+                         for er in e.errors()[:3])
+        raise BadInput(f"process configuration: {errs}", file=config_file) from None
+
+
+def run_process_to(ctx, bundle, output, cfg, init=None, fmt="csv", output_rate=None,
+                   bundle_path=None, report=True) -> dict:
+    """Run :func:`inmotion.process.run_process` on ``bundle``, write the result (and its HTML
+    report) to ``output``; return the summary."""
+    from ..io.result import thin, write_result
+    from ..process import run_process
+    state, ii = _process_init(ctx, bundle, init)
+    rate = parse_output_rate(output_rate) if output_rate is not None else 1.0
+    t0 = time.perf_counter()
+    with _progress(ctx, "process") as progress:
+        sol = run_process(bundle, cfg, state, ii, progress=progress)
+    wall = time.perf_counter() - t0
+    sol.info["timing"] = {"wall_s": wall}
+    if rate is not None:
+        sol = thin(sol, rate)
+    extra = {"bundle": str(bundle_path) if bundle_path else None, "bundle_name": bundle.name,
+             "init": {"from": ii.get("source"), "t_s": None if state is None else state.t},
+             "output_rate_hz": rate, "stages": sol.info.get("stages"),
+             "heading": sol.info.get("heading")}
+    summary = write_result(sol, output, truth=bundle.truth, summary_extra=extra, fmt=fmt)
+    if report:
+        from ..evaluate.report import build_report
+        try:
+            page = build_report(output)
+            summary["report"] = str(page)
+        except Exception as e:              # the result stands without its page
+            _note(ctx, f"warning: the HTML report failed: {type(e).__name__}: {e}")
+    return summary
+
+
+def _stage_lines(summary: dict) -> list[str]:
+    lines = []
+    for s in summary.get("stages") or []:
+        end = f"{s['end_s']:.2f}" if s.get("end_s") is not None else "-"
+        att = s.get("attitude_end_deg") or s.get("attitude_start_deg")
+        sig = s.get("sigma_end_arcmin")
+        extra = ""
+        if att:
+            extra += f"  yaw {att['yaw'] % 360:.3f} deg"
+        if sig and "phi_U" in sig:
+            extra += f" (1-sigma {sig['phi_U']:.3g} arcmin)"
+        lines.append(f"  {s['stage']:16s} {s['method']:22s} {s['start_s']:10.2f} .. {end:>10s} s"
+                     f"{extra}\n      {s['why']}")
+    h = summary.get("heading") or {}
+    if h:
+        lines.append(f"  heading: {h.get('source')}: {h.get('why')}")
+    return lines
+
+
+def _process_text(summary: dict, output) -> str:
+    lines = [f"process: {summary['epochs']} epochs, wrote {output}", "stages:"]
+    lines += _stage_lines(summary)
+    f = summary["final"]
+    lines.append(f"  final t={f['t_s']:.3f} s  lat={f['lat_deg']:.8f} lon={f['lon_deg']:.8f} deg "
+                 f"h={f['h_m']:.2f} m  yaw={f['yaw_deg']:.4f} deg")
+    if "errors" in summary:
+        lines.append(_errors_text(summary["errors"]))
+    if summary.get("report"):
+        lines.append(f"  report: {summary['report']}")
+    return "\n".join(lines)
+
+
+@cli.command()
+@click.argument("bundle_path", metavar="BUNDLE", type=click.Path())
+@click.option("-o", "--output", required=True, type=click.Path(file_okay=False),
+              help="Result folder to write.")
+@click.option("--config", "config_file", type=click.Path(),
+              help="YAML/JSON process configuration (inmotion.process.ProcessConfig).")
+@click.option("--set", "sets", multiple=True, metavar="KEY=VALUE",
+              help="Set a configuration field (repeatable; methods.od-kf.measurement=velocity).")
+@click.option("--init", default=None,
+              help="truth | meta | RESULT: start position (and the heading where the IMU "
+                   "cannot find it); default: none (position from meta.yaml).")
+@click.option("--start", type=float, default=None, help="Window start [s].")
+@click.option("--end", type=float, default=None, help="Window end [s].")
+@click.option("--smooth", is_flag=True,
+              help="Forward-backward smoothing: NOT AVAILABLE YET (exits with status 2).")
+@click.option("--allow-imu-gaps", is_flag=True,
+              help="Integrate across IMU gaps instead of refusing the bundle.")
+@click.option("--format", "fmt", type=click.Choice(["csv", "parquet"]), default="csv",
+              show_default=True, help="Format of the result tables.")
+@click.option("--output-rate", default=None, metavar="HZ|all",
+              help="Rows written per second (default 1 Hz).")
+@click.option("--no-report", is_flag=True, help="Do not write the HTML report.")
+@_json_option
+@click.pass_context
+def process(ctx, bundle_path, output, config_file, sets, init, start, end, smooth,
+            allow_imu_gaps, fmt, output_rate, no_report, as_json):
+    """The main job in one command: parked / moving detection, alignment, navigation.
+
+    Finds the parked and moving segments (paper 003's chi-square test), aligns parked (coarse
+    + zero-velocity fine) or in motion (coarse + fine), navigates to the end with the aiding
+    the bundle has (radar: dr-kf then sins-dr; odometer / LDV: fkf, od-kf or ldv-kf; none:
+    nhc-kf; barometer if present; fault detection on), and writes ONE result with the log of
+    its stages (summary.json 'stages', 'heading') and report.html. An IMU that cannot
+    gyrocompass (a MEMS) takes its heading from --init. Rules: ``inmotion.process``.
+    """
+    if smooth:
+        raise BadInput("--smooth: forward-backward smoothing is not available yet (issue 14); "
+                       "run without --smooth for the forward solution")
+    cfg = _load_process_config(config_file, sets)
+    bundle = _read_bundle(ctx, bundle_path, allow_imu_gaps)
+    if start is not None or end is not None:
+        full = bundle
+        bundle = bundle.window(start, end)
+        if len(bundle.imu.t) < 2:
+            raise BadInput(f"the window {start} .. {end} s holds fewer than 2 IMU rows; the "
+                           f"drive covers {full.imu.t[0]:g}-{full.imu.t[-1]:g} s")
+    summary = run_process_to(ctx, bundle, output, cfg, init, fmt, output_rate, bundle_path,
+                             report=not no_report)
+    summary["window"] = {"start_s": start, "end_s": end}
+    _emit(ctx, summary, _process_text(summary, output), as_json)
+
+
 # --------------------------------------------------------------------------- demo
 
 DEMO_SCENARIO = "demo"
@@ -835,12 +1003,13 @@ DEMO_SCENARIO = "demo"
 @_json_option
 @click.pass_context
 def demo(ctx, seed, keep, as_json):
-    """Simulate the built-in drive, run every navigation method, print their errors.
+    """Simulate the built-in drive and run ``inmotion process`` on it; print its errors.
 
-    Every registered ``navigate`` method runs from the first truth row with its default
-    configuration; a method that does not fit the drive (BadInput, e.g. a missing sensor) is
-    skipped with a note; one that fails internally is reported and makes the exit status 1
-    after the table is printed.
+    The main job (``process``, no attitude given): its stages with the errors at the end of
+    each, then, for comparison, every registered ``navigate`` method started from the first
+    truth row with its default configuration (a method that does not fit the drive is skipped
+    with a note; one that fails internally is reported and makes the exit status 1 after the
+    tables are printed). The process result and its HTML report are in ``--keep DIR/process``.
     """
     import numpy as np
     from ..io.bundle import write_bundle
@@ -849,6 +1018,7 @@ def demo(ctx, seed, keep, as_json):
     if keep:
         from ..io.safe_write import check_output_path
         check_output_path(keep)
+    from ..process import ProcessConfig
     with contextlib.ExitStack() as stack:
         root = Path(keep) if keep else Path(stack.enter_context(
             tempfile.TemporaryDirectory(prefix="inmotion-demo-")))
@@ -862,7 +1032,25 @@ def demo(ctx, seed, keep, as_json):
         _note(ctx, f"simulated {DEMO_SCENARIO!r} in {time.perf_counter() - t0:.1f} s")
         write_bundle(bundle, root / "bundle")
         bundle = _read_bundle(ctx, root / "bundle")
-        rows, failed = [], []
+        failed, proc_rows, proc = [], [], None
+        try:
+            try:
+                proc = run_process_to(ctx, bundle, root / "process", ProcessConfig(),
+                                      bundle_path=root / "bundle", report=keep is not None)
+            except BadInput as e:           # e.g. a drive too short to gyrocompass
+                if "--init" not in str(e):
+                    raise
+                _note(ctx, f"process: {e}; the demo takes the heading from the truth")
+                proc = run_process_to(ctx, bundle, root / "process", ProcessConfig(),
+                                      init="truth", bundle_path=root / "bundle",
+                                      report=keep is not None)
+            proc_rows = _demo_process_rows(proc, root / "process")
+        except BadInput as e:
+            _note(ctx, f"process: skipped ({e})")
+        except Exception as e:
+            click.echo(f"inmotion: process: internal error: {type(e).__name__}: {e}", err=True)
+            failed.append("process")
+        rows = []
         for spec in registry.methods("navigate"):
             try:
                 config = build_config(spec)
@@ -886,50 +1074,45 @@ def demo(ctx, seed, keep, as_json):
             summary = write_result(sol, root / spec.name, truth=b.truth,
                                    summary_extra={"bundle": str(root / "bundle")})
             rows.append(_demo_summary(spec.name, summary))
-        chain = _demo_alignment_chain(ctx, bundle, root, failed)
-    text = _demo_table(rows) + "\n(navigation from the first truth row, every navigate method)"
-    if chain:
-        text += ("\n\nIn-motion alignment with no initial attitude, then navigation "
-                 "(each stage starts where the previous one ended):\n" + _demo_table(chain))
-    _emit(ctx, {"scenario": DEMO_SCENARIO, "seed": seed, "methods": rows,
-                "alignment_chain": chain, "failed": failed}, text, as_json)
+    parts = []
+    if proc_rows:
+        parts.append(_demo_table(proc_rows) + "\n(inmotion process, no attitude given: each "
+                     "stage's errors at its end; the last row is the whole result)\n"
+                     + "\n".join(_stage_lines(proc)))
+    parts.append(_demo_table(rows) + "\n(for comparison: navigation from the first truth row, "
+                 "every navigate method)")
+    _emit(ctx, {"scenario": DEMO_SCENARIO, "seed": seed,
+                "process": {"rows": proc_rows, "stages": (proc or {}).get("stages"),
+                            "heading": (proc or {}).get("heading")},
+                "methods": rows, "failed": failed}, "\n\n".join(parts), as_json)
     return 1 if failed else 0
 
 
-#: the demo's main job: (stage label, method, start s, end s); the drive starts moving at 30 s
-DEMO_CHAIN = (("coarse", "mimada-dual", 40.0, 160.0),
-              ("fine", "dr-kf", 160.0, 400.0),
-              ("navigate", "sins-dr", 400.0, None))
-
-
-def _demo_alignment_chain(ctx, bundle, root, failed) -> list:
-    """Coarse alignment in motion (no attitude given: position and velocity from the truth row
-    at the window start), fine alignment from the coarse result, navigation from the fine one."""
-    from ..io.result import write_result
-    rows, state = [], None
-    if bundle.imu.t[-1] < DEMO_CHAIN[-1][2] + 10.0:
-        _note(ctx, "the drive is too short for the alignment chain; skipped")
-        return rows
-    for label, name, start, end in DEMO_CHAIN:
-        try:
-            spec = registry.get(name)
-        except KeyError:
-            _note(ctx, f"{name}: not registered; alignment chain stops")
-            break
-        try:
-            if state is None:
-                state, _ = _initial_state(ctx, bundle, "truth", start, spec.needs_attitude)
-            sol, b = run_method(ctx, bundle, spec, build_config(spec), state, (start, end))
-            from ..io.result import check_solution
-            check_solution(sol)
-        except Exception as e:              # report and stop the chain, keep the rest
-            click.echo(f"inmotion: {name}: error in the alignment chain: {type(e).__name__}: {e}",
-                       err=True)
-            failed.append(name)
-            break
-        summary = write_result(sol, root / f"chain-{label}-{name}", truth=b.truth)
-        rows.append(_demo_summary(f"{label}: {name}", summary))
-        state = sol.final_state()
+def _demo_process_rows(summary: dict, folder) -> list:
+    """One table row per stage of a process result (errors at the stage's end), then the
+    whole result."""
+    import numpy as np
+    from ..io.result import find_table, read_table
+    err = read_table(find_table(folder, "errors"))
+    t = err["t"].to_numpy()
+    rows = []
+    for s in summary.get("stages") or []:
+        if s.get("end_s") is None or s["stage"] == "detect" or s["end_s"] <= s["start_s"]:
+            continue
+        # a coarse stage's product is the attitude at its start (multiplexing): shown there
+        t_at = s["start_s"] if "coarse" in s["stage"] else s["end_s"]
+        k = int(min(np.searchsorted(t, t_at - 1e-6), len(t) - 1))
+        e = err.iloc[k]
+        d = float(e["distance_m"])
+        rows.append({"method": f"{s['stage']}: {s['method'].split()[0]}",
+                     "duration_s": s["end_s"] - s["start_s"], "distance_m": d,
+                     "horizontal_m": float(e["horizontal_m"]),
+                     "horizontal_pct": 100 * float(e["horizontal_m"]) / d if d > 0 else None,
+                     "heading_arcmin": float(e["yaw_arcmin"]),
+                     "level_arcmin": math.hypot(float(e["phi_E_arcmin"]),
+                                                float(e["phi_N_arcmin"])),
+                     "run_s": None})
+    rows.append(_demo_summary("process", summary))
     return rows
 
 
@@ -946,14 +1129,16 @@ def _demo_summary(name, summary) -> dict:
 
 
 def _demo_table(rows) -> str:
-    head = (f"{'method':21s} {'duration s':>10s} {'distance km':>11s} {'horiz. m':>10s} "
+    w = max([21] + [len(r["method"]) for r in rows])
+    head = (f"{'method':{w}s} {'duration s':>10s} {'distance km':>11s} {'horiz. m':>10s} "
             f"{'% dist':>8s} {'heading arcmin':>14s} {'level arcmin':>12s} {'run s':>7s}")
     lines = [head, "-" * len(head)]
     for r in rows:
         pct = f"{r['horizontal_pct']:8.3f}" if r["horizontal_pct"] is not None else f"{'-':>8s}"
-        lines.append(f"{r['method']:21s} {r['duration_s']:10.1f} {r['distance_m'] / 1000:11.3f} "
+        lines.append(f"{r['method']:{w}s} {r['duration_s']:10.1f} {r['distance_m'] / 1000:11.3f} "
                      f"{r['horizontal_m']:10.2f} {pct} {r['heading_arcmin']:14.3f} "
-                     f"{r['level_arcmin']:12.3f} {r['run_s']:7.2f}")
+                     f"{r['level_arcmin']:12.3f} "
+                     + (f"{r['run_s']:7.2f}" if r["run_s"] is not None else f"{'-':>7s}"))
     return "\n".join(lines)
 
 

@@ -45,10 +45,14 @@ SENSORS = {
     "imada-dual": ("imu", _VEL),
     "mimada": ("imu", _VEL),
     "mimada-dual": ("imu", _VEL),
-    "usque": ("imu", "ldv (or radar / odometer, setting sensor)"),
-    "ausque": ("imu", "ldv (or radar / odometer, setting sensor)"),
-    "usque-hinf": ("imu", "ldv (or radar / odometer, setting sensor)"),
-    "ausquhe": ("imu", "ldv (or radar / odometer, setting sensor)"),
+    "usque": ("imu", "one forward-velocity sensor (sensor: auto takes ldv, else radar, else "
+                    "odometer)"),
+    "ausque": ("imu", "one forward-velocity sensor (sensor: auto takes ldv, else radar, else "
+                    "odometer)"),
+    "usque-hinf": ("imu", "one forward-velocity sensor (sensor: auto takes ldv, else radar, else "
+                    "odometer)"),
+    "ausquhe": ("imu", "one forward-velocity sensor (sensor: auto takes ldv, else radar, else "
+                    "odometer)"),
     "oba": ("imu", _VEL),
     "coarse-inertial": ("imu", "a velocity sensor in motion (none parked)"),
     "parked-kf": ("imu (vehicle parked)",),
@@ -56,8 +60,9 @@ SENSORS = {
     "ldv-kf": ("imu", "ldv", "baro (optional, use_baro)"),
     "nhc-kf": ("imu", "baro (optional, use_baro)"),
     "fkf": ("imu", "odometer", "ldv", "baro (optional, use_baro)"),
-    "fine-mux": ("imu", "odometer", "ldv"),
-    "adaptive": ("imu", "odometer and/or ldv", "baro (optional)"),
+    "fine-mux": ("imu", "odometer and/or ldv (fine_method: auto picks fkf, od-kf or ldv-kf)"),
+    "adaptive": ("imu", "odometer and/or ldv (fine_method: auto picks fkf, od-kf or ldv-kf)",
+                 "baro (optional)"),
 }
 
 _KF = ("misalignment phi, velocity dv and position dp errors, gyro drift eps, accelerometer "

@@ -237,6 +237,17 @@ def _result_section(page: _Page, root: Path, paper=None, level=2) -> list:
                         [[plots.ERROR_WORDS.get(k, (k, ""))[0], k,
                           plots.ERROR_WORDS.get(k, ("", ""))[1]]
                          + [block[s].get(k) for s in stats] for k in keys], left=3))
+    if summary.get("stages"):            # inmotion process: which stage ran when and why
+        page.add("<h3>Stages</h3>" + _table(
+            ["stage", "method", "start [s]", "end [s]", "heading at end [deg]",
+             "heading 1σ at end [arcmin]", "why"],
+            [[s.get("stage"), s.get("method"), s.get("start_s"), s.get("end_s"),
+              (s.get("attitude_end_deg") or s.get("attitude_start_deg") or {}).get("yaw"),
+              (s.get("sigma_end_arcmin") or {}).get("phi_U"), (s.get("why"), "l")]
+             for s in summary["stages"]], left=2))
+        head = summary.get("heading") or {}
+        if head:
+            page.add(f"<p>Heading: {_e(head.get('source', ''))}: {_e(head.get('why', ''))}</p>")
     solution = read_result(root)
     errors_path = find_table(root, "errors")
     if errors_path is not None:

@@ -1,0 +1,739 @@
+"""The main job in one call: parked / moving segments, alignment, navigation to the end of the
+drive with the aiding the bundle has (``inmotion process``, issue 14).
+
+:func:`run_process` chains the package's methods into stages and logs which ran when and why
+(``Solution.info["stages"]``). The rules, in order:
+
+1. **Sensors.** The forward-velocity sensors present (radar, LDV, odometer) and the barometer.
+2. **Parked or moving** (paper 003 eq. 43-45, :func:`inmotion.align.strategy.detect_motion`):
+   the chi-square test on the odometer and LDV speeds, on the radar's when the bundle has
+   neither. With no velocity sensor the drive is taken as parked throughout if ``meta.yaml``
+   says ``motion: {parked: true}``, else as moving from the start (no zero-velocity stage).
+3. **Can the IMU find the heading?** Without GNSS the heading is observable only through the
+   Earth's rotation (gyrocompassing), parked or moving: the velocity sensors and the vehicle
+   constraint are body-frame quantities that a heading rotation leaves unchanged. The
+   gyrocompass heading error is ``sigma_psi = eps / (Omega_ie cos L)`` for a gyro drift
+   ``eps``. :func:`heading_observability` takes ``eps`` from ``meta.yaml``'s IMU spec
+   (``imu.gyro.drift_deg_h`` (+ Markov part), the simulator's and the importers' spelling),
+   else measures it on the parked data (at least ``min_parked_check_s``): the mean gyro rate
+   of a parked vehicle is the Earth rate, so the difference of its up and horizontal
+   components from ``Omega sin L`` and ``Omega cos L`` is a lower bound of the drift, and the
+   scatter of the 1-s means divided by sqrt(number of seconds) its noise. The IMU finds the
+   heading when ``sigma_psi <= max_gyrocompass_heading_sigma_deg`` (3 deg: a 0.5 deg/h gyro
+   at 45 deg latitude; every navigation-grade IMU passes, every MEMS fails). Unknown (no spec,
+   no parked period): it cannot. When it cannot, the heading comes from ``init`` (truth,
+   meta, a result) with the sigma of that source (``heading_source`` in ``info``); without
+   ``init`` the run stops with ``BadInput`` saying so. A gyrocompass-grade IMU also needs
+   time: a coarse window shorter than ``min_gyrocompass_s`` (60 s; the Earth turns 0.25 deg
+   in a minute) is treated the same way, and a log parked throughout must be parked for
+   ``parked_coarse_s``.
+4. **Alignment.**
+   parked for ``parked_coarse_s`` or longer: parked coarse alignment (``coarse-inertial``,
+   mode parked) over the first ``parked_coarse_s``, then the zero-velocity fine alignment
+   (``parked-kf``) until the vehicle moves (or the end of the log);
+   otherwise, with a velocity sensor: in-motion coarse alignment over ``coarse_window_s``
+   (the fault-tolerant odometer / LDV speed of ``fine-mux``, else the radar), its attitude
+   referred back to the start (information multiplexing), then the fine filter from the
+   start; with no velocity sensor and moving, the attitude comes from ``init``.
+5. **Fine alignment and navigation** from the handover to the end, fault detection on, the
+   barometer if present: with a radar, ``dr-kf`` (paper 000, fine alignment in motion) for
+   ``fine_s`` then ``sins-dr`` (paper 002, chi-square gate ``gate_probability``) to the end;
+   else with the odometer and / or LDV the paper 003 filter (``fkf``, ``od-kf``, ``ldv-kf``:
+   chi-square FDI, NHC fallback); else ``nhc-kf``. Each stage starts from the previous
+   stage's end with its sigma as the prior.
+
+Filter noise and priors (``gyro_drift_deg_h``, ``gyro_arw_deg_sqrt_h``, ``accel_bias_ug``,
+``accel_vrw_ug_sqrt_hz``) come from ``meta.yaml``'s IMU spec where it gives them
+(``info["imu_spec"]``), else from each method's defaults; ``config.methods`` overrides any
+method's settings.
+"""
+from __future__ import annotations
+
+import math
+import time
+from typing import Callable, Optional
+
+import numpy as np
+from pydantic import BaseModel, ConfigDict, Field
+
+from . import registry
+from .core import earth, rotations
+from .core.bundle import Bundle
+from .core.solution import NavState, Solution
+from .errors import BadInput
+
+__all__ = ["ProcessConfig", "InitInfo", "heading_observability", "run_process", "plan"]
+
+DEG = math.pi / 180.0
+OMEGA_DEG_H = earth.OMEGA_IE / DEG * 3600.0   #: Earth rate [deg/h]
+
+
+#: filter priors and noise of an IMU that cannot gyrocompass, where meta.yaml does not give
+#: them: a consumer MEMS (phone, automotive; the real logs' class, docs/importers.md)
+MEMS_CLASS = {"gyro_drift_deg_h": 150.0, "accel_bias_ug": 10000.0, "gyro_arw_deg_sqrt_h": 0.5,
+              "accel_vrw_ug_sqrt_hz": 300.0, "nhc_noise_m_s": 0.3}
+#: priors of the sensor mounting when meta.yaml has no vehicle_mounting_arcmin (a real log:
+#: the IMU may sit degrees off the direction of travel, comma2k19 3.8 deg in pitch)
+UNKNOWN_MOUNTING = {"mount_sigma_arcmin": 300.0, "od_scale_sigma_ppm": 10000.0,
+                    "ldv_scale_sigma_ppm": 10000.0}
+
+
+class ProcessConfig(BaseModel):
+    """Configuration of ``inmotion process`` (human units in the field names)."""
+
+    model_config = ConfigDict(extra="forbid")
+    parked_coarse_s: float = Field(
+        60.0, gt=0,
+        description="parked this long or longer at the start: parked coarse + parked-kf [s]")
+    coarse_window_s: float = Field(
+        120.0, gt=0, description="window of the in-motion coarse alignment [s]")
+    min_window_s: float = Field(
+        10.0, gt=0, description="shortest coarse window accepted [s]")
+    min_gyrocompass_s: float = Field(
+        60.0, gt=0,
+        description="shortest coarse window from which the heading is taken as found by "
+                    "gyrocompassing (shorter: the heading comes from init) [s]")
+    mems_coarse_window_s: float = Field(
+        15.0, gt=0,
+        description="window of the in-motion coarse alignment of an IMU that cannot "
+                    "gyrocompass (its drift over a long window spoils the level) [s]")
+    fine_s: float = Field(
+        300.0, gt=0,
+        description="radar: dr-kf fine alignment at least this long before sins-dr navigates "
+                    "[s]")
+    handover_heading_sigma_arcmin: float = Field(
+        10.0, gt=0,
+        description="radar: dr-kf hands over to sins-dr once its heading sigma is at most "
+                    "this [arcmin] (else it runs to the end)")
+    max_gyrocompass_heading_sigma_deg: float = Field(
+        3.0, gt=0,
+        description="the IMU finds the heading if its gyrocompass heading sigma "
+                    "(drift / (Omega_ie cos L)) is at most this [deg]")
+    min_parked_check_s: float = Field(
+        20.0, gt=0,
+        description="parked this long at least to measure the gyros when meta has no IMU spec "
+                    "[s]")
+    init_heading_sigma_deg: Optional[float] = Field(
+        None, gt=0,
+        description="1-sigma of a heading taken from init [deg]; None: by its source (truth "
+                    "0.1, meta 2, a result its own sigma)")
+    init_tilt_sigma_deg: Optional[float] = Field(
+        None, gt=0,
+        description="1-sigma of a level attitude taken from init [deg]; None: truth 0.05, "
+                    "meta 1, a result its own sigma")
+    parked_speed_noise_m_s: list[float] = Field(
+        [0.02, 0.02], min_length=2, max_length=2,
+        description="[odometer, ldv] 1-sigma speed of the parked vehicle (motion test) [m/s]")
+    radar_parked_noise_m_s: float = Field(
+        0.1, gt=0, description="1-sigma radar speed of the parked vehicle (motion test) [m/s]")
+    false_alarm_rate: float = Field(
+        1e-4, gt=0, lt=1, description="false-alarm probability of the motion test")
+    confirm_s: float = Field(
+        0.5, ge=0, description="moving is declared after the test exceeds its threshold for "
+                               "this long [s]")
+    still_accel_m_s2: float = Field(
+        0.15, gt=0,
+        description="no velocity sensor: the vehicle is still at the start while every 0.25 s "
+                    "mean specific force stays this close to the still mean [m/s^2]")
+    still_gyro_deg_s: float = Field(
+        0.25, gt=0, description="... and every 0.25 s mean rate this close [deg/s]")
+    min_still_s: float = Field(
+        1.0, gt=0, description="a still start shorter than this is ignored [s]")
+    residual_gyro_drift_deg_h: float = Field(
+        10.0, gt=0,
+        description="gyro drift prior after the still-start bias of an IMU that cannot "
+                    "gyrocompass is removed (its in-run change) [deg/h]")
+    gate_probability: float = Field(
+        0.9999, gt=0.5, le=1.0,
+        description="chi-square gate of sins-dr's measurements (fault detection; 1: off)")
+    methods: dict = Field(
+        default_factory=dict,
+        description="per-method settings over the stages' defaults, e.g. {od-kf: "
+                    "{measurement: velocity}}")
+
+
+class InitInfo(BaseModel):
+    """What ``init`` is: where it came from and the 1-sigma it carries (None: unknown)."""
+
+    model_config = ConfigDict(extra="forbid")
+    source: str = Field("none", description="truth | meta | result | none")
+    heading_sigma_deg: Optional[float] = None
+    tilt_sigma_deg: Optional[float] = None
+    has_attitude: bool = False
+
+
+# --------------------------------------------------------------------------- heading rule
+
+def _spec_drift_deg_h(meta) -> tuple[Optional[float], str]:
+    from .align.parked_kf import spec_from_meta
+    spec, origin = spec_from_meta(meta)
+    d = spec.get("gyro_drift_deg_h")
+    return (None, "") if d is None else (float(d), origin or "meta.imu")
+
+
+def heading_observability(bundle: Bundle, lat: float, t0: float, parked_until: Optional[float],
+                          max_sigma_deg: float = 3.0, min_parked_s: float = 20.0) -> dict:
+    """Can the IMU find the heading (module docstring, rule 3)?
+
+    Returns ``{"can": bool, "sigma_deg": predicted gyrocompass heading sigma or None,
+    "drift_deg_h", "from": "meta.imu ..." | "parked gyros" | "unknown", "why": text}``.
+    """
+    cos_l = max(abs(math.cos(lat)), 0.05)
+    drift, origin = _spec_drift_deg_h(bundle.meta)
+    measured = None
+    if drift is None and parked_until is not None and parked_until - t0 >= min_parked_s:
+        imu = bundle.imu
+        m = (imu.t > t0) & (imu.t <= parked_until)
+        dt = np.diff(imu.t, prepend=imu.t[0] - imu.dt)[m]
+        dth, dv = imu.dtheta[m], imu.dvel[m]
+        w = dth.sum(0) / dt.sum()                       # mean rate [rad/s] in b
+        up = dv.sum(0)
+        up /= np.linalg.norm(up)                         # up in b (specific force of a parked car)
+        w_up = float(w @ up)
+        w_h = float(np.linalg.norm(w - w_up * up))
+        om = earth.OMEGA_IE
+        bias_lb = max(abs(w_up - om * math.sin(lat)), abs(w_h - om * cos_l))
+        n_s = int(dt.sum())
+        edges = np.searchsorted(np.cumsum(dt), np.arange(1, n_s + 1))
+        secs = np.add.reduceat(dth, np.r_[0, edges[:-1]])[:n_s] if n_s >= 2 else dth[:1]
+        noise = float(np.std(secs, axis=0).max() / math.sqrt(max(n_s, 1))) if n_s >= 2 else 0.0
+        drift = math.hypot(bias_lb, noise) / DEG * 3600.0
+        origin = "parked gyros"
+        measured = {"earth_rate_up_deg_h": w_up / DEG * 3600, "earth_rate_horizontal_deg_h":
+                    w_h / DEG * 3600, "expected_up_deg_h": OMEGA_DEG_H * math.sin(lat),
+                    "expected_horizontal_deg_h": OMEGA_DEG_H * cos_l,
+                    "mean_noise_deg_h": noise / DEG * 3600, "parked_s": float(dt.sum())}
+    if drift is None:
+        return {"can": False, "sigma_deg": None, "drift_deg_h": None, "from": "unknown",
+                "why": "meta.yaml has no IMU spec (imu.gyro.drift_deg_h) and the drive has no "
+                       f"parked period of {min_parked_s:g} s to measure the gyros: the IMU is "
+                       "not known to gyrocompass"}
+    sigma = math.degrees(drift / OMEGA_DEG_H / cos_l)
+    can = sigma <= max_sigma_deg
+    out = {"can": can, "sigma_deg": sigma, "drift_deg_h": drift, "from": origin,
+           "why": (f"gyro drift {drift:.3g} deg/h ({origin}) gives a gyrocompass heading sigma "
+                   f"of {sigma:.3g} deg at latitude {math.degrees(lat):.1f} deg "
+                   + ("<=" if can else ">") + f" {max_sigma_deg:g} deg: the IMU "
+                   + ("finds the heading" if can else "cannot find the heading"))}
+    if measured:
+        out["measured"] = measured
+    return out
+
+
+# --------------------------------------------------------------------------- helpers
+
+def _speed_sensors(bundle):
+    return [s for s in registry.SPEED_SENSORS if getattr(bundle, s) is not None]
+
+
+def _cfg(cls, base: dict, cfg: ProcessConfig, name: str, spec: dict):
+    """Configuration ``cls`` of method ``name``: the IMU spec, then the stage's ``base``, then
+    the user's ``methods[name]``; fields the class lacks are dropped."""
+    fields = cls.model_fields
+    data = {k: v for k, v in spec.items() if k in fields}
+    data.update({k: v for k, v in base.items() if k in fields})
+    user = cfg.methods.get(name) or {}
+    if not isinstance(user, dict):
+        raise BadInput(f"process configuration: methods.{name} must be a mapping")
+    data.update(user)
+    try:
+        return cls(**data)
+    except Exception as e:  # pydantic
+        raise BadInput(f"process configuration of {name}: {str(e).splitlines()[0]}") from None
+
+
+def _with_heading(C, yaw):
+    e = rotations.euler_from_dcm(C)
+    return rotations.dcm_from_euler(np.array([e[0], e[1], yaw]))
+
+
+def _sig_deg(sol: Solution, key: str, floor: float) -> float:
+    s = sol.sigma.get(key)
+    if s is None or not len(s) or not np.isfinite(s[-1]):
+        return floor
+    return max(float(np.degrees(s[-1])), floor)
+
+
+def _attitude_deg(state: NavState) -> dict:
+    e = np.degrees(state.euler)
+    return {"pitch": float(e[0]), "roll": float(e[1]), "yaw": float(e[2] % 360.0)}
+
+
+def _head(sol: Solution, t1: float) -> Solution:
+    """The rows of ``sol`` at or before ``t1`` (for the stage log)."""
+    m = sol.t <= t1 + 1e-9
+    return Solution(sol.t[m], sol.lat[m], sol.lon[m], sol.h[m], sol.vel_n[m], sol.euler[m],
+                    sigma={k: v[m] for k, v in sol.sigma.items()})
+
+
+def _concat(parts):
+    from .align.strategy import _concat as cat
+    parts = [p for p in parts if p is not None and len(p.t)]
+    if len(parts) == 1:
+        return parts[0]
+    return cat(parts)
+
+
+def _initial_speed(bundle, t0):
+    from .align.velocity_source import initial_speed
+    for name in ("ldv", "radar", "odometer"):
+        sp = getattr(bundle, name)
+        if sp is not None:
+            try:
+                return float(initial_speed(name, sp, t0, 1.0)), name
+            except BadInput:
+                continue
+    return 0.0, None
+
+
+# --------------------------------------------------------------------------- the plan
+
+def still_start(bundle: Bundle, t0: float, accel_m_s2: float = 0.15, gyro_deg_s: float = 0.25,
+                block_s: float = 0.25) -> Optional[float]:
+    """End [s] of the still period at the start of a drive with no velocity sensor, or None.
+
+    The IMU alone: the 0.25 s block means of the specific force and the rate are compared
+    with the mean of the blocks before them; the vehicle is still while every block stays
+    within ``accel_m_s2`` and ``gyro_deg_s`` of it (driving off shows at once in the forward
+    specific force, a turn in the rate; block means average the engine's vibration away).
+    """
+    imu = bundle.imu
+    k0 = int(np.searchsorted(imu.t, t0 + 1e-9))
+    t = imu.t[k0:]
+    if len(t) < 4:
+        return None
+    dt = np.diff(imu.t[k0 - 1:] if k0 > 0 else np.r_[t[0] - imu.dt, t])
+    n = max(1, int(round(block_s / float(np.median(dt)))))
+    nb = len(t) // n
+    if nb < 3:
+        return None
+    T = dt[:nb * n].reshape(nb, n).sum(1)
+    f = imu.dvel[k0:k0 + nb * n].reshape(nb, n, 3).sum(1) / T[:, None]
+    w = imu.dtheta[k0:k0 + nb * n].reshape(nb, n, 3).sum(1) / T[:, None]
+    end = None
+    for j in range(1, nb):
+        fm, wm = f[:j].mean(0), w[:j].mean(0)
+        if (np.abs(f[j] - fm).max() > accel_m_s2
+                or np.degrees(np.abs(w[j] - wm).max()) > gyro_deg_s):
+            end = j
+            break
+    if end is None:
+        return float(t[nb * n - 1])
+    return float(t[end * n - 1]) if end > 1 else None
+
+
+def plan(bundle: Bundle, cfg: ProcessConfig, t0: float) -> dict:
+    """Parked / moving detection: ``{"t_move", "parked_s", "detector", "why", ...}``."""
+    from .align.strategy import detect_motion
+    speed = _speed_sensors(bundle)
+    t_end = float(bundle.imu.t[-1])
+    if speed:
+        used = [s for s in ("odometer", "ldv") if s in speed] or ["radar"]
+        t_sw, lam, thr = detect_motion(bundle, t0, cfg.parked_speed_noise_m_s,
+                                       cfg.false_alarm_rate, cfg.confirm_s, 10.0,
+                                       radar_noise_m_s=cfg.radar_parked_noise_m_s)
+        why = (f"chi-square motion test (paper 003 eq. 43-45) on {', '.join(used)}, "
+               f"threshold {thr:.3g}: " + (f"moving from {t_sw:.2f} s (test value "
+                                          f"{lam:.3g})" if t_sw is not None else
+                                          "never moves"))
+        det = {"detector": "chi-square", "sensors": used, "threshold": thr,
+               "test_value": lam}
+    else:
+        motion = bundle.meta.get("motion") if isinstance(bundle.meta, dict) else None
+        parked = isinstance(motion, dict) and bool(motion.get("parked"))
+        t_still = None if parked else still_start(bundle, t0, cfg.still_accel_m_s2,
+                                                   cfg.still_gyro_deg_s)
+        if parked:
+            t_sw, why, det = None, "no velocity sensor; meta.yaml says motion: parked", \
+                {"detector": "meta.yaml motion"}
+        elif t_still is not None and t_still - t0 >= cfg.min_still_s:
+            t_sw = t_still if t_still < float(bundle.imu.t[-1]) - 1.0 else None
+            why = ("no velocity sensor: IMU stillness test (0.25 s means of specific force "
+                   f"within {cfg.still_accel_m_s2:g} m/s^2, rate within "
+                   f"{cfg.still_gyro_deg_s:g} deg/s): still until {t_still:.2f} s")
+            det = {"detector": "imu stillness"}
+        else:
+            t_sw = t0
+            why = ("no velocity sensor, meta.yaml does not say parked and the IMU shows no "
+                   "still start: taken as moving from the start (no zero-velocity stage)")
+            det = {"detector": "none"}
+    parked_s = (t_sw if t_sw is not None else t_end) - t0
+    return {"t_move": t_sw, "parked_s": float(parked_s), "why": why, **det}
+
+
+# --------------------------------------------------------------------------- the run
+
+def run_process(bundle: Bundle, config: ProcessConfig | dict | None = None,
+                init: Optional[NavState] = None, init_info: InitInfo | dict | None = None,
+                progress: Optional[Callable] = None) -> Solution:
+    """The whole drive in one call (module docstring). ``init``: position (and velocity, and,
+    where the IMU cannot find it, the heading) at its time ``init.t``, which is where the run
+    starts (None: the start of the log, position from ``meta.yaml``). Returns one Solution
+    whose ``info`` holds ``stages`` (the log), ``heading`` (the rule's verdict), ``motion``
+    and the sensors used."""
+    from .align.attitude_determination import initial_position
+    from .align.multiplex import first_covered
+    from .align.parked_kf import spec_from_meta
+    cfg = config if isinstance(config, ProcessConfig) else ProcessConfig(**(config or {}))
+    ii = init_info if isinstance(init_info, InitInfo) else InitInfo(**(init_info or {}))
+    w0 = time.perf_counter()
+    speed = _speed_sensors(bundle)
+    t_start = float(bundle.imu.t[0]) if init is None else max(float(init.t),
+                                                             float(bundle.imu.t[0]))
+    t0 = first_covered(bundle, t_start) if speed else t_start
+    if float(bundle.imu.t[-1]) - t0 < 1.0:
+        raise BadInput(f"the log holds {float(bundle.imu.t[-1]) - t0:.3g} s after the start "
+                       f"{t0:.6g} s: too short to process", file="imu")
+    lat, lon, h = initial_position(bundle, init)
+    spec, spec_origin = spec_from_meta(bundle.meta)
+    stages: list[dict] = []
+
+    def log(stage, method, start, end, why, sol=None, **extra):
+        e = {"stage": stage, "method": method, "start_s": float(start),
+             "end_s": None if end is None else float(end), "why": why, **extra}
+        if sol is not None and len(sol.t):
+            st = sol.final_state()
+            e["attitude_end_deg"] = _attitude_deg(st)
+            e["sigma_end_arcmin"] = {k: float(np.degrees(sol.sigma[k][-1]) * 60)
+                                     for k in ("phi_E", "phi_N", "phi_U") if k in sol.sigma}
+        stages.append(e)
+
+    # ---- 1-2: sensors, parked / moving
+    pl = plan(bundle, cfg, t0)
+    t_move, parked_s = pl["t_move"], pl["parked_s"]
+    t_end = float(bundle.imu.t[-1])
+    log("detect", pl["detector"], t0, t_move, pl["why"], sensors=speed,
+        baro=bundle.baro is not None)
+    # ---- 3: heading
+    head = heading_observability(bundle, lat, t0, t_move if t_move is not None else t_end,
+                                 cfg.max_gyrocompass_heading_sigma_deg, cfg.min_parked_check_s)
+    from_init = not head["can"]
+    if t_move is None and parked_s < cfg.parked_coarse_s:
+        raise BadInput(f"the vehicle is parked through the whole log ({parked_s:.1f} s); the "
+                       f"parked alignment needs {cfg.parked_coarse_s:g} s (parked_coarse_s)")
+    span = (parked_s if parked_s >= cfg.parked_coarse_s else
+            (min(t_end, t0 + cfg.coarse_window_s) - t0 if speed else 0.0))
+    if head["can"] and span < cfg.min_gyrocompass_s:
+        # the Earth turns too little during the window for the coarse stage to see it
+        head["can"] = False
+        head["why"] += (f"; but the coarse window holds only {span:.1f} s < "
+                        f"{cfg.min_gyrocompass_s:g} s (min_gyrocompass_s): too short to "
+                        "gyrocompass")
+        from_init = True
+    if from_init and not head["can"] and head.get("drift_deg_h") is not None \
+            and head["drift_deg_h"] / OMEGA_DEG_H < 0.1:
+        pass                # a navigation-grade IMU on a short drive: its own priors stay
+    elif from_init:         # not a gyrocompassing IMU: MEMS-class priors where meta is silent
+        spec = {**{k: v for k, v in MEMS_CLASS.items() if k not in spec}, **spec}
+        spec_origin = (spec_origin + " + " if spec_origin else "") + "MEMS class defaults"
+    if "vehicle_mounting_arcmin" not in (bundle.meta or {}):
+        spec = {**UNKNOWN_MOUNTING, **spec}
+    yaw0, head_sig = None, None
+    if from_init:
+        if init is None or not ii.has_attitude:
+            given = ("" if init is None else
+                     f"; the init given ({ii.source}) has no attitude (meta.yaml: "
+                     "initial_attitude {pitch_deg, roll_deg, yaw_deg})")
+            raise BadInput(f"the heading cannot be found from this bundle ({head['why']})"
+                           f"{given}; give it with --init truth|meta|RESULT")
+        yaw0 = float(init.euler[2])
+        head_sig = cfg.init_heading_sigma_deg or ii.heading_sigma_deg or 2.0
+        head["source"] = f"init ({ii.source})"
+        head["init_heading_deg"] = math.degrees(yaw0) % 360.0
+        head["init_heading_sigma_deg"] = head_sig
+    else:
+        head["source"] = "found by the IMU (gyrocompassing)"
+    moving_no_sensor = not speed and t_move is not None and parked_s < cfg.parked_coarse_s
+    if moving_no_sensor and (init is None or not ii.has_attitude) and parked_s <= 0:
+        raise BadInput("the bundle has no velocity sensor and the vehicle moves from the "
+                       "start: the level attitude cannot be found in motion; give it with "
+                       "--init truth|meta|RESULT")
+    parts: list[Solution] = []
+
+    def progress_part(a, b):
+        if progress is None:
+            return None
+        return lambda f: progress(a + (b - a) * min(max(f, 0.0), 1.0))
+
+    # ---- 4: alignment
+    if parked_s >= cfg.parked_coarse_s:
+        from .align.coarse_inertial import CoarseInertialConfig, run_coarse_inertial
+        from .align.parked_kf import ParkedKfConfig, run_parked_kf
+        t1 = t0 + cfg.parked_coarse_s
+        ccfg = _cfg(CoarseInertialConfig, {"mode": "parked"}, cfg, "coarse-inertial", {})
+        coarse = run_coarse_inertial(bundle.window(t0, t1), ccfg,
+                                     NavState(t0, lat, lon, h, np.zeros(3), [1.0, 0, 0, 0]))
+        a = coarse.info["attitude_start_deg"]
+        C0 = rotations.dcm_from_euler(np.radians([a["pitch"], a["roll"], a["yaw"]]))
+        if from_init:
+            C0 = _with_heading(C0, yaw0)
+        log("parked coarse", "coarse-inertial", t0, t1,
+            f"parked {parked_s:.1f} s >= {cfg.parked_coarse_s:g} s: inertial-frame coarse "
+            "alignment on the parked vehicle (paper 003 Strategy 1)"
+            + ("; heading from init" if from_init else ""),
+            attitude_start_deg=a)
+        t_park_end = t_move if t_move is not None else t_end
+        pbase = {"output_interval_s": 1.0}
+        if from_init:
+            pbase["init_heading_sigma_deg"] = head_sig
+        pcfg = _cfg(ParkedKfConfig, pbase, cfg, "parked-kf", {})
+        start = NavState(t0, lat, lon, h, np.zeros(3), rotations.quat_from_dcm(C0))
+        parked = run_parked_kf(bundle, pcfg, start, progress=progress_part(0.0, 0.3),
+                               end_s=t_park_end)
+        parts.append(parked)
+        log("parked fine", "parked-kf", t0, t_park_end,
+            "zero-velocity fine alignment while parked (paper 003 eq. 11-13)", parked)
+        if t_move is None or t_end - t_move < 1.0:
+            handover = None
+        else:
+            st = parked.state_at(min(t_move, float(parked.t[-1])))
+            handover = NavState(t_move, st.lat, st.lon, st.h, np.zeros(3), st.q_nb)
+            # the parked result's sigma, inflated by half for the change of model at the switch
+            tilt_sig = 1.5 * max(_sig_deg(parked, "phi_E", 1e-3),
+                                 _sig_deg(parked, "phi_N", 1e-3))
+            h_sig = 1.5 * _sig_deg(parked, "phi_U", 1e-2)
+            if from_init:
+                h_sig = max(h_sig, head_sig)
+    else:
+        handover = None
+        if speed:
+            t1 = min(t0 + (cfg.mems_coarse_window_s if from_init else cfg.coarse_window_s),
+                     t_end)
+            from .align.multiplex import last_covered
+            t1 = last_covered(bundle, t1, channels=tuple(speed))
+            if t1 - t0 < cfg.min_window_s:
+                raise BadInput(f"the drive holds {t1 - t0:.3g} s of velocity-sensor data after "
+                               f"{t0:.6g} s; the in-motion coarse alignment needs "
+                               f"{cfg.min_window_s:g} s")
+            C0, cinfo, cmethod = _coarse_moving(bundle, cfg, init, t0, t1, speed)
+            a = cinfo["attitude_start_deg"]
+            if from_init:
+                C0 = _with_heading(C0, yaw0)
+            why = ("moving from the start" if parked_s <= 0 else
+                   f"parked only {parked_s:.1f} s < {cfg.parked_coarse_s:g} s") + \
+                ": in-motion coarse alignment, attitude referred back to the start " \
+                "(information multiplexing, paper 003 Strategy 2)" + \
+                ("; heading from init" if from_init else "")
+            log("moving coarse", cmethod, t0, t1, why, attitude_start_deg=a,
+                speed_sensor=cinfo.get("speed_sensor"))
+            v0, _ = _initial_speed(bundle, t0)
+            handover = NavState(t0, lat, lon, h, C0 @ np.array([0.0, v0, 0.0]),
+                                rotations.quat_from_dcm(C0))
+            tilt_sig, h_sig = 1.0, (head_sig if from_init else 3.0)
+        elif parked_s > 0:
+            # a short still start, no velocity sensor: level from the accelerometers, heading
+            # from init, and (an IMU that cannot gyrocompass) the gyro bias measured as the
+            # still mean rate minus the Earth rate
+            bundle, handover, tilt_sig, h_sig, spec, rm = _still_stage(
+                bundle, cfg, init, ii, t0, t_move, (lat, lon, h), yaw0 if from_init else None,
+                head_sig, spec, from_init)
+            log("still start", "imu", t0, t_move,
+                f"still {parked_s:.2f} s < {cfg.parked_coarse_s:g} s, no velocity sensor: "
+                "level from the still specific force, heading from init"
+                + ("; gyro bias removed (still mean rate minus the Earth rate), drift prior "
+                   f"{spec['gyro_drift_deg_h']:g} deg/h" if rm is not None else ""),
+                attitude_start_deg=_attitude_deg(handover),
+                **({"gyro_bias_deg_h": rm} if rm is not None else {}))
+        else:
+            e = init.euler
+            C0 = rotations.dcm_from_euler(np.array([e[0], e[1], yaw0 if from_init else e[2]]))
+            handover = NavState(t0, lat, lon, h, init.vel_n if init is not None
+                                else np.zeros(3), rotations.quat_from_dcm(C0))
+            tilt_sig = cfg.init_tilt_sigma_deg or ii.tilt_sigma_deg or 1.0
+            h_sig = head_sig if from_init else (ii.heading_sigma_deg or 2.0)
+            log("attitude from init", "init", t0, t0,
+                f"no velocity sensor and moving: attitude and velocity from init ({ii.source})",
+                attitude_start_deg=_attitude_deg(handover))
+    # ---- 5: fine alignment and navigation to the end
+    if handover is not None:
+        parts += _navigate(bundle, cfg, handover, tilt_sig, h_sig, spec, log,
+                           progress_part(0.3 if parts else 0.0, 1.0))
+    sol = _concat(parts)
+    sol.info.update({
+        "method": "process", "config": cfg.model_dump(), "stages": stages,
+        "heading": head, "motion": {k: v for k, v in pl.items() if k != "why"} | {"why": pl["why"]},
+        "sensors_present": registry.present_sensors(bundle),
+        "sensors_used": sorted({s for p in parts for s in registry.sensors_used(p.info)}),
+        "imu_spec": {"values": spec, "from": spec_origin or "none (method defaults)"},
+        "init": ii.model_dump(), "wall_time_s": time.perf_counter() - w0})
+    if from_init and "phi_U" in sol.sigma:
+        # the heading is not observable: its sigma cannot fall below the init's, grown by the
+        # gyro drift over the time since (the filters' linear models, far from their operating
+        # point with a MEMS's drift, may claim more)
+        drift = math.radians(float(spec.get("gyro_drift_deg_h", MEMS_CLASS["gyro_drift_deg_h"]))
+                             ) / 3600.0
+        floor = np.hypot(math.radians(head_sig), drift * np.maximum(sol.t - t0, 0.0))
+        sol.sigma["phi_U"] = np.fmax(sol.sigma["phi_U"], floor)
+        sol.info["heading_sigma_rule"] = (
+            f"max(filter, hypot(init sigma {head_sig:.3g} deg, drift "
+            f"{math.degrees(drift) * 3600:.3g} deg/h x time since {t0:.6g} s))")
+    if from_init:
+        sol.info["heading_note"] = ("heading not observable by this IMU: taken from init "
+                                    f"({ii.source}) with 1-sigma {head_sig:.3g} deg; its "
+                                    "sigma grows with the gyro drift")
+    return sol
+
+
+def _still_stage(bundle, cfg, init, ii, t0, t1, pos, yaw0, head_sig, spec, from_init):
+    """The short still start of a drive with no velocity sensor (see :func:`run_process`):
+    ``(bundle (gyro bias removed if so), state at t1, tilt sigma, heading sigma, spec,
+    bias deg/h or None)``."""
+    from .core.bundle import ImuData
+    lat, lon, h = pos
+    imu = bundle.imu
+    m = (imu.t > t0) & (imu.t <= t1)
+    dt = np.diff(imu.t, prepend=imu.t[0] - imu.dt)
+    f = imu.dvel[m].sum(0) / dt[m].sum()
+    pitch = math.atan2(f[1], math.hypot(f[0], f[2]))
+    roll = math.atan2(-f[0], f[2])
+    if yaw0 is None:
+        if init is None or not ii.has_attitude:
+            raise BadInput("the bundle has no velocity sensor and the still start is too short "
+                           "to find the heading; give it with --init truth|meta|RESULT")
+        yaw0 = float(init.euler[2])
+    C = rotations.dcm_from_euler(np.array([pitch, roll, yaw0]))
+    state = NavState(t1, lat, lon, h, np.zeros(3), rotations.quat_from_dcm(C))
+    still_s = float(dt[m].sum())
+    # level from a still accelerometer triad: its bias over g, ~ 0.1 deg for a MEMS
+    tilt_sig = max(math.degrees(float(spec.get("accel_bias_ug", 1000.0)) * 1e-6), 0.05)
+    bias = None
+    if from_init:
+        w = imu.dtheta[m].sum(0) / still_s
+        w_e = C.T @ (earth.OMEGA_IE * np.array([0.0, math.cos(lat), math.sin(lat)]))
+        b = w - w_e
+        dth = imu.dtheta - np.outer(dt, b)
+        bundle = Bundle(ImuData(imu.t, dth, imu.dvel), bundle.meta, bundle.radar, bundle.ldv,
+                        bundle.odometer, bundle.baro, bundle.truth)
+        spec = {**spec, "gyro_drift_deg_h": min(float(spec.get("gyro_drift_deg_h", 1e9)),
+                                                cfg.residual_gyro_drift_deg_h)}
+        bias = (np.degrees(b) * 3600.0).tolist()
+    return bundle, state, tilt_sig, head_sig, spec, bias
+
+
+def _coarse_moving(bundle, cfg, init, t0, t1, speed):
+    """In-motion coarse alignment over ``[t0, t1]``: the attitude at ``t0``."""
+    from .align.coarse_inertial import CoarseInertialConfig, run_coarse_inertial
+    from .align.multiplex import MuxConfig, coarse_fault_tolerant
+    if "odometer" in speed and "ldv" in speed:
+        # two speed channels and the IMU vote (paper 003 sec. 3.2.1); with one channel the
+        # vote has no second sensor, and a noisy channel would hand the speed to the drifting
+        # IMU bridge: the sensor itself is used then
+        mux = MuxConfig(coarse_window_s=t1 - t0,
+                        coarse=dict(cfg.methods.get("coarse-inertial") or {}))
+        sol, C0 = coarse_fault_tolerant(bundle, mux, init, t0, t1)
+        used = [s for s in ("odometer", "ldv") if s in speed]
+        return C0, {"attitude_start_deg": sol.info["attitude_start_deg"],
+                    "speed_sensor": "fault-tolerant " + " / ".join(used + ["imu"])}, \
+            "coarse-inertial (fault-tolerant speed, fine-mux)"
+    name = next(s for s in ("ldv", "radar", "odometer") if s in speed)
+    ccfg = _cfg(CoarseInertialConfig, {"mode": "moving", "velocity_sensor": name}, cfg,
+                "coarse-inertial", {})
+    # the IMU cut to the window, the sensor whole (a real log's speed may stop just short of
+    # a window's ends)
+    win = Bundle(bundle.imu.window(t0, t1), bundle.meta,
+                 **{name: getattr(bundle, name)})
+    sol = run_coarse_inertial(win, ccfg, init)
+    a = sol.info["attitude_start_deg"]
+    C0 = rotations.dcm_from_euler(np.radians([a["pitch"], a["roll"], a["yaw"]]))
+    return C0, {"attitude_start_deg": a, "speed_sensor": name}, "coarse-inertial"
+
+
+def _sensor_spec(bundle, cls) -> dict:
+    """Settings of the paper 003 filters from ``meta.yaml``'s sensor specs
+    (``sensors.<name>.noise_m_s``, ``scale_factor_sigma_ppm``): the forward row noise is at
+    least the sensor's white noise (a 0.3 m/s LDV against the default 0.02 m/s row would fail
+    every chi-square test and be isolated for good), the scale-factor prior its stated
+    sigma."""
+    sensors = (bundle.meta or {}).get("sensors") if isinstance(bundle.meta, dict) else None
+    out = {}
+    if not isinstance(sensors, dict):
+        return out
+    fields = cls.model_fields
+    for name, short in (("odometer", "od"), ("ldv", "ldv")):
+        sp = sensors.get(name)
+        if not isinstance(sp, dict) or getattr(bundle, name) is None:
+            continue
+        noise = sp.get("noise_m_s")
+        key = f"{short}_noise_m_s"
+        if isinstance(noise, (int, float)) and noise > 0 and key in fields:
+            base = list(fields[key].default)
+            out[key] = [max(base[0], noise), max(base[1], float(noise)), max(base[2], noise)]
+        sig = sp.get("scale_factor_sigma_ppm")
+        key = f"{short}_scale_sigma_ppm"
+        if isinstance(sig, (int, float)) and sig > 0 and key in fields:
+            out[key] = max(float(sig), 100.0)
+    sp = sensors.get("radar")
+    if isinstance(sp, dict) and bundle.radar is not None:
+        noise = sp.get("noise_m_s")
+        if isinstance(noise, (int, float)) and noise > 0:
+            for key in ("velocity_noise_m_s", "speed_noise_m_s"):
+                if key in fields:
+                    out[key] = max(float(fields[key].default), float(noise))
+    return out
+
+
+def _navigate(bundle, cfg, state, tilt_sig, head_sig, spec, log, progress):
+    """Fine alignment and navigation from ``state`` to the end (module docstring, rule 5)."""
+    speed = _speed_sensors(bundle)
+    t_end = float(bundle.imu.t[-1])
+    t0 = float(state.t)
+    prior = {"init_tilt_sigma_deg": max(tilt_sig, 1e-3),
+             "init_heading_sigma_deg": max(head_sig, 1e-3)}
+    if "radar" in speed:
+        from .align.dr_kalman import DrKfConfig, run_dr_kf
+        from .navigate.sins_dr import SinsDrConfig, run_sins_dr
+        dcfg = _cfg(DrKfConfig, {**prior, "velocity_sensor": "radar",
+                                 **_sensor_spec(bundle, DrKfConfig)}, cfg, "dr-kf", spec)
+        fine = run_dr_kf(bundle, dcfg, state,
+                         progress=None if progress is None else lambda f: progress(0.5 * f))
+        sig_u = np.degrees(fine.sigma["phi_U"]) * 60.0
+        ok = np.flatnonzero((fine.t >= t0 + cfg.fine_s) & (sig_u <= cfg.handover_heading_sigma_arcmin)
+                            & (fine.t <= t_end - 30.0))
+        t1 = float(fine.t[ok[0]]) if len(ok) else t_end
+        if len(ok):
+            why = (f"radar present: SINS / radar-DR fine alignment in motion (paper 000), "
+                   f"chi-square gate, until its heading sigma is {sig_u[ok[0]]:.3g} arcmin <= "
+                   f"{cfg.handover_heading_sigma_arcmin:g} after at least {cfg.fine_s:g} s")
+        else:
+            why = ("radar present: SINS / radar-DR fine alignment in motion (paper 000), "
+                   f"chi-square gate; its heading sigma did not reach "
+                   f"{cfg.handover_heading_sigma_arcmin:g} arcmin with 30 s left after "
+                   f"{cfg.fine_s:g} s, so it runs to the end")
+        log("fine", "dr-kf", t0, t1, why, _head(fine, t1))
+        out = [fine]
+        if len(ok):
+            k = int(ok[0])
+            st = fine.state_at(t1)
+            base = {"init_tilt_sigma_arcmin": 1.5 * 60 * max(
+                        float(np.degrees(fine.sigma["phi_E"][k])),
+                        float(np.degrees(fine.sigma["phi_N"][k])), 1e-3),
+                    "init_heading_sigma_arcmin": 1.5 * max(float(sig_u[k]), 0.01),
+                    "velocity_sensor": "radar", "gate_probability": cfg.gate_probability,
+                    **_sensor_spec(bundle, SinsDrConfig)}
+            ncfg = _cfg(SinsDrConfig, base, cfg, "sins-dr", spec)
+            nav = run_sins_dr(bundle, ncfg, st,
+                              progress=None if progress is None else
+                              lambda f: progress(0.5 + 0.5 * f))
+            log("navigate", "sins-dr", st.t, t_end, "SINS / radar-DR integrated navigation "
+                "(paper 002) to the end, chi-square gate "
+                f"{cfg.gate_probability:g}" + (", barometer" if bundle.baro is not None
+                                                else ""), nav)
+            out.append(nav)
+        return out
+    from .align import aided_kf as ak
+    from .align.multiplex import auto_fine_method
+    name = auto_fine_method(bundle)
+    run = {"fkf": ak.run_fkf, "od-kf": ak.run_od_kf, "ldv-kf": ak.run_ldv_kf,
+           "nhc-kf": ak.run_nhc_kf}[name]
+    cls = {"fkf": ak.FkfConfig, "od-kf": ak.AidedKfConfig, "ldv-kf": ak.AidedKfConfig,
+           "nhc-kf": ak.NhcKfConfig}[name]
+    fcfg = _cfg(cls, {**prior, **_sensor_spec(bundle, cls)}, cfg, name, spec)
+    sol = run(bundle, fcfg, state, progress=progress)
+    why = {"fkf": "odometer and LDV: federated filter with chi-square FDI and Table 1 "
+                  "reconfiguration (paper 003)",
+           "od-kf": "odometer: SINS / odometer filter, chi-square FDI, NHC fallback (paper 003)",
+           "ldv-kf": "LDV: SINS / LDV filter, chi-square FDI, NHC fallback (paper 003)",
+           "nhc-kf": "no velocity sensor: vehicle-constraint (NHC) filter (paper 003)"}[name]
+    log("fine + navigate", name, t0, t_end, why + (", barometer" if bundle.baro is not None
+                                                  else ""), sol)
+    return [sol]
