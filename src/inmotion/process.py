@@ -150,6 +150,12 @@ class ProcessConfig(BaseModel):
         default_factory=dict,
         description="per-method settings over the stages' defaults, e.g. {od-kf: "
                     "{measurement: velocity}}")
+    smooth: bool = Field(
+        False,
+        description="forward-backward (Rauch-Tung-Striebel) smoothing of the fine-alignment and "
+                    "navigation stages (radar: dr-kf and sins-dr; odometer or LDV: "
+                    "od-velocity-kf, the smoothable single filter, in place of fkf / od-kf / "
+                    "ldv-kf; no velocity sensor: not available, forward result)")
 
 
 class InitInfo(BaseModel):
@@ -699,6 +705,10 @@ def _navigate(bundle, cfg, state, tilt_sig, head_sig, spec, log, progress):
                    f"chi-square gate; its heading sigma did not reach "
                    f"{cfg.handover_heading_sigma_arcmin:g} arcmin with 30 s left after "
                    f"{cfg.fine_s:g} s, so it runs to the end")
+        if cfg.smooth:       # the handover is decided forward; each stage is then smoothed
+            fine = run_dr_kf(bundle.window(None, t1), dcfg.model_copy(update={"smooth": True}),
+                             state)
+            why += "; smoothed forward-backward (RTS) over the stage"
         log("fine", "dr-kf", t0, t1, why, _head(fine, t1))
         out = [fine]
         if len(ok):
@@ -710,19 +720,34 @@ def _navigate(bundle, cfg, state, tilt_sig, head_sig, spec, log, progress):
                     "init_heading_sigma_arcmin": 1.5 * max(float(sig_u[k]), 0.01),
                     "velocity_sensor": "radar", "gate_probability": cfg.gate_probability,
                     **_sensor_spec(bundle, SinsDrConfig)}
-            ncfg = _cfg(SinsDrConfig, base, cfg, "sins-dr", spec)
+            ncfg = _cfg(SinsDrConfig, {**base, "smooth": cfg.smooth}, cfg, "sins-dr", spec)
             nav = run_sins_dr(bundle, ncfg, st,
                               progress=None if progress is None else
                               lambda f: progress(0.5 + 0.5 * f))
             log("navigate", "sins-dr", st.t, t_end, "SINS / radar-DR integrated navigation "
                 "(paper 002) to the end, chi-square gate "
                 f"{cfg.gate_probability:g}" + (", barometer" if bundle.baro is not None
-                                                else ""), nav)
+                                                else "")
+                + ("; smoothed forward-backward (RTS)" if cfg.smooth else ""), nav)
             out.append(nav)
         return out
     from .align import aided_kf as ak
     from .align.multiplex import auto_fine_method
     name = auto_fine_method(bundle)
+    if cfg.smooth and name != "nhc-kf":
+        # the paper-003 filters are banks of local filters, which the smoother does not take:
+        # velocity matching with the same sensor (and NHC, baro) is the smoothable filter
+        from .align.dr_kalman import OdVelocityKfConfig, run_od_velocity_kf
+        sensor = "odometer" if "odometer" in speed else "ldv"
+        vcfg = _cfg(OdVelocityKfConfig, {**prior, "velocity_sensor": sensor, "smooth": True,
+                                         **_sensor_spec(bundle, OdVelocityKfConfig)},
+                    cfg, "od-velocity-kf", spec)
+        sol = run_od_velocity_kf(bundle, vcfg, state, progress=progress)
+        log("fine + navigate", "od-velocity-kf", t0, t_end,
+            f"{sensor}: SINS / {sensor} velocity matching with NHC, smoothed forward-backward "
+            f"(RTS) (in place of {name}, whose bank of local filters is not smoothed)"
+            + (", barometer" if bundle.baro is not None else ""), sol)
+        return [sol]
     run = {"fkf": ak.run_fkf, "od-kf": ak.run_od_kf, "ldv-kf": ak.run_ldv_kf,
            "nhc-kf": ak.run_nhc_kf}[name]
     cls = {"fkf": ak.FkfConfig, "od-kf": ak.AidedKfConfig, "ldv-kf": ak.AidedKfConfig,
@@ -734,6 +759,8 @@ def _navigate(bundle, cfg, state, tilt_sig, head_sig, spec, log, progress):
            "od-kf": "odometer: SINS / odometer filter, chi-square FDI, NHC fallback (paper 003)",
            "ldv-kf": "LDV: SINS / LDV filter, chi-square FDI, NHC fallback (paper 003)",
            "nhc-kf": "no velocity sensor: vehicle-constraint (NHC) filter (paper 003)"}[name]
+    if cfg.smooth:
+        why += "; smoothing not available for it (forward result)"
     log("fine + navigate", name, t0, t_end, why + (", barometer" if bundle.baro is not None
                                                   else ""), sol)
     return [sol]

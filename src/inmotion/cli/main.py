@@ -952,7 +952,8 @@ def _process_text(summary: dict, output) -> str:
 @click.option("--start", type=float, default=None, help="Window start [s].")
 @click.option("--end", type=float, default=None, help="Window end [s].")
 @click.option("--smooth", is_flag=True,
-              help="Forward-backward smoothing: NOT AVAILABLE YET (exits with status 2).")
+              help="Forward-backward (Rauch-Tung-Striebel) smoothing of the fine-alignment "
+                   "and navigation stages (the config's 'smooth').")
 @click.option("--allow-imu-gaps", is_flag=True,
               help="Integrate across IMU gaps instead of refusing the bundle.")
 @click.option("--format", "fmt", type=click.Choice(["csv", "parquet"]), default="csv",
@@ -973,10 +974,9 @@ def process(ctx, bundle_path, output, config_file, sets, init, start, end, smoot
     its stages (summary.json 'stages', 'heading') and report.html. An IMU that cannot
     gyrocompass (a MEMS) takes its heading from --init. Rules: ``inmotion.process``.
     """
-    if smooth:
-        raise BadInput("--smooth: forward-backward smoothing is not available yet (issue 14); "
-                       "run without --smooth for the forward solution")
     cfg = _load_process_config(config_file, sets)
+    if smooth:
+        cfg = cfg.model_copy(update={"smooth": True})
     bundle = _read_bundle(ctx, bundle_path, allow_imu_gaps)
     if start is not None or end is not None:
         full = bundle
