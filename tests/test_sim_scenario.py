@@ -156,3 +156,27 @@ def test_docs_example_is_a_valid_scenario():
     sc = load_scenario(yaml.safe_load(block))
     assert sc.name == "my_drive" and len(sc.faults) == 8
     assert set(sc.present_sensors) == {"radar", "ldv", "odometer", "baro"}
+
+
+def test_imu_grade_presets_fill_what_the_scenario_leaves_out():
+    """``imu.grade`` fills the gyro and accelerometer figures of its preset; a value the
+    scenario gives wins; the simulated errors follow (fixed constant errors)."""
+    import numpy as np
+
+    from inmotion.sim import simulate
+    from inmotion.sim.scenario import IMU_GRADES, load_scenario
+    base = dict(name="grade", start=dict(lat_deg=34.0, lon_deg=108.0, h_m=400.0,
+                                         heading_deg=30.0),
+                segments=[dict(kind="rest", duration_s=5.0)])
+    for grade, preset in IMU_GRADES.items():
+        sc = load_scenario({**base, "imu": {"grade": grade}})
+        assert sc.imu.gyro.arw_deg_sqrt_h == preset["gyro"]["arw_deg_sqrt_h"]
+        assert sc.imu.accel.bias_ug == preset["accel"]["bias_ug"]
+    sc = load_scenario({**base, "imu": {"grade": "tactical", "gyro": {"drift_deg_h": 3.0},
+                                        "accel": {"vrw_m_s_sqrt_h": 0.1}}})
+    assert sc.imu.gyro.drift_deg_h == 3.0 and sc.imu.gyro.arw_deg_sqrt_h == 0.05
+    assert sc.imu.accel.vrw_m_s_sqrt_h == 0.1 and sc.imu.accel.vrw_ug_sqrt_hz is None
+    b = simulate({**base, "imu": {"grade": "navigation"}}, np.random.default_rng(0))
+    assert b.meta["simulated_errors"]["imu"]["gyro_drift_deg_h"] == [0.01, 0.01, 0.01]
+    with pytest.raises(BadInput, match="grade"):
+        load_scenario({**base, "imu": {"grade": "automotive"}})

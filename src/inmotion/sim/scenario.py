@@ -259,14 +259,52 @@ class Accel(_Model):
         return self
 
 
+#: sensor grade presets of ``imu.grade`` (the error figures a grade fills in where the scenario
+#: gives none): a representative value inside the ranges of Groves, *Principles of GNSS,
+#: Inertial, and Multisensor Integrated Navigation Systems*, 2nd ed., 2013, sec. 4.4 (tables
+#: 4.1-4.2): navigation grade (ring-laser / fibre-optic gyros, servo accelerometers), tactical
+#: grade (lower-cost FOG / quartz), and consumer / automotive MEMS (its bias wanders: a
+#: Markov part). gnss-ins-sim's ``low`` / ``mid`` / ``high`` accuracy presets play this role.
+IMU_GRADES = {
+    "navigation": {"gyro": {"drift_deg_h": 0.01, "arw_deg_sqrt_h": 0.002},
+                   "accel": {"bias_ug": 30.0, "vrw_ug_sqrt_hz": 5.0}},
+    "tactical": {"gyro": {"drift_deg_h": 1.0, "arw_deg_sqrt_h": 0.05,
+                          "drift_markov_deg_h": 0.3, "drift_markov_tau_s": 1800.0},
+                 "accel": {"bias_ug": 300.0, "vrw_ug_sqrt_hz": 50.0}},
+    "mems": {"gyro": {"drift_deg_h": 100.0, "arw_deg_sqrt_h": 0.5,
+                      "drift_markov_deg_h": 20.0, "drift_markov_tau_s": 300.0},
+             "accel": {"bias_ug": 3000.0, "vrw_ug_sqrt_hz": 150.0,
+                       "bias_markov_ug": 500.0, "bias_markov_tau_s": 300.0}},
+}
+
+
 class Imu(_Model):
     """The IMU. ``constant_errors``: ``fixed`` uses the drift, bias, scale factor and
     misalignment values as given; ``random`` draws each axis once per run from a zero-mean
-    normal with the given value as 1-sigma (the drawn values are written to meta)."""
+    normal with the given value as 1-sigma (the drawn values are written to meta).
+    ``grade``: ``navigation``, ``tactical`` or ``mems`` fills the gyro and accelerometer
+    figures of :data:`IMU_GRADES` that the scenario does not give (a value given wins)."""
     rate_hz: float = Field(100.0, ge=10.0, le=10000.0)
+    grade: Optional[Literal["navigation", "tactical", "mems"]] = None
     gyro: Gyro = Gyro()
     accel: Accel = Accel()
     constant_errors: Literal["fixed", "random"] = "fixed"
+
+    @model_validator(mode="before")
+    @classmethod
+    def _grade_defaults(cls, data):
+        if not isinstance(data, dict) or data.get("grade") not in IMU_GRADES:
+            return data
+        out = dict(data)
+        for part, preset in IMU_GRADES[data["grade"]].items():
+            given = out.get(part) or {}
+            if not isinstance(given, dict):
+                return data                      # let the field's own check say what is wrong
+            filled = {**preset, **given}
+            if part == "accel" and "vrw_m_s_sqrt_h" in given:
+                filled.pop("vrw_ug_sqrt_hz", None)   # the scenario's own VRW, in its unit
+            out[part] = filled
+        return out
 
 
 class _SpeedSensor(_Model):
