@@ -461,6 +461,7 @@ def _advance(S, C, fills, accs, t, dtheta, dvel, dt, ds, v, dth_dr, rows, qt, qj
     grav_grad, with_dr, o_dpD, q_dr_m2_s = C.grav_grad, C.with_dr, C.offs[DP_D], C.q_dr_m2_s
     out_every = C.out_every
     n_q = qt.shape[0]
+    C_S, f_b, f_n, vel = W
     for k in range(t.shape[0]):
         dth, dvl = compensated_row(dtheta, dvel, k, dt[k], S.bias_g, S.bias_a)
         if C.need_nb:
@@ -503,8 +504,23 @@ def _advance(S, C, fills, accs, t, dtheta, dvel, dt, ds, v, dth_dr, rows, qt, qj
             if ((qi >= n_q or qt[qi] > t[k]) and (ints[_I_EPOCHS] + 1) % out_every != 0):
                 # no sample due, no output: the epoch is its predict (_epoch_end without the
                 # call, whose namedtuple arguments cost 0.5 us of reference counting)
-                _epoch_predict(xs, acc, X, P, F, Q, Qc, ws, W, offs9, inv_tau_dk, dr_eps,
-                               grav_grad, with_dr, o_dpD, q_dr_m2_s)
+                # _epoch_predict's body, kept in step with it (a call passing its 20 arrays
+                # costs 0.2 us of reference counting, 0.07 s per hour at 100 Hz)
+                sum_dt = acc[_A_DT]
+                K.dcm_from_quat_into((xs[K.Q0], xs[K.Q0 + 1], xs[K.Q0 + 2], xs[K.Q3]), C_S)
+                for i in range(3):
+                    f_b[i] = acc[_A_F + i] / sum_dt
+                    vel[i] = xs[K.VE + i]
+                for i in range(3):
+                    f_n[i] = C_S[i, 0] * f_b[0] + C_S[i, 1] * f_b[1] + C_S[i, 2] * f_b[2]
+                em._fill_F(F, offs9, xs[K.LAT], xs[K.H], vel, C_S, f_n, inv_tau_dk, dr_eps,
+                           grav_grad)
+                for l in range(X.shape[0]):
+                    if with_dr:
+                        _dr_position_noise(Q, Qc[l], o_dpD, xs[K.LAT], xs[K.H], q_dr_m2_s)
+                        predict_sparse(X[l], P[l], F, Q, sum_dt, ws)
+                    else:
+                        predict_sparse(X[l], P[l], F, Qc[l], sum_dt, ws)
                 ints[_I_EPOCHS] += 1
                 t_end[0] = t[k]
                 for i in range(_A_SIZE):
