@@ -309,11 +309,12 @@ def sequential_joseph(x, P, z, H, r, a, b, threshold, xw, Pw):
     serve as buffers). Returns ``(accepted, nis)``.
 
     ``P`` must be symmetric (every engine keeps it so): ``P h^T`` is formed from the rows of
-    ``P`` at ``h``'s nonzero columns only, and each row's update is computed on the upper
-    triangle and mirrored. This equals the full update followed by symmetrization to
-    rounding: ``(s k_p) k_q`` is taken where the full form averages it with ``(s k_q) k_p``
-    (the cross products ``k_p Ph_q + Ph_p k_q`` commute exactly). Measured (n = 22, rows of
-    10 nonzeros, no gate): 3 rows 1.5 -> 1.1 us, 2 rows 1.1 -> 0.8 us.
+    ``P`` at ``h``'s nonzero columns only, and each row's update is written
+    ``-k_p Ph_q - Ph_p k_q + s (k_p k_q)``, exactly symmetric in ``p, q`` (the full form's
+    ``(s k_p) k_q`` is not), so no symmetrization is needed. This equals the full update
+    followed by symmetrization to rounding. Measured (n = 22, rows of 10 nonzeros, no
+    gate, the state and covariance copies excluded): 3 rows 1.5 -> 0.8 us, 2 rows
+    1.1 -> 0.55 us.
     """
     n = x.shape[0]
     gated = threshold > 0.0
@@ -349,13 +350,11 @@ def sequential_joseph(x, P, z, H, r, a, b, threshold, xw, Pw):
         for p in range(n):
             k[p] = Ph[p] / s
             xt[p] += k[p] * innov
-        for p in range(n):
+        for p in range(n):          # exactly symmetric: s (k_p k_q), and the sum commutes
             kp = k[p]
             php = Ph[p]
-            for q in range(p, n):
-                v = Pt[p, q] + (-kp * Ph[q] - php * k[q] + s * kp * k[q])
-                Pt[p, q] = v
-                Pt[q, p] = v
+            for q in range(n):
+                Pt[p, q] += -kp * Ph[q] - php * k[q] + s * (kp * k[q])
     if gated:
         if nis > threshold:
             return False, nis
