@@ -21,8 +21,9 @@ What happens per IMU row and per filter epoch (one numba loop, :func:`_advance`)
    the row. The DR integrates the SINS's compensated gyro rows, or, with
    ``dr_sees_gyro_drift=False`` (paper 000's printed F), the raw rows; a caller may hand the
    DR its own gyro rows (``dtheta_dr``: a second gyro triad, or a simulation study);
-2. after ``step_rows`` rows (a filter epoch) ``F`` is built at the SINS state with the epoch's
-   mean specific force (:func:`inmotion.estimation.error_model._fill_F`) and ``x, P`` are
+2. after ``step_rows`` rows (a filter epoch; :func:`_epoch_predict`) ``F`` is built at the
+   SINS state with the epoch's mean specific force
+   (:func:`inmotion.estimation.error_model._fill_F`) and ``x, P`` are
    predicted over the epoch (second-order transition, trapezoid ``Q_d``) on F's nonzero rows
    only (:func:`inmotion.estimation.predict.predict_sparse`); the process noise
    is the model's ``G q G^T`` plus, with a DR, the random walk of the DR position driven by
@@ -65,6 +66,20 @@ respect to n per row (``aux[7:10]``: its epoch mean).
 
 The whole filter state lives in the arrays of :class:`_State`, so :meth:`snapshot` /
 :meth:`restore` are copies, and a run split anywhere continues bit-identically.
+
+Cost (issue 13, ``benchmarks/bench_engine.py``: 22 states, a predict every 100 Hz IMU row,
+forward velocity and NHC at 10 Hz, output at 1 Hz; CPU time, best of 2-4 runs on a loaded
+2-core machine): 0.72-0.74 s per hour of data (1.18 s before issue 13's second pass; KF-GINS
+3.5 s). Measured by switching parts off: :func:`~inmotion.estimation.predict.predict_sparse`
+0.46 s (1.3 us a row), mechanization 0.07 s, ``_fill_F`` 0.02 s, the rest of the per-row
+path 0.05 s, the 10 Hz sample epochs (the ``_epoch_end`` call, two fills, five scalar Joseph
+rows, mode, feedback; ~4 us each) 0.15 s. A call that passes the namedtuples ``S`` and
+``C`` costs ~0.5 us whether inlined or not (numba increfs and decrefs each of their ~50
+arrays), so the per-row path makes none: an epoch with no due sample and no output runs the
+predict (:func:`_epoch_predict`'s body) inside :func:`_advance`; :func:`_epoch_end` is called
+at sample and output epochs only, and its common calls take arrays (:func:`_mode_of`,
+:func:`_feed_back_arrays`, ``sequential_joseph`` directly; :func:`_apply` for FDI, NIS
+logging and shared measurements).
 """
 from __future__ import annotations
 
