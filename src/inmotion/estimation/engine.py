@@ -68,18 +68,19 @@ The whole filter state lives in the arrays of :class:`_State`, so :meth:`snapsho
 :meth:`restore` are copies, and a run split anywhere continues bit-identically.
 
 Cost (issue 13, ``benchmarks/bench_engine.py``: 22 states, a predict every 100 Hz IMU row,
-forward velocity and NHC at 10 Hz, output at 1 Hz; CPU time, best of 2-4 runs on a loaded
-2-core machine): 0.72-0.74 s per hour of data (1.18 s before issue 13's second pass; KF-GINS
-3.5 s). Measured by switching parts off: :func:`~inmotion.estimation.predict.predict_sparse`
-0.46 s (1.3 us a row), mechanization 0.07 s, ``_fill_F`` 0.02 s, the rest of the per-row
-path 0.05 s, the 10 Hz sample epochs (the ``_epoch_end`` call, two fills, five scalar Joseph
-rows, mode, feedback; ~4 us each) 0.15 s. A call that passes the namedtuples ``S`` and
-``C`` costs ~0.5 us whether inlined or not (numba increfs and decrefs each of their ~50
-arrays), so the per-row path makes none: an epoch with no due sample and no output runs the
-predict (:func:`_epoch_predict`'s body) inside :func:`_advance`; :func:`_epoch_end` is called
-at sample and output epochs only, and its common calls take arrays (:func:`_mode_of`,
-:func:`_feed_back_arrays`, ``sequential_joseph`` directly; :func:`_apply` for FDI, NIS
-logging and shared measurements).
+forward velocity and NHC at 10 Hz, output at 1 Hz; CPU time, best of 2-4 runs on a 2-core
+machine at load 2-4): 0.73-0.75 s per hour of data (1.25-1.31 s before issue 13's second
+pass, measured side by side; KF-GINS 3.5 s). Measured by switching parts off:
+:func:`~inmotion.estimation.predict.predict_sparse` 0.45 s (1.25 us a row), mechanization
+0.065 s, ``_fill_F`` 0.03 s, the rest of the per-row path 0.06 s, the 10 Hz sample epochs (the
+``_epoch_end`` call, two fills, five scalar Joseph rows, mode, feedback; ~3.6 us each) 0.13 s.
+A call that passes the namedtuples ``S`` and ``C`` costs ~0.5 us whether inlined or not
+(numba increfs and decrefs each of their ~50 arrays), so the per-row path makes none: an
+epoch with no due sample and no output runs the predict (:func:`_epoch_predict`'s body) inside
+:func:`_advance`; :func:`_epoch_end` is called at sample and output epochs only, and its
+common calls take arrays (:func:`_mode_of`, :func:`_feed_back_arrays`, ``sequential_joseph``
+directly; :func:`_apply` for FDI, NIS logging and shared measurements). Work that must happen
+at *every* epoch belongs in :func:`_epoch_predict` and its inline copy in :func:`_advance`.
 """
 from __future__ import annotations
 

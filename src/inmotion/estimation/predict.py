@@ -36,16 +36,16 @@ passed, ``ws`` included, ~10 ns a pair), gathering ``F_a^T``, ``F_aa^T`` 0.1 us,
 BLAS products 0.18 + 0.19 + 0.16 us (``np.dot``'s own overhead is 0.04 us a call: the rest is
 OpenBLAS's small-matrix kernel, ~23 multiply-adds per ns), the ``Phi`` scaling, ``x`` and
 ``Qc`` loops 0.15 us, the write-back of ``P`` 0.14 us. In the engine's loop it costs about
-1.3 us a row, 0.46 s per hour at 100 Hz: two thirds of the engine's time. Tried for issue 13
+1.25 us a row, 0.45 s per hour at 100 Hz: 60 % of the engine's 0.74 s. Tried for issue 13
 and rejected, each slower at these sizes: numba loops over F's active rows and nonzero
 columns only (``A = Pt[act] + M Pt[cols]``, one triangle of ``R``; 1.4-1.6 us, also with
-``fastmath={'contract', 'reassoc'}``: the 14- and 22-long inner loops spend their time in
-scalar remainders), the same with BLAS on the compacted blocks (1.4 us: the gathers cost more
-than the smaller products save), ``Phi_a`` built untransposed from row gathers (1.1 us), and
+``fastmath={'contract', 'reassoc'}``; presumably the 14- and 22-long inner loops spend their
+time in scalar remainders), the same with BLAS on the compacted blocks (1.4 us; the gathers
+seem to cost more than the smaller products save), ``Phi_a`` built untransposed from row gathers (1.1 us), and
 ``Phi_a Pt`` over F's nonzero column span only (1.18 us: OpenBLAS's time does not shrink with
 the inner dimension at this size). ``_nrt=False`` (no reference counting) is not available:
-numba types ``np.dot(a, b, out)`` only with NRT. Reaching ~0.3 us needs code generated per
-pattern (straight-line products over the ~60 nonzeros of ``F_a`` with a fixed ``n``).
+numba types ``np.dot(a, b, out)`` only with NRT. Reaching ~0.3 us would, we expect, need code
+generated per pattern (straight-line products over the ~60 nonzeros of ``F_a``, fixed ``n``).
 
 The results equal the dense kernel's to rounding (a test checks 1e-13 relative to the size of
 the terms, random SPD ``P``, dt from 0.005 to 1 s, F of every layout of the package).
