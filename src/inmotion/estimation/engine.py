@@ -21,8 +21,9 @@ What happens per IMU row and per filter epoch (one numba loop, :func:`_advance`)
    the row. The DR integrates the SINS's compensated gyro rows, or, with
    ``dr_sees_gyro_drift=False`` (paper 000's printed F), the raw rows; a caller may hand the
    DR its own gyro rows (``dtheta_dr``: a second gyro triad, or a simulation study);
-2. after ``step_rows`` rows (a filter epoch) ``F`` is built at the SINS state with the epoch's
-   mean specific force (:func:`inmotion.estimation.error_model._fill_F`) and ``x, P`` are
+2. after ``step_rows`` rows (a filter epoch; :func:`_epoch_predict`) ``F`` is built at the
+   SINS state with the epoch's mean specific force
+   (:func:`inmotion.estimation.error_model._fill_F`) and ``x, P`` are
    predicted over the epoch (second-order transition, trapezoid ``Q_d``) on F's nonzero rows
    only (:func:`inmotion.estimation.predict.predict_sparse`); the process noise
    is the model's ``G q G^T`` plus, with a DR, the random walk of the DR position driven by
@@ -65,6 +66,21 @@ respect to n per row (``aux[7:10]``: its epoch mean).
 
 The whole filter state lives in the arrays of :class:`_State`, so :meth:`snapshot` /
 :meth:`restore` are copies, and a run split anywhere continues bit-identically.
+
+Cost (issue 13, ``benchmarks/bench_engine.py``: 22 states, a predict every 100 Hz IMU row,
+forward velocity and NHC at 10 Hz, output at 1 Hz; CPU time, best of 2-4 runs on a 2-core
+machine at load 2-4): 0.73-0.75 s per hour of data (1.25-1.31 s before issue 13's second
+pass, measured side by side; KF-GINS 3.5 s). Measured by switching parts off:
+:func:`~inmotion.estimation.predict.predict_sparse` 0.45 s (1.25 us a row), mechanization
+0.065 s, ``_fill_F`` 0.03 s, the rest of the per-row path 0.06 s, the 10 Hz sample epochs (the
+``_epoch_end`` call, two fills, five scalar Joseph rows, mode, feedback; ~3.6 us each) 0.13 s.
+A call that passes the namedtuples ``S`` and ``C`` costs ~0.5 us whether inlined or not
+(numba increfs and decrefs each of their ~50 arrays), so the per-row path makes none: an
+epoch with no due sample and no output runs the predict (:func:`_epoch_predict`'s body) inside
+:func:`_advance`; :func:`_epoch_end` is called at sample and output epochs only, and its
+common calls take arrays (:func:`_mode_of`, :func:`_feed_back_arrays`, ``sequential_joseph``
+directly; :func:`_apply` for FDI, NIS logging and shared measurements). Work that must happen
+at *every* epoch belongs in :func:`_epoch_predict` and its inline copy in :func:`_advance`.
 """
 from __future__ import annotations
 
@@ -130,31 +146,44 @@ def _noop_acc(a, xs, v_old, th_nb, dt, rd, p):
 
 # ----------------------------------------------------------------------------- the loop
 @numba.njit(cache=True)
-def _local_healthy(S, C, l):
-    for j in range(C.isolate.shape[0]):
-        if C.isolate[j] and C.local[j] == l and not S.healthy[j]:
+def _local_ok(healthy, isolate, local, l):
+    """Local filter ``l`` has no isolated measurement (arrays of ``S`` and ``C``)."""
+    for j in range(isolate.shape[0]):
+        if isolate[j] and local[j] == l and not healthy[j]:
             return False
     return True
 
 
 @numba.njit(cache=True)
-def _mode(S, C):
-    """Source of the global estimate (paper 003 Table 1): MODE_FUSED over two or more
-    healthy primaries, one healthy primary's index, else the fallback's, else MODE_NONE."""
+def _local_healthy(S, C, l):
+    return _local_ok(S.healthy, C.isolate, C.local, l)
+
+
+@numba.njit(cache=True)
+def _mode_of(healthy, isolate, local, primary, fallback):
+    """:func:`_mode` on the arrays it reads (a call with the namedtuples ``S``, ``C`` costs
+    an incref and a decref of each of their ~50 arrays, 0.5 us)."""
     n_ok = 0
     last = -1
-    for l in range(C.primary.shape[0]):
-        if C.primary[l] and _local_healthy(S, C, l):
+    for l in range(primary.shape[0]):
+        if primary[l] and _local_ok(healthy, isolate, local, l):
             n_ok += 1
             last = l
     if n_ok >= 2:
         return MODE_FUSED
     if n_ok == 1:
         return last
-    for l in range(C.fallback.shape[0]):
-        if C.fallback[l]:
+    for l in range(fallback.shape[0]):
+        if fallback[l]:
             return l
     return MODE_NONE
+
+
+@numba.njit(cache=True)
+def _mode(S, C):
+    """Source of the global estimate (paper 003 Table 1): MODE_FUSED over two or more
+    healthy primaries, one healthy primary's index, else the fallback's, else MODE_NONE."""
+    return _mode_of(S.healthy, C.isolate, C.local, C.primary, C.fallback)
 
 
 @numba.njit(cache=True)
@@ -185,31 +214,38 @@ def _global(S, C, mode, x_g, P_g):
 
 
 @numba.njit(cache=True)
-def _feed_back(S, C, x_g):
-    """Apply the global estimate's fed-back blocks (the policy) to the navigation system and
-    the IMU compensation, accumulate them, subtract them from every local filter."""
-    offs, m = C.offs, C.fb_mask
+def _feed_back_arrays(xs, ms, xd, md, bias_g, bias_a, fed_back, X, offs, m, fb_states,
+                      with_dr, x_g):
+    """:func:`_feed_back` on the arrays it touches (of ``S`` and ``C``)."""
     zero3 = np.zeros(3)
     phi = x_g[offs[PHI]:offs[PHI] + 3] if m[PHI] else zero3
     dv = x_g[offs[DV]:offs[DV] + 3] if m[DV] else zero3
     dp = x_g[offs[DP]:offs[DP] + 3] if m[DP] else zero3
-    correct_nav(S.xs, S.ms, phi, dv, dp, True)
-    if C.with_dr and (m[PHI_D] or m[DP_D]):
+    correct_nav(xs, ms, phi, dv, dp, True)
+    if with_dr and (m[PHI_D] or m[DP_D]):
         o_phiD, o_dpD = offs[PHI_D], offs[DP_D]
         phiD = x_g[o_phiD:o_phiD + 3] if m[PHI_D] else zero3
         dpD = x_g[o_dpD:o_dpD + 3] if m[DP_D] else zero3
-        correct_nav(S.xd, S.md, phiD, dv, dpD, False)
+        correct_nav(xd, md, phiD, dv, dpD, False)
     for i in range(3):
         if m[EPS] and offs[EPS] >= 0:
-            S.bias_g[i] += x_g[offs[EPS] + i]
+            bias_g[i] += x_g[offs[EPS] + i]
         if m[NABLA] and offs[NABLA] >= 0:
-            S.bias_a[i] += x_g[offs[NABLA] + i]
+            bias_a[i] += x_g[offs[NABLA] + i]
     for p in range(x_g.shape[0]):
-        if C.fb_states[p]:
+        if fb_states[p]:
             d = x_g[p]
-            S.fed_back[p] += d
-            for l in range(S.X.shape[0]):
-                S.X[l, p] -= d
+            fed_back[p] += d
+            for l in range(X.shape[0]):
+                X[l, p] -= d
+
+
+@numba.njit(cache=True)
+def _feed_back(S, C, x_g):
+    """Apply the global estimate's fed-back blocks (the policy) to the navigation system and
+    the IMU compensation, accumulate them, subtract them from every local filter."""
+    _feed_back_arrays(S.xs, S.ms, S.xd, S.md, S.bias_g, S.bias_a, S.fed_back, S.X, C.offs,
+                      C.fb_mask, C.fb_states, C.with_dr, x_g)
 
 
 @numba.njit(cache=True)
@@ -354,6 +390,31 @@ def _record_epoch(S, O, t_now):
             S.phc[p, c] = 1.0 if p == c else 0.0
 
 
+@numba.njit(cache=True)
+def _epoch_predict(xs, acc, X, P, F, Q, Qc, ws, W, offs9, inv_tau_dk, dr_eps, grav_grad,
+                   with_dr, o_dpD, q_dr_m2_s):
+    """The predict of a filter epoch (arrays only: a call with the namedtuples ``S``, ``C``
+    costs an incref and a decref of each of their ~50 arrays, 0.5 us): ``F`` at the SINS
+    state with the epoch's mean specific force (``W = (C_S, f_b, f_n, vel)`` filled), every
+    local filter's ``x, P`` predicted over the epoch."""
+    sum_dt = acc[_A_DT]
+    C_S, f_b, f_n, vel = W
+    K.dcm_from_quat_into((xs[K.Q0], xs[K.Q0 + 1], xs[K.Q0 + 2], xs[K.Q3]), C_S)
+    for i in range(3):
+        f_b[i] = acc[_A_F + i] / sum_dt
+        vel[i] = xs[K.VE + i]
+    for i in range(3):
+        f_n[i] = C_S[i, 0] * f_b[0] + C_S[i, 1] * f_b[1] + C_S[i, 2] * f_b[2]
+    # F was zeroed once: _fill_F overwrites its structural entries (error_model.F_pattern)
+    em._fill_F(F, offs9, xs[K.LAT], xs[K.H], vel, C_S, f_n, inv_tau_dk, dr_eps, grav_grad)
+    for l in range(X.shape[0]):
+        if with_dr:
+            _dr_position_noise(Q, Qc[l], o_dpD, xs[K.LAT], xs[K.H], q_dr_m2_s)
+            predict_sparse(X[l], P[l], F, Q, sum_dt, ws)
+        else:
+            predict_sparse(X[l], P[l], F, Qc[l], sum_dt, ws)
+
+
 @numba.njit(cache=True, inline="always")
 def _epoch_end(S, C, fills, t_now, qt, qj, qd, qi, O, F, Q, aux, z, H, r, xw, Pw, x_g, P_g, W,
                last):
@@ -361,22 +422,8 @@ def _epoch_end(S, C, fills, t_now, qt, qj, qd, qi, O, F, Q, aux, z, H, r, xw, Pw
     next queue index."""
     sum_dt = S.acc[_A_DT]
     C_S, f_b, f_n, vel = W
-    xs = S.xs
-    K.dcm_from_quat_into((xs[K.Q0], xs[K.Q0 + 1], xs[K.Q0 + 2], xs[K.Q3]), C_S)
-    for i in range(3):
-        f_b[i] = S.acc[_A_F + i] / sum_dt
-        vel[i] = xs[K.VE + i]
-    for i in range(3):
-        f_n[i] = C_S[i, 0] * f_b[0] + C_S[i, 1] * f_b[1] + C_S[i, 2] * f_b[2]
-    # F was zeroed once: _fill_F overwrites its structural entries (error_model.F_pattern)
-    em._fill_F(F, C.offs9, xs[K.LAT], xs[K.H], vel, C_S, f_n, C.inv_tau_dk, C.dr_eps,
-               C.grav_grad)
-    for l in range(S.X.shape[0]):
-        if C.with_dr:
-            _dr_position_noise(Q, C.Qc[l], C.offs[DP_D], S.xs[K.LAT], S.xs[K.H], C.q_dr_m2_s)
-            predict_sparse(S.X[l], S.P[l], F, Q, sum_dt, C.ws)
-        else:
-            predict_sparse(S.X[l], S.P[l], F, C.Qc[l], sum_dt, C.ws)
+    _epoch_predict(S.xs, S.acc, S.X, S.P, F, Q, C.Qc, C.ws, W, C.offs9, C.inv_tau_dk,
+                   C.dr_eps, C.grav_grad, C.with_dr, C.offs[DP_D], C.q_dr_m2_s)
     S.ints[_I_EPOCHS] += 1
     S.t_end[0] = t_now
     if C.record:                     # the forward pass of a smoother: Phi, P_k|k-1
@@ -398,8 +445,18 @@ def _epoch_end(S, C, fills, t_now, qt, qj, qd, qi, O, F, Q, aux, z, H, r, xw, Pw
         m = fills[j](S.xs, S.xd, aux, S.macc[j], qd[qi], C.params[j], C.offs, z, H, r)
         applied = True
         if m > 0:
-            if C.local[j] >= 0:
-                _apply(S, C, fills, j, C.local[j], z, H, r, m, xw, Pw, t_now, True)
+            l = C.local[j]
+            if l >= 0 and not C.isolate[j] and not C.log_nis[j]:
+                # _apply's common case, without its call (S, C: 0.5 us of reference counting)
+                ok, nis = sequential_joseph(S.X[l], S.P[l], z, H, r, 0, m, C.gates[j], xw, Pw)
+                if ok:
+                    S.used[j] += 1
+                    S.nis_sum[j] += nis
+                    S.dof_sum[j] += m
+                else:
+                    S.rejected[j] += 1
+            elif l >= 0:
+                _apply(S, C, fills, j, l, z, H, r, m, xw, Pw, t_now, True)
             else:                    # shared: every local filter, noise scaled (eq. 33-35)
                 for l in range(S.X.shape[0]):
                     _apply(S, C, fills, j, l, z, H, r, m, xw, Pw, t_now, l == 0)
@@ -408,14 +465,18 @@ def _epoch_end(S, C, fills, t_now, qt, qj, qd, qi, O, F, Q, aux, z, H, r, xw, Pw
         qi += 1
     if applied:
         S.ints[_I_UPDATES] += 1
-        mode = _mode(S, C)
+        mode = _mode_of(S.healthy, C.isolate, C.local, C.primary, C.fallback)
         if mode != S.ints[_I_MODE]:
             _log_event(S, t_now, -1, EVENT_MODE, mode)
             S.ints[_I_MODE] = mode
         if (C.feedback_every > 0 and S.ints[_I_UPDATES] % C.feedback_every == 0
                 and mode != MODE_NONE):
-            _global(S, C, mode, x_g, P_g)
-            _feed_back(S, C, x_g)
+            if mode >= 0:                # one local's estimate (_global without P_g)
+                x_g[:] = S.X[mode]
+            else:
+                _global(S, C, mode, x_g, P_g)
+            _feed_back_arrays(S.xs, S.ms, S.xd, S.md, S.bias_g, S.bias_a, S.fed_back, S.X,
+                              C.offs, C.fb_mask, C.fb_states, C.with_dr, x_g)
     if C.record and (applied or last or S.ints[_I_EPOCHS] % C.out_every == 0):
         _record_epoch(S, O, t_now)   # only where the smoother has something to say
     if S.ints[_I_EPOCHS] % C.out_every == 0:
@@ -453,6 +514,14 @@ def _advance(S, C, fills, accs, t, dtheta, dvel, dt, ds, v, dth_dr, rows, qt, qj
     nan = np.nan
     own_dr_gyro = dth_dr.shape[0] > 0
     qi = 0
+    # the fast path's arrays and constants, bound once
+    xs, acc, X, P, ints, t_end = S.xs, S.acc, S.X, S.P, S.ints, S.t_end
+    Qc, ws, offs9, inv_tau_dk, dr_eps = C.Qc, C.ws, C.offs9, C.inv_tau_dk, C.dr_eps
+    grav_grad, with_dr, o_dpD, q_dr_m2_s = C.grav_grad, C.with_dr, C.offs[DP_D], C.q_dr_m2_s
+    out_every = C.out_every
+    record = C.record            # a smoother's forward pass records every epoch's transition
+    n_q = qt.shape[0]
+    C_S, f_b, f_n, vel = W
     for k in range(t.shape[0]):
         dth, dvl = compensated_row(dtheta, dvel, k, dt[k], S.bias_g, S.bias_a)
         if C.need_nb:
@@ -492,8 +561,34 @@ def _advance(S, C, fills, accs, t, dtheta, dvel, dt, ds, v, dth_dr, rows, qt, qj
             S.acc[_A_F + i] += dvl[i]
             S.acc[_A_W + i] += dth[i]
         if S.acc[_A_ROWS] >= C.step:
-            qi = _epoch_end(S, C, fills, t[k], qt, qj, qd, qi, O, F, Q, aux, z, H, r, xw, Pw,
-                            x_g, P_g, W, False)
+            if (not record and (qi >= n_q or qt[qi] > t[k])
+                    and (ints[_I_EPOCHS] + 1) % out_every != 0):
+                # no sample due, no output: the epoch is its predict (_epoch_end without the
+                # call, whose namedtuple arguments cost 0.5 us of reference counting)
+                # _epoch_predict's body, kept in step with it (a call passing its 20 arrays
+                # costs 0.2 us of reference counting, 0.07 s per hour at 100 Hz)
+                sum_dt = acc[_A_DT]
+                K.dcm_from_quat_into((xs[K.Q0], xs[K.Q0 + 1], xs[K.Q0 + 2], xs[K.Q3]), C_S)
+                for i in range(3):
+                    f_b[i] = acc[_A_F + i] / sum_dt
+                    vel[i] = xs[K.VE + i]
+                for i in range(3):
+                    f_n[i] = C_S[i, 0] * f_b[0] + C_S[i, 1] * f_b[1] + C_S[i, 2] * f_b[2]
+                em._fill_F(F, offs9, xs[K.LAT], xs[K.H], vel, C_S, f_n, inv_tau_dk, dr_eps,
+                           grav_grad)
+                for l in range(X.shape[0]):
+                    if with_dr:
+                        _dr_position_noise(Q, Qc[l], o_dpD, xs[K.LAT], xs[K.H], q_dr_m2_s)
+                        predict_sparse(X[l], P[l], F, Q, sum_dt, ws)
+                    else:
+                        predict_sparse(X[l], P[l], F, Qc[l], sum_dt, ws)
+                ints[_I_EPOCHS] += 1
+                t_end[0] = t[k]
+                for i in range(_A_SIZE):
+                    acc[i] = 0.0
+            else:
+                qi = _epoch_end(S, C, fills, t[k], qt, qj, qd, qi, O, F, Q, aux, z, H, r, xw,
+                                Pw, x_g, P_g, W, False)
     if flush and S.acc[_A_ROWS] > 0:
         qi = _epoch_end(S, C, fills, t[t.shape[0] - 1], qt, qj, qd, qi, O, F, Q, aux, z, H,
                         r, xw, Pw, x_g, P_g, W, True)

@@ -55,7 +55,7 @@ from ..core import _kernels as K
 from . import error_model as em
 from .aiding_rows import _displacement_rows, _velocity_rows
 from .layout import DK, DP, DP_D, DV, EPS, LEVER, MOUNT, PHI, PHI_D, Layout
-from .nav_ops import dcm_of_q, euler_ypr, wrap_pi
+from .nav_ops import dcm_columns, dcm_of_q, euler_ypr, wrap_pi
 
 __all__ = ["FILL_SIG", "ACC_SIG", "ACC_SIZE", "accumulator_function", "Compiled", "dispatcher",
            "Measurement", "SinsDrAttitude", "SinsDrVelocity", "SinsDrPosition",
@@ -386,21 +386,53 @@ class SinsDrPosition(Measurement):
 
 
 # ----------------------------------------------------------------------------- SINS alone
+@numba.njit(cache=True)
+def _body_velocity_row(z, H, r, i, row, dv_n, r_i, o_dv, o_att, v, o_dk, dk_vec, o_mount,
+                       vm0, vm1, vm2):
+    """Row ``i`` of :func:`body_velocity_rows` with ``C_bn``'s row ``row``, ``V = [v x]`` and
+    ``VM``'s columns ``vm0, vm1, vm2`` as 3-tuples (no arrays; the same sums in the same
+    order)."""
+    r[i] = r_i
+    zi = z[i]
+    for j in range(3):
+        zi += row[j] * dv_n[j]
+        H[i, o_dv + j] = row[j]
+    z[i] = zi
+    if o_dk >= 0:
+        h = H[i, o_dk]
+        for j in range(3):
+            h -= row[j] * dk_vec[j]
+        H[i, o_dk] = h
+    # [v x] = [[0, -v2, v1], [v2, 0, -v0], [-v1, v0, 0]]
+    H[i, o_att] -= row[0] * 0.0 + row[1] * v[2] - row[2] * v[1]
+    H[i, o_att + 1] -= -row[0] * v[2] + row[1] * 0.0 + row[2] * v[0]
+    H[i, o_att + 2] -= row[0] * v[1] - row[1] * v[0] + row[2] * 0.0
+    if o_mount >= 0:
+        H[i, o_mount] -= row[0] * vm0[0] + row[1] * vm0[1] + row[2] * vm0[2]
+        H[i, o_mount + 1] -= row[0] * vm1[0] + row[1] * vm1[1] + row[2] * vm1[2]
+        H[i, o_mount + 2] -= row[0] * vm2[0] + row[1] * vm2[1] + row[2] * vm2[2]
+
+
 @fill_function
 def _fill_forward_velocity(xs, xd, aux, acc, data, p, offs, z, H, r):
     # z_n = v_S - C_S [0, speed, 0], H_n = [dv: I, phi: -[v x], mount: -[v_s x] C_S,
-    # dk: -v_s] (error_model.sensor_velocity_rows), applied as C_n^b z_n (SINS attitude)
+    # dk: -v_s] (error_model.sensor_velocity_rows), applied as C_n^b z_n (SINS attitude);
+    # scalar code (no allocation): C_S's columns c0, c1, c2 are C_n^b's rows
     speed = data[0]
     if math.isnan(speed):
         return 0
-    C_S = dcm_of_q(xs[K.Q0:K.Q3 + 1])
-    C_bn = C_S.T
-    v = xs[K.VE:K.VU + 1].copy()
-    v_s = C_S[:, 1] * speed
-    V = em.skew(v)
-    VsC = em.skew(v_s) @ C_S
-    body_velocity_rows(z, H, r, 0, C_bn, v - v_s, p, offs[DV], offs[PHI], V, offs[DK], v_s,
-                       offs[MOUNT], VsC)
+    c0, c1, c2 = dcm_columns(xs)
+    v = (xs[K.VE], xs[K.VN], xs[K.VU])
+    v_s = (c1[0] * speed, c1[1] * speed, c1[2] * speed)
+    dv = (v[0] - v_s[0], v[1] - v_s[1], v[2] - v_s[2])
+    vm0, vm1, vm2 = K.cross(v_s, c0), K.cross(v_s, c1), K.cross(v_s, c2)   # [v_s x] C_S
+    o_dv, o_phi, o_dk, o_mount = offs[DV], offs[PHI], offs[DK], offs[MOUNT]
+    _body_velocity_row(z, H, r, 0, c0, dv, p[0], o_dv, o_phi, v, o_dk, v_s, o_mount, vm0, vm1,
+                       vm2)
+    _body_velocity_row(z, H, r, 1, c1, dv, p[1], o_dv, o_phi, v, o_dk, v_s, o_mount, vm0, vm1,
+                       vm2)
+    _body_velocity_row(z, H, r, 2, c2, dv, p[2], o_dv, o_phi, v, o_dk, v_s, o_mount, vm0, vm1,
+                       vm2)
     return 3
 
 
@@ -430,32 +462,47 @@ class ForwardVelocity(Measurement):
         _need(layout, self, "phi", "dv")
 
 
+@numba.njit(cache=True)
+def _cvn_row(p, k, c0, c1, c2):
+    """Row ``k`` of ``C_vn = C_v^b0^T C_n^b`` (``C_v^b0`` row by row in ``p[2:11]``, C_n^b's
+    rows ``c0, c1, c2``) as a 3-tuple."""
+    a0, a1, a2 = p[2 + k], p[5 + k], p[8 + k]
+    return (a0 * c0[0] + a1 * c1[0] + a2 * c2[0], a0 * c0[1] + a1 * c1[1] + a2 * c2[1],
+            a0 * c0[2] + a1 * c1[2] + a2 * c2[2])
+
+
+@numba.njit(cache=True)
+def _nhc_row(z, H, r, i, cv, v, vb_row, p0, o_dv, o_phi, o_mount, with_mount):
+    """Row ``i`` of the NHC: ``C_vn``'s row ``cv``, ``[v_b x]``'s row ``vb_row``."""
+    z[i] = cv[0] * v[0] + cv[1] * v[1] + cv[2] * v[2]
+    r[i] = p0
+    # C_vn [v x], [v x] = [[0, -v2, v1], [v2, 0, -v0], [-v1, v0, 0]]
+    cx = (cv[1] * v[2] - cv[2] * v[1], -cv[0] * v[2] + cv[2] * v[0],
+          cv[0] * v[1] - cv[1] * v[0])
+    for j in range(3):
+        H[i, o_dv + j] = cv[j]
+        H[i, o_phi + j] = -cx[j]
+        if with_mount:
+            H[i, o_mount + j] = -vb_row[j]
+
+
 @fill_function
 def _fill_nhc(xs, xd, aux, acc, data, p, offs, z, H, r):
     # z = [v_x, v_z] of C_v^b0^T C_n^b v (SINS, vehicle frame); H: C_vn on dv, -C_vn [v x]
     # on phi, and with the mounting terms (p[1] = 1) -[v_b x] on the mounting angles
-    # (error_model.nhc_rows); p[2:11] is C_v^b0 row by row (identity: the IMU is the vehicle)
-    C_bn = dcm_of_q(xs[K.Q0:K.Q3 + 1]).T
-    C_vb0 = np.empty((3, 3))
-    for i in range(3):
-        for j in range(3):
-            C_vb0[i, j] = p[2 + 3 * i + j]
-    C_vn = C_vb0.T @ C_bn
-    v = xs[K.VE:K.VU + 1].copy()
-    v_b = C_vn @ v
-    CV = C_vn @ em.skew(v)
-    Vb = em.skew(v_b)
+    # (error_model.nhc_rows); p[2:11] is C_v^b0 row by row (identity: the IMU is the vehicle);
+    # scalar code (no allocation)
+    c0, c1, c2 = dcm_columns(xs)                   # the rows of C_n^b
+    v = (xs[K.VE], xs[K.VN], xs[K.VU])
+    r0, r1, r2 = _cvn_row(p, 0, c0, c1, c2), _cvn_row(p, 1, c0, c1, c2), _cvn_row(p, 2, c0, c1,
+                                                                                  c2)
+    vb0 = r0[0] * v[0] + r0[1] * v[1] + r0[2] * v[2]
+    vb1 = r1[0] * v[0] + r1[1] * v[1] + r1[2] * v[2]
+    vb2 = r2[0] * v[0] + r2[1] * v[1] + r2[2] * v[2]
     o_dv, o_phi, o_mount = offs[DV], offs[PHI], offs[MOUNT]
     with_mount = p[1] != 0.0 and o_mount >= 0
-    for i in range(2):
-        row = 2 * i                          # vehicle x, then vehicle z
-        z[i] = v_b[row]
-        r[i] = p[0]
-        for j in range(3):
-            H[i, o_dv + j] = C_vn[row, j]
-            H[i, o_phi + j] = -CV[row, j]
-            if with_mount:
-                H[i, o_mount + j] = -Vb[row, j]
+    _nhc_row(z, H, r, 0, r0, v, (0.0, -vb2, vb1), p[0], o_dv, o_phi, o_mount, with_mount)
+    _nhc_row(z, H, r, 1, r2, v, (-vb1, vb0, 0.0), p[0], o_dv, o_phi, o_mount, with_mount)
     return 2
 
 

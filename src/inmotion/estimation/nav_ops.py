@@ -16,7 +16,7 @@ import numpy as np
 
 from ..core import _kernels as K
 
-__all__ = ["dcm_of_q", "compensated_row", "euler_ypr", "wrap_pi", "correct_nav",
+__all__ = ["dcm_of_q", "dcm_columns", "compensated_row", "euler_ypr", "wrap_pi", "correct_nav",
            "corrected_sins"]
 
 
@@ -31,6 +31,16 @@ def dcm_of_q(q):
         c = K.qrotate(qt, e)
         C[0, j], C[1, j], C[2, j] = c[0], c[1], c[2]
     return C
+
+
+@numba.njit(cache=True)
+def dcm_columns(x):
+    """The columns of ``C_b^n`` of the kernel state ``x``'s attitude as three 3-tuples (the
+    body axes in n; :func:`dcm_of_q`'s values, with no array allocated). ``C_n^b``'s rows
+    are the same tuples."""
+    qt = (x[K.Q0], x[K.Q0 + 1], x[K.Q0 + 2], x[K.Q3])
+    return (K.qrotate(qt, (1.0, 0.0, 0.0)), K.qrotate(qt, (0.0, 1.0, 0.0)),
+            K.qrotate(qt, (0.0, 0.0, 1.0)))
 
 
 @numba.njit(cache=True)

@@ -27,8 +27,25 @@ compact blocks (``np.dot`` with ``out``; 19,000 multiplications for n = 22, agai
 the dense kernel, and no allocation per call). Measured (``benchmarks/bench_predict.py``), at
 these sizes BLAS beats numba loops over E's ~170 nonzeros, a sparse product list for
 ``F_aa F_a``, and row-blocked loops; FMA contraction (``fastmath={'contract'}``) changes
-nothing measurable (the arithmetic is in BLAS). What remains is numba's fixed cost per call
-and per loop (about half of the time).
+nothing measurable (the arithmetic is in BLAS).
+
+Where the time goes (issue 13's engine workload: n = 22, ``phi, dv, dp`` active, na = 9;
+CPU time per call, minimum of 15 batches of 20,000, a loaded 2-core machine): 1.07 us a
+call, of which the call itself 0.13 us (numba increfs and decrefs each of the 13 arrays
+passed, ``ws`` included, ~10 ns a pair), gathering ``F_a^T``, ``F_aa^T`` 0.1 us, the three
+BLAS products 0.18 + 0.19 + 0.16 us (``np.dot``'s own overhead is 0.04 us a call: the rest is
+OpenBLAS's small-matrix kernel, ~23 multiply-adds per ns), the ``Phi`` scaling, ``x`` and
+``Qc`` loops 0.15 us, the write-back of ``P`` 0.14 us. In the engine's loop it costs about
+1.25 us a row, 0.45 s per hour at 100 Hz: 60 % of the engine's 0.74 s. Tried for issue 13
+and rejected, each slower at these sizes: numba loops over F's active rows and nonzero
+columns only (``A = Pt[act] + M Pt[cols]``, one triangle of ``R``; 1.4-1.6 us, also with
+``fastmath={'contract', 'reassoc'}``; presumably the 14- and 22-long inner loops spend their
+time in scalar remainders), the same with BLAS on the compacted blocks (1.4 us; the gathers
+seem to cost more than the smaller products save), ``Phi_a`` built untransposed from row gathers (1.1 us), and
+``Phi_a Pt`` over F's nonzero column span only (1.18 us: OpenBLAS's time does not shrink with
+the inner dimension at this size). ``_nrt=False`` (no reference counting) is not available:
+numba types ``np.dot(a, b, out)`` only with NRT. Reaching ~0.3 us would, we expect, need code
+generated per pattern (straight-line products over the ~60 nonzeros of ``F_a``, fixed ``n``).
 
 The results equal the dense kernel's to rounding (a test checks 1e-13 relative to the size of
 the terms, random SPD ``P``, dt from 0.005 to 1 s, F of every layout of the package).
