@@ -133,3 +133,32 @@ def test_dr_kf_smoothed_against_truth_is_better_early_and_consistent():
         nees.append(np.sum((ps / ss) ** 2, axis=1))
     m = np.mean(np.concatenate(nees))
     assert 1.0 < m < 6.0, m            # 3 dof; correlated over time, so a loose band
+
+
+def test_nhc_kf_and_single_filter_od_kf_smooth_and_a_bank_says_it_cannot():
+    """``smooth`` on paper 003's filters: ``nhc-kf`` and ``od-kf`` without the NHC fallback
+    are one local filter and smooth (the heading error over the first 60 s falls); ``fkf``
+    (a bank) says what to do instead."""
+    from inmotion.align import aided_kf as ak
+    from inmotion.core import rotations
+    from inmotion.core.solution import NavState
+    from inmotion.errors import BadInput
+    from inmotion.sim import simulate
+    from inmotion.sim.scenario import find_scenario, load_scenario
+
+    b = simulate(load_scenario(find_scenario("paper003_drive")), np.random.default_rng(2))
+    init = NavState.from_truth(b.truth, euler_error=np.radians([0.2, 0.2, 1.0]))
+    for run, cfg in ((ak.run_od_kf, {"nhc_fallback": False, "init_heading_sigma_deg": 1.0}),
+                     (ak.run_nhc_kf, {"init_heading_sigma_deg": 1.0})):
+        err = {}
+        for smooth in (False, True):
+            s = run(b, {**cfg, "smooth": smooth}, init)
+            assert s.info["smoothed"] is smooth
+            k = np.searchsorted(b.truth.t, s.t)
+            phi = np.array([rotations.misalignment(a, c) for a, c in zip(
+                rotations.dcm_from_euler(s.euler), rotations.dcm_from_euler(b.truth.euler[k]))])
+            early = s.t <= s.t[0] + 60.0
+            err[smooth] = np.sqrt(np.mean(phi[early, 2] ** 2))
+        assert err[True] < 0.5 * err[False], (run.__name__, err)
+    with pytest.raises(BadInput, match="single local filter.*od-velocity-kf"):
+        ak.run_fkf(b, {"smooth": True}, init)

@@ -155,7 +155,7 @@ class ProcessConfig(BaseModel):
         description="forward-backward (Rauch-Tung-Striebel) smoothing of the fine-alignment and "
                     "navigation stages (radar: dr-kf and sins-dr; odometer or LDV: "
                     "od-velocity-kf, the smoothable single filter, in place of fkf / od-kf / "
-                    "ldv-kf; no velocity sensor: not available, forward result)")
+                    "ldv-kf; no velocity sensor: nhc-kf)")
 
 
 class InitInfo(BaseModel):
@@ -752,7 +752,10 @@ def _navigate(bundle, cfg, state, tilt_sig, head_sig, spec, log, progress):
            "nhc-kf": ak.run_nhc_kf}[name]
     cls = {"fkf": ak.FkfConfig, "od-kf": ak.AidedKfConfig, "ldv-kf": ak.AidedKfConfig,
            "nhc-kf": ak.NhcKfConfig}[name]
-    fcfg = _cfg(cls, {**prior, **_sensor_spec(bundle, cls)}, cfg, name, spec)
+    base = {**prior, **_sensor_spec(bundle, cls)}
+    if cfg.smooth and name == "nhc-kf":          # a single local filter: smoothable
+        base["smooth"] = True
+    fcfg = _cfg(cls, base, cfg, name, spec)
     sol = run(bundle, fcfg, state, progress=progress)
     why = {"fkf": "odometer and LDV: federated filter with chi-square FDI and Table 1 "
                   "reconfiguration (paper 003)",
@@ -760,7 +763,8 @@ def _navigate(bundle, cfg, state, tilt_sig, head_sig, spec, log, progress):
            "ldv-kf": "LDV: SINS / LDV filter, chi-square FDI, NHC fallback (paper 003)",
            "nhc-kf": "no velocity sensor: vehicle-constraint (NHC) filter (paper 003)"}[name]
     if cfg.smooth:
-        why += "; smoothing not available for it (forward result)"
+        why += ("; smoothed forward-backward (RTS)" if name == "nhc-kf"
+                else "; smoothing not available for it (forward result)")
     log("fine + navigate", name, t0, t_end, why + (", barometer" if bundle.baro is not None
                                                   else ""), sol)
     return [sol]

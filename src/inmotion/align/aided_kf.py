@@ -57,6 +57,7 @@ from ..estimation.aiding_rows import NHC_LAYOUT, SUB_LAYOUT
 from ..estimation.engine import (EVENT_DETECTED, EVENT_MODE, MODE_FUSED, MODE_NONE,
                                  ErrorStateFilter, LocalFilter)
 from ..estimation.layout import position_units
+from ..estimation.smoother import ForwardRecord, smooth_record
 
 __all__ = ["AidedKfConfig", "FkfConfig", "NhcKfConfig", "run_od_kf", "run_ldv_kf",
            "run_nhc_kf", "run_fkf", "run_aided"]
@@ -81,6 +82,11 @@ class NhcKfConfig(BaseModel):
     measurement_period_s: float = Field(0.5, gt=0, description="measurement update period [s]")
     main_period_s: float = Field(10.0, gt=0, description="fusion and feedback period")
     output_interval_s: float = Field(1.0, gt=0, description="spacing of the output rows [s]")
+    smooth: bool = Field(
+        False,
+        description="forward-backward: Rauch-Tung-Striebel smoothing over the whole run "
+                    "(estimation.smoother); needs a single local filter (nhc-kf, or od-kf / "
+                    "ldv-kf with nhc_fallback=false)")
     use_baro: bool = Field(
         True,
         description="add the barometric height measurement h_SINS - h_baro (needs a baro table)")
@@ -272,24 +278,40 @@ def run_aided(bundle: Bundle, cfg, init: NavState, sensors: tuple, *, method: st
     if use_baro:
         meas.append(ms.Height(cfg.baro_noise_m, local=None))
     n_ep = -(-(len(imu.t) - k0) // step)
+    smooth = bool(getattr(cfg, "smooth", False))
+    if smooth and len(locals_) > 1:
+        raise BadInput(f"{method}: smooth=true needs a single local filter, this run has "
+                       f"{len(locals_)} ({', '.join(list(sensors) + (['nhc'] if use_nhc else []))}"
+                       "); set nhc_fallback=false (od-kf, ldv-kf) or use od-velocity-kf",
+                       file="config")
     f = ErrorStateFilter(init, lay, em.ErrorModel(lay, _noise(cfg)), locals_, meas,
                          step_rows=step, feedback_every=fuse_every // meas_every,
                          out_every=out_every, n_common=NS,
-                         max_nis=(n_ep // meas_every + 1) * max(len(sensors), 1))
-    res = _feed(f, bundle, k0, sensors, meas_every, use_nhc, use_baro, progress)
+                         max_nis=(n_ep // meas_every + 1) * max(len(sensors), 1),
+                         record=smooth)
+    res = _feed(f, bundle, k0, sensors, meas_every, use_nhc, use_baro, progress,
+                ForwardRecord(lay.n, n_ep + 1) if smooth else None)
     return _solution(res, f, init, cfg, method, sensors, thr, time.perf_counter() - t_wall,
                      P15)
 
 
-def _feed(f, bundle, k0, sensors, meas_every, use_nhc, use_baro, progress):
+def _feed(f, bundle, k0, sensors, meas_every, use_nhc, use_baro, progress, rec=None):
     """The bundle through the engine chunk by chunk: per chunk each sensor resampled to the
     IMU rows (distance per row for the accumulators, NaN where not covered or in a gap), and
-    at every ``meas_every``-th epoch end a sample of each sensor, the NHC and the height."""
+    at every ``meas_every``-th epoch end a sample of each sensor, the NHC and the height.
+    With ``rec`` (a :class:`ForwardRecord`) the forward pass is recorded and the outputs are
+    the smoothed ones, ``first`` the smoothed start row."""
     imu = bundle.imu
     t, n = imu.t[k0:], len(imu.t) - k0
     step = f.step
     chunk = max(1, CHUNK_ROWS // step) * step
     outs = []
+    if rec is not None:                  # record 0: the start (x = 0, P0)
+        nn = f.layout.n
+        rec.append({"t": [f.t], "phi": np.eye(nn)[None], "p_pred": f.covariance()[None],
+                    "x": f.x[None], "p": f.covariance()[None], "fb": np.zeros((1, nn)),
+                    "fed": np.zeros((1, nn)), "xs": f.kernel_states()[0][None],
+                    "epoch": [0.0]})
     for a in range(0, n, chunk):
         b = min(a + chunk, n)
         tc = t[a:b]
@@ -313,9 +335,21 @@ def _feed(f, bundle, k0, sensors, meas_every, use_nhc, use_baro, progress):
             f.add_measurement("height", t_meas, _baro_on_imu(bundle.baro, t_meas, 5.0))
         outs.append(f.add_imu(tc, imu.dtheta[k0 + a:k0 + b], imu.dvel[k0 + a:k0 + b],
                               row_data=row_data, flush=b == n))
+        if rec is not None:
+            rec.append(outs[-1].pop("record"))
         if progress is not None:
             progress(b / n)
-    return {k: np.concatenate([o[k] for o in outs]) for k in outs[0]}
+    res = {k: np.concatenate([o[k] for o in outs]) for k in outs[0]}
+    if rec is not None:
+        ep = np.asarray(rec["epoch"])
+        sm = smooth_record(rec, f.layout, np.flatnonzero(ep % f.out_every == 0))
+        rec.close()
+        if not np.array_equal(sm["t"][1:], res["t"]):
+            raise RuntimeError("smoothed rows do not fall on the forward output rows")
+        for k in ("x_sins", "sigma", "states", "cov_phi"):
+            res[k] = sm[k][1:]
+        res["first"] = (sm["x_sins"][0], sm["sigma"][0])
+    return res
 
 
 def _old_mode(mode, n_channels):
@@ -364,8 +398,11 @@ def _solution(res, f, init, cfg, method, sensors, thr, wall, P15):
     first[[K.LAT, K.LON, K.H]] = init.lat, init.lon, init.h
     first[K.VE:K.VU + 1] = init.vel_n
     first[K.Q0:K.Q3 + 1] = init.q_nb
+    sig0 = np.sqrt(np.diagonal(P15))
+    if "first" in res:                   # smoothed: the start row is smoothed too
+        first, sig0 = res["first"][0], res["first"][1][:NS]
     x = np.vstack([first, res["x_sins"]])
-    sig = np.vstack([np.sqrt(np.diagonal(P15)), res["sigma"][:, :NS]])
+    sig = np.vstack([sig0, res["sigma"][:, :NS]])
     lay = NHC_LAYOUT
     s = lay.as_dict(sig)
     r_m, r_n = earth.radii(x[:, K.LAT])
@@ -375,12 +412,16 @@ def _solution(res, f, init, cfg, method, sensors, thr, wall, P15):
              "east": s["dp_lon"] * (r_n + x[:, K.H]) * np.cos(x[:, K.LAT]), "h": s["dp_h"]}
     states = lay.as_dict(np.vstack([np.zeros(NS), res["states"][:, :NS]]))
     units = lay.unit_map(position_units(init.lat, init.h))
+    # a single local filter is the global estimate: its states are the sensor states (never
+    # fed back) and its sigma
+    lx = res.get("local_x", res["states"][:, None, :])
+    ls = res.get("local_sigma", res["sigma"][:, None, :])
     for c, name in enumerate(sensors):
         short = "od" if name == "odometer" else "ldv"
         for i, (st, u) in enumerate(zip(_SENSOR_STATES, _SENSOR_UNITS)):
-            states[f"{short}_{st}"] = np.concatenate([[0.0], res["local_x"][:, c, NS + i]])
+            states[f"{short}_{st}"] = np.concatenate([[0.0], lx[:, c, NS + i]])
             states[f"sigma_{short}_{st}"] = np.concatenate([[np.sqrt(f.locals[c].P0[
-                NS + i, NS + i])], res["local_sigma"][:, c, NS + i]])
+                NS + i, NS + i])], ls[:, c, NS + i]])
             units[f"{short}_{st}"] = u
             units[f"sigma_{short}_{st}"] = u
     cnt = f.counts()
@@ -391,6 +432,7 @@ def _solution(res, f, init, cfg, method, sensors, thr, wall, P15):
     events, dropped = _events(f, sensors, thr)
     modes = np.array([_old_mode(int(m), len(sensors)) for m in res["mode"]], dtype=np.int64)
     info = {"method": method, "config": cfg.model_dump(), "sensors": list(sensors),
+            "smoothed": "first" in res,
             "layout_subfilter": list(SUB_LAYOUT.names), "layout_common": list(lay.names),
             "events": events, "events_dropped": dropped,
             "fdi_threshold": thr, "tests": counts,
