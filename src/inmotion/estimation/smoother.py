@@ -120,7 +120,7 @@ class ForwardRecord:
     n : states;  capacity : epochs that will be recorded (known from the log's length)
     """
 
-    def __init__(self, n: int, capacity: int, memory_budget_bytes: float = 2e9,
+    def __init__(self, n: int, capacity: int, memory_budget_bytes: float = 5e8,
                  folder=None):
         self.n = int(n)
         self.capacity = int(capacity)
