@@ -81,7 +81,8 @@ STATE_SETS = {"paper": {},
 #: process noise of the attitude per 100 Hz update matched to the simulated gyro angle random
 #: walk, 0.003 deg/sqrt(h) = 5e-5 deg/sqrt(s), times sqrt(0.01 s) [deg] (the paper's is 1e-7)
 ARW_Q_DEG = 0.003 / 60.0 * np.sqrt(0.01)
-#: bounds of the adaptive R wide enough to be no bounds [m/s] (the paper states none)
+#: bounds of the adaptive R wide enough to be no bounds [m/s]: an ablation of ours (the
+#: paper bounds every diagonal element of R between R_min and R_max, eq. 44, without values)
 UNBOUNDED_R = {"r_min_m_s": 1e-4, "r_max_m_s": 1e3}
 #: extra runs beside the paper's schemes, all with the extended states: ausquhe with the
 #: process noise from the ARW; ausque and ausquhe with an unbounded adaptive R
@@ -470,16 +471,19 @@ def _ranking_text(S) -> list:
          f"({r(2, 'ausque/extended'):.2f} vs {r(2, 'ausquhe/extended'):.2f} deg extended; "
          f"{r(2, 'ausque/paper'):.2f} vs {r(2, 'ausquhe/paper'):.2f} paper states), where the "
          f"paper's `ausque` lost 10 deg: our adaptive R is bounded (0.05 .. 1 m/s, "
-         f"`inmotion.align.usque`); the paper states no bounds. Without them (R free in "
-         f"1e-4 .. 1e3 m/s, rows `extended-unbounded-r`) `ausque` is off by "
+         f"`inmotion.align.usque`). The paper bounds it too (eq. 44: R_min, R_max on each "
+         f"diagonal element) but gives no values, so where its bounds lay is unknown. With "
+         f"bounds too wide to act (R free in 1e-4 .. 1e3 m/s, rows `extended-unbounded-r`, "
+         f"an ablation of ours, not the paper's scheme) `ausque` is off by "
          f"{r(2, 'ausque/extended-unbounded-r'):.2f} deg RMS (mean "
          f"{r(2, 'ausque/extended-unbounded-r', 'mean'):.2f} +- "
          f"{r(2, 'ausque/extended-unbounded-r', 'sd'):.2f}, worst run "
          f"{r(2, 'ausque/extended-unbounded-r', 'max_abs_mean'):.1f}; paper -10.18): the "
          f"estimated R follows the innovations of a wrong heading and de-weights the very "
          f"measurements that would correct it, or falls on the quiet axes until the filter "
-         f"over-trusts them. The paper's failure of `ausque` is reproduced this way; its "
-         f"rescue by the adaptive gamma is not: `ausquhe` without the bounds is off by "
+         f"over-trusts them. The paper's failure of `ausque` is reproduced this way, which "
+         f"suggests its bounds were wide; its rescue by the adaptive gamma is not: `ausquhe` "
+         f"with the same wide bounds is off by "
          f"{r(2, 'ausquhe/extended-unbounded-r'):.2f} deg RMS (worst run "
          f"{r(2, 'ausquhe/extended-unbounded-r', 'max_abs_mean'):.1f}). In our runs the "
          f"bounds on R, not the H-infinity update, are what keeps the adaptive filters on "
