@@ -400,3 +400,34 @@ def test_paper003_filters_on_the_engine_give_the_former_loops_result(scenario):
         if label == "nhc-kf":                    # no quirk: equal to rounding
             atol = np.r_[1e-12, 1e-12, 1e-6, [1e-8] * 3, [1e-9] * 3]
             assert np.all(np.abs(nav - ref[k + "nav"]) <= atol), label
+
+
+def test_bad_plugin_and_filter_settings_say_what_is_wrong(short_drive):
+    """Every check at the engine's edge names the setting and what it got."""
+    init = short_drive[0]
+    model = em.ErrorModel(LAY, em.ProcessNoise())
+    P0 = np.eye(LAY.n)
+    for make, match in (
+            (lambda: ms.ForwardVelocity([0.1, -0.1, 0.1]), "forward velocity sigma_m_s must be"),
+            (lambda: ms.Nhc(float("nan")), "NHC sigma_m_s must be finite"),
+            (lambda: ms.Height(0.0), "height sigma_m must be finite and > 0"),
+            (lambda: ms.Nhc(0.1, vehicle_mounting=np.eye(2)), "mounting matrix"),
+            (lambda: ms.ZeroVelocity(0.01, gate=-1.0), "gate must be a finite"),
+            (lambda: ErrorStateFilter(init, LAY, model, P0, [ms.Nhc(0.1)] * 2),
+             "names must be distinct"),
+            (lambda: ErrorStateFilter(init, LAY, model, P0, [ms.Nhc(0.1, name=f"n{i}")
+                                                             for i in range(9)]),
+             "at most 8 measurement kinds"),
+            (lambda: ErrorStateFilter(init, LAY, model, P0, [], feedback=["phi", "mount"]),
+             "feedback blocks must be among"),
+            (lambda: ErrorStateFilter(init, LAY, model, P0, [ms.Nhc(0.1, local=3)]),
+             "local filter 3 of 1"),
+            (lambda: ErrorStateFilter(init, LAY, model, P0, [], step_rows=0),
+             "step_rows, out_every and feedback_every must be >= 1")):
+        with pytest.raises(ValueError, match=match):
+            make()
+    f = _filter(init)
+    with pytest.raises(ValueError, match="a sample holds 1 values, got shape"):
+        ms.ForwardVelocity([0.1] * 3).rows(f, [1.0, 2.0])
+    with pytest.raises(ValueError, match="sample times must be finite"):
+        f.add_measurement("nhc", [np.nan])

@@ -57,7 +57,7 @@ from ..estimation.aiding_rows import NHC_LAYOUT, SUB_LAYOUT
 from ..estimation.engine import (EVENT_DETECTED, EVENT_MODE, MODE_FUSED, MODE_NONE,
                                  ErrorStateFilter, LocalFilter)
 from ..estimation.layout import position_units
-from ..estimation.smoother import ForwardRecord, smooth_record
+from ..estimation.smoother import ForwardRecord, smooth_at_outputs
 
 __all__ = ["AidedKfConfig", "FkfConfig", "NhcKfConfig", "run_od_kf", "run_ldv_kf",
            "run_nhc_kf", "run_fkf", "run_aided"]
@@ -290,7 +290,7 @@ def run_aided(bundle: Bundle, cfg, init: NavState, sensors: tuple, *, method: st
                          max_nis=(n_ep // meas_every + 1) * max(len(sensors), 1),
                          record=smooth)
     res = _feed(f, bundle, k0, sensors, meas_every, use_nhc, use_baro, progress,
-                ForwardRecord(lay.n, n_ep + 1) if smooth else None)
+                ForwardRecord.for_filter(f, n_ep) if smooth else None)
     return _solution(res, f, init, cfg, method, sensors, thr, time.perf_counter() - t_wall,
                      P15)
 
@@ -299,19 +299,13 @@ def _feed(f, bundle, k0, sensors, meas_every, use_nhc, use_baro, progress, rec=N
     """The bundle through the engine chunk by chunk: per chunk each sensor resampled to the
     IMU rows (distance per row for the accumulators, NaN where not covered or in a gap), and
     at every ``meas_every``-th epoch end a sample of each sensor, the NHC and the height.
-    With ``rec`` (a :class:`ForwardRecord`) the forward pass is recorded and the outputs are
-    the smoothed ones, ``first`` the smoothed start row."""
+    With ``rec`` (:meth:`ForwardRecord.for_filter`) the forward pass is recorded and the
+    outputs are the smoothed ones, ``first`` the smoothed start row."""
     imu = bundle.imu
     t, n = imu.t[k0:], len(imu.t) - k0
     step = f.step
     chunk = max(1, CHUNK_ROWS // step) * step
     outs = []
-    if rec is not None:                  # record 0: the start (x = 0, P0)
-        nn = f.layout.n
-        rec.append({"t": [f.t], "phi": np.eye(nn)[None], "p_pred": f.covariance()[None],
-                    "x": f.x[None], "p": f.covariance()[None], "fb": np.zeros((1, nn)),
-                    "fed": np.zeros((1, nn)), "xs": f.kernel_states()[0][None],
-                    "epoch": [0.0]})
     for a in range(0, n, chunk):
         b = min(a + chunk, n)
         tc = t[a:b]
@@ -341,9 +335,7 @@ def _feed(f, bundle, k0, sensors, meas_every, use_nhc, use_baro, progress, rec=N
             progress(b / n)
     res = {k: np.concatenate([o[k] for o in outs]) for k in outs[0]}
     if rec is not None:
-        ep = np.asarray(rec["epoch"])
-        sm = smooth_record(rec, f.layout, np.flatnonzero(ep % f.out_every == 0))
-        rec.close()
+        sm = smooth_at_outputs(rec, f, with_last=False)   # no off-grid last row here
         if not np.array_equal(sm["t"][1:], res["t"]):
             raise RuntimeError("smoothed rows do not fall on the forward output rows")
         for k in ("x_sins", "sigma", "states", "cov_phi"):

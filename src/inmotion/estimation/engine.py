@@ -91,6 +91,7 @@ import numba
 import numpy as np
 
 from ..core import _kernels as K
+from ..core.mechanization import _state_vector
 from ..core.solution import NavState
 from . import error_model as em
 from .federated import fuse_kernel
@@ -723,7 +724,7 @@ class ErrorStateFilter:
         self._index = {m.name: j for j, m in enumerate(measurements)}
         self.step = int(step_rows)
         self.out_every = int(out_every)
-        x0 = _kernel_state(init)
+        x0 = _state_vector(init)
         fb_mask, fb_states = _feedback_mask(feedback, layout)
         if n_common is None:
             n_common = int(np.argmin(fb_states)) if not fb_states.all() else n
@@ -1061,11 +1062,3 @@ class ErrorStateFilter:
         self._qt, self._qj, self._qd = qt.copy(), qj.copy(), qd.copy()
         self._pending = []
         self._fed_last = snap["fed_last"].copy()
-
-
-def _kernel_state(s: NavState) -> np.ndarray:
-    x = np.empty(K.NX)
-    x[K.LAT], x[K.LON], x[K.H] = s.lat, s.lon, s.h
-    x[K.VE:K.VU + 1] = s.vel_n
-    x[K.Q0:K.Q3 + 1] = s.q_nb
-    return x

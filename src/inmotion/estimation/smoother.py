@@ -40,7 +40,8 @@ from ..core import _kernels as K
 from .layout import DP, DV, PHI
 from .nav_ops import correct_nav
 
-__all__ = ["rts_backward", "ForwardRecord", "RECORD_FIELDS", "smooth_record"]
+__all__ = ["rts_backward", "ForwardRecord", "RECORD_FIELDS", "smooth_record",
+           "smooth_at_outputs"]
 
 #: relative eigenvalue below which a direction of the (correlation form of) P_k|k-1 counts as
 #: singular in the smoother gain (machine precision times the states' dynamic range)
@@ -143,6 +144,19 @@ class ForwardRecord:
             for name, s in shapes.items():
                 self.arrays[name] = np.empty((self.capacity,) + s)
 
+    @classmethod
+    def for_filter(cls, filt, epochs: int) -> "ForwardRecord":
+        """A record for ``epochs`` more epochs of the engine filter ``filt`` (made with
+        ``record=True``), holding the start as record 0: ``x = 0`` (nothing estimated yet)
+        with ``P0``, the start state, epoch 0."""
+        n = filt.layout.n
+        rec = cls(n, int(epochs) + 1)
+        P0 = filt.covariance()
+        rec.append({"t": [filt.t], "phi": np.eye(n)[None], "p_pred": P0[None], "x": filt.x[None],
+                    "p": P0[None], "fb": np.zeros((1, n)), "fed": np.zeros((1, n)),
+                    "xs": filt.kernel_states()[0][None], "epoch": [0.0]})
+        return rec
+
     def append(self, rec: dict):
         """Append the records of one ``add_imu`` call (``rec[field]`` (k, ...))."""
         k = len(rec["t"])
@@ -215,3 +229,16 @@ def smooth_record(record: ForwardRecord, layout, rows=None) -> dict:
             "states": arr["fed"][rows] + x_k, "cov_phi": P_k[:, ph, ph],
             "sigma_forward": np.sqrt(np.maximum(np.diagonal(arr["p"][rows], axis1=1, axis2=2),
                                                 0.0))}
+
+
+def smooth_at_outputs(record: ForwardRecord, filt, with_last: bool = True) -> dict:
+    """The backward pass over ``record`` (closed afterwards), returned at the epochs of the
+    engine filter's output grid (every ``filt.out_every``-th, the start included) and, with
+    ``with_last``, at the last epoch (where a run writes its last row even off the grid)."""
+    ep = np.asarray(record["epoch"])
+    keep = ep % filt.out_every == 0
+    if with_last:
+        keep |= ep == ep[-1]
+    sm = smooth_record(record, filt.layout, np.flatnonzero(keep))
+    record.close()
+    return sm

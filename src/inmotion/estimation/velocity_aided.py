@@ -35,7 +35,7 @@ from . import error_model as em
 from . import measurements as ms
 from .engine import ErrorStateFilter
 from .layout import Layout
-from .smoother import ForwardRecord, smooth_record
+from .smoother import ForwardRecord, smooth_at_outputs
 
 __all__ = ["GROUPS", "GROUP_SIZES", "VelocityAidedRun"]
 
@@ -159,14 +159,7 @@ class VelocityAidedRun:
             raise ValueError("VelocityAidedRun.run needs at least one IMU row")
         f = self.filter
         outs = [f.output_now()]
-        rec = None
-        if self.smooth:                 # record 0: the start (x = 0, P0), epoch k at record k
-            n = self.layout.n
-            rec = ForwardRecord(n, -(-n_rows // self.step) + 1)
-            rec.append({"t": [f.t], "phi": np.eye(n)[None], "p_pred": f.covariance()[None],
-                        "x": f.x[None], "p": f.covariance()[None], "fb": np.zeros((1, n)),
-                        "fed": np.zeros((1, n)), "xs": f.kernel_states()[0][None],
-                        "epoch": [0.0]})
+        rec = ForwardRecord.for_filter(f, -(-n_rows // self.step)) if self.smooth else None
         chunk = max(1, CHUNK_ROWS // self.step) * self.step
         max_gap = 5.0 * float(np.median(np.diff(speed.t[:GAP_SAMPLES])))
         groups = [g for g in GROUPS if self.use[g]]
@@ -198,10 +191,7 @@ class VelocityAidedRun:
             outs.append(f.output_now())
         res = {k: np.concatenate([o[k] for o in outs]) for k in outs[0]}
         if rec is not None:             # the smoothed rows at the forward output's epochs
-            ep = np.asarray(rec["epoch"])
-            rows = np.flatnonzero((ep % self.out_every == 0) | (ep == ep[-1]))
-            sm = smooth_record(rec, self.layout, rows)
-            rec.close()
+            sm = smooth_at_outputs(rec, f)
             if not np.array_equal(sm["t"], res["t"]):
                 raise RuntimeError("smoothed rows do not fall on the forward output rows")
             res.update(sm)
