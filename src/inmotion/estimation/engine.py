@@ -217,7 +217,9 @@ def _global(S, C, mode, x_g, P_g):
 @numba.njit(cache=True)
 def _feed_back_arrays(xs, ms, xd, md, bias_g, bias_a, fed_back, X, offs, m, fb_states,
                       with_dr, x_g):
-    """:func:`_feed_back` on the arrays it touches (of ``S`` and ``C``)."""
+    """Apply the global estimate's fed-back blocks (the policy ``m``) to the navigation
+    system and the IMU compensation, accumulate them, subtract them from every local filter
+    (arrays only: a call with the namedtuples ``S``, ``C`` costs their reference counting)."""
     zero3 = np.zeros(3)
     phi = x_g[offs[PHI]:offs[PHI] + 3] if m[PHI] else zero3
     dv = x_g[offs[DV]:offs[DV] + 3] if m[DV] else zero3
@@ -239,14 +241,6 @@ def _feed_back_arrays(xs, ms, xd, md, bias_g, bias_a, fed_back, X, offs, m, fb_s
             fed_back[p] += d
             for l in range(X.shape[0]):
                 X[l, p] -= d
-
-
-@numba.njit(cache=True)
-def _feed_back(S, C, x_g):
-    """Apply the global estimate's fed-back blocks (the policy) to the navigation system and
-    the IMU compensation, accumulate them, subtract them from every local filter."""
-    _feed_back_arrays(S.xs, S.ms, S.xd, S.md, S.bias_g, S.bias_a, S.fed_back, S.X, C.offs,
-                      C.fb_mask, C.fb_states, C.with_dr, x_g)
 
 
 @numba.njit(cache=True)
