@@ -72,7 +72,7 @@ def main():
         print(f"one hour (360,000 rows), mimada-dual: {el:.2f} s, peak allocation "
               f"{peak / 1e6:.1f} MB (inputs {inputs:.1f} MB)")
     if args.reproduce:
-        from inmotion.evaluate.reproduce_004 import reproduce
+        from inmotion.reproductions.paper004 import reproduce
         with tempfile.TemporaryDirectory() as d:
             t0 = time.perf_counter()
             reproduce(d, runs=50, workers=2, seed=0, progress=False)

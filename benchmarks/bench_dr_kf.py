@@ -5,7 +5,7 @@ Usage: ``OPENBLAS_NUM_THREADS=1 python benchmarks/bench_dr_kf.py [--repeat N] [-
 (the first call compiles / loads the numba kernels and is not timed), and the split between
 simulation and filter. Target (issue 3): under 1 s per run.
 
-``--reproduce-runs R [--workers W]`` also times ``inmotion.evaluate.reproduce_000.reproduce``
+``--reproduce-runs R [--workers W]`` also times ``inmotion.reproductions.paper000.reproduce``
 (R Monte Carlo runs of each of the three experiments, W processes, into a temporary folder):
 its wall time, the CPU seconds inside the runs, and the CPU seconds of the whole call
 (this process and its workers). Target (issue 3): R = 50 under 120 s wall on 2 cores.
@@ -66,7 +66,7 @@ def _cpu_self_and_children():
 
 def _bench_reproduce(runs, workers):
     """Time the paper 000 Monte Carlo (three experiments, with / without Z2)."""
-    from inmotion.evaluate.reproduce_000 import reproduce
+    from inmotion.reproductions.paper000 import reproduce
     c0, w0 = _cpu_self_and_children(), time.perf_counter()
     with tempfile.TemporaryDirectory() as out:
         js = reproduce(out, runs=runs, workers=workers, progress=False)

@@ -106,7 +106,7 @@ def test_window_message_says_what_the_drive_covers(bundle, tmp_path):
 
 
 def test_real_data_folder_from_option_env_or_cwd(monkeypatch, tmp_path):
-    from inmotion.evaluate import reproduce_real as rr
+    from inmotion.reproductions import real as rr
     monkeypatch.setenv("INMOTION_REAL_DATA", str(tmp_path / "mine"))
     assert rr.default_data_root() == tmp_path / "mine"
     monkeypatch.delenv("INMOTION_REAL_DATA")

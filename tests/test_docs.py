@@ -39,7 +39,7 @@ def test_example_simulate_align_navigate(tmp_path):
 
 
 def test_example_real_log(tmp_path):
-    from inmotion.evaluate.reproduce_real import default_data_root
+    from inmotion.reproductions.real import default_data_root
     data = default_data_root()
     if not (data / "comma2k19_rav4_60s").is_dir():
         pytest.skip(f"no real data at {data}")

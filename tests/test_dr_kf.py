@@ -136,7 +136,7 @@ def test_non_finite_imu_row_is_bad_input_naming_its_time(drive):
 
 
 def test_observability_beta_unobservable_alpha_gamma_observable():
-    from inmotion.evaluate.reproduce_000 import observability
+    from inmotion.reproductions.paper000 import observability
     obs = observability(seconds=60.0)                       # NHC in the vehicle frame
     frac = obs["observable_fraction"]
     assert frac["mount_y"] < 1e-6 and obs["column_norm"]["mount_y"] < 1e-12
@@ -161,7 +161,7 @@ def test_prior_ties_dr_errors_to_sins_errors():
 
 @pytest.mark.slow
 def test_reproduce_000_writes_report_tables_and_figures(tmp_path):
-    from inmotion.evaluate.reproduce_000 import reproduce
+    from inmotion.reproductions.paper000 import reproduce
     js = reproduce(tmp_path, runs=2, workers=1, progress=False)
     text = (tmp_path / "report.md").read_text()
     assert "| traj1 | with_Z2 | 0.5 / 0.4 / 3.2 |" in text
@@ -179,7 +179,7 @@ def test_paper_world_dr_without_drift_makes_heading_observable():
     out of the DR's rows only, the SINS-minus-DR attitude difference reveals the drift and the
     heading converges (to under 3' at 400 s); with the shared, drifting gyros and the derived F
     the same 400 s leave the heading tens of arcmin off (gyrocompassing only)."""
-    from inmotion.evaluate.reproduce_000 import gyrocompass_heading_limit
+    from inmotion.reproductions.paper000 import gyrocompass_heading_limit
     sc = _scenario(duration_s=400.0, drift_deg_h=0.3)
     sc["imu"]["gyro"]["arw_deg_sqrt_h"] = 0.0
     b = simulate(sc, np.random.default_rng(5))

@@ -6,7 +6,7 @@ from inmotion.core import rotations
 from inmotion.core.bundle import Truth
 from inmotion.core.earth import radii
 from inmotion.core.solution import Solution
-from inmotion.evaluate.metrics import ERROR_KEYS, error_series, errors_block
+from inmotion.core.metrics import ERROR_KEYS, error_series, errors_block
 
 DESIGN_KEYS = {"pitch_arcmin", "roll_arcmin", "yaw_arcmin", "phi_E_arcmin", "phi_N_arcmin",
                "phi_U_arcmin", "vE_m_s", "vN_m_s", "vU_m_s", "horizontal_m", "vertical_m"}
@@ -150,7 +150,7 @@ def test_consistency_block_is_chi_square_for_errors_drawn_with_the_sigma():
     import pandas as pd
 
     from inmotion.core.solution import Solution
-    from inmotion.evaluate.metrics import ARCMIN_PER_RAD, consistency_block
+    from inmotion.core.metrics import ARCMIN_PER_RAD, consistency_block
 
     rng = np.random.default_rng(4)
     n = 2001

@@ -1,7 +1,7 @@
 """reproduce_003 smoke test: one run, one window; the report carries every table and figure."""
 import json
 
-from inmotion.evaluate.reproduce_003 import FAULTS, reproduce
+from inmotion.reproductions.paper003 import FAULTS, reproduce
 
 
 def test_reproduce_003_one_run(tmp_path):

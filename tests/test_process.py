@@ -16,7 +16,7 @@ from inmotion import registry
 from inmotion.cli.main import cli
 from inmotion.core.solution import NavState
 from inmotion.errors import BadInput
-from inmotion.evaluate.metrics import errors_block, error_series
+from inmotion.core.metrics import errors_block, error_series
 from inmotion.process import ProcessConfig, heading_observability, run_process
 from inmotion.sim import simulate
 from inmotion.sim.scenario import load_scenario
@@ -248,7 +248,7 @@ def test_cli_process_writes_one_result_with_its_log(od_only, tmp_path):
 # --------------------------------------------------------------------------- real logs
 
 def _real_root():
-    from inmotion.evaluate.reproduce_real import default_data_root
+    from inmotion.reproductions.real import default_data_root
     return default_data_root()
 
 

@@ -15,7 +15,7 @@ from inmotion import registry
 from inmotion.core import earth, rotations
 from inmotion.core.solution import NavState
 from inmotion.errors import BadInput
-from inmotion.evaluate import reproduce_psins as rp
+from inmotion.reproductions import psins as rp
 from inmotion.io.importers import import_log
 from inmotion.io.importers.psins import (ARCSEC, design_euler_from_psins,
                                          psins_from_design_euler)
@@ -155,7 +155,7 @@ def test_real_mems_imports_with_fog_reference_in_our_conventions():
 
 @needs_mems
 def test_real_mems_evaluates_against_the_10hz_truth(tmp_path):
-    from inmotion.evaluate.metrics import error_series
+    from inmotion.core.metrics import error_series
     from inmotion.navigate.pure import SinsConfig, run_sins
 
     b = import_log("psins", MEMS).window(None, 5.0)

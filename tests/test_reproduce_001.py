@@ -5,7 +5,7 @@ import numpy as np
 from inmotion.core import rotations
 from inmotion.core.bundle import Truth
 from inmotion.core.solution import Solution
-from inmotion.evaluate import reproduce_001 as r
+from inmotion.reproductions import paper001 as r
 from inmotion.sim import simulate
 from inmotion.sim.scenario import find_scenario, load_scenario
 

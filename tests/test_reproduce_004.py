@@ -3,7 +3,7 @@ paper's definitions, and a tiny campaign writes its report."""
 import numpy as np
 import pytest
 
-from inmotion.evaluate import reproduce_004 as r4
+from inmotion.reproductions import paper004 as r4
 from inmotion.sim.simulate import simulate
 
 

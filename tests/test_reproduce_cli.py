@@ -15,8 +15,8 @@ from click.testing import CliRunner
 
 from inmotion.cli.main import cli
 from inmotion.errors import BadInput
-from inmotion.evaluate import reproduce as rp
-from inmotion.evaluate.reproduce_page import markdown_to_html
+from inmotion.reproductions import suite as rp
+from inmotion.reproductions.page import markdown_to_html
 
 ROW_KEYS = {"quantity", "unit", "paper", "measured", "better", "verdict", "note"}
 PNG = (b"\x89PNG\r\n\x1a\n\x00\x00\x00\rIHDR\x00\x00\x00\x01\x00\x00\x00\x01\x08\x06\x00\x00"
@@ -46,7 +46,7 @@ def run_004(tmp_path_factory):
 
 
 def test_004_end_to_end_rows_have_the_paper_beside_the_measured(run_004):
-    from inmotion.evaluate import reproduce_004 as r4
+    from inmotion.reproductions import paper004 as r4
     out, res = run_004
     assert res.exit_code == 0, res.output
     summary = json.loads(res.output)

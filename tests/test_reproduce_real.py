@@ -8,7 +8,7 @@ import pytest
 from inmotion.core import earth, rotations
 from inmotion.core.bundle import Bundle, ImuData, SpeedData, Truth
 from inmotion.errors import BadInput
-from inmotion.evaluate import reproduce_real as rr
+from inmotion.reproductions import real as rr
 from inmotion.navigate.pure import mounting_matrix
 
 D = np.pi / 180.0

@@ -31,7 +31,7 @@ from inmotion.errors import BadInput
 from inmotion.estimation import kalman
 from inmotion.estimation import measurements as ms
 from inmotion.estimation import nav_ops
-from inmotion.evaluate.metrics import error_series
+from inmotion.core.metrics import error_series
 from inmotion.navigate.sins_dr import (LAYOUT_SINS_DR as LAY, SinsDrConfig, build_filter,
                                        run_sins_dr)
 from inmotion.sim import simulate
@@ -436,7 +436,7 @@ def test_cli_navigate_sins_dr_with_mode(tmp_path, short_drive, mode):
 
 def test_reproduce_002_statistics_on_a_known_error_table():
     import pandas as pd
-    from inmotion.evaluate import reproduce_002 as rep
+    from inmotion.reproductions import paper002 as rep
     t = np.arange(0.0, 3601.0)
     hor = np.where(t < rep.SETTLE_S, 100.0, 3.0 + 4.0 * (t == 2000))   # spike before settling
     err = pd.DataFrame({"t": t, "horizontal_m": hor, "vertical_m": -2.0 * np.ones_like(t),

@@ -74,7 +74,7 @@ def _static_bundle(euler_deg=(2.0, -1.0, 10.0), lat_deg=28.0, T=300.0, rate=2.0)
 
 
 def _errors_deg(sol, truth):
-    from inmotion.evaluate.metrics import interpolate_truth
+    from inmotion.core.metrics import interpolate_truth
     return np.degrees(rotations.wrap_pi(sol.euler - interpolate_truth(truth, sol.t).euler))
 
 

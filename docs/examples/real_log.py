@@ -17,8 +17,8 @@ from pathlib import Path
 
 from inmotion import registry
 from inmotion.core.solution import NavState
-from inmotion.evaluate.metrics import error_series, errors_block, interpolate_truth
-from inmotion.evaluate.reproduce_real import default_data_root
+from inmotion.core.metrics import error_series, errors_block, interpolate_truth
+from inmotion.reproductions.real import default_data_root
 from inmotion.io.bundle import read_bundle, write_bundle
 from inmotion.io.export import export_geojson
 from inmotion.io.importers import import_log

@@ -17,7 +17,7 @@ import numpy as np
 from inmotion import registry
 from inmotion.core.solution import NavState
 from inmotion.evaluate import plots
-from inmotion.evaluate.metrics import error_series, errors_block
+from inmotion.core.metrics import error_series, errors_block
 from inmotion.io.result import write_result
 from inmotion.sim import simulate
 from inmotion.sim.scenario import load_scenario

@@ -302,9 +302,9 @@ def error_series(solution: "Solution", truth: Union["Bundle", "Truth"]) -> "pd.D
         ``phi_E_arcmin, phi_N_arcmin, phi_U_arcmin`` (misalignment) [arc-minutes];
         ``vE_m_s, vN_m_s, vU_m_s`` [m/s]; ``north_m, east_m, horizontal_m, vertical_m`` [m];
         ``distance_m`` (truth distance travelled) [m]
-        (:func:`inmotion.evaluate.metrics.error_series`).
+        (:func:`inmotion.core.metrics.error_series`).
     """
-    from .evaluate.metrics import error_series as _series
+    from .core.metrics import error_series as _series
     return _series(solution, _truth_of(truth))
 
 
@@ -328,5 +328,5 @@ def evaluate(solution: "Solution", truth: Union["Bundle", "Truth"],
         ``distance_m`` [m] travelled and ``duration_s`` [s]. The per-epoch series is
         :func:`error_series`.
     """
-    from .evaluate.metrics import errors_block
+    from .core.metrics import errors_block
     return errors_block(error_series(solution, truth), window_s)

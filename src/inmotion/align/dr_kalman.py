@@ -56,7 +56,7 @@ road the heading misalignment and the east gyro drift are separated only by gyro
 so the heading settles at ``phi_U = -eps_E / (Omega cos L)`` (8' for 0.03 deg/h at 34 deg N);
 the mounting angle ``gamma`` shares that direction with the heading once the NHC is written in
 the vehicle frame; ``beta`` (about the forward axis) is unobservable. The filter's sigma says
-all three (``inmotion.evaluate.reproduce_000`` measures them).
+all three (``inmotion.reproductions.paper000`` measures them).
 
 Initial covariance: the DR starts from the same attitude and position as the SINS (paper 000
 sec. 5: "the initial errors of the dead reckoning system were the same"), so ``phi_D(0) =

@@ -280,7 +280,7 @@ def _distance(bundle):
     """Distance travelled [m] and where it comes from (truth, else a velocity sensor)."""
     import numpy as np
     if bundle.truth is not None:
-        from ..evaluate.metrics import _path_length
+        from ..core.metrics import _path_length
         return float(_path_length(bundle.truth, bundle.truth.t[[0, -1]])[-1]), "truth"
     for name in ("odometer", "ldv", "radar"):
         s = getattr(bundle, name)
@@ -666,7 +666,7 @@ def _run_text(summary: dict, output) -> str:
 
 
 def _errors_text(block: dict) -> str:
-    from ..evaluate.metrics import ERROR_KEYS
+    from ..core.metrics import ERROR_KEYS
     d = block["distance_m"]
     lines = [f"  errors over {block['duration_s']:.1f} s, {d / 1000:.3f} km "
              f"(estimate - truth):",

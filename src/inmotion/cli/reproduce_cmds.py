@@ -68,7 +68,7 @@ def reproduce(ctx, paper, output, runs, workers, seed, reuse, data_dir, quiet, a
 
     ``real`` runs the real drives found in ``--data DIR`` (or ``$INMOTION_REAL_DATA``).
     """
-    from ..evaluate import reproduce as rp
+    from ..reproductions import suite as rp
     if data_dir is not None:            # reproduce_real reads it (also in worker processes)
         os.environ["INMOTION_REAL_DATA"] = str(Path(data_dir).resolve())
     quiet = quiet or _root_flag(ctx, "quiet")
@@ -84,7 +84,7 @@ def reproduce(ctx, paper, output, runs, workers, seed, reuse, data_dir, quiet, a
         papers = summary["papers"]
     else:
         rp.get(paper)                                   # BadInput (exit 2) before any work
-        from ..evaluate.reproduce_page import write_page
+        from ..reproductions.page import write_page
         one = rp.run_reproduction(paper, out, runs=runs, workers=workers, seed=seed,
                                   progress=not quiet, reuse=reuse)
         page = write_page(out / "report.html", [one], title=f"inmotion: paper {paper} reproduced")

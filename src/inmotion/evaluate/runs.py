@@ -168,7 +168,7 @@ def default_run(spec: dict, rng: np.random.Generator) -> dict:
         with ``save_arrays: true``, the error series as arrays.
     """
     from .. import registry
-    from .metrics import error_series, errors_block
+    from ..core.metrics import error_series, errors_block
     rng_sim, rng_init = rng.spawn(2)
     bundle = simulate_cached(spec["scenario"], rng_sim)
     run, config_cls = registry.get(spec["method"]).load()

@@ -17,7 +17,7 @@ columns, ``solution.parquet`` instead of ``solution.csv`` and so on; readers tak
                    states without one are written in SI as name_si)
     summary.json   method, config, timing, final values (human units), info, the state
                    columns map, and with truth the ``errors`` block
-    errors.csv     with truth: the error series of inmotion.evaluate.metrics.error_series
+    errors.csv     with truth: the error series of inmotion.core.metrics.error_series
 
 A result folder is written whole or not at all (:func:`inmotion.io.safe_write.staged_folder`):
 the files are written into a hidden sibling, which then takes the folder's place in one rename,
@@ -40,7 +40,7 @@ from ..core import rotations
 from ..core.bundle import Truth
 from ..core.solution import Solution, StateUnit
 from ..errors import BadInput
-from ..evaluate.metrics import consistency_block, error_series, errors_block
+from ..core.metrics import consistency_block, error_series, errors_block
 from .bundle import _plain, write_csv
 from .safe_write import atomic_write, refuse_partial, staged_folder
 

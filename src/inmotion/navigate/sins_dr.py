@@ -46,7 +46,7 @@ Choices where the paper is silent (documented, not tuned to a seed):
   (the paper's measurement); a barometer can be added (``use_baro``);
 * the scale factor ``dk`` is estimated, not fed back (the DR keeps the raw sensor speed).
 
-What the measurements carry (measured, ``inmotion.evaluate.reproduce_002``): the SINS and
+What the measurements carry (measured, ``inmotion.reproductions.paper002``): the SINS and
 the DR share the gyros and start from the same attitude, so ``phi - phi_D`` grows only from
 the difference of their transport rates, ``Wen_v (dv - dv_D) ~ (dv - dv_D) / R``: the attitude
 rows see the integral of the velocity-error difference that the position rows see, scaled by

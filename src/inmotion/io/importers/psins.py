@@ -40,7 +40,7 @@ Two layouts, told apart by the file's extension:
     and accelerometer bias estimates (copied to ``meta['imu']`` as documented values).
 
     The FOG solution becomes the bundle's ``truth`` at its own 10 Hz times (the truth table
-    may have its own rate: :func:`inmotion.evaluate.metrics.interpolate_truth` interpolates it
+    may have its own rate: :func:`inmotion.core.metrics.interpolate_truth` interpolates it
     to the solution's epochs). Truth attitude is the IMU's: with ``mounting="mu0"`` (default)
     ``C_mems^n = C_fog^n C_mems^fog``, ``C_mems^fog = exp([mu0 x])``, the sign checked on the
     data (the MEMS rates rotated this way match the FOG attitude's rates best, see

@@ -1,7 +1,7 @@
 """One registry of the paper reproductions, their summary rows, and ``reproduce all``.
 
-Each paper has its own module (:mod:`inmotion.evaluate.reproduce_000` ... ``_004`` and
-:mod:`inmotion.evaluate.reproduce_real`) that runs its Monte Carlo and writes markdown tables
+Each paper has its own module (:mod:`inmotion.reproductions.paper000` ... ``_004`` and
+:mod:`inmotion.reproductions.real`) that runs its Monte Carlo and writes markdown tables
 (paper beside measured), PNG figures and a results JSON into a folder. This module
 
 * names them (``000``, ``001``, ``002``, ``003``, ``004``, ``real``) and calls each with the
@@ -12,7 +12,7 @@ Each paper has its own module (:mod:`inmotion.evaluate.reproduce_000` ... ``_004
   same / -, from :func:`inmotion.evaluate.stats.verdict`) and a ``note`` saying how the figure
   is taken. The rows are written to ``paper_rows.json`` beside the results;
 * runs them all, each into its own sub-folder, and writes one self-contained HTML page
-  (:func:`reproduce_all`; the page is built by :mod:`inmotion.evaluate.reproduce_page` with the
+  (:func:`reproduce_all`; the page is built by :mod:`inmotion.reproductions.page` with the
   report's page machinery). A reproduction that raises is recorded with its error and the
   others still run; ``reuse=True`` skips a paper whose results file already exists and only
   re-reads it.
@@ -97,8 +97,8 @@ def _rows_000(res: dict) -> list:
     """Paper 000 sec. 5: misalignment accuracy ("better than", E / N / U) and steady-state STD.
 
     Measured: median over runs of each run's max |error| over the last 100 s, and median of the
-    STD over the last 100 s (``summary.json`` of :mod:`reproduce_000`)."""
-    from . import reproduce_000 as m
+    STD over the last 100 s (``summary.json`` of :mod:`paper000`)."""
+    from . import paper000 as m
     rows = []
     for (exp, setting), (acc, std) in m.PAPER.items():
         s = res["summary"].get(f"{exp}/{setting}")
@@ -122,11 +122,11 @@ def _rows_000(res: dict) -> list:
 def _rows_001(res: dict) -> list:
     """Paper 001 Tables 1-3: heading error mean and STD in the last window, compute time.
 
-    Measured (``results.json`` of :mod:`reproduce_001`): mean over runs of each run's window
+    Measured (``results.json`` of :mod:`paper001`): mean over runs of each run's window
     mean (``better: closer`` to 0) and of its time-STD; each scheme's compute time over
     oba's, one run on this machine (the paper's seconds are MATLAB on its own machine: only
     ratios compare)."""
-    from . import reproduce_001 as m
+    from . import paper001 as m
     rows = []
     for test, paper in ((1, m.PAPER_TABLE1), (2, m.PAPER_TABLE2)):
         tab = res["tables"].get(str(test)) or res["tables"].get(test) or {}
@@ -163,9 +163,9 @@ def _rows_001(res: dict) -> list:
 def _rows_002(res: dict) -> list:
     """Paper 002: horizontal position, heading and level error envelopes after settling.
 
-    Measured (``summary.json`` of :mod:`reproduce_002`): median over runs of each run's
+    Measured (``summary.json`` of :mod:`paper002`): median over runs of each run's
     maximum after the filter settles."""
-    from . import reproduce_002 as m
+    from . import paper002 as m
     keys = (("horizontal_m", "horizontal_max_m", "m", "horizontal position error"),
             ("heading_arcmin", "heading_max_arcmin", "arcmin", "heading error"),
             ("level_arcmin", "level_max_arcmin", "arcmin", "level error"))
@@ -185,9 +185,9 @@ def _rows_002(res: dict) -> list:
 def _rows_003(res: dict) -> list:
     """Paper 003 Tables 2-3: heading (and fkf pitch / roll) error mean and STD.
 
-    Measured (``results.json`` of :mod:`reproduce_003`): mean (``closer`` to 0) and STD over
+    Measured (``results.json`` of :mod:`paper003`): mean (``closer`` to 0) and STD over
     all runs x windows at each window's end; the paper's are over its 10 windows of one car."""
-    from . import reproduce_003 as m
+    from . import paper003 as m
     rows = []
     for k, (p_mean, p_std) in m.PAPER_TABLE2.items():
         s = res["table2"].get(k)
@@ -216,10 +216,10 @@ def _rows_003(res: dict) -> list:
 def _rows_004(res: dict) -> list:
     """Paper 004 Tables 2, 6 (heading at 120 s per speed) and 4-5 (degradations).
 
-    Measured (``results.json`` of :mod:`reproduce_004`): the paper's statistics over the runs
+    Measured (``results.json`` of :mod:`paper004`): the paper's statistics over the runs
     of each speed, paper form of the methods (raw ``V^b(0)``, plain q-method); degradations
     over the 30 segments of the simulated one-hour drive when it was run."""
-    from . import reproduce_004 as m
+    from . import paper004 as m
     pick = (("MAE", "lower"), ("mean", "closer"), ("STD", "lower"), ("max_abs", "lower"))
     rows = []
     for table, label, paper in (("Table 2", "imada-vb", m.PAPER_TABLE2),
@@ -248,7 +248,7 @@ def _rows_004(res: dict) -> list:
 
 
 def _rows_real(res) -> list:
-    """Real drives (issue 9): no paper figures. ``results.json`` of :mod:`reproduce_real` is a
+    """Real drives (issue 9): no paper figures. ``results.json`` of :mod:`real` is a
     list of rows ``quantity, reference, measured, unit, note``; the reference (derived from the
     data's reference trajectory or README, where there is one) goes into the note and the
     ``reference`` field, the verdict is ``-``."""
@@ -265,22 +265,22 @@ def _rows_real(res) -> list:
 
 REPRODUCTIONS = {r.name: r for r in (
     Reproduction("000", "Yang et al. 2019: SINS / Doppler radar in-motion alignment (dr-kf)",
-                 "inmotion.evaluate.reproduce_000", "reproduce", "summary.json", _rows_000, 50),
+                 "inmotion.reproductions.paper000", "reproduce", "summary.json", _rows_000, 50),
     Reproduction("001", "Xiang et al. 2022: LDV-aided alignment, adaptive unscented "
-                 "quaternion H-infinity filter", "inmotion.evaluate.reproduce_001", "reproduce",
+                 "quaternion H-infinity filter", "inmotion.reproductions.paper001", "reproduce",
                  "results.json", _rows_001, 30),
     Reproduction("002", "Yang et al. 2018: SINS / Doppler radar integrated position and "
-                 "orientation (sins-dr)", "inmotion.evaluate.reproduce_002", "reproduce",
+                 "orientation (sins-dr)", "inmotion.reproductions.paper002", "reproduce",
                  "summary.json", _rows_002, 20),
     Reproduction("003", "Chang et al. 2025: multi-source fusion alignment (fkf, FDI, "
-                 "multiplexing)", "inmotion.evaluate.reproduce_003", "reproduce",
+                 "multiplexing)", "inmotion.reproductions.paper003", "reproduce",
                  "results.json", _rows_003, 20),
     Reproduction("004", "Qiao et al. 2019: multistage in-motion attitude determination "
-                 "(imada, mimada)", "inmotion.evaluate.reproduce_004", "reproduce",
+                 "(imada, mimada)", "inmotion.reproductions.paper004", "reproduce",
                  "results.json", _rows_004, 50),
     Reproduction("real", "Real drives (comma2k19, EMS, PSINS RLG parked and MEMS/FOG): dead "
                  "reckoning, SINS and alignment against the "
-                 "reference", "inmotion.evaluate.reproduce_real", "reproduce",
+                 "reference", "inmotion.reproductions.real", "reproduce",
                  "results.json", _rows_real, None),
 )}
 
@@ -313,7 +313,7 @@ def _call(rep: Reproduction, out: Path, runs, workers, seed, progress):
 def summary_rows(name: str, out_dir) -> list:
     """The summary rows of reproduction ``name`` from its results file in ``out_dir``, each
     with its ``verdict`` (:func:`inmotion.evaluate.stats.compare_rows`)."""
-    from .stats import compare_rows
+    from ..evaluate.stats import compare_rows
     rep = get(name)
     path = Path(out_dir) / rep.results_file
     if not path.is_file():
@@ -402,7 +402,7 @@ def reproduce_all(out_dir, runs=None, workers=2, seed=0, progress=True, reuse=Fa
     dict ``{"papers": [summary per paper], "report": path of the HTML page}``, also written to
     ``out_dir/reproduce_summary.json``.
     """
-    from .reproduce_page import write_page
+    from .page import write_page
     out = Path(out_dir)
     out.mkdir(parents=True, exist_ok=True)
     results = []

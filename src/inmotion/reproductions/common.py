@@ -1,4 +1,4 @@
-"""What the per-paper reproductions (``reproduce_000`` .. ``reproduce_003``) share.
+"""What the per-paper reproductions (``paper000`` .. ``paper003``) share.
 
 One idea: run a list of independent Monte Carlo tasks, in this process or in a pool of
 processes, in task order, with an optional progress bar. Each reproduction keeps its own

@@ -36,14 +36,14 @@ PSINS ring-laser-gyro log (parked 1847 s) and MEMS + FOG log (moving 100 s), iss
     When their folders are present: every parked method on 300 s windows of the RLG log
     against the integral methods' consensus and the theory limits, and the coarse / fine
     methods on the MEMS log against the FOG reference, each with its sigma
-    (:mod:`inmotion.evaluate.reproduce_psins`).
+    (:mod:`inmotion.reproductions.psins`).
 
 Observability with these sensors is in :data:`OBSERVABILITY` and the report.
 
 Output (:func:`reproduce`): ``report.md``, ``results.json`` (a list of rows ``quantity,
 reference, measured, unit, note``), ``real_results.json`` (every run, for
-:mod:`inmotion.evaluate.reproduce`), ``real_position_error.png``, ``real_mounting.png``,
-``real_attitude_error.png``. Run ``python -m inmotion.evaluate.reproduce_real -o DIR``.
+:mod:`inmotion.reproductions.suite`), ``real_position_error.png``, ``real_mounting.png``,
+``real_attitude_error.png``. Run ``python -m inmotion.reproductions.real -o DIR``.
 """
 from __future__ import annotations
 
@@ -63,8 +63,8 @@ from ..core.solution import NavState
 from ..errors import BadInput
 from ..io.importers import import_log
 from ..navigate.pure import DrConfig, SinsConfig
-from . import reproduce_psins as rp
-from .metrics import error_series, interpolate_truth
+from . import psins as rp
+from ..core.metrics import error_series, interpolate_truth
 
 __all__ = ["default_data_root", "reference_calibration", "estimated_sensor",
            "coarse_alignment", "level_error", "gyro_minus_reference", "od_kf_iterated",
@@ -674,7 +674,7 @@ def report_markdown(results: dict, rows: list) -> str:
     e = results["drives"]["ems_toronto_511s"]
     sp = e["still_period"]
     lines = ["# Real drives: comma2k19 (60 s), EMS Toronto (511 s) and the PSINS logs", "",
-             "Reproduce: `python -m inmotion.evaluate.reproduce_real -o DIR` "
+             "Reproduce: `python -m inmotion.reproductions.real -o DIR` "
              f"(this run: {results['wall_s']:.0f} s).", "",
              "## Figures against the reference", "",
              "| quantity | reference-derived | measured | unit | note |",
@@ -743,7 +743,7 @@ PSINS_MEMS = "psins_fog_mems_moving_100s"
 
 
 def _run_psins(root: Path):
-    """``(rlg, mems)`` results of :mod:`reproduce_psins`, None for a log not in ``root``."""
+    """``(rlg, mems)`` results of :mod:`psins`, None for a log not in ``root``."""
     rlg_file = root / PSINS_RLG / "lasergyro.imu"
     mems_file = root / PSINS_MEMS / "transfer_align_fog_mems.mat"
     rlg = rp.run_psins_rlg(import_log("psins", rlg_file)) if rlg_file.is_file() else None
@@ -795,7 +795,7 @@ def reproduce(out_dir, runs=None, workers=None, seed=0, progress=True, data_root
 
 
 def reproduce_real(out_dir, data_root=None) -> dict:
-    """The entry point :mod:`inmotion.evaluate.reproduce` calls: :func:`reproduce`."""
+    """The entry point :mod:`inmotion.reproductions.suite` calls: :func:`reproduce`."""
     return reproduce(out_dir, data_root=data_root)
 
 

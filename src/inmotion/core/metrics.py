@@ -26,10 +26,10 @@ import numpy as np
 from numpy.typing import ArrayLike
 import pandas as pd
 
-from ..core import rotations
-from ..core.bundle import Truth
-from ..core.earth import radii
-from ..core.solution import Solution
+from . import rotations
+from .bundle import Truth
+from .earth import radii
+from .solution import Solution
 from ..errors import BadInput
 
 __all__ = ["ERROR_KEYS", "error_series", "errors_block", "interpolate_truth"]

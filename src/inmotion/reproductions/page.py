@@ -16,7 +16,7 @@ import html
 import re
 from pathlib import Path
 
-from .report import _Page, _table, _versions_section
+from ..evaluate.report import _Page, _table, _versions_section
 
 __all__ = ["write_page", "markdown_to_html"]
 
@@ -139,7 +139,7 @@ def _paper_section(page: _Page, r: dict) -> None:
 
 def write_page(path, results, title: str) -> Path:
     """Write the reproductions' page to ``path``; ``results`` are the per-paper summaries of
-    :func:`inmotion.evaluate.reproduce.run_reproduction` (or failure records). Returns the path."""
+    :func:`inmotion.reproductions.suite.run_reproduction` (or failure records). Returns the path."""
     out = Path(path)
     page = _Page(title, out.parent / f"{out.stem}_figures")
     page.add("<h2>Summary</h2>" + _summary_table(results))

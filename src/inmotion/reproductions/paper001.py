@@ -35,7 +35,7 @@ Documented choices:
   test 1 against 0.5-1 s on a quiet core.)
 * ``oba`` runs twice: the coarse-alignment module's default (centred q-method, ``v^b(0)``
   line-fitted over 1 s) and the paper's form (plain q-method, the raw first LDV sample as
-  ``v^b(0)``, as ``reproduce_004`` names it), to show how much of our ``oba``'s accuracy is
+  ``v^b(0)``, as ``paper004`` names it), to show how much of our ``oba``'s accuracy is
   the centring.
 * Test 3 is NOT in the paper: scenario ``paper001_urban_stale``, test 2's LDV noise with bursts
   that hold a stale value or carry a bias instead of zero-mean outliers (our assumption of
@@ -59,7 +59,7 @@ from pathlib import Path
 
 import numpy as np
 
-from .repro_common import run_tasks
+from .common import run_tasks
 
 __all__ = ["reproduce", "rewrite_report", "run_one", "window_stats", "ranking_stats",
            "nees_stats", "PAPER_TABLE1", "PAPER_TABLE2", "PAPER_TABLE3", "SCHEMES", "WINDOWS",
@@ -129,7 +129,7 @@ def _scenario(test: int):
 def _errors_on_grid(sol, truth):
     """[pitch, roll, yaw] errors [deg] (estimate - truth, wrapped) on :data:`GRID_S`."""
     from ..core import rotations
-    from .metrics import interpolate_truth
+    from ..core.metrics import interpolate_truth
     tr = interpolate_truth(truth, sol.t)
     err = np.degrees(rotations.wrap_pi(sol.euler - tr.euler))
     t = sol.t - truth.t[0]
@@ -160,7 +160,7 @@ def _nees_on_grid(sol, truth):
     :data:`GRID_S` (misalignment ``phi`` of the DESIGN convention); their sum is the NEES of
     the attitude's diagonal."""
     from ..core import rotations
-    from .metrics import interpolate_truth
+    from ..core.metrics import interpolate_truth
     idx = np.searchsorted(sol.t, truth.t[0] + GRID_S - 1e-6).clip(0, len(sol.t) - 1)
     tr = interpolate_truth(truth, sol.t[idx])
     phi = rotations.misalignment(rotations.dcm_from_euler(sol.euler[idx]),

@@ -51,7 +51,7 @@ from pathlib import Path
 
 import numpy as np
 
-from .repro_common import run_tasks
+from .common import run_tasks
 
 __all__ = ["reproduce", "run_one", "PAPER", "SETTLE_S", "METHODS", "INIT_SIGMA_ARCMIN"]
 
@@ -97,7 +97,7 @@ def _initial_state(truth, z, heading_sigma_arcmin):
 
 
 def run_statistics(err) -> dict:
-    """This run's figures from an :func:`inmotion.evaluate.metrics.error_series` table."""
+    """This run's figures from an :func:`inmotion.core.metrics.error_series` table."""
     late = err["t"].to_numpy() >= err["t"].iloc[0] + SETTLE_S
     hor = err["horizontal_m"].to_numpy()
     dist = float(err["distance_m"].iloc[-1])
@@ -118,7 +118,7 @@ def run_one(task) -> dict:
     ``task = (index, seed)``. Returns ``{"index", "distance_m", "t" (1 Hz), label: {"stats":
     dict, "series": {name: (N,) at 1 Hz}, "wall_s"}}``.
     """
-    from ..evaluate.metrics import error_series
+    from ..core.metrics import error_series
     from ..registry import get
     from ..sim import simulate
     from ..sim.scenario import find_scenario, load_scenario
@@ -215,7 +215,7 @@ def _report(agg, ver, runs, seed, wall, distance, files, out: Path) -> str:
           + ", ".join(f"{k} {'yes' if v else 'NO'}" for k, v in ver["ap_meets_paper"].items())
           + "; attitude/position better than velocity/position: "
           + ", ".join(f"{k} {'yes' if v else 'NO'}" for k, v in ver["ap_beats_vp"].items()) + ".",
-          "", "Set-up: see `inmotion.evaluate.reproduce_002` (sensor figures: gyro drift "
+          "", "Set-up: see `inmotion.reproductions.paper002` (sensor figures: gyro drift "
           "0.01 deg/h from paper 002; the others, lost from its text, from paper 000 sec. 5; "
           f"initial attitude error N(0, {INIT_SIGMA_ARCMIN[0]:g}') level, "
           f"N(0, {INIT_SIGMA_ARCMIN[2]:.2f}') heading: paper 000's 3.2' heading accuracy at "

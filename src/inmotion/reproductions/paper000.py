@@ -52,7 +52,7 @@ import numpy as np
 from ..estimation import chi2
 
 from ..core.bundle import row_at_or_after
-from .repro_common import run_tasks
+from .common import run_tasks
 
 __all__ = ["reproduce", "run_one", "EXPERIMENTS", "PAPER", "observability",
            "gyrocompass_heading_limit"]

@@ -1,8 +1,8 @@
-"""``inmotion.evaluate.repro_common.run_tasks``: the Monte Carlo loop the reproductions share
+"""``inmotion.reproductions.common.run_tasks``: the Monte Carlo loop the reproductions share
 gives ``[fn(task) for task in tasks]`` in task order, in this process and in a pool."""
 import pytest
 
-from inmotion.evaluate.repro_common import run_tasks
+from inmotion.reproductions.common import run_tasks
 
 
 def _square(x):

@@ -35,7 +35,7 @@ from .. import registry
 from ..core import earth, rotations
 from ..core.bundle import Bundle, SpeedData
 from ..core.solution import NavState
-from .metrics import interpolate_truth
+from ..core.metrics import interpolate_truth
 
 __all__ = ["RLG_WINDOW_S", "RLG_START_ERROR_DEG", "PARKED_INTEGRAL", "parked_limits",
            "with_zero_speed", "consensus", "run_psins_rlg", "mems_pseudo_odometer",

@@ -39,7 +39,7 @@ import yaml
 
 from ..core.bundle import row_at_or_after
 from ..core.rotations import wrap_pi
-from .repro_common import run_tasks
+from .common import run_tasks
 
 __all__ = ["reproduce", "PAPER_TABLE2", "PAPER_TABLE3", "run_one"]
 
