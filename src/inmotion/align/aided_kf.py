@@ -101,6 +101,11 @@ class NhcKfConfig(BaseModel):
         0.2, gt=0, description="initial 1-sigma of the velocity error per axis [m/s]")
     init_position_sigma_m: float = Field(
         5.0, gt=0, description="initial 1-sigma of the position error per axis [m]")
+    init_velocity_from_attitude: bool = Field(
+        False,
+        description="the start velocity was made from the start attitude and the sensor's "
+                    "speed (a coarse alignment's hand-over): its prior error follows the "
+                    "attitude error, dv = [v x] phi, plus init_velocity_sigma_m_s")
     gyro_drift_deg_h: float = Field(
         0.01, ge=0, description="1-sigma gyro drift (constant bias) per axis [deg/h]")
     accel_bias_ug: float = Field(
@@ -219,16 +224,32 @@ def _bias_prior(cfg):
     return g * DEG_H, a * UG
 
 
-def _sins_prior(cfg, lat, h):
-    """Diagonal 15-state prior of the SINS errors."""
+def _sins_prior(cfg, lat, h, vel_n=None):
+    """15-state prior of the SINS errors: diagonal, except with
+    ``init_velocity_from_attitude``, where the start velocity ``C_b^n [0, v, 0]`` was made
+    from the start attitude and the sensor's speed: its error is then
+    ``dv = -phi x v_n = [v_n x] phi`` (from ``C_computed = (I - [phi x]) C_true``) plus the
+    speed's own ``init_velocity_sigma_m_s``, so ``P_vv = A P_phiphi A^T + s_v^2 I``,
+    ``P_vphi = A P_phiphi`` with ``A = [v_n x]``. Without the correlation a filter given a
+    large heading sigma would read the heading from the start velocity it was handed as if
+    that velocity were independent of it (issue 15: a 65 deg coarse heading came out of
+    ``fine-mux`` with a 0.4 deg sigma)."""
     r_m, r_n = earth.radii(lat)
     pos = cfg.init_position_sigma_m
     tilt, head = np.deg2rad(cfg.init_tilt_sigma_deg), np.deg2rad(cfg.init_heading_sigma_deg)
     s_eps, s_nabla = _bias_prior(cfg)
-    return NHC_LAYOUT.diag({
+    P = NHC_LAYOUT.diag({
         "phi": np.array([tilt, tilt, head]) ** 2, "dv": cfg.init_velocity_sigma_m_s ** 2,
         "dp": np.array([pos / (r_m + h), pos / ((r_n + h) * np.cos(lat)), pos]) ** 2,
         "eps": s_eps ** 2, "nabla": s_nabla ** 2})
+    if getattr(cfg, "init_velocity_from_attitude", False) and vel_n is not None:
+        A = em.skew(np.asarray(vel_n, dtype=float))
+        a, v = NHC_LAYOUT["phi"], NHC_LAYOUT["dv"]
+        Ppp = P[a, a]
+        P[v, v] += A @ Ppp @ A.T
+        P[v, a] = A @ Ppp
+        P[a, v] = P[v, a].T
+    return P
 
 
 NS = NHC_LAYOUT.n      #: the common SINS error states (fused, fed back)
@@ -356,7 +377,7 @@ def run_aided(bundle: Bundle, cfg, init: NavState, sensors: tuple, *, method: st
     meas_every = max(1, int(round(cfg.measurement_period_s / t_ep)))
     fuse_every = max(1, int(round(cfg.main_period_s / (meas_every * t_ep)))) * meas_every
     out_every = max(1, int(round(cfg.output_interval_s / t_ep)))
-    P15 = _sins_prior(cfg, init.lat, init.h)
+    P15 = _sins_prior(cfg, init.lat, init.h, init.vel_n)
     Q15 = em.ErrorModel(NHC_LAYOUT, _noise(cfg)).Qc()
     betas = {"odometer": getattr(cfg, "beta_od", 1.0), "ldv": getattr(cfg, "beta_ldv", 1.0)}
     if len(sensors) == 1:
