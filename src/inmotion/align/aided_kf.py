@@ -37,6 +37,7 @@ drives (the mean NIS per degree of freedom in ``info`` shows how well they fit a
 """
 from __future__ import annotations
 
+import functools
 import time
 from typing import Callable, Literal, Optional
 
@@ -56,7 +57,7 @@ from ..estimation import measurements as ms
 from ..estimation.aiding_rows import NHC_LAYOUT, SUB_LAYOUT
 from ..estimation.engine import (EVENT_DETECTED, EVENT_MODE, MODE_FUSED, MODE_NONE,
                                  ErrorStateFilter, LocalFilter)
-from ..estimation.layout import position_units
+from ..estimation.layout import DK, LEVER, MOUNT, Block, Layout, position_units
 from ..estimation.smoother import ForwardRecord, smooth_at_outputs
 
 __all__ = ["AidedKfConfig", "FkfConfig", "NhcKfConfig", "run_od_kf", "run_ldv_kf",
@@ -236,7 +237,12 @@ def _check_init(init, bundle):
 def run_aided(bundle: Bundle, cfg, init: NavState, sensors: tuple, *, method: str,
               nhc_only=False, progress=None) -> Solution:
     """The shared run of the four methods: ``sensors`` are the bundle's velocity sensors that
-    get a sub-filter (``()`` for ``nhc-kf``)."""
+    get a sub-filter (``()`` for ``nhc-kf``).
+
+    With ``smooth``: a single local filter (``nhc-kf``; ``od-kf`` / ``ldv-kf`` with
+    ``nhc_fallback=false``) records its forward pass and is smoothed; a bank (``fkf``, or a
+    channel with its NHC fallback) is smoothed by :func:`_smooth_bank` (the bank decides,
+    a central filter over the accepted measurements is smoothed)."""
     t_wall = time.perf_counter()
     k0 = _check_init(init, bundle)
     for s in sensors:
@@ -272,40 +278,204 @@ def run_aided(bundle: Bundle, cfg, init: NavState, sensors: tuple, *, method: st
     if use_nhc:
         locals_.append(LocalFilter(pad(P15), pad(Q15), role="primary" if nhc_only
                                    else "fallback"))
-        meas.append(ms.Nhc(cfg.nhc_noise_m_s, mount_terms=False, vehicle_mounting=C_vb0,
-                           local=len(locals_) - 1))
+        meas.append(_nhc(cfg, C_vb0, len(locals_) - 1))
     use_baro = cfg.use_baro and bundle.baro is not None
     if use_baro:
         meas.append(ms.Height(cfg.baro_noise_m, local=None))
     n_ep = -(-(len(imu.t) - k0) // step)
     smooth = bool(getattr(cfg, "smooth", False))
-    if smooth and len(locals_) > 1:
-        raise BadInput(f"{method}: smooth=true needs a single local filter, this run has "
-                       f"{len(locals_)} ({', '.join(list(sensors) + (['nhc'] if use_nhc else []))}"
-                       "); set nhc_fallback=false (od-kf, ldv-kf) or use od-velocity-kf",
-                       file="config")
+    bank = len(locals_) > 1
     f = ErrorStateFilter(init, lay, em.ErrorModel(lay, _noise(cfg)), locals_, meas,
                          step_rows=step, feedback_every=fuse_every // meas_every,
                          out_every=out_every, n_common=NS,
                          max_nis=(n_ep // meas_every + 1) * max(len(sensors), 1),
-                         record=smooth)
-    res = _feed(f, bundle, k0, sensors, meas_every, use_nhc, use_baro, progress,
-                ForwardRecord.for_filter(f, n_ep) if smooth else None)
-    return _solution(res, f, init, cfg, method, sensors, thr, time.perf_counter() - t_wall,
-                     P15)
+                         record=smooth and not bank)
+    res = _feed(f, bundle, k0, sensors, meas_every, use_nhc, use_baro,
+                None if smooth and bank else progress,
+                ForwardRecord.for_filter(f, n_ep) if smooth and not bank else None)
+    extra = None
+    if smooth and bank:
+        res, extra = _smooth_bank(f, res, bundle, cfg, init, k0, sensors, use_nhc, use_baro,
+                                  P15, Q15, C_vb0, n_ep, meas_every, fuse_every, out_every,
+                                  progress)
+    sol = _solution(res, f, init, cfg, method, sensors, thr, time.perf_counter() - t_wall,
+                    P15)
+    if extra is not None:
+        sol.info["smoothing"] = extra
+    return sol
 
 
-def _feed(f, bundle, k0, sensors, meas_every, use_nhc, use_baro, progress, rec=None):
+def _nhc(cfg, C_vb0, local):
+    return ms.Nhc(cfg.nhc_noise_m_s, mount_terms=False, vehicle_mounting=C_vb0, local=local)
+
+
+@functools.lru_cache(maxsize=None)
+def _remapped_fill(fill):
+    """The fill function ``fill`` of a paper 003 sensor channel with its ``dk``, ``mount``
+    and ``lever`` blocks read from the three parameter slots after the channel's own
+    (``P_FWD + 3 ...``) instead of the layout's blocks of those names: the second channel of
+    :func:`_central_layout`'s filter, with the rows of the one channel plug-in."""
+    inner = ms.dispatcher(fill)
+    o = ms.P_FWD + 3
+
+    def remapped(xs, xd, aux, acc, data, p, offs, z, H, r):
+        oo = offs.copy()
+        oo[DK] = np.int64(p[o])
+        oo[MOUNT] = np.int64(p[o + 1])
+        oo[LEVER] = np.int64(p[o + 2])
+        return inner(xs, xd, aux, acc, data, p, oo, z, H, r)
+
+    return ms.fill_function(remapped)
+
+
+def _central_layout(sensors):
+    """The central filter of a bank: the SINS errors, then each sensor's ``dk``, ``mount``
+    (x, z) and ``lever`` (the first channel under the catalogue names, a second one as
+    ``ldv_dk``, ``ldv_mount_x`` ...). Returns ``(layout, [(dk, mount, lever) start of each
+    channel])``."""
+    blocks = list(SUB_LAYOUT.blocks)
+    for name in sensors[1:]:
+        short = "od" if name == "odometer" else "ldv"
+        blocks += [Block(f"{short}_{b.name}", b.elements, b.units)
+                   for b in SUB_LAYOUT.blocks[5:]]
+    lay = Layout(blocks)
+    starts = [(lay["dk"].start, lay["mount"].start, lay["lever"].start)]
+    for name in sensors[1:]:
+        short = "od" if name == "odometer" else "ldv"
+        starts.append(tuple(lay[f"{short}_{b}"].start for b in ("dk", "mount", "lever")))
+    return lay, starts
+
+
+def _isolations(f, n_channels):
+    """Per channel, the closed intervals ``[t_detected, t_returned]`` (``inf``: never
+    returned) of the bank's FDI isolation: the samples in them were not applied."""
+    ev, dropped = f.events()
+    if dropped:
+        raise RuntimeError(f"{dropped} FDI events were dropped: the smoother cannot tell which "
+                           "samples the bank accepted")
+    out = [[] for _ in range(n_channels)]
+    for t, c, kind, _ in ev:
+        k = int(kind)
+        if k == EVENT_DETECTED:
+            out[int(c)].append([float(t), np.inf])
+        elif k != EVENT_MODE:
+            out[int(c)][-1][1] = float(t)
+    return out
+
+
+def _in_any(t, intervals, right_open=False):
+    m = np.zeros(len(t), dtype=bool)
+    for a, b in intervals:
+        m |= (t >= a) & ((t < b) if right_open else (t <= b))
+    return m
+
+
+def _smooth_bank(f, res_fwd, bundle, cfg, init, k0, sensors, use_nhc, use_baro, P15, Q15,
+                 C_vb0, n_ep, meas_every, fuse_every, out_every, progress):
+    """Smoothing a bank of local filters (``fkf``; ``od-kf`` / ``ldv-kf`` with the NHC
+    fallback), FDI kept: the forward bank ``f`` (already run, ``res_fwd``) decides, a central
+    filter over exactly the measurements the bank's global estimate used is smoothed.
+
+    Design (issue 14). The bank's FDI (eq. 40-42) decides per channel which samples are
+    applied: a sample is applied unless it falls in a closed isolation interval
+    ``[t_detected, t_returned]`` (the detecting sample and every one while isolated,
+    the returning one included, are not applied: :func:`inmotion.estimation.engine._apply`).
+    Table 1 then takes the global estimate from the healthy channels, and from the
+    vehicle-constraint filter while no channel is healthy (after the epoch's tests, so over
+    ``[t_detected, t_returned)`` of the last channel to fail). The central filter is one
+    local filter on :func:`_central_layout` (the SINS errors and every channel's sensor
+    states, the priors and process noise of the bank's channels with ``beta = 1``), the
+    channels' measurement rows without gate or isolation, fed only the accepted samples
+    (a rejected displacement interval is skipped whole: its rows carry no distance), the
+    NHC only at the fallback's epochs, the barometer throughout; it records its forward pass
+    and the RTS backward pass (:mod:`inmotion.estimation.smoother`) gives the outputs.
+
+    Why not smooth the fused estimate itself: the federated filter's global estimate is a
+    fusion (eq. 36) of locals that share the SINS process noise through the ``1 / beta``
+    bound, and its feedback is subtracted from every local (non-reset mode); an RTS pass
+    needs the one transition and predicted covariance of the estimate it smooths, which the
+    fused estimate does not have (its covariance is a bound, not the error's). With the
+    sensor decisions fixed, the central filter is the optimal linear estimator the bank
+    approximates (Carlson's federated filter equals it in the reset mode), so smoothing it
+    is the correct backward pass of that estimate. With no detection, ``od-kf`` / ``ldv-kf``
+    with the fallback smooths to the same result as the single filter with
+    ``nhc_fallback=false`` (the fallback never supplied the estimate; a test checks it).
+
+    The outputs keep the bank's FDI record (``events``, ``tests``, the output mode); the
+    states and sigma are the central smoother's. Returns ``(res, info)``."""
+    lay, starts = _central_layout(sensors)
+    n = lay.n
+    P0 = np.zeros((n, n))
+    Q = np.zeros((n, n))
+    P0[:NS, :NS] = P15
+    Q[:NS, :NS] = Q15
+    isol = _isolations(f, len(sensors))
+    meas = []
+    for c, name in enumerate(sensors):
+        lf, m = _channel(bundle, name, cfg, 1.0, P15, Q15, 0, C_vb0, 0.0, 1)
+        m.log_nis = False
+        o_dk, o_m, o_l = starts[c]
+        for o_sub, o_c, k in ((SUB_LAYOUT["dk"].start, o_dk, 1),
+                              (SUB_LAYOUT["mount"].start, o_m, 2),
+                              (SUB_LAYOUT["lever"].start, o_l, 3)):
+            P0[o_c:o_c + k, o_c:o_c + k] = lf.P0[o_sub:o_sub + k, o_sub:o_sub + k]
+        if c > 0:
+            base = m.params()
+            m.fill = _remapped_fill(type(m).fill)
+            m.params = (lambda b=base, s=starts[c]: np.r_[b, np.asarray(s, float)])
+        meas.append(m)
+    if use_nhc:
+        meas.append(_nhc(cfg, C_vb0, 0))
+    if use_baro:
+        meas.append(ms.Height(cfg.baro_noise_m, local=0))
+    fc = ErrorStateFilter(init, lay, em.ErrorModel(lay, _noise(cfg)), [LocalFilter(P0, Q)],
+                          meas, step_rows=f.step, feedback_every=fuse_every // meas_every,
+                          out_every=out_every, n_common=NS, record=True)
+    accept = {name: (lambda t, iv=isol[c]: ~_in_any(t, iv)) for c, name in enumerate(sensors)}
+    if use_nhc:
+        accept["nhc"] = (lambda t: np.logical_and.reduce(
+            [_in_any(t, iv, right_open=True) for iv in isol]))
+    res = _feed(fc, bundle, k0, sensors, meas_every, use_nhc, use_baro, progress,
+                ForwardRecord.for_filter(fc, n_ep), accept=accept)
+    if not np.array_equal(res["t"], res_fwd["t"]):
+        raise RuntimeError("the central filter's rows do not fall on the bank's output rows")
+    res["mode"] = res_fwd["mode"]
+    C = len(sensors)
+    lx = np.zeros((len(res["t"]), C, NSUB))
+    ls = np.zeros((len(res["t"]), C, NSUB))
+    for c in range(C):
+        idx = np.r_[np.arange(NS), [starts[c][0]], np.arange(starts[c][1], starts[c][1] + 2),
+                    np.arange(starts[c][2], starts[c][2] + 3)]
+        lx[:, c] = res["states"][:, idx]
+        ls[:, c] = res["sigma"][:, idx]
+    res["local_x"], res["local_sigma"] = lx, ls
+    cnt = fc.counts()
+    info = {"design": "the forward bank decides (FDI isolation, Table 1 source); a central "
+                      "filter over exactly the accepted measurements is smoothed (RTS)",
+            "isolated_s": {name: [[a, None if not np.isfinite(b) else b] for a, b in isol[c]]
+                           for c, name in enumerate(sensors)},
+            "central_updates": {k: v["used"] for k, v in cnt.items()}}
+    return res, info
+
+
+def _feed(f, bundle, k0, sensors, meas_every, use_nhc, use_baro, progress, rec=None,
+          accept=None):
     """The bundle through the engine chunk by chunk: per chunk each sensor resampled to the
     IMU rows (distance per row for the accumulators, NaN where not covered or in a gap), and
     at every ``meas_every``-th epoch end a sample of each sensor, the NHC and the height.
     With ``rec`` (:meth:`ForwardRecord.for_filter`) the forward pass is recorded and the
-    outputs are the smoothed ones, ``first`` the smoothed start row."""
+    outputs are the smoothed ones, ``first`` the smoothed start row. ``accept``
+    (``{sensor or "nhc": f(sample times) -> bool mask}``, :func:`_smooth_bank`): only the
+    samples it accepts are fed (a sensor's rejected sample is NaN over its whole interval)."""
     imu = bundle.imu
     t, n = imu.t[k0:], len(imu.t) - k0
     step = f.step
     chunk = max(1, CHUNK_ROWS // step) * step
     outs = []
+    if accept is not None:        # the sample rows of the whole run (epochs end every step)
+        ep = np.arange(1, -(-n // step) + 1)
+        s_rows = np.minimum(ep[ep % meas_every == 0] * step, n) - 1
+        s_ok = {k: np.r_[fn(t[s_rows]), True] for k, fn in accept.items()}
     for a in range(0, n, chunk):
         b = min(a + chunk, n)
         tc = t[a:b]
@@ -316,15 +486,21 @@ def _feed(f, bundle, k0, sensors, meas_every, use_nhc, use_baro, progress, rec=N
         rows = ends[epoch % meas_every == 0] - 1
         t_meas = tc[rows]
         row_data = {}
+        if accept is not None:   # each row's sample (the first sample row at or after it)
+            own = np.searchsorted(s_rows, np.arange(a, b))
+            at = np.searchsorted(s_rows, a + rows)
         for s_ in sensors:
             ds, v, unc, gap = speed_on_epochs(getattr(bundle, s_), edges, what=s_)
             ds[unc | gap] = np.nan               # no measurement over these rows
             v[unc | gap] = np.nan
+            if accept is not None:
+                ds[~s_ok[s_][own]] = np.nan
+                v[rows[~s_ok[s_][at]]] = np.nan
             row_data[s_] = ds
             m = f.measurements[f._index[s_]]
             f.add_measurement(s_, t_meas, v[rows] if m.data_size else None)
         if use_nhc:
-            f.add_measurement("nhc", t_meas)
+            f.add_measurement("nhc", t_meas if accept is None else t_meas[s_ok["nhc"][at]])
         if use_baro:
             f.add_measurement("height", t_meas, _baro_on_imu(bundle.baro, t_meas, 5.0))
         outs.append(f.add_imu(tc, imu.dtheta[k0 + a:k0 + b], imu.dvel[k0 + a:k0 + b],
