@@ -29,6 +29,15 @@ feeds back. Every detection, return and change of the output filter is in
 "test_value", "threshold"}`` (``event``: ``detected`` (the channel is isolated at once),
 ``returned``, ``mode``).
 
+Smoothing (``smooth``, issue 14): a single local filter (``nhc-kf``; ``od-kf`` / ``ldv-kf``
+with ``nhc_fallback=false``) records its forward pass and is smoothed (Rauch-Tung-Striebel,
+:mod:`inmotion.estimation.smoother`). A bank keeps its fault detection and isolation: it runs
+forward and decides which samples are accepted (FDI, Table 1's source), then one central
+filter (the SINS errors and every channel's sensor states) over exactly the accepted samples
+is recorded and smoothed (:func:`_smooth_bank`, its docstring has the design and why the
+fused estimate itself is not smoothed); ``info["smoothing"]`` lists the isolation intervals
+and the central filter's updates, ``events`` and ``tests`` stay the bank's.
+
 Noise defaults: the sensor rows' 1-sigma are in m/s per axis ``[right, forward, up]`` (for
 the displacement form the row noise is ``sigma * T``); the lateral and vertical values carry
 the vehicle constraint's violations (suspension, tyre), the forward value the sensor's own
@@ -86,8 +95,9 @@ class NhcKfConfig(BaseModel):
     smooth: bool = Field(
         False,
         description="forward-backward: Rauch-Tung-Striebel smoothing over the whole run "
-                    "(estimation.smoother); needs a single local filter (nhc-kf, or od-kf / "
-                    "ldv-kf with nhc_fallback=false)")
+                    "(estimation.smoother); a bank (fkf, od-kf / ldv-kf with the NHC fallback) "
+                    "keeps its FDI: the forward bank decides which samples are accepted and a "
+                    "central filter over exactly those is smoothed")
     use_baro: bool = Field(
         True,
         description="add the barometric height measurement h_SINS - h_baro (needs a baro table)")
