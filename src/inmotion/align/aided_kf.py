@@ -129,6 +129,17 @@ class NhcKfConfig(BaseModel):
     keep_test_statistics: bool = Field(
         False,
         description="keep the chi-square test statistics series in the result's info")
+    stops_s: list[list[float]] = Field(
+        default_factory=list,
+        description="[start, end] windows [s] in which the vehicle stands still: zero-velocity "
+                    "and zero angular rate updates there, on every local filter (inmotion "
+                    "process fills them from the motion test)")
+    zupt_noise_m_s: float = Field(
+        0.02, gt=0, description="1-sigma of the zero-velocity update at a stop (sway) [m/s]")
+    stop_sway_deg_h: float = Field(
+        20.0, gt=0,
+        description="1-sigma angular rate of the stopped vehicle's sway [deg/h]; the zero "
+                    "angular rate update's noise is it and the gyro noise over a filter epoch")
 
 
 class AidedKfConfig(NhcKfConfig):
@@ -292,6 +303,9 @@ def run_aided(bundle: Bundle, cfg, init: NavState, sensors: tuple, *, method: st
     use_baro = cfg.use_baro and bundle.baro is not None
     if use_baro:
         meas.append(ms.Height(cfg.baro_noise_m, local=None))
+    stops = _stops(cfg)
+    if len(stops):
+        meas += _stop_measurements(cfg, t_ep, None)
     n_ep = -(-(len(imu.t) - k0) // step)
     smooth = bool(getattr(cfg, "smooth", False))
     bank = len(locals_) > 1
@@ -302,17 +316,40 @@ def run_aided(bundle: Bundle, cfg, init: NavState, sensors: tuple, *, method: st
                          record=smooth and not bank)
     res = _feed(f, bundle, k0, sensors, meas_every, use_nhc, use_baro,
                 None if smooth and bank else progress,
-                ForwardRecord.for_filter(f, n_ep) if smooth and not bank else None)
+                ForwardRecord.for_filter(f, n_ep) if smooth and not bank else None,
+                stops=stops)
     extra = None
     if smooth and bank:
         res, extra = _smooth_bank(f, res, bundle, cfg, init, k0, sensors, use_nhc, use_baro,
                                   P15, Q15, C_vb0, n_ep, meas_every, fuse_every, out_every,
-                                  progress)
+                                  progress, stops, t_ep)
     sol = _solution(res, f, init, cfg, method, sensors, thr, time.perf_counter() - t_wall,
                     P15)
     if extra is not None:
         sol.info["smoothing"] = extra
     return sol
+
+
+def _stops(cfg) -> np.ndarray:
+    """``cfg.stops_s`` as an (S, 2) array, checked."""
+    raw = cfg.stops_s
+    if any(len(w) != 2 for w in raw):
+        raise BadInput("stops_s: each stop is [start, end] seconds", file="config")
+    st = np.array(raw, dtype=float).reshape(-1, 2)
+    if not np.all(np.isfinite(st)) or np.any(st[:, 1] < st[:, 0]):
+        raise BadInput("stops_s: each stop is [start, end] seconds with end >= start",
+                       file="config")
+    return st
+
+
+def _stop_measurements(cfg, t_ep, local):
+    """The updates at a stop: zero velocity (paper 003 eq. 11-13, ``zupt_noise_m_s``) and
+    zero angular rate w.r.t. the Earth (the epoch's mean gyro rate; noise: the sway and the
+    gyro's angle random walk over one filter epoch of ``t_ep`` s, ``arw / sqrt(t_ep)``)."""
+    arw = np.deg2rad(cfg.gyro_arw_deg_sqrt_h) / 60.0           # rad / sqrt(s)
+    rate = np.hypot(arw / np.sqrt(t_ep), cfg.stop_sway_deg_h * DEG_H)
+    return [ms.ZeroVelocity(np.full(3, cfg.zupt_noise_m_s), local=local),
+            ms.ZeroAngularRate(np.full(3, rate), local=local)]
 
 
 def _nhc(cfg, C_vb0, local):
@@ -381,7 +418,7 @@ def _in_any(t, intervals, right_open=False):
 
 
 def _smooth_bank(f, res_fwd, bundle, cfg, init, k0, sensors, use_nhc, use_baro, P15, Q15,
-                 C_vb0, n_ep, meas_every, fuse_every, out_every, progress):
+                 C_vb0, n_ep, meas_every, fuse_every, out_every, progress, stops, t_ep):
     """Smoothing a bank of local filters (``fkf``; ``od-kf`` / ``ldv-kf`` with the NHC
     fallback), FDI kept: the forward bank ``f`` (already run, ``res_fwd``) decides, a central
     filter over exactly the measurements the bank's global estimate used is smoothed.
@@ -438,6 +475,8 @@ def _smooth_bank(f, res_fwd, bundle, cfg, init, k0, sensors, use_nhc, use_baro, 
         meas.append(_nhc(cfg, C_vb0, 0))
     if use_baro:
         meas.append(ms.Height(cfg.baro_noise_m, local=0))
+    if len(stops):
+        meas += _stop_measurements(cfg, t_ep, 0)
     fc = ErrorStateFilter(init, lay, em.ErrorModel(lay, _noise(cfg)), [LocalFilter(P0, Q)],
                           meas, step_rows=f.step, feedback_every=fuse_every // meas_every,
                           out_every=out_every, n_common=NS, record=True)
@@ -446,7 +485,7 @@ def _smooth_bank(f, res_fwd, bundle, cfg, init, k0, sensors, use_nhc, use_baro, 
         accept["nhc"] = (lambda t: np.logical_and.reduce(
             [_in_any(t, iv, right_open=True) for iv in isol]))
     res = _feed(fc, bundle, k0, sensors, meas_every, use_nhc, use_baro, progress,
-                ForwardRecord.for_filter(fc, n_ep), accept=accept)
+                ForwardRecord.for_filter(fc, n_ep), accept=accept, stops=stops)
     if not np.array_equal(res["t"], res_fwd["t"]):
         raise RuntimeError("the central filter's rows do not fall on the bank's output rows")
     res["mode"] = res_fwd["mode"]
@@ -469,14 +508,16 @@ def _smooth_bank(f, res_fwd, bundle, cfg, init, k0, sensors, use_nhc, use_baro, 
 
 
 def _feed(f, bundle, k0, sensors, meas_every, use_nhc, use_baro, progress, rec=None,
-          accept=None):
+          accept=None, stops=None):
     """The bundle through the engine chunk by chunk: per chunk each sensor resampled to the
     IMU rows (distance per row for the accumulators, NaN where not covered or in a gap), and
     at every ``meas_every``-th epoch end a sample of each sensor, the NHC and the height.
     With ``rec`` (:meth:`ForwardRecord.for_filter`) the forward pass is recorded and the
     outputs are the smoothed ones, ``first`` the smoothed start row. ``accept``
     (``{sensor or "nhc": f(sample times) -> bool mask}``, :func:`_smooth_bank`): only the
-    samples it accepts are fed (a sensor's rejected sample is NaN over its whole interval)."""
+    samples it accepts are fed (a sensor's rejected sample is NaN over its whole interval).
+    ``stops`` (S, 2): the zero-velocity and zero-rate samples at the sample epochs inside
+    them."""
     imu = bundle.imu
     t, n = imu.t[k0:], len(imu.t) - k0
     step = f.step
@@ -513,6 +554,10 @@ def _feed(f, bundle, k0, sensors, meas_every, use_nhc, use_baro, progress, rec=N
             f.add_measurement("nhc", t_meas if accept is None else t_meas[s_ok["nhc"][at]])
         if use_baro:
             f.add_measurement("height", t_meas, _baro_on_imu(bundle.baro, t_meas, 5.0))
+        if stops is not None and len(stops):
+            t_zv = t_meas[_in_any(t_meas, stops)]
+            f.add_measurement("zero_velocity", t_zv)
+            f.add_measurement("zero_rate", t_zv)
         outs.append(f.add_imu(tc, imu.dtheta[k0 + a:k0 + b], imu.dvel[k0 + a:k0 + b],
                               row_data=row_data, flush=b == n))
         if rec is not None:
