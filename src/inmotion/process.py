@@ -41,6 +41,15 @@ drive with the aiding the bundle has (``inmotion process``, issue 14).
    else with the odometer and / or LDV the paper 003 filter (``fkf``, ``od-kf``, ``ldv-kf``:
    chi-square FDI, NHC fallback); else ``nhc-kf``. Each stage starts from the previous
    stage's end with its sigma as the prior.
+6. **Stops** (``zupt``): whenever the vehicle stops during navigation
+   (:func:`stop_windows`: the motion test of rule 2 below its threshold, margins cut, at
+   least ``min_stop_s``, the IMU agreeing), the odometer / LDV filters add zero-velocity and
+   zero angular rate updates there (``stops_s`` of their configuration); logged as the stage
+   ``stops``. ``dr-kf`` / ``sins-dr`` take none (logged as not applied).
+7. **Smoothing** (``smooth``): every fine / navigation stage forward-backward (RTS); a bank
+   of local filters (``fkf``, ``od-kf`` / ``ldv-kf`` with the NHC fallback) keeps its FDI:
+   the bank decides which samples count, a central filter over them is smoothed
+   (:func:`inmotion.align.aided_kf._smooth_bank`).
 
 Filter noise and priors (``gyro_drift_deg_h``, ``gyro_arw_deg_sqrt_h``, ``accel_bias_ug``,
 ``accel_vrw_ug_sqrt_hz``) come from ``meta.yaml``'s IMU spec where it gives them
@@ -796,9 +805,9 @@ def _navigate(bundle, cfg, state, tilt_sig, head_sig, spec, log, progress):
             out.append(nav)
         if cfg.zupt:
             stops, why_stops = stop_windows(bundle, cfg, t0)
-            log("stops", "none", t0, t_end, why_stops + ("; not applied: dr-kf and sins-dr "
-                                                          "take no zero-velocity updates"
-                                                          if stops else ""), stops_s=stops)
+            if stops:
+                log("stops", "none", stops[0][0], stops[-1][1], why_stops + "; not applied: "
+                    "dr-kf and sins-dr take no zero-velocity updates", stops_s=stops)
         return out
     from .align import aided_kf as ak
     from .align.multiplex import auto_fine_method
@@ -827,7 +836,7 @@ def _navigate(bundle, cfg, state, tilt_sig, head_sig, spec, log, progress):
         why += f"; zero-velocity and zero angular rate updates at {len(stops)} stop(s)"
     log("fine + navigate", name, t0, t_end, why + (", barometer" if bundle.baro is not None
                                                   else ""), sol)
-    if cfg.zupt and speed:
-        log("stops", "zero-velocity + zero-rate" if stops else "none", t0, t_end, why_stops,
+    if stops:
+        log("stops", "zero-velocity + zero-rate", stops[0][0], stops[-1][1], why_stops,
             stops_s=stops)
     return [sol]
