@@ -74,6 +74,7 @@ DRIVES = (("paper000_traj1", run_dr_kf, dict(_DR_KF_PRIOR)),
                                           "init_heading_sigma_arcmin": 60 * HEADING_DEG}),
           ("paper003_drive", run_fkf, dict(_P003_BANK)),
           ("paper003_faults", run_fkf, dict(_P003_BANK)),
+          ("paper003_drive", run_od_kf, dict(_P003_BANK)),
           ("paper003_faults", run_od_kf, dict(_P003_BANK)))
 
 
