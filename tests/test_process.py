@@ -246,7 +246,9 @@ def test_cli_process_writes_one_result_with_its_log(od_only, tmp_path):
                                  str(tmp_path / "r2"), "--smooth"])
     assert r.exit_code == 0, r.output
     s = json.loads(r.stdout)
-    assert s["stages"][-1]["method"] == "od-velocity-kf" and "smoothed" in s["stages"][-1]["why"]
+    nav = [e for e in s["stages"] if e["stage"] == "fine + navigate"][-1]
+    assert nav["method"] == "od-kf" and "smoothed" in nav["why"]
+    assert nav["smoothing"]["isolated_s"] == {"odometer": []}
 
 
 # --------------------------------------------------------------------------- real logs

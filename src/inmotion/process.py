@@ -835,7 +835,8 @@ def _navigate(bundle, cfg, state, tilt_sig, head_sig, spec, log, progress):
     if stops:
         why += f"; zero-velocity and zero angular rate updates at {len(stops)} stop(s)"
     log("fine + navigate", name, t0, t_end, why + (", barometer" if bundle.baro is not None
-                                                  else ""), sol)
+                                                  else ""), sol,
+        **({"smoothing": sol.info["smoothing"]} if "smoothing" in sol.info else {}))
     if stops:
         log("stops", "zero-velocity + zero-rate", stops[0][0], stops[-1][1], why_stops,
             stops_s=stops)

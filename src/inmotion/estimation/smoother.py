@@ -21,6 +21,11 @@ from ``x_N|N``, ``P_N|N``. The smoothed navigation state of epoch ``k`` is the c
 forward state with ``x_k|N`` applied as the filter's feedback would apply it; the smoothed
 sensor states are the accumulated feedback plus ``x_k|N``.
 
+The pass needs one filter's transition and covariances, so the engine records for a single
+local filter only. A bank of local filters (paper 003's federated filter, a channel with its
+NHC fallback) is smoothed through a central filter over the measurements the bank accepted
+(:func:`inmotion.align.aided_kf._smooth_bank`, where the design is written down).
+
 :func:`rts_backward` is the numerical core (numba); a test checks it on a linear Gaussian
 system against the batch least-squares solution over all states at once. The records of a
 long drive go to a file (:class:`ForwardRecord`, ``numpy.memmap``) when they would not fit
