@@ -45,7 +45,8 @@ drive with the aiding the bundle has (``inmotion process``, issue 14).
    (:func:`stop_windows`: the motion test of rule 2 below its threshold, margins cut, at
    least ``min_stop_s``, the IMU agreeing), the odometer / LDV filters add zero-velocity and
    zero angular rate updates there (``stops_s`` of their configuration); logged as the stage
-   ``stops``. ``dr-kf`` / ``sins-dr`` take none (logged as not applied).
+   ``stops``. ``dr-kf`` / ``sins-dr`` take none: the stops found are listed in the last
+   stage's entry (``stops_s``), saying so.
 7. **Smoothing** (``smooth``): every fine / navigation stage forward-backward (RTS); a bank
    of local filters (``fkf``, ``od-kf`` / ``ldv-kf`` with the NHC fallback) keeps its FDI:
    the bank decides which samples count, a central filter over them is smoothed
@@ -626,7 +627,7 @@ def run_process(bundle: Bundle, config: ProcessConfig | dict | None = None,
     # ---- 5: fine alignment and navigation to the end
     if handover is not None:
         parts += _navigate(bundle, cfg, handover, tilt_sig, h_sig, spec, log,
-                           progress_part(0.3 if parts else 0.0, 1.0))
+                           progress_part(0.3 if parts else 0.0, 1.0), stages)
     sol = _concat(parts)
     sol.info.update({
         "method": "process", "config": cfg.model_dump(), "stages": stages,
@@ -751,7 +752,7 @@ def _sensor_spec(bundle, cls) -> dict:
     return out
 
 
-def _navigate(bundle, cfg, state, tilt_sig, head_sig, spec, log, progress):
+def _navigate(bundle, cfg, state, tilt_sig, head_sig, spec, log, progress, stages):
     """Fine alignment and navigation from ``state`` to the end (module docstring, rule 5)."""
     speed = _speed_sensors(bundle)
     t_end = float(bundle.imu.t[-1])
@@ -803,11 +804,13 @@ def _navigate(bundle, cfg, state, tilt_sig, head_sig, spec, log, progress):
                                                 else "")
                 + ("; smoothed forward-backward (RTS)" if cfg.smooth else ""), nav)
             out.append(nav)
-        if cfg.zupt:
+        if cfg.zupt:                 # said in the last stage's entry: nothing ran for them
             stops, why_stops = stop_windows(bundle, cfg, t0)
             if stops:
-                log("stops", "none", stops[0][0], stops[-1][1], why_stops + "; not applied: "
-                    "dr-kf and sins-dr take no zero-velocity updates", stops_s=stops)
+                stages[-1]["why"] += (f"; {len(stops)} stop(s) found but no zero-velocity "
+                                      "updates: dr-kf and sins-dr take none")
+                stages[-1]["stops_s"] = stops
+                stages[-1]["stops_why"] = why_stops
         return out
     from .align import aided_kf as ak
     from .align.multiplex import auto_fine_method
