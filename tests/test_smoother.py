@@ -227,3 +227,27 @@ def test_bank_with_faults_smooths_without_the_isolated_sensor(method):
         tests = sm.info["tests"]
         for s in iso:
             assert sm.info["smoothing"]["central_updates"][s] == tests[s]["updates"]
+
+
+def test_smoother_gain_survives_an_eigh_that_does_not_converge():
+    """LAPACK's ``dsyevd`` (``eigh``) fails to converge on some well-conditioned matrices; one
+    (the correlation form of a 27-state P_k|k-1 of the central filter of paper 003's drive,
+    eigenvalues 1.5e-4 .. 4.4) is stored. The backward pass then takes the SVD: its smoothed
+    estimate equals the RTS formula with the inverse, to rounding."""
+    from pathlib import Path
+    Pp = np.load(Path(__file__).parent / "data" / "eigh_nonconvergent_27.npy")
+    n = Pp.shape[0]
+    rng = np.random.default_rng(0)
+    M = rng.standard_normal((n, n))
+    P0 = M @ M.T / n + np.eye(n)
+    Phi = np.eye(n) + 0.01 * rng.standard_normal((n, n))
+    x = rng.standard_normal((2, n))
+    P = np.stack([P0, Pp])
+    Phis = np.stack([np.eye(n), Phi])
+    P_pred = np.stack([P0, Pp])
+    fb = np.zeros((2, n))
+    xs, Ps = np.empty((2, n)), np.empty((2, n, n))
+    rts_backward(x, P, Phis, P_pred, fb, xs, Ps)
+    A = P0 @ Phi.T @ np.linalg.inv(Pp)
+    np.testing.assert_allclose(xs[0], x[0] + A @ (x[1] - Phi @ x[0]), rtol=1e-9, atol=1e-9)
+    assert np.isfinite(Ps).all()
