@@ -49,7 +49,7 @@ from .multiplex import (FINE_METHODS, UNKNOWN_HEADING_SIGMA_DEG, MuxConfig, auto
 from .parked_kf import ParkedKfConfig, run_parked_kf
 from .velocity_source import speed_on_imu_times
 
-__all__ = ["AdaptiveConfig", "detect_motion", "run_adaptive"]
+__all__ = ["motion_statistic", "AdaptiveConfig", "detect_motion", "run_adaptive"]
 
 
 class AdaptiveConfig(BaseModel):
@@ -78,14 +78,12 @@ class AdaptiveConfig(BaseModel):
     mux: dict = Field(default_factory=dict, description="fine-mux configuration (Strategy 2)")
 
 
-def detect_motion(bundle: Bundle, t0: float, noise_m_s, false_alarm_rate: float,
-                  confirm_s: float, rate_hz: float, radar_noise_m_s: float | None = None):
-    """Switch time [s] from parked to moving (eq. 43-45), or None if the vehicle never moves.
-
-    ``noise_m_s`` = [odometer, ldv] parked 1-sigma [m/s]; with neither sensor in the bundle and
-    ``radar_noise_m_s`` given, the radar's speed is the test's one channel.
-    Returns ``(t_switch, lambda_at_switch, threshold)``.
-    """
+def motion_statistic(bundle: Bundle, t0: float, noise_m_s, rate_hz: float,
+                     radar_noise_m_s: float | None = None):
+    """Paper 003 eq. 43-44 on a ``rate_hz`` grid from ``t0`` to the end of the speed data:
+    ``lambda = sum_s (v_s / sigma_s)^2`` over the odometer and LDV (``noise_m_s`` = [odometer,
+    ldv] parked 1-sigma [m/s]), the radar's alone when the bundle has neither and
+    ``radar_noise_m_s`` is given. Returns ``(t, lambda, dof)``."""
     t_imu = bundle.imu.t
     t0 = first_covered(bundle, t0)
     step = max(1, int(round(1.0 / (rate_hz * bundle.imu.dt))))
@@ -107,6 +105,19 @@ def detect_motion(bundle: Bundle, t0: float, noise_m_s, false_alarm_rate: float,
     if dof == 0:
         raise BadInput(f"bundle {bundle.name!r} has neither odometer nor ldv: adaptive "
                        "alignment needs one to tell parked from moving")
+    return t, lam, dof
+
+
+def detect_motion(bundle: Bundle, t0: float, noise_m_s, false_alarm_rate: float,
+                  confirm_s: float, rate_hz: float, radar_noise_m_s: float | None = None):
+    """Switch time [s] from parked to moving (eq. 43-45), or None if the vehicle never moves.
+
+    ``noise_m_s`` = [odometer, ldv] parked 1-sigma [m/s]; with neither sensor in the bundle and
+    ``radar_noise_m_s`` given, the radar's speed is the test's one channel
+    (:func:`motion_statistic`).
+    Returns ``(t_switch, lambda_at_switch, threshold)``.
+    """
+    t, lam, dof = motion_statistic(bundle, t0, noise_m_s, rate_hz, radar_noise_m_s)
     thr = chi2.threshold(false_alarm_rate, dof)
     need = max(1, int(round(confirm_s * rate_hz)))
     run = 0
