@@ -331,8 +331,14 @@ def _solution(filt: VelocityAidedRun, out: dict, cfg: SinsDrConfig, sensor: str,
 
 def run_sins_dr(bundle: Bundle, config: SinsDrConfig | dict | None = None,
                 init: NavState | None = None,
-                progress: Optional[Callable[[float], None]] = None) -> Solution:
+                progress: Optional[Callable[[float], None]] = None, *,
+                dr_gyro_offset_rad_s=None) -> Solution:
     """``sins-dr``: SINS / dead-reckoning integrated position and orientation (paper 002).
+
+    ``dr_gyro_offset_rad_s`` (3,) [rad/s], for simulation studies only (not a configuration
+    field: it needs the truth): added to the DR's gyro rows; ``-eps_true`` with
+    ``dr_sees_gyro_drift=False`` is the drift-free DR of paper 000's printed F
+    (``reproduce 002``, as ``dr-kf``'s ``run_dr_kf``).
 
     Parameters
     ----------
@@ -370,5 +376,6 @@ def run_sins_dr(bundle: Bundle, config: SinsDrConfig | dict | None = None,
     filt, rows, (name, speed) = build_filter(bundle, cfg, init)
     imu = bundle.imu
     out = filt.run(imu.t[rows], imu.dtheta[rows], imu.dvel[rows], speed,
-                   h_baro=_baro_source(bundle, cfg), sensor=name, progress=progress)
+                   h_baro=_baro_source(bundle, cfg), sensor=name, progress=progress,
+                   dr_gyro_offset_rad_s=dr_gyro_offset_rad_s)
     return _solution(filt, out, cfg, name, time.perf_counter() - t0)

@@ -210,22 +210,36 @@ def _rows_001(res: dict) -> list:
 def _rows_002(res: dict) -> list:
     """Paper 002: horizontal position, heading and level error envelopes after settling.
 
-    Measured (``summary.json`` of :mod:`paper002`): median over runs of each run's
-    maximum after the filter settles."""
+    The paper's figures are "+-" envelopes of one run: beside them stand the median over our
+    runs of each run's maximum after settling and, as ``measured_interval``, the single-run
+    95 % interval of those maxima (``summary.json`` of :mod:`paper002`): the paper inside it is
+    ``same``. The cross-axis noise sweep of the velocity/position mode and the drift-free DR
+    variants are ablations, set beside the paper's figure of their mode."""
     from . import paper002 as m
     keys = (("horizontal_m", "horizontal_max_m", "m", "horizontal position error"),
             ("heading_arcmin", "heading_max_arcmin", "arcmin", "heading error"),
             ("level_arcmin", "level_max_arcmin", "arcmin", "level error"))
+    runs = res.get("runs")
+    stat = "max |error| after settling, one run"
+    settle = res.get("settle_s", m.SETTLE_S)
     rows = []
-    for mode, paper in m.PAPER.items():
-        agg = res["aggregate"].get(mode)
-        if agg is None:
+    for label, agg in res["aggregate"].items():
+        mode = label.split(",")[0]
+        if mode not in m.PAPER or label.startswith("attitude-position, start heading"):
             continue
+        paper = m.PAPER[mode]
+        kind = "paper" if label in m.PAPER else "ablation"
         for pkey, skey, unit, what in keys:
-            rows.append(_row(f"002 sins-dr {mode}: max {what}", unit, paper[pkey],
-                             agg[skey]["median"],
-                             note=f"median over runs of each run's max after {res.get('settle_s', m.SETTLE_S):g} s; "
-                                  "paper: +- envelope of one run"))
+            a = agg[skey]
+            if "interval" not in a:
+                continue
+            rows.append(_row(f"002 sins-dr {label}: max {what}", unit, paper[pkey],
+                             a["median"], kind=kind, measured_interval=a["interval"],
+                             statistic=stat, paper_statistic=stat, n_runs=runs, paper_n=1,
+                             note=f"median over runs of each run's max after {settle:g} s "
+                                  "[single-run 95 % interval]; paper: +- envelope of one run"
+                                  + ("" if kind == "paper" else f"; our variant, beside the "
+                                     f"paper's {mode} figure")))
     return rows
 
 
