@@ -20,6 +20,27 @@ Per run (all draws from one ``numpy.random.Generator`` seeded by ``(seed, experi
 * the coarse-alignment error per axis from N(0, 1 deg) and the initial horizontal position
   error per axis from N(0, 15 m) (the paper: 1 deg, 15 m); the DR starts with the same errors.
 
+The report opens with a conditions table (:func:`conditions`: the paper's value, ours, and why
+ours differs, formatted from the values the runs use). Paper 000's figures are each one run's:
+every figure of ours stands as the median over runs with the single-run 95 % interval (2.5-97.5
+percentiles of the runs' values, :func:`one_run_interval`), where one run of our model falls.
+The paper's "standard deviation after reaching steady state" is taken over ``t >=``
+:data:`STEADY_FROM_S` of each run (the paper does not say where its steady state begins).
+Trajectory 2's "max over the last 100 s" holds the transient after the turn at 350-382 s: the
+report sets the converged value (|error| at 600 s) beside it.
+
+The Z2 study (:data:`Z2_STUDY`, :func:`z2_redundancy`): why the paper's up-axis gain from the
+NHC measurement (9.8' -> 3.2') does not appear in our default setting and where it does. With
+the NHC in the vehicle frame Z2 is exactly Z1's lateral (vertical) velocity row minus V times
+its heading (pitch) row (eq. 36 against eq. 25-30): it adds a second noise, no new direction;
+eq. 37 as printed is outside Z1's span, but right only for an IMU whose axes are the vehicle's.
+On a straight road the heading sits at the gyrocompassing limit whatever Z2 does. Monte Carlo
+conditions on trajectory 1, each run aligned with and without Z2 on the same bundle: the
+paper's fixed drift at three headings, no drift, eq. 37 exact (IMU aligned with the vehicle),
+then a drift-free DR (printed F), then the paper's noise split (Z1 velocity 0.1 m/s on every
+axis, Z2 near noise-free); the gain (per-run ratio without / with of max |phi_U| over the last
+100 s, and of |phi_U| at :data:`EARLY_S`) with its single-run interval.
+
 Reported per experiment and Z2 setting, over the runs: the misalignment estimation error
 (estimate minus truth, DESIGN ``phi``) after convergence as the paper states it, max |error|
 over the last 100 s and its standard deviation over the last 100 s, median and 95th percentile
@@ -35,7 +56,8 @@ of eq. 9-11. The truth attitude is the IMU's. The non-holonomic constraint then 
 vehicle frame: ``dr-kf``'s default NHC rows carry the mounting columns; trajectory 1 is also run
 with eq. 37 as printed (``with_Z2_paper_H2``), which ignores them.
 
-Cost (issue 3: 50 runs of the three experiments under 2 minutes on 2 cores): each run
+Cost (issue 3: 50 runs of the three experiments under 2 minutes on 2 cores; the Z2 study,
+:data:`Z2_RUNS` runs of 7 conditions, adds about 3.6 CPU-s a run): each run
 simulates its bundle once (about 0.3 CPU-s) and aligns it with every setting (``dr-kf`` on the
 one numba SINS / DR engine, about 0.11 CPU-s per 600 s setting; trajectory 1 simulates a
 second, noise-free bundle), about 1 CPU-s per run in all; a worker process starts in about

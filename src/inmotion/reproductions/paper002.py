@@ -34,12 +34,21 @@ Set-up (documented choices):
   ``max(|pitch error|, |roll error|)`` after settling. The paper's figures (20.8 m, 2.1', 0.5'
   and 49.2 m, 4.0', 0.6') are "+-" envelopes of one run; they are compared with the **median
   over runs** of each run's maximum.
-* A sensitivity row: the velocity/position mode with the velocity difference's lateral and
-  vertical components weighted as what they are in this simulation (the DR's velocity is zero
-  across and up the vehicle by construction, the simulated vehicle neither slips nor bounces:
-  0.01 m/s instead of the default 0.1 m/s, :class:`inmotion.navigate.sins_dr.SinsDrConfig`).
-  The paper does not say how it weighted them; this row shows how much the comparison of the
-  two modes depends on it.
+* The velocity/position mode's lateral and vertical velocity-difference noise is not given by
+  the paper (default 0.1 m/s, :class:`inmotion.navigate.sins_dr.SinsDrConfig`; the DR's
+  velocity is zero across and up the vehicle by construction and the simulated vehicle
+  neither slips nor bounces): it decides which mode wins, so it is swept (below).
+* The mode ranking against the cross-axis noise (issue 17): the velocity/position mode at
+  every cross-axis noise of :data:`CROSS_NOISE_M_S`, the per-run paired difference to
+  attitude/position on the same drive, and the noise where the mean difference changes sign
+  (:func:`crossover`: log-linear interpolation, bootstrap interval over runs).
+* The drift-free DR (:data:`DRIFT_FREE_DR`): both modes with the drift taken out of the DR's
+  gyro rows (``run_sins_dr(..., dr_gyro_offset_rad_s=-eps)``, a simulation-only oracle) and
+  paper 000's printed F (``dr_sees_gyro_drift=False``), the variant that reproduces paper 000's
+  up-axis figure.
+* The report opens with a conditions table (:func:`conditions`), and every paper figure (one
+  run's envelope) stands beside the median over runs and the single-run 95 % interval of the
+  runs' maxima.
 * Run ``i`` simulates with ``numpy.random.default_rng([seed, i])`` and draws its initial
   attitude error from the same generator afterwards: a seed reproduces a run.
 """
