@@ -57,9 +57,11 @@ do not change between 0.02' and 2' of attitude noise. Heading is learnt only by
 gyrocompassing through the position difference (the SINS's tilt from ``omega_ie x phi_U``
 makes it drift from the DR), slowly (1-sigma 1.8' -> 0.9' over the hour); the vertical gyro
 drift is not observable. The velocity/position mode is worse than attitude/position with the
-default cross-track noise at 10 Hz (as the paper found) and equal at 1 Hz; with a cross-track
-noise of 0.01 m/s (the simulator's vehicle neither slips nor bounces) it is better: the
-comparison depends on how the velocity difference is weighted, which the paper does not give.
+default cross-track noise at 10 Hz (as the paper found) and equal at 1 Hz; the comparison
+depends on how the velocity difference is weighted across the vehicle, which the paper does not
+give: on paper 002's drive (``inmotion reproduce 002``, 20 runs, paired per drive) it beats
+attitude/position only below a cross-axis noise of about 0.009 m/s for the horizontal maximum
+(bootstrap 95 % 0.004-0.015 m/s) and 0.007 m/s for the heading maximum (0.005-0.010 m/s).
 
 Velocity source: the radar by default, or any forward-velocity sensor of the bundle
 (``velocity_sensor``: ``radar``, ``ldv``, ``odometer``); its mounting and lever arm are taken
