@@ -438,7 +438,7 @@ def conditions() -> list:
          f"{cfg.accel_bias_ug:g} ug, mounting {cfg.mount_sigma_arcmin:g}'",
          "the draws' sigmas (a consistent filter, not a tuned one)"),
         ("'accuracy better than'", "bound of one run's error after convergence",
-         "max |error| over the last 100 s of each run; median and single-run 95 % interval",
+         "max abs error over the last 100 s of each run; median and single-run 95 % interval",
          "the paper does not say over which span; trajectory 2 also gives the error at 600 s"),
         ("'STD after steady state'", "one run, steady state (start not given)",
          f"STD over t >= {STEADY_FROM_S:g} s of each run; median and single-run 95 % interval",
@@ -788,8 +788,8 @@ def _traj2_text(summary) -> list:
          "still hold that transient. The paper's 'better than' is a bound of its one run's error "
          "after convergence (it says the up error grew during the turn and decreased after it). "
          "Each figure: median over runs [single-run 95 % interval], arcmin.", "",
-         "| axis | paper 'better than' | max |error| last 100 s (our paper row) | "
-         f"max |error| t >= {STEADY_FROM_S:g} s | converged: |error| at 600 s |",
+         "| axis | paper 'better than' | max abs error, last 100 s (our paper row) | "
+         f"max abs error, t >= {STEADY_FROM_S:g} s | converged: abs error at 600 s |",
          "| --- | --- | --- | --- | --- |"]
     for i, ax in enumerate("ENU"):
         L.append(f"| phi_{ax} | {acc[i]:g} | {_iv(s['max_abs_last100'], i)} | "
@@ -810,7 +810,7 @@ def _z2_text(summary, z2, red) -> list:
          "and Z1's attitude difference is phi - phi_D. The lateral Z2 row is then Z1's lateral "
          "velocity row minus V times Z1's heading row (vertical: vertical row minus V times the "
          "pitch row). Least squares of the filter's own rows (`z2_redundancy`, 15 m/s):", "",
-         "| Z2 form | max |H2 - coef H1| / max |H2| | rank Z1 | rank Z1+Z2 | coefficient on Z1 "
+         "| Z2 form | max abs(H2 - coef H1) / max abs(H2) | rank Z1 | rank Z1+Z2 | coefficient on Z1 "
          "heading row |", "| --- | --- | --- | --- | --- |"]
     for name, r in red.items():
         L.append(f"| {name} | {r['residual']:.1e} | {r['rank_z1']} | {r['rank_z1_z2']} | "
@@ -832,8 +832,8 @@ def _z2_text(summary, z2, red) -> list:
           "up axis, arcmin; median over runs [single-run 95 % interval]; gain = per-run "
           "ratio without / with, its median [single-run 95 % interval]; difference = mean of "
           "per-run (without - with) +- standard error):", "",
-          "| condition | runs | gyrocompass limit (median) | max |phi_U| last 100 s with Z2 | "
-          "without Z2 | gain | difference | |phi_U| at 300 s with Z2 | without | gain at 300 s | "
+          "| condition | runs | gyrocompass limit (median) | max abs phi_U, last 100 s, with Z2 | "
+          "without Z2 | gain | difference | abs phi_U at 300 s, with Z2 | without | gain at 300 s | "
           "filter sigma_U end with / without | NEES last 100 s with / without |",
           "| --- | --- | --- | --- | --- | --- | --- | --- | --- | --- | --- | --- |"]
     for exp in EXPERIMENTS:
@@ -932,7 +932,7 @@ def _report(summary, obs, files, runs, wall, out: Path, cpu=float("nan"), worker
          "(2.5-97.5 percentiles of the runs' values): a paper figure inside it is what one run "
          "of our model gives.", ""] + _conditions_text() + [
          "## Misalignment estimation error", "",
-         "| experiment | setting | paper E / N / U | median max|err| 100 s E / N / U | "
+         "| experiment | setting | paper E / N / U | median max abs err 100 s E / N / U | "
          "U single-run 95 % | paper STD | median STD t >= 300 s E / N / U | U single-run 95 % | "
          "median STD 100 s | NEES mean (95 % band) |",
          "| --- | --- | --- | --- | --- | --- | --- | --- | --- | --- |"]
@@ -969,7 +969,7 @@ def _report(summary, obs, files, runs, wall, out: Path, cpu=float("nan"), worker
     L += ["",
           "", "## Mounting angles (IMU in the vehicle, alpha / beta / gamma about x / y / z)",
           "", "Paper: alpha and gamma estimated close to 3' and 5', beta hardly estimated.", "",
-          "| experiment | setting | truth | median estimate | median |error| | p95 |error| | "
+          "| experiment | setting | truth | median estimate | median abs error | p95 abs error | "
           "filter sigma final | sigma final / prior |",
           "| --- | --- | --- | --- | --- | --- | --- | --- |"]
     for (exp, label), s in summary.items():

@@ -63,7 +63,7 @@ import numpy as np
 from .common import run_tasks
 
 __all__ = ["reproduce", "run_one", "PAPER", "SETTLE_S", "METHODS", "INIT_SIGMA_ARCMIN",
-           "CROSS_NOISE_M_S", "conditions", "crossover"]
+           "CROSS_NOISE_M_S", "conditions", "crossover", "rewrite_report"]
 
 ARCMIN = np.pi / 180.0 / 60.0
 #: the filter has settled after this time [s] (statistics "after settling" start here)
@@ -281,11 +281,12 @@ def conditions() -> list:
          f"{len(sc['segments'])} segments (scenario paper002_hour)",
          "the path is only a figure; segments tuned to 3600 s and 50.6 km"),
         ("gyro constant drift", "0.01 deg/h",
-         f"{g['drift_deg_h']} deg/h on every axis, fixed ({sc['imu']['constant_errors']})",
+         f"{_g(g['drift_deg_h'])} deg/h on every axis ({sc['imu']['constant_errors']})",
          "the paper's value as stated"),
         ("gyro random walk", "lost from the text", f"{g['arw_deg_sqrt_h']:g} deg/sqrt(h)",
          "paper 000's figure"),
-        ("accelerometer bias", "lost from the text", f"{a['bias_ug']} ug on every axis, fixed",
+        ("accelerometer bias", "lost from the text",
+         f"{_g(a['bias_ug'])} ug on every axis ({sc['imu']['constant_errors']})",
          "paper 000's 1e-4 g"),
         ("accelerometer random walk", "lost from the text", f"{a['vrw_ug_sqrt_hz']:g} ug/sqrt(Hz)",
          "paper 000's figure"),
@@ -320,8 +321,13 @@ def conditions() -> list:
          "the start's and the sensors' sigmas (consistent, not tuned)"),
         ("'after the stable state'", "not delimited", f"t >= {SETTLE_S:g} s", ""),
         ("statistic", "+- envelope of one run",
-         "each run's max |error| after settling; median and single-run 95 % interval", ""),
+         "each run's max abs error after settling; median and single-run 95 % interval", ""),
     ]
+
+
+def _g(v) -> str:
+    """A scalar or per-axis scenario value, short."""
+    return ", ".join(f"{x:g}" for x in v) if isinstance(v, (list, tuple)) else f"{v:g}"
 
 
 def _conditions_text() -> list:
@@ -504,6 +510,18 @@ def _figures(results, out: Path) -> list:
 
 
 # ------------------------------------------------------------------------------ entry point
+def rewrite_report(out_dir) -> str:
+    """Write ``report.md`` again from the ``summary.json`` in ``out_dir`` (no new runs)."""
+    out = Path(out_dir)
+    js = json.loads((out / "summary.json").read_text())
+    distance = js.get("distance_m")
+    if distance is None:     # older files: the drive's length from a run's max and its percent
+        s = js["per_run"][0]["attitude-position"]
+        distance = 100.0 * s["horizontal_max_m"] / s["horizontal_max_pct"]
+    return _report(js["aggregate"], js["verdicts"], js["runs"], js["seed"], js["wall_s"],
+                   distance, js["files"], out, js.get("crossover"))
+
+
 def reproduce(out_dir, runs=20, workers=2, seed=0, progress=True) -> dict:
     """Run the Monte Carlo; write ``report.md``, ``summary.json`` and PNG figures.
 
@@ -538,6 +556,7 @@ def reproduce(out_dir, runs=20, workers=2, seed=0, progress=True) -> dict:
     js = {"paper": PAPER, "runs": len(results), "seed": seed, "wall_s": wall,
           "settle_s": SETTLE_S, "init_sigma_arcmin": INIT_SIGMA_ARCMIN, "aggregate": agg,
           "crossover": cross, "conditions": [list(c) for c in conditions()],
+          "distance_m": results[0]["distance_m"],
           "verdicts": ver, "files": files,
           "per_run": [{"index": r["index"], **{lab: r[lab]["stats"] for lab in METHODS}}
                       for r in results]}
