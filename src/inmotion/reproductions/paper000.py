@@ -57,7 +57,7 @@ vehicle frame: ``dr-kf``'s default NHC rows carry the mounting columns; trajecto
 with eq. 37 as printed (``with_Z2_paper_H2``), which ignores them.
 
 Cost (issue 3: 50 runs of the three experiments under 2 minutes on 2 cores; the Z2 study,
-:data:`Z2_RUNS` runs of 7 conditions, adds about 3.6 CPU-s a run): each run
+:data:`Z2_RUNS` runs of 9 conditions, adds about 4.7 CPU-s a run): each run
 simulates its bundle once (about 0.3 CPU-s) and aligns it with every setting (``dr-kf`` on the
 one numba SINS / DR engine, about 0.11 CPU-s per 600 s setting; trajectory 1 simulates a
 second, noise-free bundle), about 1 CPU-s per run in all; a worker process starts in about
@@ -266,6 +266,17 @@ Z2_STUDY = {
         {"drift_deg_h": PAPER_FIXED_DRIFT_DEG_H, "heading_deg": 30.0, "mount_arcmin": 0.0},
         {"nhc_mount_terms": False, "dr_sees_gyro_drift": False, "lateral_noise_m_s": 0.1,
          "nhc_noise_m_s": 0.01}, True),
+    # appended (the seeds of the conditions above depend on their place in this dict)
+    "eq. 37 exact, paper noise": (
+        "as 'eq. 37 exact' (shared gyros, derived F) with the paper's noise split: does the "
+        "noise split alone bring the gain?",
+        {"drift_deg_h": PAPER_FIXED_DRIFT_DEG_H, "heading_deg": 30.0, "mount_arcmin": 0.0},
+        {"nhc_mount_terms": False, "lateral_noise_m_s": 0.1, "nhc_noise_m_s": 0.01}, False),
+    "eq. 37 exact, drift-free DR, wider noise split": (
+        "as 'eq. 37 exact, drift-free DR' with Z1 velocity 0.3 m/s across and Z2 0.003 m/s",
+        {"drift_deg_h": PAPER_FIXED_DRIFT_DEG_H, "heading_deg": 30.0, "mount_arcmin": 0.0},
+        {"nhc_mount_terms": False, "dr_sees_gyro_drift": False, "lateral_noise_m_s": 0.3,
+         "nhc_noise_m_s": 0.003}, True),
 }
 
 
@@ -454,7 +465,7 @@ def _conditions_text() -> list:
 
 
 #: Monte Carlo runs of each Z2-study condition (at most; fewer when ``runs`` is smaller):
-#: the study costs about 3.6 CPU-s a run against 1 for the three experiments
+#: the study costs about 4.7 CPU-s a run against 1 for the three experiments
 Z2_RUNS = 20
 
 
