@@ -171,6 +171,12 @@ def test_reproduce_000_writes_report_tables_and_figures(tmp_path):
     assert s["mount_truth_arcmin"] == pytest.approx([3.0, 10.0, 5.0])
     assert s["mount_sigma_final_over_prior"][1] > 0.98       # beta: stays at its prior
     assert all(v < 1.0 for v in s["max_abs_last100_median_arcmin"][:2])
+    # the report opens with the conditions table and re-renders from summary.json unchanged
+    assert text.index("## Conditions") < text.index("## Misalignment estimation error")
+    from inmotion.reproductions.paper000 import Z2_STUDY, rewrite_report
+    assert set(js["z2_study"]) == set(Z2_STUDY)
+    assert all(z["runs"] == 2 for z in js["z2_study"].values())
+    assert rewrite_report(tmp_path) == text
 
 
 def test_paper_world_dr_without_drift_makes_heading_observable():

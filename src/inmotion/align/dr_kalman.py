@@ -387,20 +387,11 @@ def _config(config, cls):
 def _run(bundle, config, init, progress, cls, with_dr, method, dr_gyro_offset_rad_s=None):
     cfg = _config(config, cls)
     t0 = time.perf_counter()
-    if dr_gyro_offset_rad_s is not None:
-        dr_gyro_offset_rad_s = np.asarray(dr_gyro_offset_rad_s, dtype=float)
-        if dr_gyro_offset_rad_s.shape != (3,) or not np.all(np.isfinite(dr_gyro_offset_rad_s)):
-            raise ValueError(f"dr_gyro_offset_rad_s must be 3 finite values, got "
-                             f"{dr_gyro_offset_rad_s!r}")
     filt, rows, (sensor, speed) = _engine_filter(bundle, cfg, init, with_dr)
     imu = bundle.imu
     h_baro = (lambda t: _baro_on_epochs(bundle, t)) if filt.use["height"] else None
-    dtheta_dr = None
-    if dr_gyro_offset_rad_s is not None:     # a simulation study's own DR gyros
-        dt = np.diff(np.concatenate([[init.t], imu.t[rows]]))
-        dtheta_dr = imu.dtheta[rows] + dr_gyro_offset_rad_s[None, :] * dt[:, None]
     out = filt.run(imu.t[rows], imu.dtheta[rows], imu.dvel[rows], speed, h_baro=h_baro,
-                   dtheta_dr=dtheta_dr,
+                   dr_gyro_offset_rad_s=dr_gyro_offset_rad_s,
                    sensor=sensor, progress=progress)
     return _engine_solution(filt, out, cfg, method, sensor, time.perf_counter() - t0)
 

@@ -137,7 +137,7 @@ class VelocityAidedRun:
         self.rows_in_speed_gaps = 0
 
     def run(self, t, dtheta, dvel, speed: SpeedData, h_baro=None, sensor="speed",
-            progress=None, dtheta_dr=None) -> dict:
+            progress=None, dtheta_dr=None, dr_gyro_offset_rad_s=None) -> dict:
         """Process the rows of a log after ``init.t``; returns the outputs.
 
         Parameters
@@ -148,6 +148,9 @@ class VelocityAidedRun:
         sensor : its name for error messages
         progress : callable(fraction) or None
         dtheta_dr : (N, 3) rad, the DR's own gyro rows (default: the SINS's)
+        dr_gyro_offset_rad_s : (3,) rad/s or None, for simulation studies only: the DR's gyro
+            rows are the SINS's plus this rate times each row's interval (``-eps_true`` gives
+            the DR drift-free gyros, the world paper 000's printed F describes)
 
         Returns
         -------
@@ -158,6 +161,15 @@ class VelocityAidedRun:
         if n_rows == 0:
             raise ValueError("VelocityAidedRun.run needs at least one IMU row")
         f = self.filter
+        if dr_gyro_offset_rad_s is not None:     # a simulation study's own DR gyros
+            off = np.asarray(dr_gyro_offset_rad_s, dtype=float)
+            if off.shape != (3,) or not np.all(np.isfinite(off)):
+                raise ValueError(f"dr_gyro_offset_rad_s must be 3 finite values, got "
+                                 f"{dr_gyro_offset_rad_s!r}")
+            if dtheta_dr is not None:
+                raise ValueError("give dtheta_dr or dr_gyro_offset_rad_s, not both")
+            dt = np.diff(np.concatenate([[f.t], t]))
+            dtheta_dr = dtheta + off[None, :] * dt[:, None]
         outs = [f.output_now()]
         rec = ForwardRecord.for_filter(f, -(-n_rows // self.step)) if self.smooth else None
         chunk = max(1, CHUNK_ROWS // self.step) * self.step
