@@ -8,7 +8,7 @@ from __future__ import annotations
 
 from concurrent.futures import ProcessPoolExecutor
 
-__all__ = ["run_tasks"]
+__all__ = ["run_tasks", "turned_heading"]
 
 
 def run_tasks(fn, tasks, workers, *, desc: str, progress: bool = True, chunksize: int = 1) -> list:
@@ -48,3 +48,15 @@ def run_tasks(fn, tasks, workers, *, desc: str, progress: bool = True, chunksize
     if bar is not None:
         bar.close()
     return results
+
+
+def turned_heading(C_nb, d_yaw_rad):
+    """``C_b^n`` with its heading (ENU Euler yaw) changed by ``d_yaw_rad``, pitch and roll kept:
+    a start or a first-level answer made a chosen amount worse (paper 003's 53' coarse start,
+    paper 004's first level)."""
+    import numpy as np
+
+    from ..core import rotations
+    e = rotations.euler_from_dcm(np.asarray(C_nb, dtype=float))
+    e[2] += d_yaw_rad
+    return rotations.dcm_from_euler(e)
