@@ -253,8 +253,6 @@ CAR_EFFECTS = {
                  "V^b is not along the IMU's y axis", {"vehicle_mounting_arcmin": [30.0, 0.0, 30.0]}),
     "side slip": ("lateral slides of 0.3 m/s peak over 4 s every 60 s, alternating left and "
                   "right: lateral V^b the forward sensor does not see", {"side_slip_m_s": 0.3}),
-    "bounce": ("vertical jolts of 5 cm over 0.6 s every 30 s (pitch and bounce): vertical V^b "
-               "the forward sensor does not see", {"jump_m": 0.05}),
     "lag": ("speed reported 0.1 s late (odometer / CAN latency)", {"lag_s": 0.1}),
     "high speed": ("the whole drive at 3 times the speed (top 66 m/s): the omitted "
                    "omega_ie^b x V^b term 3 times larger", {"speed_factor": 3.0}),
@@ -262,10 +260,15 @@ CAR_EFFECTS = {
 CAR_EFFECTS["all"] = ("every effect above at once except the quiet V^b and the high speed",
                       {k: v for name, (_, d) in CAR_EFFECTS.items()
                        if name not in ("none", "quiet V^b", "high speed") for k, v in d.items()})
+#: Pitch and bounce as vertical jolts (``disturbances.jumps``, 5 cm over 0.6 s every 30 s) are
+#: not in the list: on one drive they left every segment's final errors equal to those
+#: without them to 3 decimals (a jolt's vertical velocity is back to zero before the next
+#: vector pair; only a jolt across a segment's end would count) and took 20 times the
+#: simulation time. ``jump_m`` still works in :func:`car_test_scenario`.
 #: labels aligned on each segment of the car-effects experiment (paper form)
 CAR_LABELS = ("imada-vb", "mimada", "mimada-dual")
 #: simulated one-hour drives per effect (each cut into 30 segments, like the paper's one)
-CAR_DRIVES = 4
+CAR_DRIVES = 5
 
 
 def car_test_scenario(effect: str) -> dict:
@@ -552,7 +555,7 @@ def _car_tables(results) -> list[str]:
                      + " | ".join(f"{m:.3f}" for m in d["mae_deg"]) + " |")
         dv, dd = dep["mimada"]["dependence"], dep["mimada-dual"]["dependence"]
         i0 = list(LEVEL1_ERRORS_DEG).index(0.0)
-        kept = ("keeps" if dv["slope"] - 2 * dv["slope_se"] > 2 * dd["slope"] + 2 * dd["slope_se"]
+        kept = ("keeps more of" if dv["slope"] - 2 * dv["slope_se"] > 2 * dd["slope"] + 2 * dd["slope_se"]
                 else "does not keep more of")
         L += ["", f"The dependence the paper argues: the V^n second level {kept} the first "
               f"level's heading error than the dual one (slope {dv['slope']:.2f} against "
