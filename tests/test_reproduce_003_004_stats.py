@@ -114,6 +114,11 @@ def test_conditions_tables_read_the_settings_used():
     assert f"{r3.PAPER_FKF['beta_od']:g}, {r3.PAPER_FKF['beta_ldv']:g}" in \
         rows["fkf sharing factors, main filter"][2]
     assert all(f"{x:g}" in rows["FDI false-alarm rate"][2] for x in r3.FDI_RATES)
+    # the filters' IMU noise is the simulated IMU's (the paper's figures), set explicitly
+    assert r3.PAPER_IMU == {"gyro_drift_deg_h": drive.imu.gyro.drift_deg_h,
+                            "gyro_arw_deg_sqrt_h": drive.imu.gyro.arw_deg_sqrt_h,
+                            "accel_bias_ug": drive.imu.accel.bias_ug,
+                            "accel_vrw_ug_sqrt_hz": drive.imu.accel.vrw_ug_sqrt_hz}
     assert f"{r3.MUX_START_ERROR_ARCMIN:.2f}" in rows["multiplexing-gain start"][2]
     short = r3._scenario("paper003_parked_then_drive", parked_s=r3.STRATEGY2_PARKED_S)
     assert short.segments[0].duration_s == r3.STRATEGY2_PARKED_S < 60.0

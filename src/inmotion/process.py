@@ -237,6 +237,10 @@ def _cfg(cls, base: dict, cfg: ProcessConfig, name: str, spec: dict):
     the user's ``methods[name]``; fields the class lacks are dropped."""
     fields = cls.model_fields
     data = {k: v for k, v in spec.items() if k in fields}
+    # ``spec`` folds a Gauss-Markov bias into the constant's sigma (spec_from_meta); a filter
+    # with the Gauss-Markov option would add it again from meta.yaml: keep it constant here
+    # (``methods: {od-kf: {gyro_markov_tau_s: ...}}`` turns it on)
+    data.update({k: None for k in ("gyro_markov_tau_s", "accel_markov_tau_s") if k in fields})
     data.update({k: v for k, v in base.items() if k in fields})
     user = cfg.methods.get(name) or {}
     if not isinstance(user, dict):

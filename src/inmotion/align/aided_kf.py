@@ -101,6 +101,11 @@ class NhcKfConfig(BaseModel):
         0.2, gt=0, description="initial 1-sigma of the velocity error per axis [m/s]")
     init_position_sigma_m: float = Field(
         5.0, gt=0, description="initial 1-sigma of the position error per axis [m]")
+    init_velocity_from_attitude: bool = Field(
+        False,
+        description="the start velocity was made from the start attitude and the sensor's "
+                    "speed (a coarse alignment's hand-over): its prior error follows the "
+                    "attitude error, dv = [v x] phi, plus init_velocity_sigma_m_s")
     gyro_drift_deg_h: float = Field(
         0.01, ge=0, description="1-sigma gyro drift (constant bias) per axis [deg/h]")
     accel_bias_ug: float = Field(
@@ -110,6 +115,23 @@ class NhcKfConfig(BaseModel):
         0.001, ge=0, description="gyro angle random walk [deg/sqrt(h)]")
     accel_vrw_ug_sqrt_hz: float = Field(
         10.0, ge=0, description="accelerometer velocity random walk [ug/sqrt(Hz)]")
+    gyro_markov_deg_h: float = Field(
+        0.0, ge=0,
+        description="stationary 1-sigma of a first-order Gauss-Markov gyro bias per axis "
+                    "[deg/h] (with gyro_markov_tau_s; error_model module docstring); the "
+                    "drift state's prior is hypot(gyro_drift_deg_h, this)")
+    gyro_markov_tau_s: Optional[float] = Field(
+        None, gt=0,
+        description="correlation time of the Gauss-Markov gyro bias [s]; null: the drift "
+                    "is a random constant")
+    accel_markov_ug: float = Field(
+        0.0, ge=0,
+        description="stationary 1-sigma of a Gauss-Markov accelerometer bias per axis [ug] "
+                    "(with accel_markov_tau_s)")
+    accel_markov_tau_s: Optional[float] = Field(
+        None, gt=0,
+        description="correlation time of the Gauss-Markov accelerometer bias [s]; null: "
+                    "a random constant")
     nhc_noise_m_s: float = Field(
         0.1, gt=0,
         description="1-sigma of the NHC pseudo-measurement (lateral and vertical velocity) [m/s]")
@@ -181,19 +203,53 @@ def _config(config, cls):
 
 
 def _noise(cfg) -> em.ProcessNoise:
+    gm = {}
+    if cfg.gyro_markov_tau_s is not None:
+        gm.update(gyro_bias_sigma=cfg.gyro_markov_deg_h * DEG_H,
+                  gyro_bias_tau=cfg.gyro_markov_tau_s)
+    if cfg.accel_markov_tau_s is not None:
+        gm.update(accel_bias_sigma=cfg.accel_markov_ug * UG,
+                  accel_bias_tau=cfg.accel_markov_tau_s)
     return em.ProcessNoise(gyro_arw=np.deg2rad(cfg.gyro_arw_deg_sqrt_h) / 60.0,
-                           accel_vrw=cfg.accel_vrw_ug_sqrt_hz * UG)
+                           accel_vrw=cfg.accel_vrw_ug_sqrt_hz * UG, **gm)
 
 
-def _sins_prior(cfg, lat, h):
-    """Diagonal 15-state prior of the SINS errors."""
+def _bias_prior(cfg):
+    """1-sigma priors of the gyro drift [rad/s] and accelerometer bias [m/s^2]: the constant
+    and, where its correlation time is set, the Gauss-Markov part (root sum of squares)."""
+    g = np.hypot(cfg.gyro_drift_deg_h,
+                 cfg.gyro_markov_deg_h if cfg.gyro_markov_tau_s is not None else 0.0)
+    a = np.hypot(cfg.accel_bias_ug,
+                 cfg.accel_markov_ug if cfg.accel_markov_tau_s is not None else 0.0)
+    return g * DEG_H, a * UG
+
+
+def _sins_prior(cfg, lat, h, vel_n=None):
+    """15-state prior of the SINS errors: diagonal, except with
+    ``init_velocity_from_attitude``, where the start velocity ``C_b^n [0, v, 0]`` was made
+    from the start attitude and the sensor's speed: its error is then
+    ``dv = -phi x v_n = [v_n x] phi`` (from ``C_computed = (I - [phi x]) C_true``) plus the
+    speed's own ``init_velocity_sigma_m_s``, so ``P_vv = A P_phiphi A^T + s_v^2 I``,
+    ``P_vphi = A P_phiphi`` with ``A = [v_n x]``. Without the correlation a filter given a
+    large heading sigma would read the heading from the start velocity it was handed as if
+    that velocity were independent of it (issue 15: a 65 deg coarse heading came out of
+    ``fine-mux`` with a 0.4 deg sigma)."""
     r_m, r_n = earth.radii(lat)
     pos = cfg.init_position_sigma_m
     tilt, head = np.deg2rad(cfg.init_tilt_sigma_deg), np.deg2rad(cfg.init_heading_sigma_deg)
-    return NHC_LAYOUT.diag({
+    s_eps, s_nabla = _bias_prior(cfg)
+    P = NHC_LAYOUT.diag({
         "phi": np.array([tilt, tilt, head]) ** 2, "dv": cfg.init_velocity_sigma_m_s ** 2,
         "dp": np.array([pos / (r_m + h), pos / ((r_n + h) * np.cos(lat)), pos]) ** 2,
-        "eps": (cfg.gyro_drift_deg_h * DEG_H) ** 2, "nabla": (cfg.accel_bias_ug * UG) ** 2})
+        "eps": s_eps ** 2, "nabla": s_nabla ** 2})
+    if getattr(cfg, "init_velocity_from_attitude", False) and vel_n is not None:
+        A = em.skew(np.asarray(vel_n, dtype=float))
+        a, v = NHC_LAYOUT["phi"], NHC_LAYOUT["dv"]
+        Ppp = P[a, a]
+        P[v, v] += A @ Ppp @ A.T
+        P[v, a] = A @ Ppp
+        P[a, v] = P[v, a].T
+    return P
 
 
 NS = NHC_LAYOUT.n      #: the common SINS error states (fused, fed back)
@@ -233,11 +289,83 @@ def _check_init(init, bundle):
     return start_row(bundle.imu.t, init.t)
 
 
+#: the IMU noise fields taken from ``meta['imu']`` when the configuration does not set them
+SPEC_FIELDS = ("gyro_drift_deg_h", "gyro_arw_deg_sqrt_h", "accel_bias_ug",
+               "accel_vrw_ug_sqrt_hz", "gyro_markov_deg_h", "gyro_markov_tau_s",
+               "accel_markov_ug", "accel_markov_tau_s")
+#: mean NIS per degree of freedom above which the summary warns that the residuals are larger
+#: than the noise model (its sigma then understates the error)
+NIS_WARN_PER_DOF = 3.0
+#: fraction of a channel's tests isolated above which the summary warns
+ISOLATED_WARN_FRACTION = 0.5
+#: a sensor state (scale, mounting) ending beyond this many prior 1-sigma triggers a warning
+PRIOR_WARN_SIGMAS = 4.0
+
+
+def config_with_spec(cfg, meta):
+    """``(cfg, config_source)``: ``cfg`` with the :data:`SPEC_FIELDS` it does not set taken
+    from the bundle's IMU specification ``meta['imu']`` (the simulator's, or what an importer
+    documents or assumes, marked in ``meta['imu']['source']``), and ``{field: origin}``
+    (:func:`inmotion.align.parked_kf.config_with_spec`, the same rule as ``parked-kf``; the
+    Gauss-Markov parts kept apart since these filters model them)."""
+    from .parked_kf import config_with_spec as _with_spec   # parked_kf imports this module
+    return _with_spec(cfg, meta, SPEC_FIELDS, markov=True)
+
+
+def _warnings(f, sensors, cfg, cfg_source, meta, res) -> list:
+    """Plain-language warnings for ``summary.json``: noise settings not backed by a sensor
+    spec on a real log, a velocity channel isolated for most of the run, residuals larger than
+    the noise model (the reported sigma then understates the error)."""
+    out = []
+    simulated = bool((meta or {}).get("simulated"))
+    dflt = [k for k in ("gyro_drift_deg_h", "accel_bias_ug", "gyro_arw_deg_sqrt_h",
+                        "accel_vrw_ug_sqrt_hz") if cfg_source.get(k) == "default"]
+    if dflt and not simulated:
+        out.append("IMU noise not in meta.yaml (imu) nor in the configuration: the defaults "
+                   f"({', '.join(f'{k}={getattr(cfg, k):g}' for k in dflt)}) are a "
+                   "navigation-grade IMU's; set them for this sensor (--set or meta.yaml)")
+    cnt = f.counts()
+    for name in list(sensors) + ["nhc"]:
+        c = cnt.get(name)
+        if not c:
+            continue
+        tests = c.get("tests", c["used"] + c["rejected"])
+        if tests and c["rejected"] > ISOLATED_WARN_FRACTION * tests:
+            out.append(f"{name}: rejected (isolated by the residual test) in {c['rejected']} "
+                       f"of {tests} epochs: its noise or the IMU noise settings do not fit "
+                       "this log, and the solution runs on the fallback")
+    prior = {"dk": lambda short: getattr(cfg, f"{short}_scale_sigma_ppm") * 1e-6,
+             "mount_x": lambda short: cfg.mount_sigma_arcmin * ARCMIN,
+             "mount_z": lambda short: cfg.mount_sigma_arcmin * ARCMIN}
+    for c, name in enumerate(sensors):
+        short = "od" if name == "odometer" else "ldv"
+        for i, st in enumerate(_SENSOR_STATES):
+            if st not in prior:
+                continue
+            sig0 = prior[st](short)
+            val = float(res.get("local_x", res["states"][:, None, :])[-1, c, NS + i])
+            if sig0 > 0 and abs(val) > PRIOR_WARN_SIGMAS * sig0:
+                u = _SENSOR_UNITS[i]
+                out.append(f"{short}_{st} ended at {val * u.scale:.4g} {u.unit}, "
+                           f"{abs(val) / sig0:.1f} times its prior 1-sigma "
+                           f"({sig0 * u.scale:.4g} {u.unit}): the prior is too tight for this "
+                           "sensor and the filter's sigma understates its error; widen it "
+                           f"({'mount_sigma_arcmin' if 'mount' in st else short + '_scale_sigma_ppm'})")
+    for name, (s_, d_) in f.nis_sums().items():
+        if d_ > 0 and s_ / d_ > NIS_WARN_PER_DOF:
+            out.append(f"{name}: mean NIS per degree of freedom {s_ / d_:.1f} (1 expected): "
+                       "the residuals are larger than the noise model, so the reported sigma "
+                       "understates the error")
+    return out
+
+
 def run_aided(bundle: Bundle, cfg, init: NavState, sensors: tuple, *, method: str,
               nhc_only=False, progress=None) -> Solution:
     """The shared run of the four methods: ``sensors`` are the bundle's velocity sensors that
-    get a sub-filter (``()`` for ``nhc-kf``)."""
+    get a sub-filter (``()`` for ``nhc-kf``). IMU noise fields the configuration does not set
+    come from ``meta['imu']`` (:func:`config_with_spec`; ``info['config_source']``)."""
     t_wall = time.perf_counter()
+    cfg, cfg_source = config_with_spec(cfg, bundle.meta)
     k0 = _check_init(init, bundle)
     for s in sensors:
         if getattr(bundle, s) is None:
@@ -249,7 +377,7 @@ def run_aided(bundle: Bundle, cfg, init: NavState, sensors: tuple, *, method: st
     meas_every = max(1, int(round(cfg.measurement_period_s / t_ep)))
     fuse_every = max(1, int(round(cfg.main_period_s / (meas_every * t_ep)))) * meas_every
     out_every = max(1, int(round(cfg.output_interval_s / t_ep)))
-    P15 = _sins_prior(cfg, init.lat, init.h)
+    P15 = _sins_prior(cfg, init.lat, init.h, init.vel_n)
     Q15 = em.ErrorModel(NHC_LAYOUT, _noise(cfg)).Qc()
     betas = {"odometer": getattr(cfg, "beta_od", 1.0), "ldv": getattr(cfg, "beta_ldv", 1.0)}
     if len(sensors) == 1:
@@ -291,8 +419,11 @@ def run_aided(bundle: Bundle, cfg, init: NavState, sensors: tuple, *, method: st
                          record=smooth)
     res = _feed(f, bundle, k0, sensors, meas_every, use_nhc, use_baro, progress,
                 ForwardRecord.for_filter(f, n_ep) if smooth else None)
-    return _solution(res, f, init, cfg, method, sensors, thr, time.perf_counter() - t_wall,
-                     P15)
+    sol = _solution(res, f, init, cfg, method, sensors, thr, time.perf_counter() - t_wall,
+                    P15)
+    sol.info["config_source"] = cfg_source
+    sol.info["warnings"] = _warnings(f, sensors, cfg, cfg_source, bundle.meta, res)
+    return sol
 
 
 def _feed(f, bundle, k0, sensors, meas_every, use_nhc, use_baro, progress, rec=None):
