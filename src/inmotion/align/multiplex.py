@@ -64,9 +64,9 @@ from .coarse_inertial import CoarseInertialConfig, run_coarse_inertial
 from .velocity_source import initial_speed, speed_on_imu_times
 
 __all__ = ["auto_fine_method", "MuxConfig", "fault_tolerant_speed", "coarse_fault_tolerant",
-           "last_covered", "run_multiplexed", "run_fine_mux", "FINE_METHODS", "coarse_envelope",
-           "fine_config_from_coarse", "floor_attitude_sigma", "UNRESOLVED_HEADING_DEG",
-           "UNKNOWN_HEADING_SIGMA_DEG"]
+           "last_covered", "first_covered", "run_multiplexed", "run_fine_mux", "FINE_METHODS",
+           "start_state", "coarse_envelope", "fine_config_from_coarse", "floor_attitude_sigma",
+           "UNRESOLVED_HEADING_DEG", "UNKNOWN_HEADING_SIGMA_DEG"]
 
 #: the fine alignments ``fine-mux`` can run after the coarse stage
 FINE_METHODS = {"fkf": (ak.run_fkf, ak.FkfConfig), "od-kf": (ak.run_od_kf, ak.AidedKfConfig),
@@ -262,12 +262,19 @@ def coarse_fault_tolerant(bundle: Bundle, cfg: MuxConfig, init: Optional[NavStat
     return sol, C0
 
 
-def _start_state(bundle, C0, t0, init):
+def start_state(bundle: Bundle, C_nb, t0: float, init: Optional[NavState] = None) -> NavState:
+    """The state a fine alignment starts from after a coarse one: attitude ``C_nb`` (``C_b^n``
+    at ``t0``, e.g. the coarse result referred back to its window's start, sec. 3.3.1), the
+    sensor's forward speed at ``t0`` along it (the LDV if present, else the odometer; a 1 s line
+    fit), the position of ``init`` (else ``meta.yaml``, else the first truth row:
+    :func:`inmotion.align.attitude_determination.initial_position`). ``fine-mux`` starts its
+    fine stage from it; a user chaining a coarse and a fine alignment by hand does the same."""
     lat, lon, h = initial_position(bundle, init)
     name = "ldv" if bundle.ldv is not None else "odometer"
     v0 = initial_speed(name, getattr(bundle, name), t0, 1.0)
-    return NavState(t0, lat, lon, h, C0 @ np.array([0.0, v0, 0.0]),
-                    rotations.quat_from_dcm(C0))
+    C_nb = np.asarray(C_nb, dtype=float)
+    return NavState(t0, lat, lon, h, C_nb @ np.array([0.0, v0, 0.0]),
+                    rotations.quat_from_dcm(C_nb))
 
 
 def first_covered(bundle: Bundle, t_from: float) -> float:
@@ -309,7 +316,7 @@ def run_multiplexed(bundle: Bundle, cfg: MuxConfig, init: Optional[NavState] = N
     w0 = time.perf_counter()
     coarse, C0 = coarse_fault_tolerant(bundle, cfg, init, t0, t1)
     w_coarse = time.perf_counter() - w0
-    start = _start_state(bundle, C0, t0, init)
+    start = start_state(bundle, C0, t0, init)
     fine_method = auto_fine_method(bundle, cfg.fine_method)
     run, cls = FINE_METHODS[fine_method]
     fcfg, env, warn = fine_config_from_coarse(cls, cfg.fine, bundle.meta, start.lat, t1 - t0)

@@ -15,7 +15,7 @@ from __future__ import annotations
 import contextlib
 from typing import Optional
 
-__all__ = ["run_tasks", "engine"]
+__all__ = ["run_tasks", "engine", "turned_heading"]
 
 #: the client opened by :func:`engine` (None: each :func:`run_tasks` call decides)
 _CLIENT = None
@@ -94,3 +94,15 @@ def _on_client(client, fn, tasks, chunksize, bar) -> list:
         if bar is not None:
             bar.update(len(chunks[futures.index(f)]))
     return [r for f in futures for r in f.result()]
+
+
+def turned_heading(C_nb, d_yaw_rad):
+    """``C_b^n`` with its heading (ENU Euler yaw) changed by ``d_yaw_rad``, pitch and roll kept:
+    a start or a first-level answer made a chosen amount worse (paper 003's 53' coarse start,
+    paper 004's first level)."""
+    import numpy as np
+
+    from ..core import rotations
+    e = rotations.euler_from_dcm(np.asarray(C_nb, dtype=float))
+    e[2] += d_yaw_rad
+    return rotations.dcm_from_euler(e)
