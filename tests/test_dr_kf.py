@@ -193,14 +193,20 @@ def test_paper_world_dr_without_drift_makes_heading_observable():
     init = _init(b, (0.2, 0.2, 1.0))
     cfg = {"gyro_drift_deg_h": 0.3}
     shared = _phi_error(dr_kalman.run_dr_kf(b, cfg, init), b.truth)[-1]
+    from inmotion.reproductions.common import drift_free_dr_gyro
     world = _phi_error(dr_kalman.run_dr_kf(b, dict(cfg, dr_sees_gyro_drift=False), init,
-                                           dr_gyro_offset_rad_s=-eps_b), b.truth)[-1]
+                                           dtheta_dr=drift_free_dr_gyro(b.imu, eps_b)),
+                       b.truth)[-1]
     assert abs(gyrocompass_heading_limit(b.truth.C_nb[-1] @ eps_b, b.truth.lat[-1])) > 100 * ARCMIN
     assert abs(world[2]) < 3.0 * ARCMIN
     assert abs(shared[2]) > 10.0 * ARCMIN
     assert np.all(np.abs(world[:2]) < 1.0 * ARCMIN)
 
 
-def test_dr_gyro_offset_must_be_three_finite_values(drive):
-    with pytest.raises(ValueError, match="dr_gyro_offset_rad_s"):
-        dr_kalman.run_dr_kf(drive, {}, _init(drive), dr_gyro_offset_rad_s=[0.0, np.nan, 0.0])
+def test_dr_gyro_rows_must_match_the_imu_and_be_finite(drive):
+    with pytest.raises(BadInput, match=r"dtheta_dr: expected one row of 3 increments"):
+        dr_kalman.run_dr_kf(drive, {}, _init(drive), dtheta_dr=np.zeros((5, 3)))
+    bad = drive.imu.dtheta.copy()
+    bad[7, 1] = np.nan
+    with pytest.raises(BadInput, match=r"dtheta_dr: row 7 \(t = "):
+        dr_kalman.run_dr_kf(drive, {}, _init(drive), dtheta_dr=bad)

@@ -30,6 +30,7 @@ from inmotion.estimation import measurements as ms
 from inmotion.estimation.engine import ErrorStateFilter
 from inmotion.estimation.layout import DK, DV, PHI, Layout
 from inmotion.navigate import sins_dr
+from inmotion.reproductions.common import drift_free_dr_gyro
 from inmotion.sim import simulate
 from inmotion.sim.scenario import find_scenario, load_scenario
 
@@ -46,7 +47,8 @@ CASES = {
     "dr-kf": (dr_kalman.run_dr_kf, {}, {}),
     "dr-kf-open": (dr_kalman.run_dr_kf, {"closed_loop": False}, {}),
     "dr-kf-paper-world": (dr_kalman.run_dr_kf, {"dr_sees_gyro_drift": False},
-                          {"dr_gyro_offset_rad_s": np.array([1e-7, -2e-7, 3e-7])}),
+                          lambda b: {"dtheta_dr": drift_free_dr_gyro(
+                              b.imu, -np.array([1e-7, -2e-7, 3e-7]))}),
     "od-velocity-kf": (dr_kalman.run_od_velocity_kf, {}, {}),
     "sins-dr": (sins_dr.run_sins_dr, {}, {}),
     "sins-dr-vp-baro": (sins_dr.run_sins_dr, {"mode": "velocity-position", "use_baro": True},
@@ -59,7 +61,7 @@ def test_rebuilt_methods_give_the_replaced_loops_result(traj1, case):
     ref = np.load(REF)
     fn, cfg, kw = CASES[case]
     init = NavState.from_truth(traj1.truth, euler_error=np.radians([0.5, 0.5, 1.0]))
-    s = fn(traj1, cfg, init, **kw)
+    s = fn(traj1, cfg, init, **(kw(traj1) if callable(kw) else kw))
     rows = np.r_[np.arange(0, len(s.t), 97), len(s.t) - 1]
     assert np.array_equal(s.t[rows], ref[case + "/t"])
     nav = np.column_stack([s.lat, s.lon, s.h, s.vel_n, s.euler])[rows]

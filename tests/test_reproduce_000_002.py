@@ -126,7 +126,7 @@ def test_002_conditions_table_states_the_sweep_and_settings_the_runs_use():
         assert p2.METHODS[label][1]["dr_sees_gyro_drift"] is False
 
 
-def test_sins_dr_drift_free_dr_offset_must_be_three_finite_values():
+def test_sins_dr_dr_gyro_rows_must_be_finite():
     from inmotion.core.solution import NavState
     from inmotion.navigate.sins_dr import run_sins_dr
     from inmotion.sim import simulate
@@ -134,5 +134,8 @@ def test_sins_dr_drift_free_dr_offset_must_be_three_finite_values():
     sc = load_scenario(find_scenario("paper000_traj1")).model_dump()
     sc["segments"][1]["duration_s"] = 10.0
     b = simulate(sc, np.random.default_rng(0))
-    with pytest.raises(ValueError, match="dr_gyro_offset_rad_s"):
-        run_sins_dr(b, {}, NavState.from_truth(b.truth), dr_gyro_offset_rad_s=[0.0, np.inf, 0.0])
+    from inmotion.errors import BadInput
+    bad = b.imu.dtheta.copy()
+    bad[3, 2] = np.inf
+    with pytest.raises(BadInput, match=r"dtheta_dr: row 3 \(t = "):
+        run_sins_dr(b, {}, NavState.from_truth(b.truth), dtheta_dr=bad)

@@ -84,7 +84,7 @@ from ..core.solution import NavState, Solution
 from ..errors import BadInput
 from ..estimation import error_model as em
 from ..estimation.layout import Layout, position_units
-from ..estimation.velocity_aided import GROUP_SIZES, GROUPS, VelocityAidedRun
+from ..estimation.velocity_aided import GROUP_SIZES, GROUPS, VelocityAidedRun, dr_gyro_rows
 
 __all__ = ["DrKfConfig", "OdVelocityKfConfig", "run_dr_kf", "run_od_velocity_kf",
            "LAYOUT_DR_KF", "LAYOUT_OD_KF"]
@@ -384,26 +384,27 @@ def _config(config, cls):
     return cfg
 
 
-def _run(bundle, config, init, progress, cls, with_dr, method, dr_gyro_offset_rad_s=None):
+def _run(bundle, config, init, progress, cls, with_dr, method, dtheta_dr=None):
     cfg = _config(config, cls)
     t0 = time.perf_counter()
     filt, rows, (sensor, speed) = _engine_filter(bundle, cfg, init, with_dr)
     imu = bundle.imu
     h_baro = (lambda t: _baro_on_epochs(bundle, t)) if filt.use["height"] else None
     out = filt.run(imu.t[rows], imu.dtheta[rows], imu.dvel[rows], speed, h_baro=h_baro,
-                   dr_gyro_offset_rad_s=dr_gyro_offset_rad_s,
+                   dtheta_dr=dr_gyro_rows(imu, dtheta_dr, rows),
                    sensor=sensor, progress=progress)
     return _engine_solution(filt, out, cfg, method, sensor, time.perf_counter() - t0)
 
 
 def run_dr_kf(bundle: Bundle, config: DrKfConfig | dict | None = None,
               init: NavState | None = None, progress: Optional[Callable] = None, *,
-              dr_gyro_offset_rad_s=None) -> Solution:
+              dtheta_dr=None) -> Solution:
     """``dr-kf``: paper 000's SINS / radar-DR alignment filter (see the module docstring).
 
-    ``dr_gyro_offset_rad_s`` (3,) [rad/s], for simulation studies only (not a configuration
-    field: it needs the truth): added to the DR's gyro rows, ``-eps_true`` gives the DR
-    drift-free gyros, the world paper 000's printed F describes (``reproduce 000``).
+    ``dtheta_dr`` (N, 3) [rad], one row per IMU row, or None: the gyro increments the dead
+    reckoner integrates, when it has its own gyro (:func:`inmotion.estimation.velocity_aided.dr_gyro_rows`;
+    with ``dr_sees_gyro_drift=False`` a gyro without the IMU's drift, the world paper 000's
+    printed F describes).
 
     Returns a :class:`Solution` at the filter rate: the (closed-loop corrected) SINS state,
     ``sigma`` for ``phi_E/N/U``, velocity and position, every named state of the layout
@@ -413,8 +414,7 @@ def run_dr_kf(bundle: Bundle, config: DrKfConfig | dict | None = None,
     (N, 3, 3) misalignment covariance history ``cov_phi`` [rad^2] (for NEES; off by default
     because ``summary.json`` would carry it).
     """
-    return _run(bundle, config, init, progress, DrKfConfig, True, "dr-kf",
-                dr_gyro_offset_rad_s)
+    return _run(bundle, config, init, progress, DrKfConfig, True, "dr-kf", dtheta_dr)
 
 
 def run_od_velocity_kf(bundle: Bundle, config: OdVelocityKfConfig | dict | None = None,

@@ -37,7 +37,7 @@ from .engine import ErrorStateFilter
 from .layout import Layout
 from .smoother import ForwardRecord, smooth_at_outputs
 
-__all__ = ["GROUPS", "GROUP_SIZES", "VelocityAidedRun"]
+__all__ = ["dr_gyro_rows", "GROUPS", "GROUP_SIZES", "VelocityAidedRun"]
 
 #: the measurement groups, in the order they are applied within an epoch
 GROUPS = ("attitude", "velocity", "sensor_velocity", "nhc", "position", "height")
@@ -82,6 +82,27 @@ def _speed_on_chunk(speed: SpeedData, edges, max_gap: float, sensor: str):
     except BadInput as e:
         raise BadInput(e.what, file=e.file, row=None if e.row is None else e.row + i0,
                        time=e.time) from None
+
+
+def dr_gyro_rows(imu, dtheta_dr, rows):
+    """The dead reckoner's own gyro increments on ``rows`` of ``imu``, checked.
+
+    ``dtheta_dr`` is None (the DR turns with the IMU's gyros) or an (N, 3) array [rad], one row
+    per IMU row of the bundle: increments of a separate gyro the dead reckoner integrates
+    instead (e.g. a vehicle's yaw-rate sensor, or in a simulation study gyros without the
+    IMU's drift). :class:`BadInput` names what is wrong."""
+    if dtheta_dr is None:
+        return None
+    d = np.asarray(dtheta_dr, dtype=float)
+    if d.shape != imu.dtheta.shape:
+        raise BadInput(f"dtheta_dr: expected one row of 3 increments [rad] per IMU row, shape "
+                       f"{imu.dtheta.shape}, got {d.shape}")
+    idx = np.arange(len(d))[rows]
+    bad = ~np.all(np.isfinite(d[idx]), axis=1)
+    if bad.any():
+        k = int(idx[np.argmax(bad)])
+        raise BadInput(f"dtheta_dr: row {k} (t = {imu.t[k]:.3f} s) is not finite")
+    return d[idx]
 
 
 class VelocityAidedRun:
@@ -137,7 +158,7 @@ class VelocityAidedRun:
         self.rows_in_speed_gaps = 0
 
     def run(self, t, dtheta, dvel, speed: SpeedData, h_baro=None, sensor="speed",
-            progress=None, dtheta_dr=None, dr_gyro_offset_rad_s=None) -> dict:
+            progress=None, dtheta_dr=None) -> dict:
         """Process the rows of a log after ``init.t``; returns the outputs.
 
         Parameters
@@ -148,9 +169,6 @@ class VelocityAidedRun:
         sensor : its name for error messages
         progress : callable(fraction) or None
         dtheta_dr : (N, 3) rad, the DR's own gyro rows (default: the SINS's)
-        dr_gyro_offset_rad_s : (3,) rad/s or None, for simulation studies only: the DR's gyro
-            rows are the SINS's plus this rate times each row's interval (``-eps_true`` gives
-            the DR drift-free gyros, the world paper 000's printed F describes)
 
         Returns
         -------
@@ -161,15 +179,6 @@ class VelocityAidedRun:
         if n_rows == 0:
             raise ValueError("VelocityAidedRun.run needs at least one IMU row")
         f = self.filter
-        if dr_gyro_offset_rad_s is not None:     # a simulation study's own DR gyros
-            off = np.asarray(dr_gyro_offset_rad_s, dtype=float)
-            if off.shape != (3,) or not np.all(np.isfinite(off)):
-                raise ValueError(f"dr_gyro_offset_rad_s must be 3 finite values, got "
-                                 f"{dr_gyro_offset_rad_s!r}")
-            if dtheta_dr is not None:
-                raise ValueError("give dtheta_dr or dr_gyro_offset_rad_s, not both")
-            dt = np.diff(np.concatenate([[f.t], t]))
-            dtheta_dr = dtheta + off[None, :] * dt[:, None]
         outs = [f.output_now()]
         rec = ForwardRecord.for_filter(f, -(-n_rows // self.step)) if self.smooth else None
         chunk = max(1, CHUNK_ROWS // self.step) * self.step

@@ -84,7 +84,7 @@ from ..core.solution import NavState, Solution
 from ..errors import BadInput
 from ..estimation import error_model as em
 from ..estimation.layout import Layout, position_units
-from ..estimation.velocity_aided import GROUP_SIZES, GROUPS, VelocityAidedRun
+from ..estimation.velocity_aided import GROUP_SIZES, GROUPS, VelocityAidedRun, dr_gyro_rows
 from .pure import mounting_matrix, velocity_source
 
 __all__ = ["SinsDrConfig", "run_sins_dr", "LAYOUT_SINS_DR", "MODES", "initial_covariance"]
@@ -334,13 +334,13 @@ def _solution(filt: VelocityAidedRun, out: dict, cfg: SinsDrConfig, sensor: str,
 def run_sins_dr(bundle: Bundle, config: SinsDrConfig | dict | None = None,
                 init: NavState | None = None,
                 progress: Optional[Callable[[float], None]] = None, *,
-                dr_gyro_offset_rad_s=None) -> Solution:
+                dtheta_dr=None) -> Solution:
     """``sins-dr``: SINS / dead-reckoning integrated position and orientation (paper 002).
 
-    ``dr_gyro_offset_rad_s`` (3,) [rad/s], for simulation studies only (not a configuration
-    field: it needs the truth): added to the DR's gyro rows; ``-eps_true`` with
-    ``dr_sees_gyro_drift=False`` is the drift-free DR of paper 000's printed F
-    (``reproduce 002``, as ``dr-kf``'s ``run_dr_kf``).
+    ``dtheta_dr`` (N, 3) [rad], one row per IMU row, or None: the gyro increments the dead
+    reckoner integrates when it has its own gyro (as ``run_dr_kf``'s; with
+    ``dr_sees_gyro_drift=False`` a gyro without the IMU's drift, the drift-free DR of paper
+    000's printed F).
 
     Parameters
     ----------
@@ -379,5 +379,5 @@ def run_sins_dr(bundle: Bundle, config: SinsDrConfig | dict | None = None,
     imu = bundle.imu
     out = filt.run(imu.t[rows], imu.dtheta[rows], imu.dvel[rows], speed,
                    h_baro=_baro_source(bundle, cfg), sensor=name, progress=progress,
-                   dr_gyro_offset_rad_s=dr_gyro_offset_rad_s)
+                   dtheta_dr=dr_gyro_rows(imu, dtheta_dr, rows))
     return _solution(filt, out, cfg, name, time.perf_counter() - t0)

@@ -15,7 +15,7 @@ from __future__ import annotations
 import contextlib
 from typing import Optional
 
-__all__ = ["run_tasks", "engine", "turned_heading"]
+__all__ = ["run_tasks", "engine", "drift_free_dr_gyro", "turned_heading"]
 
 #: the client opened by :func:`engine` (None: each :func:`run_tasks` call decides)
 _CLIENT = None
@@ -106,3 +106,15 @@ def turned_heading(C_nb, d_yaw_rad):
     e = rotations.euler_from_dcm(np.asarray(C_nb, dtype=float))
     e[2] += d_yaw_rad
     return rotations.dcm_from_euler(e)
+
+
+def drift_free_dr_gyro(imu, eps_b):
+    """The gyro rows of a dead reckoner that does not see the IMU's drift ``eps_b`` (3,)
+    [rad/s], a simulation study's oracle (it needs the truth): ``dtheta - eps_b * dt`` per IMU
+    row, the first row's interval taken equal to the second's. Passed as ``dtheta_dr`` to
+    ``run_dr_kf`` / ``run_sins_dr`` with ``dr_sees_gyro_drift=False``, it is the world paper
+    000's printed F describes."""
+    import numpy as np
+    t = np.asarray(imu.t, dtype=float)
+    dt = np.diff(t, prepend=t[0] - (t[1] - t[0]) if len(t) > 1 else t[0])
+    return imu.dtheta - np.asarray(eps_b, dtype=float)[None, :] * dt[:, None]

@@ -74,7 +74,7 @@ import numpy as np
 from ..estimation import chi2
 
 from ..core.bundle import row_at_or_after
-from .common import run_tasks
+from .common import drift_free_dr_gyro, run_tasks
 
 __all__ = ["reproduce", "run_one", "EXPERIMENTS", "PAPER", "observability",
            "gyrocompass_heading_limit", "conditions", "z2_redundancy", "Z2_STUDY",
@@ -204,7 +204,9 @@ def _align(bundle, cfg: dict, init, dr_gyro_offset) -> dict:
     if cfg.pop("method", "dr-kf") == "od-velocity-kf":
         sol = run_od_velocity_kf(bundle, cfg, init)
     else:
-        sol = run_dr_kf(bundle, cfg, init, dr_gyro_offset_rad_s=dr_gyro_offset)
+        dtheta_dr = None if dr_gyro_offset is None else drift_free_dr_gyro(bundle.imu,
+                                                                            -np.asarray(dr_gyro_offset))
+        sol = run_dr_kf(bundle, cfg, init, dtheta_dr=dtheta_dr)
     wall = time.perf_counter() - t0
     idx = row_at_or_after(tr.t, sol.t, 1e-9)
     phi = misalignment(sol.C_nb, tr.C_nb[idx])    # the IMU's attitude (truth is b's)

@@ -43,7 +43,7 @@ Set-up (documented choices):
   attitude/position on the same drive, and the noise where the mean difference changes sign
   (:func:`crossover`: log-linear interpolation, bootstrap interval over runs).
 * The drift-free DR (:data:`DRIFT_FREE_DR`): both modes with the drift taken out of the DR's
-  gyro rows (``run_sins_dr(..., dr_gyro_offset_rad_s=-eps)``, a simulation-only oracle) and
+  gyro rows (``run_sins_dr(..., dtheta_dr=drift_free_dr_gyro(imu, eps))``, a simulation-only oracle) and
   paper 000's printed F (``dr_sees_gyro_drift=False``), the variant that reproduces paper 000's
   up-axis figure.
 * The report opens with a conditions table (:func:`conditions`), and every paper figure (one
@@ -60,7 +60,7 @@ from pathlib import Path
 
 import numpy as np
 
-from .common import run_tasks
+from .common import drift_free_dr_gyro, run_tasks
 
 __all__ = ["reproduce", "run_one", "PAPER", "SETTLE_S", "METHODS", "INIT_SIGMA_ARCMIN",
            "CROSS_NOISE_M_S", "conditions", "crossover", "rewrite_report"]
@@ -167,7 +167,8 @@ def run_one(task) -> dict:
         init = _initial_state(bundle.truth, z,
                               START_HEADING_ARCMIN.get(label, INIT_SIGMA_ARCMIN[2]))
         run, Cfg = get(name).load()
-        extra = {"dr_gyro_offset_rad_s": -eps_b} if label in DRIFT_FREE_DR else {}
+        extra = ({"dtheta_dr": drift_free_dr_gyro(bundle.imu, eps_b)} if label in DRIFT_FREE_DR
+                 else {})
         t0 = time.perf_counter()
         sol = run(bundle, Cfg(**cfg), init, **extra)
         wall = time.perf_counter() - t0
