@@ -74,7 +74,7 @@ from ..estimation import chi2
 
 from ..core import earth
 from ..core.bundle import Bundle
-from ..core.mechanization import _check_finite, _first_row
+from ..core.mechanization import _check_finite
 from ..core.solution import NavState, Solution
 from ..errors import BadInput
 from ..estimation import error_model as em
@@ -281,7 +281,8 @@ def _gates(p):
 
 
 def _engine_filter(bundle: Bundle, cfg, init: NavState, with_dr: bool):
-    """The configured engine and what it runs on: ``(filter, rows, (sensor name, speed))``;
+    """The configured engine and what it runs on: ``(filter, (n_rows, pieces), (sensor name,
+    speed))`` with the IMU rows after ``init.t`` (:meth:`Bundle.imu_rows_after`);
     ``with_dr``: ``dr-kf`` (25 states, Z1 = SINS minus DR), else ``od-velocity-kf`` (19
     states, SINS minus the sensor's velocity)."""
     if init is None:
@@ -291,14 +292,12 @@ def _engine_filter(bundle: Bundle, cfg, init: NavState, with_dr: bool):
         sensor_name, speed = bundle.velocity_sensor(cfg.velocity_sensor)
     except ValueError as exc:
         raise BadInput(str(exc)) from None
-    imu = bundle.imu
-    k0 = _first_row(imu.t, init.t)
-    if len(imu.t) - k0 < 2:
-        raise BadInput(f"no IMU rows after the start t={init.t:.6g} s", file="imu")
-    rows = slice(k0, len(imu.t))
-    _check_finite(imu.dtheta[rows], imu.t[rows], "dtheta", "imu", row0=k0)
-    _check_finite(imu.dvel[rows], imu.t[rows], "dvel", "imu", row0=k0)
-    imu_dt = float(np.median(np.diff(imu.t)))
+    n_rows, imu_dt, pieces = bundle.imu_rows_after(init.t)   # whole, or read in chunks
+    if isinstance(pieces, list):         # in memory: check it (a chunked reader checks chunks)
+        for t, dtheta, dvel in pieces:
+            k0 = len(bundle.imu.t) - n_rows
+            _check_finite(dtheta, t, "dtheta", "imu", row0=k0)
+            _check_finite(dvel, t, "dvel", "imu", row0=k0)
     step = max(1, int(round(1.0 / (cfg.filter_rate_hz * imu_dt))))
     meas_every = max(1, int(round(cfg.filter_rate_hz / cfg.measurement_rate_hz)))
     feedback_every = max(1, int(round(cfg.measurement_rate_hz / cfg.feedback_rate_hz)))
@@ -327,7 +326,7 @@ def _engine_filter(bundle: Bundle, cfg, init: NavState, with_dr: bool):
                         step_rows=step, meas_every=meas_every, out_every=1,
                         nhc_mount=cfg.nhc_mount_terms, closed_loop=cfg.closed_loop,
                         feedback_every=feedback_every, smooth=cfg.smooth)
-    return filt, rows, (sensor_name, speed)
+    return filt, (n_rows, pieces), (sensor_name, speed)
 
 
 def _engine_solution(filt: VelocityAidedRun, out: dict, cfg, method: str, sensor: str,
@@ -384,16 +383,14 @@ def _run(bundle, config, init, progress, cls, with_dr, method, dr_gyro_offset_ra
         if dr_gyro_offset_rad_s.shape != (3,) or not np.all(np.isfinite(dr_gyro_offset_rad_s)):
             raise ValueError(f"dr_gyro_offset_rad_s must be 3 finite values, got "
                              f"{dr_gyro_offset_rad_s!r}")
-    filt, rows, (sensor, speed) = _engine_filter(bundle, cfg, init, with_dr)
-    imu = bundle.imu
+    filt, (n_rows, pieces), (sensor, speed) = _engine_filter(bundle, cfg, init, with_dr)
     h_baro = (lambda t: _baro_on_epochs(bundle, t)) if filt.use["height"] else None
-    dtheta_dr = None
     if dr_gyro_offset_rad_s is not None:     # a simulation study's own DR gyros
-        dt = np.diff(np.concatenate([[init.t], imu.t[rows]]))
-        dtheta_dr = imu.dtheta[rows] + dr_gyro_offset_rad_s[None, :] * dt[:, None]
-    out = filt.run(imu.t[rows], imu.dtheta[rows], imu.dvel[rows], speed, h_baro=h_baro,
-                   dtheta_dr=dtheta_dr,
-                   sensor=sensor, progress=progress)
+        (t, dtheta, dvel), = pieces          # (a bundle in memory)
+        dt = np.diff(np.concatenate([[init.t], t]))
+        pieces = [(t, dtheta, dvel, dtheta + dr_gyro_offset_rad_s[None, :] * dt[:, None])]
+    out = filt.run_stream(pieces, n_rows, speed, h_baro=h_baro, sensor=sensor,
+                          progress=progress)
     return _engine_solution(filt, out, cfg, method, sensor, time.perf_counter() - t0)
 
 

@@ -118,6 +118,11 @@ class Truth:
     h: np.ndarray
     vel_n: np.ndarray
     euler: np.ndarray
+    #: cumulative 3-D path length [m] at each row, measured along the full-rate table, when
+    #: these rows are a subset of it (a table read in chunks keeps only the rows that the
+    #: errors at the output epochs need: :meth:`inmotion.io.bundle_stream.TruthStream.reduced`);
+    #: None: the rows themselves are the full table
+    path_length_m: Optional[np.ndarray] = None
 
     def __post_init__(self):
         self.t = _as_1d("truth.t", self.t)
@@ -125,6 +130,8 @@ class Truth:
         self.lat, self.lon, self.h = (_as_1d(k, getattr(self, k)) for k in ("lat", "lon", "h"))
         self.vel_n = _as_n3("truth.vel_n", self.vel_n, n)
         self.euler = _as_n3("truth.euler", self.euler, n)
+        if self.path_length_m is not None:
+            self.path_length_m = _as_1d("truth.path_length_m", self.path_length_m)
 
     @property
     def C_nb(self) -> np.ndarray:
@@ -132,7 +139,8 @@ class Truth:
 
     def window(self, start: Optional[float] = None, end: Optional[float] = None) -> "Truth":
         m = _mask(self.t, start, end)
-        return Truth(self.t[m], self.lat[m], self.lon[m], self.h[m], self.vel_n[m], self.euler[m])
+        return Truth(self.t[m], self.lat[m], self.lon[m], self.h[m], self.vel_n[m], self.euler[m],
+                     None if self.path_length_m is None else self.path_length_m[m])
 
     def at(self, t: float) -> dict:
         """The truth row at time ``t`` (the first at or after ``t``, :func:`row_at_or_after`);
@@ -168,6 +176,18 @@ class Bundle:
                 return n, getattr(self, n)
         raise ValueError(f"bundle {self.name!r} has no velocity sensor"
                          + (f" {which!r}" if which else f" (looked for {', '.join(names)})"))
+
+    def imu_rows_after(self, t0: float):
+        """``(n_rows, period_s, pieces)``: the IMU rows after ``t0`` [s] (a 1 us tolerance,
+        :func:`inmotion.core.mechanization.start_row`; :class:`BadInput` when fewer than two),
+        the median IMU period [s] and the rows as one piece ``[(t, dtheta, dvel)]``. A bundle
+        read in chunks (:class:`inmotion.io.bundle_stream.BundleStream`) answers the same with
+        its rows in pieces as they are read; methods that stream their input take either."""
+        from .mechanization import start_row
+        imu = self.imu
+        k0 = start_row(imu.t, t0)
+        return (len(imu.t) - k0, float(np.median(np.diff(imu.t))),
+                [(imu.t[k0:], imu.dtheta[k0:], imu.dvel[k0:])])
 
     def window(self, start: Optional[float] = None, end: Optional[float] = None) -> "Bundle":
         """The same drive cut to ``start <= t <= end`` [s] (None: open)."""

@@ -37,7 +37,7 @@ from .engine import ErrorStateFilter
 from .layout import Layout
 from .smoother import ForwardRecord, smooth_at_outputs
 
-__all__ = ["GROUPS", "GROUP_SIZES", "VelocityAidedRun"]
+__all__ = ["GROUPS", "GROUP_SIZES", "VelocityAidedRun", "regroup"]
 
 #: the measurement groups, in the order they are applied within an epoch
 GROUPS = ("attitude", "velocity", "sensor_velocity", "nhc", "position", "height")
@@ -82,6 +82,33 @@ def _speed_on_chunk(speed: SpeedData, edges, max_gap: float, sensor: str):
     except BadInput as e:
         raise BadInput(e.what, file=e.file, row=None if e.row is None else e.row + i0,
                        time=e.time) from None
+
+
+def regroup(pieces, size: int):
+    """Consecutive row blocks (tuples of arrays of equal length) regrouped into blocks of
+    exactly ``size`` rows (the last may be shorter). A block inside one piece is a view of
+    it; one that spans pieces is copied together. Memory: one block, whatever the log's
+    length."""
+    held, n_held = [], 0
+    for piece in pieces:
+        n = len(piece[0])
+        a = 0
+        while a < n:
+            take = min(size - n_held, n - a)
+            held.append(tuple(x[a:a + take] for x in piece))
+            n_held += take
+            a += take
+            if n_held == size:
+                yield _join(held)
+                held, n_held = [], 0
+    if n_held:
+        yield _join(held)
+
+
+def _join(parts):
+    if len(parts) == 1:
+        return parts[0]
+    return tuple(np.concatenate([p[i] for p in parts]) for i in range(len(parts[0])))
 
 
 class VelocityAidedRun:
@@ -154,8 +181,21 @@ class VelocityAidedRun:
         dict of arrays ``t`` (M,), ``x_sins`` (M, 10), ``sigma`` (M, n), ``states`` (M, n),
         ``cov_phi`` (M, 3, 3); row 0 is the state before the run, the last the end of it.
         """
-        n_rows = len(t)
-        if n_rows == 0:
+        piece = (t, dtheta, dvel) if dtheta_dr is None else (t, dtheta, dvel, dtheta_dr)
+        return self.run_stream([piece], len(t), speed, h_baro=h_baro, sensor=sensor,
+                               progress=progress)
+
+    def run_stream(self, pieces, n_rows: int, speed: SpeedData, h_baro=None, sensor="speed",
+                   progress=None) -> dict:
+        """:meth:`run` on rows that arrive in pieces (a log read in chunks).
+
+        ``pieces`` yields consecutive blocks ``(t, dtheta, dvel)`` (or with ``dtheta_dr`` as a
+        fourth array) of any sizes, ``n_rows`` rows in all. They are regrouped into the same
+        engine chunks as one whole block would be (:data:`CHUNK_ROWS` rounded to whole filter
+        epochs), so the outputs do not depend on where the pieces are cut. A source that
+        yields other than ``n_rows`` rows is an error.
+        """
+        if n_rows <= 0:
             raise ValueError("VelocityAidedRun.run needs at least one IMU row")
         f = self.filter
         outs = [f.output_now()]
@@ -163,9 +203,13 @@ class VelocityAidedRun:
         chunk = max(1, CHUNK_ROWS // self.step) * self.step
         max_gap = 5.0 * float(np.median(np.diff(speed.t[:GAP_SAMPLES])))
         groups = [g for g in GROUPS if self.use[g]]
-        for a in range(0, n_rows, chunk):
-            b = min(a + chunk, n_rows)
-            tc = t[a:b]
+        a = 0
+        for block in regroup(pieces, chunk):
+            tc, dth, dvl = block[0], block[1], block[2]
+            b = a + len(tc)
+            if b > n_rows:
+                raise RuntimeError(f"the IMU source yields more than the {n_rows} rows it "
+                                   "announced")
             edges = np.concatenate([[f.t], tc])
             ds, v, uncovered, in_gap = _speed_on_chunk(speed, edges, max_gap, sensor)
             self.rows_without_speed += int(uncovered.sum())
@@ -180,13 +224,16 @@ class VelocityAidedRun:
             for g in groups:
                 data = v[rows] if g == "sensor_velocity" else hb if g == "height" else None
                 f.add_measurement(g, t_meas, data)
-            d_dr = None if dtheta_dr is None else dtheta_dr[a:b]
-            outs.append(f.add_imu(tc, dtheta[a:b], dvel[a:b], ds=ds, speed=v,
-                                  dtheta_dr=d_dr, flush=b == n_rows))
+            d_dr = block[3] if len(block) > 3 else None
+            outs.append(f.add_imu(tc, dth, dvl, ds=ds, speed=v, dtheta_dr=d_dr,
+                                  flush=b == n_rows))
             if rec is not None:
                 rec.append(outs[-1].pop("record"))
             if progress is not None:
                 progress(b / n_rows)
+            a = b
+        if a != n_rows:
+            raise RuntimeError(f"the IMU source yielded {a} rows, not the {n_rows} announced")
         if f.epochs % self.out_every:   # the last epoch is written even off the output grid
             outs.append(f.output_now())
         res = {k: np.concatenate([o[k] for o in outs]) for k in outs[0]}

@@ -72,15 +72,18 @@ import math
 import warnings
 from dataclasses import dataclass
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 import numpy as np
-import pandas as pd
 import yaml
 
 from ..core.bundle import (BaroData, Bundle, ImuData, SpeedData, Truth, VELOCITY_SENSORS)
 from ..core.earth import G0, radii
 from ..errors import BadInput
 from .safe_write import atomic_write, refuse_partial, staged_folder
+
+if TYPE_CHECKING:                      # pandas is imported where a table is read or written
+    import pandas as pd
 
 __all__ = ["read_bundle", "write_bundle", "find_gaps", "Gap", "BundleGapWarning", "LIMITS",
            "TABLES", "read_meta", "meta_initial", "atomic_write", "write_csv", "check_bundle",
@@ -275,6 +278,7 @@ def _locate_tables(folder: Path, meta: dict) -> dict:
 
 
 def _read_table(path: Path) -> pd.DataFrame:
+    import pandas as pd
     fmt = SUFFIXES.get(path.suffix)
     try:
         if fmt == "parquet":
@@ -307,8 +311,10 @@ def _columns(df: pd.DataFrame, names, path: Path) -> dict:
     return out
 
 
-def _numeric(df, col, path, t):
-    """Column ``col`` as finite float64, or BadInput at the first bad row."""
+def _numeric(df, col, path, t, offset: int = 0):
+    """Column ``col`` as finite float64, or BadInput at the first bad row (``offset``: rows of
+    the table before ``df``'s first, for a table read in chunks)."""
+    import pandas as pd
     s = df[col]
     if pd.api.types.is_datetime64_any_dtype(s) or pd.api.types.is_timedelta64_dtype(s):
         raise BadInput(f"column {col!r} holds {s.dtype} timestamps; write plain numbers in "
@@ -324,7 +330,8 @@ def _numeric(df, col, path, t):
                 or str(raw).strip() == "" else _short(raw, 40))
         kind = "not a finite number" if _is_number(raw) else "not a number"
         tt = None if t is None or not np.isfinite(t[i]) else float(t[i])
-        raise BadInput(f"column {col!r}: value {what} is {kind}", file=path, row=i + 1, time=tt)
+        raise BadInput(f"column {col!r}: value {what} is {kind}", file=path, row=offset + i + 1,
+                       time=tt)
     return x
 
 
@@ -336,13 +343,18 @@ def _is_number(raw):
         return False
 
 
-def _check_increasing(t, path):
+def _check_increasing(t, path, offset: int = 0, t_prev=None):
+    """``t`` strictly increasing; ``t_prev``: the time of the row before ``t[0]`` (a table read
+    in chunks), ``offset``: the rows before ``t[0]``."""
+    if t_prev is not None:
+        t = np.concatenate([[t_prev], t])
+        offset -= 1
     if len(t) > 1:
         bad = np.diff(t) <= 0
         if bad.any():
             i = int(np.argmax(bad)) + 1
             raise BadInput(f"time not strictly increasing (previous row t={t[i - 1]:.9g} s)",
-                           file=path, row=i + 1, time=float(t[i]))
+                           file=path, row=offset + i + 1, time=float(t[i]))
 
 
 def _row_dt(t):
@@ -353,13 +365,13 @@ def _row_dt(t):
     return np.concatenate([[np.median(d)], d])
 
 
-def _check_limit(values, limit, what, unit, path, t):
+def _check_limit(values, limit, what, unit, path, t, offset: int = 0):
     over = ~(np.abs(values) <= limit)
     if over.any():
         i = int(np.argmax(over))
         raise BadInput(f"{what} {values[i]:.6g} {unit} is physically impossible "
-                       f"(limit {limit:.6g} {unit}); check the units", file=path, row=i + 1,
-                       time=float(t[i]))
+                       f"(limit {limit:.6g} {unit}); check the units", file=path,
+                       row=offset + i + 1, time=float(t[i]))
 
 
 def _imu_from(df, path) -> ImuData:
@@ -421,7 +433,11 @@ def _check_gravity(f, path):
     (``dvel`` in g*s gives ~1 m/s^2). A mean below 0.05 g is accepted: a log without
     accelerometers (zeros) can still feed dead reckoning.
     """
-    mean = float(np.mean(f))
+    _check_gravity_mean(float(np.mean(f)), path)
+
+
+def _check_gravity_mean(mean: float, path) -> None:
+    """:func:`_check_gravity` on the mean specific force [m/s^2] (of a table read in chunks)."""
     if 0.05 * G0 < mean < 0.5 * G0 or mean > 2.0 * G0:
         raise BadInput(f"mean specific force |dvel|/dt is {mean:.4g} m/s^2, but a vehicle on "
                        f"Earth feels ~{G0:.2f}: are dvel_x/y/z velocity increments in m/s?",
@@ -610,6 +626,7 @@ def _check_gaps(table, t, path, max_gap_periods, error):
 
 def _frames(bundle: Bundle) -> dict:
     """``{table: DataFrame}`` in file units (degrees for the truth's angles)."""
+    import pandas as pd
     imu = bundle.imu
     out = {"imu": pd.DataFrame({
         "t": imu.t, "dtheta_x": imu.dtheta[:, 0], "dtheta_y": imu.dtheta[:, 1],
