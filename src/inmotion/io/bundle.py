@@ -108,6 +108,9 @@ LIMITS = {
     "clock_span_ratio": 50.0,           # a table spanning 50x the IMU's time: other units
 }
 
+#: rows per Parquet row group written (:func:`write_bundle`)
+PARQUET_ROW_GROUP = 65536
+
 #: a step longer than this many median sample periods is a gap
 MAX_GAP_PERIODS = 5.0
 
@@ -752,7 +755,9 @@ def _write_table(df, p, fmt):
     if fmt == "csv":
         write_csv(df, p)
     else:
-        df.to_parquet(p, index=False, engine="pyarrow")
+        # row groups of PARQUET_ROW_GROUP rows: a reader in chunks holds one group of the
+        # columns it reads (pyarrow's default, a million rows, is 56 MB of IMU columns)
+        df.to_parquet(p, index=False, engine="pyarrow", row_group_size=PARQUET_ROW_GROUP)
 
 
 def write_csv(df: pd.DataFrame, path) -> None:

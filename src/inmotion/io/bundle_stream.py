@@ -40,7 +40,7 @@ from typing import Optional
 import numpy as np
 
 from ..core import rotations
-from ..core.bundle import VELOCITY_SENSORS, Bundle, Truth, _mask, row_at_or_after
+from ..core.bundle import VELOCITY_SENSORS, Bundle, Truth, row_at_or_after
 from ..core.earth import radii
 from ..errors import BadInput
 from . import bundle as B
@@ -58,14 +58,15 @@ class _Table:
     """One table file, read in chunks of rows; every chunk checked as :func:`read_bundle`
     checks the whole table (numeric, finite, time strictly increasing)."""
 
-    def __init__(self, path: Path, chunk_rows: int = CHUNK_ROWS):
+    def __init__(self, path: Path, chunk_rows: int):
         self.path = path
         self.chunk_rows = max(2, int(chunk_rows))
         self.parquet = B.SUFFIXES.get(path.suffix) == "parquet"
         try:
             if self.parquet:
                 import pyarrow.parquet as pq
-                self._pf = pq.ParquetFile(path)
+                # a buffered stream of the column chunks, not each chunk whole in memory
+                self._pf = pq.ParquetFile(path, buffer_size=1 << 20, pre_buffer=False)
                 raw = [str(c) for c in self._pf.schema_arrow.names]
                 n = self._pf.metadata.num_rows
             else:
@@ -84,7 +85,8 @@ class _Table:
         try:
             if self.parquet:
                 for batch in self._pf.iter_batches(batch_size=self.chunk_rows,
-                                                   columns=[self.raw[c] for c in names]):
+                                                   columns=[self.raw[c] for c in names],
+                                                   use_threads=False):
                     yield {c: batch.column(i) for i, c in enumerate(names)}
             else:
                 import pandas as pd
@@ -168,8 +170,16 @@ class _Times:
 
     @property
     def t(self) -> np.ndarray:
+        return self._span()[0]
+
+    def _span(self):
+        """``(t, w0)``: the windowed times (a view of the whole column) and the index of the
+        first of them in the whole table (``_mask`` of an increasing column is one run)."""
         t = self._table.times()
-        return t[_mask(t, *self._window)]
+        lo, hi = self._window
+        w0 = 0 if lo is None else int(np.searchsorted(t, lo, side="left"))
+        w1 = len(t) if hi is None else int(np.searchsorted(t, hi, side="right"))
+        return t[w0:max(w0, w1)], w0
 
 
 class _ImuChecks:
@@ -322,10 +332,9 @@ class TruthStream(_Times):
         exactly when consecutive kept rows are less than 180 deg apart in every angle
         (output rows a second apart); otherwise up to rounding. Every row of the table is
         read and checked."""
-        times = self.t
+        times, w0 = self._span()
         if len(times) == 0:
             return Truth(times, times, times, times, np.zeros((0, 3)), np.zeros((0, 3)))
-        w0 = int(np.searchsorted(self._table.times(), times[0]))   # window start, whole table
         j = np.clip(np.searchsorted(times, np.asarray(t_out, dtype=float), side="right") - 1,
                     0, len(times) - 1)
         keep = np.unique(np.concatenate([[0, len(times) - 1], j,
@@ -441,7 +450,9 @@ class BundleStream:
         from ..core.mechanization import start_row
         t = self.imu.t
         k0 = start_row(t, t0)
-        n, period, lo, hi = len(t) - k0, float(np.median(np.diff(t))), t[k0], t[-1]
+        whole = self._window == (None, None)         # the median period is known then
+        period = self._imu.period if whole else float(np.median(np.diff(t)))
+        n, lo, hi = len(t) - k0, t[k0], t[-1]
         del t
 
         def pieces():
@@ -453,7 +464,7 @@ class BundleStream:
 
 
 def open_bundle(path, *, max_gap_periods: float = B.MAX_GAP_PERIODS,
-                allow_imu_gaps: bool = False, chunk_rows: int = CHUNK_ROWS) -> BundleStream:
+                allow_imu_gaps: bool = False, chunk_rows: Optional[int] = None) -> BundleStream:
     """Open a bundle folder for reading in chunks (see the module notes).
 
     Parameters
@@ -462,8 +473,8 @@ def open_bundle(path, *, max_gap_periods: float = B.MAX_GAP_PERIODS,
         The bundle folder.
     max_gap_periods, allow_imu_gaps
         As :func:`inmotion.io.bundle.read_bundle`.
-    chunk_rows : int
-        Rows per chunk of the IMU and truth tables.
+    chunk_rows : int, optional
+        Rows per chunk read (default :data:`CHUNK_ROWS`).
 
     Returns
     -------
@@ -481,6 +492,7 @@ def open_bundle(path, *, max_gap_periods: float = B.MAX_GAP_PERIODS,
     if not folder.is_dir():
         raise BadInput("a bundle must be a folder", file=folder)
     refuse_partial(folder, "bundle")
+    chunk_rows = CHUNK_ROWS if chunk_rows is None else int(chunk_rows)
     meta = B.read_meta(folder)
     files = B._locate_tables(folder, meta)
     if "imu" not in files:
