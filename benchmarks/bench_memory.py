@@ -1,0 +1,93 @@
+"""Memory of a command-line run against the log's length: 1 h against 4 h, Parquet in, 1 Hz out.
+
+Issue 13: "a 4 h log with 1 Hz output peaks within 15 % of a 1 h log" (the inputs are read
+in chunks, :mod:`inmotion.io.bundle_stream`). The 1 h drive is the shipped
+``paper002_hour`` (100 Hz IMU, 10 Hz radar and barometer, truth at 100 Hz), the 4 h drive the
+same segment list driven four times over (the drive ends at rest, so it chains), both
+simulated with seed 0 and written as Parquet bundles. Each is run as
+
+    inmotion -q navigate BUNDLE --method sins-dr --init truth --set mode=velocity-position
+        --set filter_rate_hz=100 --set measurement_rate_hz=10 --set output_rate_hz=1 -o OUT
+
+in a child process; its peak resident set size (``ru_maxrss`` of that child, from
+``os.wait4``) and wall time are printed, the smaller of ``--repeat`` runs after a warm-up
+(numba's cache). The output (solution, states and errors at 1 Hz) grows with the log by
+design; everything else should not.
+
+    OPENBLAS_NUM_THREADS=1 .venv/bin/python benchmarks/bench_memory.py [--repeat N]
+"""
+from __future__ import annotations
+
+import argparse
+import os
+import subprocess
+import sys
+import tempfile
+import time
+from pathlib import Path
+
+import numpy as np
+import yaml
+
+from inmotion.io.bundle import write_bundle
+from inmotion.sim import simulate
+from inmotion.sim.scenario import find_scenario, load_scenario
+
+CMD = ["-q", "navigate", None, "--method", "sins-dr", "--init", "truth",
+       "--set", "mode=velocity-position", "--set", "filter_rate_hz=100",
+       "--set", "measurement_rate_hz=10", "--set", "output_rate_hz=1", "-o", None]
+
+
+def scenario(hours: int) -> dict:
+    """``paper002_hour`` with its segment list driven ``hours`` times."""
+    sc = yaml.safe_load(Path(find_scenario("paper002_hour")).read_text())
+    sc["segments"] = sc["segments"] * hours
+    sc["name"] = f"paper002_{hours}h"
+    return sc
+
+
+def child_run(bundle: Path, out: Path) -> tuple[float, float]:
+    """``(peak RSS [MiB], wall [s])`` of one CLI run in a child process."""
+    cmd = [sys.executable, "-m", "inmotion.cli.main"] + [
+        str(bundle) if a is None and i == 3 else str(out) if a is None else a
+        for i, a in enumerate(CMD)]
+    env = dict(os.environ, OPENBLAS_NUM_THREADS="1")
+    t0 = time.perf_counter()
+    p = subprocess.Popen(cmd, env=env, stdout=subprocess.DEVNULL, stderr=subprocess.PIPE)
+    _, status, usage = os.wait4(p.pid, 0)
+    wall = time.perf_counter() - t0
+    err = p.stderr.read().decode()
+    p.stderr.close()
+    if status != 0:
+        raise SystemExit(f"run failed ({status}): {' '.join(cmd)}\n{err}")
+    return usage.ru_maxrss / 1024.0, wall          # Linux: kilobytes
+
+
+def main():
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--repeat", type=int, default=2)
+    args = ap.parse_args()
+    peaks = {}
+    with tempfile.TemporaryDirectory() as tmp:
+        for hours in (1, 4):
+            b = simulate(load_scenario(scenario(hours)), np.random.default_rng(0))
+            path = Path(tmp) / f"h{hours}"
+            write_bundle(b, path, fmt="parquet")
+            size = sum(f.stat().st_size for f in path.iterdir()) / 2 ** 20
+            print(f"{hours} h drive: {len(b.imu.t)} IMU rows, Parquet bundle {size:.1f} MiB")
+            del b
+        child_run(Path(tmp) / "h1", Path(tmp) / "warm")        # warm-up: numba's cache
+        for hours in (1, 4):
+            runs = [child_run(Path(tmp) / f"h{hours}", Path(tmp) / f"out{hours}")
+                    for _ in range(max(1, args.repeat))]
+            peak, wall = min(r[0] for r in runs), min(r[1] for r in runs)
+            peaks[hours] = peak
+            print(f"CLI sins-dr {hours} h, Parquet in, 1 Hz out: peak RSS {peak:.1f} MiB, "
+                  f"wall {wall:.2f} s (all peaks {[round(r[0], 1) for r in runs]})")
+    ratio = peaks[4] / peaks[1]
+    print(f"peak RSS 4 h / 1 h: {ratio:.3f} (target <= 1.15); "
+          f"{(peaks[4] - peaks[1]) / 3:.1f} MiB per extra hour")
+
+
+if __name__ == "__main__":
+    main()
