@@ -14,10 +14,10 @@ import pytest
 from click.testing import CliRunner
 
 from inmotion.cli.main import cli
+from inmotion.core.bundle import regroup
 from inmotion.core.metrics import error_series
 from inmotion.core.solution import NavState
 from inmotion.errors import BadInput
-from inmotion.estimation.velocity_aided import regroup
 from inmotion.io import bundle_stream
 from inmotion.io.bundle import read_bundle, write_bundle
 from inmotion.io.bundle_stream import _unwrap_carry, open_bundle
@@ -87,6 +87,18 @@ def test_window_and_align_methods_in_chunks(folder):
     init = NavState.from_truth(whole.truth)
     for run in (run_dr_kf, run_od_velocity_kf):
         _same_solution(run(whole, {}, init), run(stream, {}, init))
+
+
+@pytest.mark.parametrize("method", ["sins", "dr"])
+def test_pure_navigation_in_chunks_equals_whole(folder, method):
+    """``navigate sins`` (baro-damped) and ``dr`` from chunks of 613 rows, whole and windowed."""
+    from inmotion.navigate.pure import DrConfig, SinsConfig, run_dr, run_sins
+    run, cfg = (run_sins, SinsConfig()) if method == "sins" else (run_dr, DrConfig())
+    for window in ((None, None), (7.5, 61.0)):
+        whole = read_bundle(folder).window(*window)
+        stream = open_bundle(folder, chunk_rows=613).window(*window)
+        init = NavState.from_truth(whole.truth)
+        _same_solution(run(whole, cfg, init), run(stream, cfg, init))
 
 
 def test_errors_from_the_kept_truth_rows_equal(folder, drive):

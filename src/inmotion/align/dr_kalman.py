@@ -292,10 +292,9 @@ def _engine_filter(bundle: Bundle, cfg, init: NavState, with_dr: bool):
         sensor_name, speed = bundle.velocity_sensor(cfg.velocity_sensor)
     except ValueError as exc:
         raise BadInput(str(exc)) from None
-    n_rows, imu_dt, pieces = bundle.imu_rows_after(init.t)   # whole, or read in chunks
+    n_rows, imu_dt, pieces, k0 = bundle.imu_rows_after(init.t)   # whole, or read in chunks
     if isinstance(pieces, list):         # in memory: check it (a chunked reader checks chunks)
         for t, dtheta, dvel in pieces:
-            k0 = len(bundle.imu.t) - n_rows
             _check_finite(dtheta, t, "dtheta", "imu", row0=k0)
             _check_finite(dvel, t, "dvel", "imu", row0=k0)
     step = max(1, int(round(1.0 / (cfg.filter_rate_hz * imu_dt))))

@@ -182,7 +182,7 @@ def _progress(ctx, desc: str):
 #: methods whose run takes its IMU rows in pieces (``Bundle.imu_rows_after``): the command
 #: line opens the bundle for reading in chunks for them (:mod:`inmotion.io.bundle_stream`), so
 #: a run's memory does not grow with the log's length
-STREAMED = ("sins-dr", "dr-kf", "od-velocity-kf")
+STREAMED = ("sins", "dr", "sins-dr", "dr-kf", "od-velocity-kf")
 
 
 def _read_bundle(ctx, path, allow_imu_gaps=False, chunked=False):

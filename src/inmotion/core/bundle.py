@@ -15,7 +15,8 @@ import numpy as np
 
 from . import rotations
 
-__all__ = ["ImuData", "SpeedData", "BaroData", "Truth", "Bundle", "VELOCITY_SENSORS"]
+__all__ = ["ImuData", "SpeedData", "BaroData", "Truth", "Bundle", "VELOCITY_SENSORS",
+           "regroup"]
 
 #: the forward-velocity sensors a bundle may carry, by file name
 VELOCITY_SENSORS = ("radar", "ldv", "odometer")
@@ -177,17 +178,18 @@ class Bundle:
         raise ValueError(f"bundle {self.name!r} has no velocity sensor"
                          + (f" {which!r}" if which else f" (looked for {', '.join(names)})"))
 
-    def imu_rows_after(self, t0: float):
-        """``(n_rows, period_s, pieces)``: the IMU rows after ``t0`` [s] (a 1 us tolerance,
-        :func:`inmotion.core.mechanization.start_row`; :class:`BadInput` when fewer than two),
-        the median IMU period [s] and the rows as one piece ``[(t, dtheta, dvel)]``. A bundle
+    def imu_rows_after(self, t0: float, min_rows: int = 2):
+        """``(n_rows, period_s, pieces, first_row)``: the number of IMU rows after ``t0`` [s]
+        (a 1 us tolerance, :func:`inmotion.core.mechanization.start_row`; :class:`BadInput`
+        when fewer than ``min_rows``), the median IMU period [s], the rows as one piece
+        ``[(t, dtheta, dvel)]`` and the index of the first of them in the table. A bundle
         read in chunks (:class:`inmotion.io.bundle_stream.BundleStream`) answers the same with
         its rows in pieces as they are read; methods that stream their input take either."""
         from .mechanization import start_row
         imu = self.imu
-        k0 = start_row(imu.t, t0)
+        k0 = start_row(imu.t, t0, min_rows)
         return (len(imu.t) - k0, float(np.median(np.diff(imu.t))),
-                [(imu.t[k0:], imu.dtheta[k0:], imu.dvel[k0:])])
+                [(imu.t[k0:], imu.dtheta[k0:], imu.dvel[k0:])], k0)
 
     def window(self, start: Optional[float] = None, end: Optional[float] = None) -> "Bundle":
         """The same drive cut to ``start <= t <= end`` [s] (None: open)."""
@@ -212,3 +214,30 @@ def _mask(t, start, end):
     if end is not None:
         m &= t <= end
     return m
+
+
+def regroup(pieces, size: int):
+    """Consecutive row blocks (tuples of arrays of equal length) regrouped into blocks of
+    exactly ``size`` rows (the last may be shorter). A block inside one piece is a view of
+    it; one that spans pieces is copied together. Memory: one block, whatever the log's
+    length."""
+    held, n_held = [], 0
+    for piece in pieces:
+        n = len(piece[0])
+        a = 0
+        while a < n:
+            take = min(size - n_held, n - a)
+            held.append(tuple(x[a:a + take] for x in piece))
+            n_held += take
+            a += take
+            if n_held == size:
+                yield _join(held)
+                held, n_held = [], 0
+    if n_held:
+        yield _join(held)
+
+
+def _join(parts):
+    if len(parts) == 1:
+        return parts[0]
+    return tuple(np.concatenate([p[i] for p in parts]) for i in range(len(parts[0])))

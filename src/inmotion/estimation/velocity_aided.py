@@ -27,7 +27,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from ..core.bundle import SpeedData
+from ..core.bundle import SpeedData, regroup
 from ..core.deadreckoning import speed_on_epochs
 from ..core.solution import NavState
 from ..errors import BadInput
@@ -82,33 +82,6 @@ def _speed_on_chunk(speed: SpeedData, edges, max_gap: float, sensor: str):
     except BadInput as e:
         raise BadInput(e.what, file=e.file, row=None if e.row is None else e.row + i0,
                        time=e.time) from None
-
-
-def regroup(pieces, size: int):
-    """Consecutive row blocks (tuples of arrays of equal length) regrouped into blocks of
-    exactly ``size`` rows (the last may be shorter). A block inside one piece is a view of
-    it; one that spans pieces is copied together. Memory: one block, whatever the log's
-    length."""
-    held, n_held = [], 0
-    for piece in pieces:
-        n = len(piece[0])
-        a = 0
-        while a < n:
-            take = min(size - n_held, n - a)
-            held.append(tuple(x[a:a + take] for x in piece))
-            n_held += take
-            a += take
-            if n_held == size:
-                yield _join(held)
-                held, n_held = [], 0
-    if n_held:
-        yield _join(held)
-
-
-def _join(parts):
-    if len(parts) == 1:
-        return parts[0]
-    return tuple(np.concatenate([p[i] for p in parts]) for i in range(len(parts[0])))
 
 
 class VelocityAidedRun:

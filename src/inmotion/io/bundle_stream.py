@@ -443,16 +443,17 @@ class BundleStream:
                             cut(self.baro), cut(self.truth), _intersect(self._window,
                                                                         (start, end)))
 
-    def imu_rows_after(self, t0: float):
-        """``(n_rows, period_s, pieces)`` as :meth:`Bundle.imu_rows_after`, the pieces read
-        from the file as they are asked for (every row of the table is read and checked,
-        also those outside the window)."""
+    def imu_rows_after(self, t0: float, min_rows: int = 2):
+        """``(n_rows, period_s, pieces, first_row)`` as :meth:`Bundle.imu_rows_after`, the
+        pieces read from the file as they are asked for (every row of the table is read and
+        checked, also those outside the window)."""
         from ..core.mechanization import start_row
-        t = self.imu.t
-        k0 = start_row(t, t0)
+        t, w0 = _Times(self._imu._table, self._window)._span()
+        k0 = start_row(t, t0, min_rows)
         whole = self._window == (None, None)         # the median period is known then
         period = self._imu.period if whole else float(np.median(np.diff(t)))
-        n, lo, hi = len(t) - k0, t[k0], t[-1]
+        n = len(t) - k0
+        lo, hi = (t[k0], t[-1]) if n else (np.inf, -np.inf)
         del t
 
         def pieces():
@@ -460,7 +461,7 @@ class BundleStream:
                 a, b = np.searchsorted(t, lo), np.searchsorted(t, hi, side="right")
                 if a < b:
                     yield t[a:b], dtheta[a:b], dvel[a:b]
-        return n, period, pieces()
+        return n, period, pieces(), w0 + k0
 
 
 def open_bundle(path, *, max_gap_periods: float = B.MAX_GAP_PERIODS,

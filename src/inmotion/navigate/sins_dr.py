@@ -377,7 +377,7 @@ def run_sins_dr(bundle: Bundle, config: SinsDrConfig | dict | None = None,
     t0 = time.perf_counter()
     _check_config(cfg, bundle)
     sensor = _sensor(bundle, cfg)
-    n_rows, imu_dt, pieces = bundle.imu_rows_after(init.t)   # whole, or read in chunks
+    n_rows, imu_dt, pieces, _ = bundle.imu_rows_after(init.t)   # whole, or read in chunks
     filt = _make_filter(bundle, cfg, init, sensor, imu_dt)
     name, speed = sensor[:2]
     out = filt.run_stream(pieces, n_rows, speed, h_baro=_baro_source(bundle, cfg), sensor=name,
