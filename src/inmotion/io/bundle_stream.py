@@ -77,6 +77,7 @@ class _Table:
             raise B.cannot_read(e, path) from None
         self.raw = {c.strip(): c for c in raw}
         self.columns = list(self.raw)
+        self._t = None          # the time column, kept from opening until rows are read
         if n == 0:
             raise BadInput("table has no data rows", file=path)
 
@@ -104,6 +105,7 @@ class _Table:
         consecutive chunks, ``offset`` rows before each; BadInput at the first bad row."""
         names = ("t",) + tuple(c for c in names if c != "t")
         B.missing_columns(self.columns, names, self.path)
+        self._t = None          # reading rows: the time column is not kept meanwhile
         offset, t_prev = 0, None
         for frame in self._frames(names):
             if len(frame["t"]) == 0:
@@ -125,16 +127,21 @@ class _Table:
         return {k: np.concatenate([p[k] for p in parts]) for k in parts[0]}
 
     def times(self) -> np.ndarray:
-        """The ``t`` column whole, checked."""
+        """The ``t`` column whole, checked. Kept for the questions asked before a method runs
+        (rate, clocks, window, start); forgotten when rows are read, read again after."""
+        if self._t is not None:
+            return self._t
         B.missing_columns(self.columns, ("t",), self.path)
         if not self.parquet:
-            return self.read(("t",))["t"]
-        try:
-            col = self._pf.read(columns=[self.raw["t"]]).column(0).combine_chunks()
-        except Exception as e:
-            raise B.cannot_read(e, self.path) from None
-        t = _numeric({"t": col}, "t", self.path, None, 0)
-        B._check_increasing(t, self.path)
+            t = self.read(("t",))["t"]
+        else:
+            try:
+                col = self._pf.read(columns=[self.raw["t"]]).column(0).combine_chunks()
+            except Exception as e:
+                raise B.cannot_read(e, self.path) from None
+            t = _numeric({"t": col}, "t", self.path, None, 0)
+            B._check_increasing(t, self.path)
+        self._t = t
         return t
 
 
