@@ -443,8 +443,8 @@ class BundleStream:
 
     def window(self, start=None, end=None) -> "BundleStream":
         """The same drive cut to ``start <= t <= end`` [s], as :meth:`Bundle.window`."""
-        def cut(x):
-            return None if x is None else x.window(start, end)
+        def cut(x):                 # (no window: the same arrays, not copies)
+            return x if x is None or (start, end) == (None, None) else x.window(start, end)
         return BundleStream(self.folder, dict(self.meta), self._imu,
                             {s: cut(getattr(self, s)) for s in VELOCITY_SENSORS},
                             cut(self.baro), cut(self.truth), _intersect(self._window,
