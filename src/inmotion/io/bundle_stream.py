@@ -384,6 +384,13 @@ def _unwrap_carry(p, p_prev, carry):
     p = np.asarray(p, dtype=float)
     q = p if p_prev is None else np.concatenate([np.asarray(p_prev, dtype=float)[None], p])
     dd = np.diff(q, axis=0)
+    if not (np.abs(dd) >= np.pi).any():     # every correction is 0: the sums stay ``carry``
+        carry = np.asarray(carry, dtype=float) + 0.0     # (+0.0: as numpy's sum of zeros)
+        if p_prev is None:
+            out = p.copy()
+            out[1:] = p[1:] + carry
+            return out, carry
+        return p + carry, carry
     ddmod = np.mod(dd + np.pi, 2 * np.pi) - np.pi
     np.copyto(ddmod, np.pi, where=(ddmod == -np.pi) & (dd > 0))
     ph = ddmod - dd
