@@ -164,8 +164,11 @@ BENCHES = {
                rf"CLI fixed cost \(navigate sins-dr.*: {_NUM} s wall", "s", 0.4),
         Figure("CLI fixed cost (navigate sins, 7 s bundle)",
                rf"CLI fixed cost \(navigate sins,.*: {_NUM} s wall", "s", 0.4),
+        Figure("CLI fixed cost (navigate sins-dr), CPU of the run",
+               rf"CLI fixed cost \(navigate sins-dr.*wall .*, {_NUM} s CPU", "s"),
         Figure("numba floor: import + first cached call, bare interpreter",
                rf"numba floor: {_NUM} s wall", "s"),
+        Figure("numba floor, CPU", rf"numba floor: \S+ s wall, {_NUM} s CPU", "s"),
     ), "issue 13: a CLI run's fixed cost, measured as a real run, and numba's own floor"),
 }
 
