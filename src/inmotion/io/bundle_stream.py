@@ -264,12 +264,12 @@ class _ImuTable(_Times):
                            f"{self.period:.4g}) is outside {lo:g} .. {hi:g} Hz: is t in "
                            "seconds?", file=path)
         B._check_gaps("imu", t, path, max_gap_periods, error=not allow_imu_gaps)
-        self.t_first2 = (float(t[0]), float(t[1]), float(t[-1]))
+        self.t_ends = (float(t[0]), float(t[1]), float(t[-1]))    # first, second, last
         self.path = path
 
     def chunks(self):
         """Yield ``(t, dtheta, dvel)`` chunks, every row checked."""
-        chk = _ImuChecks(self.path, self.period, *self.t_first2)
+        chk = _ImuChecks(self.path, self.period, *self.t_ends)
         for offset, c in self._table.chunks(self.COLUMNS):
             dtheta = np.column_stack([c["dtheta_x"], c["dtheta_y"], c["dtheta_z"]])
             dvel = np.column_stack([c["dvel_x"], c["dvel_y"], c["dvel_z"]])
