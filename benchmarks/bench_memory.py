@@ -33,9 +33,9 @@ from inmotion.io.bundle import write_bundle
 from inmotion.sim import simulate
 from inmotion.sim.scenario import find_scenario, load_scenario
 
-CMD = ["-q", "navigate", None, "--method", "sins-dr", "--init", "truth",
-       "--set", "mode=velocity-position", "--set", "filter_rate_hz=100",
-       "--set", "measurement_rate_hz=10", "--set", "output_rate_hz=1", "-o", None]
+OPTIONS = ["--method", "sins-dr", "--init", "truth", "--set", "mode=velocity-position",
+           "--set", "filter_rate_hz=100", "--set", "measurement_rate_hz=10",
+           "--set", "output_rate_hz=1"]
 
 
 def scenario(hours: int) -> dict:
@@ -48,9 +48,8 @@ def scenario(hours: int) -> dict:
 
 def child_run(bundle: Path, out: Path) -> tuple[float, float, float]:
     """``(peak RSS [MiB], wall [s], CPU [s])`` of one CLI run in a child process."""
-    cmd = [sys.executable, "-m", "inmotion.cli.main"] + [
-        str(bundle) if a is None and i == 3 else str(out) if a is None else a
-        for i, a in enumerate(CMD)]
+    cmd = [sys.executable, "-m", "inmotion.cli.main", "-q", "navigate", str(bundle), *OPTIONS,
+           "-o", str(out)]
     env = dict(os.environ, OPENBLAS_NUM_THREADS="1")
     t0 = time.perf_counter()
     p = subprocess.Popen(cmd, env=env, stdout=subprocess.DEVNULL, stderr=subprocess.PIPE)
