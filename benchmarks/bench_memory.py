@@ -76,7 +76,7 @@ def main():
             sc.write_text(yaml.safe_dump(scenario(hours), sort_keys=False))
             subprocess.run([sys.executable, "-m", "inmotion.cli.main", "-q", "simulate", str(sc),
                             "-o", str(path), "--seed", "0", "--format", "parquet"],
-                           check=True, env=env)
+                           check=True, env=env, stdout=subprocess.DEVNULL)
             size = sum(f.stat().st_size for f in path.iterdir()) / 2 ** 20
             rows = pq.ParquetFile(path / "imu.parquet").metadata.num_rows
             print(f"{hours} h drive: {rows} IMU rows, Parquet bundle {size:.1f} MiB")
