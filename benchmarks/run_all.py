@@ -152,6 +152,24 @@ BENCHES = {
                "s", 1.0),
         Figure("CLI fixed cost (inmotion --help)", rf"CLI fixed cost.*: {_NUM} s wall", "s", 0.4),
     ), "issue 13: 14x KF-GINS at equal work (KF-GINS: 3.5 s CPU per hour of 100 Hz)"),
+    "bench_memory.py": Bench(("--repeat", "2"), 400, (
+        Figure("CLI sins-dr 1 h, Parquet in, 1 Hz out, peak RSS",
+               rf"CLI sins-dr 1 h, .*peak RSS {_NUM} MiB", "MiB"),
+        Figure("CLI sins-dr 4 h, Parquet in, 1 Hz out, peak RSS",
+               rf"CLI sins-dr 4 h, .*peak RSS {_NUM} MiB", "MiB"),
+        Figure("peak RSS 4 h / 1 h", rf"peak RSS 4 h / 1 h: {_NUM}", "", 1.15),
+    ), "issue 13: memory flat in log length, inputs read in chunks"),
+    "bench_startup.py": Bench(("--repeat", "5"), 300, (
+        Figure("CLI fixed cost (navigate sins-dr, 7 s bundle)",
+               rf"CLI fixed cost \(navigate sins-dr.*: {_NUM} s wall", "s", 0.4),
+        Figure("CLI fixed cost (navigate sins, 7 s bundle)",
+               rf"CLI fixed cost \(navigate sins,.*: {_NUM} s wall", "s", 0.4),
+        Figure("CLI fixed cost (navigate sins-dr), CPU of the run",
+               rf"CLI fixed cost \(navigate sins-dr.*wall .*, {_NUM} s CPU", "s"),
+        Figure("numba floor: import + first cached call, bare interpreter",
+               rf"numba floor: {_NUM} s wall", "s"),
+        Figure("numba floor, CPU", rf"numba floor: \S+ s wall, {_NUM} s CPU", "s"),
+    ), "issue 13: a CLI run's fixed cost, measured as a real run, and numba's own floor"),
 }
 
 

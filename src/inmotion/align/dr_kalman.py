@@ -79,12 +79,13 @@ from ..estimation import chi2
 
 from ..core import earth
 from ..core.bundle import Bundle
-from ..core.mechanization import _check_finite, _first_row
+from ..core.mechanization import _check_finite
 from ..core.solution import NavState, Solution
 from ..errors import BadInput
 from ..estimation import error_model as em
 from ..estimation.layout import Layout, position_units
-from ..estimation.velocity_aided import GROUP_SIZES, GROUPS, VelocityAidedRun, dr_gyro_rows
+from ..estimation.velocity_aided import (GROUP_SIZES, GROUPS, VelocityAidedRun, dr_gyro_rows,
+                                         with_dr_gyro)
 
 __all__ = ["DrKfConfig", "OdVelocityKfConfig", "run_dr_kf", "run_od_velocity_kf",
            "LAYOUT_DR_KF", "LAYOUT_OD_KF"]
@@ -286,7 +287,8 @@ def _gates(p):
 
 
 def _engine_filter(bundle: Bundle, cfg, init: NavState, with_dr: bool):
-    """The configured engine and what it runs on: ``(filter, rows, (sensor name, speed))``;
+    """The configured engine and what it runs on: ``(filter, (n_rows, pieces, first_row),
+    (sensor name, speed))`` with the IMU rows after ``init.t`` (:meth:`Bundle.imu_rows_after`);
     ``with_dr``: ``dr-kf`` (25 states, Z1 = SINS minus DR), else ``od-velocity-kf`` (19
     states, SINS minus the sensor's velocity)."""
     if init is None:
@@ -296,14 +298,11 @@ def _engine_filter(bundle: Bundle, cfg, init: NavState, with_dr: bool):
         sensor_name, speed = bundle.velocity_sensor(cfg.velocity_sensor)
     except ValueError as exc:
         raise BadInput(str(exc)) from None
-    imu = bundle.imu
-    k0 = _first_row(imu.t, init.t)
-    if len(imu.t) - k0 < 2:
-        raise BadInput(f"no IMU rows after the start t={init.t:.6g} s", file="imu")
-    rows = slice(k0, len(imu.t))
-    _check_finite(imu.dtheta[rows], imu.t[rows], "dtheta", "imu", row0=k0)
-    _check_finite(imu.dvel[rows], imu.t[rows], "dvel", "imu", row0=k0)
-    imu_dt = float(np.median(np.diff(imu.t)))
+    n_rows, imu_dt, pieces, k0 = bundle.imu_rows_after(init.t)   # whole, or read in chunks
+    if isinstance(pieces, list):         # in memory: check it (a chunked reader checks chunks)
+        for t, dtheta, dvel in pieces:
+            _check_finite(dtheta, t, "dtheta", "imu", row0=k0)
+            _check_finite(dvel, t, "dvel", "imu", row0=k0)
     step = max(1, int(round(1.0 / (cfg.filter_rate_hz * imu_dt))))
     meas_every = max(1, int(round(cfg.filter_rate_hz / cfg.measurement_rate_hz)))
     feedback_every = max(1, int(round(cfg.measurement_rate_hz / cfg.feedback_rate_hz)))
@@ -335,7 +334,7 @@ def _engine_filter(bundle: Bundle, cfg, init: NavState, with_dr: bool):
                         nhc_mount=cfg.nhc_mount_terms, closed_loop=cfg.closed_loop,
                         feedback_every=feedback_every, smooth=cfg.smooth,
                         lever_arm_b=None if lever is None else np.asarray(lever, float))
-    return filt, rows, (sensor_name, speed)
+    return filt, (n_rows, pieces, k0), (sensor_name, speed)
 
 
 def _engine_solution(filt: VelocityAidedRun, out: dict, cfg, method: str, sensor: str,
@@ -387,12 +386,13 @@ def _config(config, cls):
 def _run(bundle, config, init, progress, cls, with_dr, method, dtheta_dr=None):
     cfg = _config(config, cls)
     t0 = time.perf_counter()
-    filt, rows, (sensor, speed) = _engine_filter(bundle, cfg, init, with_dr)
-    imu = bundle.imu
+    filt, (n_rows, pieces, k0), (sensor, speed) = _engine_filter(bundle, cfg, init, with_dr)
     h_baro = (lambda t: _baro_on_epochs(bundle, t)) if filt.use["height"] else None
-    out = filt.run(imu.t[rows], imu.dtheta[rows], imu.dvel[rows], speed, h_baro=h_baro,
-                   dtheta_dr=dr_gyro_rows(imu, dtheta_dr, rows),
-                   sensor=sensor, progress=progress)
+    if dtheta_dr is not None:                # the DR's own gyro (a bundle in memory)
+        pieces = with_dr_gyro(pieces, dr_gyro_rows(bundle.imu, dtheta_dr,
+                                                   slice(k0, k0 + n_rows)))
+    out = filt.run_stream(pieces, n_rows, speed, h_baro=h_baro, sensor=sensor,
+                          progress=progress)
     return _engine_solution(filt, out, cfg, method, sensor, time.perf_counter() - t0)
 
 

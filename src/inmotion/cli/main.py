@@ -179,9 +179,20 @@ def _progress(ctx, desc: str):
         bar.close()
 
 
-def _read_bundle(ctx, path, allow_imu_gaps=False):
-    """Read a bundle, turning gap warnings into notes on stderr."""
-    from ..io.bundle import BundleGapWarning, read_bundle
+#: methods whose run takes its IMU rows in pieces (``Bundle.imu_rows_after``): the command
+#: line opens the bundle for reading in chunks for them (:mod:`inmotion.io.bundle_stream`), so
+#: a run's memory does not grow with the log's length
+STREAMED = ("sins", "dr", "sins-dr", "dr-kf", "od-velocity-kf")
+
+
+def _read_bundle(ctx, path, allow_imu_gaps=False, chunked=False):
+    """Read a bundle (``chunked``: open it for reading in chunks, :func:`open_bundle`),
+    turning gap warnings into notes on stderr."""
+    from ..io.bundle import BundleGapWarning
+    if chunked:
+        from ..io.bundle_stream import open_bundle as read_bundle
+    else:
+        from ..io.bundle import read_bundle
     with warnings.catch_warnings(record=True) as caught:
         warnings.simplefilter("always", BundleGapWarning)
         bundle = read_bundle(path, allow_imu_gaps=allow_imu_gaps)
@@ -635,7 +646,7 @@ def _run_command(ctx, kind, bundle_path, method, config_file, output, init, init
     rate = parse_output_rate(output_rate) if explicit else DEFAULT_OUTPUT_RATE.get(kind)
     err = parse_init_error(init_error) if init_error else None
     check_output_path(output, kind="result")
-    bundle = _read_bundle(ctx, bundle_path, allow_imu_gaps)
+    bundle = _read_bundle(ctx, bundle_path, allow_imu_gaps, chunked=spec.name in STREAMED)
     if init is None:
         init = "truth" if bundle.truth is not None else "meta"
     state, init_desc = _initial_state(ctx, bundle, init, start, spec.needs_attitude)
@@ -651,7 +662,10 @@ def _run_command(ctx, kind, bundle_path, method, config_file, output, init, init
              "init": {"from": init_desc, "error": init_error, "t_s": state.t},
              "window": {"start_s": start, "end_s": end},
              "output_rate_hz": thin_rate}
-    summary = write_result(sol, output, truth=b.truth, summary_extra=extra, fmt=fmt)
+    truth = b.truth
+    if hasattr(truth, "reduced"):        # read in chunks: the rows the output's errors need
+        truth = truth.reduced(sol.t)
+    summary = write_result(sol, output, truth=truth, summary_extra=extra, fmt=fmt)
     _emit(ctx, summary, _run_text(summary, output), as_json)
 
 

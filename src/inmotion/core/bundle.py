@@ -15,7 +15,8 @@ import numpy as np
 
 from . import rotations
 
-__all__ = ["ImuData", "SpeedData", "BaroData", "Truth", "Bundle", "VELOCITY_SENSORS"]
+__all__ = ["ImuData", "SpeedData", "BaroData", "Truth", "Bundle", "VELOCITY_SENSORS",
+           "regroup"]
 
 #: the forward-velocity sensors a bundle may carry, by file name
 VELOCITY_SENSORS = ("radar", "ldv", "odometer")
@@ -118,6 +119,11 @@ class Truth:
     h: np.ndarray
     vel_n: np.ndarray
     euler: np.ndarray
+    #: cumulative 3-D path length [m] at each row, measured along the full-rate table, when
+    #: these rows are a subset of it (a table read in chunks keeps only the rows that the
+    #: errors at the output epochs need: :meth:`inmotion.io.bundle_stream.TruthStream.reduced`);
+    #: None: the rows themselves are the full table
+    path_length_m: Optional[np.ndarray] = None
 
     def __post_init__(self):
         self.t = _as_1d("truth.t", self.t)
@@ -125,6 +131,8 @@ class Truth:
         self.lat, self.lon, self.h = (_as_1d(k, getattr(self, k)) for k in ("lat", "lon", "h"))
         self.vel_n = _as_n3("truth.vel_n", self.vel_n, n)
         self.euler = _as_n3("truth.euler", self.euler, n)
+        if self.path_length_m is not None:
+            self.path_length_m = _as_1d("truth.path_length_m", self.path_length_m)
 
     @property
     def C_nb(self) -> np.ndarray:
@@ -132,7 +140,8 @@ class Truth:
 
     def window(self, start: Optional[float] = None, end: Optional[float] = None) -> "Truth":
         m = _mask(self.t, start, end)
-        return Truth(self.t[m], self.lat[m], self.lon[m], self.h[m], self.vel_n[m], self.euler[m])
+        return Truth(self.t[m], self.lat[m], self.lon[m], self.h[m], self.vel_n[m], self.euler[m],
+                     None if self.path_length_m is None else self.path_length_m[m])
 
     def at(self, t: float) -> dict:
         """The truth row at time ``t`` (the first at or after ``t``, :func:`row_at_or_after`);
@@ -169,6 +178,19 @@ class Bundle:
         raise ValueError(f"bundle {self.name!r} has no velocity sensor"
                          + (f" {which!r}" if which else f" (looked for {', '.join(names)})"))
 
+    def imu_rows_after(self, t0: float, min_rows: int = 2):
+        """``(n_rows, period_s, pieces, first_row)``: the number of IMU rows after ``t0`` [s]
+        (a 1 us tolerance, :func:`inmotion.core.mechanization.start_row`; :class:`BadInput`
+        when fewer than ``min_rows``), the median IMU period [s], the rows as one piece
+        ``[(t, dtheta, dvel)]`` and the index of the first of them in the table. A bundle
+        read in chunks (:class:`inmotion.io.bundle_stream.BundleStream`) answers the same with
+        its rows in pieces as they are read; methods that stream their input take either."""
+        from .mechanization import start_row
+        imu = self.imu
+        k0 = start_row(imu.t, t0, min_rows)
+        return (len(imu.t) - k0, float(np.median(np.diff(imu.t))),
+                [(imu.t[k0:], imu.dtheta[k0:], imu.dvel[k0:])], k0)
+
     def window(self, start: Optional[float] = None, end: Optional[float] = None) -> "Bundle":
         """The same drive cut to ``start <= t <= end`` [s] (None: open)."""
         def cut(x):
@@ -192,3 +214,30 @@ def _mask(t, start, end):
     if end is not None:
         m &= t <= end
     return m
+
+
+def regroup(pieces, size: int):
+    """Consecutive row blocks (tuples of arrays of equal length) regrouped into blocks of
+    exactly ``size`` rows (the last may be shorter). A block inside one piece is a view of
+    it; one that spans pieces is copied together. Memory: one block, whatever the log's
+    length."""
+    held, n_held = [], 0
+    for piece in pieces:
+        n = len(piece[0])
+        a = 0
+        while a < n:
+            take = min(size - n_held, n - a)
+            held.append(tuple(x[a:a + take] for x in piece))
+            n_held += take
+            a += take
+            if n_held == size:
+                yield _join(held)
+                held, n_held = [], 0
+    if n_held:
+        yield _join(held)
+
+
+def _join(parts):
+    if len(parts) == 1:
+        return parts[0]
+    return tuple(np.concatenate([p[i] for p in parts]) for i in range(len(parts[0])))

@@ -43,7 +43,7 @@ from __future__ import annotations
 import numpy as np
 
 from . import _kernels as K
-from .bundle import ImuData, SpeedData
+from .bundle import ImuData, SpeedData, regroup
 from .mechanization import (CHUNK_ROWS, _check_finite, _check_time, _correct, _first_row,
                             _intervals, _KernelStream, _out_buffers, _SolutionBuilder,
                             typical_period)
@@ -244,22 +244,34 @@ def dead_reckon(imu: ImuData, speed: SpeedData, init: NavState, *, C_bm=None,
     -------
     Solution; ``info`` counts the IMU rows with no sensor coverage and inside sensor gaps.
     """
+    k0 = _first_row(imu.t, init.t)
+    return dead_reckon_rows(len(imu.t) - k0, [(imu.t[k0:], imu.dtheta[k0:])], speed, init,
+                            C_bm=C_bm, lever_arm_b=lever_arm_b, scale=scale,
+                            out_stride=out_stride, max_gap=max_gap, first_row=k0)
+
+
+def dead_reckon_rows(n_rows: int, pieces, speed: SpeedData, init: NavState, *, C_bm=None,
+                     lever_arm_b=None, scale: float = 1.0, out_stride: int = 1,
+                     max_gap: float | None = None, first_row: int = 0) -> Solution:
+    """:func:`dead_reckon` on the ``n_rows`` IMU rows after ``init.t`` given in ``pieces``
+    (consecutive ``(t, dtheta, ...)`` blocks of any sizes, e.g. a log read in chunks); they
+    are regrouped into :func:`dead_reckon`'s chunks, so the result does not depend on the
+    pieces. ``first_row``: the index of the first row in the log, for error messages."""
     if int(out_stride) < 1:
         raise BadInput(f"out_stride must be >= 1, got {out_stride}")
-    k0 = _first_row(imu.t, init.t)
     resample = _SpeedOnEpochs(speed, max_gap)
     dr = DeadReckoner(init, C_bm=C_bm, lever_arm_b=lever_arm_b, scale=scale)
-    dr.rows = k0                # error messages give the row of the whole log
-    out = _SolutionBuilder(len(imu.t) - k0, int(out_stride), init.t, dr.x)
+    dr.rows = first_row         # error messages give the row of the whole log
+    out = _SolutionBuilder(n_rows, int(out_stride), init.t, dr.x)
     n_uncovered, n_gap = 0, 0
-    for a in range(k0, len(imu.t), CHUNK_ROWS):        # chunks: temporaries stay small
-        b = min(a + CHUNK_ROWS, len(imu.t))
-        t = imu.t[a:b]
-        t_prev = init.t if a == k0 else imu.t[a - 1]
+    t_prev = init.t
+    for block in regroup(pieces, CHUNK_ROWS):          # chunks: temporaries stay small
+        t, dtheta = block[0], block[1]
         ds, v, uncovered, in_gap = resample(np.concatenate([[t_prev], t]))
         n_uncovered += int(uncovered.sum())
         n_gap += int(in_gap.sum())
-        out.add(*dr.run(imu.dtheta[a:b], t, ds, v, out_stride=int(out_stride)))
-    info = {"method": "dead_reckon", "scale": float(scale), "rows": int(len(imu.t) - k0),
+        out.add(*dr.run(dtheta, t, ds, v, out_stride=int(out_stride)))
+        t_prev = t[-1]
+    info = {"method": "dead_reckon", "scale": float(scale), "rows": int(n_rows),
             "rows_without_speed": n_uncovered, "rows_in_speed_gaps": n_gap}
     return out.solution(info)

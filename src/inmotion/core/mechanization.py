@@ -39,7 +39,7 @@ import numpy as np
 
 from . import _kernels as K
 from . import earth
-from .bundle import BaroData, ImuData
+from .bundle import BaroData, ImuData, regroup
 from .rotations import euler_from_quat, quat_from_rotvec, quat_multiply
 from .solution import NavState, Solution
 from ..errors import BadInput
@@ -268,12 +268,12 @@ def _first_row(t, init_t):
     return int(np.searchsorted(t, init_t + 1e-6, side="left"))
 
 
-def start_row(t, init_t) -> int:
-    """:func:`_first_row` for a filter that needs at least two IMU rows after its start:
-    the index ``k0`` of the first row of ``t`` [s] after ``init_t`` [s]; raises
-    :class:`BadInput` (file ``imu``) when fewer than two rows are left from there."""
+def start_row(t, init_t, min_rows: int = 2) -> int:
+    """:func:`_first_row` for a filter that needs at least ``min_rows`` IMU rows after its
+    start: the index ``k0`` of the first row of ``t`` [s] after ``init_t`` [s]; raises
+    :class:`BadInput` (file ``imu``) when fewer rows are left from there."""
     k0 = _first_row(t, init_t)
-    if len(t) - k0 < 2:
+    if len(t) - k0 < min_rows:
         raise BadInput(f"no IMU rows after the start t={init_t:.6g} s", file="imu")
     return k0
 
@@ -346,27 +346,37 @@ def strapdown(imu: ImuData, init: NavState, baro: BaroData | None = None, *,
     -------
     Solution with ``info`` holding the method name, damping and loop time constant.
     """
+    k0 = _first_row(imu.t, init.t)
+    return strapdown_rows(len(imu.t) - k0, [(imu.t[k0:], imu.dtheta[k0:], imu.dvel[k0:])],
+                          init, baro, damping=damping, out_stride=out_stride,
+                          baro_tau=baro_tau, first_row=k0)
+
+
+def strapdown_rows(n_rows: int, pieces, init: NavState, baro: BaroData | None = None, *,
+                   damping: str = "none", out_stride: int = 1, baro_tau: float = BARO_TAU_S,
+                   first_row: int = 0) -> Solution:
+    """:func:`strapdown` on the ``n_rows`` IMU rows after ``init.t`` given in ``pieces``
+    (consecutive ``(t, dtheta, dvel)`` blocks of any sizes, e.g. a log read in chunks:
+    :meth:`inmotion.core.bundle.Bundle.imu_rows_after`); they are regrouped into the chunks
+    :func:`strapdown` uses, so the result does not depend on the pieces. ``first_row``: the
+    index of the first row in the log, for error messages."""
     if damping not in ("none", "baro"):
         raise BadInput(f"damping must be 'none' or 'baro', got {damping!r}")
     if damping == "baro" and baro is None:
         raise BadInput("damping='baro' needs barometer data (no baro given)")
     if int(out_stride) < 1:
         raise BadInput(f"out_stride must be >= 1, got {out_stride}")
-    k0 = _first_row(imu.t, init.t)
     max_gap = np.inf
     if damping == "baro":
         _check_baro(baro)
         max_gap = 5.0 * typical_period(baro.t)
     nav = Strapdown(init, baro_tau=baro_tau)
-    nav.rows = k0               # error messages give the row of the whole log
-    out = _SolutionBuilder(len(imu.t) - k0, int(out_stride), init.t, nav.x)
-    for a in range(k0, len(imu.t), CHUNK_ROWS):        # chunks: temporaries stay small
-        b = min(a + CHUNK_ROWS, len(imu.t))
-        t = imu.t[a:b]
+    nav.rows = first_row        # error messages give the row of the whole log
+    out = _SolutionBuilder(n_rows, int(out_stride), init.t, nav.x)
+    for t, dtheta, dvel in (b[:3] for b in regroup(pieces, CHUNK_ROWS)):
         h_ref = _baro_on_imu(baro, t, max_gap) if damping == "baro" else None
-        out.add(*nav.run(imu.dtheta[a:b], imu.dvel[a:b], t, h_baro=h_ref,
-                         out_stride=int(out_stride)))
+        out.add(*nav.run(dtheta, dvel, t, h_baro=h_ref, out_stride=int(out_stride)))
     info = {"method": "strapdown", "damping": damping,
             "baro_tau_s": baro_tau if damping == "baro" else None,
-            "rows": int(len(imu.t) - k0)}
+            "rows": int(n_rows)}
     return out.solution(info)

@@ -109,7 +109,12 @@ def _ne_offsets(lat, lon, tr: Truth):
 
 
 def _path_length(truth: Truth, t) -> np.ndarray:
-    """Truth's cumulative 3-D path length [m] at times ``t`` (from ``t[0]``)."""
+    """Truth's cumulative 3-D path length [m] at times ``t`` (from ``t[0]``); a truth whose
+    rows are a subset of the full-rate table carries the length along the full table
+    (``Truth.path_length_m``)."""
+    if truth.path_length_m is not None:
+        s = np.interp(t, truth.t, truth.path_length_m)
+        return s - s[0]
     r_m, r_n = radii(truth.lat[:-1])
     step = np.sqrt((np.diff(truth.lat) * (r_m + truth.h[:-1])) ** 2
                    + (rotations.wrap_pi(np.diff(truth.lon)) * (r_n + truth.h[:-1])

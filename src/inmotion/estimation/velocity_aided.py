@@ -27,7 +27,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from ..core.bundle import SpeedData
+from ..core.bundle import SpeedData, regroup
 from ..core.deadreckoning import speed_on_epochs
 from ..core.solution import NavState
 from ..errors import BadInput
@@ -37,7 +37,7 @@ from .engine import ErrorStateFilter
 from .layout import Layout
 from .smoother import ForwardRecord, smooth_at_outputs
 
-__all__ = ["dr_gyro_rows", "GROUPS", "GROUP_SIZES", "VelocityAidedRun"]
+__all__ = ["dr_gyro_rows", "with_dr_gyro", "GROUPS", "GROUP_SIZES", "VelocityAidedRun", "regroup"]
 
 #: the measurement groups, in the order they are applied within an epoch
 GROUPS = ("attitude", "velocity", "sensor_velocity", "nhc", "position", "height")
@@ -103,6 +103,22 @@ def dr_gyro_rows(imu, dtheta_dr, rows):
         k = int(idx[np.argmax(bad)])
         raise BadInput(f"dtheta_dr: row {k} (t = {imu.t[k]:.3f} s) is not finite")
     return d[idx]
+
+
+def with_dr_gyro(pieces, dtheta_dr_rows):
+    """IMU pieces ``(t, dtheta, dvel)`` with the DR's own gyro rows attached as a fourth
+    column (``dtheta_dr_rows``: one row per row of the pieces, in order); the pieces as they
+    are when it is None."""
+    if dtheta_dr_rows is None:
+        return pieces
+    out, k = [], 0
+    for t, dtheta, dvel in pieces:
+        n = len(t)
+        out.append((t, dtheta, dvel, dtheta_dr_rows[k:k + n]))
+        k += n
+    if k != len(dtheta_dr_rows):
+        raise BadInput(f"dtheta_dr: {len(dtheta_dr_rows)} rows for {k} IMU rows")
+    return out
 
 
 class VelocityAidedRun:
@@ -175,8 +191,21 @@ class VelocityAidedRun:
         dict of arrays ``t`` (M,), ``x_sins`` (M, 10), ``sigma`` (M, n), ``states`` (M, n),
         ``cov_phi`` (M, 3, 3); row 0 is the state before the run, the last the end of it.
         """
-        n_rows = len(t)
-        if n_rows == 0:
+        piece = (t, dtheta, dvel) if dtheta_dr is None else (t, dtheta, dvel, dtheta_dr)
+        return self.run_stream([piece], len(t), speed, h_baro=h_baro, sensor=sensor,
+                               progress=progress)
+
+    def run_stream(self, pieces, n_rows: int, speed: SpeedData, h_baro=None, sensor="speed",
+                   progress=None) -> dict:
+        """:meth:`run` on rows that arrive in pieces (a log read in chunks).
+
+        ``pieces`` yields consecutive blocks ``(t, dtheta, dvel)`` (or with ``dtheta_dr`` as a
+        fourth array) of any sizes, ``n_rows`` rows in all. They are regrouped into the same
+        engine chunks as one whole block would be (:data:`CHUNK_ROWS` rounded to whole filter
+        epochs), so the outputs do not depend on where the pieces are cut. A source that
+        yields other than ``n_rows`` rows is an error.
+        """
+        if n_rows <= 0:
             raise ValueError("VelocityAidedRun.run needs at least one IMU row")
         f = self.filter
         outs = [f.output_now()]
@@ -184,9 +213,13 @@ class VelocityAidedRun:
         chunk = max(1, CHUNK_ROWS // self.step) * self.step
         max_gap = 5.0 * float(np.median(np.diff(speed.t[:GAP_SAMPLES])))
         groups = [g for g in GROUPS if self.use[g]]
-        for a in range(0, n_rows, chunk):
-            b = min(a + chunk, n_rows)
-            tc = t[a:b]
+        a = 0
+        for block in regroup(pieces, chunk):
+            tc, dth, dvl = block[0], block[1], block[2]
+            b = a + len(tc)
+            if b > n_rows:
+                raise RuntimeError(f"the IMU source yields more than the {n_rows} rows it "
+                                   "announced")
             edges = np.concatenate([[f.t], tc])
             ds, v, uncovered, in_gap = _speed_on_chunk(speed, edges, max_gap, sensor)
             self.rows_without_speed += int(uncovered.sum())
@@ -201,13 +234,16 @@ class VelocityAidedRun:
             for g in groups:
                 data = v[rows] if g == "sensor_velocity" else hb if g == "height" else None
                 f.add_measurement(g, t_meas, data)
-            d_dr = None if dtheta_dr is None else dtheta_dr[a:b]
-            outs.append(f.add_imu(tc, dtheta[a:b], dvel[a:b], ds=ds, speed=v,
-                                  dtheta_dr=d_dr, flush=b == n_rows))
+            d_dr = block[3] if len(block) > 3 else None
+            outs.append(f.add_imu(tc, dth, dvl, ds=ds, speed=v, dtheta_dr=d_dr,
+                                  flush=b == n_rows))
             if rec is not None:
                 rec.append(outs[-1].pop("record"))
             if progress is not None:
                 progress(b / n_rows)
+            a = b
+        if a != n_rows:
+            raise RuntimeError(f"the IMU source yielded {a} rows, not the {n_rows} announced")
         if f.epochs % self.out_every:   # the last epoch is written even off the output grid
             outs.append(f.output_now())
         res = {k: np.concatenate([o[k] for o in outs]) for k in outs[0]}

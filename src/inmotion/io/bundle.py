@@ -72,15 +72,18 @@ import math
 import warnings
 from dataclasses import dataclass
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 import numpy as np
-import pandas as pd
 import yaml
 
 from ..core.bundle import (BaroData, Bundle, ImuData, SpeedData, Truth, VELOCITY_SENSORS)
 from ..core.earth import G0, radii
 from ..errors import BadInput
 from .safe_write import atomic_write, refuse_partial, staged_folder
+
+if TYPE_CHECKING:                      # pandas is imported where a table is read or written
+    import pandas as pd
 
 __all__ = ["read_bundle", "write_bundle", "find_gaps", "Gap", "BundleGapWarning", "LIMITS",
            "TABLES", "read_meta", "meta_initial", "atomic_write", "write_csv", "check_bundle",
@@ -104,6 +107,9 @@ LIMITS = {
     "sustained_rate_rad_s": 3.0,        # turn rate averaged over 1 s (170 deg/s)
     "clock_span_ratio": 50.0,           # a table spanning 50x the IMU's time: other units
 }
+
+#: rows per Parquet row group written (:func:`write_bundle`)
+PARQUET_ROW_GROUP = 65536
 
 #: a step longer than this many median sample periods is a gap
 MAX_GAP_PERIODS = 5.0
@@ -275,29 +281,41 @@ def _locate_tables(folder: Path, meta: dict) -> dict:
 
 
 def _read_table(path: Path) -> pd.DataFrame:
+    import pandas as pd
     fmt = SUFFIXES.get(path.suffix)
     try:
         if fmt == "parquet":
             df = pd.read_parquet(path)
         else:
             df = pd.read_csv(path, skipinitialspace=True)
-    except (pd.errors.ParserError, pd.errors.EmptyDataError, ValueError, OSError) as e:
-        msg = str(e).strip().splitlines()[0] if str(e).strip() else type(e).__name__
-        raise BadInput(f"cannot read table: {msg}", file=path) from None
-    except Exception as e:  # pyarrow raises its own exception types on corrupt files
-        raise BadInput(f"cannot read table: {type(e).__name__}: {e}", file=path) from None
+    except Exception as e:
+        raise cannot_read(e, path) from None
     df.columns = [str(c).strip() for c in df.columns]
     if len(df) == 0:
         raise BadInput("table has no data rows", file=path)
     return df
 
 
-def _columns(df: pd.DataFrame, names, path: Path) -> dict:
-    """The named columns as float64 arrays, validated finite and numeric."""
-    missing = [c for c in names if c not in df.columns]
+def cannot_read(e: Exception, path) -> BadInput:
+    """The :class:`BadInput` for a table file that its reader (pandas, pyarrow) refuses."""
+    if isinstance(e, (ValueError, OSError)):      # pandas' parser errors are ValueErrors
+        msg = str(e).strip().splitlines()[0] if str(e).strip() else type(e).__name__
+        return BadInput(f"cannot read table: {msg}", file=path)
+    # pyarrow raises its own exception types on corrupt files
+    return BadInput(f"cannot read table: {type(e).__name__}: {e}", file=path)
+
+
+def missing_columns(has, names, path) -> None:
+    """:class:`BadInput` naming the columns of ``names`` not in ``has``."""
+    missing = [c for c in names if c not in has]
     if missing:
         raise BadInput(f"missing column{'s' if len(missing) > 1 else ''} "
-                       f"{', '.join(missing)} (has: {', '.join(df.columns)})", file=path)
+                       f"{', '.join(missing)} (has: {', '.join(has)})", file=path)
+
+
+def _columns(df: pd.DataFrame, names, path: Path) -> dict:
+    """The named columns as float64 arrays, validated finite and numeric."""
+    missing_columns(list(df.columns), names, path)
     t = _numeric(df, "t", path, None)
     out = {"t": t}
     for c in names:
@@ -307,8 +325,10 @@ def _columns(df: pd.DataFrame, names, path: Path) -> dict:
     return out
 
 
-def _numeric(df, col, path, t):
-    """Column ``col`` as finite float64, or BadInput at the first bad row."""
+def _numeric(df, col, path, t, offset: int = 0):
+    """Column ``col`` as finite float64, or BadInput at the first bad row (``offset``: rows of
+    the table before ``df``'s first, for a table read in chunks)."""
+    import pandas as pd
     s = df[col]
     if pd.api.types.is_datetime64_any_dtype(s) or pd.api.types.is_timedelta64_dtype(s):
         raise BadInput(f"column {col!r} holds {s.dtype} timestamps; write plain numbers in "
@@ -324,7 +344,8 @@ def _numeric(df, col, path, t):
                 or str(raw).strip() == "" else _short(raw, 40))
         kind = "not a finite number" if _is_number(raw) else "not a number"
         tt = None if t is None or not np.isfinite(t[i]) else float(t[i])
-        raise BadInput(f"column {col!r}: value {what} is {kind}", file=path, row=i + 1, time=tt)
+        raise BadInput(f"column {col!r}: value {what} is {kind}", file=path, row=offset + i + 1,
+                       time=tt)
     return x
 
 
@@ -336,13 +357,18 @@ def _is_number(raw):
         return False
 
 
-def _check_increasing(t, path):
+def _check_increasing(t, path, offset: int = 0, t_prev=None):
+    """``t`` strictly increasing; ``t_prev``: the time of the row before ``t[0]`` (a table read
+    in chunks), ``offset``: the rows before ``t[0]``."""
+    if t_prev is not None:
+        t = np.concatenate([[t_prev], t])
+        offset -= 1
     if len(t) > 1:
         bad = np.diff(t) <= 0
         if bad.any():
             i = int(np.argmax(bad)) + 1
             raise BadInput(f"time not strictly increasing (previous row t={t[i - 1]:.9g} s)",
-                           file=path, row=i + 1, time=float(t[i]))
+                           file=path, row=offset + i + 1, time=float(t[i]))
 
 
 def _row_dt(t):
@@ -353,13 +379,13 @@ def _row_dt(t):
     return np.concatenate([[np.median(d)], d])
 
 
-def _check_limit(values, limit, what, unit, path, t):
+def _check_limit(values, limit, what, unit, path, t, offset: int = 0):
     over = ~(np.abs(values) <= limit)
     if over.any():
         i = int(np.argmax(over))
         raise BadInput(f"{what} {values[i]:.6g} {unit} is physically impossible "
-                       f"(limit {limit:.6g} {unit}); check the units", file=path, row=i + 1,
-                       time=float(t[i]))
+                       f"(limit {limit:.6g} {unit}); check the units", file=path,
+                       row=offset + i + 1, time=float(t[i]))
 
 
 def _imu_from(df, path) -> ImuData:
@@ -408,10 +434,16 @@ def _check_sustained_rate(t, dtheta, path) -> None:
     if (rate > limit).any():
         k = i[int(np.argmax(rate > limit))]
         r = float(rate[int(np.argmax(rate > limit))])
-        raise BadInput(f"the turn rate over one second is {r:.4g} rad/s ({np.degrees(r):.4g} "
-                       f"deg/s), beyond any land vehicle (limit {limit:g} rad/s): are dtheta "
-                       "increments in degrees instead of radians?", file=path,
-                       row=int(min(k, len(t) - 1)) + 1, time=float(t[min(k, len(t) - 1)]))
+        raise sustained_rate_error(r, path, int(min(k, len(t) - 1)) + 1,
+                                   float(t[min(k, len(t) - 1)]))
+
+
+def sustained_rate_error(r: float, path, row: int, time: float) -> BadInput:
+    """The :class:`BadInput` of :func:`_check_sustained_rate` (turn rate ``r`` [rad/s])."""
+    limit = LIMITS["sustained_rate_rad_s"]
+    return BadInput(f"the turn rate over one second is {r:.4g} rad/s ({np.degrees(r):.4g} "
+                    f"deg/s), beyond any land vehicle (limit {limit:g} rad/s): are dtheta "
+                    "increments in degrees instead of radians?", file=path, row=row, time=time)
 
 
 def _check_gravity(f, path):
@@ -421,7 +453,11 @@ def _check_gravity(f, path):
     (``dvel`` in g*s gives ~1 m/s^2). A mean below 0.05 g is accepted: a log without
     accelerometers (zeros) can still feed dead reckoning.
     """
-    mean = float(np.mean(f))
+    _check_gravity_mean(float(np.mean(f)), path)
+
+
+def _check_gravity_mean(mean: float, path) -> None:
+    """:func:`_check_gravity` on the mean specific force [m/s^2] (of a table read in chunks)."""
     if 0.05 * G0 < mean < 0.5 * G0 or mean > 2.0 * G0:
         raise BadInput(f"mean specific force |dvel|/dt is {mean:.4g} m/s^2, but a vehicle on "
                        f"Earth feels ~{G0:.2f}: are dvel_x/y/z velocity increments in m/s?",
@@ -429,14 +465,22 @@ def _check_gravity(f, path):
 
 
 def _speed_from(df, path, need_v) -> SpeedData:
+    return speed_data(_columns(df, speed_columns(list(df.columns), path, need_v), path), path)
+
+
+def speed_columns(has, path, need_v) -> tuple:
+    """The columns a velocity-sensor table is read with (``has``: the file's columns)."""
     if need_v:
-        has = ["v"]                       # radar: speed only; a missing 'v' is reported below
-    else:
-        has = [k for k in ("v", "ds") if k in df.columns]
-        if not has:
-            raise BadInput(f"missing column: needs 'ds' or 'v' (has: {', '.join(df.columns)})",
-                           file=path)
-    c = _columns(df, ("t",) + tuple(has), path)
+        return ("t", "v")                 # radar: speed only; a missing 'v' is reported later
+    cols = tuple(k for k in ("v", "ds") if k in has)
+    if not cols:
+        raise BadInput(f"missing column: needs 'ds' or 'v' (has: {', '.join(has)})", file=path)
+    return ("t",) + cols
+
+
+def speed_data(c: dict, path) -> SpeedData:
+    """A velocity sensor's checked columns (numeric, time increasing) -> :class:`SpeedData`,
+    or BadInput at a speed no land vehicle reaches."""
     t = c["t"]
     if "v" in c:
         _check_limit(c["v"], LIMITS["speed_m_s"], "speed v =", "m/s", path, t)
@@ -446,7 +490,12 @@ def _speed_from(df, path, need_v) -> SpeedData:
 
 
 def _baro_from(df, path) -> BaroData:
-    c = _columns(df, ("t", "h"), path)
+    return baro_data(_columns(df, ("t", "h"), path), path)
+
+
+def baro_data(c: dict, path) -> BaroData:
+    """A barometer's checked columns -> :class:`BaroData`, or BadInput at an impossible
+    height."""
     lo, hi = LIMITS["baro_h_m"]
     bad = (c["h"] < lo) | (c["h"] > hi)
     if bad.any():
@@ -457,17 +506,23 @@ def _baro_from(df, path) -> BaroData:
 
 
 def _truth_from(df, path) -> Truth:
-    c = _columns(df, TRUTH_COLUMNS, path)
-    t = c["t"]
-    _check_limit(c["lat"], 90.0, "latitude", "deg", path, t)
-    _check_limit(c["pitch"], 90.0, "pitch", "deg", path, t)
-    vel_n = np.column_stack([c["vE"], c["vN"], c["vU"]])
-    _check_limit(np.linalg.norm(vel_n, axis=1), LIMITS["speed_m_s"], "speed |v| =", "m/s",
-                 path, t)
-    euler = np.radians(np.column_stack([c["pitch"], c["roll"], c["yaw"]]))
-    truth = Truth(t, np.radians(c["lat"]), np.radians(c["lon"]), c["h"], vel_n, euler)
+    truth = truth_rows(_columns(df, TRUTH_COLUMNS, path), path)
     _check_truth_consistency(truth, path)
     return truth
+
+
+def truth_rows(c: dict, path, offset: int = 0) -> Truth:
+    """Truth columns in file units (checked numeric, time increasing) -> :class:`Truth` (SI),
+    or BadInput at a latitude, pitch or speed beyond what a drive can have (``offset``: the
+    rows before these, for a table read in chunks)."""
+    t = c["t"]
+    _check_limit(c["lat"], 90.0, "latitude", "deg", path, t, offset)
+    _check_limit(c["pitch"], 90.0, "pitch", "deg", path, t, offset)
+    vel_n = np.column_stack([c["vE"], c["vN"], c["vU"]])
+    _check_limit(np.linalg.norm(vel_n, axis=1), LIMITS["speed_m_s"], "speed |v| =", "m/s",
+                 path, t, offset)
+    euler = np.radians(np.column_stack([c["pitch"], c["roll"], c["yaw"]]))
+    return Truth(t, np.radians(c["lat"]), np.radians(c["lon"]), c["h"], vel_n, euler)
 
 
 def check_bundle(bundle: Bundle, source) -> None:
@@ -520,12 +575,24 @@ def _check_truth_consistency(truth: Truth, path):
     """
     if len(truth.t) < 3:
         return
+    check_truth_distances(*truth_distances(truth), path)
+
+
+def truth_distances(truth: Truth) -> tuple[float, float]:
+    """``(from_pos, from_vel)`` [m]: the horizontal path length of the truth's positions and
+    the trapezoid integral of its horizontal speed (:func:`_check_truth_consistency`; a table
+    read in chunks adds them up chunk by chunk, each chunk with the row before it)."""
     r_m, r_n = radii(truth.lat[:-1])
     step = np.hypot(np.diff(truth.lat) * (r_m + truth.h[:-1]),
                     np.diff(truth.lon) * (r_n + truth.h[:-1]) * np.cos(truth.lat[:-1]))
-    from_pos = float(np.sum(step))
     speed = np.hypot(truth.vel_n[:, 0], truth.vel_n[:, 1])
-    from_vel = float(np.sum(0.5 * (speed[1:] + speed[:-1]) * np.diff(truth.t)))
+    return (float(np.sum(step)),
+            float(np.sum(0.5 * (speed[1:] + speed[:-1]) * np.diff(truth.t))))
+
+
+def check_truth_distances(from_pos: float, from_vel: float, path) -> None:
+    """Over a drive of more than 100 m the two distances of :func:`truth_distances` agree
+    within a factor of 2, or BadInput (a unit error)."""
     if max(from_pos, from_vel) > 100.0 and not 0.5 < from_pos / max(from_vel, 1e-9) < 2.0:
         raise BadInput(f"positions travel {from_pos:.6g} m but the velocities integrate to "
                        f"{from_vel:.6g} m: are lat/lon in degrees and vE/vN in m/s?", file=path)
@@ -610,6 +677,7 @@ def _check_gaps(table, t, path, max_gap_periods, error):
 
 def _frames(bundle: Bundle) -> dict:
     """``{table: DataFrame}`` in file units (degrees for the truth's angles)."""
+    import pandas as pd
     imu = bundle.imu
     out = {"imu": pd.DataFrame({
         "t": imu.t, "dtheta_x": imu.dtheta[:, 0], "dtheta_y": imu.dtheta[:, 1],
@@ -687,7 +755,9 @@ def _write_table(df, p, fmt):
     if fmt == "csv":
         write_csv(df, p)
     else:
-        df.to_parquet(p, index=False, engine="pyarrow")
+        # row groups of PARQUET_ROW_GROUP rows: a reader in chunks holds one group of the
+        # columns it reads (pyarrow's default, a million rows, is 56 MB of IMU columns)
+        df.to_parquet(p, index=False, engine="pyarrow", row_group_size=PARQUET_ROW_GROUP)
 
 
 def write_csv(df: pd.DataFrame, path) -> None:

@@ -24,8 +24,8 @@ from pydantic import BaseModel, ConfigDict, Field
 
 from ..core import rotations
 from ..core.bundle import Bundle
-from ..core.deadreckoning import dead_reckon
-from ..core.mechanization import strapdown
+from ..core.deadreckoning import dead_reckon_rows
+from ..core.mechanization import strapdown_rows
 from ..core.solution import NavState, Solution
 from ..errors import BadInput
 
@@ -146,8 +146,10 @@ def run_sins(bundle: Bundle, config: SinsConfig, init: NavState,
     if damping == "baro" and bundle.baro is None:
         raise BadInput("height_damping='baro' but the bundle has no barometer (baro table)")
     t0 = time.perf_counter()
-    sol = strapdown(bundle.imu, init, bundle.baro if damping == "baro" else None,
-                    damping=damping, out_stride=config.out_stride, baro_tau=config.baro_tau_s)
+    n, _, pieces, k0 = bundle.imu_rows_after(init.t, min_rows=0)   # whole, or in chunks
+    sol = strapdown_rows(n, pieces, init, bundle.baro if damping == "baro" else None,
+                         damping=damping, out_stride=config.out_stride,
+                         baro_tau=config.baro_tau_s, first_row=k0)
     run_s = time.perf_counter() - t0
     if progress is not None:
         progress(1.0)
@@ -254,9 +256,10 @@ def run_dr(bundle: Bundle, config: DrConfig, init: NavState,
                                                       config.mounting_arcmin, config.lever_arm_m)
     C_bm = None if mount is None else mounting_matrix(np.radians(np.asarray(mount) / 60.0))
     t0 = time.perf_counter()
-    sol = dead_reckon(bundle.imu, speed, init, C_bm=C_bm, lever_arm_b=lever_arm_b,
-                      scale=config.speed_scale, out_stride=config.out_stride,
-                      max_gap=config.max_gap_s)
+    n, _, pieces, k0 = bundle.imu_rows_after(init.t, min_rows=0)   # whole, or in chunks
+    sol = dead_reckon_rows(n, pieces, speed, init, C_bm=C_bm, lever_arm_b=lever_arm_b,
+                           scale=config.speed_scale, out_stride=config.out_stride,
+                           max_gap=config.max_gap_s, first_row=k0)
     run_s = time.perf_counter() - t0
     if progress is not None:
         progress(1.0)

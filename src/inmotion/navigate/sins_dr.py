@@ -84,7 +84,8 @@ from ..core.solution import NavState, Solution
 from ..errors import BadInput
 from ..estimation import error_model as em
 from ..estimation.layout import Layout, position_units
-from ..estimation.velocity_aided import GROUP_SIZES, GROUPS, VelocityAidedRun, dr_gyro_rows
+from ..estimation.velocity_aided import (GROUP_SIZES, GROUPS, VelocityAidedRun, dr_gyro_rows,
+                                         with_dr_gyro)
 from .pure import mounting_matrix, velocity_source
 
 __all__ = ["SinsDrConfig", "run_sins_dr", "LAYOUT_SINS_DR", "MODES", "initial_covariance"]
@@ -275,10 +276,18 @@ def build_filter(bundle: Bundle, cfg: SinsDrConfig, init: NavState):
     """The configured :class:`VelocityAidedRun` and what it runs on: ``(filter, rows, sensor)``
     with ``rows`` the IMU slice after ``init.t`` and ``sensor = (name, SpeedData)``."""
     _check_config(cfg, bundle)
-    name, speed, C_bm, l_b = _sensor(bundle, cfg)
+    sensor = _sensor(bundle, cfg)
     imu = bundle.imu
     k0 = start_row(imu.t, init.t)
-    step, meas_every, out_every = _rates(cfg, float(np.median(np.diff(imu.t))))
+    filt = _make_filter(bundle, cfg, init, sensor, float(np.median(np.diff(imu.t))))
+    return filt, slice(k0, len(imu.t)), sensor[:2]
+
+
+def _make_filter(bundle, cfg: SinsDrConfig, init: NavState, sensor, imu_dt: float):
+    """The configured :class:`VelocityAidedRun` for an IMU of median period ``imu_dt`` [s];
+    ``sensor`` = ``(name, SpeedData, C_bm, lever_arm_b)`` (:func:`_sensor`)."""
+    name, speed, C_bm, l_b = sensor
+    step, meas_every, out_every = _rates(cfg, imu_dt)
     lay = LAYOUT_SINS_DR
     model = em.ErrorModel(lay, process_noise(cfg), dr_sees_gyro_drift=cfg.dr_sees_gyro_drift)
     sensor_dt = float(np.median(np.diff(speed.t)))
@@ -292,11 +301,10 @@ def build_filter(bundle: Bundle, cfg: SinsDrConfig, init: NavState):
                                 cfg.velocity_cross_noise_m_s),
              "height_m": cfg.baro_noise_m,
              "dr_position_m2_s": cfg.speed_noise_m_s ** 2 * sensor_dt}
-    filt = VelocityAidedRun(init, lay, model, initial_covariance(lay, cfg, init.lat, init.h),
-                        use=use, noise=noise, gates=gates, step_rows=step,
-                        meas_every=meas_every, out_every=out_every, C_bm=C_bm,
-                        lever_arm_b=l_b, smooth=cfg.smooth)
-    return filt, slice(k0, len(imu.t)), (name, speed)
+    return VelocityAidedRun(init, lay, model, initial_covariance(lay, cfg, init.lat, init.h),
+                            use=use, noise=noise, gates=gates, step_rows=step,
+                            meas_every=meas_every, out_every=out_every, C_bm=C_bm,
+                            lever_arm_b=l_b, smooth=cfg.smooth)
 
 
 def _baro_source(bundle: Bundle, cfg: SinsDrConfig):
@@ -344,9 +352,10 @@ def run_sins_dr(bundle: Bundle, config: SinsDrConfig | dict | None = None,
 
     Parameters
     ----------
-    bundle : Bundle
+    bundle : Bundle or inmotion.io.bundle_stream.BundleStream
         Needs ``imu`` and a forward-velocity sensor (``radar``, ``ldv`` or ``odometer``);
-        ``baro`` when ``use_baro``.
+        ``baro`` when ``use_baro``. A bundle read in chunks is run as its IMU rows are read
+        (the result is the same: the engine's chunks do not depend on the reading's).
     config : SinsDrConfig or dict (validated; a bad field raises :class:`BadInput`)
     init : NavState
         Start of the SINS and the DR (attitude needed).
@@ -375,9 +384,14 @@ def run_sins_dr(bundle: Bundle, config: SinsDrConfig | dict | None = None,
             raise BadInput(f"{'.'.join(map(str, err['loc'])) or 'config'}: {err['msg']}",
                            file="config") from None
     t0 = time.perf_counter()
-    filt, rows, (name, speed) = build_filter(bundle, cfg, init)
-    imu = bundle.imu
-    out = filt.run(imu.t[rows], imu.dtheta[rows], imu.dvel[rows], speed,
-                   h_baro=_baro_source(bundle, cfg), sensor=name, progress=progress,
-                   dtheta_dr=dr_gyro_rows(imu, dtheta_dr, rows))
+    _check_config(cfg, bundle)
+    sensor = _sensor(bundle, cfg)
+    n_rows, imu_dt, pieces, k0 = bundle.imu_rows_after(init.t)   # whole, or read in chunks
+    filt = _make_filter(bundle, cfg, init, sensor, imu_dt)
+    name, speed = sensor[:2]
+    if dtheta_dr is not None:                # the DR's own gyro (a bundle in memory)
+        pieces = with_dr_gyro(pieces, dr_gyro_rows(bundle.imu, dtheta_dr,
+                                                   slice(k0, k0 + n_rows)))
+    out = filt.run_stream(pieces, n_rows, speed, h_baro=_baro_source(bundle, cfg), sensor=name,
+                          progress=progress)
     return _solution(filt, out, cfg, name, time.perf_counter() - t0)

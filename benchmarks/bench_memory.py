@@ -1,0 +1,98 @@
+"""Memory of a command-line run against the log's length: 1 h against 4 h, Parquet in, 1 Hz out.
+
+Issue 13: "a 4 h log with 1 Hz output peaks within 15 % of a 1 h log" (the inputs are read
+in chunks, :mod:`inmotion.io.bundle_stream`). The 1 h drive is the shipped
+``paper002_hour`` (100 Hz IMU, 10 Hz radar and barometer, truth at 100 Hz), the 4 h drive the
+same segment list driven four times over (the drive ends at rest, so it chains), both
+simulated with seed 0 and written as Parquet bundles (``inmotion simulate`` in a child: this
+process stays small, since a child's ``ru_maxrss`` starts from its parent's resident set).
+Each is run as
+
+    inmotion -q navigate BUNDLE --method sins-dr --init truth --set mode=velocity-position
+        --set filter_rate_hz=100 --set measurement_rate_hz=10 --set output_rate_hz=1 -o OUT
+
+in a child process; its peak resident set size (``ru_maxrss`` of that child, from
+``os.wait4``) and wall time are printed, the smaller of ``--repeat`` runs after a warm-up
+(numba's cache). The output (solution, states and errors at 1 Hz) grows with the log by
+design; everything else should not.
+
+    OPENBLAS_NUM_THREADS=1 .venv/bin/python benchmarks/bench_memory.py [--repeat N]
+"""
+from __future__ import annotations
+
+import argparse
+import os
+import subprocess
+import sys
+import tempfile
+import time
+from pathlib import Path
+
+import pyarrow.parquet as pq
+import yaml
+
+from inmotion.sim.scenario import find_scenario
+
+OPTIONS = ["--method", "sins-dr", "--init", "truth", "--set", "mode=velocity-position",
+           "--set", "filter_rate_hz=100", "--set", "measurement_rate_hz=10",
+           "--set", "output_rate_hz=1"]
+
+
+def scenario(hours: int) -> dict:
+    """``paper002_hour`` with its segment list driven ``hours`` times."""
+    sc = yaml.safe_load(Path(find_scenario("paper002_hour")).read_text())
+    sc["segments"] = sc["segments"] * hours
+    sc["name"] = f"paper002_{hours}h"
+    return sc
+
+
+def child_run(bundle: Path, out: Path) -> tuple[float, float, float]:
+    """``(peak RSS [MiB], wall [s], CPU [s])`` of one CLI run in a child process."""
+    cmd = [sys.executable, "-m", "inmotion.cli.main", "-q", "navigate", str(bundle), *OPTIONS,
+           "-o", str(out)]
+    env = dict(os.environ, OPENBLAS_NUM_THREADS="1")
+    t0 = time.perf_counter()
+    p = subprocess.Popen(cmd, env=env, stdout=subprocess.DEVNULL, stderr=subprocess.PIPE)
+    err = p.stderr.read().decode()                 # (nothing with -q, unless it fails)
+    _, status, usage = os.wait4(p.pid, 0)
+    wall = time.perf_counter() - t0
+    p.stderr.close()
+    if status != 0:
+        raise SystemExit(f"run failed ({status}): {' '.join(cmd)}\n{err}")
+    return usage.ru_maxrss / 1024.0, wall, usage.ru_utime + usage.ru_stime   # maxrss in KiB
+
+
+def main():
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--repeat", type=int, default=2)
+    args = ap.parse_args()
+    peaks = {}
+    env = dict(os.environ, OPENBLAS_NUM_THREADS="1")
+    with tempfile.TemporaryDirectory() as tmp:
+        for hours in (1, 4):
+            # simulated by a child too: a child's ru_maxrss starts from its parent's resident
+            # set at the fork, so this process must stay smaller than the runs it measures
+            sc, path = Path(tmp) / f"h{hours}.yaml", Path(tmp) / f"h{hours}"
+            sc.write_text(yaml.safe_dump(scenario(hours), sort_keys=False))
+            subprocess.run([sys.executable, "-m", "inmotion.cli.main", "-q", "simulate", str(sc),
+                            "-o", str(path), "--seed", "0", "--format", "parquet"],
+                           check=True, env=env, stdout=subprocess.DEVNULL)
+            size = sum(f.stat().st_size for f in path.iterdir()) / 2 ** 20
+            rows = pq.ParquetFile(path / "imu.parquet").metadata.num_rows
+            print(f"{hours} h drive: {rows} IMU rows, Parquet bundle {size:.1f} MiB")
+        child_run(Path(tmp) / "h1", Path(tmp) / "warm")        # warm-up: numba's cache
+        for hours in (1, 4):
+            runs = [child_run(Path(tmp) / f"h{hours}", Path(tmp) / f"out{hours}")
+                    for _ in range(max(1, args.repeat))]
+            peak, wall, cpu = (min(r[i] for r in runs) for i in range(3))
+            peaks[hours] = peak
+            print(f"CLI sins-dr {hours} h, Parquet in, 1 Hz out: peak RSS {peak:.1f} MiB, "
+                  f"wall {wall:.2f} s, CPU {cpu:.2f} s (all peaks "
+                  f"{[round(r[0], 1) for r in runs]})")
+    ratio = peaks[4] / peaks[1]
+    print(f"peak RSS 4 h / 1 h: {ratio:.3f} (target <= 1.15); "
+          f"{(peaks[4] - peaks[1]) / 3:.1f} MiB per extra hour")
+
+
+if __name__ == "__main__":
+    main()

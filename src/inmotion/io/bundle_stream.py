@@ -1,0 +1,534 @@
+"""A bundle folder read in chunks: the command line's run path for methods that stream.
+
+:func:`read_bundle` loads every table whole, so a run's memory grows with the log (about
+70 MiB per hour of a 100 Hz drive with truth). :func:`open_bundle` checks the same things,
+reads the same files and answers the same questions, but holds only what does not grow with
+the log:
+
+* the IMU and truth tables (100 Hz, the bulk of a bundle) stay on disk. Opening reads their
+  time columns once (the median period, the IMU rate, gaps and the clocks need the whole
+  column) and keeps only the span; their rows are read in chunks of :data:`CHUNK_ROWS` when a
+  method runs (:meth:`BundleStream.imu_rows_after`: the pieces a streaming method feeds to its
+  filter) and, for the truth, when the errors are written (:meth:`TruthStream.reduced`: only
+  the rows the errors at the output epochs need);
+* velocity-sensor and barometer tables (10 Hz, two columns: under a megabyte per hour) are
+  read whole, as :func:`read_bundle` reads them, but chunk by chunk with no pandas.
+
+Parquet is read with ``pyarrow`` (``ParquetFile.iter_batches``), CSV with pandas in chunks.
+
+Validation is :func:`read_bundle`'s, made per chunk, with row numbers counted over the whole
+table: a bad value in the third chunk raises one :class:`BadInput` naming the file, the row
+and the time. Checks that need the whole table (median period, gaps, clocks) run when the
+bundle is opened; those that need all rows of a column (the mean specific force, the truth's
+position-velocity agreement) run when the last chunk has been read, before any result is
+written. A file with one fault gives :func:`read_bundle`'s message; with several faults the
+first found in reading order is reported (:func:`read_bundle` checks column by column).
+Rows after ``--end`` are still read and checked.
+
+:class:`BundleStream` has the attributes methods and the command line use of a
+:class:`~inmotion.core.bundle.Bundle` (``meta``, ``name``, ``radar`` ... ``baro``,
+``velocity_sensor``, ``window``, ``imu.t``, ``truth.t``, ``truth.at``); methods that stream
+their input (``sins-dr``, ``dr-kf``, ``od-velocity-kf``) take their rows from
+:meth:`BundleStream.imu_rows_after`, as they take them from
+:meth:`inmotion.core.bundle.Bundle.imu_rows_after` in memory, so both give the same result.
+"""
+from __future__ import annotations
+
+from pathlib import Path
+from typing import Optional
+
+import numpy as np
+
+from ..core import rotations
+from ..core.bundle import VELOCITY_SENSORS, Bundle, Truth, row_at_or_after
+from ..core.earth import radii
+from ..errors import BadInput
+from . import bundle as B
+from .safe_write import refuse_partial
+
+__all__ = ["open_bundle", "BundleStream", "TruthStream", "CHUNK_ROWS"]
+
+#: rows per chunk read from the IMU and truth tables
+CHUNK_ROWS = 65536
+
+
+# --------------------------------------------------------------------------- one table
+
+class _Table:
+    """One table file, read in chunks of rows; every chunk checked as :func:`read_bundle`
+    checks the whole table (numeric, finite, time strictly increasing)."""
+
+    def __init__(self, path: Path, chunk_rows: int):
+        self.path = path
+        self.chunk_rows = max(2, int(chunk_rows))
+        self.parquet = B.SUFFIXES.get(path.suffix) == "parquet"
+        try:
+            if self.parquet:
+                import pyarrow.parquet as pq
+                # a buffered stream of the column chunks, not each chunk whole in memory
+                self._pf = pq.ParquetFile(path, buffer_size=1 << 20, pre_buffer=False)
+                raw = [str(c) for c in self._pf.schema_arrow.names]
+                n = self._pf.metadata.num_rows
+            else:
+                import pandas as pd
+                raw = [str(c) for c in pd.read_csv(path, nrows=0, skipinitialspace=True).columns]
+                n = None
+        except Exception as e:
+            raise B.cannot_read(e, path) from None
+        self.raw = {c.strip(): c for c in raw}
+        self.columns = list(self.raw)
+        self._t = None          # the time column, kept from opening until rows are read
+        if n == 0:
+            raise BadInput("table has no data rows", file=path)
+
+    def _frames(self, names):
+        """Raw chunks ``{name: column}`` (pyarrow arrays or pandas Series)."""
+        try:
+            if self.parquet:
+                for batch in self._pf.iter_batches(batch_size=self.chunk_rows,
+                                                   columns=[self.raw[c] for c in names],
+                                                   use_threads=False):
+                    yield {c: batch.column(i) for i, c in enumerate(names)}
+            else:
+                import pandas as pd
+                for df in pd.read_csv(self.path, skipinitialspace=True,
+                                      chunksize=self.chunk_rows):
+                    df.columns = [str(c).strip() for c in df.columns]
+                    yield {c: df[c] for c in names}
+        except BadInput:
+            raise
+        except Exception as e:
+            raise B.cannot_read(e, self.path) from None
+
+    def chunks(self, names):
+        """Yield ``(offset, {name: float64 array})``: the named columns (``t`` first) of
+        consecutive chunks, ``offset`` rows before each; BadInput at the first bad row."""
+        names = ("t",) + tuple(c for c in names if c != "t")
+        B.missing_columns(self.columns, names, self.path)
+        self._t = None          # reading rows: the time column is not kept meanwhile
+        offset, t_prev = 0, None
+        for frame in self._frames(names):
+            if len(frame["t"]) == 0:
+                continue
+            t = _numeric(frame, "t", self.path, None, offset)
+            out = {"t": t}
+            for c in names[1:]:
+                out[c] = _numeric(frame, c, self.path, t, offset)
+            B._check_increasing(t, self.path, offset, t_prev)
+            yield offset, out
+            offset += len(t)
+            t_prev = t[-1]
+        if offset == 0:
+            raise BadInput("table has no data rows", file=self.path)
+
+    def read(self, names) -> dict:
+        """The named columns whole (a small table)."""
+        parts = [c for _, c in self.chunks(names)]
+        return {k: np.concatenate([p[k] for p in parts]) for k in parts[0]}
+
+    def times(self) -> np.ndarray:
+        """The ``t`` column whole, checked. Kept for the questions asked before a method runs
+        (rate, clocks, window, start); forgotten when rows are read, read again after."""
+        if self._t is not None:
+            return self._t
+        B.missing_columns(self.columns, ("t",), self.path)
+        if not self.parquet:
+            t = self.read(("t",))["t"]
+        else:
+            try:
+                col = self._pf.read(columns=[self.raw["t"]]).column(0).combine_chunks()
+            except Exception as e:
+                raise B.cannot_read(e, self.path) from None
+            t = _numeric({"t": col}, "t", self.path, None, 0)
+            B._check_increasing(t, self.path)
+        self._t = t
+        return t
+
+
+def _numeric(frame, col, path, t, offset):
+    """:func:`inmotion.io.bundle._numeric` on a pyarrow column (numbers straight to numpy;
+    any other type through pandas, for the same message) or a pandas Series."""
+    x = frame[col]
+    if not hasattr(x, "type"):                           # pandas (CSV)
+        return B._numeric(frame, col, path, t, offset)
+    import pyarrow.types as pat
+    if not (pat.is_floating(x.type) or pat.is_integer(x.type)):
+        return B._numeric({col: x.to_pandas()}, col, path, t, offset)
+    raw = x.to_numpy(zero_copy_only=False)               # nulls -> NaN
+    v = raw.astype(float, copy=False)
+    bad = ~np.isfinite(v)
+    if bad.any():
+        i = int(np.argmax(bad))
+        what = "NaN or empty" if np.isnan(raw[i]) else B._short(raw[i], 40)
+        tt = None if t is None or not np.isfinite(t[i]) else float(t[i])
+        raise BadInput(f"column {col!r}: value {what} is not a finite number", file=path,
+                       row=offset + i + 1, time=tt)
+    return v
+
+
+# --------------------------------------------------------------------------- the IMU
+
+class _Times:
+    """What a method or the command line asks of a table's time base: ``.t`` (read from the
+    file on each use, windowed; nothing is kept)."""
+
+    def __init__(self, table: _Table, window):
+        self._table, self._window = table, window
+
+    @property
+    def t(self) -> np.ndarray:
+        return self._span()[0]
+
+    def _span(self):
+        """``(t, w0)``: the windowed times (a view of the whole column) and the index of the
+        first of them in the whole table (``_mask`` of an increasing column is one run)."""
+        t = self._table.times()
+        lo, hi = self._window
+        w0 = 0 if lo is None else int(np.searchsorted(t, lo, side="left"))
+        w1 = len(t) if hi is None else int(np.searchsorted(t, hi, side="right"))
+        return t[w0:max(w0, w1)], w0
+
+
+class _ImuChecks:
+    """:func:`inmotion.io.bundle.check_imu`'s per-row checks made chunk by chunk: angular
+    rate and specific force limits, the turn rate over every second (a window of one second
+    carried across chunks, the cumulative sums carried exactly), the mean specific force at
+    the end."""
+
+    def __init__(self, path, period: float, t0: float, t1: float, t_last: float):
+        self.path, self.period = path, period
+        self.t_prev = None
+        self.f_sum, self.rows = 0.0, 0
+        self.sustained = t_last - t0 >= 1.0          # as _check_sustained_rate
+        self.tt = np.array([t0 - (t1 - t0)])         # its time and cumulative-angle rows,
+        self.c = np.zeros((1, 3))                    # from the first not yet checked
+        self.g0 = 0                                  # its index in the whole table's
+
+    def add(self, offset, t, dtheta, dvel):
+        if self.t_prev is None:                      # _row_dt: row 0 takes the median period
+            d = np.concatenate([[self.period], np.diff(t)])
+        else:
+            d = np.diff(t, prepend=self.t_prev)
+        B._check_limit(np.linalg.norm(dtheta, axis=1) / d, B.LIMITS["gyro_rate_rad_s"],
+                       "angular rate |dtheta|/dt =", "rad/s", self.path, t, offset)
+        f = np.linalg.norm(dvel, axis=1) / d
+        B._check_limit(f, B.LIMITS["specific_force_m_s2"], "specific force |dvel|/dt =",
+                       "m/s^2", self.path, t, offset)
+        self.f_sum += float(np.sum(f))
+        self.rows += len(t)
+        self.t_prev = t[-1]
+        if self.sustained:
+            self._sustained(t, dtheta)
+
+    def _sustained(self, t, dtheta):
+        c_new = np.cumsum(np.vstack([self.c[-1:], dtheta]), axis=0)[1:]
+        self.tt = np.concatenate([self.tt, t])
+        self.c = np.vstack([self.c, c_new])
+        tt, c = self.tt, self.c
+        j = np.searchsorted(tt, tt + 1.0)
+        done = int(np.searchsorted(j, len(tt)))          # j is non-decreasing
+        if done:
+            i = np.arange(done)
+            rate = np.linalg.norm(c[j[i]] - c[i], axis=1) / (tt[j[i]] - tt[i])
+            over = rate > B.LIMITS["sustained_rate_rad_s"]
+            if over.any():
+                k = int(np.argmax(over))
+                # _check_sustained_rate's row and time: t row min(k, n - 1) = tt row k + 1
+                raise B.sustained_rate_error(float(rate[k]), self.path, self.g0 + k + 1,
+                                             float(tt[k + 1]))
+            self.tt, self.c = tt[done:], c[done:]
+            self.g0 += done
+
+    def finish(self):
+        if self.rows:
+            B._check_gravity_mean(self.f_sum / self.rows, self.path)
+
+
+class _ImuTable(_Times):
+    """The IMU table: opened (time column checked whole), its rows read in chunks."""
+
+    COLUMNS = B.IMU_COLUMNS
+
+    def __init__(self, table: _Table, max_gap_periods: float, allow_imu_gaps: bool):
+        super().__init__(table, (None, None))
+        path = table.path
+        B.missing_columns(table.columns, self.COLUMNS, path)
+        t = table.times()
+        if len(t) < 2:
+            raise BadInput(f"the IMU table has {len(t)} row; it needs at least 2 (one interval)",
+                           file=path, row=1, time=float(t[0]))
+        self.period = float(np.median(np.diff(t)))
+        lo, hi = B.LIMITS["imu_rate_hz"]
+        if not lo <= 1.0 / self.period <= hi:
+            raise BadInput(f"IMU rate {1.0 / self.period:.4g} Hz (median step "
+                           f"{self.period:.4g}) is outside {lo:g} .. {hi:g} Hz: is t in "
+                           "seconds?", file=path)
+        B._check_gaps("imu", t, path, max_gap_periods, error=not allow_imu_gaps)
+        self.t_ends = (float(t[0]), float(t[1]), float(t[-1]))    # first, second, last
+        self.path = path
+
+    def chunks(self):
+        """Yield ``(t, dtheta, dvel)`` chunks, every row checked."""
+        chk = _ImuChecks(self.path, self.period, *self.t_ends)
+        for offset, c in self._table.chunks(self.COLUMNS):
+            dtheta = np.column_stack([c["dtheta_x"], c["dtheta_y"], c["dtheta_z"]])
+            dvel = np.column_stack([c["dvel_x"], c["dvel_y"], c["dvel_z"]])
+            chk.add(offset, c["t"], dtheta, dvel)
+            yield c["t"], dtheta, dvel
+        chk.finish()
+
+
+# --------------------------------------------------------------------------- the truth
+
+class TruthStream(_Times):
+    """The truth table of a bundle read in chunks: ``.t`` and ``.at(t)`` (the start of a
+    method, ``--init truth``) as :class:`~inmotion.core.bundle.Truth` has them, and
+    :meth:`reduced` for the errors of a result."""
+
+    def __init__(self, table: _Table, max_gap_periods: float, window=(None, None)):
+        super().__init__(table, window)
+        B.missing_columns(table.columns, B.TRUTH_COLUMNS, table.path)
+        self.path = table.path
+        if window == (None, None):
+            B._check_gaps("truth", table.times(), table.path, max_gap_periods, error=False)
+
+    def window(self, start, end) -> "TruthStream":
+        new = TruthStream.__new__(TruthStream)
+        new.__dict__.update(self.__dict__)
+        new._window = _intersect(self._window, (start, end))
+        return new
+
+    def _rows(self):
+        """Yield ``(offset, Truth)`` chunks of the whole table, every row checked; at the end
+        the check of positions against velocities over the whole table."""
+        from_pos = from_vel = 0.0
+        prev = None
+        n = 0
+        for offset, c in self._table.chunks(B.TRUTH_COLUMNS):
+            tr = B.truth_rows(c, self.path, offset)
+            both = tr if prev is None else _cat(prev, tr)
+            if len(both.t) > 1:
+                p, v = B.truth_distances(both)
+                from_pos, from_vel = from_pos + p, from_vel + v
+            prev = _take(tr, slice(-1, None))
+            n += len(tr.t)
+            yield offset, tr
+        if n >= 3:
+            B.check_truth_distances(from_pos, from_vel, self.path)
+
+    def at(self, t: float) -> dict:
+        """The row at or after ``t`` [s] (:meth:`Truth.at`), read up to there."""
+        times = self.t
+        t_row = times[int(row_at_or_after(times, t))]
+        del times
+        for offset, c in self._table.chunks(B.TRUTH_COLUMNS):
+            if c["t"][-1] >= t_row:
+                return B.truth_rows(c, self.path, offset).at(t_row)
+        raise RuntimeError("truth row not found")     # the time column says it is there
+
+    def reduced(self, t_out) -> Truth:
+        """The rows of the (windowed) truth that the errors at the times ``t_out`` [s] need,
+        with the path length along all of them.
+
+        For every output time the two rows around it (those :func:`numpy.interp` takes in
+        :func:`inmotion.core.metrics.interpolate_truth`), the first and the last row; Euler
+        angles and longitude unwrapped along all rows as :func:`numpy.unwrap` does on the
+        whole table (the same floating-point operations, carried across chunks), and
+        ``path_length_m`` summed along all rows as :func:`inmotion.core.metrics._path_length`
+        sums it. The errors computed from these rows equal those from the whole table
+        exactly when consecutive kept rows are less than 180 deg apart in every angle
+        (output rows a second apart); otherwise up to rounding. Every row of the table is
+        read and checked."""
+        times, w0 = self._span()
+        if len(times) == 0:
+            return Truth(times, times, times, times, np.zeros((0, 3)), np.zeros((0, 3)))
+        j = np.clip(np.searchsorted(times, np.asarray(t_out, dtype=float), side="right") - 1,
+                    0, len(times) - 1)
+        keep = np.unique(np.concatenate([[0, len(times) - 1], j,
+                                         np.minimum(j + 1, len(times) - 1)])) + w0
+        w1 = w0 + len(times)
+        del times, j
+        parts = []
+        prev, carry_e, carry_l, carry_s = None, np.zeros(3), 0.0, 0.0
+        for offset, tr in self._rows():
+            a, b = max(w0, offset), min(w1, offset + len(tr.t))
+            if a >= b:
+                continue
+            tr = _take(tr, slice(a - offset, b - offset))
+            euler, carry_e = _unwrap_carry(tr.euler, None if prev is None else prev.euler[-1],
+                                           carry_e)
+            lon, carry_l = _unwrap_carry(tr.lon, None if prev is None else prev.lon[-1],
+                                         carry_l)
+            s, carry_s = _path_carry(tr, prev, carry_s)
+            k = keep[(keep >= a) & (keep < b)] - a
+            parts.append(Truth(tr.t[k], tr.lat[k], lon[k], tr.h[k], tr.vel_n[k], euler[k], s[k]))
+            prev = _take(tr, slice(-1, None))
+        return Truth(*(np.concatenate([getattr(p, f) for p in parts])
+                       for f in ("t", "lat", "lon", "h", "vel_n", "euler", "path_length_m")))
+
+
+def _take(tr: Truth, s) -> Truth:
+    return Truth(tr.t[s], tr.lat[s], tr.lon[s], tr.h[s], tr.vel_n[s], tr.euler[s])
+
+
+def _cat(a: Truth, b: Truth) -> Truth:
+    return Truth(*(np.concatenate([getattr(a, f), getattr(b, f)])
+                   for f in ("t", "lat", "lon", "h", "vel_n", "euler")))
+
+
+def _unwrap_carry(p, p_prev, carry):
+    """:func:`numpy.unwrap` (period 2 pi) of a chunk ``p`` of a longer series: ``p_prev`` is
+    the raw value before it (None: the series starts here), ``carry`` the running sum of the
+    corrections; returns the unwrapped chunk and the new carry. numpy's own steps (NumPy 2
+    ``unwrap``), so the result is bit for bit that of the whole series."""
+    p = np.asarray(p, dtype=float)
+    q = p if p_prev is None else np.concatenate([np.asarray(p_prev, dtype=float)[None], p])
+    dd = np.diff(q, axis=0)
+    if not (np.abs(dd) >= np.pi).any():     # every correction is 0: the sums stay ``carry``
+        carry = np.asarray(carry, dtype=float) + 0.0     # (+0.0: as numpy's sum of zeros)
+        if p_prev is None:
+            out = p.copy()
+            out[1:] = p[1:] + carry
+            return out, carry
+        return p + carry, carry
+    ddmod = np.mod(dd + np.pi, 2 * np.pi) - np.pi
+    np.copyto(ddmod, np.pi, where=(ddmod == -np.pi) & (dd > 0))
+    ph = ddmod - dd
+    np.copyto(ph, 0, where=np.abs(dd) < np.pi)
+    if p_prev is None:                      # the series' first value stays as it is
+        cum = np.cumsum(np.concatenate([np.asarray(carry, dtype=float)[None], ph]), axis=0)
+        out = p.copy()
+        out[1:] = p[1:] + cum[1:]
+        return out, cum[-1]
+    cum = np.cumsum(np.concatenate([np.asarray(carry, dtype=float)[None], ph]), axis=0)[1:]
+    return p + cum, cum[-1]
+
+
+def _path_carry(tr: Truth, prev: Optional[Truth], carry: float):
+    """:func:`inmotion.core.metrics._path_length`'s cumulative length at every row of a chunk
+    (``prev``: the row before it, None at the start), carried across chunks."""
+    both = tr if prev is None else _cat(prev, tr)
+    r_m, r_n = radii(both.lat[:-1])
+    step = np.sqrt((np.diff(both.lat) * (r_m + both.h[:-1])) ** 2
+                   + (rotations.wrap_pi(np.diff(both.lon)) * (r_n + both.h[:-1])
+                      * np.cos(both.lat[:-1])) ** 2
+                   + np.diff(both.h) ** 2)
+    cum = np.cumsum(np.concatenate([[carry], step]))
+    s = cum if prev is None else cum[1:]
+    return s, float(cum[-1])
+
+
+def _intersect(w, v):
+    lo = [x for x in (w[0], v[0]) if x is not None]
+    hi = [x for x in (w[1], v[1]) if x is not None]
+    return (max(lo) if lo else None, min(hi) if hi else None)
+
+
+# --------------------------------------------------------------------------- the bundle
+
+class BundleStream:
+    """A bundle folder opened for reading in chunks (:func:`open_bundle`); see the module
+    notes. ``radar``, ``ldv``, ``odometer``, ``baro`` are in memory (windowed);
+    ``imu.t`` and ``truth.t`` are read from the files when asked."""
+
+    name = Bundle.name
+    velocity_sensor = Bundle.velocity_sensor
+
+    def __init__(self, folder: Path, meta: dict, imu: _ImuTable, speeds: dict, baro,
+                 truth: Optional[TruthStream], window=(None, None)):
+        self.folder, self.meta = folder, meta
+        self._imu = imu
+        for s in VELOCITY_SENSORS:
+            setattr(self, s, speeds.get(s))
+        self.baro = baro
+        self.truth = truth
+        self._window = window
+
+    @property
+    def imu(self) -> _Times:
+        return _Times(self._imu._table, self._window)
+
+    def window(self, start=None, end=None) -> "BundleStream":
+        """The same drive cut to ``start <= t <= end`` [s], as :meth:`Bundle.window`."""
+        def cut(x):                 # (no window: the same arrays, not copies)
+            return x if x is None or (start, end) == (None, None) else x.window(start, end)
+        return BundleStream(self.folder, dict(self.meta), self._imu,
+                            {s: cut(getattr(self, s)) for s in VELOCITY_SENSORS},
+                            cut(self.baro), cut(self.truth), _intersect(self._window,
+                                                                        (start, end)))
+
+    def imu_rows_after(self, t0: float, min_rows: int = 2):
+        """``(n_rows, period_s, pieces, first_row)`` as :meth:`Bundle.imu_rows_after`, the
+        pieces read from the file as they are asked for (every row of the table is read and
+        checked, also those outside the window)."""
+        from ..core.mechanization import start_row
+        t, w0 = _Times(self._imu._table, self._window)._span()
+        k0 = start_row(t, t0, min_rows)
+        whole = self._window == (None, None)         # the median period is known then
+        period = self._imu.period if whole else float(np.median(np.diff(t)))
+        n = len(t) - k0
+        lo, hi = (t[k0], t[-1]) if n else (np.inf, -np.inf)
+        del t
+
+        def pieces():
+            for t, dtheta, dvel in self._imu.chunks():
+                a, b = np.searchsorted(t, lo), np.searchsorted(t, hi, side="right")
+                if a < b:
+                    yield t[a:b], dtheta[a:b], dvel[a:b]
+        return n, period, pieces(), w0 + k0
+
+
+def open_bundle(path, *, max_gap_periods: float = B.MAX_GAP_PERIODS,
+                allow_imu_gaps: bool = False, chunk_rows: Optional[int] = None) -> BundleStream:
+    """Open a bundle folder for reading in chunks (see the module notes).
+
+    Parameters
+    ----------
+    path : str or Path
+        The bundle folder.
+    max_gap_periods, allow_imu_gaps
+        As :func:`inmotion.io.bundle.read_bundle`.
+    chunk_rows : int, optional
+        Rows per chunk read (default :data:`CHUNK_ROWS`).
+
+    Returns
+    -------
+    BundleStream
+
+    Raises
+    ------
+    BadInput
+        As :func:`read_bundle`, for what can be checked before the rows are read; the rest
+        when the rows are read.
+    """
+    folder = Path(path)
+    if not folder.exists():
+        raise BadInput("bundle folder does not exist", file=folder)
+    if not folder.is_dir():
+        raise BadInput("a bundle must be a folder", file=folder)
+    refuse_partial(folder, "bundle")
+    chunk_rows = CHUNK_ROWS if chunk_rows is None else int(chunk_rows)
+    meta = B.read_meta(folder)
+    files = B._locate_tables(folder, meta)
+    if "imu" not in files:
+        raise BadInput("missing IMU table (imu.csv or imu.parquet)", file=folder)
+    imu = _ImuTable(_Table(files["imu"], chunk_rows), max_gap_periods, allow_imu_gaps)
+    speeds = {}
+    for name in VELOCITY_SENSORS:
+        if name in files:
+            tb = _Table(files[name], chunk_rows)
+            cols = B.speed_columns(tb.columns, tb.path, need_v=(name == "radar"))
+            speeds[name] = B.speed_data(tb.read(cols), tb.path)
+            B._check_gaps(name, speeds[name].t, tb.path, max_gap_periods, error=False)
+    baro = truth = None
+    if "baro" in files:
+        tb = _Table(files["baro"], chunk_rows)
+        baro = B.baro_data(tb.read(("t", "h")), tb.path)
+        B._check_gaps("baro", baro.t, tb.path, max_gap_periods, error=False)
+    if "truth" in files:
+        truth = TruthStream(_Table(files["truth"], chunk_rows), max_gap_periods)
+    if truth is None:
+        B._check_initial_position(meta, folder / "meta.yaml")
+    stream = BundleStream(folder, meta, imu, speeds, baro, truth)
+    B.check_clocks(stream, files)
+    return stream

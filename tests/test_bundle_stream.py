@@ -1,0 +1,264 @@
+"""A bundle read in chunks (inmotion.io.bundle_stream) gives what the whole bundle gives.
+
+The reference is always the other reader: :func:`read_bundle` loads the tables whole and the
+methods run on the arrays as before; the chunked reader must give the same solution bit for
+bit, wherever the chunks are cut (inside a filter interval too), the same errors against
+truth from the few truth rows it keeps, and the same message, with the row counted over the
+whole table, for a bad row in a later chunk.
+"""
+from __future__ import annotations
+
+import numpy as np
+import pandas as pd
+import pytest
+from click.testing import CliRunner
+
+from inmotion.cli.main import cli
+from inmotion.core.bundle import regroup
+from inmotion.core.metrics import error_series
+from inmotion.core.solution import NavState, Solution
+from inmotion.errors import BadInput
+from inmotion.io import bundle_stream
+from inmotion.io.bundle import read_bundle, write_bundle
+from inmotion.io.bundle_stream import _unwrap_carry, open_bundle
+from inmotion.navigate.sins_dr import run_sins_dr
+from inmotion.sim import simulate
+from inmotion.sim.scenario import load_scenario
+
+#: 70 s through a right turn across north (yaw 340 -> 40 deg: the unwrap is exercised)
+DRIVE = {
+    "name": "across_north",
+    "start": {"lat_deg": 34.2, "lon_deg": 108.9, "h_m": 380, "heading_deg": 340},
+    "segments": [{"kind": "rest", "duration_s": 5},
+                 {"kind": "accelerate", "to_speed_m_s": 10.0, "accel_m_s2": 1.0},
+                 {"kind": "cruise", "duration_s": 15},
+                 {"kind": "turn", "angle_deg": 60, "rate_deg_s": 6},
+                 {"kind": "climb", "pitch_deg": 2, "duration_s": 15},
+                 {"kind": "cruise", "duration_s": 15.5}],
+    "imu": {"rate_hz": 100.0, "gyro": {"drift_deg_h": 0.01, "arw_deg_sqrt_h": 0.003},
+            "accel": {"bias_ug": 100, "vrw_ug_sqrt_hz": 10}},
+    "sensors": {"radar": {"rate_hz": 10.0, "noise_m_s": 0.1},
+                "baro": {"rate_hz": 10.0, "noise_m": 0.5}}}
+
+
+@pytest.fixture(scope="module")
+def drive():
+    return simulate(load_scenario(DRIVE), np.random.default_rng(3))
+
+
+@pytest.fixture(scope="module", params=["parquet", "csv"])
+def folder(request, drive, tmp_path_factory):
+    p = tmp_path_factory.mktemp(f"b_{request.param}") / "bundle"
+    write_bundle(drive, p, fmt=request.param)
+    return p
+
+
+def _same_solution(a, b):
+    for k in ("t", "lat", "lon", "h", "vel_n", "euler"):
+        np.testing.assert_array_equal(getattr(a, k), getattr(b, k), err_msg=k)
+    assert a.sigma.keys() == b.sigma.keys() and a.states.keys() == b.states.keys()
+    for k in a.sigma:
+        np.testing.assert_array_equal(a.sigma[k], b.sigma[k], err_msg=k)
+    for k in a.states:
+        np.testing.assert_array_equal(a.states[k], b.states[k], err_msg=k)
+
+
+@pytest.mark.parametrize("tiny, cfg", [(False, {"mode": "velocity-position",
+                                                 "output_rate_hz": 1.0}),
+                                        (True, {"mode": "attitude-position", "use_baro": True})])
+def test_sins_dr_in_chunks_equals_whole(folder, tiny, cfg):
+    """997 rows per chunk, or 3 (Parquet; 101 for CSV, whose reader pays per chunk), cut the
+    10-row filter epochs anywhere; the engine's chunks are the same, so the solution is
+    bit-identical to the whole-table run."""
+    whole = read_bundle(folder)
+    chunk_rows = (3 if folder.joinpath("imu.parquet").exists() else 101) if tiny else 997
+    stream = open_bundle(folder, chunk_rows=chunk_rows)
+    i1, i2 = NavState.from_truth(whole.truth), NavState.from_truth(stream.truth)
+    assert i1.t == i2.t and np.array_equal(i1.q_nb, i2.q_nb)
+    _same_solution(run_sins_dr(whole, cfg, i1), run_sins_dr(stream, cfg, i2))
+
+
+def test_window_and_align_methods_in_chunks(folder):
+    """A window (--start/--end) and the dr-kf / od-velocity-kf alignment give the same."""
+    from inmotion.align.dr_kalman import run_dr_kf, run_od_velocity_kf
+    whole = read_bundle(folder).window(12.0, 50.0)
+    stream = open_bundle(folder, chunk_rows=512).window(12.0, 50.0)
+    np.testing.assert_array_equal(whole.imu.t, stream.imu.t)
+    init = NavState.from_truth(whole.truth)
+    for run in (run_dr_kf, run_od_velocity_kf):
+        _same_solution(run(whole, {}, init), run(stream, {}, init))
+
+
+@pytest.mark.parametrize("method", ["sins", "dr"])
+def test_pure_navigation_in_chunks_equals_whole(folder, method):
+    """``navigate sins`` (baro-damped) and ``dr`` from chunks of 613 rows, whole and windowed."""
+    from inmotion.navigate.pure import DrConfig, SinsConfig, run_dr, run_sins
+    run, cfg = (run_sins, SinsConfig()) if method == "sins" else (run_dr, DrConfig())
+    for window in ((None, None), (7.5, 61.0)):
+        whole = read_bundle(folder).window(*window)
+        stream = open_bundle(folder, chunk_rows=613).window(*window)
+        init = NavState.from_truth(whole.truth)
+        _same_solution(run(whole, cfg, init), run(stream, cfg, init))
+
+
+@pytest.mark.parametrize("shift_s", [0.0, 0.004])
+def test_errors_from_the_kept_truth_rows_equal(drive, tmp_path, shift_s):
+    """The errors at 1 Hz from the truth rows kept (two around each output time, path length
+    carried along every row) equal those from the whole truth table, across the yaw wrap;
+    with the truth's clock shifted by 4 ms every output time falls between two truth rows."""
+    from dataclasses import replace
+    shifted = replace(drive, truth=replace(drive.truth, t=drive.truth.t + shift_s))
+    folder = tmp_path / "b"
+    write_bundle(shifted, folder, fmt="parquet")
+    whole = read_bundle(folder)
+    stream = open_bundle(folder, chunk_rows=700)
+    sol = run_sins_dr(whole, {"output_rate_hz": 1.0}, NavState.from_truth(whole.truth))
+    kept = stream.truth.reduced(sol.t)
+    assert len(kept.t) < len(whole.truth.t) / 20
+    assert np.ptp(np.degrees(drive.truth.euler[:, 2])) > 300      # yaw did cross north
+    pd.testing.assert_frame_equal(error_series(sol, whole.truth), error_series(sol, kept),
+                                  check_exact=True)
+    k = (sol.t >= 20) & (sol.t <= 60)                  # a window (--start / --end)
+    part = Solution(sol.t[k], sol.lat[k], sol.lon[k], sol.h[k], sol.vel_n[k], sol.euler[k])
+    w = stream.window(20.0, 60.0).truth.reduced(part.t)
+    assert w.t[0] >= 20.0 and w.t[-1] <= 60.0
+    pd.testing.assert_frame_equal(error_series(part, whole.window(20.0, 60.0).truth),
+                                  error_series(part, w), check_exact=True)
+
+
+def test_unwrap_carried_across_chunks_is_numpys():
+    rng = np.random.default_rng(1)
+    p = np.mod(np.cumsum(rng.normal(0, 1.3, (5000, 3)), axis=0), 2 * np.pi) - np.pi
+    ref = np.unwrap(p, axis=0)
+    cuts = np.sort(rng.choice(np.arange(1, 5000), 40, replace=False))
+    out, carry, prev = [], np.zeros(3), None
+    for a, b in zip(np.r_[0, cuts], np.r_[cuts, 5000]):
+        u, carry = _unwrap_carry(p[a:b], prev, carry)
+        out.append(u)
+        prev = p[b - 1]
+    np.testing.assert_array_equal(np.concatenate(out), ref)
+
+
+def test_regroup_gives_the_whole_tables_blocks():
+    rng = np.random.default_rng(2)
+    x = rng.normal(size=(1000, 3))
+    t = np.arange(1000.0)
+    cuts = np.r_[0, np.sort(rng.choice(np.arange(1, 1000), 25, replace=False)), 1000]
+    pieces = [(t[a:b], x[a:b]) for a, b in zip(cuts[:-1], cuts[1:])]
+    blocks = list(regroup(iter(pieces), 96))
+    assert [len(b[0]) for b in blocks] == [96] * 10 + [40]
+    for k, (tb, xb) in enumerate(blocks):
+        np.testing.assert_array_equal(tb, t[96 * k:96 * (k + 1)])
+        np.testing.assert_array_equal(xb, x[96 * k:96 * (k + 1)])
+
+
+def _spoil(folder, table, fmt, edit):
+    """Rewrite ``table`` of the bundle with ``edit(DataFrame)`` applied."""
+    p = folder / f"{table}.{fmt}"
+    df = pd.read_parquet(p) if fmt == "parquet" else pd.read_csv(p)
+    df = edit(df)
+    if fmt == "parquet":
+        df.to_parquet(p, index=False, row_group_size=1500)
+    else:
+        df.to_csv(p, index=False)
+
+
+def _message(fn):
+    with pytest.raises(BadInput) as e:
+        fn()
+    return str(e.value)
+
+
+def _stream_run(folder, chunk_rows=1000):
+    s = open_bundle(folder, chunk_rows=chunk_rows)
+    run_sins_dr(s, {}, NavState.from_truth(s.truth))
+
+
+@pytest.mark.parametrize("fmt", ["parquet", "csv"])
+@pytest.mark.parametrize("bad", ["nan", "text", "rate", "degrees", "g_units", "backwards"])
+def test_a_bad_row_in_chunk_3_is_named(drive, tmp_path, fmt, bad):
+    """Row 2500 is in the third chunk of 1000 rows: the chunked reader names the same file,
+    row (counted over the whole table) and time as read_bundle, which reads it whole."""
+    folder = tmp_path / "b"
+    write_bundle(drive, folder, fmt=fmt)
+    row = 2500                                     # 1-based data row
+    if bad == "text" and fmt == "parquet":
+        pytest.skip("a Parquet float column holds no text")
+
+    def edit(df):
+        if bad == "nan":
+            df.loc[row - 1, "dtheta_y"] = np.nan
+        elif bad == "text":
+            df["dvel_z"] = df["dvel_z"].astype(object)
+            df.loc[row - 1, "dvel_z"] = "abc"
+        elif bad == "rate":
+            df.loc[row - 1, "dtheta_z"] = 1.0          # 100 rad/s
+        elif bad == "degrees":                         # the turn reads 57 times too fast
+            for c in ("dtheta_x", "dtheta_y", "dtheta_z"):
+                df[c] = np.degrees(df[c])
+        elif bad == "g_units":
+            for c in ("dvel_x", "dvel_y", "dvel_z"):
+                df[c] = df[c] / 9.80665
+        elif bad == "backwards":
+            df.loc[row - 1, "t"] = df.loc[row - 3, "t"]
+        return df
+    _spoil(folder, "imu", fmt, edit)
+    expected = _message(lambda: read_bundle(folder))
+    got = _message(lambda: _stream_run(folder))
+    assert got == expected
+    if bad in ("nan", "text", "rate"):
+        assert f"imu.{fmt}, row {row}, t=" in got
+
+
+def test_a_bad_truth_row_late_in_the_table(drive, tmp_path):
+    folder = tmp_path / "b"
+    write_bundle(drive, folder, fmt="parquet")
+
+    def edit(df):
+        df.loc[6000, "pitch"] = 95.0
+        return df
+    _spoil(folder, "truth", "parquet", edit)
+    expected = _message(lambda: read_bundle(folder))
+    s = open_bundle(folder, chunk_rows=1000)
+    assert _message(lambda: s.truth.reduced(np.arange(0.0, 70.0))) == expected
+    assert "row 6001" in expected
+
+
+def test_cli_bad_row_in_chunk_3_exit_2_nothing_written(drive, tmp_path, monkeypatch):
+    """Through the command line: exit 2, one line naming file, row and time, no result."""
+    folder = tmp_path / "b"
+    write_bundle(drive, folder, fmt="parquet")
+
+    def edit(df):
+        df.loc[2499, "dvel_x"] = np.inf
+        return df
+    _spoil(folder, "imu", "parquet", edit)
+    monkeypatch.setattr(bundle_stream, "CHUNK_ROWS", 1000)
+    out = tmp_path / "r"
+    r = CliRunner().invoke(cli, ["-q", "navigate", str(folder), "-m", "sins-dr", "-o", str(out)])
+    assert r.exit_code == 2
+    err = r.stderr if hasattr(r, "stderr") else r.output
+    line = [x for x in err.splitlines() if x.startswith("inmotion: error:")]
+    assert len(line) == 1 and "imu.parquet, row 2500, t=24.99" in line[0], err
+    assert not out.exists() and not list(tmp_path.glob(".r*"))
+
+
+@pytest.mark.parametrize("args", [["-m", "sins-dr", "--mode", "velocity-position"],
+                                  ["-m", "sins", "--start", "10", "--end", "61.5"],
+                                  ["-m", "dr-kf", "--start", "12", "--output-rate", "2"]])
+def test_cli_chunked_result_equals_whole(drive, tmp_path, monkeypatch, args):
+    """The files ``inmotion navigate`` / ``align`` write when it reads the bundle in chunks
+    equal those it writes when it reads the bundle whole (the reader it uses for every other
+    method), windows and output rates included."""
+    import inmotion.cli.main as cli_main
+    folder = tmp_path / "b"
+    write_bundle(drive, folder, fmt="parquet")
+    monkeypatch.setattr(bundle_stream, "CHUNK_ROWS", 777)
+    kind = "align" if "dr-kf" in args else "navigate"
+    for out, streamed in (("r", cli_main.STREAMED), ("w", ())):
+        monkeypatch.setattr(cli_main, "STREAMED", streamed)
+        r = CliRunner().invoke(cli, ["-q", kind, str(folder), *args, "-o", str(tmp_path / out)])
+        assert r.exit_code == 0, r.output
+    for f in ("solution.csv", "states.csv", "errors.csv"):
+        if (tmp_path / "w" / f).exists():
+            assert (tmp_path / "r" / f).read_bytes() == (tmp_path / "w" / f).read_bytes(), f
