@@ -171,9 +171,9 @@ def test_make_workspace_patterns():
     ws = make_workspace(em.F_pattern(n, offs, 1.0 / 300.0, True), np.ones((n, n)))
     assert list(ws.act) == [*range(9), *range(15, 22)]        # SINS, DR and the Markov dk
     assert list(ws.inact) == list(range(9, 15))               # eps, nabla: identity rows
-    assert ws.q.shape == (2, n * n)
+    assert ws.Qc_pattern.all()
     ws0 = make_workspace(em.F_pattern(n, offs, 0.0, True))
-    assert 21 in ws0.inact and ws0.q.shape == (2, n)             # dk a random constant
+    assert 21 in ws0.inact and np.array_equal(ws0.Qc_pattern, np.eye(n, dtype=bool))  # dk
     with pytest.raises(ValueError):
         make_workspace(np.ones((3, 4)))
 
