@@ -25,7 +25,8 @@ What happens per IMU row and per filter epoch (one numba loop, :func:`_advance`)
    SINS state with the epoch's mean specific force
    (:func:`inmotion.estimation.error_model._fill_F`) and ``x, P`` are
    predicted over the epoch (second-order transition, trapezoid ``Q_d``) on F's nonzero rows
-   only (:func:`inmotion.estimation.predict.predict_sparse`); the process noise
+   only, by the kernel generated for F's sparsity pattern
+   (:func:`inmotion.estimation.predict.predict_sparse`); the process noise
    is the model's ``G q G^T`` plus, with a DR, the random walk of the DR position driven by
    the velocity sensor's white noise (``dr_position_m2_s``, isotropic in E, N, U);
 3. every queued measurement sample whose time is at or before the epoch's end is applied, in
