@@ -154,11 +154,12 @@ def _case(layout, rng):
                             accel_bias_rw=1e-5, dk_sigma=1e-3, dk_tau=300.0)
     Qc = em.ErrorModel(layout, noise).Qc().copy()
     o = offs[6]
-    Qc[o:o + 3, o:o + 3] += np.diag([1e-15, 1e-15, 1e-2])      # DR position random walk
+    if o >= 0:
+        Qc[o:o + 3, o:o + 3] += np.diag([1e-15, 1e-15, 1e-2])  # DR position random walk
     L = rng.standard_normal((n, n))
     scale = {"phi": [1e-3] * 3, "dv": [0.1] * 3, "dp": [1e-6, 1e-6, 1.0], "eps": [1e-6] * 3,
              "nabla": [1e-3] * 3, "phi_D": [1e-3] * 3, "dp_D": [1e-6, 1e-6, 1.0],
-             "mount": [1e-3] * 3, "dk": [1e-3]}
+             "mount": [1e-3] * 3, "dk": [1e-3], "lever": [0.05] * 3}
     s = np.concatenate([scale[b.name] for b in layout.blocks])
     P0 = (L @ L.T / n + np.eye(n)) * np.outer(s, s)
     x0 = 0.1 * s * rng.standard_normal(n)
