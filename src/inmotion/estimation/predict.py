@@ -44,8 +44,17 @@ The results equal the dense :func:`kalman._predict_kernel`'s to rounding (a test
 layout the methods use and a pattern with a Gauss-Markov gyro bias); the order of the sums
 differs, so the last bits do.
 
-Cost (issue 13's engine workload, n = 22, na = 9, ``benchmarks/bench_predict.py``): see that
-script; the former BLAS form took 1.07-1.42 us a call, this one about a fifth of that.
+Cost (CPU time per call, minimum of 15 batches of 10,000-20,000 calls in a numba loop, a
+2-core machine at load 7-9; ``benchmarks/bench_predict.py``): issue 13's engine workload
+(n = 22, na = 9) 0.39-0.40 us (the former BLAS form 1.20 us, measured side by side; the dense
+kernel 5.4 us); ``sins-dr`` (n = 22, na = 16, the DR's ``phi``-``phi_D`` noise) 0.69-0.70 us
+(former 1.64-1.72 us); ``dr-kf`` (n = 25, na = 16) 0.79-0.83 us (former 1.59-1.74 us). The
+machine code of the engine workload's kernel has ~430 4-wide and ~370 scalar FMAs: the
+``A`` pass over 22 columns is 5 vector iterations and 2 scalar ones, ``Phi_a``'s 250 products
+``F_aa F_a`` are scalar. Generating and compiling a kernel costs 1.5-3 s of CPU (n = 22,
+na = 9) to 3-7 s (na = 16) on this loaded machine, once per pattern (the numba front end's
+typing and lowering of ~650-1,200 statements is most of it; raw pointer indexing with
+literal offsets halved it); loading it from the cache costs ~10 ms.
 
 Rows of ``F`` outside the pattern, and entries of ``Qc`` outside its pattern, are ignored
 (taken as zero); ``Qc``'s diagonal is always in its pattern. ``x``, ``P``, ``F``, ``Qc`` must
