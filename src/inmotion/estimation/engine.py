@@ -360,7 +360,7 @@ def _record_predict(S, C):
     na = act.shape[0]
     n = S.phc.shape[0]
     if na:
-        tmp = PhiT.T @ S.phc
+        tmp = PhiT.T @ S.phc         # PhiT's columns past na are zero padding (rows ignored)
         for a in range(na):
             for c in range(n):
                 S.phc[act[a], c] = tmp[a, c]
