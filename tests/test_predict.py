@@ -328,6 +328,16 @@ def test_kernel_source_follows_the_pattern():
     assert a != kernel_source(em.F_pattern(n, offs, 0.0, True), q)
 
 
+def test_predict_sparse_refuses_arrays_of_another_size():
+    n = 5
+    pat = np.zeros((n, n), dtype=bool)
+    pat[0, 1] = True
+    ws = make_workspace(pat)
+    for x, P in ((np.zeros(n + 1), np.eye(n)), (np.zeros(n), np.eye(n - 1))):
+        with pytest.raises(ValueError, match="workspace's size"):
+            predict_sparse(x, P, np.zeros((n, n)), np.eye(n), 0.1, ws)
+
+
 def test_workspace_pickles_into_a_working_one():
     rng = np.random.default_rng(9)
     n = 5

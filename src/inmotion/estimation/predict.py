@@ -58,8 +58,8 @@ literal offsets halved it); loading it from the cache costs ~10 ms.
 
 Rows of ``F`` outside the pattern, and entries of ``Qc`` outside its pattern, are ignored
 (taken as zero); ``Qc``'s diagonal is always in its pattern. ``x``, ``P``, ``F``, ``Qc`` must
-be C-contiguous float64 of the workspace's ``n`` (numba checks the types, not the sizes: the
-kernel reads and writes exactly ``n`` and ``n x n`` entries).
+be C-contiguous float64 of the workspace's ``n`` (checked on every call: the kernel reads and
+writes exactly ``n`` and ``n x n`` entries through raw pointers).
 
 Usage (engine)::
 
@@ -364,7 +364,8 @@ def predict_sparse(x, P, F, Qc, dt, ws):
     The math of :func:`inmotion.estimation.kalman._predict_kernel` (second-order
     ``Phi = I + F dt + (F dt)^2 / 2``, trapezoid ``Qd``, ``P`` symmetric, its diagonal
     floored at 0) by the kernel generated for ``ws``'s pattern (module docstring); no
-    allocation. Also fills ``ws.PhiT`` (Phi's active rows, transposed).
+    allocation. Also fills ``ws.PhiT`` (Phi's active rows, transposed, in its first ``na``
+    columns).
 
     Parameters
     ----------
@@ -375,5 +376,12 @@ def predict_sparse(x, P, F, Qc, dt, ws):
         pattern ignored)
     dt : float, step [s]
     ws : :class:`PredictWorkspace` from :func:`make_workspace` for this ``n`` and pattern
+
+    Raises ValueError when a size is not the workspace's ``n`` (the kernel reads and writes
+    ``n`` and ``n x n`` entries through raw pointers).
     """
+    n = ws.act.shape[0] + ws.inact.shape[0]
+    if (x.shape[0] != n or P.shape[0] != n or P.shape[1] != n or F.shape[0] != n
+            or F.shape[1] != n or Qc.shape[0] != n or Qc.shape[1] != n):
+        raise ValueError("predict_sparse: x, P, F, Qc must be of the workspace's size n")
     _call_kernel(ws.kernel, x, P, F, Qc, dt, ws.buf)
