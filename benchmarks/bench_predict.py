@@ -2,13 +2,17 @@
 
 Usage: ``OPENBLAS_NUM_THREADS=1 python benchmarks/bench_predict.py [--calls N] [--batches B]``.
 
-For the ``sins-dr`` layout (n = 22) and the ``dr-kf`` layout (n = 25) it times, per call, in a
-numba loop (no Python between calls; the first batch compiles / loads and is not timed):
+For the ``sins-dr`` layout (n = 22, 16 active rows), the ``dr-kf`` layout (n = 25, 16 active)
+and the layout of ``bench_engine.py``'s equal workload (``engine``: n = 22, ``dk`` a random
+constant, 9 active rows) it times, per call, in a numba loop (no Python between calls; the
+first batch compiles / loads and is not timed):
 
 * before: ``F = np.zeros((n, n))``, the array form of ``_fill_F`` (a frozen copy of the
   pre-issue-13 builder, :func:`_fill_F_before`, here for timing only) and the dense
   ``kalman._predict_kernel``: what ``sins_dr_driver._run_epochs`` did every epoch;
-* after: ``error_model._fill_F`` into an ``F`` zeroed once, and ``predict.predict_sparse``;
+* after: ``error_model._fill_F`` into an ``F`` zeroed once, and ``predict.predict_sparse`` (the
+  kernel generated for the layout's F pattern, :func:`inmotion.estimation.predict.make_workspace`;
+  the time to generate and compile it, or to load it from numba's cache, is printed);
 * each part alone.
 
 Per call: the median (and the minimum) over ``B`` batches of ``N`` calls of this thread's CPU
@@ -31,10 +35,13 @@ from inmotion.align.dr_kalman import LAYOUT_DR_KF
 from inmotion.core.rotations import dcm_from_euler
 from inmotion.estimation import error_model as em
 from inmotion.estimation.kalman import _predict_kernel
+from inmotion.estimation.layout import Layout
 from inmotion.estimation.predict import make_workspace, predict_sparse
 from inmotion.navigate.sins_dr import LAYOUT_SINS_DR
 
 CALLS_PER_HOUR = 360_000
+#: bench_engine.py's 22-state layout (its dk a random constant: default ProcessNoise)
+ENGINE_LAYOUT = Layout(["phi", "dv", "dp", "eps", "nabla", "mount", "dk", "lever"])
 
 
 @numba.njit(cache=True)
@@ -147,11 +154,12 @@ def _case(layout, rng):
                             accel_bias_rw=1e-5, dk_sigma=1e-3, dk_tau=300.0)
     Qc = em.ErrorModel(layout, noise).Qc().copy()
     o = offs[6]
-    Qc[o:o + 3, o:o + 3] += np.diag([1e-15, 1e-15, 1e-2])      # DR position random walk
+    if o >= 0:
+        Qc[o:o + 3, o:o + 3] += np.diag([1e-15, 1e-15, 1e-2])  # DR position random walk
     L = rng.standard_normal((n, n))
     scale = {"phi": [1e-3] * 3, "dv": [0.1] * 3, "dp": [1e-6, 1e-6, 1.0], "eps": [1e-6] * 3,
              "nabla": [1e-3] * 3, "phi_D": [1e-3] * 3, "dp_D": [1e-6, 1e-6, 1.0],
-             "mount": [1e-3] * 3, "dk": [1e-3]}
+             "mount": [1e-3] * 3, "dk": [1e-3], "lever": [0.05] * 3}
     s = np.concatenate([scale[b.name] for b in layout.blocks])
     P0 = (L @ L.T / n + np.eye(n)) * np.outer(s, s)
     x0 = 0.1 * s * rng.standard_normal(n)
@@ -160,11 +168,15 @@ def _case(layout, rng):
     return n, offs, Qc, P0, x0, nav
 
 
-def bench_layout(name, layout, calls, batches, dt=0.01):
+def bench_layout(name, layout, calls, batches, dt=0.01, itau=None):
     rng = np.random.default_rng(0)
     n, offs, Qc, P0, x0, nav = _case(layout, rng)
-    lat, h, v, C, f_n, itau = nav
+    lat, h, v, C, f_n, itau0 = nav
+    itau = itau0 if itau is None else itau
+    c0 = time.process_time()
     ws = make_workspace(em.F_pattern(n, offs, itau, True), Qc)
+    print(f"{name}: predict kernel for {len(ws.act)} active rows generated / loaded in "
+          f"{time.process_time() - c0:.2f} s CPU")
     F = np.zeros((n, n))
     em._fill_F(F, offs, lat, h, v, C, f_n, itau, True, True)
     # the two paths agree (F bitwise; x, P to rounding)
@@ -211,8 +223,9 @@ def main(argv=None):
     print(f"per-call CPU times: median of {args.batches} batches of {args.calls} calls, "
           f"dt = 0.01 s; per hour = {CALLS_PER_HOUR} calls (100 Hz); "
           f"load average {os.getloadavg()[0]:.2f} on {os.cpu_count()} cores")
-    for name, lay in (("sins-dr", LAYOUT_SINS_DR), ("dr-kf", LAYOUT_DR_KF)):
-        bench_layout(name, lay, args.calls, args.batches)
+    for name, lay, itau in (("sins-dr", LAYOUT_SINS_DR, None), ("dr-kf", LAYOUT_DR_KF, None),
+                            ("engine", ENGINE_LAYOUT, 0.0)):
+        bench_layout(name, lay, args.calls, args.batches, itau=itau)
 
 
 if __name__ == "__main__":

@@ -2,21 +2,35 @@
 
 * ``_fill_F`` assigns exactly the entries of ``F_pattern`` (so an F zeroed once can be
   refilled every epoch without clearing) and ``F_pattern`` holds every nonzero of F;
-* ``predict_sparse`` equals the dense ``kalman._predict_kernel`` to rounding (1e-13 of the
-  size of the terms) for F of every layout of the package at random states, random F on the
-  same patterns, random SPD ``P``, dt from 0.005 to 1 s; ``P`` comes out exactly symmetric;
-* the same over 200 chained steps inside a numba loop (the engine's use).
+* ``predict_sparse`` (a kernel generated for each pattern) equals the dense
+  ``kalman._predict_kernel`` to rounding (1e-13 of the size of the terms) for F of every
+  layout the methods use (sins-dr with and without the DR drift term, dr-kf and od-kf /
+  od-velocity-kf with ``dk`` Markov or constant, aided_kf's sub-filter and its 15-state
+  vehicle-constraint filter, parked-kf, the 22-state benchmark) and for a pattern with a
+  Gauss-Markov gyro bias (``-1/tau`` on the ``eps`` diagonal), at random states, random F on
+  the same patterns, random SPD ``P``, dt from 0.005 to 1 s; ``P`` comes out exactly symmetric;
+* the same over 200 chained steps inside a numba loop (the engine's use);
+* the generated kernel is cached on disk and loaded, not compiled, by a second process; a
+  pickled workspace is rebuilt in the process that unpickles it.
 """
+import os
+import pickle
+import subprocess
+import sys
+from pathlib import Path
+
 import numba
 import numpy as np
 import pytest
 
 from inmotion.align.dr_kalman import LAYOUT_DR_KF, LAYOUT_OD_KF
+from inmotion.align.parked_kf import ENGINE_LAYOUT as PARKED_LAYOUT
 from inmotion.core.rotations import dcm_from_euler
 from inmotion.estimation import error_model as em
+from inmotion.estimation.aiding_rows import NHC_LAYOUT, SUB_LAYOUT
 from inmotion.estimation.kalman import _predict_kernel
 from inmotion.estimation.layout import Layout
-from inmotion.estimation.predict import make_workspace, predict_sparse
+from inmotion.estimation.predict import kernel_source, make_workspace, predict_sparse
 from inmotion.navigate.sins_dr import LAYOUT_SINS_DR
 
 LAYOUTS = {
@@ -26,8 +40,26 @@ LAYOUTS = {
     "sins-dr": LAYOUT_SINS_DR,
     "dr-kf": LAYOUT_DR_KF,
     "od-kf": LAYOUT_OD_KF,
+    "aided sub-filter": SUB_LAYOUT,
+    "bench 22 (lever)": Layout(["phi", "dv", "dp", "eps", "nabla", "mount", "dk", "lever"]),
 }
 DTS = (0.005, 0.01, 0.1, 1.0)
+#: (layout, 1/tau of dk, DR sees the gyro drift, 1/tau of a Gauss-Markov gyro bias): the
+#: filters the methods build (sins-dr; dr-kf, od-velocity-kf; od-kf; aided_kf's sub-filters
+#: and vehicle-constraint filter; parked-kf) and the benchmark's, plus a Markov gyro bias
+CASES = {
+    "sins-dr": (LAYOUT_SINS_DR, 1.0 / 300.0, True, 0.0),
+    "sins-dr printed F": (LAYOUT_SINS_DR, 1.0 / 300.0, False, 0.0),
+    "dr-kf": (LAYOUT_DR_KF, 1.0 / 300.0, True, 0.0),
+    "dr-kf dk constant": (LAYOUT_DR_KF, 0.0, True, 0.0),
+    "od-kf": (LAYOUT_OD_KF, 1.0 / 300.0, True, 0.0),
+    "aided sub-filter": (SUB_LAYOUT, 0.0, True, 0.0),
+    "aided nhc / parked": (NHC_LAYOUT, 0.0, True, 0.0),
+    "bench 22 (lever)": (LAYOUTS["bench 22 (lever)"], 0.0, True, 0.0),
+    "sins15 Markov gyro bias": (NHC_LAYOUT, 0.0, True, 1.0 / 600.0),
+    "sins-dr Markov gyro bias": (LAYOUT_SINS_DR, 1.0 / 300.0, True, 1.0 / 600.0),
+}
+assert tuple(PARKED_LAYOUT.names) == tuple(NHC_LAYOUT.names)
 
 
 def _state(rng):
@@ -108,17 +140,34 @@ def test_error_model_F_is_the_kernel_F():
 
 # -- the sparse predict ------------------------------------------------------------------------
 
-@pytest.mark.parametrize("name", list(LAYOUTS))
-def test_predict_sparse_equals_the_dense_kernel(name):
-    lay = LAYOUTS[name]
+def _case_F(lay, itau, dr_eps, itau_eps, st):
+    """F of a case at state ``st`` and its pattern (a Markov gyro bias adds ``-1/tau`` on the
+    ``eps`` diagonal, as a Gauss-Markov bias model would)."""
     n, offs = lay.n, em._offsets(lay)
+    F = _fill(n, offs, st, itau, dr_eps)
+    pat = em.F_pattern(n, offs, itau, dr_eps)
+    if itau_eps:
+        e = lay["eps"]
+        F[e, e] = -itau_eps * np.eye(3)
+        pat[e, e] |= np.eye(3, dtype=bool)
+    return F, pat
+
+
+@pytest.mark.parametrize("name", list(CASES))
+def test_predict_sparse_equals_the_dense_kernel(name):
+    lay, itau, dr_eps, itau_eps = CASES[name]
+    n = lay.n
     rng = np.random.default_rng(3)
     Qc = _model_Qc(lay, rng)
-    ws = make_workspace(em.F_pattern(n, offs, 1.0 / 300.0, True), Qc)
+    _, pat = _case_F(lay, itau, dr_eps, itau_eps, _state(rng))
+    ws = make_workspace(pat, Qc)
+    assert list(ws.act) == list(np.flatnonzero(pat.any(axis=1)))
+    if itau_eps:
+        assert set(range(lay["eps"].start, lay["eps"].stop)) <= set(ws.act)
     for trial in range(12):
-        F = _fill(n, offs, _state(rng))
+        F, _ = _case_F(lay, itau, dr_eps, itau_eps, _state(rng))
         if trial % 3 == 2:                  # random values on the real pattern, larger
-            F = np.where(F != 0, rng.normal(0.0, 0.3, (n, n)), 0.0)
+            F = np.where(pat, rng.normal(0.0, 0.3, (n, n)), 0.0)
         P = _spd(rng, n, 1.0 if trial % 2 else 6.0)
         x = rng.standard_normal(n)
         for dt in DTS:
@@ -127,6 +176,13 @@ def test_predict_sparse_equals_the_dense_kernel(name):
             predict_sparse(x1, P1, F, Qc, dt, ws)
             assert np.array_equal(P1, P1.T)
             _assert_close(x1, P1, x0, P0, x, P, F, Qc, dt)
+            # the workspace's Phi_a^T is the dense Phi's active rows (the smoother reads it)
+            Fdt = F * dt
+            Phi = np.eye(n) + Fdt + 0.5 * Fdt @ Fdt
+            size = np.eye(n) + np.abs(Fdt) + 0.5 * np.abs(Fdt) @ np.abs(Fdt)
+            na = len(ws.act)
+            assert np.all(np.abs(ws.PhiT[:, :na] - Phi[ws.act].T) <= 1e-13 * size[ws.act].T)
+            assert not ws.PhiT[:, na:].any()
 
 
 def test_predict_sparse_plain_relative_error_on_a_unit_covariance():
@@ -171,9 +227,9 @@ def test_make_workspace_patterns():
     ws = make_workspace(em.F_pattern(n, offs, 1.0 / 300.0, True), np.ones((n, n)))
     assert list(ws.act) == [*range(9), *range(15, 22)]        # SINS, DR and the Markov dk
     assert list(ws.inact) == list(range(9, 15))               # eps, nabla: identity rows
-    assert ws.q.shape == (2, n * n)
+    assert ws.Qc_pattern.all()
     ws0 = make_workspace(em.F_pattern(n, offs, 0.0, True))
-    assert 21 in ws0.inact and ws0.q.shape == (2, n)             # dk a random constant
+    assert 21 in ws0.inact and np.array_equal(ws0.Qc_pattern, np.eye(n, dtype=bool))  # dk
     with pytest.raises(ValueError):
         make_workspace(np.ones((3, 4)))
 
@@ -259,3 +315,62 @@ def test_predict_sparse_with_no_dynamic_state_adds_dt_qc():
     x1, P1 = x.copy(), P.copy()
     predict_sparse(x1, P1, np.zeros((n, n)), Qc, 0.1, ws)
     assert np.array_equal(x1, x) and np.allclose(P1, P + 0.1 * Qc, rtol=1e-15, atol=0.0)
+
+
+def test_kernel_source_follows_the_pattern():
+    """Another pattern gives another kernel; the same pattern the same source (the cache key)."""
+    lay = LAYOUT_SINS_DR
+    n, offs = lay.n, em._offsets(lay)
+    q = np.eye(n, dtype=bool)
+    a = kernel_source(em.F_pattern(n, offs, 1.0 / 300.0, True), q)
+    assert a == kernel_source(em.F_pattern(n, offs, 1.0 / 300.0, True), q)
+    assert a != kernel_source(em.F_pattern(n, offs, 1.0 / 300.0, False), q)
+    assert a != kernel_source(em.F_pattern(n, offs, 0.0, True), q)
+
+
+def test_predict_sparse_refuses_arrays_of_another_size():
+    n = 5
+    pat = np.zeros((n, n), dtype=bool)
+    pat[0, 1] = True
+    ws = make_workspace(pat)
+    for x, P in ((np.zeros(n + 1), np.eye(n)), (np.zeros(n), np.eye(n - 1))):
+        with pytest.raises(ValueError, match="workspace's size"):
+            predict_sparse(x, P, np.zeros((n, n)), np.eye(n), 0.1, ws)
+
+
+def test_workspace_pickles_into_a_working_one():
+    rng = np.random.default_rng(9)
+    n = 5
+    pat = np.zeros((n, n), dtype=bool)
+    pat[0, 1] = pat[1, 0] = pat[1, 4] = True
+    ws = make_workspace(pat)
+    ws2 = pickle.loads(pickle.dumps(ws))
+    assert ws2.kernel == ws.kernel and np.array_equal(ws2.F_pattern, ws.F_pattern)
+    F = np.where(pat, rng.standard_normal((n, n)), 0.0)
+    P, x, Qc = _spd(rng, n, 1.0), rng.standard_normal(n), np.diag(rng.uniform(0.1, 1.0, n))
+    x0, P0, x1, P1 = x.copy(), P.copy(), x.copy(), P.copy()
+    _predict_kernel(x0, P0, F, Qc, 0.1)
+    predict_sparse(x1, P1, F, Qc, 0.1, ws2)
+    _assert_close(x1, P1, x0, P0, x, P, F, Qc, 0.1)
+
+
+_CACHE_PROBE = """
+import numpy as np
+from inmotion.estimation import predict
+pat = np.zeros((6, 6), dtype=bool)
+pat[0, 1] = pat[1, 2] = pat[2, 0] = pat[2, 5] = True
+predict.make_workspace(pat)
+(fn,) = predict._KERNELS.values()
+print(fn.cache_hits)
+"""
+
+
+def test_generated_kernel_is_cached_across_processes(tmp_path):
+    """A first process compiles the kernel of a (new) pattern, a second one loads it."""
+    env = dict(os.environ, INMOTION_KERNEL_DIR=str(tmp_path),
+               PYTHONPATH=str(Path(__file__).resolve().parents[1] / "src"))
+    hits = [subprocess.run([sys.executable, "-c", _CACHE_PROBE], env=env, check=True,
+                           capture_output=True, text=True).stdout.split()[-1]
+            for _ in range(2)]
+    assert hits == ["0", "1"]
+    assert len(list(tmp_path.glob("predict_*.py"))) == 1

@@ -25,7 +25,8 @@ What happens per IMU row and per filter epoch (one numba loop, :func:`_advance`)
    SINS state with the epoch's mean specific force
    (:func:`inmotion.estimation.error_model._fill_F`) and ``x, P`` are
    predicted over the epoch (second-order transition, trapezoid ``Q_d``) on F's nonzero rows
-   only (:func:`inmotion.estimation.predict.predict_sparse`); the process noise
+   only, by the kernel generated for F's sparsity pattern
+   (:func:`inmotion.estimation.predict.predict_sparse`); the process noise
    is the model's ``G q G^T`` plus, with a DR, the random walk of the DR position driven by
    the velocity sensor's white noise (``dr_position_m2_s``, isotropic in E, N, U);
 3. every queued measurement sample whose time is at or before the epoch's end is applied, in
@@ -68,12 +69,14 @@ The whole filter state lives in the arrays of :class:`_State`, so :meth:`snapsho
 :meth:`restore` are copies, and a run split anywhere continues bit-identically.
 
 Cost (issue 13, ``benchmarks/bench_engine.py``: 22 states, a predict every 100 Hz IMU row,
-forward velocity and NHC at 10 Hz, output at 1 Hz; CPU time, best of 2-4 runs on a 2-core
-machine at load 2-4): 0.73-0.75 s per hour of data (1.25-1.31 s before issue 13's second
-pass, measured side by side; KF-GINS 3.5 s). Measured by switching parts off:
-:func:`~inmotion.estimation.predict.predict_sparse` 0.45 s (1.25 us a row), mechanization
-0.065 s, ``_fill_F`` 0.03 s, the rest of the per-row path 0.06 s, the 10 Hz sample epochs (the
-``_epoch_end`` call, two fills, five scalar Joseph rows, mode, feedback; ~3.6 us each) 0.13 s.
+forward velocity and NHC at 10 Hz, output at 1 Hz; CPU time, best of 2-3 runs on a 2-core
+machine at load 7-9): 0.47-0.50 s per hour of data with the predict kernel generated for F's
+pattern, 0.81-0.84 s with the former BLAS predict, measured side by side (KF-GINS 3.5 s).
+Measured by switching parts off (load ~15, so every figure is inflated alike): the predict
+0.10 s (~0.29 us a row), ``_fill_F`` 0.025 s, mechanization 0.07 s, the rest of the per-row
+path 0.065 s, the 10 Hz sample epochs (the ``_epoch_end`` call, two fills, five scalar Joseph
+rows, mode, feedback, the 1 Hz output; ~5 us each) 0.2 s: the sample epochs and the per-row
+path, not the predict, now stand between the engine and issue 13's 0.25 s.
 A call that passes the namedtuples ``S`` and ``C`` costs ~0.5 us whether inlined or not
 (numba increfs and decrefs each of their ~50 arrays), so the per-row path makes none: an
 epoch with no due sample and no output runs the predict (:func:`_epoch_predict`'s body) inside
@@ -357,7 +360,7 @@ def _record_predict(S, C):
     na = act.shape[0]
     n = S.phc.shape[0]
     if na:
-        tmp = PhiT.T @ S.phc
+        tmp = PhiT.T @ S.phc         # PhiT's columns past na are zero padding (rows ignored)
         for a in range(na):
             for c in range(n):
                 S.phc[act[a], c] = tmp[a, c]

@@ -1,59 +1,65 @@
-"""Sparse covariance predict: the math of :func:`kalman._predict_kernel`, F's zero rows skipped.
+"""Covariance predict specialised to F's sparsity pattern: code generated per pattern.
 
-One filter epoch predicts ``x`` and ``P`` over ``dt`` with (:mod:`inmotion.estimation.kalman`)::
+One filter epoch predicts ``x`` and ``P`` over ``dt`` with (:mod:`inmotion.estimation.kalman`,
+:func:`~inmotion.estimation.kalman.discretize`)::
 
     Phi = I + F dt + (F dt)^2 / 2
     x  <- Phi x
     P  <- Phi P Phi^T + dt / 2 (Phi Qc Phi^T + Qc)      (symmetric, diagonal floored at 0)
 
-The error model's ``F`` (:func:`error_model._fill_F`) is sparse: 60-115 nonzeros of
-n^2 = 484-625, all in the rows of the dynamic blocks (``phi, dv, dp, phi_D, dp_D``, and ``dk``
-when it is a Markov state); the random-constant states (``eps, nabla, mount``) have zero rows,
-i.e. identity rows of ``Phi``. :func:`predict_sparse` works on the ``na`` "active" rows only
-(16 of 22 or 25 in the package's layouts):
+The error model's ``F`` (:func:`error_model._fill_F`) is sparse and its pattern is fixed for a
+run (:func:`error_model.F_pattern`: 58-115 nonzeros of n^2 = 361-625, all in the rows of the
+dynamic blocks ``phi, dv, dp, phi_D, dp_D`` and of the Markov states, e.g. ``dk``); the
+random-constant states (``eps, nabla, mount, lever``) have zero rows, i.e. identity rows of
+``Phi``. With ``act`` the ``na`` "active" indices (F's nonzero rows) and ``Pt = P + dt/2 Qc``:
 
-* ``Phi_a`` (the active rows of ``Phi``) ``= I_a + dt F_a + dt^2/2 F_aa F_a``, ``F_a`` the
-  active rows of F and ``F_aa`` their active columns (F's other rows are zero); it is built
-  transposed, ``Phi_a^T`` (n x na), the one form both products below take without a copy;
-* ``Phi P Phi^T + dt/2 Phi Qc Phi^T = Phi Pt Phi^T`` with ``Pt = P + dt/2 Qc`` (Qc's few
-  entries added before, and once more after: the trapezoid's ``+ dt/2 Qc``);
-* ``A = Phi_a Pt`` (na x n), the only rows of ``Phi Pt`` that differ from ``Pt``;
-* ``P' = (Phi Pt) Phi^T``: between two active indices ``R = A Phi_a^T`` (na x na), averaged
-  with its transpose (as the dense kernel symmetrizes); between an active ``i`` and an
-  inactive ``j`` it is ``A[i, j]``; between two inactive indices ``Pt`` (+ dt/2 Qc).
+* ``Phi_a`` (the active rows of ``Phi``) ``= I_a + dt F_a + dt^2/2 F_aa F_a`` (``F_aa`` the
+  active columns of ``F_a``: F's other rows are zero), entry by entry over its pattern;
+* ``Phi P Phi^T + dt/2 Phi Qc Phi^T = Phi Pt Phi^T``, so ``Qc``'s entries are added to ``P``
+  before the products, and once more after them (the trapezoid's ``+ dt/2 Qc``);
+* ``A = Phi_a Pt`` (na x n) are the only rows of ``Phi Pt`` that differ from ``Pt``; column
+  ``k`` of ``A`` needs only column ``k`` of ``Pt``, so ``A`` overwrites the active rows of
+  ``P`` column by column (no buffer);
+* ``P' = (Phi Pt) Phi^T``: between two active indices ``R = A Phi_a^T`` (its upper triangle,
+  mirrored: ``P`` symmetric by construction); between an active ``i`` and an inactive ``j``
+  it is ``A[i, j]`` (already in row ``i``; mirrored into column ``i``); between two inactive
+  indices ``Pt`` (+ dt/2 Qc).
 
-The three products (``F_a^T F_aa^T``, ``Phi_a Pt``, ``A Phi_a^T``) are dense BLAS calls on the
-compact blocks (``np.dot`` with ``out``; 19,000 multiplications for n = 22, against 53,000 in
-the dense kernel, and no allocation per call). Measured (``benchmarks/bench_predict.py``), at
-these sizes BLAS beats numba loops over E's ~170 nonzeros, a sparse product list for
-``F_aa F_a``, and row-blocked loops; FMA contraction (``fastmath={'contract'}``) changes
-nothing measurable (the arithmetic is in BLAS).
+:func:`make_workspace` writes this as straight-line numba code for the one pattern it is given
+(F's nonzeros and ``Phi_a``'s, ``n``, ``act`` and ``Qc``'s pattern are literals: every loop has
+a constant trip count, every index a constant; about 3,700 multiply-adds for the 22-state
+workload of issue 13, against 19,000 in the former BLAS form and 53,000 in the dense kernel),
+compiles it once as a C callback (``numba.cfunc``, ``fastmath={'contract'}``: products and sums
+fused into FMAs) and caches it on disk: the source is written to
+``<kernel dir>/predict_<sha256 of the source>.py`` (kernel dir: ``$INMOTION_KERNEL_DIR``, else
+``__pycache__/predict_kernels`` beside this file if writable, else the user's cache
+directory) and numba caches the compiled code beside it, so a later process (and a later run
+of the same layout) only loads it. A different pattern (another layout, a Markov bias, a DR)
+gives a different source and file: the kernel follows whatever :func:`error_model.F_pattern`
+reports. :func:`predict_sparse` calls the kernel through its address (one indirect call; the
+engine's compiled loop is the same for every pattern and is compiled once).
 
-Where the time goes (issue 13's engine workload: n = 22, ``phi, dv, dp`` active, na = 9;
-CPU time per call, minimum of 15 batches of 20,000, a loaded 2-core machine): 1.07 us a
-call, of which the call itself 0.13 us (numba increfs and decrefs each of the 13 arrays
-passed, ``ws`` included, ~10 ns a pair), gathering ``F_a^T``, ``F_aa^T`` 0.1 us, the three
-BLAS products 0.18 + 0.19 + 0.16 us (``np.dot``'s own overhead is 0.04 us a call: the rest is
-OpenBLAS's small-matrix kernel, ~23 multiply-adds per ns), the ``Phi`` scaling, ``x`` and
-``Qc`` loops 0.15 us, the write-back of ``P`` 0.14 us. In the engine's loop it costs about
-1.25 us a row, 0.45 s per hour at 100 Hz: 60 % of the engine's 0.74 s. Tried for issue 13
-and rejected, each slower at these sizes: numba loops over F's active rows and nonzero
-columns only (``A = Pt[act] + M Pt[cols]``, one triangle of ``R``; 1.4-1.6 us, also with
-``fastmath={'contract', 'reassoc'}``; presumably the 14- and 22-long inner loops spend their
-time in scalar remainders), the same with BLAS on the compacted blocks (1.4 us; the gathers
-seem to cost more than the smaller products save), ``Phi_a`` built untransposed from row gathers (1.1 us), and
-``Phi_a Pt`` over F's nonzero column span only (1.18 us: OpenBLAS's time does not shrink with
-the inner dimension at this size). ``_nrt=False`` (no reference counting) is not available:
-numba types ``np.dot(a, b, out)`` only with NRT. Reaching ~0.3 us would, we expect, need code
-generated per pattern (straight-line products over the ~60 nonzeros of ``F_a``, fixed ``n``).
+The results equal the dense :func:`kalman._predict_kernel`'s to rounding (a test checks
+1e-13 relative to the size of the terms, random SPD ``P``, dt from 0.005 to 1 s, F of every
+layout the methods use and a pattern with a Gauss-Markov gyro bias); the order of the sums
+differs, so the last bits do.
 
-The results equal the dense kernel's to rounding (a test checks 1e-13 relative to the size of
-the terms, random SPD ``P``, dt from 0.005 to 1 s, F of every layout of the package).
+Cost (CPU time per call, minimum of 15 batches of 10,000-20,000 calls in a numba loop, a
+2-core machine at load 7-9; ``benchmarks/bench_predict.py``): issue 13's engine workload
+(n = 22, na = 9) 0.39-0.40 us (the former BLAS form 1.20 us, measured side by side; the dense
+kernel 5.4 us); ``sins-dr`` (n = 22, na = 16, the DR's ``phi``-``phi_D`` noise) 0.69-0.70 us
+(former 1.64-1.72 us); ``dr-kf`` (n = 25, na = 16) 0.79-0.83 us (former 1.59-1.74 us). The
+machine code of the engine workload's kernel has ~430 4-wide and ~370 scalar FMAs: the
+``A`` pass over 22 columns is 5 vector iterations and 2 scalar ones, ``Phi_a``'s 250 products
+``F_aa F_a`` are scalar. Generating and compiling a kernel costs 1.5-3 s of CPU (n = 22,
+na = 9) to 3-7 s (na = 16) on this loaded machine, once per pattern (the numba front end's
+typing and lowering of ~650-1,200 statements is most of it; raw pointer indexing with
+literal offsets halved it); loading it from the cache costs ~10 ms.
 
-The sparsity patterns (F's, from :func:`error_model.F_pattern`, and Qc's) are taken once by
-:func:`make_workspace`, which allocates the buffers. Rows of ``F`` outside the pattern's
-nonzero rows, and entries of ``Qc`` outside its pattern, are ignored (taken as zero); ``Qc``'s
-diagonal is always in its pattern. ``P`` and ``F`` must be C-contiguous float64.
+Rows of ``F`` outside the pattern, and entries of ``Qc`` outside its pattern, are ignored
+(taken as zero); ``Qc``'s diagonal is always in its pattern. ``x``, ``P``, ``F``, ``Qc`` must
+be C-contiguous float64 of the workspace's ``n`` (checked on every call: the kernel reads and
+writes exactly ``n`` and ``n x n`` entries through raw pointers).
 
 Usage (engine)::
 
@@ -65,29 +71,227 @@ Usage (engine)::
 """
 from __future__ import annotations
 
+import hashlib
+import importlib.util
+import os
+import sys
+import tempfile
 from collections import namedtuple
+from pathlib import Path
 
 import numba
 import numpy as np
+from llvmlite import ir as llvm_ir
+from numba import types
+from numba.core import errors as nb_errors
+from numba.extending import intrinsic
 
-__all__ = ["PredictWorkspace", "make_workspace", "predict_sparse"]
+__all__ = ["PredictWorkspace", "make_workspace", "predict_sparse", "kernel_source"]
 
-#: index arrays and buffers of :func:`predict_sparse` (numba takes the namedtuple as is)
-PredictWorkspace = namedtuple("PredictWorkspace", [
-    "act",      # (na,) int64: active indices (rows where F may be nonzero), ascending
-    "inact",    # (n - na,) int64: the other indices (identity rows of Phi)
-    "q",        # (2, nnz Qc) int64: Qc's pattern (symmetric, with its diagonal): rows, columns
-    "FaT",      # (n, na) float64: F's active rows, transposed
-    "FaaT",     # (na, na) float64: their active columns
-    "PhiT",     # (n, na) float64: Phi's active rows, transposed
-    "A",        # (na, n) float64: the active rows of Phi (P + dt/2 Qc)
-    "R",        # (na, na) float64: A Phi_a^T
-    "xa",       # (na,) float64: the active entries of Phi x
+#: bump when the generated code changes meaning (the source's hash keys the cache anyway)
+_GENERATOR = "predict-kernel 1"
+
+_Fields = namedtuple("_Fields", [
+    "act",        # (na,) int64: active indices (rows where F may be nonzero), ascending
+    "inact",      # (n - na,) int64: the other indices (identity rows of Phi)
+    "PhiT",       # (n, nap) float64: Phi's active rows, transposed, in its first na columns
+                  # (written by every call; nap = na rounded up to a multiple of 4)
+    "buf",        # (n nap + na nap + nap,) float64: PhiT, R = A Phi_a^T, Phi_a x
+    "kernel",     # int: address of the compiled kernel (valid in this process)
+    "F_pattern",  # (n, n) bool: the pattern the kernel was generated for
+    "Qc_pattern",  # (n, n) bool: Qc's pattern (symmetric, with its diagonal)
 ])
 
 
+class PredictWorkspace(_Fields):
+    """The generated kernel of one pattern and its buffer (a namedtuple: numba takes it as
+    is). Pickling rebuilds it from the patterns (the kernel's address is per process)."""
+
+    __slots__ = ()
+
+    def __reduce__(self):
+        return make_workspace, (self.F_pattern, self.Qc_pattern)
+
+
+# ------------------------------------------------------------------ code generation
+def _phi_terms(Fm, act):
+    """Per active row ``i``: ``{c: (in F, [j: F[i, j] F[j, c] terms])}`` over Phi_a's pattern."""
+    actset = set(int(i) for i in act)
+    n = Fm.shape[0]
+    rows = []
+    for i in act:
+        i = int(i)
+        cols = {}
+        for c in range(n):
+            prods = [j for j in range(n) if j in actset and Fm[i, j] and Fm[j, c]]
+            if Fm[i, c] or prods or c == i:
+                cols[c] = (bool(Fm[i, c]), prods)
+        rows.append((i, cols))
+    return rows
+
+
+def _runs(idx):
+    """Contiguous runs ``[(start, stop), ...]`` of sorted indices."""
+    out = []
+    for i in idx:
+        i = int(i)
+        if out and out[-1][1] == i:
+            out[-1][1] = i + 1
+        else:
+            out.append([i, i + 1])
+    return [tuple(r) for r in out]
+
+
+def _sum(terms):
+    return " + ".join(terms) if terms else "0.0"
+
+
+def _pad(na):
+    """``na`` rounded up to a multiple of 4: the buffer's row length (whole 256-bit vectors)."""
+    return -(-na // 4) * 4
+
+
+def kernel_source(F_pattern, Qc_pattern) -> str:
+    """Python source of the predict kernel specialised to ``F_pattern`` and ``Qc_pattern``
+    ((n, n) bool; ``Qc_pattern`` symmetric with its diagonal): the module docstring's
+    algorithm with every index a literal. The module defines ``kernel``, a ``numba.cfunc``
+    ``void(x*, P*, F*, Qc*, dt, buf*)``; ``buf`` holds ``Phi_a^T`` (n x nap), ``R``
+    (na x nap) and ``Phi_a x`` (nap), ``nap`` = na rounded up to a multiple of 4 (the pad
+    columns stay zero) so that the loops over active indices are whole 4-wide vectors."""
+    Fm = np.asarray(F_pattern, dtype=bool)
+    Qm = np.asarray(Qc_pattern, dtype=bool)
+    n = Fm.shape[0]
+    act = np.flatnonzero(Fm.any(axis=1))
+    inact = np.flatnonzero(~Fm.any(axis=1))
+    na = len(act)
+    nap = _pad(na)
+    roff = n * nap                                # R's offset in the buffer
+    xoff = roff + na * nap                        # Phi_a x's
+    rows = _phi_terms(Fm, act)
+    L = [f"# generated by inmotion.estimation.predict ({_GENERATOR}); do not edit",
+         f"# n = {n}, active = {[int(i) for i in act]}",
+         "import numba",
+         "from numba import types",
+         "",
+         "_D = types.CPointer(types.float64)",
+         "",
+         "",
+         "@numba.cfunc(types.void(_D, _D, _D, _D, types.float64, _D), cache=True,",
+         "             fastmath={'contract'}, error_model='numpy')",
+         "def kernel(x, P, F, Qc, dt, W):",
+         "    hdt = 0.5 * dt",
+         "    hdt2 = 0.5 * dt * dt"]
+    q = [(int(i), int(j)) for i, j in zip(*np.nonzero(Qm))]
+    qadd = [f"    P[{i * n + j}] += hdt * Qc[{i * n + j}]" for i, j in q]
+    if na:
+        S = sorted(set().union(*[set(cols) for _, cols in rows]))
+        L.append("    # F's entries, Phi_a = I_a + dt F_a + dt^2/2 F_aa F_a over its pattern")
+        for i in act:
+            for c in np.flatnonzero(Fm[i]):
+                L.append(f"    f{i}_{c} = F[{i * n + c}]")
+        for a, (i, cols) in enumerate(rows):
+            for c, (lin, prods) in cols.items():
+                parts = ["1.0"] if c == i else []
+                if lin:
+                    parts.append(f"dt * f{i}_{c}")
+                if prods:
+                    parts.append("hdt2 * (" + _sum([f"f{i}_{j} * f{j}_{c}" for j in prods])
+                                 + ")")
+                L.append(f"    p{a}_{c} = {_sum(parts)}")
+                L.append(f"    W[{c * nap + a}] = p{a}_{c}")
+        L.append("    # x <- Phi x (4-wide over the active rows)")
+        for c in S:
+            L.append(f"    x{c} = x[{c}]")
+        L.append(f"    for b in range({nap}):")
+        L.append(f"        W[{xoff} + b] = " + _sum([f"x{c} * W[{c * nap} + b]" for c in S]))
+        for a, (i, _) in enumerate(rows):
+            L.append(f"    x[{i}] = W[{xoff + a}]")
+    L.append("    # Pt = P + dt/2 Qc")
+    L.extend(qadd)
+    if na:
+        L.append("    # A = Phi_a Pt, column by column, into the active rows of P")
+        L.append(f"    for k in range({n}):")
+        for c in S:
+            L.append(f"        v{c} = P[{c * n} + k]")
+        for a, (i, cols) in enumerate(rows):
+            L.append(f"        P[{i * n} + k] = " + _sum([f"p{a}_{c} * v{c}" for c in cols]))
+        L.append("    # R = A Phi_a^T, R[a, b] for b >= a rounded down to a multiple of 4")
+        for a, (i, _) in enumerate(rows):
+            b0 = a - a % 4
+            need = sorted(set().union(*[set(rows[b][1]) for b in range(b0, na)]))
+            for c in need:
+                L.append(f"    u{c} = P[{i * n + c}]")
+            L.append(f"    for b in range({b0}, {nap}):")
+            L.append(f"        W[{roff + a * nap} + b] = "
+                     + _sum([f"u{c} * W[{c * nap} + b]" for c in need]))
+        L.append("    # P' = R on the active block (upper triangle mirrored), A mirrored on the")
+        L.append("    # active-inactive one")
+        for a, (i, _) in enumerate(rows):
+            for b in range(a, na):
+                j = int(act[b])
+                L.append(f"    P[{i * n + j}] = W[{roff + a * nap + b}]")
+                if j != i:
+                    L.append(f"    P[{j * n + i}] = W[{roff + a * nap + b}]")
+            for lo, hi in _runs(inact):
+                L.append(f"    for c in range({lo}, {hi}):")
+                L.append(f"        P[c * {n} + {i}] = P[{i * n} + c]")
+    L.append("    # + dt/2 Qc; diagonal floored at 0")
+    L.extend(qadd)
+    L.append(f"    for i in range(0, {n * n}, {n + 1}):")
+    L.append("        if P[i] < 0.0:")
+    L.append("            P[i] = 0.0")
+    return "\n".join(L) + "\n"
+
+
+# ------------------------------------------------------------------ compile and cache
+_KERNELS: dict = {}          # source hash -> numba CFunc (kept alive: its address is used)
+
+
+def _kernel_dirs():
+    env = os.environ.get("INMOTION_KERNEL_DIR")
+    if env:
+        yield Path(env)
+    yield Path(__file__).resolve().parent / "__pycache__" / "predict_kernels"
+    cache = os.environ.get("XDG_CACHE_HOME") or os.path.join(os.path.expanduser("~"), ".cache")
+    yield Path(cache) / "inmotion" / "predict_kernels"
+    yield Path(tempfile.gettempdir()) / f"inmotion-predict-kernels-{os.getuid()}"
+
+
+def _write_source(src: str, key: str) -> Path:
+    """The kernel's source file, written once (an unchanged file keeps its time stamp, which
+    keeps numba's cache of it valid across processes)."""
+    for d in _kernel_dirs():
+        path = d / f"predict_{key}.py"
+        try:
+            if path.is_file() and path.read_text() == src:
+                return path
+            d.mkdir(parents=True, exist_ok=True)
+            tmp = d / f".predict_{key}.{os.getpid()}.tmp"
+            tmp.write_text(src)
+            os.replace(tmp, path)            # atomic: a concurrent reader sees one version
+            return path
+        except OSError:
+            continue
+    raise OSError("no writable directory for the predict kernels; set INMOTION_KERNEL_DIR")
+
+
+def _kernel(src: str):
+    key = hashlib.sha256(src.encode()).hexdigest()[:24]
+    fn = _KERNELS.get(key)
+    if fn is None:
+        path = _write_source(src, key)
+        name = f"inmotion_predict_{key}"
+        spec = importlib.util.spec_from_file_location(name, path)
+        mod = importlib.util.module_from_spec(spec)
+        sys.modules[name] = mod          # numba's cache records (and reloads) it by name
+        spec.loader.exec_module(mod)
+        fn = _KERNELS[key] = mod.kernel
+    return fn
+
+
 def make_workspace(F_pattern, Qc_pattern=None) -> PredictWorkspace:
-    """Index arrays and buffers of :func:`predict_sparse`, allocated once per filter.
+    """The predict kernel of one F / Qc pattern (generated, compiled and cached on first use)
+    and its buffer; once per filter.
 
     Parameters
     ----------
@@ -99,13 +303,13 @@ def make_workspace(F_pattern, Qc_pattern=None) -> PredictWorkspace:
 
     Returns
     -------
-    PredictWorkspace : a namedtuple of arrays, passed as is to :func:`predict_sparse`
-        (also from numba code); one per filter (its buffers are overwritten by each call)
+    PredictWorkspace : a namedtuple, passed as is to :func:`predict_sparse` (also from numba
+        code); one per filter (its buffer is overwritten by each call)
     """
     Fm = np.asarray(F_pattern) != 0
-    n = Fm.shape[0]
-    if Fm.shape != (n, n):
+    if Fm.ndim != 2 or Fm.shape[0] != Fm.shape[1]:
         raise ValueError(f"F_pattern must be square, got {Fm.shape}")
+    n = Fm.shape[0]
     Qm = np.eye(n, dtype=bool)
     if Qc_pattern is not None:
         q = np.asarray(Qc_pattern) != 0
@@ -116,19 +320,52 @@ def make_workspace(F_pattern, Qc_pattern=None) -> PredictWorkspace:
     act = np.flatnonzero(rows).astype(np.int64)
     inact = np.flatnonzero(~rows).astype(np.int64)
     na = len(act)
-    q = np.array(np.nonzero(Qm), dtype=np.int64).reshape(2, -1)
-    return PredictWorkspace(act, inact, q, np.zeros((n, na)), np.zeros((na, na)),
-                            np.zeros((n, na)), np.zeros((na, n)), np.zeros((na, na)),
-                            np.zeros(na))
+    fn = _kernel(kernel_source(Fm, Qm))
+    nap = _pad(na)
+    buf = np.zeros(n * nap + na * nap + nap)
+    return PredictWorkspace(act, inact, buf[:n * nap].reshape(n, nap), buf, int(fn.address),
+                            Fm, Qm)
 
 
-@numba.njit(cache=True)
+# ------------------------------------------------------------------ the call
+@intrinsic
+def _call_kernel(typingctx, addr, x, P, F, Qc, dt, buf):
+    """Call the kernel at ``addr`` with the arrays' data pointers (C-contiguous float64)."""
+    for a, nd in ((x, 1), (P, 2), (F, 2), (Qc, 2), (buf, 1)):
+        if not (isinstance(a, types.Array) and a.dtype == types.float64 and a.ndim == nd
+                and a.layout == "C"):
+            raise nb_errors.TypingError(f"predict_sparse: expected a C-contiguous float64 "
+                                        f"{nd}-d array, got {a}")
+    if not isinstance(addr, types.Integer) or not isinstance(dt, types.Float):
+        raise nb_errors.TypingError("predict_sparse: kernel address int, dt float")
+    sig = types.none(addr, x, P, F, Qc, dt, buf)
+
+    def codegen(context, builder, signature, args):
+        dbl = llvm_ir.DoubleType()
+        ptr = dbl.as_pointer()
+        fnty = llvm_ir.FunctionType(llvm_ir.VoidType(), [ptr, ptr, ptr, ptr, dbl, ptr])
+        data = []
+        for ty, val in zip(signature.args[1:], args[1:]):
+            if isinstance(ty, types.Array):
+                data.append(context.make_array(ty)(context, builder, val).data)
+            else:
+                data.append(context.cast(builder, val, ty, types.float64))
+        fn = builder.inttoptr(args[0], fnty.as_pointer())
+        builder.call(fn, data)
+        return context.get_dummy_value()
+
+    return sig, codegen
+
+
+@numba.njit(cache=True, inline="always")
 def predict_sparse(x, P, F, Qc, dt, ws):
     """In place, ``x <- Phi x``, ``P <- Phi P Phi^T + dt/2 (Phi Qc Phi^T + Qc)``, symmetric.
 
-    The same math as :func:`inmotion.estimation.kalman._predict_kernel` (second-order
-    ``Phi = I + F dt + (F dt)^2 / 2``, trapezoid ``Qd``, ``P`` symmetrized, its diagonal
-    floored at 0), on the active rows of ``ws`` only (module docstring); no allocation.
+    The math of :func:`inmotion.estimation.kalman._predict_kernel` (second-order
+    ``Phi = I + F dt + (F dt)^2 / 2``, trapezoid ``Qd``, ``P`` symmetric, its diagonal
+    floored at 0) by the kernel generated for ``ws``'s pattern (module docstring); no
+    allocation. Also fills ``ws.PhiT`` (Phi's active rows, transposed, in its first ``na``
+    columns).
 
     Parameters
     ----------
@@ -139,59 +376,12 @@ def predict_sparse(x, P, F, Qc, dt, ws):
         pattern ignored)
     dt : float, step [s]
     ws : :class:`PredictWorkspace` from :func:`make_workspace` for this ``n`` and pattern
+
+    Raises ValueError when a size is not the workspace's ``n`` (the kernel reads and writes
+    ``n`` and ``n x n`` entries through raw pointers).
     """
-    n = x.shape[0]
-    act, inact, q = ws.act, ws.inact, ws.q
-    FaT, FaaT, PhiT, A, R, xa = ws.FaT, ws.FaaT, ws.PhiT, ws.A, ws.R, ws.xa
-    na = act.shape[0]
-    hdt = 0.5 * dt
-    hdt2 = 0.5 * dt * dt
-    if na > 0:
-        # Phi_a^T = I_a + dt F_a^T + dt^2/2 F_a^T F_aa^T  (F's other rows are zero)
-        for c in range(n):
-            for a in range(na):
-                FaT[c, a] = F[act[a], c]
-        for b in range(na):
-            k = act[b]
-            for a in range(na):
-                FaaT[b, a] = FaT[k, a]
-        np.dot(FaT, FaaT, PhiT)
-        for c in range(n):
-            for a in range(na):
-                PhiT[c, a] = dt * FaT[c, a] + hdt2 * PhiT[c, a]
-        for a in range(na):
-            PhiT[act[a], a] += 1.0
-        # x <- Phi x (rows of PhiT: contiguous over the active rows)
-        for a in range(na):
-            xa[a] = 0.0
-        for c in range(n):
-            xc = x[c]
-            for a in range(na):
-                xa[a] += PhiT[c, a] * xc
-        for a in range(na):
-            x[act[a]] = xa[a]
-    # Pt = P + dt/2 Qc
-    for p in range(q.shape[1]):
-        P[q[0, p], q[1, p]] += hdt * Qc[q[0, p], q[1, p]]
-    if na > 0:
-        # A = Phi_a Pt;  R = A Phi_a^T
-        np.dot(PhiT.T, P, A)
-        np.dot(A, PhiT, R)
-        for b in range(na):
-            j = act[b]
-            for a in range(b + 1):
-                i = act[a]
-                s = 0.5 * (R[a, b] + R[b, a])
-                P[i, j] = s
-                P[j, i] = s
-            for m in range(inact.shape[0]):
-                c = inact[m]
-                s = A[b, c]
-                P[j, c] = s
-                P[c, j] = s
-    # + dt/2 Qc; diagonal floored at 0
-    for p in range(q.shape[1]):
-        P[q[0, p], q[1, p]] += hdt * Qc[q[0, p], q[1, p]]
-    for i in range(n):
-        if P[i, i] < 0.0:
-            P[i, i] = 0.0
+    n = ws.act.shape[0] + ws.inact.shape[0]
+    if (x.shape[0] != n or P.shape[0] != n or P.shape[1] != n or F.shape[0] != n
+            or F.shape[1] != n or Qc.shape[0] != n or Qc.shape[1] != n):
+        raise ValueError("predict_sparse: x, P, F, Qc must be of the workspace's size n")
+    _call_kernel(ws.kernel, x, P, F, Qc, dt, ws.buf)
