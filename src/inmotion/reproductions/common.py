@@ -15,7 +15,7 @@ from __future__ import annotations
 import contextlib
 from typing import Optional
 
-__all__ = ["run_tasks", "engine", "drift_free_dr_gyro", "turned_heading"]
+__all__ = ["run_tasks", "engine", "drift_free_dr_gyro", "conditions_markdown", "turned_heading"]
 
 #: the client opened by :func:`engine` (None: each :func:`run_tasks` call decides)
 _CLIENT = None
@@ -118,3 +118,15 @@ def drift_free_dr_gyro(imu, eps_b):
     t = np.asarray(imu.t, dtype=float)
     dt = np.diff(t, prepend=t[0] - (t[1] - t[0]) if len(t) > 1 else t[0])
     return imu.dtheta - np.asarray(eps_b, dtype=float)[None, :] * dt[:, None]
+
+
+def conditions_markdown(rows) -> list:
+    """A report's conditions table (issue 17: it opens every report) as markdown lines:
+    ``rows`` of ``(parameter, paper's value, ours, why ours differs)``; a ``|`` or a line
+    break inside a cell becomes ``/`` or a space."""
+    def cell(x):
+        return str(x).replace("|", "/").replace("\n", " ")
+    L = ["## Conditions", "", "| parameter | paper | ours | why ours differs |",
+         "| --- | --- | --- | --- |"]
+    L += ["| " + " | ".join(cell(x) for x in row) + " |" for row in rows]
+    return L + [""]

@@ -74,7 +74,7 @@ import numpy as np
 from ..estimation import chi2
 
 from ..core.bundle import row_at_or_after
-from .common import drift_free_dr_gyro, run_tasks
+from .common import conditions_markdown, drift_free_dr_gyro, run_tasks
 
 __all__ = ["reproduce", "run_one", "EXPERIMENTS", "PAPER", "observability",
            "gyrocompass_heading_limit", "conditions", "z2_redundancy", "Z2_STUDY",
@@ -457,13 +457,6 @@ def conditions() -> list:
          f"STD over t >= {STEADY_FROM_S:g} s of each run; median and single-run 95 % interval",
          "the steady state's start is not given: the second half of the run"),
     ]
-
-
-def _conditions_text() -> list:
-    L = ["## Conditions", "", "| parameter | paper | ours | why ours differs |",
-         "| --- | --- | --- | --- |"]
-    L += [f"| {p} | {pa} | {o} | {w} |" for p, pa, o, w in conditions()]
-    return L + [""]
 
 
 #: Monte Carlo runs of each Z2-study condition (at most; fewer when ``runs`` is smaller):
@@ -943,7 +936,7 @@ def _report(summary, obs, files, runs, wall, out: Path, cpu=float("nan"), worker
          "steady state') and over the last 100 s. The paper's figures are one run each: beside "
          "them stand our median over runs and, in brackets, the single-run 95 % interval "
          "(2.5-97.5 percentiles of the runs' values): a paper figure inside it is what one run "
-         "of our model gives.", ""] + _conditions_text() + [
+         "of our model gives.", ""] + conditions_markdown(conditions()) + [
          "## Misalignment estimation error", "",
          "| experiment | setting | paper E / N / U | median max abs err 100 s E / N / U | "
          "U single-run 95 % | paper STD | median STD t >= 300 s E / N / U | U single-run 95 % | "

@@ -60,7 +60,7 @@ from pathlib import Path
 
 import numpy as np
 
-from .common import drift_free_dr_gyro, run_tasks
+from .common import conditions_markdown, drift_free_dr_gyro, run_tasks
 
 __all__ = ["reproduce", "run_one", "PAPER", "SETTLE_S", "METHODS", "INIT_SIGMA_ARCMIN",
            "CROSS_NOISE_M_S", "conditions", "crossover", "rewrite_report"]
@@ -331,12 +331,6 @@ def _g(v) -> str:
     return ", ".join(f"{x:g}" for x in v) if isinstance(v, (list, tuple)) else f"{v:g}"
 
 
-def _conditions_text() -> list:
-    L = ["## Conditions", "", "| parameter | paper | ours | why ours differs |",
-         "| --- | --- | --- | --- |"]
-    return L + [f"| {p} | {pa} | {o} | {w} |" for p, pa, o, w in conditions()] + [""]
-
-
 def _sweep_text(agg, cross) -> list:
     """The mode ranking against the cross-axis noise, with the crossover."""
     L = ["## Which mode wins: the cross-axis noise of the velocity difference", "",
@@ -429,7 +423,7 @@ def _report(agg, ver, runs, seed, wall, distance, files, out: Path, cross=None) 
          f"filter settles (t >= {SETTLE_S:.0f} s), then the median over runs (90th percentile "
          "in brackets). Paper: one run, '+-' envelopes after the stable state; the summary rows "
          "set it beside the single-run 95 % interval of our runs' maxima.", ""] + \
-        _conditions_text() + ["## Results", "",
+        conditions_markdown(conditions()) + ["## Results", "",
          "| method | horizontal max (m) | % of distance | horizontal RMS (m) | height max (m) "
          "| heading max (arcmin) | level max (arcmin) | paper: horizontal / heading / level |",
          "| --- | --- | --- | --- | --- | --- | --- | --- |"]

@@ -57,7 +57,7 @@ import yaml
 
 from ..core.bundle import row_at_or_after
 from ..core.rotations import wrap_pi
-from .common import run_tasks, turned_heading
+from .common import conditions_markdown, run_tasks, turned_heading
 
 __all__ = ["reproduce", "PAPER_TABLE2", "PAPER_TABLE3", "run_one"]
 
@@ -617,17 +617,9 @@ def _row(label, s, n):
     return f"| {label} | {vals} |"
 
 
-def _md_cell(x):
-    return str(x).replace("|", "/").replace("\n", " ")
-
-
 def conditions_table() -> list:
     """The conditions table as markdown lines (from :func:`conditions`)."""
-    L = ["## Conditions", "", "| parameter | paper | ours | why ours differs |",
-         "|---|---|---|---|"]
-    for row in conditions():
-        L.append("| " + " | ".join(_md_cell(x) for x in row) + " |")
-    return L + [""]
+    return conditions_markdown(conditions())
 
 
 def _wd(d, n=2):

@@ -52,7 +52,7 @@ from pathlib import Path
 
 import numpy as np
 
-from .common import run_tasks
+from .common import conditions_markdown, run_tasks
 
 __all__ = ["reproduce", "SPEEDS_M_S", "PAPER_TABLE2", "PAPER_TABLE6", "PAPER_TABLE4",
            "PAPER_TABLE5"]
@@ -147,12 +147,8 @@ def conditions() -> list:
 
 
 def conditions_table() -> list:
-    """The conditions table as markdown lines."""
-    L = ["## Conditions", "", "| parameter | paper | ours | why ours differs |",
-         "| --- | --- | --- | --- |"]
-    for row in conditions():
-        L.append("| " + " | ".join(str(x).replace("|", "/") for x in row) + " |")
-    return L + [""]
+    """The conditions table as markdown lines (from :func:`conditions`)."""
+    return conditions_markdown(conditions())
 
 
 # ------------------------------------------------------------------------------ one run
