@@ -227,3 +227,13 @@ def test_circle_summary_and_rows():
     assert rows["001 test 1 oba (centred): heading mean 91-180 s"]["kind"] == "ablation"
     assert rows["001 test 1 oba (paper form): heading mean 91-180 s"]["kind"] == "paper"
     assert all(x["verdict"] != "undecided" for x in rows.values() if x["kind"] == "paper")
+    # the report opens with the conditions table and has the circle section
+    keys = r._keys()
+    S["time_s"] = {t: {k: 0.5 for k in keys} for t in ("1", "2")}
+    S["time_cpu_s"] = S["time_s"]
+    S.update(elapsed_s=1.0, seed=0, workers=1)
+    text = r._report(S)
+    assert text.split("\n## ")[1].startswith("Conditions")
+    sec = text.split("## Alignment from an unknown heading")[1].split("\n## ")[0]
+    assert f"| 1 `ausquhe` (paper) | {n} / {n} |" in sec
+    assert "| 3 `usque` (paper) | 0 / " in sec
