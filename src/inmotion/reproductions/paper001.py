@@ -468,6 +468,8 @@ def _summarize_circle(results) -> dict:
         out["per_heading"][key] = {
             f"{h:g}": circle_stats(fin([r for r in results if r["heading_deg"] == h]))["rate"]
             for h in out["headings_deg"]}
+        out.setdefault("final_deg", {})[key] = [
+            [r["heading_deg"], r["run"], float(np.asarray(r["yaw"][key])[-1])] for r in results]
         if key in results[0]["sigma_u_2s_deg"]:
             out["sigma_u_2s_deg"][key] = float(np.median(
                 [r["sigma_u_2s_deg"][key] for r in results]))
