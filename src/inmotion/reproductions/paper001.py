@@ -872,7 +872,28 @@ def _claims_text(S) -> list:
         f"{t1p['sd_of_means'][-1]:.3f} deg (SD of the run means), so a single run is often "
         f"outside 0.05 deg.",
         "* The ranking of the schemes: where ours differs from the paper's, and why, in "
-        "\"Ranking against the paper\" below."]
+        "\"Ranking against the paper\" below."] + _circle_claim(S)
+
+
+def _circle_claim(S) -> list:
+    """Issue 17's claim (alignment from an unknown attitude) against the whole circle."""
+    C = S.get("whole_circle") or {}
+    if not C.get("circle"):
+        return []
+    c = lambda k, w="circle": C[w][k]    # noqa: E731
+    f = lambda k, w="circle": f"{c(k, w)['successes']} of {c(k, w)['n']}"   # noqa: E731
+    return [
+        f"* Alignment from an unknown attitude (issue 17; test {C['test']}, start headings "
+        f"over the whole circle, success = |heading error| < {C['success_deg']:g} deg at 300 s): "
+        f"`ausquhe` as in Tables 1-2 (paper states, k0 = 30) succeeds in "
+        f"{f('ausquhe/paper')} runs (95 % {c('ausquhe/paper')['interval'][0]:.2f}-"
+        f"{c('ausquhe/paper')['interval'][1]:.2f}), {f('ausquhe/paper', 'paper_start')} from "
+        f"the paper's start ({C['paper_start_deg']:g} deg); with k0 = {CIRCLE_K0:g} "
+        f"{f('ausquhe/paper-k0-3')} ({f('ausquhe/paper-k0-3', 'paper_start')} from the "
+        f"paper's start); with the extended state {f('ausquhe/extended')}; `usque` "
+        f"{f('usque/paper')}, `ausque` {f('ausque/paper')}, `oba` (paper form) "
+        f"{f('oba/paper-form')}, `oba` centred {f('oba/-')}. Why, in \"Alignment from an "
+        "unknown heading\" below."]
 
 
 def _nees_text(S) -> list:
@@ -1001,8 +1022,8 @@ def _circle_text(S) -> list:
           "gravity vector by g t sin(tilt error), so every update credits the heading with "
           "information that belongs to the tilt, along a direction that turns with the noisy "
           "estimate (the known inconsistency of a filter linearized at its moving estimate in "
-          "an unobservable direction). With a 1-sigma of a degree the gain on the heading is "
-          "small, and the filter leaves a 170-deg start error only as the real Earth-rate "
+          "an unobservable direction). With a 1-sigma of a few degrees the gain on the heading "
+          "is small, and the filter leaves a 170-deg start error only as the real Earth-rate "
           "information (growing as t^5) overtakes this false one: the heading is still tens of "
           "degrees off at 100 s and several at 300 s in the traces.",
           "* **What the paper's tools do.** The adaptive R (eq. 42-45) raises R along the "
