@@ -237,3 +237,13 @@ def test_circle_summary_and_rows():
     sec = text.split("## Alignment from an unknown heading")[1].split("\n## ")[0]
     assert f"| 1 `ausquhe` (paper) | {n} / {n} |" in sec
     assert "| 3 `usque` (paper) | 0 / " in sec
+
+
+def test_circle_bins_wrap_the_start_heading():
+    rows = [[-180.0, 0, 0.5], [170.0, 0, 20.0], [150.0, 1, 0.2], [30.0, 0, 2.0],
+            [-60.0, 0, 0.1], [90.0, 0, 0.1]]
+    b = r.circle_bins(rows)
+    # near: 30 and -60 (one success); far: -180, 170, 150 (two successes, one gross)
+    assert b["near"] == (1, 2, 0)
+    assert b["far"] == (2, 3, 1)
+    assert r._agree({"final_deg": {"a": rows, "oba/paper-form": rows}}, "a") == "6 of 6"
