@@ -1,6 +1,7 @@
 """Paper 001 reproduction: the statistics of the report (ranking, NEES), its assembly, and the
 scenario of our test 3 (stale / biased LDV bursts)."""
 import numpy as np
+import pytest
 
 from inmotion.core import rotations
 from inmotion.core.bundle import Truth
@@ -116,3 +117,133 @@ def test_test3_ldv_is_stale_while_the_car_brakes_and_biased_later():
     assert v[stuck][0] - true_speed[stuck].min() > 5.0  # ... while the car brakes by > 5 m/s
     late = (t > 241.0) & (t < 254.0)
     assert abs(np.mean(v[late] - true_speed[late]) - 0.5) < 0.1   # +0.5 m/s bias, noise 0.3
+
+
+# ----------------------------------------------------------------------------- issue 17
+def test_binomial_interval_matches_clopper_pearson_tables():
+    # exact 95 % intervals (Clopper & Pearson 1934; e.g. Newcombe 1998, table I)
+    assert r.binomial_interval(0, 10) == (0.0, pytest.approx(0.3085, abs=1e-4))
+    lo, hi = r.binomial_interval(5, 10)
+    assert lo == pytest.approx(0.1871, abs=1e-4) and hi == pytest.approx(0.8129, abs=1e-4)
+    assert r.binomial_interval(10, 10) == (pytest.approx(0.6915, abs=1e-4), 1.0)
+    # 0 of n: the upper bound is 1 - 0.025^(1/n)
+    assert r.binomial_interval(0, 39)[1] == pytest.approx(1 - 0.025 ** (1 / 39), rel=1e-6)
+
+
+def test_single_run_interval():
+    # one run's outcome is decided only when the success probability is surely < 2.5 % or > 97.5 %
+    assert r.single_run_interval(0, 200) == (0.0, 0.0)
+    assert r.single_run_interval(200, 200) == (1.0, 1.0)
+    assert r.single_run_interval(0, 10) == (0.0, 1.0)       # upper bound 0.31
+    assert r.single_run_interval(3, 10) == (0.0, 1.0)
+
+
+def test_circle_stats_of_a_known_sample():
+    st = r.circle_stats([0.5, -0.2, 3.0, -170.0, 0.99, 1.0], success_deg=1.0)
+    assert st["n"] == 6 and st["successes"] == 3 and st["rate"] == 0.5
+    assert st["median_abs_deg"] == pytest.approx(0.995)
+    assert st["max_abs_deg"] == 170.0
+    assert st["interval"] == r.binomial_interval(3, 6)
+
+
+def test_earth_rate_heading_bound_against_the_discrete_sum():
+    # information of the heading from the Earth-rate part of beta, summed update by update
+    from inmotion.core import earth
+    lat, noise, rate, T = 28.0, 0.3, 100.0, 60.0
+    t = np.arange(1, int(T * rate) + 1) / rate
+    k = 9.79 * earth.OMEGA_IE * np.cos(np.radians(lat)) / 2.0
+    info = np.sum((k * t ** 2) ** 2) / noise ** 2 + 1.0 / np.radians(12.0) ** 2
+    assert r.earth_rate_heading_sigma_deg(T, lat, noise, rate, 12.0) == pytest.approx(
+        np.degrees(info ** -0.5), rel=1e-2)
+    # in the first seconds the prior is all there is
+    assert r.earth_rate_heading_sigma_deg(2.0, lat, noise, rate, 12.0) > 11.9
+
+
+def test_conditions_ours_are_the_settings_the_runs_use():
+    rows = {p: (paper, ours) for p, paper, ours, _ in r.conditions(30)}
+    # the configuration a run really gets (a 0.2 s drive is enough to read it back)
+    from inmotion.core.bundle import Bundle, ImuData, SpeedData
+    t = np.arange(0.0, 0.2, 0.01)
+    n = len(t)
+    b = Bundle(ImuData(t, np.zeros((n, 3)), np.tile([0.0, 0.0, 0.098], (n, 1))),
+               {"initial_position": {"lat_deg": 28.0, "lon_deg": 113.0, "h_m": 0.0}},
+               ldv=SpeedData(t, v=np.zeros(n)))
+    sol, _ = r._run_scheme("ausquhe", "paper", b)
+    cfg = sol.info["config"]
+    assert rows["initial covariance [deg]"][1] == "diag(%s)^2" % ", ".join(
+        f"{v:g}" for v in cfg["sigma0_deg"])
+    assert rows["process noise Q [deg per update]"][1].startswith(f"({cfg['process_noise_deg']:g})")
+    assert cfg["process_noise_deg"] == 1e-7 and cfg["meas_noise_m_s"] == 0.07
+    assert rows["k0 (eq. 55)"][1] == f"{cfg['k0']:g}"
+    assert rows["gamma_min, gamma_max (eq. 55-56) [deg]"][1] == (
+        f"{cfg['gamma_min_deg']:g}, {cfg['gamma_max_deg']:g}")
+    assert rows["adaptive R bounds R_min, R_max (eq. 44) [m/s]"][1].startswith(
+        f"{cfg['r_min_m_s']:g}, {cfg['r_max_m_s']:g}")
+    assert rows["fading factor c (eq. 43)"][1] == f"{cfg['fading_factor']:g}"
+    # the scenarios the runs simulate
+    sc1, sc2 = r._scenario(1), r._scenario(2)
+    assert rows["latitude [deg]"][1] == f"{sc1.start.lat_deg:g}"
+    assert rows["start heading, Tables 1-2 [deg]"][1].startswith(
+        f"{sc1.start.heading_deg:g} (test 1), {sc2.start.heading_deg:g} (test 2)")
+    assert f"white {sc2.sensors.ldv.noise_m_s:g} m/s" in rows["LDV disturbance, test 2"][1]
+    assert r._scenario(2, 170.0).start.heading_deg == 170.0
+    circle = rows["start heading, whole circle [deg]"][1]
+    assert circle.startswith(", ".join(f"{h:g}" for h in r.CIRCLE_HEADINGS_DEG))
+    assert f"{r.PAPER_START_DEG:g}" in circle
+
+
+def _fake_circle(fail_key="usque/paper"):
+    out = []
+    for h, run, _ in r.circle_tasks(0, runs=2):
+        yaw = {k: np.full(N_GRID, 0.1) for k in r.CIRCLE_KEYS}
+        yaw[fail_key] = np.full(N_GRID, 20.0)
+        out.append({"heading_deg": h, "run": run, "yaw": yaw,
+                    "sigma_u_2s_deg": {k: 1.0 for k in r.CIRCLE_KEYS if "oba" not in k}})
+    return out
+
+
+def test_circle_summary_and_rows():
+    from inmotion.evaluate.stats import compare_rows
+    from inmotion.reproductions import suite
+    C = r._summarize_circle(_fake_circle())
+    n = 2 * len(r.CIRCLE_HEADINGS_DEG)
+    assert C["circle"]["ausquhe/paper"]["successes"] == n
+    assert C["circle"]["usque/paper"]["successes"] == 0
+    assert C["paper_start"]["ausquhe/paper"]["n"] == 2
+    S = r._summarize(_fake_results())
+    S.update(runs=3, whole_circle=C)
+    rows = {x["quantity"]: x for x in compare_rows(suite._rows_001(S))}
+    q = "001 test 2 1 ausquhe (paper): success rate from the whole circle"
+    assert rows[q]["kind"] == "paper" and rows[q]["verdict"] == "same"    # n of n: 1 inside
+    q = "001 test 2 3 usque (paper): success rate from the whole circle"
+    assert rows[q]["kind"] == "ablation"
+    # the paper's one run of usque failed (14.5 deg); ours fail too
+    q = f"001 test 2 3 usque (paper): success from the paper's start ({r.PAPER_START_DEG:g} deg)"
+    assert rows[q]["paper"] == 0.0 and rows[q]["verdict"] == "same"
+    # Table rows carry the single-run interval and are paper rows for the paper's schemes
+    t = rows["001 test 2 ausquhe (paper states): heading mean 181-300 s"]
+    assert t["kind"] == "paper" and len(t["measured_interval"]) == 2 and t["paper_n"] == 1
+    assert rows["001 test 2 ausquhe (extended states): heading STD 181-300 s"]["kind"] == "ablation"
+    assert rows["001 test 1 oba (centred): heading mean 91-180 s"]["kind"] == "ablation"
+    assert rows["001 test 1 oba (paper form): heading mean 91-180 s"]["kind"] == "paper"
+    assert all(x["verdict"] != "undecided" for x in rows.values() if x["kind"] == "paper")
+    # the report opens with the conditions table and has the circle section
+    keys = r._keys()
+    S["time_s"] = {t: {k: 0.5 for k in keys} for t in ("1", "2")}
+    S["time_cpu_s"] = S["time_s"]
+    S.update(elapsed_s=1.0, seed=0, workers=1)
+    text = r._report(S)
+    assert text.split("\n## ")[1].startswith("Conditions")
+    sec = text.split("## Alignment from an unknown heading")[1].split("\n## ")[0]
+    assert f"| 1 `ausquhe` (paper) | {n} / {n} |" in sec
+    assert "| 3 `usque` (paper) | 0 / " in sec
+
+
+def test_circle_bins_wrap_the_start_heading():
+    rows = [[-180.0, 0, 0.5], [170.0, 0, 20.0], [150.0, 1, 0.2], [30.0, 0, 2.0],
+            [-60.0, 0, 0.1], [90.0, 0, 0.1]]
+    b = r.circle_bins(rows)
+    # near: 30 and -60 (one success); far: -180, 170, 150 (two successes, one gross)
+    assert b["near"] == (1, 2, 0)
+    assert b["far"] == (2, 3, 1)
+    assert r._agree({"final_deg": {"a": rows, "oba/paper-form": rows}}, "a") == "6 of 6"

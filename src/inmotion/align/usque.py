@@ -170,7 +170,11 @@ class UsqueConfig(BaseModel):
         updates each H-infinity step removes ``gamma^-2`` of information, i.e. a fraction
         ``~ 1 / (1 + k0 sqrt(tr P_y / e^T e))^2`` of the weakest direction's; ``k0 = 1`` forgets
         the heading within ~0.1 s, ``k0 = 30`` gives a memory of ~30 s (chosen on test 1,
-        the undisturbed drive).
+        the undisturbed drive, from an 8-deg start). From a heading far off with a noisy
+        LDV, ``k0 = 3`` does better with the attitude-only state: the H-infinity step then
+        keeps the heading's covariance open against the false heading information of the
+        first seconds (``inmotion reproduce 001``, section "Alignment from an unknown
+        heading").
     gamma_min_deg, gamma_max_deg : float
         Bounds of the adaptive gamma [deg] (eq. 55-56).
     hinf_margin : float

@@ -47,8 +47,22 @@ Documented choices:
   diagonal), averaged over the runs and set against the two-sided 95 % band of
   ``chi2(3 runs) / runs``.
 
-``reproduce(out_dir, runs=30, workers=2, seed=0, progress=True)`` writes ``report.md``,
-``results.json``, figures ``test{1,2,3}_{state set}_errors.png`` and returns the report text;
+* Whole circle (issue 17): the paper's point is alignment from an unknown attitude (its test
+  2 starts about 155-180 deg off in heading; our Tables 1-2 start 8 deg off). Test 2's drive
+  is run from the truth's start headings every 30 deg and from 170 deg (the paper's start),
+  ``circle_runs`` seeds each, with every scheme; success is |heading error| < 1 deg at 300 s,
+  given with its Clopper-Pearson 95 % interval (:func:`binomial_interval`) and the error
+  distribution. The heading 1-sigma each filter claims at 2 s is set against the Cramer-Rao
+  bound of the Earth-rate signal (:func:`earth_rate_heading_sigma_deg`): the mechanism that
+  keeps the USQUE family from large starts (report, "Alignment from an unknown heading").
+* Conditions table (issue 17): :func:`conditions` reads "ours" from the scenarios and the
+  filter configurations the runs use (a test checks them); the paper's filter settings
+  (:data:`PAPER_FILTER`) are passed explicitly, so a change of the library defaults does not
+  change the reproduction.
+
+``reproduce(out_dir, runs=30, workers=2, seed=0, progress=True, circle_runs=3)`` writes
+``report.md``, ``results.json``, figures ``test{1,2,3}_{state set}_errors.png``,
+``circle_success.png``, ``circle_errors.png`` and returns the report text;
 ``rewrite_report(out_dir)`` re-writes ``report.md`` from ``results.json``.
 """
 from __future__ import annotations
@@ -93,6 +107,37 @@ EXTRA_VARIANTS = {
                 "extended-unbounded-r": {**STATE_SETS["extended"], **UNBOUNDED_R}},
     "ausque": {"extended-unbounded-r": {**STATE_SETS["extended"], **UNBOUNDED_R}}}
 
+#: the filter settings of the paper's sec. 4 for schemes 1, 3, 4, 5, passed explicitly (so a
+#: change of the library's defaults does not change the reproduction): initial covariance
+#: diag(3, 3, 12 deg)^2, process noise (1e-7 deg)^2, initial R (0.07 m/s)^2
+PAPER_FILTER = {"sigma0_deg": (3.0, 3.0, 12.0), "process_noise_deg": 1e-7,
+                "meas_noise_m_s": 0.07}
+
+#: the whole-circle experiment (issue 17). The filters start at yaw 0 (the paper's
+#: q = [1 0 0 0]), so the truth's start heading h is a start error of -h. Test 2's drive from
+#: every 30 deg of the circle and from the paper's own start, CIRCLE_RUNS seeds each.
+CIRCLE_TEST = 2
+CIRCLE_HEADINGS_DEG = tuple(float(h) for h in range(-180, 180, 30))
+#: the paper's test 2 starts about 155-180 deg off: Table 2's 1-120 s means 121-178 deg and
+#: its fig. 9 (the issue's reading); 170 deg is the value tried in the issue
+PAPER_START_DEG = 170.0
+CIRCLE_RUNS = 3
+#: success: |heading error| below this at 300 s [deg] (the issue's criterion)
+SUCCESS_DEG = 1.0
+#: schemes of the circle; ``ausquhe`` (paper) and ``oba (paper-form)`` are the paper's scheme
+#: 1 and 2 as written, the others as in the tables
+CIRCLE_KEYS = ("ausquhe/paper", "ausque/paper", "usque/paper", "usque-hinf/paper",
+               "oba/paper-form", "oba/-", "ausquhe/extended", "ausquhe/paper-k0-3",
+               "ausquhe/extended-k0-3")
+#: k0 of eq. 55 ("determined by experiment"; our default 30 was chosen on test 1 from an
+#: 8-deg start): 3 keeps the H-infinity step removing information while the heading is
+#: unknown (chosen on tuning drives, seeds 101-102, ``benchmarks/usque_k0_circle.py``)
+CIRCLE_K0 = 3.0
+#: variants that exist only in the circle: ausquhe with k0 = CIRCLE_K0
+CIRCLE_VARIANTS: dict = {"ausquhe": {"paper-k0-3": {"k0": CIRCLE_K0},
+                                     "extended-k0-3": {**STATE_SETS["extended"],
+                                                       "k0": CIRCLE_K0}}}
+
 #: paper 001 Table 1 (test 1): scheme -> ((mean, STD) per window of WINDOWS[1]) [deg]
 PAPER_TABLE1 = {
     "ausquhe": ((4.5305, 17.9068), (-0.0629, 0.0347), (0.0261, 0.0168)),
@@ -115,15 +160,30 @@ PAPER_TABLE3 = {"ausquhe": (19.5758, 18.4083), "oba": (13.5719, 12.6162),
                 "usque-hinf": (18.4216, 17.4598)}
 
 GRID_S = np.arange(0.0, 300.0 + 0.5, 1.0)
+#: timed runs of each scheme per test (Table 3); the spread of their CPU-time ratios to oba's
+#: is the uncertainty of the ratio
+TIMING_REPEATS = 3
+#: the schemes timed for Table 3: the paper's five as written (and our centred oba)
+TIMED_KEYS = ("ausquhe/paper", "oba/-", "oba/paper-form", "usque/paper", "ausque/paper",
+              "usque-hinf/paper")
 
 
-def _scenario(test: int):
-    from ..sim.scenario import find_scenario, load_scenario
+def _scenario_spec(test: int, heading_deg=None) -> dict:
+    """The scenario of ``test`` as a dict, IMU constants drawn per run, and the truth's start
+    heading set to ``heading_deg`` when given (the whole-circle experiment)."""
+    from ..sim.scenario import find_scenario
     import yaml
     with open(find_scenario(SCENARIOS[test])) as fh:
         spec = yaml.safe_load(fh)
     spec.setdefault("imu", {})["constant_errors"] = "random"
-    return load_scenario(spec)
+    if heading_deg is not None:
+        spec["start"]["heading_deg"] = float(heading_deg)
+    return spec
+
+
+def _scenario(test: int, heading_deg=None):
+    from ..sim.scenario import load_scenario
+    return load_scenario(_scenario_spec(test, heading_deg))
 
 
 def _errors_on_grid(sol, truth):
@@ -143,7 +203,8 @@ def _run_scheme(name, variant, bundle):
         config = Config(output_interval_s=1.0,
                         **(OBA_PAPER_FORM if variant == "paper-form" else {}))
     else:
-        config = Config(**{**STATE_SETS, **EXTRA_VARIANTS.get(name, {})}[variant])
+        config = Config(**{**PAPER_FILTER, **{**STATE_SETS, **EXTRA_VARIANTS.get(name, {}),
+                                              **CIRCLE_VARIANTS.get(name, {})}[variant]})
     t0 = time.perf_counter()
     sol = run(bundle, config, None)
     return sol, time.perf_counter() - t0
@@ -190,7 +251,228 @@ def run_one(task) -> dict:
             out["errors"][key] = _errors_on_grid(sol, bundle.truth)
             if name != "oba":
                 out["nees"][key] = _nees_on_grid(sol, bundle.truth)
+                out.setdefault("sigma_u_2s_deg", {})[key] = _sigma_u_at(sol, bundle.truth,
+                                                                        EARLY_S)
             out["time_s"][key] = dt
+    return out
+
+
+#: time at which the heading 1-sigma is read to show the spurious heading information [s]
+EARLY_S = 2.0
+
+
+def _sigma_u_at(sol, truth, t_s):
+    """The filter's heading (phi_U) 1-sigma [deg] at ``t_s`` seconds after the start."""
+    i = int(np.searchsorted(sol.t, truth.t[0] + t_s - 1e-6).clip(0, len(sol.t) - 1))
+    return float(np.degrees(sol.sigma["phi_U"][i]))
+
+
+def earth_rate_heading_sigma_deg(t_s, lat_deg, noise_m_s, rate_hz, sigma0_deg):
+    """Lower bound on the heading 1-sigma [deg] after ``t_s`` seconds from the Earth-rate signal
+    alone (the Cramer-Rao bound of the linearized model at the truth).
+
+    A rotation ``dpsi`` about the vertical changes the model of paper 001 eq. 13-14 only
+    through the horizontal part of ``beta`` (eq. 19), ``g Omega cos(L) t^2 / 2``: with white
+    measurement noise ``noise_m_s`` per axis at ``rate_hz`` the information is
+    ``sum_k (g Omega cos L t_k^2 / 2)^2 / noise^2 ~ rate (g Omega cos L / 2)^2 t^5 / (5 noise^2)``
+    [rad^-2], added to the prior's ``1 / sigma0^2``.
+    """
+    from ..core import earth
+    k = 9.79 * earth.OMEGA_IE * np.cos(np.radians(lat_deg)) / 2.0
+    info = rate_hz * k ** 2 * t_s ** 5 / (5.0 * noise_m_s ** 2) + 1.0 / np.radians(sigma0_deg) ** 2
+    return float(np.degrees(1.0 / np.sqrt(info)))
+
+
+def conditions(runs=None, circle_runs: int = CIRCLE_RUNS) -> list:
+    """The conditions table: ``(parameter, paper, ours, why)`` rows, "ours" read from the
+    scenarios and the filter configurations the experiment really uses."""
+    from .. import registry
+    sp = {t: _scenario_spec(t) for t in TESTS}
+    s1, s2 = sp[1], sp[2]
+    ldv1, ldv2 = s1["sensors"]["ldv"], s2["sensors"]["ldv"]
+    cfg = {n: registry.get(n).load()[1](**PAPER_FILTER) for n in SCHEMES if n != "oba"}
+    a = cfg["ausquhe"]
+    oba = registry.get("oba").load()[1]()
+    bursts = ", ".join(f"{f['start_s']:g}-{f['end_s']:g} s" for f in s2.get("faults", []))
+    f0 = s2["faults"][0] if s2.get("faults") else {}
+    return [
+        ("latitude [deg]", "Changsha (about 28.2)", f"{s1['start']['lat_deg']:g}", "same"),
+        ("drive", "one urban car run per test, 300 s (fig. 2-3)",
+         f"simulated `{SCENARIOS[1]}` / `{SCENARIOS[2]}`, {s1['start']['speed_m_s']:g} m/s "
+         "start, 6-14 m/s, three turns, a stop, a slope", "the car's trajectory is not given"),
+        ("start heading, Tables 1-2 [deg]", "test 1 unknown; test 2 about 155-180 off "
+         "(Table 2's 1-120 s means 121-178, fig. 9)",
+         f"{s1['start']['heading_deg']:g} (test 1), {s2['start']['heading_deg']:g} (test 2); "
+         "filters start at yaw 0", "Tables 1-2 keep the scenario's small start; the paper's "
+         "start is tested in the whole-circle section"),
+        ("start heading, whole circle [deg]", "-",
+         f"{', '.join(f'{h:g}' for h in CIRCLE_HEADINGS_DEG)} and {PAPER_START_DEG:g} "
+         f"(test {CIRCLE_TEST}), {circle_runs} runs each",
+         "issue 17: the paper's point is alignment from an unknown attitude"),
+        ("gyro drift [deg/h]", "0.008 (bias instability)",
+         f"{s1['imu']['gyro']['drift_deg_h']:g}, 1-sigma, drawn per run "
+         f"(constant_errors: {s1['imu']['constant_errors']})",
+         "one car's actual residual bias is unknown; a fixed value repeats one error"),
+        ("gyro random walk [deg/sqrt(h)]", "0.003", f"{s1['imu']['gyro']['arw_deg_sqrt_h']:g}",
+         "same"),
+        ("accelerometer bias [ug]", "50 (bias instability)",
+         f"{s1['imu']['accel']['bias_ug']:g}, 1-sigma, drawn per run", "as the gyro drift"),
+        ("accelerometer random walk", "50 ug/sqrt(h)",
+         f"{s1['imu']['accel']['vrw_ug_sqrt_hz']:g} ug/sqrt(Hz)",
+         "a velocity random walk needs acceleration per sqrt(Hz); read as a typo"),
+        ("IMU and LDV rate [Hz]", "100, 100",
+         f"{s1['imu']['rate_hz']:g}, {ldv1['rate_hz']:g}", "same"),
+        ("LDV scale error", "0.1 % (1 sigma), calibrated",
+         f"{ldv1['scale_factor_sigma_ppm'] / 1e4:g} % (1 sigma), drawn per run", "same"),
+        ("LDV noise, test 1 [m/s]", "not given (normal LDV)", f"{ldv1['noise_m_s']:g}",
+         "a small white noise of a good LDV"),
+        ("LDV disturbance, test 2", "\"seriously disturbed by noise\" (fig. 3), no figures",
+         f"white {ldv2['noise_m_s']:g} m/s + outlier bursts {bursts} "
+         f"({100 * f0.get('probability', 0):g} % of samples, uniform +-"
+         f"{f0.get('magnitude_m_s', 0):g} m/s)", "read from fig. 3"),
+        ("initial attitude", "q = [1 0 0 0]", "q = [1 0 0 0] (yaw, pitch, roll 0)", "same"),
+        ("initial covariance [deg]", "diag(3, 3, 12)^2",
+         f"diag({', '.join(f'{v:g}' for v in a.sigma0_deg)})^2", "same"),
+        ("process noise Q [deg per update]", "(1e-7)^2 per axis",
+         f"({a.process_noise_deg:g})^2 per axis", "same (set explicitly)"),
+        ("initial R [m/s]", "(0.07)^2 per axis", f"({a.meas_noise_m_s:g})^2 per axis", "same"),
+        ("update rate [Hz]", "100 (every IMU sample; no other rate stated)",
+         f"{a.update_rate_hz:g}", "same"),
+        ("GRP a, f (eq. 20)", "not given (MRP for a = f = 1)",
+         f"a = {a.grp_a:g}, f = {2 * (a.grp_a + 1) if a.grp_f is None else a.grp_f:g}",
+         "f = 2 (a + 1) makes the GRP the rotation angle to first order"),
+        ("unscented sigma, kappa, zeta (eq. 24-26)", "sigma in 1e-4..1, kappa 0 or 3n, not "
+         "given", f"{a.ut_sigma:g}, {a.ut_kappa:g}, {a.ut_zeta:g}", "values not given"),
+        ("adaptive R bounds R_min, R_max (eq. 44) [m/s]", "bounded, values not given",
+         f"{a.r_min_m_s:g}, {a.r_max_m_s:g} (as 1-sigma)", "see `inmotion.align.usque`"),
+        ("fading factor c (eq. 43)", "0.9 to 0.999", f"{a.fading_factor:g}", "inside the range"),
+        ("k0 (eq. 55)", "\"determined by experiment\", not given", f"{a.k0:g}",
+         "chosen on test 1 (see the whole-circle section)"),
+        ("gamma_min, gamma_max (eq. 55-56) [deg]", "not given",
+         f"{a.gamma_min_deg:g}, {a.gamma_max_deg:g}", "values not given"),
+        ("fixed gamma of scheme 5 (eq. 52)", "not given",
+         f"{cfg['usque-hinf'].gamma_deg_sqrt_s:g} deg sqrt(s) per unit time",
+         "the existence condition (54) over the first 50 s, `inmotion.align.usque`"),
+        ("state", "attitude error only (\"other parameters are not estimated\")",
+         "`paper`: attitude only; `extended`: + accelerometer bias, LDV scale, v^b(0) error",
+         "the extended state shows what limits the heading"),
+        ("oba (scheme 2)", "ref. [9]: q-method, raw first LDV sample as v^b(0)",
+         f"`oba (paper-form)` as the paper; `oba`: centred vectors "
+         f"({oba.center_vectors}), v^b(0) fitted over {oba.initial_speed_fit_s:g} s",
+         "to show what the centring is worth"),
+        ("statistics, Tables 1-2", "one run: window mean and time-STD",
+         f"per run the same, over {runs if runs else 'N'} runs per test; "
+         "row uncertainty: 2.5-97.5 % of the single-run values",
+         "the paper's figure is one run's"),
+        ("success (whole circle)", "-", f"abs(heading error) < {SUCCESS_DEG:g} deg at 300 s",
+         "issue 17"),
+        ("test 3", "not in the paper", f"`{SCENARIOS[3]}`: test 2's noise, LDV bursts stale "
+         "or biased instead of outliers", "our assumption of what hurt the paper's oba"),
+        ("compute time (Table 3)", "MATLAB, its machine, seconds",
+         f"numba, one core here; CPU time, {TIMING_REPEATS} repeats; compared as ratios to "
+         "oba's", "absolute seconds on different machines do not compare"),
+    ]
+
+
+def _conditions_table(runs=None, circle_runs: int = CIRCLE_RUNS) -> list:
+    L = ["| parameter | paper | ours | why ours differs |", "|---|---|---|---|"]
+    for row in conditions(runs, circle_runs):
+        L.append("| " + " | ".join(str(c).replace("|", "/") for c in row) + " |")
+    return L
+
+
+def circle_tasks(seed: int, runs: int = CIRCLE_RUNS) -> list:
+    """``(heading_deg, run_index, seed)`` of the whole-circle experiment: every heading of
+    :data:`CIRCLE_HEADINGS_DEG` and :data:`PAPER_START_DEG`, ``runs`` seeds each."""
+    heads = list(CIRCLE_HEADINGS_DEG) + ([PAPER_START_DEG] if PAPER_START_DEG not in
+                                         CIRCLE_HEADINGS_DEG else [])
+    return [(h, r, seed) for h in heads for r in range(runs)]
+
+
+def run_circle_one(task) -> dict:
+    """One drive of :data:`CIRCLE_TEST` with the truth's start heading ``heading_deg`` (the
+    filters start at yaw 0, so the start error is ``-heading_deg``), aligned by every scheme of
+    :data:`CIRCLE_KEYS`.
+
+    ``task = (heading_deg, run_index, seed)``; the Generator is ``SeedSequence(seed,
+    spawn_key=(CIRCLE_TEST, 1, round(heading_deg) + 360, run_index))`` (apart from the tables'
+    drives). Returns ``{"heading_deg", "run", "yaw": {key: heading error on GRID_S [deg]},
+    "sigma_u_2s_deg": {key: heading 1-sigma at EARLY_S}}``.
+    """
+    from ..sim import simulate
+    heading, run_index, seed = task
+    rng = np.random.default_rng(np.random.SeedSequence(
+        seed, spawn_key=(CIRCLE_TEST, 1, int(round(heading)) + 360, run_index)))
+    bundle = simulate(_scenario(CIRCLE_TEST, heading), rng)
+    out = {"heading_deg": float(heading), "run": run_index, "yaw": {}, "sigma_u_2s_deg": {}}
+    for key in CIRCLE_KEYS:
+        name, variant = key.split("/")
+        sol, _ = _run_scheme(name, variant, bundle)
+        out["yaw"][key] = _errors_on_grid(sol, bundle.truth)[:, 2]
+        if name != "oba":
+            out["sigma_u_2s_deg"][key] = _sigma_u_at(sol, bundle.truth, EARLY_S)
+    return out
+
+
+def binomial_interval(successes: int, n: int, level: float = 0.95) -> tuple:
+    """Clopper-Pearson (exact) interval of a success probability from ``successes`` of ``n``."""
+    from scipy.stats import beta
+    if n <= 0:
+        return (0.0, 1.0)
+    a = (1.0 - level) / 2.0
+    lo = 0.0 if successes == 0 else float(beta.ppf(a, successes, n - successes + 1))
+    hi = 1.0 if successes == n else float(beta.ppf(1.0 - a, successes + 1, n - successes))
+    return (lo, hi)
+
+
+def single_run_interval(successes: int, n: int, level: float = 0.95) -> tuple:
+    """Where ONE run's success (1) or failure (0) falls under our model, ``level`` sure: [0, 1]
+    unless the binomial interval of :func:`binomial_interval` puts the success probability
+    below ``(1 - level) / 2`` (then [0, 0]) or above ``(1 + level) / 2`` (then [1, 1]). The
+    paper reports one run per test, so its outcome contradicts ours only then."""
+    lo, hi = binomial_interval(successes, n, level)
+    a = (1.0 - level) / 2.0
+    return (0.0 if lo < 1.0 - a else 1.0, 1.0 if hi > a else 0.0)
+
+
+def circle_stats(final_deg, success_deg: float = SUCCESS_DEG) -> dict:
+    """Success rate and error distribution of the heading errors at 300 s of one scheme.
+
+    ``final_deg``: the runs' heading errors at 300 s [deg]. Returns ``n``, ``successes``
+    (``|error| < success_deg``), ``rate``, ``interval`` (Clopper-Pearson 95 %), and the median,
+    90th percentile and maximum of ``|error|``.
+    """
+    a = np.abs(np.asarray(final_deg, dtype=float))
+    k = int(np.sum(a < success_deg))
+    return {"n": int(len(a)), "successes": k, "rate": k / len(a) if len(a) else float("nan"),
+            "interval": binomial_interval(k, len(a)),
+            "median_abs_deg": float(np.median(a)), "p90_abs_deg": float(np.percentile(a, 90)),
+            "max_abs_deg": float(a.max())}
+
+
+def _summarize_circle(results) -> dict:
+    """Per scheme: the whole circle, the paper's start, and each start heading."""
+    out = {"test": CIRCLE_TEST, "runs_per_heading": 0, "success_deg": SUCCESS_DEG,
+           "headings_deg": sorted({r["heading_deg"] for r in results}),
+           "paper_start_deg": PAPER_START_DEG, "circle": {}, "paper_start": {},
+           "per_heading": {}, "sigma_u_2s_deg": {}}
+    if not results:
+        return out
+    out["runs_per_heading"] = max(r["run"] for r in results) + 1
+    circle = [r for r in results if r["heading_deg"] in CIRCLE_HEADINGS_DEG]
+    start = [r for r in results if r["heading_deg"] == PAPER_START_DEG]
+    for key in CIRCLE_KEYS:
+        fin = lambda rs: [float(np.asarray(r["yaw"][key])[-1]) for r in rs]   # noqa: E731
+        out["circle"][key] = circle_stats(fin(circle))
+        out["paper_start"][key] = circle_stats(fin(start))
+        out["per_heading"][key] = {
+            f"{h:g}": circle_stats(fin([r for r in results if r["heading_deg"] == h]))["rate"]
+            for h in out["headings_deg"]}
+        out.setdefault("final_deg", {})[key] = [
+            [r["heading_deg"], r["run"], float(np.asarray(r["yaw"][key])[-1])] for r in results]
+        if key in results[0]["sigma_u_2s_deg"]:
+            out["sigma_u_2s_deg"][key] = float(np.median(
+                [r["sigma_u_2s_deg"][key] for r in results]))
     return out
 
 
@@ -261,7 +543,7 @@ def _warm_up():
             usque.run(b, C(**variant))
 
 
-def _time_schemes(seed: int, repeats: int = 2) -> dict:
+def _time_schemes(seed: int, repeats: int = TIMING_REPEATS) -> dict:
     """Table 3: every scheme on one drive of each paper test, in this process, one core.
 
     A first (untimed) run of each scheme compiles or loads numba's cache; then the fastest of
@@ -277,7 +559,7 @@ def _time_schemes(seed: int, repeats: int = 2) -> dict:
         rng = np.random.default_rng(np.random.SeedSequence(seed, spawn_key=(test, 0)))
         bundle = simulate(_scenario(test), rng)
         res["wall_s"][str(test)], res["cpu_s"][str(test)] = {}, {}
-        for key in _keys():
+        for key in TIMED_KEYS:
             name, variant = key.split("/")
             if key not in warm:
                 _run_scheme(name, variant, bundle)
@@ -290,13 +572,16 @@ def _time_schemes(seed: int, repeats: int = 2) -> dict:
                 wall.append(dt)
             res["wall_s"][str(test)][key] = min(wall)
             res["cpu_s"][str(test)][key] = min(cpu)
+            res.setdefault("cpu_repeats_s", {}).setdefault(str(test), {})[key] = cpu
     res["load_1min_after"] = float(os.getloadavg()[0])
     return res
 
 
 def reproduce(out_dir, runs: int = 30, workers: int = 2, seed: int = 0,
-              progress: bool = True) -> str:
-    """Run the tests ``runs`` times with the five schemes; write the report; return its text."""
+              progress: bool = True, circle_runs: int = CIRCLE_RUNS) -> str:
+    """Run the tests ``runs`` times with the five schemes, and the whole-circle experiment
+    with ``circle_runs`` seeds per start heading (0: none); write the report; return its
+    text."""
     out = Path(out_dir)
     out.mkdir(parents=True, exist_ok=True)
     t0 = time.perf_counter()
@@ -305,16 +590,23 @@ def reproduce(out_dir, runs: int = 30, workers: int = 2, seed: int = 0,
     t_mc = time.perf_counter()
     tasks = [(test, r, seed) for test in TESTS for r in range(runs)]
     results = run_tasks(run_one, tasks, workers, desc="paper 001", progress=progress)
+    t_circle = time.perf_counter()
+    circle = run_tasks(run_circle_one, circle_tasks(seed, circle_runs), workers, desc="paper 001 circle",
+                       progress=progress) if circle_runs else []
     summary = _summarize(results)
+    summary["whole_circle"] = _summarize_circle(circle)
+    summary["circle_s"] = time.perf_counter() - t_circle
+    summary["time_cpu_repeats_s"] = timing.get("cpu_repeats_s", {})
     summary["time_s"] = timing["wall_s"]
     summary["time_cpu_s"] = timing["cpu_s"]
     summary["timing_load_1min"] = (timing["load_1min"], timing["load_1min_after"])
     summary["timing_pass_s"] = t_mc - t0
-    summary["monte_carlo_s"] = time.perf_counter() - t_mc
+    summary["monte_carlo_s"] = t_circle - t_mc
     summary["elapsed_s"] = time.perf_counter() - t0
     summary["runs"], summary["seed"], summary["workers"] = runs, seed, workers
     (out / "results.json").write_text(json.dumps(summary, indent=1))
     _figures(results, out)
+    _circle_figures(circle, out)
     text = _report(summary)
     (out / "report.md").write_text(text)
     return text
@@ -350,7 +642,13 @@ def _summarize(results) -> dict:
                 "std": per_run[:, :, 1].mean(0).tolist(),
                 "sd_of_means": per_run[:, :, 0].std(0, ddof=1).tolist() if len(rs) > 1
                 else [0.0] * len(WINDOWS[test]),
-                "rms_of_means": np.sqrt((per_run[:, :, 0] ** 2).mean(0)).tolist()}
+                "rms_of_means": np.sqrt((per_run[:, :, 0] ** 2).mean(0)).tolist(),
+                # where ONE run's window mean / time-STD falls (the paper's are one run's)
+                "mean_interval": np.percentile(per_run[:, :, 0], [2.5, 97.5], 0).T.tolist(),
+                "std_interval": np.percentile(per_run[:, :, 1], [2.5, 97.5], 0).T.tolist()}
+            if key in rs[0].get("sigma_u_2s_deg", {}):
+                summ.setdefault("sigma_u_2s_deg", {}).setdefault(t, {})[key] = float(
+                    np.median([r["sigma_u_2s_deg"][key] for r in rs]))
             summ["ranking"][t][key] = ranking_stats(yaw, WINDOWS[test][-1])
             if key in rs[0]["nees"]:
                 z2 = np.array([r["nees"][key] for r in rs])                  # (runs, grid, 3)
@@ -574,7 +872,28 @@ def _claims_text(S) -> list:
         f"{t1p['sd_of_means'][-1]:.3f} deg (SD of the run means), so a single run is often "
         f"outside 0.05 deg.",
         "* The ranking of the schemes: where ours differs from the paper's, and why, in "
-        "\"Ranking against the paper\" below."]
+        "\"Ranking against the paper\" below."] + _circle_claim(S)
+
+
+def _circle_claim(S) -> list:
+    """Issue 17's claim (alignment from an unknown attitude) against the whole circle."""
+    C = S.get("whole_circle") or {}
+    if not C.get("circle"):
+        return []
+    c = lambda k, w="circle": C[w][k]    # noqa: E731
+    f = lambda k, w="circle": f"{c(k, w)['successes']} of {c(k, w)['n']}"   # noqa: E731
+    return [
+        f"* Alignment from an unknown attitude (issue 17; test {C['test']}, start headings "
+        f"over the whole circle, success = |heading error| < {C['success_deg']:g} deg at 300 s): "
+        f"`ausquhe` as in Tables 1-2 (paper states, k0 = 30) succeeds in "
+        f"{f('ausquhe/paper')} runs (95 % {c('ausquhe/paper')['interval'][0]:.2f}-"
+        f"{c('ausquhe/paper')['interval'][1]:.2f}), {f('ausquhe/paper', 'paper_start')} from "
+        f"the paper's start ({C['paper_start_deg']:g} deg); with k0 = {CIRCLE_K0:g} "
+        f"{f('ausquhe/paper-k0-3')} ({f('ausquhe/paper-k0-3', 'paper_start')} from the "
+        f"paper's start); with the extended state {f('ausquhe/extended')}; `usque` "
+        f"{f('usque/paper')}, `ausque` {f('ausque/paper')}, `oba` (paper form) "
+        f"{f('oba/paper-form')}, `oba` centred {f('oba/-')}. Why, in \"Alignment from an "
+        "unknown heading\" below."]
 
 
 def _nees_text(S) -> list:
@@ -641,12 +960,183 @@ def _nees_table(S) -> list:
     return L
 
 
+#: start-error bins of the circle report [deg]: near (|start| <= 60), far (|start| >= 120); a
+#: gross failure is an error above GROSS_DEG at 300 s
+NEAR_DEG, FAR_DEG, GROSS_DEG = 60.0, 120.0, 5.0
+
+
+def circle_bins(final_deg) -> dict:
+    """``{"near": (successes, n, gross), "far": (...)}`` from ``[[heading, run, final error]]``
+    rows: start errors |h| <= NEAR_DEG and >= FAR_DEG (wrapped), success |error| < SUCCESS_DEG,
+    gross |error| > GROSS_DEG."""
+    out = {}
+    for name, sel in (("near", lambda a: a <= NEAR_DEG), ("far", lambda a: a >= FAR_DEG)):
+        e = [abs(f) for h, _, f in final_deg if sel(abs(((h + 180.0) % 360.0) - 180.0))]
+        out[name] = (int(sum(a < SUCCESS_DEG for a in e)), len(e),
+                     int(sum(a > GROSS_DEG for a in e)))
+    return out
+
+
+def _agree(C, key, ref="oba/paper-form") -> str:
+    """``"k of n"``: runs where ``key`` and ``ref`` both succeed or both miss."""
+    a = {(h, r): abs(f) < SUCCESS_DEG for h, r, f in C.get("final_deg", {}).get(key, [])}
+    b = {(h, r): abs(f) < SUCCESS_DEG for h, r, f in C.get("final_deg", {}).get(ref, [])}
+    common = set(a) & set(b)
+    return f"{sum(a[x] == b[x] for x in common)} of {len(common)}"
+
+
+def _circle_summary_bullet(C) -> str:
+    """The first finding of the circle section, from the runs' final errors."""
+    b = {k: circle_bins(C.get("final_deg", {}).get(k, [])) for k in CIRCLE_KEYS}
+    f = lambda k, w: f"{b[k][w][0]} of {b[k][w][1]}"    # noqa: E731
+    g = lambda k, w: b[k][w][2]                          # noqa: E731
+    return (
+        f"* **The start heading matters for every filter, not for `oba`.** `ausquhe` (paper "
+        f"states, k0 = 30) succeeds in {f('ausquhe/paper', 'near')} runs that start within "
+        f"{NEAR_DEG:g} deg ({g('ausquhe/paper', 'near')} gross failures) and in "
+        f"{f('ausquhe/paper', 'far')} that start beyond {FAR_DEG:g} deg "
+        f"({g('ausquhe/paper', 'far')} gross, up to {C['circle']['ausquhe/paper']['max_abs_deg']:.0f}"
+        f" deg off); `usque` {f('usque/paper', 'near')} / {f('usque/paper', 'far')} "
+        f"({g('usque/paper', 'far')} gross far), `ausque` {f('ausque/paper', 'near')} / "
+        f"{f('ausque/paper', 'far')} ({g('ausque/paper', 'near') + g('ausque/paper', 'far')} "
+        f"gross: the adaptive R without the H-infinity step is the worst here; in the paper's "
+        f"test 2 it was -10 deg against `usque`'s 14.5), with the extended state `ausquhe` {f('ausquhe/extended', 'near')} / "
+        f"{f('ausquhe/extended', 'far')} ({g('ausquhe/extended', 'far')} gross far). `oba` "
+        f"solves Wahba's problem over all epochs at once, so the start does not enter it: "
+        f"paper form {f('oba/paper-form', 'near')} / {f('oba/paper-form', 'far')} with no "
+        f"gross failure (its misses, up to {C['circle']['oba/paper-form']['max_abs_deg']:.1f} "
+        f"deg, are the error of the raw v^b(0) sample), centred "
+        f"{f('oba/-', 'near')} / {f('oba/-', 'far')}. So `ausquhe` as written is not robust "
+        f"to the start heading in our model, where the paper's one run from about 170 deg "
+        f"succeeded; the paper's start alone (one run) cannot contradict a success rate of "
+        f"{C['paper_start']['ausquhe/paper']['successes']} of "
+        f"{C['paper_start']['ausquhe/paper']['n']} there.")
+
+
+def _circle_text(S) -> list:
+    """The whole-circle section: the table, and what the runs show."""
+    C = S.get("whole_circle") or {}
+    if not C.get("circle"):
+        return ["Not run (``circle_runs=0``)."]
+    nh = len([h for h in C["headings_deg"] if h in CIRCLE_HEADINGS_DEG])
+    L = [f"Test {C['test']}'s drive from {nh} start headings over the whole circle "
+         f"({', '.join(f'{h:g}' for h in CIRCLE_HEADINGS_DEG)} deg: the truth's heading; the "
+         f"filters start at yaw 0, so the start error is its negative) and from the paper's "
+         f"own start ({C['paper_start_deg']:g} deg), {C['runs_per_heading']} runs each. "
+         f"Success: |heading error| < {C['success_deg']:g} deg at 300 s. Rate with its "
+         "Clopper-Pearson 95 % interval; error distribution of |heading error| at 300 s; by "
+         f"start error: success and gross failures (|error| > {GROSS_DEG:g} deg at 300 s). "
+         "Within one start heading all schemes see the same drives.", "",
+         "| scheme | whole circle: success | 95 % interval | median abs [deg] | 90 % abs "
+         "[deg] | max abs [deg] | paper's start: success | median abs [deg] | start within "
+         f"{NEAR_DEG:g} deg: success, gross | start beyond {FAR_DEG:g} deg: success, gross | "
+         f"heading 1-sigma at {EARLY_S:g} s [deg] |", "|---|---|---|---|---|---|---|---|---|---|---|"]
+    for key in CIRCLE_KEYS:
+        c, p = C["circle"][key], C["paper_start"][key]
+        sig = C["sigma_u_2s_deg"].get(key)
+        b = circle_bins(C.get("final_deg", {}).get(key, []))
+        bins = " | ".join(f"{k} / {n}, {g}" for k, n, g in (b["near"], b["far"]))
+        L.append(f"| {_label(key)} | {c['successes']} / {c['n']} | {c['interval'][0]:.2f}-"
+                 f"{c['interval'][1]:.2f} | {c['median_abs_deg']:.2f} | {c['p90_abs_deg']:.1f} "
+                 f"| {c['max_abs_deg']:.1f} | {p['successes']} / {p['n']} | "
+                 f"{p['median_abs_deg']:.2f} | {bins} | "
+                 + (f"{sig:.2f}" if sig is not None else "-") + " |")
+    L += ["", "Success rate per start heading (truth heading in deg; runs per cell "
+          f"{C['runs_per_heading']}):", "",
+          "| scheme | " + " | ".join(f"{h:g}" for h in C["headings_deg"]) + " |",
+          "|---|" + "---|" * len(C["headings_deg"])]
+    for key in CIRCLE_KEYS:
+        ph = C["per_heading"][key]
+        L.append(f"| {_label(key)} | " + " | ".join(f"{ph[f'{h:g}']:.2f}"
+                                                    for h in C["headings_deg"]) + " |")
+    sg = S.get("sigma_u_2s_deg", {})
+    s1 = sg.get("1", {}).get("usque/paper")
+    s2 = sg.get("2", {}).get("usque/paper")
+    lat = _scenario_spec(2)["start"]["lat_deg"]
+    noise = _scenario_spec(2)["sensors"]["ldv"]["noise_m_s"]
+    bound = earth_rate_heading_sigma_deg(EARLY_S, lat, noise, 100.0,
+                                         PAPER_FILTER["sigma0_deg"][2])
+    r = lambda k, f="rate": C["circle"][k][f]    # noqa: E731
+    L += ["", "What the runs show, and why `ausquhe` is not robust to the start heading here:",
+          "",
+          _circle_summary_bullet(C),
+          f"* **Spurious heading information in the first seconds.** From the data, the "
+          f"heading of this model is observable only through the Earth-rate part of beta "
+          f"(eq. 19), g Omega cos(L) t^2 / 2: after {EARLY_S:g} s with {noise:g} m/s of LDV "
+          f"noise at 100 Hz the Cramer-Rao bound leaves the heading 1-sigma at {bound:.1f} deg "
+          f"(the prior's 12 deg; `earth_rate_heading_sigma_deg`). The filters' own heading "
+          f"1-sigma at {EARLY_S:g} s (median over runs, `usque` paper states, start 8 deg): "
+          + (f"{s1:.2f} deg in test 1 (LDV noise 0.01 m/s), {s2:.2f} deg in test 2"
+             if s1 is not None and s2 is not None else "n/a")
+          + ". In test 2 the filter claims within two seconds a heading it cannot know. "
+          "Mechanism: the LDV noise (0.3 m/s on v^b(t) and on the one sample taken as v^b(0)) "
+          "against a gravity term g t of a few m/s tilts the estimated vertical by degrees in "
+          "the first second; a rotation about the i-frame vertical then moves the predicted "
+          "gravity vector by g t sin(tilt error), so every update credits the heading with "
+          "information that belongs to the tilt, along a direction that turns with the noisy "
+          "estimate (the known inconsistency of a filter linearized at its moving estimate in "
+          "an unobservable direction). With a 1-sigma of a few degrees the gain on the heading "
+          "is small, and the filter leaves a 170-deg start error only as the real Earth-rate "
+          "information (growing as t^5) overtakes this false one: in a development trace "
+          "(`usque`, paper states, 170 deg, seed 0) the heading was 89 deg off at 100 s and 8 "
+          "deg at 300 s.",
+          "* **What the paper's tools do.** The adaptive R (eq. 42-45) raises R along the "
+          "LDV axis but does not undo the tilt error the first noisy samples cause. The "
+          "adaptive gamma of eq. 55 removes gamma^-2 of information per update from every "
+          "attitude direction, which is what can hold the heading's covariance open against "
+          "the false information; but with k0 = 30 (our default, chosen on test 1 from an "
+          "8-deg start) gamma stays far above the heading's 1-sigma and removes almost "
+          f"nothing. k0 is the paper's free parameter (\"determined by experiment\"); with "
+          f"k0 = {CIRCLE_K0:g} (chosen on tuning drives apart from these, "
+          "`benchmarks/usque_k0_circle.py`) `ausquhe` (paper states) succeeds in "
+          f"{C['circle']['ausquhe/paper-k0-3']['successes']} of "
+          f"{C['circle']['ausquhe/paper-k0-3']['n']} circle runs, "
+          f"{circle_bins(C['final_deg']['ausquhe/paper-k0-3'])['far'][0]} of "
+          f"{circle_bins(C['final_deg']['ausquhe/paper-k0-3'])['far'][1]} from beyond "
+          f"{FAR_DEG:g} deg (90 % of |errors| below "
+          f"{C['circle']['ausquhe/paper-k0-3']['p90_abs_deg']:.1f} deg against "
+          f"{C['circle']['ausquhe/paper']['p90_abs_deg']:.1f} with k0 = 30; but "
+          f"{circle_bins(C['final_deg']['ausquhe/paper-k0-3'])['near'][0]} of "
+          f"{circle_bins(C['final_deg']['ausquhe/paper-k0-3'])['near'][1]} from within "
+          f"{NEAR_DEG:g} deg, where the open heading follows the noise) and "
+          f"{C['paper_start']['ausquhe/paper-k0-3']['successes']} of "
+          f"{C['paper_start']['ausquhe/paper-k0-3']['n']} from the paper's start: the "
+          "paper's mechanism (the H-infinity step keeps the heading open until the Earth "
+          "rate has spoken) is real, but it needs a k0 the paper does not give. With the "
+          f"extended state k0 = {CIRCLE_K0:g} gives "
+          f"{C['circle']['ausquhe/extended-k0-3']['successes']} of "
+          f"{C['circle']['ausquhe/extended-k0-3']['n']}: a heading held open wanders with the "
+          "accelerometer-bias, LDV-scale and v^b(0) states (a wrong heading's residual grows "
+          "like t^2, and partly like those states' t and constant signatures) and can lock "
+          "tens of degrees off. On the tuning drives no k0 in 1..30 made `ausquhe` succeed "
+          "from every start in both state sets.",
+          f"* **The small misses come from the drive, not from the start**: the single LDV "
+          f"sample taken as v^b(0) carries 0.3 m/s of noise that the attitude-only state cannot "
+          f"absorb; it biases the heading by about dv0 / (g Omega cos(L) t^2 / 2) (1.4 deg at "
+          f"200 s for 0.3 m/s; `inmotion.align.usque_model`), in the filters as in `oba`'s "
+          f"paper form. On the same drives they succeed or miss together: `usque` (paper "
+          f"states) agrees with `oba` (paper form) in {_agree(C, 'usque/paper')} runs, "
+          f"`ausquhe` in {_agree(C, 'ausquhe/paper')}.",
+          "* **The attitude parametrization is not the cause**: the error state is a GRP "
+          "(a = 1, f = 4) about a reference quaternion that carries the large attitude, reset "
+          "at every update; its sigma points span sqrt(3) x 12 deg = 21 deg, far from the "
+          "GRP's singularity at 360 deg, so a 180-deg start error never enters the GRP."]
+    return L
+
+
 def _report(summary) -> str:
     S = summary
     L = ["# Paper 001 reproduction: LDV-aided in-motion alignment, five schemes", "",
+         "## Conditions", "",
+         "Each parameter of the experiment, the paper's value, ours (read from the scenarios "
+         "and filter settings the runs use) and why ours differs.", ""]
+    L += _conditions_table(S.get("runs"), S.get("whole_circle", {}).get("runs_per_heading")
+                           or CIRCLE_RUNS)
+    L += ["", "## The runs", "",
          f"{S['runs']} Monte Carlo runs per test, seed {S['seed']}, {S['workers']} workers; "
          f"{S['elapsed_s']:.0f} s in all ({S.get('timing_pass_s', 0):.0f} s of it the timing "
-         f"pass of Table 3, {S.get('monte_carlo_s', S['elapsed_s']):.0f} s the Monte Carlo). "
+         f"pass of Table 3, {S.get('monte_carlo_s', S['elapsed_s']):.0f} s the Monte Carlo, "
+         f"{S.get('circle_s', 0):.0f} s the whole circle). "
          "Heading error "
          "(estimate minus truth) in deg. Measured Mean: average over the runs of each run's "
          "window mean, +- the SD of those means across runs; measured STD: average of each "
@@ -661,7 +1151,10 @@ def _report(summary) -> str:
     L += [c for c in _claims_text(S) if c]
     L += ["", "## Table 1: test 1, normal LDV", ""]
     L += _table(S, 1, PAPER_TABLE1)
-    L += ["", "## Table 2: test 2, LDV with heavy noise (0.3 m/s) and outlier bursts", ""]
+    L += ["", "## Table 2: test 2, LDV with heavy noise (0.3 m/s) and outlier bursts", "",
+          "The paper's test 2 started about 155-180 deg off in heading, these runs 8 deg off: "
+          "the summary rows mark this table not comparable, and the paper's start is compared "
+          "in \"Alignment from an unknown heading\" below.", ""]
     L += _table(S, 2, PAPER_TABLE2)
     if "3" in S["tables"]:
         L += ["", "## Table 2b (not in the paper): test 3, LDV noise with stale and biased "
@@ -669,6 +1162,8 @@ def _report(summary) -> str:
               "Our assumption, scenario `paper001_urban_stale`: noise as test 2; LDV stuck "
               "40-50 s and 110-125 s, +0.5 m/s 190-200 s and 240-255 s.", ""]
         L += _table(S, 3, None)
+    L += ["", "## Alignment from an unknown heading: the whole circle", ""]
+    L += _circle_text(S)
     L += ["", "## Ranking against the paper", ""]
     L += _ranking_text(S)
     for test, title in ((1, "test 1"), (2, "test 2"), (3, "test 3 (our variant)")):
@@ -681,20 +1176,29 @@ def _report(summary) -> str:
     load = S.get("timing_load_1min")
     L += ["", "## Table 3: compute time per 300 s run", "",
           "Each scheme on one drive of each test in one process (one core), after a warm run "
-          "(no numba compile counted), before the Monte Carlo workers start; fastest of two "
-          "runs." + (f" Load average of the machine (other users) {load[0]:.1f} before, "
+          "(no numba compile counted), before the Monte Carlo workers start; fastest of "
+          f"{TIMING_REPEATS} runs; the ratio to `oba` (paper form)'s CPU time is what compares "
+          "with the paper's ratio (its seconds are MATLAB on another machine)."
+          + (f" Load average of the machine (other users) {load[0]:.1f} before, "
                      f"{load[1]:.1f} after." if load else ""), "",
           "| scheme | paper test 1 [s] | paper test 2 [s] | test 1 wall [s] | test 1 CPU [s] "
-          "| test 2 wall [s] | test 2 CPU [s] |", "|---|---|---|---|---|---|---|"]
+          "| test 2 wall [s] | test 2 CPU [s] | paper ratio to oba, test 1, 2 | our CPU "
+          "ratio to oba (paper form), test 1, 2 |", "|---|---|---|---|---|---|---|---|---|"]
     cpu = S.get("time_cpu_s", {})
+    nan = float("nan")
     for key in _keys():
+        if key not in S["time_s"].get("1", {}):
+            continue
         name, _ = key.split("/")
         p1, p2 = PAPER_TABLE3[name]
-        w1, w2 = S["time_s"]["1"][key], S["time_s"]["2"][key]
-        c1 = cpu.get("1", {}).get(key, float("nan"))
-        c2 = cpu.get("2", {}).get(key, float("nan"))
+        po1, po2 = PAPER_TABLE3["oba"]
+        w1, w2 = S["time_s"]["1"][key], S["time_s"]["2"].get(key, nan)
+        c1 = cpu.get("1", {}).get(key, nan)
+        c2 = cpu.get("2", {}).get(key, nan)
+        o1 = cpu.get("1", {}).get("oba/paper-form", nan)
+        o2 = cpu.get("2", {}).get("oba/paper-form", nan)
         L.append(f"| {_label(key)} | {p1:.2f} | {p2:.2f} | {w1:.3f} | {c1:.3f} | {w2:.3f} | "
-                 f"{c2:.3f} |")
+                 f"{c2:.3f} | {p1 / po1:.2f}, {p2 / po2:.2f} | {c1 / o1:.2f}, {c2 / o2:.2f} |")
     L += ["", "## Level errors at 300 s (RMS over runs)", "",
           "| scheme | " + " | ".join(f"test {t} pitch, roll [arcmin] | test {t} yaw [deg]"
                                      for t in S["final"]) + " |",
@@ -710,6 +1214,51 @@ def _report(summary) -> str:
     L += ["", f"Figures: {figs} (mean and +-1 SD over the runs of the pitch, roll and heading "
           "errors; both `oba` forms in each)."]
     return "\n".join(L) + "\n"
+
+
+def _circle_figures(results, out: Path) -> None:
+    """``circle_success.png`` (success rate against the start heading) and
+    ``circle_errors.png`` (|heading error| at 300 s of every run, per scheme)."""
+    if not results:
+        return
+    import matplotlib
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+    heads = sorted({r["heading_deg"] for r in results})
+    fig, ax = plt.subplots(figsize=(9, 4.5))
+    for i, key in enumerate(CIRCLE_KEYS):
+        rate = [np.mean([abs(np.asarray(r["yaw"][key])[-1]) < SUCCESS_DEG
+                         for r in results if r["heading_deg"] == h]) for h in heads]
+        ax.plot(heads, rate, marker="o", lw=1, label=_label(key).replace("`", ""),
+                ls="-" if key.endswith("/paper") or key == "oba/paper-form" else "--")
+    ax.axvline(PAPER_START_DEG, color="k", lw=0.8, ls=":")
+    ax.set_xlabel("truth's start heading [deg] (start error = minus this; dotted: the "
+                  "paper's start)")
+    ax.set_ylabel(f"success rate (|err| < {SUCCESS_DEG:g} deg at 300 s)")
+    ax.set_ylim(-0.05, 1.05)
+    ax.grid(alpha=0.3)
+    ax.legend(fontsize=7, ncol=3)
+    fig.suptitle(f"paper 001 test {CIRCLE_TEST}: alignment from the whole circle, "
+                 f"{len(results)} drives")
+    fig.tight_layout()
+    fig.savefig(out / "circle_success.png", dpi=90)
+    plt.close(fig)
+    fig, ax = plt.subplots(figsize=(9, 4.5))
+    for i, key in enumerate(CIRCLE_KEYS):
+        a = np.array([abs(np.asarray(r["yaw"][key])[-1]) for r in results])
+        jitter = np.linspace(-0.25, 0.25, len(a))
+        ax.scatter(i + jitter, np.maximum(a, 1e-3), s=8, alpha=0.6)
+    ax.axhline(SUCCESS_DEG, color="k", lw=0.8, ls=":")
+    ax.set_yscale("log")
+    ax.set_xticks(range(len(CIRCLE_KEYS)))
+    ax.set_xticklabels([_label(k).replace("`", "") for k in CIRCLE_KEYS], rotation=30,
+                       ha="right", fontsize=7)
+    ax.set_ylabel("|heading error| at 300 s [deg]")
+    ax.grid(alpha=0.3)
+    fig.suptitle(f"paper 001 test {CIRCLE_TEST}, every start heading: error at 300 s")
+    fig.tight_layout()
+    fig.savefig(out / "circle_errors.png", dpi=90)
+    plt.close(fig)
 
 
 def _figures(results, out: Path) -> None:
