@@ -73,7 +73,7 @@ from pathlib import Path
 
 import numpy as np
 
-from .common import run_tasks
+from .common import conditions_markdown, run_tasks
 
 __all__ = ["reproduce", "rewrite_report", "run_one", "window_stats", "ranking_stats",
            "nees_stats", "PAPER_TABLE1", "PAPER_TABLE2", "PAPER_TABLE3", "SCHEMES", "WINDOWS",
@@ -372,13 +372,6 @@ def conditions(runs=None, circle_runs: int = CIRCLE_RUNS) -> list:
          f"numba, one core here; CPU time, {TIMING_REPEATS} repeats; compared as ratios to "
          "oba's", "absolute seconds on different machines do not compare"),
     ]
-
-
-def _conditions_table(runs=None, circle_runs: int = CIRCLE_RUNS) -> list:
-    L = ["| parameter | paper | ours | why ours differs |", "|---|---|---|---|"]
-    for row in conditions(runs, circle_runs):
-        L.append("| " + " | ".join(str(c).replace("|", "/") for c in row) + " |")
-    return L
 
 
 def circle_tasks(seed: int, runs: int = CIRCLE_RUNS) -> list:
@@ -1126,13 +1119,13 @@ def _circle_text(S) -> list:
 
 def _report(summary) -> str:
     S = summary
-    L = ["# Paper 001 reproduction: LDV-aided in-motion alignment, five schemes", "",
-         "## Conditions", "",
-         "Each parameter of the experiment, the paper's value, ours (read from the scenarios "
-         "and filter settings the runs use) and why ours differs.", ""]
-    L += _conditions_table(S.get("runs"), S.get("whole_circle", {}).get("runs_per_heading")
-                           or CIRCLE_RUNS)
-    L += ["", "## The runs", "",
+    table = conditions_markdown(conditions(S.get("runs"), S.get("whole_circle", {})
+                                           .get("runs_per_heading") or CIRCLE_RUNS))
+    L = ["# Paper 001 reproduction: LDV-aided in-motion alignment, five schemes", ""]
+    L += table[:2] + ["Each parameter of the experiment, the paper's value, ours (read from "
+                      "the scenarios and filter settings the runs use) and why ours differs.",
+                      ""] + table[2:]
+    L += ["## The runs", "",
          f"{S['runs']} Monte Carlo runs per test, seed {S['seed']}, {S['workers']} workers; "
          f"{S['elapsed_s']:.0f} s in all ({S.get('timing_pass_s', 0):.0f} s of it the timing "
          f"pass of Table 3, {S.get('monte_carlo_s', S['elapsed_s']):.0f} s the Monte Carlo, "
