@@ -37,7 +37,7 @@ def build(root: Path) -> str:
                              for r in json.loads((root / p / "paper_rows.json").read_text())["rows"]])
             for p in ORDER if (root / p / "paper_rows.json").exists()}
     L = [f"# Paper reproductions: snapshot (tabulated at commit {_commit()})", "",
-         "Each folder holds the output of `inmotion reproduce P --workers 2 -o DIR` on the "
+         "Each folder holds the output of `inmotion reproduce P -o DIR` (a run's numbers do not depend on `--workers`) on the "
          "project's 2-core machine: the paper's `report.md` (tables beside the paper's "
          "figures, notes on every shortfall), its PNG figures and `paper_rows.json`. This "
          "page is written from those files by `tools/reproductions_readme.py`. Regenerate "
