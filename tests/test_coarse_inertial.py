@@ -135,3 +135,33 @@ def test_parked_on_the_simulator_with_engine_vibration_meets_the_classical_error
     theory = np.array([-nabla_n[1] / g, nabla_n[0] / g,
                        -eps_n[0] / (earth.OMEGA_IE * np.cos(lat)) + nabla_n[0] * np.tan(lat) / g])
     np.testing.assert_allclose(phi, theory, rtol=0.03)
+
+
+@pytest.mark.parametrize("drift_deg_h, resolvable", [(0.01, True), (200.0, False)])
+def test_the_result_states_its_envelope_and_warns_outside_it(drift_deg_h, resolvable):
+    """Issue 15: a coarse alignment reports the envelope its IMU allows (from meta.yaml's IMU
+    specification) and warns when the gyros cannot resolve the heading (a MEMS gyro, 200
+    deg/h); inside the envelope the heading error is within 3 sigma of it, outside it the error
+    is far beyond what a 'resolved' heading (< 30 deg) would claim or at least unconstrained."""
+    from inmotion.sim.scenario import find_scenario, load_scenario
+    from inmotion.sim.simulate import simulate
+    sc = load_scenario(find_scenario("paper003_parked_then_drive")).model_dump()
+    sc["segments"] = sc["segments"][:1]
+    sc["sensors"] = {}
+    sc["imu"]["gyro"].update(drift_deg_h=drift_deg_h, arw_deg_sqrt_h=0.0)
+    sc["imu"]["accel"].update(bias_ug=100.0, vrw_ug_sqrt_hz=0.0)
+    b = simulate(sc, np.random.default_rng(1)).window(0.0, 120.0)
+    sol = ci.run_coarse_inertial(b, ci.CoarseInertialConfig(mode="parked"))
+    env = sol.info["envelope"]
+    assert env["resolvable"] is resolvable and env["gyro_drift_deg_h"] == pytest.approx(drift_deg_h)
+    heading_err = np.degrees(abs(rotations.misalignment(sol.C_nb[-1], b.truth.C_nb[-1])[2]))
+    if resolvable:
+        assert "warnings" not in sol.info
+        assert heading_err <= 3.0 * env["heading_deg"]
+    else:
+        assert env["heading_deg"] is None and env["heading_limit_deg"] > 30.0
+        (w,) = sol.info["warnings"]
+        assert "coarse-inertial: outside its envelope" in w and "--init" in w
+    # without an IMU specification there is no envelope to state
+    bare = Bundle(b.imu, {k: v for k, v in b.meta.items() if k != "imu"}, truth=b.truth)
+    assert "envelope" not in ci.run_coarse_inertial(bare, ci.CoarseInertialConfig(mode="parked")).info

@@ -16,7 +16,7 @@ from typing import Optional
 
 import numpy as np
 
-from ..core import rotations
+from ..core import earth, rotations
 from ..core.bundle import Bundle
 from ..core.solution import NavState, Solution, StateUnit
 from ..errors import BadInput
@@ -138,9 +138,62 @@ def level_info(level: Level, name: str) -> dict:
             "eigval_gap_rel": float(level.qsol.gap_rel[-1])}
 
 
-def to_solution(inp: Inputs, level: Level, *, method: str, config, levels_info: list) -> Solution:
+#: a coarse heading envelope above this [deg] means the coarse stage cannot resolve heading
+UNRESOLVED_HEADING_DEG = 30.0
+
+
+def coarse_envelope(gyro_drift_deg_h: float, accel_bias_ug: float, lat: float,
+                    window_s: float) -> dict:
+    """1-sigma envelope of a coarse (integral, Earth-rate) alignment [deg] from the IMU's
+    drift and bias (module docstring): ``level_deg``, ``heading_deg`` (None when the heading
+    cannot be resolved), ``heading_limit_deg`` (the figure before the cap) and
+    ``resolvable``. ``lat`` [rad]; ``window_s``: the coarse window."""
+    drift = np.radians(gyro_drift_deg_h) / 3600.0
+    bias = accel_bias_ug * 1e-6                                  # rad (bias / g)
+    gyro_walk = drift * window_s / 2.0
+    level = float(np.degrees(np.hypot(bias, gyro_walk)))
+    head = float(np.degrees(np.sqrt((drift / (earth.OMEGA_IE * np.cos(lat))) ** 2
+                                    + (bias * np.tan(lat)) ** 2 + gyro_walk ** 2)))
+    ok = head <= UNRESOLVED_HEADING_DEG
+    return {"level_deg": level, "heading_deg": head if ok else None,
+            "heading_limit_deg": head, "resolvable": bool(ok),
+            "gyro_drift_deg_h": float(gyro_drift_deg_h), "accel_bias_ug": float(accel_bias_ug),
+            "window_s": float(window_s)}
+
+
+def envelope_from_meta(meta, lat: float, window_s: float) -> Optional[dict]:
+    """:func:`coarse_envelope` from the IMU specification in ``meta['imu']`` (its drift and
+    bias; ``source`` says where they came from), or None when the bundle states neither."""
+    from .parked_kf import spec_from_meta
+    spec, origin = spec_from_meta(meta)
+    if "gyro_drift_deg_h" not in spec or "accel_bias_ug" not in spec:
+        return None
+    env = coarse_envelope(spec["gyro_drift_deg_h"], spec["accel_bias_ug"], lat, window_s)
+    env["source"] = origin
+    return env
+
+
+def envelope_warning(env: dict, lat: float) -> Optional[str]:
+    """The warning of a coarse alignment outside its envelope (heading not resolvable), or
+    None inside it."""
+    if env is None or env["resolvable"]:
+        return None
+    horizontal = np.degrees(earth.OMEGA_IE * np.cos(lat)) * 3600.0
+    return (f"outside its envelope: gyro drift {env['gyro_drift_deg_h']:.3g} deg/h against the "
+            f"horizontal Earth rate {horizontal:.3g} deg/h gives a heading limit of "
+            f"{env['heading_limit_deg']:.3g} deg: the heading is not resolved; give it from "
+            f"outside (--init). Level 1-sigma {env['level_deg'] * 60:.3g} arcmin")
+
+
+def to_solution(inp: Inputs, level: Level, *, method: str, config, levels_info: list,
+                meta=None) -> Solution:
     """The :class:`Solution` of the final level, with the start/end attitude and the quality
-    figure (the q-method's relative eigenvalue gap ``(lambda_1 - lambda_2) / lambda_1``)."""
+    figure (the q-method's relative eigenvalue gap ``(lambda_1 - lambda_2) / lambda_1``).
+
+    With the bundle's ``meta`` stating the IMU's drift and bias, ``info['envelope']`` holds the
+    1-sigma envelope of the result (:func:`coarse_envelope`, over the window) and, when the
+    heading cannot be resolved, ``info['warnings']`` says so (issue 15: never a confident
+    heading the sensors could not give)."""
     run = level.run
     euler = rotations.euler_from_dcm(level.C_nb)
     info = {
@@ -157,6 +210,12 @@ def to_solution(inp: Inputs, level: Level, *, method: str, config, levels_info: 
         "initial_speed_m_s": inp.speed0,
         "levels": levels_info,
     }
+    env = envelope_from_meta(meta, inp.lat0, float(run.t[-1] - inp.t[0]))
+    if env is not None:
+        info["envelope"] = env
+        warning = envelope_warning(env, inp.lat0)
+        if warning:
+            info["warnings"] = [f"{method}: {warning}"]
     states = {"eigval_gap_rel": level.qsol.gap_rel}
     units = {"eigval_gap_rel": StateUnit("ratio")}
     return Solution(run.t, run.lat, run.lon, run.h, run.vel_n, euler, states=states,

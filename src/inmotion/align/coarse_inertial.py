@@ -90,4 +90,5 @@ def run_coarse_inertial(bundle: Bundle, config: CoarseInertialConfig,
                        lowpass_time_constant_s=config.lowpass_time_constant_s)
     name = "coarse-inertial-moving" if moving else "coarse-inertial-parked"
     return ad.to_solution(inp, lev, method="coarse-inertial", config=config,
-                          levels_info=[ad.level_info(lev, name)])
+                          levels_info=[ad.level_info(lev, name)],
+                          meta=bundle.meta)

@@ -109,7 +109,8 @@ def _single(bundle, config, init, model, method) -> Solution:
                      min_window_s=config.min_window_s, v0_fit_s=config.initial_speed_fit_s)
     lev = ad.run_level(inp, model, **_level_kw(config))
     return ad.to_solution(inp, lev, method=method, config=config,
-                          levels_info=[ad.level_info(lev, _MODEL_NAMES[model])])
+                          levels_info=[ad.level_info(lev, _MODEL_NAMES[model])],
+                          meta=bundle.meta)
 
 
 def _level_kw(config) -> dict:
@@ -130,7 +131,8 @@ def _multistage(bundle, config, init, high_model, method, progress) -> Solution:
         info.append(ad.level_info(lev, _MODEL_NAMES[high_model]))
     if progress is not None:
         progress(1.0)
-    return ad.to_solution(inp, lev, method=method, config=config, levels_info=info)
+    return ad.to_solution(inp, lev, method=method, config=config, levels_info=info,
+                          meta=bundle.meta)
 
 
 def run_imada_vb(bundle: Bundle, config: ImadaConfig, init: Optional[NavState] = None,

@@ -59,7 +59,7 @@ from ..core.bundle import Bundle, SpeedData
 from ..core.solution import NavState, Solution
 from ..errors import BadInput
 from . import aided_kf as ak
-from .attitude_determination import initial_position
+from .attitude_determination import UNRESOLVED_HEADING_DEG, coarse_envelope, initial_position
 from .coarse_inertial import CoarseInertialConfig, run_coarse_inertial
 from .velocity_source import initial_speed, speed_on_imu_times
 
@@ -73,29 +73,8 @@ FINE_METHODS = {"fkf": (ak.run_fkf, ak.FkfConfig), "od-kf": (ak.run_od_kf, ak.Ai
                 "ldv-kf": (ak.run_ldv_kf, ak.AidedKfConfig),
                 "nhc-kf": (ak.run_nhc_kf, ak.NhcKfConfig)}
 _CHANNELS = ("odometer", "ldv")
-#: a coarse heading envelope above this [deg] means the coarse stage cannot resolve heading
-UNRESOLVED_HEADING_DEG = 30.0
 #: 1-sigma of a heading known only to lie in +-180 deg (uniform): 360 / sqrt(12) [deg]
 UNKNOWN_HEADING_SIGMA_DEG = 360.0 / np.sqrt(12.0)
-
-
-def coarse_envelope(gyro_drift_deg_h: float, accel_bias_ug: float, lat: float,
-                    window_s: float) -> dict:
-    """1-sigma envelope of a coarse (integral, Earth-rate) alignment [deg] from the IMU's
-    drift and bias (module docstring): ``level_deg``, ``heading_deg`` (None when the heading
-    cannot be resolved), ``heading_limit_deg`` (the figure before the cap) and
-    ``resolvable``. ``lat`` [rad]; ``window_s``: the coarse window."""
-    drift = np.radians(gyro_drift_deg_h) / 3600.0
-    bias = accel_bias_ug * 1e-6                                  # rad (bias / g)
-    gyro_walk = drift * window_s / 2.0
-    level = float(np.degrees(np.hypot(bias, gyro_walk)))
-    head = float(np.degrees(np.sqrt((drift / (earth.OMEGA_IE * np.cos(lat))) ** 2
-                                    + (bias * np.tan(lat)) ** 2 + gyro_walk ** 2)))
-    ok = head <= UNRESOLVED_HEADING_DEG
-    return {"level_deg": level, "heading_deg": head if ok else None,
-            "heading_limit_deg": head, "resolvable": bool(ok),
-            "gyro_drift_deg_h": float(gyro_drift_deg_h), "accel_bias_ug": float(accel_bias_ug),
-            "window_s": float(window_s)}
 
 
 def fine_config_from_coarse(cls, fine: dict, meta, lat: float, window_s: float):
