@@ -44,9 +44,8 @@ drive with the aiding the bundle has (``inmotion process``, issue 14).
 6. **Stops** (``zupt``): whenever the vehicle stops during navigation
    (:func:`stop_windows`: the motion test of rule 2 below its threshold, margins cut, at
    least ``min_stop_s``, the IMU agreeing), the odometer / LDV filters add zero-velocity and
-   zero angular rate updates there (``stops_s`` of their configuration); logged as the stage
-   ``stops``. ``dr-kf`` / ``sins-dr`` take none: the stops found are listed in the last
-   stage's entry (``stops_s``), saying so.
+   zero angular rate updates there (``stops_s`` of their configuration), the radar filters
+   (``dr-kf``, ``sins-dr``) zero-velocity updates; logged as the stage ``stops``.
 7. **Smoothing** (``smooth``): every fine / navigation stage forward-backward (RTS); a bank
    of local filters (``fkf``, ``od-kf`` / ``ldv-kf`` with the NHC fallback) keeps its FDI:
    the bank decides which samples count, a central filter over them is smoothed
@@ -766,7 +765,8 @@ def _navigate(bundle, cfg, state, tilt_sig, head_sig, spec, log, progress, stage
     if "radar" in speed:
         from .align.dr_kalman import DrKfConfig, run_dr_kf
         from .navigate.sins_dr import SinsDrConfig, run_sins_dr
-        dcfg = _cfg(DrKfConfig, {**prior, "velocity_sensor": "radar",
+        stops, why_stops = stop_windows(bundle, cfg, t0) if cfg.zupt else ([], "")
+        dcfg = _cfg(DrKfConfig, {**prior, "velocity_sensor": "radar", "stops_s": stops,
                                  **_sensor_spec(bundle, DrKfConfig)}, cfg, "dr-kf", spec)
         fine = run_dr_kf(bundle, dcfg, state,
                          progress=None if progress is None else lambda f: progress(0.5 * f))
@@ -787,6 +787,8 @@ def _navigate(bundle, cfg, state, tilt_sig, head_sig, spec, log, progress, stage
             fine = run_dr_kf(bundle.window(None, t1), dcfg.model_copy(update={"smooth": True}),
                              state)
             why += "; smoothed forward-backward (RTS) over the stage"
+        if stops:
+            why += f"; zero-velocity updates at the stops ({len(stops)} in the drive)"
         log("fine", "dr-kf", t0, t1, why, _head(fine, t1))
         out = [fine]
         if len(ok):
@@ -798,6 +800,9 @@ def _navigate(bundle, cfg, state, tilt_sig, head_sig, spec, log, progress, stage
                     "init_heading_sigma_arcmin": 1.5 * max(float(sig_u[k]), 0.01),
                     "velocity_sensor": "radar", "gate_probability": cfg.gate_probability,
                     **_sensor_spec(bundle, SinsDrConfig)}
+            nav_stops = [w for w in stops if w[1] > st.t]
+            if nav_stops:
+                base["stops_s"] = nav_stops
             ncfg = _cfg(SinsDrConfig, {**base, "smooth": cfg.smooth}, cfg, "sins-dr", spec)
             nav = run_sins_dr(bundle, ncfg, st,
                               progress=None if progress is None else
@@ -806,15 +811,12 @@ def _navigate(bundle, cfg, state, tilt_sig, head_sig, spec, log, progress, stage
                 "(paper 002) to the end, chi-square gate "
                 f"{cfg.gate_probability:g}" + (", barometer" if bundle.baro is not None
                                                 else "")
-                + ("; smoothed forward-backward (RTS)" if cfg.smooth else ""), nav)
+                + ("; smoothed forward-backward (RTS)" if cfg.smooth else "")
+                + (f"; zero-velocity updates at {len(nav_stops)} stop(s)" if nav_stops else ""),
+                nav)
             out.append(nav)
-        if cfg.zupt:                 # said in the last stage's entry: nothing ran for them
-            stops, why_stops = stop_windows(bundle, cfg, t0)
-            if stops:
-                stages[-1]["why"] += (f"; {len(stops)} stop(s) found but no zero-velocity "
-                                      "updates: dr-kf and sins-dr take none")
-                stages[-1]["stops_s"] = stops
-                stages[-1]["stops_why"] = why_stops
+        if stops:
+            log("stops", "zero-velocity", stops[0][0], stops[-1][1], why_stops, stops_s=stops)
         return out
     from .align import aided_kf as ak
     from .align.multiplex import auto_fine_method

@@ -461,15 +461,9 @@ def run_aided(bundle: Bundle, cfg, init: NavState, sensors: tuple, *, method: st
 
 
 def _stops(cfg) -> np.ndarray:
-    """``cfg.stops_s`` as an (S, 2) array, checked."""
-    raw = cfg.stops_s
-    if any(len(w) != 2 for w in raw):
-        raise BadInput("stops_s: each stop is [start, end] seconds", file="config")
-    st = np.array(raw, dtype=float).reshape(-1, 2)
-    if not np.all(np.isfinite(st)) or np.any(st[:, 1] < st[:, 0]):
-        raise BadInput("stops_s: each stop is [start, end] seconds with end >= start",
-                       file="config")
-    return st
+    """``cfg.stops_s`` as an (S, 2) array, checked (:func:`velocity_aided.check_stops`)."""
+    from ..estimation.velocity_aided import check_stops
+    return check_stops(cfg.stops_s)
 
 
 def _stop_measurements(cfg, t_ep, local):

@@ -153,6 +153,13 @@ class OdVelocityKfConfig(BaseModel):
         False,
         description="forward-backward: Rauch-Tung-Striebel smoothing over the whole run "
                     "(estimation.smoother); sigma_forward_* keeps the forward filter's sigma")
+    stops_s: list[list[float]] = Field(
+        default_factory=list,
+        description="[start, end] windows [s] in which the vehicle stands still: a "
+                    "zero-velocity update at every measurement epoch inside (inmotion process "
+                    "fills them from the motion test)")
+    zupt_noise_m_s: float = Field(
+        0.02, gt=0, description="1-sigma of the zero-velocity update at a stop (sway) [m/s]")
     # priors
     init_tilt_sigma_deg: float = Field(
         1.0, gt=0, description="initial 1-sigma of the level (pitch, roll) error [deg]")
@@ -277,7 +284,7 @@ def _pack(lay, init, cfg, info, out_t, out_lla, out_vel, out_q, out_sig, out_sta
 
 #: the engine's group names -> this method's (``Solution.info`` counts)
 _GROUP_NAMES = {"attitude": "attitude", "velocity": "velocity", "sensor_velocity": "velocity",
-                "nhc": "nhc", "height": "baro"}
+                "nhc": "nhc", "height": "baro", "zero_velocity": "zero velocity"}
 
 
 def _gates(p):
@@ -325,7 +332,9 @@ def _engine_filter(bundle: Bundle, cfg, init: NavState, with_dr: bool):
              "velocity_b_m_s": (cfg.lateral_noise_m_s, cfg.velocity_noise_m_s,
                                 cfg.lateral_noise_m_s),
              "height_m": cfg.baro_noise_m, "nhc_m_s": cfg.nhc_noise_m_s,
-             "dr_position_m2_s": 0.0}    # paper 000's G: no DR position random walk
+             "dr_position_m2_s": 0.0,    # paper 000's G: no DR position random walk
+             "zupt_m_s": cfg.zupt_noise_m_s}
+    use["zero_velocity"] = bool(cfg.stops_s)
     from ..navigate.pure import mounting_from_meta
     _, lever = mounting_from_meta(bundle.meta, sensor_name)
     filt = VelocityAidedRun(init, lay, model, _initial_covariance(lay, cfg, init.lat, init.h),
@@ -333,7 +342,8 @@ def _engine_filter(bundle: Bundle, cfg, init: NavState, with_dr: bool):
                         step_rows=step, meas_every=meas_every, out_every=1,
                         nhc_mount=cfg.nhc_mount_terms, closed_loop=cfg.closed_loop,
                         feedback_every=feedback_every, smooth=cfg.smooth,
-                        lever_arm_b=None if lever is None else np.asarray(lever, float))
+                        lever_arm_b=None if lever is None else np.asarray(lever, float),
+                        stops_s=cfg.stops_s)
     return filt, (n_rows, pieces, k0), (sensor_name, speed)
 
 

@@ -37,13 +37,14 @@ from .engine import ErrorStateFilter
 from .layout import Layout
 from .smoother import ForwardRecord, smooth_at_outputs
 
-__all__ = ["dr_gyro_rows", "with_dr_gyro", "GROUPS", "GROUP_SIZES", "VelocityAidedRun", "regroup"]
+__all__ = ["check_stops", "dr_gyro_rows", "with_dr_gyro", "GROUPS", "GROUP_SIZES", "VelocityAidedRun", "regroup"]
 
 #: the measurement groups, in the order they are applied within an epoch
-GROUPS = ("attitude", "velocity", "sensor_velocity", "nhc", "position", "height")
+GROUPS = ("attitude", "velocity", "sensor_velocity", "nhc", "position", "height",
+          "zero_velocity")
 #: rows per group
 GROUP_SIZES = {"attitude": 3, "velocity": 3, "sensor_velocity": 3, "nhc": 2, "position": 3,
-               "height": 1}
+               "height": 1, "zero_velocity": 3}
 #: IMU rows per chunk handed to the engine (rounded to whole filter epochs)
 CHUNK_ROWS = 16384
 #: sensor samples whose median period sets the gap threshold (5 periods), as dead_reckon's
@@ -59,6 +60,8 @@ def _measurements(use, noise, gates, nhc_mount):
         "nhc": lambda g: ms.Nhc(noise.get("nhc_m_s", 1.0), mount_terms=nhc_mount, gate=g),
         "position": lambda g: ms.SinsDrPosition(noise["position_m"], gate=g),
         "height": lambda g: ms.Height(noise["height_m"], gate=g),
+        "zero_velocity": lambda g: ms.ZeroVelocity(np.full(3, noise.get("zupt_m_s", 0.02)),
+                                                   gate=g),
     }
     return [make[g](float(gates.get(g, 0.0))) for g in GROUPS if use.get(g, False)]
 
@@ -121,6 +124,18 @@ def with_dr_gyro(pieces, dtheta_dr_rows):
     return out
 
 
+def check_stops(raw) -> np.ndarray:
+    """Stop windows ``[[start, end], ...]`` [s] (a configuration's ``stops_s``) as an (S, 2)
+    array; :class:`BadInput` unless each is two finite times with ``end >= start``."""
+    if any(len(w) != 2 for w in raw):
+        raise BadInput("stops_s: each stop is [start, end] seconds", file="config")
+    st = np.array(raw, dtype=float).reshape(-1, 2)
+    if not np.all(np.isfinite(st)) or np.any(st[:, 1] < st[:, 0]):
+        raise BadInput("stops_s: each stop is [start, end] seconds with end >= start",
+                       file="config")
+    return st
+
+
 class VelocityAidedRun:
     """A SINS (+ DR) aided by one forward-velocity sensor, run over a log chunk by chunk.
 
@@ -151,11 +166,15 @@ class VelocityAidedRun:
     def __init__(self, init: NavState, layout: Layout, model: em.ErrorModel, P0, *, use: dict,
                  noise: dict, gates: dict, step_rows: int, meas_every: int = 1,
                  out_every: int = 1, C_bm=None, lever_arm_b=None, nhc_mount: bool = True,
-                 closed_loop: bool = True, feedback_every: int = 1, smooth: bool = False):
+                 closed_loop: bool = True, feedback_every: int = 1, smooth: bool = False,
+                 stops_s=()):
         for name in ("phi", "dv", "dp", "eps", "nabla"):
             if name not in layout:
                 raise ValueError(f"the velocity-aided filter needs block {name!r} in the layout")
         self.use = {g: bool(use.get(g, False)) for g in GROUPS}
+        #: [start, end] windows [s] in which the vehicle stands still: a zero-velocity update
+        #: at every measurement epoch inside one (group ``zero_velocity``, when used)
+        self.stops_s = check_stops(list(stops_s))
         self.filter = ErrorStateFilter(
             init, layout, model, P0, _measurements(self.use, noise, gates, nhc_mount),
             step_rows=step_rows, feedback="closed" if closed_loop else "open",
@@ -232,6 +251,12 @@ class VelocityAidedRun:
             hb = (h_baro(t_meas) if h_baro is not None and self.use["height"]
                   else np.full(len(rows), np.nan))
             for g in groups:
+                if g == "zero_velocity":
+                    inside = np.any((t_meas[:, None] >= self.stops_s[:, 0])
+                                    & (t_meas[:, None] <= self.stops_s[:, 1]), axis=1)
+                    if inside.any():
+                        f.add_measurement(g, t_meas[inside], None)
+                    continue
                 data = v[rows] if g == "sensor_velocity" else hb if g == "height" else None
                 f.add_measurement(g, t_meas, data)
             d_dr = block[3] if len(block) > 3 else None

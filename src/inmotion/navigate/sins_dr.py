@@ -151,6 +151,13 @@ class SinsDrConfig(BaseModel):
         False,
         description="forward-backward: Rauch-Tung-Striebel smoothing over the whole run "
                     "(estimation.smoother); sigma_forward_* keeps the forward filter's sigma")
+    stops_s: list[list[float]] = Field(
+        default_factory=list,
+        description="[start, end] windows [s] in which the vehicle stands still: a "
+                    "zero-velocity update at every measurement epoch inside (inmotion process "
+                    "fills them from the motion test)")
+    zupt_noise_m_s: float = Field(
+        0.02, gt=0, description="1-sigma of the zero-velocity update at a stop (sway) [m/s]")
     dr_sees_gyro_drift: bool = Field(
         True,
         description="keep the -C_b^n eps term in the DR attitude rows (False: paper 000's printed"
@@ -293,6 +300,7 @@ def _make_filter(bundle, cfg: SinsDrConfig, init: NavState, sensor, imu_dt: floa
     sensor_dt = float(np.median(np.diff(speed.t)))
     use = {g: g in MODES[cfg.mode] for g in GROUPS}
     use["height"] = cfg.use_baro
+    use["zero_velocity"] = bool(cfg.stops_s)
     gates = {g: (float(chi2.ppf(cfg.gate_probability, m)) if cfg.gate_probability < 1 else 0.0)
              for g, m in GROUP_SIZES.items()}
     noise = {"attitude_rad": cfg.attitude_noise_arcmin * ARCMIN,
@@ -300,11 +308,12 @@ def _make_filter(bundle, cfg: SinsDrConfig, init: NavState, sensor, imu_dt: floa
              "velocity_b_m_s": (cfg.velocity_cross_noise_m_s, cfg.velocity_noise_m_s,
                                 cfg.velocity_cross_noise_m_s),
              "height_m": cfg.baro_noise_m,
-             "dr_position_m2_s": cfg.speed_noise_m_s ** 2 * sensor_dt}
+             "dr_position_m2_s": cfg.speed_noise_m_s ** 2 * sensor_dt,
+             "zupt_m_s": cfg.zupt_noise_m_s}
     return VelocityAidedRun(init, lay, model, initial_covariance(lay, cfg, init.lat, init.h),
                             use=use, noise=noise, gates=gates, step_rows=step,
                             meas_every=meas_every, out_every=out_every, C_bm=C_bm,
-                            lever_arm_b=l_b, smooth=cfg.smooth)
+                            lever_arm_b=l_b, smooth=cfg.smooth, stops_s=cfg.stops_s)
 
 
 def _baro_source(bundle: Bundle, cfg: SinsDrConfig):
