@@ -687,7 +687,9 @@ class ZeroAngularRate(Measurement):
 def _acc_sensor_interval(a, xs, v_old, th_nb, dt, rd, p):
     """Over a measurement interval: ``a = [T, Delta P (3), Delta theta_nb (3), Delta D (3),
     Delta W (3), bad]`` with the SINS displacement ``sum v dt`` (trapezoid), the body rotation
-    w.r.t. n, the sensor's displacement ``sum C_b^n (w_b - [dtheta_nb x] l)`` and its distance
+    w.r.t. n, the sensor's displacement ``sum C_b^n (w_b - f f^T [dtheta_nb x] l)`` (``f`` the
+    nominal forward axis: the sensor reads the forward part of the lever term only,
+    :mod:`~inmotion.estimation.aiding_rows`) and its distance
     part ``sum C_b^n w_b`` (``w_b = C_v^b0 [0, ds, 0]``); ``bad`` = 1 once a row has no
     sensor distance (``rd[0]`` NaN)."""
     a[ACC_T] += dt
@@ -703,8 +705,10 @@ def _acc_sensor_interval(a, xs, v_old, th_nb, dt, rd, p):
     for i in range(3):
         w_b[i] = p[P_FWD + i] * ds
     lv0, lv1, lv2 = p[P_LEVER], p[P_LEVER + 1], p[P_LEVER + 2]
-    cr = np.array([th_nb[1] * lv2 - th_nb[2] * lv1, th_nb[2] * lv0 - th_nb[0] * lv2,
-                   th_nb[0] * lv1 - th_nb[1] * lv0])
+    f0, f1, f2 = p[P_FWD], p[P_FWD + 1], p[P_FWD + 2]
+    along = (f0 * (th_nb[1] * lv2 - th_nb[2] * lv1) + f1 * (th_nb[2] * lv0 - th_nb[0] * lv2)
+             + f2 * (th_nb[0] * lv1 - th_nb[1] * lv0))   # the forward part of dtheta x l
+    cr = np.array([f0 * along, f1 * along, f2 * along])
     wn = Cnb @ w_b
     dn = Cnb @ (w_b - cr)
     for i in range(3):
@@ -725,15 +729,16 @@ def _fill_sensor_velocity_n(xs, xd, aux, acc, data, p, offs, z, H, r):
         w_b[i] = p[P_FWD + i] * v
     w_nb = aux[AUX_WNB:AUX_WNB + 3].copy()
     lv0, lv1, lv2 = p[P_LEVER], p[P_LEVER + 1], p[P_LEVER + 2]
-    cr = np.array([w_nb[1] * lv2 - w_nb[2] * lv1, w_nb[2] * lv0 - w_nb[0] * lv2,
-                   w_nb[0] * lv1 - w_nb[1] * lv0])
-    u_b = w_b - cr
+    f0, f1, f2 = p[P_FWD], p[P_FWD + 1], p[P_FWD + 2]
+    along = (f0 * (w_nb[1] * lv2 - w_nb[2] * lv1) + f1 * (w_nb[2] * lv0 - w_nb[0] * lv2)
+             + f2 * (w_nb[0] * lv1 - w_nb[1] * lv0))     # the forward part of omega x l
+    u_b = w_b - np.array([f0 * along, f1 * along, f2 * along])
     vs = Cnb @ u_b
     for i in range(3):
         z[i] = xs[K.VE + i] - vs[i]
         r[i] = p[P_SIG + i] ** 2
     _velocity_rows(H, (offs[PHI], offs[DV], offs[DK], offs[MOUNT], offs[LEVER]), Cnb, w_b, u_b,
-                   w_nb)
+                   w_nb, p[P_FWD:P_FWD + 3].copy())
     return 3
 
 
@@ -753,7 +758,7 @@ def _fill_displacement(xs, xd, aux, acc, data, p, offs, z, H, r):
         r[i] = (p[P_SIG + i] * T) ** 2
     _displacement_rows(H, (offs[PHI], offs[DV], offs[DK], offs[MOUNT], offs[LEVER]), C_bn, T,
                        C_bn @ dD, C_bn @ acc[ACC_W:ACC_W + 3].copy(),
-                       acc[ACC_TH:ACC_TH + 3].copy())
+                       acc[ACC_TH:ACC_TH + 3].copy(), p[P_FWD:P_FWD + 3].copy())
     return 3
 
 
@@ -794,8 +799,8 @@ class _SensorChannel(Measurement):
 
 class SensorVelocityNav(_SensorChannel):
     """Paper 003 eq. 23-24: SINS velocity minus the sensor's forward speed mapped to the IMU
-    point (lever arm, nominal mounting) and to n, ``z = v_SINS - C_b^n (C_v^b0 [0, v, 0] -
-    omega_nb^b x l)``; rows :func:`inmotion.estimation.aiding_rows._velocity_rows`.
+    point (lever arm, nominal mounting) and to n, ``z = v_SINS - C_b^n (f v - f f^T
+    (omega_nb^b x l))``, ``f = C_v^b0 [0, 1, 0]``; rows :func:`inmotion.estimation.aiding_rows._velocity_rows`.
     Sample: ``[v]`` [m/s] at the interval's end."""
 
     name, data_size = "sensor_velocity_n", 1
