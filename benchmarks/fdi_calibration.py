@@ -110,7 +110,7 @@ def main(argv=None):
     ap.add_argument("--presets", default="matched,conservative")
     ap.add_argument("--json", default=None)
     args = ap.parse_args(argv)
-    biases = [float(x) for x in args.biases.split(",")]
+    biases = [float(x) for x in args.biases.split(",") if x]
     res = {"scenario": "paper003_drive", "start_error_deg": EULER_ERR_DEG, "presets": {}}
     t0 = time.perf_counter()
     for preset in args.presets.split(","):

@@ -197,9 +197,14 @@ class AidedKfConfig(NhcKfConfig):
 
 class FkfConfig(AidedKfConfig):
     """``fkf``: federated OD + LDV sub-filters (sec. 3.1.1: beta_1 = beta_2 = 1/2, beta_m = 0,
-    main filter period 10 s)."""
+    main filter period 10 s; the default here is 1 s, see ``main_period_s``)."""
 
-    main_period_s: float = Field(10.0, gt=0, description="main filter period")
+    main_period_s: float = Field(
+        1.0, gt=0,
+        description="main filter (fusion and feedback) period [s]; paper 003: 10 s, which with "
+                    "the matched noise leaves the sub-filters open loop on a SINS still "
+                    "degrees off in heading: on a 4 deg/s turn drive the fused heading then ends "
+                    "5-7 times its sigma off (issue 15)")
     beta_od: float = Field(
         0.5, gt=0, le=1,
         description="information-sharing factor of the odometer sub-filter")
@@ -238,7 +243,10 @@ def sensor_noise_from_meta(meta, name: str, interval_s: float, measurement: str)
     ``q^2 / 12`` each), so ``sigma^2 = noise_m_s^2 / (rate_hz T) + 2 q^2 / (12 T^2)``; the
     velocity form reads one sample, ``noise_m_s^2 + 2 q^2 rate_hz^2 / 12`` (a speed from two
     quantized counts one period apart). Lateral / vertical: ``constraint_noise_m_s`` in the
-    spec, else, for a simulated bundle with no disturbances, :data:`SIM_CONSTRAINT_NOISE_M_S`.
+    spec, else, for the displacement form on a simulated bundle with no disturbances,
+    :data:`SIM_CONSTRAINT_NOISE_M_S` (the velocity form's rows compare the SINS velocity at
+    the epoch's end with the sensor's mean over its last period, a lag that leaves
+    centimetres per second in turns and accelerations: it keeps the configured values).
     """
     meta = meta if isinstance(meta, dict) else {}
     spec = (meta.get("sensors") or {}).get(name) if isinstance(meta.get("sensors"), dict) else None
@@ -257,7 +265,7 @@ def sensor_noise_from_meta(meta, name: str, interval_s: float, measurement: str)
     lat = spec.get("constraint_noise_m_s")
     dist = meta.get("disturbances") or {}
     calm = isinstance(dist, dict) and not any(dist.get(k) for k in dist)
-    if lat is None and meta.get("simulated") and calm:
+    if lat is None and meta.get("simulated") and calm and measurement == "displacement":
         lat = SIM_CONSTRAINT_NOISE_M_S
     origin = ("meta.sensors (documented)" if spec.get("source") == "documented"
               else "meta.sensors (simulated)" if meta.get("simulated") else "meta.sensors")
@@ -422,6 +430,7 @@ def run_aided(bundle: Bundle, cfg, init: NavState, sensors: tuple, *, method: st
     sol = _solution(res, f, init, cfg, method, sensors, thr, time.perf_counter() - t_wall,
                     P15)
     sol.info["config_source"] = cfg_source
+    sol.info["nis"] = f.nis_summary()
     return sol
 
 
