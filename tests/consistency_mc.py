@@ -50,14 +50,14 @@ def final_nees(method, config, scenario, runs, start_sigma_deg, seed0=100):
     """``(mean, (lo, hi), per_run)``: the final-attitude NEES over ``runs`` runs and the 95 %
     band of its mean (module docstring); ``start_sigma_deg`` = 1-sigma of the drawn start
     error [pitch, roll, yaw] [deg]."""
-    run, _ = registry.get(method).load()
+    run, Config = registry.get(method).load()
     vals = []
     for k in range(runs):
         rng = np.random.default_rng(seed0 + k)
         b = simulate(scenario, rng)
         err = np.radians(np.asarray(start_sigma_deg, float)) * rng.standard_normal(3)
         init = NavState.from_truth(b.truth, euler_error=err)
-        sol = run(b, dict(config), init)
+        sol = run(b, Config(**config), init)
         e = error_series(sol, b.truth)
         phi = e[["phi_E_arcmin", "phi_N_arcmin", "phi_U_arcmin"]].to_numpy()[-1] / ARCMIN
         sig = np.array([sol.sigma[c][-1] for c in ("phi_E", "phi_N", "phi_U")])
