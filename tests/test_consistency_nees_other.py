@@ -42,8 +42,9 @@ def test_sins_dr_nees_in_band(drive):
 
 
 @pytest.mark.xfail(strict=True, reason="issue 15, open: dr-kf / od-velocity-kf end with a "
-                   "level error about East of -0.12 to -0.26 arcmin in every run against a "
-                   "sigma of 0.08 arcmin (mean NEES 6.8 over 8 runs, band 1.6-4.9)")
+                   "level error about East of -0.12 to -0.26 arcmin in most runs against a "
+                   "sigma of 0.08 arcmin (mean NEES 7.5 / 7.3 over these 6 runs, band "
+                   "1.4-5.3)")
 @pytest.mark.parametrize("method", ["dr-kf", "od-velocity-kf"])
 def test_velocity_matching_filters_nees_in_band(drive, method):
     cfg = dict(IMU_003, velocity_sensor="ldv", init_tilt_sigma_deg=0.1,

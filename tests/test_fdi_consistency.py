@@ -72,3 +72,20 @@ def test_nis_per_dof_near_one_with_matched_noise_and_not_with_the_former_fixed_n
     conservative = _pooled_nis("conservative")
     for ch, m in conservative.items():
         assert m < 0.15, (ch, m)            # measured 0.019, 0.006
+
+
+def test_nis_per_measurement_kind_in_summary_and_report(tmp_path):
+    from inmotion.evaluate.report import _consistency_section
+    from inmotion.io.result import read_summary, write_result
+    b = simulate(drive_003(), np.random.default_rng(2))
+    sol = ak.run_fkf(b, {}, NavState.from_truth(b.truth))
+    write_result(sol, tmp_path / "r", truth=b.truth)
+    s = read_summary(tmp_path / "r")
+    assert set(s["nis"]) == {"odometer", "ldv", "nhc", "height"}
+    od = s["nis"]["odometer"]
+    assert od["samples"] > 100 and od["dof"] == 3 * od["samples"]
+    assert od["band_95"][0] < 1.0 < od["band_95"][1]
+    assert "attitude" in s["errors"]["consistency"]
+    # the report's table (the section _result_section adds; whole pages are test_report's)
+    text = _consistency_section(s["errors"]["consistency"], s["nis"])
+    assert "Consistency" in text and "NIS odometer" in text and "NEES attitude" in text
