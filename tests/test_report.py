@@ -21,7 +21,7 @@ from inmotion.core.solution import Solution, StateUnit
 from inmotion.errors import BadInput
 from inmotion.evaluate.montecarlo import run_campaign
 from inmotion.evaluate.report import build_report, detect_kind, load_paper
-from inmotion.evaluate.stats import compare_rows, point_statistics, statistic, verdict
+from inmotion.evaluate.stats import compare_rows, count_verdicts, point_statistics, statistic, verdict
 from inmotion.evaluate.sweep import load_sweep
 
 ARCMIN = np.pi / 10800.0
@@ -132,9 +132,14 @@ def test_campaign_report_tables_verdicts_and_failures(campaign_dir, tmp_path):
     rows = compare_rows([{"quantity": "x", "paper": 2.5, "column": "std", "stat": "mean",
                           "where": {"param.scale": 2.0}}], df)
     assert rows[0]["measured"] == pytest.approx(ok2.mean())
-    expected = "better" if ok2.mean() < 2.5 else "worse"
+    # better / worse only beyond two Monte Carlo standard errors of the mean
+    se = ok2.std(ddof=1) / np.sqrt(len(ok2))
+    assert rows[0]["measured_se"] == pytest.approx(se) and rows[0]["n_runs"] == len(ok2)
+    expected = ("same" if abs(ok2.mean() - 2.5) <= 2 * se
+                else "better" if ok2.mean() < 2.5 else "worse")
     assert re.search(rf"spread at scale 2</td>.*?>{expected}</td>", page)
-    assert re.search(r"given figure</td>.*?>worse</td>", page)
+    # a figure given without its uncertainty gets no verdict
+    assert re.search(r"given figure</td>.*?>undecided</td>", page)
     # every failed run is listed with its seed and error
     failed = df[df.status == "error"]
     assert len(failed) > 0
@@ -147,7 +152,8 @@ def test_saved_paper_figures_are_found_beside_the_results(result_dir, tmp_path):
     run = tmp_path / "run"
     shutil.copytree(result_dir, run)
     save_paper(run, {"title": "Table 9", "rows": [
-        {"quantity": "heading", "unit": "arcmin", "paper": 1.5, "measured": 2.0}]})
+        {"quantity": "heading", "unit": "arcmin", "paper": 1.5, "measured": 2.0,
+         "measured_se": 0.2}]})
     page = build_report(run).read_text()
     assert "Against the paper: Table 9" in page
     assert re.search(r"heading</td>.*?>worse</td>", page)
@@ -159,17 +165,21 @@ def test_collection_report_summarises_every_paper_row(campaign_dir, result_dir, 
     shutil.copytree(campaign_dir, root / "p004", ignore=shutil.ignore_patterns("report*"))
     shutil.copytree(result_dir, root / "p000")
     (root / "p000" / "paper.yaml").write_text(
-        "title: t\nrows:\n- {quantity: yaw, unit: arcmin, paper: 1.0, measured: 0.5}\n")
+        "title: t\nrows:\n- {quantity: yaw, unit: arcmin, paper: 1.0, measured: 0.5, tolerance: 0.1}\n")
     assert detect_kind(root) == "collection"
     page = build_report(root).read_text()
     start = page.index("Summary: paper against measured")
     summary = page[start:page.index("<h2>", start)]
     assert summary.count("<tr>") == 3 + 1           # header + the 3 paper rows
     df = pd.read_parquet(campaign_dir / "table.parquet")
-    spread = df[(df.status == "ok") & (df["param.scale"] == 2.0)]["std"].mean()
-    verdicts = ["better", "worse", "better" if spread < 2.5 else "worse"]
-    counts = {v: verdicts.count(v) for v in ("better", "worse")}
-    assert f"{counts['better']} better" in summary and f"{counts['worse']} worse" in summary
+    ok2 = df[(df.status == "ok") & (df["param.scale"] == 2.0)]["std"]
+    se = ok2.std(ddof=1) / np.sqrt(len(ok2))
+    third = ("same" if abs(ok2.mean() - 2.5) <= 2 * se
+             else "better" if ok2.mean() < 2.5 else "worse")
+    verdicts = ["better", "undecided", third]
+    for v in ("better", "same", "worse", "undecided"):
+        if verdicts.count(v):
+            assert f"{verdicts.count(v)} {v}" in summary
 
 
 # ----------------------------------------------------------------------------- statistics
@@ -186,13 +196,46 @@ def test_statistics_are_the_textbook_ones():
 
 
 @pytest.mark.parametrize("paper, measured, better, kw, expected", [
-    (2.0, 1.0, "lower", {}, "better"), (2.0, 3.0, "lower", {}, "worse"),
-    (2.0, 3.0, "higher", {}, "better"), (2.0, 2.05, "lower", {"tolerance": 0.1}, "same"),
-    (2.0, -1.0, "closer", {}, "better"), (1.0, 3.0, "closer", {"target": 2.5}, "better"),
+    (2.0, 1.0, "lower", {"tolerance": 0.1}, "better"), (2.0, 3.0, "lower", {"tolerance": 0.1}, "worse"),
+    (2.0, 3.0, "higher", {"tolerance": 0.1}, "better"), (2.0, 2.05, "lower", {"tolerance": 0.1}, "same"),
+    (2.0, -1.0, "closer", {"tolerance": 0.1}, "better"),
+    (1.0, 3.0, "closer", {"target": 2.5, "tolerance": 0.1}, "better"),
+    (2.0, 1.0, "lower", {"tolerance": 0.0}, "undecided"),   # a zero tolerance claims no uncertainty
     (None, 1.0, "lower", {}, "-"), ("n/a", 1.0, "lower", {}, "-"),
+    # no uncertainty given: no verdict
+    (2.0, 1.0, "lower", {}, "undecided"),
+    # standard errors of both: 2 * hypot(0.3, 0.4) = 1.0
+    (2.0, 1.05, "lower", {"measured_se": 0.3, "paper_se": 0.4}, "same"),
+    (2.0, 0.95, "lower", {"measured_se": 0.3, "paper_se": 0.4}, "better"),
+    (2.0, 3.05, "lower", {"measured_se": 0.3, "paper_se": 0.4}, "worse"),
+    # the paper's one run inside / outside our spread of single runs
+    (2.0, 1.0, "lower", {"measured_interval": [0.5, 2.5]}, "same"),
+    (3.0, 1.0, "lower", {"measured_interval": [0.5, 2.5]}, "better"),
+    (2.0, 1.0, "lower", {"measured_se": 0.01, "comparable": False}, "not comparable"),
 ])
 def test_verdicts(paper, measured, better, kw, expected):
     assert verdict(paper, measured, better, **kw) == expected
+
+
+def test_rows_compare_only_the_same_statistic_over_comparable_sample_sizes():
+    rows = compare_rows([
+        {"quantity": "a", "paper": 2.0, "measured": 1.0, "measured_se": 0.1,
+         "statistic": "std", "n_runs": 50, "paper_n": 5},
+        {"quantity": "b", "paper": 2.0, "measured": 1.0, "measured_se": 0.1,
+         "statistic": "std", "n_runs": 8, "paper_n": 5},
+        {"quantity": "c", "paper": 2.0, "measured": 1.0, "measured_se": 0.1,
+         "statistic": "median", "paper_statistic": "max"},
+        {"quantity": "d", "paper": 2.0, "measured": 1.0, "measured_se": 0.1, "kind": "ablation"},
+        {"quantity": "e", "paper": 2.0, "measured": 1.0, "tolerance": 0.1, "kind": "timing",
+         "comparable": False, "why": "seconds on another machine"},
+    ])
+    assert [r["verdict"] for r in rows] == ["not comparable", "better", "not comparable",
+                                            "better", "not comparable"]
+    assert "std over 50 against the paper's over 5" in rows[0]["why"]
+    counts = count_verdicts(rows)
+    assert counts["better"] == 1 and counts["not comparable"] == 3 and counts["ablation"] == 1
+    with pytest.raises(BadInput, match="kind must be paper, ablation or timing"):
+        compare_rows([{"quantity": "f", "paper": 1, "measured": 1, "kind": "mine"}])
 
 
 @pytest.mark.parametrize("rows, message", [

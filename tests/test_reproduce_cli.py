@@ -10,6 +10,7 @@ import json
 import sys
 import types
 
+import numpy as np
 import pytest
 from click.testing import CliRunner
 
@@ -30,7 +31,19 @@ def invoke(*args):
 
 def _expected_verdict(row):
     p, m = row["paper"], row["measured"]
-    if abs(m - p) <= row.get("tolerance", 0.0):
+    if row.get("comparable") is False:
+        return "not comparable"
+    if "measured_interval" in row:
+        band = None
+        if row["measured_interval"][0] <= p <= row["measured_interval"][1]:
+            return "same"
+    elif "measured_se" in row or "paper_se" in row:
+        band = 2 * np.hypot(row.get("measured_se") or 0.0, row.get("paper_se") or 0.0)
+    elif row.get("tolerance", 0.0) > 0.0:
+        band = row["tolerance"]
+    else:
+        return "undecided"
+    if band is not None and abs(m - p) <= band:
         return "same"
     if row["better"] == "closer":
         return "better" if abs(m) < abs(p) else "worse"
@@ -57,7 +70,7 @@ def test_004_end_to_end_rows_have_the_paper_beside_the_measured(run_004):
     results = json.loads((out / "results.json").read_text())
     n_table = 0
     for r in rows:
-        assert r["verdict"] in ("better", "worse", "same")
+        assert r["verdict"] in ("better", "worse", "same", "not comparable", "undecided")
         assert r["verdict"] == _expected_verdict(r)
         if r["quantity"].endswith("heading mean"):   # 2 Monte Carlo standard errors
             speed, label = int(r["quantity"].split()[4]), r["quantity"].split()[3]
@@ -137,8 +150,8 @@ def fake_registry(monkeypatch):
     monkeypatch.setitem(sys.modules, "fake_reproductions", mod)
 
     def rows(res):
-        return [rp._row("value", "m", 2.0, res["value"]),
-                rp._row("other", "m", 5.0, res["other"], better="closer")]
+        return [rp._row("value", "m", 2.0, res["value"], measured_se=0.1),
+                rp._row("other", "m", 5.0, res["other"], better="closer", measured_se=0.1)]
 
     fake = {n: rp.Reproduction(n, f"paper {n}", "fake_reproductions", n, "res.json", rows, k)
             for n, k in (("bad", 4), ("good", 4), ("fixed", None))}

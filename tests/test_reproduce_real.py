@@ -192,6 +192,27 @@ def test_comma2k19_od_kf_mounting_against_the_reference(real):
 
 
 @needs_data
+def test_comma2k19_gauss_markov_gyro_bias_improves_the_calibration(real):
+    """Issue 15: with the phone's gyro bias a Gauss-Markov process (the importer's assumed
+    spec, 150 deg/h, 30 s) the yaw mounting moves towards the reference-derived value, its
+    sigma covers its error (the constant-bias model's did not: 0.7 deg off, sigma 0.17), and
+    dead reckoning with the estimated scale and mounting ends closer than with the constant
+    model's. (The issue's targets, 0.2 deg and 20 m, are not met: report.md says why.)"""
+    _, res = real
+    c = res["drives"]["comma2k19_rav4_60s"]
+    cal, gm, const = c["reference_calibration"], c["estimated"], c["estimated_constant_bias"]
+    err_gm = abs(gm["yaw_mount_deg"] - cal["yaw_mount_deg"])
+    err_const = abs(const["yaw_mount_deg"] - cal["yaw_mount_deg"])
+    assert err_gm < 0.6 * err_const
+    assert err_gm <= 2.0 * gm["yaw_mount_sigma_deg"]
+    assert err_const > 3.0 * const["yaw_mount_sigma_deg"]      # the former overconfidence
+    runs = {r["run"]: r["final_horizontal_m"] for r in c["runs"]}
+    assert runs["dr scale + mounting (od-kf)"] < runs["dr scale + mounting (od-kf constant bias)"]
+    for g in c["gm_sensitivity"]:                                # every setting of the table
+        assert abs(g["yaw_mount_deg"] - cal["yaw_mount_deg"]) < err_const, g
+
+
+@needs_data
 def test_comma2k19_level_attitude_and_position(real):
     """Level attitude: the coarse alignment's ``C_b^n(0)`` within 1 deg of the reference (the
     accelerometer biases of the phone, 0.07 / 0.15 m/s^2, allow ~0.5-1 deg); od-kf within

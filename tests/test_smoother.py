@@ -135,14 +135,12 @@ def test_dr_kf_smoothed_against_truth_is_better_early_and_consistent():
     assert 1.0 < m < 6.0, m            # 3 dof; correlated over time, so a loose band
 
 
-def test_nhc_kf_and_single_filter_od_kf_smooth_and_a_bank_says_it_cannot():
+def test_nhc_kf_and_single_filter_od_kf_smooth():
     """``smooth`` on paper 003's filters: ``nhc-kf`` and ``od-kf`` without the NHC fallback
-    are one local filter and smooth (the heading error over the first 60 s falls); ``fkf``
-    (a bank) says what to do instead."""
+    are one local filter and smooth (the heading error over the first 60 s falls)."""
     from inmotion.align import aided_kf as ak
     from inmotion.core import rotations
     from inmotion.core.solution import NavState
-    from inmotion.errors import BadInput
     from inmotion.sim import simulate
     from inmotion.sim.scenario import find_scenario, load_scenario
 
@@ -160,5 +158,96 @@ def test_nhc_kf_and_single_filter_od_kf_smooth_and_a_bank_says_it_cannot():
             early = s.t <= s.t[0] + 60.0
             err[smooth] = np.sqrt(np.mean(phi[early, 2] ** 2))
         assert err[True] < 0.5 * err[False], (run.__name__, err)
-    with pytest.raises(BadInput, match="single local filter.*od-velocity-kf"):
-        ak.run_fkf(b, {"smooth": True}, init)
+
+
+def test_bank_without_detection_smooths_to_the_single_filter():
+    """``od-kf`` with its NHC fallback is a bank of two local filters; with no FDI detection
+    the fallback never supplied the estimate, so the bank's smoothed result (the central
+    filter over the accepted samples, aided_kf._smooth_bank) is the single filter's
+    (``nhc_fallback=false``) smoothed result, to rounding."""
+    from inmotion.align import aided_kf as ak
+    from inmotion.core.solution import NavState
+    from inmotion.sim import simulate
+    from inmotion.sim.scenario import find_scenario, load_scenario
+
+    b = simulate(load_scenario(find_scenario("paper003_drive")), np.random.default_rng(2))
+    init = NavState.from_truth(b.truth, euler_error=np.radians([0.2, 0.2, 1.0]))
+    bank = ak.run_od_kf(b, {"smooth": True}, init)
+    single = ak.run_od_kf(b, {"smooth": True, "nhc_fallback": False}, init)
+    assert bank.info["smoothed"] and bank.info["events"] == []
+    assert bank.info["smoothing"]["central_updates"]["nhc"] == 0
+    np.testing.assert_allclose(bank.euler, single.euler, rtol=0, atol=1e-12)
+    np.testing.assert_allclose(bank.lat, single.lat, rtol=0, atol=1e-14)
+    for k in ("phi_U", "vE", "north"):
+        np.testing.assert_allclose(bank.sigma[k], single.sigma[k], rtol=1e-10)
+    np.testing.assert_allclose(bank.states["od_dk"], single.states["od_dk"], atol=1e-12)
+
+
+def _velocity_errors(sol, truth):
+    k = np.searchsorted(truth.t, sol.t)
+    dv = sol.vel_n[:, :2] - truth.vel_n[k, :2]
+    return dv, np.column_stack([sol.sigma["vE"], sol.sigma["vN"]])
+
+
+@pytest.mark.parametrize("method", ["od-kf", "fkf"])
+def test_bank_with_faults_smooths_without_the_isolated_sensor(method):
+    """paper 003's injected OD / LDV faults (idling, slip, LDV offsets; three seeds): the
+    bank's FDI isolates them, the smoothed result uses none of the isolated samples and
+    keeps its velocity error small and inside 4 sigma against truth, where the smoother over
+    every sample (FDI off) is pulled off by the faults; it is never worse than forward."""
+    from inmotion.align import aided_kf as ak
+    from inmotion.core.solution import NavState
+    from inmotion.sim import simulate
+    from inmotion.sim.scenario import find_scenario, load_scenario
+
+    run = {"od-kf": ak.run_od_kf, "fkf": ak.run_fkf}[method]
+    for seed in (1, 2, 3):
+        b = simulate(load_scenario(find_scenario("paper003_faults")),
+                     np.random.default_rng(seed))
+        init = NavState.from_truth(b.truth, euler_error=np.radians([0.2, 0.2, 1.0]))
+        cfg = {"init_heading_sigma_deg": 1.0}
+        fwd = run(b, cfg, init)
+        sm = run(b, {**cfg, "smooth": True}, init)
+        naive = run(b, {**cfg, "smooth": True, "fdi": False, "nhc_fallback": False}, init)
+        iso = sm.info["smoothing"]["isolated_s"]
+        faults = [(f["sensor"], f["start_s"]) for f in b.meta["faults"]
+                  if f["sensor"] in iso]
+        for sensor, start in faults:           # each fault isolated within 1 s of its start
+            assert any(start <= a <= start + 1.0 for a, _ in iso[sensor]), (seed, iso)
+        dv, sig = _velocity_errors(sm, b.truth)
+        assert np.all(np.abs(dv[1:]) <= 4 * sig[1:]), seed
+        dv_n, _ = _velocity_errors(naive, b.truth)
+        dv_f, _ = _velocity_errors(fwd, b.truth)
+        worst = np.abs(dv).max()
+        assert worst < 0.03 and worst < 0.2 * np.abs(dv_n).max(), (seed, worst)
+        assert worst <= np.abs(dv_f).max(), seed
+        # the central filter applied no sample of an isolated interval
+        n_iso = sum(len(sm.info["smoothing"]["isolated_s"][s]) for s in iso)
+        assert n_iso >= len(faults)
+        tests = sm.info["tests"]
+        for s in iso:
+            assert sm.info["smoothing"]["central_updates"][s] == tests[s]["updates"]
+
+
+def test_smoother_gain_survives_an_eigh_that_does_not_converge():
+    """LAPACK's ``dsyevd`` (``eigh``) fails to converge on some well-conditioned matrices; one
+    (the correlation form of a 27-state P_k|k-1 of the central filter of paper 003's drive,
+    eigenvalues 1.5e-4 .. 4.4) is stored. The backward pass then takes the SVD: its smoothed
+    estimate equals the RTS formula with the inverse, to rounding."""
+    from pathlib import Path
+    Pp = np.load(Path(__file__).parent / "data" / "eigh_nonconvergent_27.npy")
+    n = Pp.shape[0]
+    rng = np.random.default_rng(0)
+    M = rng.standard_normal((n, n))
+    P0 = M @ M.T / n + np.eye(n)
+    Phi = np.eye(n) + 0.01 * rng.standard_normal((n, n))
+    x = rng.standard_normal((2, n))
+    P = np.stack([P0, Pp])
+    Phis = np.stack([np.eye(n), Phi])
+    P_pred = np.stack([P0, Pp])
+    fb = np.zeros((2, n))
+    xs, Ps = np.empty((2, n)), np.empty((2, n, n))
+    rts_backward(x, P, Phis, P_pred, fb, xs, Ps)
+    A = P0 @ Phi.T @ np.linalg.inv(Pp)
+    np.testing.assert_allclose(xs[0], x[0] + A @ (x[1] - Phi @ x[0]), rtol=1e-9, atol=1e-9)
+    assert np.isfinite(Ps).all()

@@ -41,6 +41,16 @@ drive with the aiding the bundle has (``inmotion process``, issue 14).
    else with the odometer and / or LDV the paper 003 filter (``fkf``, ``od-kf``, ``ldv-kf``:
    chi-square FDI, NHC fallback); else ``nhc-kf``. Each stage starts from the previous
    stage's end with its sigma as the prior.
+6. **Stops** (``zupt``): whenever the vehicle stops during navigation
+   (:func:`stop_windows`: the motion test of rule 2 below its threshold, margins cut, at
+   least ``min_stop_s``, the IMU agreeing), the odometer / LDV filters add zero-velocity and
+   zero angular rate updates there (``stops_s`` of their configuration); logged as the stage
+   ``stops``. ``dr-kf`` / ``sins-dr`` take none: the stops found are listed in the last
+   stage's entry (``stops_s``), saying so.
+7. **Smoothing** (``smooth``): every fine / navigation stage forward-backward (RTS); a bank
+   of local filters (``fkf``, ``od-kf`` / ``ldv-kf`` with the NHC fallback) keeps its FDI:
+   the bank decides which samples count, a central filter over them is smoothed
+   (:func:`inmotion.align.aided_kf._smooth_bank`).
 
 Filter noise and priors (``gyro_drift_deg_h``, ``gyro_arw_deg_sqrt_h``, ``accel_bias_ug``,
 ``accel_vrw_ug_sqrt_hz``) come from ``meta.yaml``'s IMU spec where it gives them
@@ -62,7 +72,8 @@ from .core.bundle import Bundle
 from .core.solution import NavState, Solution
 from .errors import BadInput
 
-__all__ = ["ProcessConfig", "InitInfo", "heading_observability", "run_process", "plan"]
+__all__ = ["ProcessConfig", "InitInfo", "heading_observability", "run_process", "plan",
+           "stop_windows"]
 
 DEG = math.pi / 180.0
 OMEGA_DEG_H = earth.OMEGA_IE / DEG * 3600.0   #: Earth rate [deg/h]
@@ -153,9 +164,19 @@ class ProcessConfig(BaseModel):
     smooth: bool = Field(
         False,
         description="forward-backward (Rauch-Tung-Striebel) smoothing of the fine-alignment and "
-                    "navigation stages (radar: dr-kf and sins-dr; odometer or LDV: "
-                    "od-velocity-kf, the smoothable single filter, in place of fkf / od-kf / "
-                    "ldv-kf; no velocity sensor: nhc-kf)")
+                    "navigation stages (radar: dr-kf and sins-dr; odometer or LDV: fkf / od-kf "
+                    "/ ldv-kf with FDI, the forward bank deciding which samples count and a "
+                    "central filter over them smoothed; no velocity sensor: nhc-kf)")
+    zupt: bool = Field(
+        True,
+        description="zero-velocity and zero angular rate updates whenever the vehicle stops "
+                    "during navigation (stops: the motion test below its threshold, the IMU "
+                    "still; odometer / LDV filters)")
+    min_stop_s: float = Field(
+        2.0, gt=0, description="a stop shorter than this (after the margins) gets no updates [s]")
+    stop_margin_s: float = Field(
+        0.5, ge=0,
+        description="margin cut from each end of a detected stop before its updates [s]")
 
 
 class InitInfo(BaseModel):
@@ -237,6 +258,10 @@ def _cfg(cls, base: dict, cfg: ProcessConfig, name: str, spec: dict):
     the user's ``methods[name]``; fields the class lacks are dropped."""
     fields = cls.model_fields
     data = {k: v for k, v in spec.items() if k in fields}
+    # ``spec`` folds a Gauss-Markov bias into the constant's sigma (spec_from_meta); a filter
+    # with the Gauss-Markov option would add it again from meta.yaml: keep it constant here
+    # (``methods: {od-kf: {gyro_markov_tau_s: ...}}`` turns it on)
+    data.update({k: None for k in ("gyro_markov_tau_s", "accel_markov_tau_s") if k in fields})
     data.update({k: v for k, v in base.items() if k in fields})
     user = cfg.methods.get(name) or {}
     if not isinstance(user, dict):
@@ -326,6 +351,59 @@ def still_start(bundle: Bundle, t0: float, accel_m_s2: float = 0.15, gyro_deg_s:
     if end is None:
         return float(t[nb * n - 1])
     return float(t[end * n - 1]) if end > 1 else None
+
+
+def _imu_still(bundle: Bundle, ta: float, tb: float, accel_m_s2: float, gyro_deg_s: float,
+               block_s: float = 0.25) -> bool:
+    """The IMU agrees that the vehicle stands still over ``[ta, tb]``: the mean rate within
+    ``gyro_deg_s`` of zero (the Earth rate and a MEMS bias are far below it, a turn is not),
+    and every ``block_s`` mean of the specific force and of the rate within ``accel_m_s2`` /
+    ``gyro_deg_s`` of the window's mean (the test of :func:`still_start`, over a whole
+    window). Straight driving at constant speed cannot be told from standing by an IMU."""
+    imu = bundle.imu
+    k = np.flatnonzero((imu.t > ta) & (imu.t <= tb))
+    n = max(1, int(round(block_s / imu.dt)))
+    nb = len(k) // n
+    if nb < 1:
+        return False
+    k = k[:nb * n]
+    dt = imu.dt
+    f = imu.dvel[k].reshape(nb, n, 3).sum(1) / (n * dt)
+    w = imu.dtheta[k].reshape(nb, n, 3).sum(1) / (n * dt)
+    return bool(np.abs(f - f.mean(0)).max() <= accel_m_s2
+                and np.degrees(np.abs(w - w.mean(0)).max()) <= gyro_deg_s
+                and np.degrees(np.linalg.norm(w.mean(0))) <= gyro_deg_s)
+
+
+def stop_windows(bundle: Bundle, cfg: ProcessConfig, t_from: float) -> tuple[list, str]:
+    """The stops of the drive after ``t_from``, for zero-velocity updates: the runs of the
+    motion test (paper 003 eq. 43-45, :func:`inmotion.align.strategy.motion_statistic`, the
+    statistic and threshold :func:`plan` uses, on a 10 Hz grid) below its threshold, each cut
+    by ``stop_margin_s`` at both ends (the speed is below the test's resolution, ~0.08 m/s,
+    not zero, at a stop's edges) and kept if ``min_stop_s`` long and the IMU agrees
+    (:func:`_imu_still`: a speed channel reading zero while the vehicle turns or changes
+    speed is not a stop; with odometer and LDV both must read zero). Returns ``([[start, end], ...], why)``."""
+    from .align.strategy import motion_statistic
+    from .estimation import chi2
+    t, lam, dof = motion_statistic(bundle, t_from, cfg.parked_speed_noise_m_s, 10.0,
+                                   radar_noise_m_s=cfg.radar_parked_noise_m_s)
+    thr = chi2.threshold(cfg.false_alarm_rate, dof)
+    d = np.diff(np.r_[0, (lam <= thr).astype(np.int8), 0])
+    out, refused = [], 0
+    for a, b in zip(np.flatnonzero(d == 1), np.flatnonzero(d == -1) - 1):
+        ta, tb = float(t[a]) + cfg.stop_margin_s, float(t[b]) - cfg.stop_margin_s
+        if tb - ta < cfg.min_stop_s:
+            continue
+        if _imu_still(bundle, ta, tb, cfg.still_accel_m_s2, cfg.still_gyro_deg_s):
+            out.append([ta, tb])
+        else:
+            refused += 1
+    why = (f"chi-square motion test (paper 003 eq. 43-45, threshold {thr:.3g}) below its "
+           f"threshold for {cfg.min_stop_s:g} s or longer (margins {cfg.stop_margin_s:g} s) "
+           f"and the IMU still: {len(out)} stop(s), {sum(b - a for a, b in out):.1f} s"
+           + (f"; {refused} run(s) of zero speed refused: the IMU was not still"
+              if refused else ""))
+    return out, why
 
 
 def plan(bundle: Bundle, cfg: ProcessConfig, t0: float) -> dict:
@@ -553,7 +631,7 @@ def run_process(bundle: Bundle, config: ProcessConfig | dict | None = None,
     # ---- 5: fine alignment and navigation to the end
     if handover is not None:
         parts += _navigate(bundle, cfg, handover, tilt_sig, h_sig, spec, log,
-                           progress_part(0.3 if parts else 0.0, 1.0))
+                           progress_part(0.3 if parts else 0.0, 1.0), stages)
     sol = _concat(parts)
     sol.info.update({
         "method": "process", "config": cfg.model_dump(), "stages": stages,
@@ -678,7 +756,7 @@ def _sensor_spec(bundle, cls) -> dict:
     return out
 
 
-def _navigate(bundle, cfg, state, tilt_sig, head_sig, spec, log, progress):
+def _navigate(bundle, cfg, state, tilt_sig, head_sig, spec, log, progress, stages):
     """Fine alignment and navigation from ``state`` to the end (module docstring, rule 5)."""
     speed = _speed_sensors(bundle)
     t_end = float(bundle.imu.t[-1])
@@ -730,31 +808,26 @@ def _navigate(bundle, cfg, state, tilt_sig, head_sig, spec, log, progress):
                                                 else "")
                 + ("; smoothed forward-backward (RTS)" if cfg.smooth else ""), nav)
             out.append(nav)
+        if cfg.zupt:                 # said in the last stage's entry: nothing ran for them
+            stops, why_stops = stop_windows(bundle, cfg, t0)
+            if stops:
+                stages[-1]["why"] += (f"; {len(stops)} stop(s) found but no zero-velocity "
+                                      "updates: dr-kf and sins-dr take none")
+                stages[-1]["stops_s"] = stops
+                stages[-1]["stops_why"] = why_stops
         return out
     from .align import aided_kf as ak
     from .align.multiplex import auto_fine_method
     name = auto_fine_method(bundle)
-    if cfg.smooth and name != "nhc-kf":
-        # the paper-003 filters are banks of local filters, which the smoother does not take:
-        # velocity matching with the same sensor (and NHC, baro) is the smoothable filter
-        from .align.dr_kalman import OdVelocityKfConfig, run_od_velocity_kf
-        sensor = "odometer" if "odometer" in speed else "ldv"
-        vcfg = _cfg(OdVelocityKfConfig, {**prior, "velocity_sensor": sensor, "smooth": True,
-                                         **_sensor_spec(bundle, OdVelocityKfConfig)},
-                    cfg, "od-velocity-kf", spec)
-        sol = run_od_velocity_kf(bundle, vcfg, state, progress=progress)
-        log("fine + navigate", "od-velocity-kf", t0, t_end,
-            f"{sensor}: SINS / {sensor} velocity matching with NHC, smoothed forward-backward "
-            f"(RTS) (in place of {name}, whose bank of local filters is not smoothed)"
-            + (", barometer" if bundle.baro is not None else ""), sol)
-        return [sol]
     run = {"fkf": ak.run_fkf, "od-kf": ak.run_od_kf, "ldv-kf": ak.run_ldv_kf,
            "nhc-kf": ak.run_nhc_kf}[name]
     cls = {"fkf": ak.FkfConfig, "od-kf": ak.AidedKfConfig, "ldv-kf": ak.AidedKfConfig,
            "nhc-kf": ak.NhcKfConfig}[name]
-    base = {**prior, **_sensor_spec(bundle, cls)}
-    if cfg.smooth and name == "nhc-kf":          # a single local filter: smoothable
-        base["smooth"] = True
+    base = {**prior, **_sensor_spec(bundle, cls), "smooth": cfg.smooth}
+    stops = []
+    if cfg.zupt and speed:
+        stops, why_stops = stop_windows(bundle, cfg, t0)
+        base["stops_s"] = stops
     fcfg = _cfg(cls, base, cfg, name, spec)
     sol = run(bundle, fcfg, state, progress=progress)
     why = {"fkf": "odometer and LDV: federated filter with chi-square FDI and Table 1 "
@@ -763,8 +836,15 @@ def _navigate(bundle, cfg, state, tilt_sig, head_sig, spec, log, progress):
            "ldv-kf": "LDV: SINS / LDV filter, chi-square FDI, NHC fallback (paper 003)",
            "nhc-kf": "no velocity sensor: vehicle-constraint (NHC) filter (paper 003)"}[name]
     if cfg.smooth:
-        why += ("; smoothed forward-backward (RTS)" if name == "nhc-kf"
-                else "; smoothing not available for it (forward result)")
+        why += ("; smoothed forward-backward (RTS)" if name == "nhc-kf" else
+                "; smoothed forward-backward (RTS): the bank's FDI decides which samples "
+                "count, a central filter over exactly those is smoothed")
+    if stops:
+        why += f"; zero-velocity and zero angular rate updates at {len(stops)} stop(s)"
     log("fine + navigate", name, t0, t_end, why + (", barometer" if bundle.baro is not None
-                                                  else ""), sol)
+                                                  else ""), sol,
+        **({"smoothing": sol.info["smoothing"]} if "smoothing" in sol.info else {}))
+    if stops:
+        log("stops", "zero-velocity + zero-rate", stops[0][0], stops[-1][1], why_stops,
+            stops_s=stops)
     return [sol]

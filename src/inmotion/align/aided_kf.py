@@ -29,6 +29,15 @@ feeds back. Every detection, return and change of the output filter is in
 "test_value", "threshold"}`` (``event``: ``detected`` (the channel is isolated at once),
 ``returned``, ``mode``).
 
+Smoothing (``smooth``, issue 14): a single local filter (``nhc-kf``; ``od-kf`` / ``ldv-kf``
+with ``nhc_fallback=false``) records its forward pass and is smoothed (Rauch-Tung-Striebel,
+:mod:`inmotion.estimation.smoother`). A bank keeps its fault detection and isolation: it runs
+forward and decides which samples are accepted (FDI, Table 1's source), then one central
+filter (the SINS errors and every channel's sensor states) over exactly the accepted samples
+is recorded and smoothed (:func:`_smooth_bank`, its docstring has the design and why the
+fused estimate itself is not smoothed); ``info["smoothing"]`` lists the isolation intervals
+and the central filter's updates, ``events`` and ``tests`` stay the bank's.
+
 Noise (issue 15): the sensor rows' 1-sigma are in m/s per axis ``[right, forward, up]`` (for
 the displacement form the row noise is ``sigma * T``); the forward value is the sensor's own
 noise and quantization, the lateral and vertical values the vehicle constraint's violations
@@ -87,6 +96,7 @@ federated channels (``beta = 1/2``) gave mean statistics 1.61 / 1.64 (odometer) 
 """
 from __future__ import annotations
 
+import functools
 import time
 from typing import Callable, Literal, Optional
 
@@ -106,7 +116,7 @@ from ..estimation import measurements as ms
 from ..estimation.aiding_rows import NHC_LAYOUT, SUB_LAYOUT
 from ..estimation.engine import (EVENT_DETECTED, EVENT_MODE, MODE_FUSED, MODE_NONE,
                                  ErrorStateFilter, LocalFilter)
-from ..estimation.layout import position_units
+from ..estimation.layout import DK, LEVER, MOUNT, Block, Layout, position_units
 from ..estimation.smoother import ForwardRecord, smooth_at_outputs
 
 __all__ = ["AidedKfConfig", "FkfConfig", "NhcKfConfig", "run_od_kf", "run_ldv_kf",
@@ -135,8 +145,9 @@ class NhcKfConfig(BaseModel):
     smooth: bool = Field(
         False,
         description="forward-backward: Rauch-Tung-Striebel smoothing over the whole run "
-                    "(estimation.smoother); needs a single local filter (nhc-kf, or od-kf / "
-                    "ldv-kf with nhc_fallback=false)")
+                    "(estimation.smoother); a bank (fkf, od-kf / ldv-kf with the NHC fallback) "
+                    "keeps its FDI: the forward bank decides which samples are accepted and a "
+                    "central filter over exactly those is smoothed")
     use_baro: bool = Field(
         True,
         description="add the barometric height measurement h_SINS - h_baro (needs a baro table)")
@@ -151,6 +162,11 @@ class NhcKfConfig(BaseModel):
         0.2, gt=0, description="initial 1-sigma of the velocity error per axis [m/s]")
     init_position_sigma_m: float = Field(
         5.0, gt=0, description="initial 1-sigma of the position error per axis [m]")
+    init_velocity_from_attitude: bool = Field(
+        False,
+        description="the start velocity was made from the start attitude and the sensor's "
+                    "speed (a coarse alignment's hand-over): its prior error follows the "
+                    "attitude error, dv = [v x] phi, plus init_velocity_sigma_m_s")
     gyro_drift_deg_h: float = Field(
         0.01, ge=0, description="1-sigma gyro drift (constant bias) per axis [deg/h]")
     accel_bias_ug: float = Field(
@@ -160,6 +176,23 @@ class NhcKfConfig(BaseModel):
         0.001, ge=0, description="gyro angle random walk [deg/sqrt(h)]")
     accel_vrw_ug_sqrt_hz: float = Field(
         10.0, ge=0, description="accelerometer velocity random walk [ug/sqrt(Hz)]")
+    gyro_markov_deg_h: float = Field(
+        0.0, ge=0,
+        description="stationary 1-sigma of a first-order Gauss-Markov gyro bias per axis "
+                    "[deg/h] (with gyro_markov_tau_s; error_model module docstring); the "
+                    "drift state's prior is hypot(gyro_drift_deg_h, this)")
+    gyro_markov_tau_s: Optional[float] = Field(
+        None, gt=0,
+        description="correlation time of the Gauss-Markov gyro bias [s]; null: the drift "
+                    "is a random constant")
+    accel_markov_ug: float = Field(
+        0.0, ge=0,
+        description="stationary 1-sigma of a Gauss-Markov accelerometer bias per axis [ug] "
+                    "(with accel_markov_tau_s)")
+    accel_markov_tau_s: Optional[float] = Field(
+        None, gt=0,
+        description="correlation time of the Gauss-Markov accelerometer bias [s]; null: "
+                    "a random constant")
     nhc_noise_m_s: float = Field(
         0.1, gt=0,
         description="1-sigma of the NHC pseudo-measurement (lateral and vertical velocity) [m/s]")
@@ -168,6 +201,17 @@ class NhcKfConfig(BaseModel):
     keep_test_statistics: bool = Field(
         False,
         description="keep the chi-square test statistics series in the result's info")
+    stops_s: list[list[float]] = Field(
+        default_factory=list,
+        description="[start, end] windows [s] in which the vehicle stands still: zero-velocity "
+                    "and zero angular rate updates there, on every local filter (inmotion "
+                    "process fills them from the motion test)")
+    zupt_noise_m_s: float = Field(
+        0.02, gt=0, description="1-sigma of the zero-velocity update at a stop (sway) [m/s]")
+    stop_sway_deg_h: float = Field(
+        20.0, gt=0,
+        description="1-sigma angular rate of the stopped vehicle's sway [deg/h]; the zero "
+                    "angular rate update's noise is it and the gyro noise over a filter epoch")
     noise_preset: Literal["matched", "conservative"] = Field(
         "matched",
         description="matched: IMU and sensor noise and priors the configuration does not set "
@@ -256,11 +300,6 @@ def _config(config, cls):
 #: LDV 3.5e-4 m/s) fits both (``tests/test_consistency_nees.py``); the residual test then
 #: fires below its set rate (``benchmarks/fdi_calibration.py``)
 SIM_CONSTRAINT_PER_FORWARD = 0.25
-#: the IMU fields taken from meta['imu'] (as parked-kf)
-IMU_SPEC_FIELDS = ("gyro_drift_deg_h", "gyro_arw_deg_sqrt_h", "accel_bias_ug",
-                   "accel_vrw_ug_sqrt_hz")
-
-
 def sensor_noise_from_meta(meta, name: str, interval_s: float, measurement: str):
     """``(forward, lateral, origin)``: the 1-sigma [m/s] of a velocity sensor's forward row
     and of its lateral / vertical rows from ``meta['sensors'][name]`` (None where the spec
@@ -302,63 +341,54 @@ def sensor_noise_from_meta(meta, name: str, interval_s: float, measurement: str)
     return fwd, (None if lat is None else float(lat)), origin
 
 
-def config_with_spec(cfg, meta, sensors=()) -> tuple:
-    """``(cfg, {field: origin})``: with ``noise_preset: matched``, ``cfg`` with the IMU
-    fields (:data:`IMU_SPEC_FIELDS`) and the sensors' ``*_noise_m_s`` it does not set taken
-    from ``meta`` (module docstring); ``conservative`` leaves it as it is. A field whose
-    value the spec gives only in part (e.g. the forward value) keeps the default for the
-    rest, and says so."""
-    from .parked_kf import spec_from_meta
-    matched = getattr(cfg, "noise_preset", "matched") == "matched"
-    src, upd = {}, {}
-    spec, origin = spec_from_meta(meta) if matched else ({}, "")
-    for f in IMU_SPEC_FIELDS:
-        if f in cfg.model_fields_set:
-            src[f] = "config"
-        elif f in spec:
-            upd[f], src[f] = spec[f], origin
-        else:
-            src[f] = "default"
-    T = cfg.measurement_period_s
-    for name in sensors:
-        field = f"{'od' if name == 'odometer' else 'ldv'}_noise_m_s"
-        if not hasattr(cfg, field):
-            continue
-        if field in cfg.model_fields_set:
-            src[field] = "config"
-            continue
-        fwd, lat, org = (sensor_noise_from_meta(meta, name, T, cfg.measurement) if matched
-                         else (None, None, ""))
-        val = list(getattr(cfg, field))
-        parts = []
-        if lat is not None:
-            val[0] = val[2] = lat
-            parts.append("lateral/vertical")
-        if fwd is not None:
-            val[1] = fwd
-            parts.append("forward")
-        if parts:
-            upd[field] = val
-            src[field] = org + ("" if len(parts) == 2 else f" ({parts[0]}; rest default)")
-        else:
-            src[field] = "default"
-    return (cfg.model_copy(update=upd) if upd else cfg), src
-
-
 def _noise(cfg) -> em.ProcessNoise:
+    gm = {}
+    if cfg.gyro_markov_tau_s is not None:
+        gm.update(gyro_bias_sigma=cfg.gyro_markov_deg_h * DEG_H,
+                  gyro_bias_tau=cfg.gyro_markov_tau_s)
+    if cfg.accel_markov_tau_s is not None:
+        gm.update(accel_bias_sigma=cfg.accel_markov_ug * UG,
+                  accel_bias_tau=cfg.accel_markov_tau_s)
     return em.ProcessNoise(gyro_arw=np.deg2rad(cfg.gyro_arw_deg_sqrt_h) / 60.0,
-                           accel_vrw=cfg.accel_vrw_ug_sqrt_hz * UG)
+                           accel_vrw=cfg.accel_vrw_ug_sqrt_hz * UG, **gm)
 
 
-def _sins_prior(cfg, lat, h):
-    """Diagonal 15-state prior of the SINS errors."""
+def _bias_prior(cfg):
+    """1-sigma priors of the gyro drift [rad/s] and accelerometer bias [m/s^2]: the constant
+    and, where its correlation time is set, the Gauss-Markov part (root sum of squares)."""
+    g = np.hypot(cfg.gyro_drift_deg_h,
+                 cfg.gyro_markov_deg_h if cfg.gyro_markov_tau_s is not None else 0.0)
+    a = np.hypot(cfg.accel_bias_ug,
+                 cfg.accel_markov_ug if cfg.accel_markov_tau_s is not None else 0.0)
+    return g * DEG_H, a * UG
+
+
+def _sins_prior(cfg, lat, h, vel_n=None):
+    """15-state prior of the SINS errors: diagonal, except with
+    ``init_velocity_from_attitude``, where the start velocity ``C_b^n [0, v, 0]`` was made
+    from the start attitude and the sensor's speed: its error is then
+    ``dv = -phi x v_n = [v_n x] phi`` (from ``C_computed = (I - [phi x]) C_true``) plus the
+    speed's own ``init_velocity_sigma_m_s``, so ``P_vv = A P_phiphi A^T + s_v^2 I``,
+    ``P_vphi = A P_phiphi`` with ``A = [v_n x]``. Without the correlation a filter given a
+    large heading sigma would read the heading from the start velocity it was handed as if
+    that velocity were independent of it (issue 15: a 65 deg coarse heading came out of
+    ``fine-mux`` with a 0.4 deg sigma)."""
     r_m, r_n = earth.radii(lat)
     pos = cfg.init_position_sigma_m
     tilt, head = np.deg2rad(cfg.init_tilt_sigma_deg), np.deg2rad(cfg.init_heading_sigma_deg)
-    return NHC_LAYOUT.diag({
+    s_eps, s_nabla = _bias_prior(cfg)
+    P = NHC_LAYOUT.diag({
         "phi": np.array([tilt, tilt, head]) ** 2, "dv": cfg.init_velocity_sigma_m_s ** 2,
         "dp": np.array([pos / (r_m + h), pos / ((r_n + h) * np.cos(lat)), pos]) ** 2,
-        "eps": (cfg.gyro_drift_deg_h * DEG_H) ** 2, "nabla": (cfg.accel_bias_ug * UG) ** 2})
+        "eps": s_eps ** 2, "nabla": s_nabla ** 2})
+    if getattr(cfg, "init_velocity_from_attitude", False) and vel_n is not None:
+        A = em.skew(np.asarray(vel_n, dtype=float))
+        a, v = NHC_LAYOUT["phi"], NHC_LAYOUT["dv"]
+        Ppp = P[a, a]
+        P[v, v] += A @ Ppp @ A.T
+        P[v, a] = A @ Ppp
+        P[a, v] = P[v, a].T
+    return P
 
 
 NS = NHC_LAYOUT.n      #: the common SINS error states (fused, fed back)
@@ -398,10 +428,116 @@ def _check_init(init, bundle):
     return start_row(bundle.imu.t, init.t)
 
 
+#: the IMU noise fields taken from ``meta['imu']`` when the configuration does not set them
+SPEC_FIELDS = ("gyro_drift_deg_h", "gyro_arw_deg_sqrt_h", "accel_bias_ug",
+               "accel_vrw_ug_sqrt_hz", "gyro_markov_deg_h", "gyro_markov_tau_s",
+               "accel_markov_ug", "accel_markov_tau_s")
+#: mean NIS per degree of freedom above which the summary warns that the residuals are larger
+#: than the noise model (its sigma then understates the error)
+NIS_WARN_PER_DOF = 3.0
+#: fraction of a channel's tests isolated above which the summary warns
+ISOLATED_WARN_FRACTION = 0.5
+#: a sensor state (scale, mounting) ending beyond this many prior 1-sigma triggers a warning
+PRIOR_WARN_SIGMAS = 4.0
+
+
+def config_with_spec(cfg, meta, sensors=()):
+    """``(cfg, config_source)``: with ``noise_preset: matched``, ``cfg`` with the
+    :data:`SPEC_FIELDS` it does not set taken from the bundle's IMU specification
+    ``meta['imu']`` (the simulator's, or what an importer documents or assumes, marked in
+    ``meta['imu']['source']``; :func:`inmotion.align.parked_kf.config_with_spec`, the same
+    rule as ``parked-kf``, the Gauss-Markov parts kept apart since these filters model them)
+    and the ``sensors``' ``*_noise_m_s`` it does not set from ``meta['sensors']``
+    (:func:`sensor_noise_from_meta`; a field whose value the spec gives only in part keeps the
+    default for the rest, and says so); ``conservative`` leaves every field as configured.
+    ``{field: origin}`` says where each value came from."""
+    from .parked_kf import config_with_spec as _with_spec   # parked_kf imports this module
+    matched = getattr(cfg, "noise_preset", "matched") == "matched"
+    cfg, src = _with_spec(cfg, meta if matched else {}, SPEC_FIELDS, markov=True)
+    upd = {}
+    T = cfg.measurement_period_s
+    for name in sensors:
+        field = f"{'od' if name == 'odometer' else 'ldv'}_noise_m_s"
+        if not hasattr(cfg, field):
+            continue
+        if field in cfg.model_fields_set:
+            src[field] = "config"
+            continue
+        fwd, lat, org = (sensor_noise_from_meta(meta, name, T, cfg.measurement) if matched
+                         else (None, None, ""))
+        val = list(getattr(cfg, field))
+        parts = []
+        if lat is not None:
+            val[0] = val[2] = lat
+            parts.append("lateral/vertical")
+        if fwd is not None:
+            val[1] = fwd
+            parts.append("forward")
+        if parts:
+            upd[field] = val
+            src[field] = org + ("" if len(parts) == 2 else f" ({parts[0]}; rest default)")
+        else:
+            src[field] = "default"
+    return (cfg.model_copy(update=upd) if upd else cfg), src
+
+
+def _warnings(f, sensors, cfg, cfg_source, meta, res) -> list:
+    """Plain-language warnings for ``summary.json``: noise settings not backed by a sensor
+    spec on a real log, a velocity channel isolated for most of the run, residuals larger than
+    the noise model (the reported sigma then understates the error)."""
+    out = []
+    simulated = bool((meta or {}).get("simulated"))
+    dflt = [k for k in ("gyro_drift_deg_h", "accel_bias_ug", "gyro_arw_deg_sqrt_h",
+                        "accel_vrw_ug_sqrt_hz") if cfg_source.get(k) == "default"]
+    if dflt and not simulated:
+        out.append("IMU noise not in meta.yaml (imu) nor in the configuration: the defaults "
+                   f"({', '.join(f'{k}={getattr(cfg, k):g}' for k in dflt)}) are a "
+                   "navigation-grade IMU's; set them for this sensor (--set or meta.yaml)")
+    cnt = f.counts()
+    for name in list(sensors) + ["nhc"]:
+        c = cnt.get(name)
+        if not c:
+            continue
+        tests = c.get("tests", c["used"] + c["rejected"])
+        if tests and c["rejected"] > ISOLATED_WARN_FRACTION * tests:
+            out.append(f"{name}: rejected (isolated by the residual test) in {c['rejected']} "
+                       f"of {tests} epochs: its noise or the IMU noise settings do not fit "
+                       "this log, and the solution runs on the fallback")
+    prior = {"dk": lambda short: getattr(cfg, f"{short}_scale_sigma_ppm") * 1e-6,
+             "mount_x": lambda short: cfg.mount_sigma_arcmin * ARCMIN,
+             "mount_z": lambda short: cfg.mount_sigma_arcmin * ARCMIN}
+    for c, name in enumerate(sensors):
+        short = "od" if name == "odometer" else "ldv"
+        for i, st in enumerate(_SENSOR_STATES):
+            if st not in prior:
+                continue
+            sig0 = prior[st](short)
+            val = float(res.get("local_x", res["states"][:, None, :])[-1, c, NS + i])
+            if sig0 > 0 and abs(val) > PRIOR_WARN_SIGMAS * sig0:
+                u = _SENSOR_UNITS[i]
+                out.append(f"{short}_{st} ended at {val * u.scale:.4g} {u.unit}, "
+                           f"{abs(val) / sig0:.1f} times its prior 1-sigma "
+                           f"({sig0 * u.scale:.4g} {u.unit}): the prior is too tight for this "
+                           "sensor and the filter's sigma understates its error; widen it "
+                           f"({'mount_sigma_arcmin' if 'mount' in st else short + '_scale_sigma_ppm'})")
+    for name, (s_, d_) in f.nis_sums().items():
+        if d_ > 0 and s_ / d_ > NIS_WARN_PER_DOF:
+            out.append(f"{name}: mean NIS per degree of freedom {s_ / d_:.1f} (1 expected): "
+                       "the residuals are larger than the noise model, so the reported sigma "
+                       "understates the error")
+    return out
+
+
 def run_aided(bundle: Bundle, cfg, init: NavState, sensors: tuple, *, method: str,
               nhc_only=False, progress=None) -> Solution:
     """The shared run of the four methods: ``sensors`` are the bundle's velocity sensors that
-    get a sub-filter (``()`` for ``nhc-kf``)."""
+    get a sub-filter (``()`` for ``nhc-kf``). IMU noise fields the configuration does not set
+    come from ``meta['imu']`` (:func:`config_with_spec`; ``info['config_source']``).
+
+    With ``smooth``: a single local filter (``nhc-kf``; ``od-kf`` / ``ldv-kf`` with
+    ``nhc_fallback=false``) records its forward pass and is smoothed; a bank (``fkf``, or a
+    channel with its NHC fallback) is smoothed by :func:`_smooth_bank` (the bank decides,
+    a central filter over the accepted measurements is smoothed)."""
     t_wall = time.perf_counter()
     cfg, cfg_source = config_with_spec(cfg, bundle.meta, sensors)
     k0 = _check_init(init, bundle)
@@ -415,7 +551,7 @@ def run_aided(bundle: Bundle, cfg, init: NavState, sensors: tuple, *, method: st
     meas_every = max(1, int(round(cfg.measurement_period_s / t_ep)))
     fuse_every = max(1, int(round(cfg.main_period_s / (meas_every * t_ep)))) * meas_every
     out_every = max(1, int(round(cfg.output_interval_s / t_ep)))
-    P15 = _sins_prior(cfg, init.lat, init.h)
+    P15 = _sins_prior(cfg, init.lat, init.h, init.vel_n)
     Q15 = em.ErrorModel(NHC_LAYOUT, _noise(cfg)).Qc()
     betas = {"odometer": getattr(cfg, "beta_od", 1.0), "ldv": getattr(cfg, "beta_ldv", 1.0)}
     if len(sensors) == 1:
@@ -438,43 +574,237 @@ def run_aided(bundle: Bundle, cfg, init: NavState, sensors: tuple, *, method: st
     if use_nhc:
         locals_.append(LocalFilter(pad(P15), pad(Q15), role="primary" if nhc_only
                                    else "fallback"))
-        meas.append(ms.Nhc(cfg.nhc_noise_m_s, mount_terms=False, vehicle_mounting=C_vb0,
-                           local=len(locals_) - 1))
+        meas.append(_nhc(cfg, C_vb0, len(locals_) - 1))
     use_baro = cfg.use_baro and bundle.baro is not None
     if use_baro:
         meas.append(ms.Height(cfg.baro_noise_m, local=None))
+    stops = _stops(cfg)
+    if len(stops):
+        meas += _stop_measurements(cfg, t_ep, None)
     n_ep = -(-(len(imu.t) - k0) // step)
     smooth = bool(getattr(cfg, "smooth", False))
-    if smooth and len(locals_) > 1:
-        raise BadInput(f"{method}: smooth=true needs a single local filter, this run has "
-                       f"{len(locals_)} ({', '.join(list(sensors) + (['nhc'] if use_nhc else []))}"
-                       "); set nhc_fallback=false (od-kf, ldv-kf) or use od-velocity-kf",
-                       file="config")
+    bank = len(locals_) > 1
     f = ErrorStateFilter(init, lay, em.ErrorModel(lay, _noise(cfg)), locals_, meas,
                          step_rows=step, feedback_every=fuse_every // meas_every,
                          out_every=out_every, n_common=NS,
                          max_nis=(n_ep // meas_every + 1) * max(len(sensors), 1),
-                         record=smooth)
-    res = _feed(f, bundle, k0, sensors, meas_every, use_nhc, use_baro, progress,
-                ForwardRecord.for_filter(f, n_ep) if smooth else None)
+                         record=smooth and not bank)
+    res = _feed(f, bundle, k0, sensors, meas_every, use_nhc, use_baro,
+                None if smooth and bank else progress,
+                ForwardRecord.for_filter(f, n_ep) if smooth and not bank else None,
+                stops=stops)
+    extra = None
+    if smooth and bank:
+        res, extra = _smooth_bank(f, res, bundle, cfg, init, k0, sensors, use_nhc, use_baro,
+                                  P15, Q15, C_vb0, n_ep, meas_every, fuse_every, out_every,
+                                  progress, stops, t_ep)
     sol = _solution(res, f, init, cfg, method, sensors, thr, time.perf_counter() - t_wall,
                     P15)
     sol.info["config_source"] = cfg_source
     sol.info["nis"] = f.nis_summary()
+    sol.info["warnings"] = _warnings(f, sensors, cfg, cfg_source, bundle.meta, res)
+    if extra is not None:
+        sol.info["smoothing"] = extra
     return sol
 
 
-def _feed(f, bundle, k0, sensors, meas_every, use_nhc, use_baro, progress, rec=None):
+def _stops(cfg) -> np.ndarray:
+    """``cfg.stops_s`` as an (S, 2) array, checked."""
+    raw = cfg.stops_s
+    if any(len(w) != 2 for w in raw):
+        raise BadInput("stops_s: each stop is [start, end] seconds", file="config")
+    st = np.array(raw, dtype=float).reshape(-1, 2)
+    if not np.all(np.isfinite(st)) or np.any(st[:, 1] < st[:, 0]):
+        raise BadInput("stops_s: each stop is [start, end] seconds with end >= start",
+                       file="config")
+    return st
+
+
+def _stop_measurements(cfg, t_ep, local):
+    """The updates at a stop: zero velocity (paper 003 eq. 11-13, ``zupt_noise_m_s``) and
+    zero angular rate w.r.t. the Earth (the epoch's mean gyro rate; noise: the sway and the
+    gyro's angle random walk over one filter epoch of ``t_ep`` s, ``arw / sqrt(t_ep)``)."""
+    arw = np.deg2rad(cfg.gyro_arw_deg_sqrt_h) / 60.0           # rad / sqrt(s)
+    rate = np.hypot(arw / np.sqrt(t_ep), cfg.stop_sway_deg_h * DEG_H)
+    return [ms.ZeroVelocity(np.full(3, cfg.zupt_noise_m_s), local=local),
+            ms.ZeroAngularRate(np.full(3, rate), local=local)]
+
+
+def _nhc(cfg, C_vb0, local):
+    return ms.Nhc(cfg.nhc_noise_m_s, mount_terms=False, vehicle_mounting=C_vb0, local=local)
+
+
+@functools.lru_cache(maxsize=None)
+def _remapped_fill(fill):
+    """The fill function ``fill`` of a paper 003 sensor channel with its ``dk``, ``mount``
+    and ``lever`` blocks read from the three parameter slots after the channel's own
+    (``P_FWD + 3 ...``) instead of the layout's blocks of those names: the second channel of
+    :func:`_central_layout`'s filter, with the rows of the one channel plug-in."""
+    inner = ms.dispatcher(fill)
+    o = ms.P_FWD + 3
+
+    def remapped(xs, xd, aux, acc, data, p, offs, z, H, r):
+        oo = offs.copy()
+        oo[DK] = np.int64(p[o])
+        oo[MOUNT] = np.int64(p[o + 1])
+        oo[LEVER] = np.int64(p[o + 2])
+        return inner(xs, xd, aux, acc, data, p, oo, z, H, r)
+
+    return ms.fill_function(remapped)
+
+
+def _central_layout(sensors):
+    """The central filter of a bank: the SINS errors, then each sensor's ``dk``, ``mount``
+    (x, z) and ``lever`` (the first channel under the catalogue names, a second one as
+    ``ldv_dk``, ``ldv_mount_x`` ...). Returns ``(layout, [(dk, mount, lever) start of each
+    channel])``."""
+    blocks = list(SUB_LAYOUT.blocks)
+    for name in sensors[1:]:
+        short = "od" if name == "odometer" else "ldv"
+        blocks += [Block(f"{short}_{b.name}", b.elements, b.units)
+                   for b in SUB_LAYOUT.blocks[5:]]
+    lay = Layout(blocks)
+    starts = [(lay["dk"].start, lay["mount"].start, lay["lever"].start)]
+    for name in sensors[1:]:
+        short = "od" if name == "odometer" else "ldv"
+        starts.append(tuple(lay[f"{short}_{b}"].start for b in ("dk", "mount", "lever")))
+    return lay, starts
+
+
+def _isolations(f, n_channels):
+    """Per channel, the closed intervals ``[t_detected, t_returned]`` (``inf``: never
+    returned) of the bank's FDI isolation: the samples in them were not applied."""
+    ev, dropped = f.events()
+    if dropped:
+        raise RuntimeError(f"{dropped} FDI events were dropped: the smoother cannot tell which "
+                           "samples the bank accepted")
+    out = [[] for _ in range(n_channels)]
+    for t, c, kind, _ in ev:
+        k = int(kind)
+        if k == EVENT_DETECTED:
+            out[int(c)].append([float(t), np.inf])
+        elif k != EVENT_MODE:
+            out[int(c)][-1][1] = float(t)
+    return out
+
+
+def _in_any(t, intervals, right_open=False):
+    m = np.zeros(len(t), dtype=bool)
+    for a, b in intervals:
+        m |= (t >= a) & ((t < b) if right_open else (t <= b))
+    return m
+
+
+def _smooth_bank(f, res_fwd, bundle, cfg, init, k0, sensors, use_nhc, use_baro, P15, Q15,
+                 C_vb0, n_ep, meas_every, fuse_every, out_every, progress, stops, t_ep):
+    """Smoothing a bank of local filters (``fkf``; ``od-kf`` / ``ldv-kf`` with the NHC
+    fallback), FDI kept: the forward bank ``f`` (already run, ``res_fwd``) decides, a central
+    filter over exactly the measurements the bank's global estimate used is smoothed.
+
+    Design (issue 14). The bank's FDI (eq. 40-42) decides per channel which samples are
+    applied: a sample is applied unless it falls in a closed isolation interval
+    ``[t_detected, t_returned]`` (the detecting sample and every one while isolated,
+    the returning one included, are not applied: :func:`inmotion.estimation.engine._apply`).
+    Table 1 then takes the global estimate from the healthy channels, and from the
+    vehicle-constraint filter while no channel is healthy (after the epoch's tests, so over
+    ``[t_detected, t_returned)`` of the last channel to fail). The central filter is one
+    local filter on :func:`_central_layout` (the SINS errors and every channel's sensor
+    states, the priors and process noise of the bank's channels with ``beta = 1``), the
+    channels' measurement rows without gate or isolation, fed only the accepted samples
+    (a rejected displacement interval is skipped whole: its rows carry no distance), the
+    NHC only at the fallback's epochs, the barometer throughout; it records its forward pass
+    and the RTS backward pass (:mod:`inmotion.estimation.smoother`) gives the outputs.
+
+    Why not smooth the fused estimate itself: the federated filter's global estimate is a
+    fusion (eq. 36) of locals that share the SINS process noise through the ``1 / beta``
+    bound, and its feedback is subtracted from every local (non-reset mode); an RTS pass
+    needs the one transition and predicted covariance of the estimate it smooths, which the
+    fused estimate does not have (its covariance is a bound, not the error's). With the
+    sensor decisions fixed, the central filter is the optimal linear estimator the bank
+    approximates (Carlson's federated filter equals it in the reset mode), so smoothing it
+    is the correct backward pass of that estimate. With no detection, ``od-kf`` / ``ldv-kf``
+    with the fallback smooths to the same result as the single filter with
+    ``nhc_fallback=false`` (the fallback never supplied the estimate; a test checks it).
+
+    The outputs keep the bank's FDI record (``events``, ``tests``, the output mode); the
+    states and sigma are the central smoother's. Returns ``(res, info)``."""
+    lay, starts = _central_layout(sensors)
+    n = lay.n
+    P0 = np.zeros((n, n))
+    Q = np.zeros((n, n))
+    P0[:NS, :NS] = P15
+    Q[:NS, :NS] = Q15
+    isol = _isolations(f, len(sensors))
+    meas = []
+    for c, name in enumerate(sensors):
+        lf, m = _channel(bundle, name, cfg, 1.0, P15, Q15, 0, C_vb0, 0.0, 1)
+        m.log_nis = False
+        o_dk, o_m, o_l = starts[c]
+        for o_sub, o_c, k in ((SUB_LAYOUT["dk"].start, o_dk, 1),
+                              (SUB_LAYOUT["mount"].start, o_m, 2),
+                              (SUB_LAYOUT["lever"].start, o_l, 3)):
+            P0[o_c:o_c + k, o_c:o_c + k] = lf.P0[o_sub:o_sub + k, o_sub:o_sub + k]
+        if c > 0:
+            base = m.params()
+            m.fill = _remapped_fill(type(m).fill)
+            m.params = (lambda b=base, s=starts[c]: np.r_[b, np.asarray(s, float)])
+        meas.append(m)
+    if use_nhc:
+        meas.append(_nhc(cfg, C_vb0, 0))
+    if use_baro:
+        meas.append(ms.Height(cfg.baro_noise_m, local=0))
+    if len(stops):
+        meas += _stop_measurements(cfg, t_ep, 0)
+    fc = ErrorStateFilter(init, lay, em.ErrorModel(lay, _noise(cfg)), [LocalFilter(P0, Q)],
+                          meas, step_rows=f.step, feedback_every=fuse_every // meas_every,
+                          out_every=out_every, n_common=NS, record=True)
+    accept = {name: (lambda t, iv=isol[c]: ~_in_any(t, iv)) for c, name in enumerate(sensors)}
+    if use_nhc:
+        accept["nhc"] = (lambda t: np.logical_and.reduce(
+            [_in_any(t, iv, right_open=True) for iv in isol]))
+    res = _feed(fc, bundle, k0, sensors, meas_every, use_nhc, use_baro, progress,
+                ForwardRecord.for_filter(fc, n_ep), accept=accept, stops=stops)
+    if not np.array_equal(res["t"], res_fwd["t"]):
+        raise RuntimeError("the central filter's rows do not fall on the bank's output rows")
+    res["mode"] = res_fwd["mode"]
+    C = len(sensors)
+    lx = np.zeros((len(res["t"]), C, NSUB))
+    ls = np.zeros((len(res["t"]), C, NSUB))
+    for c in range(C):
+        idx = np.r_[np.arange(NS), [starts[c][0]], np.arange(starts[c][1], starts[c][1] + 2),
+                    np.arange(starts[c][2], starts[c][2] + 3)]
+        lx[:, c] = res["states"][:, idx]
+        ls[:, c] = res["sigma"][:, idx]
+    res["local_x"], res["local_sigma"] = lx, ls
+    cnt = fc.counts()
+    info = {"design": "the forward bank decides (FDI isolation, Table 1 source); a central "
+                      "filter over exactly the accepted measurements is smoothed (RTS)",
+            "isolated_s": {name: [[a, None if not np.isfinite(b) else b] for a, b in isol[c]]
+                           for c, name in enumerate(sensors)},
+            "central_updates": {k: v["used"] for k, v in cnt.items()}}
+    return res, info
+
+
+def _feed(f, bundle, k0, sensors, meas_every, use_nhc, use_baro, progress, rec=None,
+          accept=None, stops=None):
     """The bundle through the engine chunk by chunk: per chunk each sensor resampled to the
     IMU rows (distance per row for the accumulators, NaN where not covered or in a gap), and
     at every ``meas_every``-th epoch end a sample of each sensor, the NHC and the height.
     With ``rec`` (:meth:`ForwardRecord.for_filter`) the forward pass is recorded and the
-    outputs are the smoothed ones, ``first`` the smoothed start row."""
+    outputs are the smoothed ones, ``first`` the smoothed start row. ``accept``
+    (``{sensor or "nhc": f(sample times) -> bool mask}``, :func:`_smooth_bank`): only the
+    samples it accepts are fed (a sensor's rejected sample is NaN over its whole interval).
+    ``stops`` (S, 2): the zero-velocity and zero-rate samples at the sample epochs inside
+    them."""
     imu = bundle.imu
     t, n = imu.t[k0:], len(imu.t) - k0
     step = f.step
     chunk = max(1, CHUNK_ROWS // step) * step
     outs = []
+    if accept is not None:        # the sample rows of the whole run (epochs end every step)
+        ep = np.arange(1, -(-n // step) + 1)
+        s_rows = np.minimum(ep[ep % meas_every == 0] * step, n) - 1
+        s_ok = {k: np.r_[fn(t[s_rows]), True] for k, fn in accept.items()}
     for a in range(0, n, chunk):
         b = min(a + chunk, n)
         tc = t[a:b]
@@ -485,17 +815,27 @@ def _feed(f, bundle, k0, sensors, meas_every, use_nhc, use_baro, progress, rec=N
         rows = ends[epoch % meas_every == 0] - 1
         t_meas = tc[rows]
         row_data = {}
+        if accept is not None:   # each row's sample (the first sample row at or after it)
+            own = np.searchsorted(s_rows, np.arange(a, b))
+            at = np.searchsorted(s_rows, a + rows)
         for s_ in sensors:
             ds, v, unc, gap = speed_on_epochs(getattr(bundle, s_), edges, what=s_)
             ds[unc | gap] = np.nan               # no measurement over these rows
             v[unc | gap] = np.nan
+            if accept is not None:
+                ds[~s_ok[s_][own]] = np.nan
+                v[rows[~s_ok[s_][at]]] = np.nan
             row_data[s_] = ds
             m = f.measurements[f._index[s_]]
             f.add_measurement(s_, t_meas, v[rows] if m.data_size else None)
         if use_nhc:
-            f.add_measurement("nhc", t_meas)
+            f.add_measurement("nhc", t_meas if accept is None else t_meas[s_ok["nhc"][at]])
         if use_baro:
             f.add_measurement("height", t_meas, _baro_on_imu(bundle.baro, t_meas, 5.0))
+        if stops is not None and len(stops):
+            t_zv = t_meas[_in_any(t_meas, stops)]
+            f.add_measurement("zero_velocity", t_zv)
+            f.add_measurement("zero_rate", t_zv)
         outs.append(f.add_imu(tc, imu.dtheta[k0 + a:k0 + b], imu.dvel[k0 + a:k0 + b],
                               row_data=row_data, flush=b == n))
         if rec is not None:

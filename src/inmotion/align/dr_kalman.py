@@ -43,7 +43,12 @@ into the IMU compensation subtracted from the increments. The mounting angles an
 factor are only estimated (the DR keeps its nominal mounting, identity, and scale 1; the
 mounting in ``meta.yaml`` is the simulator's truth and is not read): they are
 arc-minutes and 1e-3, well inside the linear model, and feeding a Markov state back would
-break its model. Open loop (``closed_loop=False``): nothing is fed back, the output is the
+break its model. The sensor's lever arm (``meta.yaml`` ``sensors.<name>.lever_arm_m``, in b,
+a surveyed installation value, :func:`inmotion.navigate.pure.mounting_from_meta`) is used by
+the DR as by ``sins-dr``: the DR removes the ``omega x l`` part of the sensor's reading (the
+layout has no lever-arm state; unremoved, a 1.2 m arm in a 5 deg/s turn reads 0.03 m/s off,
+which an LDV's 0.01 m/s noise does not cover, and the smoothed tilt went overconfident, issue
+14). Open loop (``closed_loop=False``): nothing is fed back, the output is the
 SINS corrected by the current estimate.
 
 The filter rate and measurement rate are set in the configuration, independent of the IMU
@@ -322,11 +327,14 @@ def _engine_filter(bundle: Bundle, cfg, init: NavState, with_dr: bool):
                                 cfg.lateral_noise_m_s),
              "height_m": cfg.baro_noise_m, "nhc_m_s": cfg.nhc_noise_m_s,
              "dr_position_m2_s": 0.0}    # paper 000's G: no DR position random walk
+    from ..navigate.pure import mounting_from_meta
+    _, lever = mounting_from_meta(bundle.meta, sensor_name)
     filt = VelocityAidedRun(init, lay, model, _initial_covariance(lay, cfg, init.lat, init.h),
                         use=use, noise=noise, gates=_gates(cfg.gate_probability),
                         step_rows=step, meas_every=meas_every, out_every=1,
                         nhc_mount=cfg.nhc_mount_terms, closed_loop=cfg.closed_loop,
-                        feedback_every=feedback_every, smooth=cfg.smooth)
+                        feedback_every=feedback_every, smooth=cfg.smooth,
+                        lever_arm_b=None if lever is None else np.asarray(lever, float))
     return filt, rows, (sensor_name, speed)
 
 

@@ -27,6 +27,24 @@ Information multiplexing (sec. 3.3.1, Figure 3)
     faster than real time (the ``catch_up`` block of ``info`` gives the factor), it reaches
     the present at ``t_c + (t_c - t0) / (factor - 1)`` with ``t_c`` the end of the coarse
     window, without dropping a sample (every stored row is processed once, in order).
+
+The coarse stage's envelope and the fine prior (issue 15)
+    The coarse answer is only as good as the IMU lets it be (:func:`coarse_envelope`, from
+    the IMU spec the fine filter uses: ``meta['imu']`` or its configuration): level about
+    ``hypot(bias / g, drift T / 2)`` and heading about ``hypot(drift / (Omega_ie cos L),
+    bias tan L / g, drift T / 2)`` (the limits of :mod:`inmotion.align.coarse_inertial`, plus
+    the drift the gyros add to the attitude over a window of ``T`` seconds). Those 1-sigma
+    become the fine filter's attitude prior (where ``fine`` does not set it), and the start
+    velocity, made from the coarse attitude, carries its correlation with the attitude error
+    (``init_velocity_from_attitude``). When the heading envelope exceeds
+    :data:`UNRESOLVED_HEADING_DEG` the coarse stage cannot resolve the heading (a MEMS gyro
+    of 200 deg/h against the 12 deg/h horizontal Earth rate): the prior is the sigma of a
+    heading known only to lie in +-180 deg (:data:`UNKNOWN_HEADING_SIGMA_DEG`), the fine
+    stage's reported heading sigma is kept at least that (a linear filter cannot resolve a
+    heading error of tens of degrees, and with an odometer and the vehicle constraint alone
+    heading is observable only through the Earth rate), its level sigma at least
+    ``bias / g`` (what no filter without an external attitude reference can beat), and the
+    summary warns (``info['warnings']``).
 """
 from __future__ import annotations
 
@@ -45,14 +63,80 @@ from .attitude_determination import initial_position
 from .coarse_inertial import CoarseInertialConfig, run_coarse_inertial
 from .velocity_source import initial_speed, speed_on_imu_times
 
-__all__ = ["auto_fine_method", "MuxConfig", "fault_tolerant_speed", "coarse_fault_tolerant", "last_covered", "run_multiplexed",
-           "run_fine_mux", "FINE_METHODS"]
+__all__ = ["auto_fine_method", "MuxConfig", "fault_tolerant_speed", "coarse_fault_tolerant",
+           "last_covered", "run_multiplexed", "run_fine_mux", "FINE_METHODS", "coarse_envelope",
+           "fine_config_from_coarse", "floor_attitude_sigma", "UNRESOLVED_HEADING_DEG",
+           "UNKNOWN_HEADING_SIGMA_DEG"]
 
 #: the fine alignments ``fine-mux`` can run after the coarse stage
 FINE_METHODS = {"fkf": (ak.run_fkf, ak.FkfConfig), "od-kf": (ak.run_od_kf, ak.AidedKfConfig),
                 "ldv-kf": (ak.run_ldv_kf, ak.AidedKfConfig),
                 "nhc-kf": (ak.run_nhc_kf, ak.NhcKfConfig)}
 _CHANNELS = ("odometer", "ldv")
+#: a coarse heading envelope above this [deg] means the coarse stage cannot resolve heading
+UNRESOLVED_HEADING_DEG = 30.0
+#: 1-sigma of a heading known only to lie in +-180 deg (uniform): 360 / sqrt(12) [deg]
+UNKNOWN_HEADING_SIGMA_DEG = 360.0 / np.sqrt(12.0)
+
+
+def coarse_envelope(gyro_drift_deg_h: float, accel_bias_ug: float, lat: float,
+                    window_s: float) -> dict:
+    """1-sigma envelope of a coarse (integral, Earth-rate) alignment [deg] from the IMU's
+    drift and bias (module docstring): ``level_deg``, ``heading_deg`` (None when the heading
+    cannot be resolved), ``heading_limit_deg`` (the figure before the cap) and
+    ``resolvable``. ``lat`` [rad]; ``window_s``: the coarse window."""
+    drift = np.radians(gyro_drift_deg_h) / 3600.0
+    bias = accel_bias_ug * 1e-6                                  # rad (bias / g)
+    gyro_walk = drift * window_s / 2.0
+    level = float(np.degrees(np.hypot(bias, gyro_walk)))
+    head = float(np.degrees(np.sqrt((drift / (earth.OMEGA_IE * np.cos(lat))) ** 2
+                                    + (bias * np.tan(lat)) ** 2 + gyro_walk ** 2)))
+    ok = head <= UNRESOLVED_HEADING_DEG
+    return {"level_deg": level, "heading_deg": head if ok else None,
+            "heading_limit_deg": head, "resolvable": bool(ok),
+            "gyro_drift_deg_h": float(gyro_drift_deg_h), "accel_bias_ug": float(accel_bias_ug),
+            "window_s": float(window_s)}
+
+
+def fine_config_from_coarse(cls, fine: dict, meta, lat: float, window_s: float):
+    """``(config, envelope, warnings)``: the fine method's configuration with the coarse
+    envelope as its attitude prior (fields ``fine`` does not set; module docstring)."""
+    base, _ = ak.config_with_spec(ak._config(fine, cls), meta)
+    env = coarse_envelope(base.gyro_drift_deg_h, base.accel_bias_ug, lat, window_s)
+    upd = {"init_velocity_from_attitude": True,
+           "init_tilt_sigma_deg": max(env["level_deg"], base.init_tilt_sigma_deg),
+           "init_heading_sigma_deg": (max(env["heading_deg"], base.init_heading_sigma_deg)
+                                      if env["resolvable"] else UNKNOWN_HEADING_SIGMA_DEG)}
+    upd = {k: v for k, v in upd.items() if k not in (fine or {})}
+    warnings = []
+    if not env["resolvable"]:
+        warnings.append(
+            f"coarse stage outside its envelope: gyro drift {env['gyro_drift_deg_h']:.3g} "
+            f"deg/h against the horizontal Earth rate {np.degrees(earth.OMEGA_IE * np.cos(lat)) * 3600:.3g} "
+            f"deg/h gives a heading limit of {env['heading_limit_deg']:.3g} deg: the heading "
+            "is not resolved (fine prior and reported heading 1-sigma "
+            f"{UNKNOWN_HEADING_SIGMA_DEG:.0f} deg; fine prior level 1-sigma "
+            f"{env['level_deg'] * 60:.3g} arcmin, reported level 1-sigma per axis at least "
+            f"bias / g = {env['accel_bias_ug'] * 1e-6 * 180 / np.pi * 60:.3g} arcmin); give "
+            "the heading from outside (--init)")
+    elif env["level_deg"] > 1.0:
+        warnings.append(f"coarse level envelope {env['level_deg'] * 60:.3g} arcmin (gyro "
+                        f"drift {env['gyro_drift_deg_h']:.3g} deg/h over {window_s:.0f} s, "
+                        f"accelerometer bias {env['accel_bias_ug']:.3g} ug)")
+    return ak._config({**(fine or {}), **upd}, cls), env, warnings
+
+
+def floor_attitude_sigma(sol: Solution, env: dict) -> None:
+    """Keep the reported attitude 1-sigma of ``sol`` at least what the IMU allows without an
+    external attitude reference: level ``bias / g``; heading
+    :data:`UNKNOWN_HEADING_SIGMA_DEG` when the coarse stage could not resolve it."""
+    lvl = env["accel_bias_ug"] * 1e-6                   # bias / g [rad]
+    for k in ("phi_E", "phi_N"):
+        if k in sol.sigma:
+            sol.sigma[k] = np.maximum(sol.sigma[k], lvl)
+    if not env["resolvable"] and "phi_U" in sol.sigma:
+        sol.sigma["phi_U"] = np.maximum(sol.sigma["phi_U"],
+                                        np.radians(UNKNOWN_HEADING_SIGMA_DEG))
 
 
 def auto_fine_method(bundle: Bundle, choice: str = "auto") -> str:
@@ -228,9 +312,13 @@ def run_multiplexed(bundle: Bundle, cfg: MuxConfig, init: Optional[NavState] = N
     start = _start_state(bundle, C0, t0, init)
     fine_method = auto_fine_method(bundle, cfg.fine_method)
     run, cls = FINE_METHODS[fine_method]
+    fcfg, env, warn = fine_config_from_coarse(cls, cfg.fine, bundle.meta, start.lat, t1 - t0)
     w1 = time.perf_counter()
-    sol = run(bundle, ak._config(cfg.fine, cls), start, progress=progress)
+    sol = run(bundle, fcfg, start, progress=progress)
     w_fine = time.perf_counter() - w1
+    floor_attitude_sigma(sol, env)
+    sol.info["warnings"] = warn + list(sol.info.get("warnings", []))
+    sol.info["coarse_envelope"] = env
     data_s = float(bundle.imu.t[-1] - t0)
     factor = data_s / max(w_fine, 1e-9)
     sol.info.update({

@@ -154,9 +154,17 @@ def _magnitude(v):
     return float(a.max()) if a.size and np.isfinite(a).all() else None
 
 
-def spec_from_meta(meta) -> tuple[dict, str]:
+def spec_from_meta(meta, markov=False) -> tuple[dict, str]:
     """``({field: value}, origin)``: the IMU specification in ``meta['imu']`` as
-    :class:`ParkedKfConfig` fields (module docstring), and where it came from."""
+    :class:`ParkedKfConfig` fields (module docstring), and where it came from.
+
+    ``markov=False``: a Gauss-Markov part (``drift_markov_deg_h``, ``bias_markov_ug``) is
+    folded into the constant's 1-sigma (root sum of squares), for a filter whose biases are
+    random constants. ``markov=True`` (a filter with the Gauss-Markov option,
+    :class:`inmotion.align.aided_kf.NhcKfConfig`): the constant alone, and the Gauss-Markov
+    parts as ``gyro_markov_deg_h``, ``gyro_markov_tau_s``, ``accel_markov_ug``,
+    ``accel_markov_tau_s`` (the simulator's and importers' ``drift_markov_tau_s``,
+    ``bias_markov_tau_s``), given only where the spec states a correlation time."""
     imu = (meta or {}).get("imu") if isinstance(meta, dict) else None
     if not isinstance(imu, dict):
         return {}, ""
@@ -164,11 +172,19 @@ def spec_from_meta(meta) -> tuple[dict, str]:
     acc = imu.get("accel") if isinstance(imu.get("accel"), dict) else {}
     out = {}
     drift, mk = _magnitude(gyro.get("drift_deg_h")), _magnitude(gyro.get("drift_markov_deg_h"))
+    bias, bmk = _magnitude(acc.get("bias_ug")), _magnitude(acc.get("bias_markov_ug"))
+    if markov:
+        for (sig, tau, f_sig, f_tau) in ((mk, _magnitude(gyro.get("drift_markov_tau_s")),
+                                          "gyro_markov_deg_h", "gyro_markov_tau_s"),
+                                         (bmk, _magnitude(acc.get("bias_markov_tau_s")),
+                                          "accel_markov_ug", "accel_markov_tau_s")):
+            if sig and tau:
+                out[f_sig], out[f_tau] = float(sig), float(tau)
+        mk = bmk = None                        # not folded into the constants
     if drift is not None:
         out["gyro_drift_deg_h"] = float(np.hypot(drift, mk or 0.0))
     if _magnitude(gyro.get("arw_deg_sqrt_h")) is not None:
         out["gyro_arw_deg_sqrt_h"] = _magnitude(gyro.get("arw_deg_sqrt_h"))
-    bias, bmk = _magnitude(acc.get("bias_ug")), _magnitude(acc.get("bias_markov_ug"))
     if bias is not None:
         out["accel_bias_ug"] = float(np.hypot(bias, bmk or 0.0))
     vrw = _magnitude(acc.get("vrw_ug_sqrt_hz"))
@@ -176,17 +192,19 @@ def spec_from_meta(meta) -> tuple[dict, str]:
         vrw = _magnitude(acc.get("vrw_m_s_sqrt_h")) / 60.0 / UG      # m/s/sqrt(h) -> ug/sqrt(Hz)
     if vrw is not None:
         out["accel_vrw_ug_sqrt_hz"] = vrw
-    origin = ("meta.imu (documented)" if imu.get("source") == "documented"
+    said = imu.get("source")
+    origin = (f"meta.imu ({said})" if isinstance(said, str) and said
               else "meta.imu (simulated)" if meta.get("simulated") else "meta.imu")
     return out, origin
 
 
-def config_with_spec(cfg: ParkedKfConfig, meta) -> tuple[ParkedKfConfig, dict]:
-    """``cfg`` with the :data:`SPEC_FIELDS` it does not set taken from ``meta['imu']``, and
-    ``{field: origin}`` for each of them."""
-    spec, origin = spec_from_meta(meta)
+def config_with_spec(cfg, meta, fields=SPEC_FIELDS, markov=False) -> tuple:
+    """``cfg`` (a pydantic configuration) with the ``fields`` it does not set taken from
+    ``meta['imu']`` (:func:`spec_from_meta`), and ``{field: origin}`` for each of them
+    (``config``, ``meta.imu (documented)`` ..., ``default``)."""
+    spec, origin = spec_from_meta(meta, markov=markov)
     src, upd = {}, {}
-    for f in SPEC_FIELDS:
+    for f in fields:
         if f in cfg.model_fields_set:
             src[f] = "config"
         elif f in spec:

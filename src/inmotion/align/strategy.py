@@ -7,6 +7,11 @@ sec. 3.3.2, Figure 4): method ``adaptive``.
    declared moving at the first sample of the first run of ``confirm_s`` seconds with
    ``lambda_v > T`` (``T`` the upper ``false_alarm_rate`` quantile); that time is the switch
    time, logged as an event with its test value.
+Both strategies check the coarse stage's envelope against the IMU spec
+(:func:`inmotion.align.multiplex.coarse_envelope`): outside it (a heading the gyros cannot
+resolve) the parked and fine priors say so, the reported sigma is kept at what the IMU allows
+and ``info['warnings']`` says why (issue 15).
+
 2. Parked for at least ``parked_coarse_s`` (Strategy 1, "flag = 1"): inertial-frame coarse
    alignment on the wobbling base over the first ``parked_coarse_s`` seconds (low-pass and
    multi-vector integration of :mod:`inmotion.align.coarse_inertial`), whose attitude is
@@ -38,12 +43,13 @@ from ..estimation import chi2
 from . import aided_kf as ak
 from .attitude_determination import initial_position
 from .coarse_inertial import CoarseInertialConfig, run_coarse_inertial
-from .multiplex import (FINE_METHODS, MuxConfig, auto_fine_method, first_covered,
+from .multiplex import (FINE_METHODS, UNKNOWN_HEADING_SIGMA_DEG, MuxConfig, auto_fine_method,
+                        fine_config_from_coarse, first_covered, floor_attitude_sigma,
                         last_covered, run_multiplexed)
 from .parked_kf import ParkedKfConfig, run_parked_kf
 from .velocity_source import speed_on_imu_times
 
-__all__ = ["AdaptiveConfig", "detect_motion", "run_adaptive"]
+__all__ = ["motion_statistic", "AdaptiveConfig", "detect_motion", "run_adaptive"]
 
 
 class AdaptiveConfig(BaseModel):
@@ -72,14 +78,12 @@ class AdaptiveConfig(BaseModel):
     mux: dict = Field(default_factory=dict, description="fine-mux configuration (Strategy 2)")
 
 
-def detect_motion(bundle: Bundle, t0: float, noise_m_s, false_alarm_rate: float,
-                  confirm_s: float, rate_hz: float, radar_noise_m_s: float | None = None):
-    """Switch time [s] from parked to moving (eq. 43-45), or None if the vehicle never moves.
-
-    ``noise_m_s`` = [odometer, ldv] parked 1-sigma [m/s]; with neither sensor in the bundle and
-    ``radar_noise_m_s`` given, the radar's speed is the test's one channel.
-    Returns ``(t_switch, lambda_at_switch, threshold)``.
-    """
+def motion_statistic(bundle: Bundle, t0: float, noise_m_s, rate_hz: float,
+                     radar_noise_m_s: float | None = None):
+    """Paper 003 eq. 43-44 on a ``rate_hz`` grid from ``t0`` to the end of the speed data:
+    ``lambda = sum_s (v_s / sigma_s)^2`` over the odometer and LDV (``noise_m_s`` = [odometer,
+    ldv] parked 1-sigma [m/s]), the radar's alone when the bundle has neither and
+    ``radar_noise_m_s`` is given. Returns ``(t, lambda, dof)``."""
     t_imu = bundle.imu.t
     t0 = first_covered(bundle, t0)
     step = max(1, int(round(1.0 / (rate_hz * bundle.imu.dt))))
@@ -101,6 +105,19 @@ def detect_motion(bundle: Bundle, t0: float, noise_m_s, false_alarm_rate: float,
     if dof == 0:
         raise BadInput(f"bundle {bundle.name!r} has neither odometer nor ldv: adaptive "
                        "alignment needs one to tell parked from moving")
+    return t, lam, dof
+
+
+def detect_motion(bundle: Bundle, t0: float, noise_m_s, false_alarm_rate: float,
+                  confirm_s: float, rate_hz: float, radar_noise_m_s: float | None = None):
+    """Switch time [s] from parked to moving (eq. 43-45), or None if the vehicle never moves.
+
+    ``noise_m_s`` = [odometer, ldv] parked 1-sigma [m/s]; with neither sensor in the bundle and
+    ``radar_noise_m_s`` given, the radar's speed is the test's one channel
+    (:func:`motion_statistic`).
+    Returns ``(t_switch, lambda_at_switch, threshold)``.
+    """
+    t, lam, dof = motion_statistic(bundle, t0, noise_m_s, rate_hz, radar_noise_m_s)
     thr = chi2.threshold(false_alarm_rate, dof)
     need = max(1, int(round(confirm_s * rate_hz)))
     run = 0
@@ -163,6 +180,12 @@ def run_adaptive(bundle: Bundle, config: AdaptiveConfig | dict | None = None,
     run_fine, cls = FINE_METHODS[fine_method]
     if parked_s >= cfg.parked_coarse_s:
         strategy = "1: parked coarse + parked-kf, then in-motion fine from the parked result"
+        lat0 = initial_position(bundle, init)[0]
+        _, env, warn = fine_config_from_coarse(cls, cfg.fine, bundle.meta, lat0,
+                                               cfg.parked_coarse_s)
+        if not env["resolvable"]:                 # the parked stage cannot resolve it either
+            cfg = cfg.model_copy(update={"parked": {
+                "init_heading_sigma_deg": UNKNOWN_HEADING_SIGMA_DEG, **cfg.parked}})
         coarse, parked = _parked_stage(bundle, cfg, init, t0, t_sw if t_sw else t_end)
         parts = [parked]
         info_fine = {}
@@ -172,13 +195,18 @@ def run_adaptive(bundle: Bundle, config: AdaptiveConfig | dict | None = None,
                                             parked.sigma["phi_N"][-1], 1e-5)))
             sig_head = float(np.degrees(max(parked.sigma["phi_U"][-1], 1e-4)))
             fcfg = cls(**{"init_tilt_sigma_deg": 3 * sig_tilt,
-                          "init_heading_sigma_deg": 3 * sig_head, **cfg.fine})
+                          "init_heading_sigma_deg": min(3 * sig_head,
+                                                        UNKNOWN_HEADING_SIGMA_DEG),
+                          **cfg.fine})
             start = NavState(t_sw, st.lat, st.lon, st.h, np.zeros(3), st.q_nb)
             fine = run_fine(bundle, fcfg, start, progress=progress)
             parts.append(fine)
             events += fine.info.get("events", [])
+            warn += list(fine.info.get("warnings", []))
             info_fine = {k: fine.info[k] for k in ("tests", "fdi_threshold") if k in fine.info}
         sol = _concat(parts)
+        floor_attitude_sigma(sol, env)
+        sol.info.update({"warnings": warn, "coarse_envelope": env})
         sol.info.update({"coarse_attitude_start_deg": coarse.info["attitude_start_deg"],
                          "parked_final_sigma_arcmin": {
                              k: float(np.degrees(parked.sigma[k][-1]) * 60)

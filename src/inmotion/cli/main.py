@@ -662,6 +662,7 @@ def _run_text(summary: dict, output) -> str:
              f"h={f['h_m']:.2f} m  yaw={f['yaw_deg']:.4f} deg"]
     if "errors" in summary:
         lines.append(_errors_text(summary["errors"]))
+    lines += [f"  warning: {w}" for w in (summary.get("info") or {}).get("warnings") or []]
     return "\n".join(lines)
 
 

@@ -2,8 +2,8 @@
 
 ::
 
-    inmotion reproduce PAPER -o DIR [--runs N] [--workers N] [--seed N] [--reuse]
-                       [--quiet] [--json]         # PAPER: 000 001 002 003 004 real, or all
+    inmotion reproduce PAPER -o DIR [--runs N] [--workers N | --scheduler ADDRESS] [--seed N]
+                       [--reuse] [--quiet] [--json]   # PAPER: 000 001 002 003 004 real, or all
 
 One paper writes its markdown tables, PNG figures and results JSON into DIR, its summary rows
 to ``DIR/paper_rows.json`` and an HTML page ``DIR/report.html``; ``all`` runs every paper into
@@ -11,7 +11,9 @@ to ``DIR/paper_rows.json`` and an HTML page ``DIR/report.html``; ``all`` runs ev
 (paper figure, measured figure, better or worse). ``--runs`` defaults to each paper's issue
 count (000: 50, 001: 30, 002: 20, 003: 20, 004: 50). ``--reuse`` skips a paper whose results
 file is already in its folder and only re-reads it (e.g. to assemble ``all`` from runs made
-one by one). Progress goes to stderr; ``--quiet`` silences it; ``--json`` prints the summary
+one by one). The Monte Carlo runs go to the campaign engine's Dask workers: ``--workers N``
+local processes, or an existing scheduler with ``--scheduler ADDRESS`` (as for ``inmotion
+campaign``). Progress goes to stderr; ``--quiet`` silences it; ``--json`` prints the summary
 rows. An unknown PAPER is bad input (exit status 2), with the valid names.
 """
 from __future__ import annotations
@@ -51,7 +53,9 @@ def _rows_text(summary: dict) -> list:
 @click.option("--runs", type=click.IntRange(min=1),
               help="Monte Carlo runs (default: the paper's issue count).")
 @click.option("--workers", type=click.IntRange(min=1), default=2, show_default=True,
-              help="Worker processes.")
+              help="Local worker processes.")
+@click.option("--scheduler", metavar="ADDRESS",
+              help="Run the Monte Carlo tasks on an existing Dask scheduler (tcp://host:8786).")
 @click.option("--seed", type=click.IntRange(min=0), default=0, show_default=True,
               help="Base seed.")
 @click.option("--reuse", is_flag=True,
@@ -63,7 +67,8 @@ def _rows_text(summary: dict) -> list:
 @click.option("--quiet", "-q", is_flag=True, help="No progress.")
 @click.option("--json", "as_json", is_flag=True, help="Print the summary rows as JSON.")
 @click.pass_context
-def reproduce(ctx, paper, output, runs, workers, seed, reuse, data_dir, quiet, as_json):
+def reproduce(ctx, paper, output, runs, workers, scheduler, seed, reuse, data_dir, quiet,
+              as_json):
     """Reproduce PAPER (000 001 002 003 004 real, or all) in simulation, beside the paper.
 
     ``real`` runs the real drives found in ``--data DIR`` (or ``$INMOTION_REAL_DATA``).
@@ -75,18 +80,22 @@ def reproduce(ctx, paper, output, runs, workers, seed, reuse, data_dir, quiet, a
     as_json = as_json or _root_flag(ctx, "json")
     from ..io.safe_write import check_output_path
     out = check_output_path(output)
+    if scheduler:
+        from ..evaluate.montecarlo import _check_address
+        _check_address(scheduler)                       # BadInput (exit 2) before any work
     if paper == "all":
         def note(text):
             if not quiet:
                 click.echo(f"inmotion: {text}", err=True)
         summary = rp.reproduce_all(out, runs=runs, workers=workers, seed=seed,
-                                   progress=not quiet, reuse=reuse, notify=note)
+                                   progress=not quiet, reuse=reuse, notify=note,
+                                   scheduler=scheduler)
         papers = summary["papers"]
     else:
         rp.get(paper)                                   # BadInput (exit 2) before any work
         from ..reproductions.page import write_page
         one = rp.run_reproduction(paper, out, runs=runs, workers=workers, seed=seed,
-                                  progress=not quiet, reuse=reuse)
+                                  progress=not quiet, reuse=reuse, scheduler=scheduler)
         page = write_page(out / "report.html", [one], title=f"inmotion: paper {paper} reproduced")
         summary, papers = {"papers": [one], "report": str(page)}, [one]
     if as_json:

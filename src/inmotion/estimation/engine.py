@@ -126,8 +126,8 @@ _State = namedtuple("_State", "xs ms xd md X P fed_back bias_g bias_a acc ints u
                               "nis_sum dof_sum t_end healthy normal_run tests exceed macc "
                               "ev nis_log phc ppred")
 #: the filter's constants
-_Const = namedtuple("_Const", "offs offs9 Qc q_dr_m2_s inv_tau_dk dr_eps grav_grad with_dr "
-                              "step out_every fb_mask fb_states feedback_every C_bm l_b gates "
+_Const = namedtuple("_Const", "offs offs9 Qc q_dr_m2_s inv_tau_dk inv_tau_b dr_eps grav_grad "
+                              "with_dr step out_every fb_mask fb_states feedback_every C_bm l_b gates "
                               "params dofs local r_scale isolate return_tests primary fallback "
                               "n_common need_nb has_acc log_nis ws record")
 #: the output buffers of one call
@@ -387,7 +387,7 @@ def _record_epoch(S, O, t_now):
 
 @numba.njit(cache=True)
 def _epoch_predict(xs, acc, X, P, F, Q, Qc, ws, W, offs9, inv_tau_dk, dr_eps, grav_grad,
-                   with_dr, o_dpD, q_dr_m2_s):
+                   with_dr, o_dpD, q_dr_m2_s, inv_tau_b):
     """The predict of a filter epoch (arrays only: a call with the namedtuples ``S``, ``C``
     costs an incref and a decref of each of their ~50 arrays, 0.5 us): ``F`` at the SINS
     state with the epoch's mean specific force (``W = (C_S, f_b, f_n, vel)`` filled), every
@@ -401,7 +401,8 @@ def _epoch_predict(xs, acc, X, P, F, Q, Qc, ws, W, offs9, inv_tau_dk, dr_eps, gr
     for i in range(3):
         f_n[i] = C_S[i, 0] * f_b[0] + C_S[i, 1] * f_b[1] + C_S[i, 2] * f_b[2]
     # F was zeroed once: _fill_F overwrites its structural entries (error_model.F_pattern)
-    em._fill_F(F, offs9, xs[K.LAT], xs[K.H], vel, C_S, f_n, inv_tau_dk, dr_eps, grav_grad)
+    em._fill_F(F, offs9, xs[K.LAT], xs[K.H], vel, C_S, f_n, inv_tau_dk, dr_eps, grav_grad,
+               inv_tau_b[0], inv_tau_b[1])
     for l in range(X.shape[0]):
         if with_dr:
             _dr_position_noise(Q, Qc[l], o_dpD, xs[K.LAT], xs[K.H], q_dr_m2_s)
@@ -418,7 +419,7 @@ def _epoch_end(S, C, fills, t_now, qt, qj, qd, qi, O, F, Q, aux, z, H, r, xw, Pw
     sum_dt = S.acc[_A_DT]
     C_S, f_b, f_n, vel = W
     _epoch_predict(S.xs, S.acc, S.X, S.P, F, Q, C.Qc, C.ws, W, C.offs9, C.inv_tau_dk,
-                   C.dr_eps, C.grav_grad, C.with_dr, C.offs[DP_D], C.q_dr_m2_s)
+                   C.dr_eps, C.grav_grad, C.with_dr, C.offs[DP_D], C.q_dr_m2_s, C.inv_tau_b)
     S.ints[_I_EPOCHS] += 1
     S.t_end[0] = t_now
     if C.record:                     # the forward pass of a smoother: Phi, P_k|k-1
@@ -512,6 +513,7 @@ def _advance(S, C, fills, accs, t, dtheta, dvel, dt, ds, v, dth_dr, rows, qt, qj
     # the fast path's arrays and constants, bound once
     xs, acc, X, P, ints, t_end = S.xs, S.acc, S.X, S.P, S.ints, S.t_end
     Qc, ws, offs9, inv_tau_dk, dr_eps = C.Qc, C.ws, C.offs9, C.inv_tau_dk, C.dr_eps
+    itau_g, itau_a = C.inv_tau_b[0], C.inv_tau_b[1]
     grav_grad, with_dr, o_dpD, q_dr_m2_s = C.grav_grad, C.with_dr, C.offs[DP_D], C.q_dr_m2_s
     out_every = C.out_every
     record = C.record            # a smoother's forward pass records every epoch's transition
@@ -570,7 +572,7 @@ def _advance(S, C, fills, accs, t, dtheta, dvel, dt, ds, v, dth_dr, rows, qt, qj
                 for i in range(3):
                     f_n[i] = C_S[i, 0] * f_b[0] + C_S[i, 1] * f_b[1] + C_S[i, 2] * f_b[2]
                 em._fill_F(F, offs9, xs[K.LAT], xs[K.H], vel, C_S, f_n, inv_tau_dk, dr_eps,
-                           grav_grad)
+                           grav_grad, itau_g, itau_a)
                 for l in range(X.shape[0]):
                     if with_dr:
                         _dr_position_noise(Q, Qc[l], o_dpD, xs[K.LAT], xs[K.H], q_dr_m2_s)
@@ -750,11 +752,11 @@ class ErrorStateFilter:
         q_pattern = (Qc != 0).any(axis=0)
         if with_dr:                     # the DR position random walk (dp_D's diagonal)
             q_pattern[layout["dp_D"], layout["dp_D"]] = True
-        ws = make_workspace(em.F_pattern(n, offs9, 1.0 / model.noise.dk_tau,
-                                         bool(model.dr_sees_gyro_drift)), q_pattern)
+        ws = make_workspace(model.F_pattern(), q_pattern)
         self._C = _Const(
             offs=offs, offs9=offs9, Qc=Qc,
             q_dr_m2_s=float(dr_position_m2_s), inv_tau_dk=1.0 / model.noise.dk_tau,
+            inv_tau_b=np.array(model.noise.inv_tau_bias, dtype=float),
             dr_eps=bool(model.dr_sees_gyro_drift), grav_grad=bool(model.gravity_gradient),
             with_dr=with_dr, step=self.step, out_every=self.out_every, fb_mask=fb_mask,
             fb_states=fb_states, feedback_every=int(feedback_every) if fb_mask.any() else 0,

@@ -41,6 +41,22 @@ platform at the rate ``-C_b^n eps``, as derived; the printed form is kept only f
 
 Process noise is ``Q_c = G diag(q) G^T`` with the *same* gyro noise driving ``phi`` and
 ``phi_D`` (paper 000's G), so their cross-covariance is built in.
+
+Sensor biases (issue 15): ``eps`` and ``nabla`` are random constants (optionally plus a random
+walk, ``gyro_bias_rw``) by default. With a finite correlation time ``gyro_bias_tau`` (and / or
+``accel_bias_tau``) each is a first-order Gauss-Markov process, the model of paper 000 eq. 3
+applied to the bias (the same one the simulator draws, :func:`inmotion.sim.random_processes.
+markov`)::
+
+    eps_dot = -eps / tau_g + w_g,   E[w_g w_g^T] = 2 sigma_g^2 / tau_g I
+
+so ``F`` gets ``-1 / tau`` on the bias diagonal (an entry of :func:`F_pattern`) and ``Q_c``
+``2 sigma^2 / tau`` (plus ``gyro_bias_rw^2`` if both are set). The whole bias state is then
+the GM process: its prior should be ``sigma^2`` (stationary); a larger prior (a turn-on
+constant) decays towards zero mean with time constant ``tau``, which is right only for a
+bias whose mean was removed (the phone's "bias-corrected" gyro, or a bias compensated from a
+still period). A test checks the filter's propagated bias variance against the nonlinear
+simulated GM bias over Monte Carlo runs.
 """
 from __future__ import annotations
 
@@ -97,6 +113,11 @@ class ProcessNoise:
         ``inf`` makes ``dk`` a random constant
     mount_rw : rad/sqrt(s), random walk of the mounting angles (0: constants, eq. 4-6)
     lever_rw : m/sqrt(s), random walk of the lever arm (0: constant)
+    gyro_bias_sigma : rad/s, stationary 1-sigma of the Gauss-Markov gyro bias (module
+        docstring); used only with a finite ``gyro_bias_tau``
+    gyro_bias_tau : s, its correlation time; ``inf`` (default): no Gauss-Markov term
+    accel_bias_sigma : m/s^2, stationary 1-sigma of the Gauss-Markov accelerometer bias
+    accel_bias_tau : s, its correlation time; ``inf`` (default): none
     """
 
     gyro_arw: float = 0.0
@@ -107,6 +128,22 @@ class ProcessNoise:
     dk_tau: float = np.inf
     mount_rw: float = 0.0
     lever_rw: float = 0.0
+    gyro_bias_sigma: float = 0.0
+    gyro_bias_tau: float = np.inf
+    accel_bias_sigma: float = 0.0
+    accel_bias_tau: float = np.inf
+
+    def __post_init__(self):
+        for name in ("dk_tau", "gyro_bias_tau", "accel_bias_tau"):
+            if not getattr(self, name) > 0.0:
+                raise ValueError(f"ProcessNoise.{name} must be > 0 (inf: none), got "
+                                 f"{getattr(self, name)}")
+
+    @property
+    def inv_tau_bias(self) -> tuple[float, float]:
+        """``(1 / gyro_bias_tau, 1 / accel_bias_tau)`` [1/s], 0 where there is no
+        Gauss-Markov term: the arguments of :func:`_fill_F` and :func:`F_pattern`."""
+        return 1.0 / self.gyro_bias_tau, 1.0 / self.accel_bias_tau
 
 
 #: ``[v x]`` of one 3-vector, numba (:func:`inmotion.core._kernels.skew`); kept under this name
@@ -217,14 +254,16 @@ def _mad(typingctx, a, b, c):
 
 
 @numba.njit(cache=True)
-def _fill_F(F, offs, lat, h, vel_n, C, f_n, inv_tau_dk, dr_eps, grav_grad):
+def _fill_F(F, offs, lat, h, vel_n, C, f_n, inv_tau_dk, dr_eps, grav_grad, inv_tau_gyro=0.0,
+            inv_tau_accel=0.0):
     """The F of the module docstring on the blocks whose offsets ``offs`` are >= 0.
 
     Allocation-free (scalar code). It *assigns* the entries of F's structural pattern
     (:func:`F_pattern`: which entries depends only on ``offs``, ``inv_tau_dk != 0``,
-    ``dr_eps`` and ``F``'s shape, never on the navigation state) and leaves every other entry
-    alone, so ``F`` must be zero outside the pattern: zero it once and refill it each epoch
-    with no clearing.
+    ``inv_tau_gyro != 0``, ``inv_tau_accel != 0``, ``dr_eps`` and ``F``'s shape, never on the
+    navigation state) and leaves every other entry alone, so ``F`` must be zero outside the
+    pattern: zero it once and refill it each epoch with no clearing. ``inv_tau_gyro``,
+    ``inv_tau_accel`` [1/s]: the Gauss-Markov biases' ``1 / tau`` (0: none; module docstring).
     """
     o_phi, o_dv, o_dp, o_eps, o_nabla, o_phiD, o_dpD, o_mount, o_dk = offs
     ve, vn, vu = vel_n[0], vel_n[1], vel_n[2]
@@ -349,20 +388,29 @@ def _fill_F(F, offs, lat, h, vel_n, C, f_n, inv_tau_dk, dr_eps, grav_grad):
                     F[o_phiD + i, o_eps + j] = -C[i, j]
     if o_dk >= 0 and inv_tau_dk != 0.0:
         F[o_dk, o_dk] = -inv_tau_dk
+    if o_eps >= 0 and inv_tau_gyro != 0.0:          # Gauss-Markov gyro bias
+        for i in range(3):
+            F[o_eps + i, o_eps + i] = -inv_tau_gyro
+    if o_nabla >= 0 and inv_tau_accel != 0.0:       # Gauss-Markov accelerometer bias
+        for i in range(3):
+            F[o_nabla + i, o_nabla + i] = -inv_tau_accel
 
 
-def F_pattern(n, offs, inv_tau_dk=0.0, dr_eps=True):
+def F_pattern(n, offs, inv_tau_dk=0.0, dr_eps=True, inv_tau_gyro=0.0, inv_tau_accel=0.0):
     """(n, n) bool: the entries :func:`_fill_F` writes (F's structural nonzeros).
 
     The same for every navigation state of a run; a filter engine zeroes its ``F`` once and
     lets :func:`_fill_F` overwrite these entries each epoch, and
     :func:`inmotion.estimation.predict.make_workspace` takes it as F's sparsity pattern.
-    ``offs`` as for :func:`_fill_F` (``_offsets(layout)``).
+    ``offs`` as for :func:`_fill_F` (``_offsets(layout)``); ``inv_tau_gyro``,
+    ``inv_tau_accel`` nonzero add the Gauss-Markov bias diagonals
+    (:attr:`ProcessNoise.inv_tau_bias`).
     """
     F = np.full((n, n), np.nan)
     _fill_F(F, tuple(int(o) for o in offs), 0.7, 100.0, np.array([3.0, -4.0, 0.5]),
             np.array([[0.6, -0.8, 0.0], [0.8, 0.6, 0.0], [0.0, 0.0, 1.0]]),
-            np.array([0.1, -0.2, 9.8]), float(inv_tau_dk), bool(dr_eps), True)
+            np.array([0.1, -0.2, 9.8]), float(inv_tau_dk), bool(dr_eps), True,
+            float(inv_tau_gyro), float(inv_tau_accel))
     return ~np.isnan(F)
 
 
@@ -415,10 +463,17 @@ class ErrorModel:
         """Continuous system matrix at ``pt`` [1/s, in the units of the states]."""
         n = self.layout.n
         F = np.zeros((n, n))
+        itg, ita = self.noise.inv_tau_bias
         _fill_F(F, self._offs, float(pt.lat), float(pt.h), np.asarray(pt.vel_n, dtype=float),
                 np.ascontiguousarray(pt.C_nb, dtype=float), np.asarray(pt.f_n, dtype=float),
-                1.0 / self.noise.dk_tau, self.dr_sees_gyro_drift, self.gravity_gradient)
+                1.0 / self.noise.dk_tau, self.dr_sees_gyro_drift, self.gravity_gradient,
+                itg, ita)
         return F
+
+    def F_pattern(self) -> np.ndarray:
+        """:func:`F_pattern` of this model (its layout, ``dk``, bias and DR settings)."""
+        return F_pattern(self.layout.n, self._offs, 1.0 / self.noise.dk_tau,
+                         self.dr_sees_gyro_drift, *self.noise.inv_tau_bias)
 
     # -- Q -----------------------------------------------------------------------------
     def Qc(self, pt: LinPoint | None = None) -> np.ndarray:
@@ -438,11 +493,14 @@ class ErrorModel:
             for b in att:
                 Q[a, b] = Qg
         Q[lay["dv"], lay["dv"]] = (q.accel_vrw ** 2) * np.eye(3)
-        for name, dens in (("eps", q.gyro_bias_rw), ("nabla", q.accel_bias_rw),
-                           ("mount", q.mount_rw), ("lever", q.lever_rw)):
+        gm_g = 2.0 * q.gyro_bias_sigma ** 2 / q.gyro_bias_tau     # 0 with tau = inf
+        gm_a = 2.0 * q.accel_bias_sigma ** 2 / q.accel_bias_tau
+        for name, var in (("eps", q.gyro_bias_rw ** 2 + gm_g),
+                          ("nabla", q.accel_bias_rw ** 2 + gm_a),
+                          ("mount", q.mount_rw ** 2), ("lever", q.lever_rw ** 2)):
             if name in lay:
                 sl = lay[name]
-                Q[sl, sl] = dens ** 2 * np.eye(sl.stop - sl.start)
+                Q[sl, sl] = var * np.eye(sl.stop - sl.start)
         if "dk" in lay and np.isfinite(q.dk_tau):
             Q[lay["dk"], lay["dk"]] = 2.0 * q.dk_sigma ** 2 / q.dk_tau
         return Q

@@ -21,6 +21,11 @@ from ``x_N|N``, ``P_N|N``. The smoothed navigation state of epoch ``k`` is the c
 forward state with ``x_k|N`` applied as the filter's feedback would apply it; the smoothed
 sensor states are the accumulated feedback plus ``x_k|N``.
 
+The pass needs one filter's transition and covariances, so the engine records for a single
+local filter only. A bank of local filters (paper 003's federated filter, a channel with its
+NHC fallback) is smoothed through a central filter over the measurements the bank accepted
+(:func:`inmotion.align.aided_kf._smooth_bank`, where the design is written down).
+
 :func:`rts_backward` is the numerical core (numba); a test checks it on a linear Gaussian
 system against the batch least-squares solution over all states at once. The records of a
 long drive go to a file (:class:`ForwardRecord`, ``numpy.memmap``) when they would not fit
@@ -48,6 +53,37 @@ __all__ = ["rts_backward", "ForwardRecord", "RECORD_FIELDS", "smooth_record",
 PINV_RCOND = 1e-12
 #: per-epoch records of the forward pass: name -> shape after the epoch axis (n: states)
 RECORD_FIELDS = ("t", "phi", "p_pred", "x", "p", "fb", "fed", "xs", "epoch")
+
+
+@numba.njit(cache=True)
+def _pinv_times(Pp, B):
+    """``Pp^+ B`` for the symmetric positive semi-definite ``Pp``: eigenvalues below
+    :data:`PINV_RCOND` of the largest dropped. By ``eigh`` (LAPACK ``dsyevd``); where that
+    fails to converge, which it does on rare well-conditioned matrices (a 27-state central
+    filter of paper 003's drive, eigenvalues 1.5e-4 .. 4.4, ``tests/data``), by the SVD
+    (``Pp = U S V^T``, ``Pp^+ = V S^+ U^T``)."""
+    n = Pp.shape[0]
+    ok = True
+    try:
+        w, V = np.linalg.eigh(Pp)
+    except Exception:
+        ok = False
+    if ok:
+        cut = PINV_RCOND * w[-1]
+        VtB = V.T @ B
+        for i in range(n):
+            inv = 1.0 / w[i] if w[i] > cut else 0.0
+            for j in range(n):
+                VtB[i, j] *= inv
+        return V @ VtB
+    U, sv, Vt = np.linalg.svd(Pp)
+    cut = PINV_RCOND * sv[0]
+    UtB = U.T @ B
+    for i in range(n):
+        inv = 1.0 / sv[i] if sv[i] > cut else 0.0
+        for j in range(n):
+            UtB[i, j] *= inv
+    return Vt.T @ UtB
 
 
 @numba.njit(cache=True)
@@ -89,14 +125,7 @@ def rts_backward(x, P, Phi, P_pred, fb, xs_out, Ps_out):
         # pseudo-inverse: P_k|k-1 is singular where two states' difference has neither
         # prior nor process noise (dr-kf: the SINS and DR attitude errors start equal and
         # share the gyro noise); those directions carry no information to smooth
-        w, V = np.linalg.eigh(Pp)
-        cut = PINV_RCOND * w[-1]
-        VtB = V.T @ B
-        for i in range(n):
-            inv = 1.0 / w[i] if w[i] > cut else 0.0
-            for j in range(n):
-                VtB[i, j] *= inv
-        AT = V @ VtB
+        AT = _pinv_times(Pp, B)
         for i in range(n):
             for j in range(n):
                 AT[i, j] /= d[i]

@@ -21,7 +21,6 @@ from ..evaluate.report import _Page, _table, _versions_section
 __all__ = ["write_page", "markdown_to_html"]
 
 _IMG = re.compile(r"!\[([^\]]*)\]\(([^)\s]+)\)")
-_VERDICTS = ("better", "same", "worse", "-")
 
 
 def _e(x) -> str:
@@ -92,7 +91,8 @@ def markdown_to_html(text: str, folder: Path, used: set) -> str:
 
 
 def _counts(rows) -> dict:
-    return {v: sum(1 for r in rows if r.get("verdict") == v) for v in _VERDICTS}
+    from ..evaluate.stats import count_verdicts
+    return count_verdicts(rows)
 
 
 def _summary_table(results) -> str:
@@ -103,8 +103,10 @@ def _summary_table(results) -> str:
         state = r["status"] + (" (reused)" if r.get("reused") else "")
         body.append([r["paper"], r["title"], (state, "worse" if r["status"] != "ok" else ""),
                      len(r["rows"]), (c["better"], "better"), c["same"], (c["worse"], "worse"),
-                     c["-"], "" if wall is None else f"{wall:.0f}"])
-    return _table(["paper", "title", "status", "figures", "better", "same", "worse", "no paper figure",
+                     c["not comparable"], c["undecided"], c["-"], c["ablation"],
+                     "" if wall is None else f"{wall:.0f}"])
+    return _table(["paper", "title", "status", "figures", "better", "same", "worse",
+                   "not comparable", "undecided", "no paper figure", "ablations (apart)",
                    "wall s"], body, left=3)
 
 
@@ -147,8 +149,11 @@ def write_page(path, results, title: str) -> Path:
     if all_rows and len(results) > 1:
         page.add("<h2>Every paper figure against the measured one</h2>"
                  "<p class=\"note\">verdict: better / worse than the paper in the row's sense "
-                 "(lower, or closer to 0 for a mean error), same within tolerance, - where one "
-                 "figure is missing. Notes say how each measured figure is taken.</p>"
+                 "(lower, or closer to 0 for a mean error) only beyond the Monte Carlo "
+                 "uncertainty of both figures and for the same statistic over comparable sample "
+                 "sizes; same within it; not comparable (the reason is given) or undecided (no "
+                 "uncertainty); - where one figure is missing. Ablations of our own are rows of "
+                 "kind 'ablation', not counted. Notes say how each measured figure is taken.</p>"
                  + _rows_table(all_rows, with_paper=True))
     for r in results:
         _paper_section(page, r)

@@ -81,14 +81,22 @@ STILL_SPEED_M_S = 0.05
 NOT_DONE = [
     "comma2k19: the lever arm states of od-kf are estimated but not reported (no reference for "
     "them: the reference gives the camera's pose only)",
-    "comma2k19 od-kf yaw mounting: off the reference-derived value by ~0.7 deg while its "
-    "1-sigma says 0.17 deg, and it moves with the start priors (loose start: +0.35 deg): the "
-    "filter is overconfident on the phone data. Measured cause: the phone gyro's z error "
-    "against the reference changes by ~100 deg/h within the minute (gyro_minus_reference), "
-    "which od-kf's random-constant drift state cannot follow. A drift random walk "
-    "(error_model.ProcessNoise.gyro_bias_rw, not exposed in the od-kf configuration) was "
-    "tried by hand: 1000 deg/h/sqrt(h) moves the yaw mount to -0.37 deg but the position "
-    "error from 14.5 to 20 m; not adopted. Pitch agrees to 0.02-0.25 deg",
+    "comma2k19 od-kf yaw mounting (issue 15 target: within 0.2 deg of the reference-derived "
+    "value): with the constant-bias model it was 0.7 deg off with a 0.17 deg sigma (the "
+    "phone gyro's z error changes by ~100 deg/h within the minute); with the Gauss-Markov "
+    "gyro bias it moves towards the reference and its sigma covers the error, but it stays "
+    "0.2-0.6 deg off depending on the undocumented sigma and tau (sensitivity table) and on "
+    "the start priors (loose start). An accelerometer Gauss-Markov bias as well (tried: "
+    "5-20 mg, 10-60 s) moves the yaw closer but the pitch mounting 0.6-0.9 deg away from the "
+    "reference; not adopted",
+    "a bias as a constant plus a Gauss-Markov part (two states per axis): the single "
+    "Gauss-Markov state forgets the phone's ~100 deg/h mean z error, so od-kf's own comma2k19 "
+    "position gets worse (24.8 m against 14.5 m) while its mounting gets better",
+    "comma2k19 calibrated dead reckoning (issue 15 target: within 20 m after 1 km): the "
+    "same DR with the scale and mounting measured from the reference (an oracle) ends "
+    "20.4 m off, because the DR's heading drifts with the uncompensated phone gyro (1.85 deg "
+    "at the end); the scale and mounting alone cannot bring it below that, and with the "
+    "estimated ones (yaw 0.3 deg off = 5 m over 1 km) it ends 24-31 m off",
     "EMS od-kf with the pseudo-odometer: its yaw mounting ends at -1.4 deg against -0.18 "
     "from the reference, and the second pass, started from that value, ends 97 m off where the "
     "first pass ends 38 m off and DR with the same speed 32 m off (heading -9 deg vs -2.7 "
@@ -132,12 +140,25 @@ OBSERVABILITY = {
 }
 #: od-kf on the phone (comma2k19): priors for a consumer IMU; start from the reference
 #: (velocity to 2 cm/s, heading to 0.1 deg); mounting prior 5 deg (covers the README's 3.8)
+#: The IMU noise is not set here: it comes from the imported bundle's ``meta['imu']``, the
+#: importer's assumed phone spec (:data:`inmotion.io.importers.comma2k19.PHONE_IMU_SPEC`:
+#: gyro bias a first-order Gauss-Markov process, 150 deg/h, 30 s; accelerometer bias 10 mg;
+#: ARW 0.5 deg/sqrt(h); VRW 300 ug/sqrt(Hz)), as ``info['config_source']`` records (issue 15).
 PHONE_OD_KF = dict(measurement="velocity", fdi=False, use_baro=False,
-                   gyro_drift_deg_h=150.0, accel_bias_ug=10000.0, gyro_arw_deg_sqrt_h=0.5,
-                   accel_vrw_ug_sqrt_hz=300.0, init_tilt_sigma_deg=0.2,
+                   init_tilt_sigma_deg=0.2,
                    init_heading_sigma_deg=0.1, init_velocity_sigma_m_s=0.02,
                    od_noise_m_s=[0.05, 0.05, 0.05], nhc_noise_m_s=0.05,
                    mount_sigma_arcmin=300.0, od_scale_sigma_ppm=10000.0)
+#: the same with the gyro bias a random constant of the same scale (the model before issue
+#: 15): the comparison run
+PHONE_OD_KF_CONSTANT = {**PHONE_OD_KF, "gyro_drift_deg_h": 150.0, "gyro_markov_deg_h": 0.0,
+                        "gyro_markov_tau_s": None}
+#: the Gauss-Markov gyro bias settings of the sensitivity table (1-sigma deg/h, tau s)
+GM_GRID = [(s, t) for s in (50.0, 150.0, 300.0) for t in (10.0, 30.0, 100.0)]
+#: issue 15's targets on comma2k19: mounting yaw within this of the reference-derived value,
+#: calibrated dead reckoning within this horizontal error after 1 km
+TARGET_YAW_MOUNT_DEG = 0.2
+TARGET_DR_M = 20.0
 #: passes of :func:`od_kf_iterated` (the second removes the first-order mounting model's
 #: scale bias; a third changes nothing measurable)
 OD_KF_PASSES = 2
@@ -146,8 +167,7 @@ PHONE_OD_KF_LOOSE = {**PHONE_OD_KF, "init_velocity_sigma_m_s": 0.05,
                      "init_heading_sigma_deg": 0.5}
 #: nhc-kf on the phone
 PHONE_NHC_KF = {k: PHONE_OD_KF[k] for k in (
-    "use_baro", "gyro_drift_deg_h", "accel_bias_ug", "gyro_arw_deg_sqrt_h",
-    "accel_vrw_ug_sqrt_hz", "init_tilt_sigma_deg", "init_heading_sigma_deg",
+    "use_baro", "init_tilt_sigma_deg", "init_heading_sigma_deg",
     "init_velocity_sigma_m_s", "nhc_noise_m_s")}
 #: nhc-kf on the EMS MEMS after the still-period gyro bias is removed: residual bias prior
 #: 10 deg/h (the in-run change; with 50 deg/h the od-kf's z-gyro estimate wanders and its
@@ -421,7 +441,11 @@ def run_comma2k19(bundle: Bundle) -> dict:
         return est
 
     est = add_od("od-kf", PHONE_OD_KF, "SINS/OD 21-state filter, start from the reference "
-                 f"(PHONE_OD_KF), {OD_KF_PASSES} passes (od_kf_iterated)")
+                 f"(PHONE_OD_KF), {OD_KF_PASSES} passes (od_kf_iterated); Gauss-Markov gyro "
+                 "bias from meta.imu (assumed phone spec)")
+    const = add_od("od-kf constant bias", PHONE_OD_KF_CONSTANT,
+                   "as od-kf with the gyro bias a random constant (150 deg/h), the model "
+                   "before issue 15")
     loose = add_od("od-kf loose start", PHONE_OD_KF_LOOSE,
                    "as od-kf, start velocity 5 cm/s, heading 0.5 deg")
     add("nhc-kf (no mounting)", "nhc-kf", bundle, PHONE_NHC_KF,
@@ -443,15 +467,44 @@ def run_comma2k19(bundle: Bundle) -> dict:
     add("dr scale + mounting (od-kf)", "dr", bundle,
         DrConfig(sensor="odometer", speed_scale=1.0 / est["scale"], mounting_arcmin=est_mount),
         "scale and mounting estimated by od-kf")
+    const_mount = (const["pitch_mount_deg"] * 60.0, 0.0, const["yaw_mount_deg"] * 60.0)
+    add("dr scale + mounting (od-kf constant bias)", "dr", bundle,
+        DrConfig(sensor="odometer", speed_scale=1.0 / const["scale"],
+                 mounting_arcmin=const_mount),
+        "scale and mounting estimated by od-kf with a constant gyro bias (before issue 15)")
     add("dr scale + mounting (from reference)", "dr", bundle,
         DrConfig(sensor="odometer", speed_scale=1.0 / cal["scale"], mounting_arcmin=cal_mount),
         "oracle: measured from the reference, not estimated (upper bound)")
     add("sins", "sins", bundle, SinsConfig(), "pure inertial, no aiding")
     coarse = coarse_alignment(bundle)
     return {"runs": rows, "coarse": coarse, "series": series,
+            "estimated_constant_bias": const,
+            "gm_sensitivity": gm_sensitivity(bundle, init),
             "gyro_minus_reference": gyro_minus_reference(bundle),
             "accel_minus_reference": accel_minus_reference(bundle),
             "reference_calibration": cal, "estimated": est, "estimated_loose": loose}
+
+
+def gm_sensitivity(bundle: Bundle, init: NavState, grid=GM_GRID) -> list:
+    """``od-kf`` (:data:`PHONE_OD_KF`, :func:`od_kf_iterated`) with each Gauss-Markov gyro
+    bias ``(sigma deg/h, tau s)`` of ``grid`` set in the configuration over the spec, and the
+    dead reckoning with its scale and mounting: how much the comma2k19 calibration depends on
+    the two numbers the dataset does not document. Rows: ``sigma_deg_h, tau_s,
+    yaw_mount_deg, yaw_mount_sigma_deg, pitch_mount_deg, scale, od_kf_m, dr_m``."""
+    out = []
+    for sig, tau in grid:
+        cfg = {**PHONE_OD_KF, "gyro_drift_deg_h": 0.0, "gyro_markov_deg_h": sig,
+               "gyro_markov_tau_s": tau}
+        row, _, _, est = od_kf_iterated(bundle, cfg, init, OD_KF_PASSES)
+        mount = (est["pitch_mount_deg"] * 60.0, 0.0, est["yaw_mount_deg"] * 60.0)
+        dr, _, _ = _run("dr", "dr", bundle, DrConfig(sensor="odometer",
+                                                     speed_scale=1.0 / est["scale"],
+                                                     mounting_arcmin=mount), init)
+        out.append({"sigma_deg_h": sig, "tau_s": tau, "yaw_mount_deg": est["yaw_mount_deg"],
+                    "yaw_mount_sigma_deg": est["yaw_mount_sigma_deg"],
+                    "pitch_mount_deg": est["pitch_mount_deg"], "scale": est["scale"],
+                    "od_kf_m": row["final_horizontal_m"], "dr_m": dr["final_horizontal_m"]})
+    return out
 
 
 def ems_pseudo_odometer(bundle: Bundle) -> SpeedData:
@@ -591,6 +644,8 @@ def result_rows(comma: dict, ems: dict) -> list:
     """The ``results.json`` rows: ``quantity, reference, measured, unit, note``
     (``reference``: the figure derived from the data's reference or README, None if none)."""
     cal, est, loose = comma["reference_calibration"], comma["estimated"], comma["estimated_loose"]
+    const = comma["estimated_constant_bias"]
+    dr = {r["run"]: r["final_horizontal_m"] for r in comma["runs"]}
     rows = [
         {"quantity": "comma2k19 odometer scale (CAN / true speed), od-kf", "reference":
          cal["scale"], "measured": est["scale"], "unit": "1", "note":
@@ -604,7 +659,20 @@ def result_rows(comma: dict, ems: dict) -> list:
          "measured": est["yaw_mount_deg"], "unit": "deg",
          "note": f"filter 1-sigma {est['yaw_mount_sigma_deg']:.2f} deg; loose start: "
                  f"{loose['yaw_mount_deg']:.2f} deg; weakly observable (heading drift, "
-                 "lateral accelerometer bias)"},
+                 "lateral accelerometer bias); Gauss-Markov gyro bias (150 deg/h, 30 s, "
+                 f"meta.imu); issue 15 target: within {TARGET_YAW_MOUNT_DEG} deg "
+                 f"({'met' if abs(est['yaw_mount_deg'] - cal['yaw_mount_deg']) <= TARGET_YAW_MOUNT_DEG else 'NOT met'})"},
+        {"quantity": "comma2k19 mounting yaw, od-kf constant gyro bias (before issue 15)",
+         "reference": cal["yaw_mount_deg"], "measured": const["yaw_mount_deg"], "unit": "deg",
+         "note": f"filter 1-sigma {const['yaw_mount_sigma_deg']:.2f} deg"},
+        {"quantity": "comma2k19 calibrated DR after 1 km, od-kf scale + mounting",
+         "reference": dr["dr scale + mounting (from reference)"],
+         "measured": dr["dr scale + mounting (od-kf)"], "unit": "m",
+         "note": "reference: the same DR with the scale and mounting measured from the "
+                 "reference (oracle); constant gyro bias model: "
+                 f"{dr['dr scale + mounting (od-kf constant bias)']:.1f} m; issue 15 target: "
+                 f"within {TARGET_DR_M:.0f} m "
+                 f"({'met' if dr['dr scale + mounting (od-kf)'] <= TARGET_DR_M else 'NOT met'})"},
     ]
     ecal, eest = ems["reference_calibration"], ems["estimated"]
     for key, what in (("pitch_mount_deg", "pitch"), ("yaw_mount_deg", "yaw")):
@@ -696,7 +764,33 @@ def report_markdown(results: dict, rows: list) -> str:
                          "only against the heading, takes up the rest (`real_mounting.png`: "
                          "the yaw estimate reaches the reference-derived value in the first "
                          "10 s, then drifts with the heading).")
-    lines += ["",
+    lines += ["", "### Gauss-Markov gyro bias (issue 15)", "",
+              "`od-kf` now models the phone's gyro bias as a first-order Gauss-Markov process "
+              "(`error_model`: `F` -1/tau on the bias diagonal, `Q` 2 sigma^2/tau), with "
+              "sigma 150 deg/h and tau 30 s from the importer's assumed phone spec "
+              "(`meta.imu`, `source: assumed`; the dataset documents none). The two numbers "
+              "are not documented, so the table shows how the calibration moves with them "
+              f"(reference-derived: yaw {c['reference_calibration']['yaw_mount_deg']:.2f} deg, "
+              f"pitch {c['reference_calibration']['pitch_mount_deg']:.2f} deg, scale "
+              f"{c['reference_calibration']['scale']:.4f}; oracle DR "
+              + f"{next(r['final_horizontal_m'] for r in c['runs'] if r['run'] == 'dr scale + mounting (from reference)'):.1f} m):",
+              "", "| sigma deg/h | tau s | yaw mount deg | 1-sigma deg | pitch mount deg | "
+              "scale | od-kf final m | DR final m |",
+              "| ---: | ---: | ---: | ---: | ---: | ---: | ---: | ---: |"]
+    lines += [f"| {g['sigma_deg_h']:.0f} | {g['tau_s']:.0f} | {g['yaw_mount_deg']:.2f} "
+              f"| {g['yaw_mount_sigma_deg']:.2f} | {g['pitch_mount_deg']:.2f} "
+              f"| {g['scale']:.4f} | {g['od_kf_m']:.1f} | {g['dr_m']:.1f} |"
+              for g in c["gm_sensitivity"]]
+    runs = {r["run"]: r for r in c["runs"]}
+    lines += ["", "The price: `od-kf`'s own position at the end is "
+              f"{runs['od-kf']['final_horizontal_m']:.1f} m with the Gauss-Markov bias against "
+              f"{runs['od-kf constant bias']['final_horizontal_m']:.1f} m with the constant one. "
+              "The phone's residual z error keeps a mean of about 100 deg/h over the minute "
+              "(table above), which a zero-mean Gauss-Markov state forgets with tau; a bias "
+              "that is a constant plus a Gauss-Markov part needs two states per axis (not "
+              "done). `inmotion process` keeps the constant model (its spec folds the "
+              "Gauss-Markov part into the constant's sigma).",
+              "",
               "## EMS: runs", "",
               f"Start: the end of the still period, {sp['still_end_s']:.2f} s (reference speed "
               f"> {STILL_SPEED_M_S} m/s). Gyro bias measured there [deg/h] (x, y, z in b): "
@@ -729,7 +823,7 @@ def report_markdown(results: dict, rows: list) -> str:
 
 def _jsonable(res: dict) -> dict:
     out = {k: v for k, v in res.items() if k != "series"}
-    for k in ("estimated", "estimated_loose"):
+    for k in ("estimated", "estimated_loose", "estimated_constant_bias"):
         if k in out:
             out[k] = {a: b for a, b in out[k].items() if not isinstance(b, np.ndarray)}
     if "reference_calibration" in out:

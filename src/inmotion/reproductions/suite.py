@@ -25,6 +25,7 @@ an envelope, an RMS or a count of degradations ``lower``.
 """
 from __future__ import annotations
 
+import contextlib
 import importlib
 import inspect
 import json
@@ -35,6 +36,7 @@ from pathlib import Path
 from typing import Callable, Optional
 
 from ..errors import BadInput
+from .common import engine
 
 __all__ = ["Reproduction", "REPRODUCTIONS", "names", "get", "run_reproduction",
            "summary_rows", "reproduce_all", "ROWS_FILE", "ALL_SUMMARY_FILE"]
@@ -331,7 +333,7 @@ def _finished(rep: Reproduction, out: Path) -> bool:
 
 
 def run_reproduction(name: str, out_dir, runs=None, workers=2, seed=0, progress=True,
-                     reuse=False) -> dict:
+                     reuse=False, scheduler=None) -> dict:
     """Run reproduction ``name`` into ``out_dir`` and write its summary rows.
 
     Parameters
@@ -342,6 +344,9 @@ def run_reproduction(name: str, out_dir, runs=None, workers=2, seed=0, progress=
     workers, seed : passed on where the function takes them
     progress : the module's progress bar (stderr)
     reuse : if the results file is already there, do not run again; only re-read it
+    scheduler : address of a Dask scheduler (``tcp://host:8786``) that runs the Monte Carlo
+        tasks (:func:`inmotion.reproductions.common.engine`); default: ``workers`` local
+        processes of the same campaign engine
 
     Returns
     -------
@@ -354,7 +359,8 @@ def run_reproduction(name: str, out_dir, runs=None, workers=2, seed=0, progress=
     t0 = time.perf_counter()
     if not reused:
         out.mkdir(parents=True, exist_ok=True)
-        _call(rep, out, runs, workers, seed, progress)
+        with engine(workers, scheduler):
+            _call(rep, out, runs, workers, seed, progress)
     summary = {"paper": rep.name, "title": rep.title, "status": "ok", "reused": reused,
                "wall_s": time.perf_counter() - t0,
                "runs": runs if runs is not None else rep.issue_runs, "seed": seed,
@@ -383,7 +389,7 @@ def _json_default(x):
 
 # ----------------------------------------------------------------------------- all
 def reproduce_all(out_dir, runs=None, workers=2, seed=0, progress=True, reuse=False,
-                  papers=None, notify=None) -> dict:
+                  papers=None, notify=None, scheduler=None) -> dict:
     """Run every reproduction into ``out_dir/<name>`` and write one HTML report.
 
     A reproduction that raises is recorded (``status: "failed"``, its error and the last lines
@@ -393,7 +399,8 @@ def reproduce_all(out_dir, runs=None, workers=2, seed=0, progress=True, reuse=Fa
     ----------
     out_dir : folder (created)
     runs : runs per paper (None: each paper's issue count)
-    workers, seed, progress, reuse : as :func:`run_reproduction`
+    workers, seed, progress, reuse, scheduler : as :func:`run_reproduction` (one Dask
+        client serves every paper)
     papers : names to run (default all of :data:`REPRODUCTIONS`)
     notify : ``notify(text)`` called as each paper starts and ends (the CLI prints to stderr)
 
@@ -405,9 +412,21 @@ def reproduce_all(out_dir, runs=None, workers=2, seed=0, progress=True, reuse=Fa
     from .page import write_page
     out = Path(out_dir)
     out.mkdir(parents=True, exist_ok=True)
-    results = []
     notify = notify or (lambda text: None)
     todo = list(papers or names())
+    needed = not all(reuse and _finished(get(n), out / n) for n in todo)
+    with engine(workers, scheduler) if needed else contextlib.nullcontext():
+        results = _run_each(todo, out, runs, workers, seed, progress, reuse, notify)
+    page = write_page(out / "report.html", results,
+                      title="inmotion: the five papers reproduced in simulation")
+    summary = {"papers": results, "report": str(page)}
+    (out / ALL_SUMMARY_FILE).write_text(json.dumps(summary, indent=1, default=_json_default))
+    return summary
+
+
+def _run_each(todo, out, runs, workers, seed, progress, reuse, notify) -> list:
+    """:func:`run_reproduction` of each paper in ``todo``; a failure is recorded, not raised."""
+    results = []
     for k, name in enumerate(todo):
         rep = get(name)
         t0 = time.perf_counter()
@@ -426,8 +445,4 @@ def reproduce_all(out_dir, runs=None, workers=2, seed=0, progress=True, reuse=Fa
         notify(f"paper {name}: {r['status']}" + (" (reused)" if r.get("reused") else "")
                + (f", {r['error']}" if r["status"] != "ok" else f", {len(r['rows'])} figures")
                + f", {time.perf_counter() - t0:.0f} s")
-    page = write_page(out / "report.html", results,
-                      title="inmotion: the five papers reproduced in simulation")
-    summary = {"papers": results, "report": str(page)}
-    (out / ALL_SUMMARY_FILE).write_text(json.dumps(summary, indent=1, default=_json_default))
-    return summary
+    return results
