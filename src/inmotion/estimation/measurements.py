@@ -75,11 +75,11 @@ ACC_SIG = types.int64(_f8, _f8, _f8, _f8, types.float64, _f8, _f8)
 AUX_T, AUX_WIB, AUX_FB, AUX_WNB = 0, 1, 4, 7
 AUX_SIZE = 10
 #: values of a measurement's row accumulator
-ACC_SIZE = 16
+ACC_SIZE = 17
 #: slots of paper 003's interval accumulator (:func:`_acc_sensor_interval`): interval length,
 #: SINS displacement, body rotation, sensor displacement, its distance part, "a row had no
 #: sensor distance"
-ACC_T, ACC_DP, ACC_TH, ACC_D, ACC_W, ACC_BAD = 0, 1, 4, 7, 10, 13
+ACC_T, ACC_DP, ACC_TH, ACC_D, ACC_W, ACC_BAD, ACC_FN = 0, 1, 4, 7, 10, 13, 14
 #: parameter slots of paper 003's sensor channels: row sigmas, lever arm, C_v^b0's y column
 P_SIG, P_LEVER, P_FWD = 0, 3, 6
 
@@ -696,6 +696,8 @@ def _acc_sensor_interval(a, xs, v_old, th_nb, dt, rd, p):
     for i in range(3):
         a[ACC_TH + i] += th_nb[i]
         a[ACC_DP + i] += 0.5 * (v_old[i] + xs[K.VE + i]) * dt
+        a[ACC_FN + i] += xs[K.VE + i] - v_old[i]      # f_n dt, less gravity below
+    a[ACC_FN + 2] += K.gravity(xs[K.LAT], xs[K.H]) * dt
     ds = rd[0]
     if math.isnan(ds):
         a[ACC_BAD] = 1.0
@@ -780,10 +782,15 @@ def _fill_displacement(xs, xd, aux, acc, data, p, offs, z, H, r):
                        acc[ACC_TH:ACC_TH + 3].copy(), p[P_FWD:P_FWD + 3].copy())
     # the velocity error drifts within the interval, dv(t) = dv_k - (t_k - t) ([f_n x] phi +
     # C_b^n nabla), so int dv dt = T dv_k - T^2 / 2 ([f_n x] phi + C_b^n nabla): in b,
-    # -T^2 / 2 ([f_b x] C_n^b phi + nabla) (f_b: the last epoch's mean specific force). A
+    # -T^2 / 2 ([f_b x] C_n^b phi + nabla) (f_b: the interval's mean specific force). A
     # 1 arcmin tilt error gives 0.36 mm over 0.5 s, as large as the sensors' own noise.
     h2 = 0.5 * T * T
-    fb0, fb1, fb2 = aux[AUX_FB], aux[AUX_FB + 1], aux[AUX_FB + 2]
+    # the interval's mean specific force, from the SINS velocity change plus gravity (the
+    # Coriolis part, 2e-3 m/s^2 at 15 m/s, left out), in b at the interval's end
+    fn = acc[ACC_FN:ACC_FN + 3] / T
+    fb0 = C_bn[0, 0] * fn[0] + C_bn[0, 1] * fn[1] + C_bn[0, 2] * fn[2]
+    fb1 = C_bn[1, 0] * fn[0] + C_bn[1, 1] * fn[1] + C_bn[1, 2] * fn[2]
+    fb2 = C_bn[2, 0] * fn[0] + C_bn[2, 1] * fn[1] + C_bn[2, 2] * fn[2]
     o_phi, o_nab = offs[PHI], offs[NABLA]
     for j in range(3):
         c0, c1, c2 = C_bn[0, j], C_bn[1, j], C_bn[2, j]
