@@ -686,7 +686,7 @@ class ZeroAngularRate(Measurement):
 @accumulator_function
 def _acc_sensor_interval(a, xs, v_old, th_nb, dt, rd, p):
     """Over a measurement interval: ``a = [T, Delta P (3), Delta theta_nb (3), Delta D (3),
-    Delta W (3), bad]`` with the SINS displacement ``sum v dt`` (trapezoid), the body rotation
+    Delta W (3), bad, F (3)]`` (``F = int f_n dt``, the SINS velocity change plus gravity) with the SINS displacement ``sum v dt`` (trapezoid), the body rotation
     w.r.t. n, the sensor's displacement ``sum C_b^n (w_b - f f^T [dtheta_nb x] l)`` (``f`` the
     nominal forward axis: the sensor reads the forward part of the lever term only,
     :mod:`~inmotion.estimation.aiding_rows`) and its distance
