@@ -365,8 +365,13 @@ def test_parked_kf_on_the_engine_gives_the_former_filters_result():
     assert np.all(np.abs(s.lat - s.lat[0]) * 6.4e6 < 0.1)      # parked: under 10 cm of drift
 
 
-AIDED = {"od-kf": {}, "ldv-kf": {}, "nhc-kf": {}, "fkf": {},
-         "fkf-vel": {"measurement": "velocity"}}
+#: issue 15 changed the sensor filters' model (the sensor reads the forward part of the lever
+#: term only; the displacement rows map each row at mid-row, carry the T^2 / 2 drift of dv and
+#: the forward noise laid across by a turn; noise from meta.yaml; fkf feeds back every 1 s),
+#: so od-kf, ldv-kf and fkf left the former loop's reference on purpose (their port was
+#: checked against it until then, commit 6acb97a). nhc-kf keeps its model; with the former
+#: fixed noise (``conservative``) it must still give the former loop's result.
+AIDED = {"nhc-kf": {"noise_preset": "conservative"}}
 
 
 @pytest.mark.parametrize("scenario", ["paper003_drive", "paper003_faults"])

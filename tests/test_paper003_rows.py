@@ -33,13 +33,19 @@ def _truth(rng):
 
 
 def _velocity_z(x, C, C_vb0, omega, lever, s):
+    """The vehicle constraint holds at the IMU (the simulator's world): the IMU moves along
+    the true forward axis ``C_v^b [0, 1, 0]`` at ``v`` and the sensor at ``lever`` reads ``s
+    = v + f^T (omega x l)``; the filter maps ``s`` back with the nominal forward axis and its
+    lever arm."""
     e = _unpack(x)
     C_vb = R.mounting_dcm(np.r_[e["mount"][0], 0.0, e["mount"][1]]) @ C_vb0
-    v_true = C @ (C_vb @ [0, s, 0] - np.cross(omega, lever))   # IMU velocity in n
+    f_true, f0 = C_vb[:, 1], C_vb0[:, 1]
+    v = s - f_true @ np.cross(omega, lever)
+    v_true = C @ (f_true * v)                                    # IMU velocity in n
     v_hat = v_true + e["dv"]
     C_hat = R.apply_misalignment(C, e["phi"])
-    w_b = C_vb0 @ [0, (1 + e["dk"][0]) * s, 0]
-    return v_hat - C_hat @ (w_b - np.cross(omega, lever + e["lever"]))
+    s_m = (1 + e["dk"][0]) * s
+    return v_hat - C_hat @ (f0 * s_m - f0 * (f0 @ np.cross(omega, lever + e["lever"])))
 
 
 def _fd(fun, n, eps=1e-7):
@@ -54,8 +60,15 @@ def test_velocity_rows_match_numerical_derivative():
     assert np.allclose(_velocity_z(LAY.zeros(), C, C_vb0, omega, lever, s), 0, atol=1e-12)
     H, v_s = velocity_rows(LAY, C, s, C_vb0, lever, omega)
     J = _fd(lambda x: _velocity_z(x, C, C_vb0, omega, lever, s), LAY.n)
-    for b in COLS:
+    for b in ("phi", "dv", "dk", "lever"):
         np.testing.assert_allclose(H[:, LAY[b]], J[:, LAY[b]], atol=1e-6, err_msg=b)
+    # mount: the rows take the sensor's speed s for the IMU's v; they differ by the lever
+    # term f^T (omega x l) and the true forward axis's turn of it: terms of (mount error) x
+    # (lever velocity), bounded by twice |omega x l| per mount column (1-2 % of the column)
+    lever_speed = np.linalg.norm(np.cross(omega, lever))
+    np.testing.assert_allclose(H[:, LAY["mount"]], J[:, LAY["mount"]],
+                               atol=2.0 * lever_speed, err_msg="mount")
+    assert 2.0 * lever_speed < 0.02 * s
     assert np.allclose(H[:, LAY["dp"]], 0) and np.allclose(H[:, LAY["eps"]], 0)
 
 
@@ -64,10 +77,14 @@ def _displacement_z(x, C_list, C_vb0, dth_list, lever, ds_list, dt):
     C_vb = R.mounting_dcm(np.r_[e["mount"][0], 0.0, e["mount"][1]]) @ C_vb0
     dP = np.zeros(3)
     dD = np.zeros(3)
+    f_true, f0 = C_vb[:, 1], C_vb0[:, 1]
     for C, dth, ds in zip(C_list, dth_list, ds_list):
-        dP += C @ (C_vb @ [0, ds, 0] - np.cross(dth, lever)) + e["dv"] * dt   # SINS: true + dv
+        # the IMU moves along the true forward axis; the sensor reads ds plus the forward
+        # part of the lever term (the vehicle constraint holds at the IMU)
+        dP += C @ (f_true * (ds - f_true @ np.cross(dth, lever))) + e["dv"] * dt
         C_hat = R.apply_misalignment(C, e["phi"])
-        dD += C_hat @ (C_vb0 @ [0, (1 + e["dk"][0]) * ds, 0] - np.cross(dth, lever + e["lever"]))
+        dD += C_hat @ (f0 * (1 + e["dk"][0]) * ds
+                       - f0 * (f0 @ np.cross(dth, lever + e["lever"])))
     C_end = R.apply_misalignment(C_list[-1], e["phi"])
     return C_end.T @ (dP - dD)
 
@@ -89,12 +106,12 @@ def test_displacement_rows_match_numerical_derivative(rate):
     _, C_vb0, _, lever = _truth(_rng())
     f = lambda x: _displacement_z(x, C_list, C_vb0, dth_list, lever, ds_list, dt)
     assert np.allclose(f(LAY.zeros()), 0, atol=1e-12)
-    C_vb = C_vb0
-    dD_n = sum(C @ (C_vb @ [0, ds, 0] - np.cross(dth, lever))
+    f0 = C_vb0[:, 1]
+    dD_n = sum(C @ (f0 * ds - f0 * (f0 @ np.cross(dth, lever)))
                for C, dth, ds in zip(C_list, dth_list, ds_list))
-    dW_n = sum(C @ (C_vb @ [0, ds, 0]) for C, ds in zip(C_list, ds_list))
+    dW_n = sum(C @ (f0 * ds) for C, ds in zip(C_list, ds_list))
     T = dt * len(C_list)
-    H = displacement_rows(LAY, C_list[-1], T, dD_n, dW_n, np.sum(dth_list, axis=0))
+    H = displacement_rows(LAY, C_list[-1], T, dD_n, dW_n, np.sum(dth_list, axis=0), C_vb0)
     J = _fd(f, LAY.n)
     for b in ("phi", "dv", "dk"):
         np.testing.assert_allclose(H[:, LAY[b]], J[:, LAY[b]], atol=1e-6, err_msg=b)

@@ -364,7 +364,8 @@ def _engine_solution(filt: VelocityAidedRun, out: dict, cfg, method: str, sensor
             "layout": list(filt.layout.names), "filter_step_rows": filt.step,
             "measurement_every_filter_steps": filt.meas_every,
             "measurements_used": used, "measurements_rejected": rejected,
-            "nis_mean_per_dof": nis / max(dof, 1), "wall_time_s": wall}
+            "nis_mean_per_dof": nis / max(dof, 1), "nis": filt.filter.nis_summary(),
+            "wall_time_s": wall}
     info["smoothed"] = bool(cfg.smooth)
     sol = _pack(filt.layout, filt.init, cfg, info, out["t"], xs[:, 0:3], xs[:, 3:6],
                 xs[:, 6:10], out["sigma"], out["states"], out["cov_phi"])

@@ -265,7 +265,7 @@ def run_parked_kf(bundle: Bundle, config: ParkedKfConfig | dict | None = None,
     info = {"method": "parked-kf", "config": cfg.model_dump(), "config_source": cfg_source,
             "layout": list(lay.names),
             "nis_mean_per_dof": nis[0] / max(nis[1], 1), "measurements": f.counts(),
-            "wall_time_s": time.perf_counter() - t_wall}
+            "nis": f.nis_summary(), "wall_time_s": time.perf_counter() - t_wall}
     return Solution.from_arrays(rows["t"], xs[:, 0:3], xs[:, 3:6], xs[:, 6:10], sigma=sigma,
                                 states=states,
                                 state_units=lay.unit_map(position_units(init.lat, init.h)),

@@ -25,7 +25,7 @@ from __future__ import annotations
 
 import numpy as np
 
-__all__ = ["ppf", "isf", "threshold", "statistic", "exceeds"]
+__all__ = ["ppf", "isf", "threshold", "statistic", "exceeds", "nis_summary"]
 
 
 def _chdtri(dof, upper):
@@ -106,3 +106,20 @@ def exceeds(r, C, false_alarm_rate: float) -> np.ndarray:
     """True where ``lambda > T_lambda`` (eq. 42: faulted / eq. 45: moving)."""
     r = np.asarray(r, dtype=float)
     return statistic(r, C) > threshold(false_alarm_rate, r.shape[-1])
+
+
+def nis_summary(nis_sum: float, dof: int, samples: int) -> dict:
+    """The NIS block of one measurement kind (``summary.json`` ``nis``): over ``samples``
+    applied samples with ``dof`` scalar rows in all and ``nis_sum`` the sum of their NIS
+    (``nu^T S^-1 nu`` each), ``mean_per_dof`` (1 for a consistent filter: the sum is
+    ``chi2(dof)`` when the innovations are white and ``S`` is their covariance) and
+    ``band_95``, the 95 % band of that mean, ``[isf(0.975, dof), isf(0.025, dof)] / dof``
+    (a loose check where innovations are correlated in time); ``None`` values before any
+    sample."""
+    if dof <= 0:
+        return {"samples": int(samples), "dof": 0, "mean_per_dof": None, "band_95": None,
+                "in_band": None}
+    m = float(nis_sum) / dof
+    lo, hi = isf(0.975, dof) / dof, isf(0.025, dof) / dof
+    return {"samples": int(samples), "dof": int(dof), "mean_per_dof": m,
+            "band_95": [float(lo), float(hi)], "in_band": bool(lo <= m <= hi)}

@@ -1026,6 +1026,15 @@ class ErrorStateFilter:
         return {m.name: (float(S.nis_sum[j]), int(S.dof_sum[j]))
                 for j, m in enumerate(self.measurements)}
 
+    def nis_summary(self) -> dict:
+        """Per measurement kind: :func:`inmotion.estimation.chi2.nis_summary` of the applied
+        samples (NIS of the first local filter for a shared measurement), for the ``nis``
+        block of ``summary.json``."""
+        from .chi2 import nis_summary
+        S = self._S
+        return {m.name: nis_summary(float(S.nis_sum[j]), int(S.dof_sum[j]), int(S.used[j]))
+                for j, m in enumerate(self.measurements)}
+
     def events(self) -> tuple:
         """``(events, dropped)``: (E, 4) rows ``[t, measurement index (-1: mode), kind,
         value]`` (kind :data:`EVENT_DETECTED` / :data:`EVENT_RETURNED` with the NIS,

@@ -54,7 +54,7 @@ from numba import types
 from ..core import _kernels as K
 from . import error_model as em
 from .aiding_rows import _displacement_rows, _velocity_rows
-from .layout import DK, DP, DP_D, DV, EPS, LEVER, MOUNT, PHI, PHI_D, Layout
+from .layout import DK, DP, DP_D, DV, EPS, LEVER, MOUNT, NABLA, PHI, PHI_D, Layout
 from .nav_ops import dcm_columns, dcm_of_q, euler_ypr, wrap_pi
 
 __all__ = ["FILL_SIG", "ACC_SIG", "ACC_SIZE", "accumulator_function", "Compiled", "dispatcher",
@@ -75,11 +75,11 @@ ACC_SIG = types.int64(_f8, _f8, _f8, _f8, types.float64, _f8, _f8)
 AUX_T, AUX_WIB, AUX_FB, AUX_WNB = 0, 1, 4, 7
 AUX_SIZE = 10
 #: values of a measurement's row accumulator
-ACC_SIZE = 16
+ACC_SIZE = 17
 #: slots of paper 003's interval accumulator (:func:`_acc_sensor_interval`): interval length,
 #: SINS displacement, body rotation, sensor displacement, its distance part, "a row had no
 #: sensor distance"
-ACC_T, ACC_DP, ACC_TH, ACC_D, ACC_W, ACC_BAD = 0, 1, 4, 7, 10, 13
+ACC_T, ACC_DP, ACC_TH, ACC_D, ACC_W, ACC_BAD, ACC_FN = 0, 1, 4, 7, 10, 13, 14
 #: parameter slots of paper 003's sensor channels: row sigmas, lever arm, C_v^b0's y column
 P_SIG, P_LEVER, P_FWD = 0, 3, 6
 
@@ -686,25 +686,41 @@ class ZeroAngularRate(Measurement):
 @accumulator_function
 def _acc_sensor_interval(a, xs, v_old, th_nb, dt, rd, p):
     """Over a measurement interval: ``a = [T, Delta P (3), Delta theta_nb (3), Delta D (3),
-    Delta W (3), bad]`` with the SINS displacement ``sum v dt`` (trapezoid), the body rotation
-    w.r.t. n, the sensor's displacement ``sum C_b^n (w_b - [dtheta_nb x] l)`` and its distance
+    Delta W (3), bad, F (3)]`` (``F = int f_n dt``, the SINS velocity change plus gravity) with the SINS displacement ``sum v dt`` (trapezoid), the body rotation
+    w.r.t. n, the sensor's displacement ``sum C_b^n (w_b - f f^T [dtheta_nb x] l)`` (``f`` the
+    nominal forward axis: the sensor reads the forward part of the lever term only,
+    :mod:`~inmotion.estimation.aiding_rows`) and its distance
     part ``sum C_b^n w_b`` (``w_b = C_v^b0 [0, ds, 0]``); ``bad`` = 1 once a row has no
     sensor distance (``rd[0]`` NaN)."""
     a[ACC_T] += dt
     for i in range(3):
         a[ACC_TH + i] += th_nb[i]
         a[ACC_DP + i] += 0.5 * (v_old[i] + xs[K.VE + i]) * dt
+        a[ACC_FN + i] += xs[K.VE + i] - v_old[i]      # f_n dt, less gravity below
+    a[ACC_FN + 2] += K.gravity(xs[K.LAT], xs[K.H]) * dt
     ds = rd[0]
     if math.isnan(ds):
         a[ACC_BAD] = 1.0
         return 0
     Cnb = dcm_of_q(xs[K.Q0:K.Q3 + 1])
+    # the row's distance along the forward axis at mid-row: the body turned by dtheta_nb
+    # over the row, so C_b^n(mid) = C_b^n(end) (I - [dtheta_nb / 2 x]) (with the end's
+    # attitude a 3 deg/s turn put 2 mm per 0.5 s into the lateral row, absorbed by the mount
+    # state and released at every change of the turn rate: chi-square values of 50)
     w_b = np.empty(3)
     for i in range(3):
         w_b[i] = p[P_FWD + i] * ds
+    hw0 = 0.5 * (th_nb[1] * w_b[2] - th_nb[2] * w_b[1])
+    hw1 = 0.5 * (th_nb[2] * w_b[0] - th_nb[0] * w_b[2])
+    hw2 = 0.5 * (th_nb[0] * w_b[1] - th_nb[1] * w_b[0])
+    w_b[0] -= hw0
+    w_b[1] -= hw1
+    w_b[2] -= hw2
     lv0, lv1, lv2 = p[P_LEVER], p[P_LEVER + 1], p[P_LEVER + 2]
-    cr = np.array([th_nb[1] * lv2 - th_nb[2] * lv1, th_nb[2] * lv0 - th_nb[0] * lv2,
-                   th_nb[0] * lv1 - th_nb[1] * lv0])
+    f0, f1, f2 = p[P_FWD], p[P_FWD + 1], p[P_FWD + 2]
+    along = (f0 * (th_nb[1] * lv2 - th_nb[2] * lv1) + f1 * (th_nb[2] * lv0 - th_nb[0] * lv2)
+             + f2 * (th_nb[0] * lv1 - th_nb[1] * lv0))   # the forward part of dtheta x l
+    cr = np.array([f0 * along, f1 * along, f2 * along])
     wn = Cnb @ w_b
     dn = Cnb @ (w_b - cr)
     for i in range(3):
@@ -725,15 +741,16 @@ def _fill_sensor_velocity_n(xs, xd, aux, acc, data, p, offs, z, H, r):
         w_b[i] = p[P_FWD + i] * v
     w_nb = aux[AUX_WNB:AUX_WNB + 3].copy()
     lv0, lv1, lv2 = p[P_LEVER], p[P_LEVER + 1], p[P_LEVER + 2]
-    cr = np.array([w_nb[1] * lv2 - w_nb[2] * lv1, w_nb[2] * lv0 - w_nb[0] * lv2,
-                   w_nb[0] * lv1 - w_nb[1] * lv0])
-    u_b = w_b - cr
+    f0, f1, f2 = p[P_FWD], p[P_FWD + 1], p[P_FWD + 2]
+    along = (f0 * (w_nb[1] * lv2 - w_nb[2] * lv1) + f1 * (w_nb[2] * lv0 - w_nb[0] * lv2)
+             + f2 * (w_nb[0] * lv1 - w_nb[1] * lv0))     # the forward part of omega x l
+    u_b = w_b - np.array([f0 * along, f1 * along, f2 * along])
     vs = Cnb @ u_b
     for i in range(3):
         z[i] = xs[K.VE + i] - vs[i]
         r[i] = p[P_SIG + i] ** 2
     _velocity_rows(H, (offs[PHI], offs[DV], offs[DK], offs[MOUNT], offs[LEVER]), Cnb, w_b, u_b,
-                   w_nb)
+                   w_nb, p[P_FWD:P_FWD + 3].copy())
     return 3
 
 
@@ -745,15 +762,43 @@ def _fill_displacement(xs, xd, aux, acc, data, p, offs, z, H, r):
     T = acc[ACC_T]
     C_bn = np.ascontiguousarray(dcm_of_q(xs[K.Q0:K.Q3 + 1]).T)
     dD = acc[ACC_D:ACC_D + 3].copy()
+    # the sensor's distance error at the interval's start (half the forward variance for a
+    # difference of two readings) is laid along the forward axis of the body as it was then:
+    # in the end's frame it has a part (dtheta_nb x f) e_start across the forward axis, so a
+    # turn puts forward noise into the lateral rows (the odometer's 5 mm quantization at
+    # 3 deg/s: 5e-5 m/s, the size of the rows' other residuals on a simulated drive)
+    th = acc[ACC_TH:ACC_TH + 3]
+    f0, f1, f2 = p[P_FWD], p[P_FWD + 1], p[P_FWD + 2]
+    tf = (th[1] * f2 - th[2] * f1, th[2] * f0 - th[0] * f2, th[0] * f1 - th[1] * f0)
+    var_fwd = (p[P_SIG + 1] * T) ** 2
     for i in range(3):
         zz = 0.0
         for j in range(3):
             zz += C_bn[i, j] * (acc[ACC_DP + j] - dD[j])
         z[i] = zz
-        r[i] = (p[P_SIG + i] * T) ** 2
+        r[i] = (p[P_SIG + i] * T) ** 2 + 0.5 * var_fwd * tf[i] * tf[i]
     _displacement_rows(H, (offs[PHI], offs[DV], offs[DK], offs[MOUNT], offs[LEVER]), C_bn, T,
                        C_bn @ dD, C_bn @ acc[ACC_W:ACC_W + 3].copy(),
-                       acc[ACC_TH:ACC_TH + 3].copy())
+                       acc[ACC_TH:ACC_TH + 3].copy(), p[P_FWD:P_FWD + 3].copy())
+    # the velocity error drifts within the interval, dv(t) = dv_k - (t_k - t) ([f_n x] phi +
+    # C_b^n nabla), so int dv dt = T dv_k - T^2 / 2 ([f_n x] phi + C_b^n nabla): in b,
+    # -T^2 / 2 ([f_b x] C_n^b phi + nabla) (f_b: the interval's mean specific force). A
+    # 1 arcmin tilt error gives 0.36 mm over 0.5 s, as large as the sensors' own noise.
+    h2 = 0.5 * T * T
+    # the interval's mean specific force, from the SINS velocity change plus gravity (the
+    # Coriolis part, 2e-3 m/s^2 at 15 m/s, left out), in b at the interval's end
+    fn = acc[ACC_FN:ACC_FN + 3] / T
+    fb0 = C_bn[0, 0] * fn[0] + C_bn[0, 1] * fn[1] + C_bn[0, 2] * fn[2]
+    fb1 = C_bn[1, 0] * fn[0] + C_bn[1, 1] * fn[1] + C_bn[1, 2] * fn[2]
+    fb2 = C_bn[2, 0] * fn[0] + C_bn[2, 1] * fn[1] + C_bn[2, 2] * fn[2]
+    o_phi, o_nab = offs[PHI], offs[NABLA]
+    for j in range(3):
+        c0, c1, c2 = C_bn[0, j], C_bn[1, j], C_bn[2, j]
+        H[0, o_phi + j] -= h2 * (fb1 * c2 - fb2 * c1)
+        H[1, o_phi + j] -= h2 * (fb2 * c0 - fb0 * c2)
+        H[2, o_phi + j] -= h2 * (fb0 * c1 - fb1 * c0)
+        if o_nab >= 0:
+            H[j, o_nab + j] -= h2
     return 3
 
 
@@ -794,8 +839,8 @@ class _SensorChannel(Measurement):
 
 class SensorVelocityNav(_SensorChannel):
     """Paper 003 eq. 23-24: SINS velocity minus the sensor's forward speed mapped to the IMU
-    point (lever arm, nominal mounting) and to n, ``z = v_SINS - C_b^n (C_v^b0 [0, v, 0] -
-    omega_nb^b x l)``; rows :func:`inmotion.estimation.aiding_rows._velocity_rows`.
+    point (lever arm, nominal mounting) and to n, ``z = v_SINS - C_b^n (f v - f f^T
+    (omega_nb^b x l))``, ``f = C_v^b0 [0, 1, 0]``; rows :func:`inmotion.estimation.aiding_rows._velocity_rows`.
     Sample: ``[v]`` [m/s] at the interval's end."""
 
     name, data_size = "sensor_velocity_n", 1

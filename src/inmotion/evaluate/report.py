@@ -237,6 +237,9 @@ def _result_section(page: _Page, root: Path, paper=None, level=2) -> list:
                         [[plots.ERROR_WORDS.get(k, (k, ""))[0], k,
                           plots.ERROR_WORDS.get(k, ("", ""))[1]]
                          + [block[s].get(k) for s in stats] for k in keys], left=3))
+    cons = (block or {}).get("consistency") or {}
+    if cons or summary.get("nis"):
+        page.add(_consistency_section(cons, summary.get("nis") or {}))
     if summary.get("stages"):            # inmotion process: which stage ran when and why
         page.add("<h3>Stages</h3>" + _table(
             ["stage", "method", "start [s]", "end [s]", "heading at end [deg]",
@@ -278,6 +281,28 @@ def _result_section(page: _Page, root: Path, paper=None, level=2) -> list:
                                                    ("method", "config", "timing", "bundle", "init")
                                                    if summary.get(k) is not None}))
     return rows
+
+
+def _consistency_section(cons: dict, nis: dict) -> str:
+    """Does the filter's sigma cover its error (NEES against truth, ``errors.consistency``)
+    and do its innovations fit their covariance (NIS per measurement kind, ``nis``)?"""
+    rows = []
+    for name, c in cons.items():
+        band = c.get("band_95") or [None, None]
+        rows.append([f"NEES {name}", c.get("mean"), c.get("dof"), band[0], band[1],
+                     c.get("rows"), "yes" if c.get("in_band") else "no"])
+    for kind, c in nis.items():
+        band = c.get("band_95") or [None, None]
+        rows.append([f"NIS {kind} (per dof)", c.get("mean_per_dof"), c.get("dof"), band[0],
+                     band[1], c.get("samples"),
+                     "-" if c.get("in_band") is None else "yes" if c["in_band"] else "no"])
+    return ("<h3>Consistency</h3><p>NEES: the mean of (error / sigma)² summed over a group's "
+            "three axes (3 for a filter whose sigma is honest); NIS: the mean innovation "
+            "chi-square per degree of freedom of each measurement kind (1 when the "
+            "innovations fit their covariance). The 95 % bands assume independent rows, "
+            "a loose check.</p>"
+            + _table(["statistic", "mean", "dof", "95 % band low", "95 % band high",
+                      "rows / samples", "in band"], rows, left=1))
 
 
 #: the errors block's statistics in words

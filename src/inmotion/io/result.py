@@ -195,6 +195,8 @@ def _write_result_files(solution, folder: Path, truth, summary_extra, fmt) -> di
                "timing": info.pop("timing", {}), "epochs": len(solution),
                "final": _final_values(solution), "states": states, "info": info,
                "format": fmt}
+    if info.get("nis") is not None:      # NIS per measurement kind (chi2.nis_summary)
+        summary["nis"] = info.pop("nis")
     summary.update(summary_extra or {})
     if truth is not None:
         summary["errors"] = write_errors(solution, truth, folder, fmt=fmt)
