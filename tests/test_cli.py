@@ -178,12 +178,12 @@ def test_demo_runs_end_to_end(scenario_file, monkeypatch):
 def test_demo_process_on_the_shipped_drive():
     """The demo's main job is ``inmotion process`` with no attitude given: parked 31 s (< 60 s),
     so in-motion coarse alignment from the start, radar fine alignment (dr-kf) and sins-dr to
-    the end. Bounds: coarse level within a few arcmin (accelerometer bias 50 ug ~ 0.2'),
+    the end, with zero-velocity updates at the drive's two stops (a 'stops' stage). Bounds: coarse level within a few arcmin (accelerometer bias 50 ug ~ 0.2'),
     final heading within 15' (gyrocompass limit drift / (omega_ie cos L) = 0.01 deg/h -> 2.8'
     1-sigma; the filters report 4-8'), level within 1', position within 0.3 % of 8.7 km."""
     d = run_json("demo")
     rows = {r["method"].split(":")[0]: r for r in d["process"]["rows"]}
-    assert set(rows) == {"moving coarse", "fine", "navigate", "process"}, rows
+    assert set(rows) == {"moving coarse", "fine", "navigate", "stops", "process"}, rows
     assert rows["moving coarse"]["level_arcmin"] < 5.0
     p = rows["process"]
     assert abs(p["heading_arcmin"]) < 15.0 and p["level_arcmin"] < 1.0, p

@@ -60,7 +60,10 @@ def test_od_kf_with_a_wide_mounting_prior_does_not_warn_about_it(comma_bundle, t
     assert r.exit_code == 0, r.output
     s = json.loads((out / "summary.json").read_text())
     assert not any("prior" in w for w in s["info"]["warnings"]), s["info"]["warnings"]
-    assert s["errors"]["final"]["horizontal_m"] < 0.06 * s["errors"]["distance_m"]
+    # within 10 % of distance, the same sanity bound as the defaults' test above (the issue's
+    # failure was 117 %); measured 48 m before the displacement rows gained their T^2/2 term
+    # (a model fix shown on simulated truth, issue 15), 61 m after: written in the note
+    assert s["errors"]["final"]["horizontal_m"] < 0.10 * s["errors"]["distance_m"]
 
 
 def test_default_noise_on_a_real_log_without_spec_warns():
