@@ -353,25 +353,38 @@ def still_start(bundle: Bundle, t0: float, accel_m_s2: float = 0.15, gyro_deg_s:
 
 
 def _imu_still(bundle: Bundle, ta: float, tb: float, accel_m_s2: float, gyro_deg_s: float,
-               block_s: float = 0.25) -> bool:
-    """The IMU agrees that the vehicle stands still over ``[ta, tb]``: the mean rate within
-    ``gyro_deg_s`` of zero (the Earth rate and a MEMS bias are far below it, a turn is not),
-    and every ``block_s`` mean of the specific force and of the rate within ``accel_m_s2`` /
-    ``gyro_deg_s`` of the window's mean (the test of :func:`still_start`, over a whole
-    window). Straight driving at constant speed cannot be told from standing by an IMU."""
+               block_s: float = 0.25, min_s: float = 0.0):
+    """The part of ``[ta, tb]`` in which the IMU agrees that the vehicle stands still, as
+    ``(start, end)``, or None: the longest run of ``block_s`` blocks whose mean specific force
+    and rate lie within ``accel_m_s2`` / ``gyro_deg_s`` of the window's median block (the test
+    of :func:`still_start`, robust to the ends of a stop, where the speed test already reads
+    zero but the vehicle still brakes or pulls away), at least ``min_s`` long, with its mean
+    rate within ``gyro_deg_s`` of zero (the Earth rate and a MEMS bias are far below it, a
+    turn is not). Straight driving at constant speed cannot be told from standing by an
+    IMU."""
     imu = bundle.imu
     k = np.flatnonzero((imu.t > ta) & (imu.t <= tb))
     n = max(1, int(round(block_s / imu.dt)))
     nb = len(k) // n
     if nb < 1:
-        return False
+        return None
     k = k[:nb * n]
     dt = imu.dt
     f = imu.dvel[k].reshape(nb, n, 3).sum(1) / (n * dt)
     w = imu.dtheta[k].reshape(nb, n, 3).sum(1) / (n * dt)
-    return bool(np.abs(f - f.mean(0)).max() <= accel_m_s2
-                and np.degrees(np.abs(w - w.mean(0)).max()) <= gyro_deg_s
-                and np.degrees(np.linalg.norm(w.mean(0))) <= gyro_deg_s)
+    ok = ((np.abs(f - np.median(f, 0)).max(1) <= accel_m_s2)
+          & (np.degrees(np.abs(w - np.median(w, 0)).max(1)) <= gyro_deg_s))
+    d = np.diff(np.r_[0, ok.astype(np.int8), 0])
+    runs = list(zip(np.flatnonzero(d == 1), np.flatnonzero(d == -1)))
+    if not runs:
+        return None
+    i, j = max(runs, key=lambda r: r[1] - r[0])
+    if (j - i) * n * dt < max(min_s, n * dt):
+        return None
+    if np.degrees(np.linalg.norm(w[i:j].mean(0))) > gyro_deg_s:
+        return None
+    t_blocks = imu.t[k].reshape(nb, n)
+    return float(t_blocks[i, 0] - dt), float(t_blocks[j - 1, -1])
 
 
 def stop_windows(bundle: Bundle, cfg: ProcessConfig, t_from: float) -> tuple[list, str]:
@@ -379,9 +392,9 @@ def stop_windows(bundle: Bundle, cfg: ProcessConfig, t_from: float) -> tuple[lis
     motion test (paper 003 eq. 43-45, :func:`inmotion.align.strategy.motion_statistic`, the
     statistic and threshold :func:`plan` uses, on a 10 Hz grid) below its threshold, each cut
     by ``stop_margin_s`` at both ends (the speed is below the test's resolution, ~0.08 m/s,
-    not zero, at a stop's edges) and kept if ``min_stop_s`` long and the IMU agrees
-    (:func:`_imu_still`: a speed channel reading zero while the vehicle turns or changes
-    speed is not a stop; with odometer and LDV both must read zero). Returns ``([[start, end], ...], why)``."""
+    not zero, at a stop's edges) and kept, cut to the part in which the IMU agrees, if that is
+    ``min_stop_s`` long (:func:`_imu_still`: a speed channel reading zero while the vehicle
+    turns or changes speed is not a stop; with odometer and LDV both must read zero). Returns ``([[start, end], ...], why)``."""
     from .align.strategy import motion_statistic
     from .estimation import chi2
     t, lam, dof = motion_statistic(bundle, t_from, cfg.parked_speed_noise_m_s, 10.0,
@@ -393,8 +406,10 @@ def stop_windows(bundle: Bundle, cfg: ProcessConfig, t_from: float) -> tuple[lis
         ta, tb = float(t[a]) + cfg.stop_margin_s, float(t[b]) - cfg.stop_margin_s
         if tb - ta < cfg.min_stop_s:
             continue
-        if _imu_still(bundle, ta, tb, cfg.still_accel_m_s2, cfg.still_gyro_deg_s):
-            out.append([ta, tb])
+        core = _imu_still(bundle, ta, tb, cfg.still_accel_m_s2, cfg.still_gyro_deg_s,
+                          min_s=cfg.min_stop_s)
+        if core is not None:
+            out.append([round(core[0], 3), round(core[1], 3)])
         else:
             refused += 1
     why = (f"chi-square motion test (paper 003 eq. 43-45, threshold {thr:.3g}) below its "
