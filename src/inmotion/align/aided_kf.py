@@ -101,7 +101,7 @@ import time
 from typing import Callable, Literal, Optional
 
 import numpy as np
-from pydantic import BaseModel, ConfigDict, Field, ValidationError
+from pydantic import ConfigDict, Field, ValidationError
 
 from ..core import earth, rotations
 from ..core import _kernels as K
@@ -113,6 +113,7 @@ from ..errors import BadInput
 from ..estimation import chi2
 from ..estimation import error_model as em
 from ..estimation import measurements as ms
+from ..estimation.velocity_aided import StopUpdateFields
 from ..estimation.aiding_rows import NHC_LAYOUT, SUB_LAYOUT
 from ..estimation.engine import (EVENT_DETECTED, EVENT_MODE, MODE_FUSED, MODE_NONE,
                                  ErrorStateFilter, LocalFilter)
@@ -131,7 +132,7 @@ _SENSOR_UNITS = (StateUnit("ppm", 1e6), StateUnit("arcmin", 1.0 / ARCMIN),
                  StateUnit("m", 1.0))
 
 
-class NhcKfConfig(BaseModel):
+class NhcKfConfig(StopUpdateFields):
     """Common configuration (human units in the field names)."""
 
     model_config = ConfigDict(extra="forbid")
@@ -201,13 +202,6 @@ class NhcKfConfig(BaseModel):
     keep_test_statistics: bool = Field(
         False,
         description="keep the chi-square test statistics series in the result's info")
-    stops_s: list[list[float]] = Field(
-        default_factory=list,
-        description="[start, end] windows [s] in which the vehicle stands still: zero-velocity "
-                    "and zero angular rate updates there, on every local filter (inmotion "
-                    "process fills them from the motion test)")
-    zupt_noise_m_s: float = Field(
-        0.02, gt=0, description="1-sigma of the zero-velocity update at a stop (sway) [m/s]")
     stop_sway_deg_h: float = Field(
         20.0, gt=0,
         description="1-sigma angular rate of the stopped vehicle's sway [deg/h]; the zero "

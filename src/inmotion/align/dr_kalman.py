@@ -74,7 +74,7 @@ import time
 from typing import Callable, Literal, Optional
 
 import numpy as np
-from pydantic import BaseModel, ConfigDict, Field, ValidationError
+from pydantic import ConfigDict, Field, ValidationError
 from ..estimation import chi2
 
 from ..core import earth
@@ -84,7 +84,7 @@ from ..core.solution import NavState, Solution
 from ..errors import BadInput
 from ..estimation import error_model as em
 from ..estimation.layout import Layout, position_units
-from ..estimation.velocity_aided import (GROUP_SIZES, GROUPS, VelocityAidedRun, dr_gyro_rows,
+from ..estimation.velocity_aided import (StopUpdateFields, GROUP_SIZES, GROUPS, VelocityAidedRun, dr_gyro_rows,
                                          with_dr_gyro)
 
 __all__ = ["DrKfConfig", "OdVelocityKfConfig", "run_dr_kf", "run_od_velocity_kf",
@@ -100,7 +100,7 @@ LAYOUT_DR_KF = Layout(["phi", "dv", "dp", "eps", "nabla", "phi_D", "dp_D", "moun
 LAYOUT_OD_KF = Layout(["phi", "dv", "dp", "eps", "nabla", "mount", "dk"])
 
 
-class OdVelocityKfConfig(BaseModel):
+class OdVelocityKfConfig(StopUpdateFields):
     """Configuration of ``od-velocity-kf`` (and the common part of ``dr-kf``).
 
     Rates: ``filter_rate_hz`` (prediction, model relinearization), ``measurement_rate_hz``
@@ -153,13 +153,6 @@ class OdVelocityKfConfig(BaseModel):
         False,
         description="forward-backward: Rauch-Tung-Striebel smoothing over the whole run "
                     "(estimation.smoother); sigma_forward_* keeps the forward filter's sigma")
-    stops_s: list[list[float]] = Field(
-        default_factory=list,
-        description="[start, end] windows [s] in which the vehicle stands still: a "
-                    "zero-velocity update at every measurement epoch inside (inmotion process "
-                    "fills them from the motion test)")
-    zupt_noise_m_s: float = Field(
-        0.02, gt=0, description="1-sigma of the zero-velocity update at a stop (sway) [m/s]")
     # priors
     init_tilt_sigma_deg: float = Field(
         1.0, gt=0, description="initial 1-sigma of the level (pitch, roll) error [deg]")

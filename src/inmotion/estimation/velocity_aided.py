@@ -26,6 +26,7 @@ Samples sharing an epoch are applied in the order of that table.
 from __future__ import annotations
 
 import numpy as np
+from pydantic import BaseModel, Field
 
 from ..core.bundle import SpeedData, regroup
 from ..core.deadreckoning import speed_on_epochs
@@ -37,7 +38,7 @@ from .engine import ErrorStateFilter
 from .layout import Layout
 from .smoother import ForwardRecord, smooth_at_outputs
 
-__all__ = ["check_stops", "dr_gyro_rows", "with_dr_gyro", "GROUPS", "GROUP_SIZES", "VelocityAidedRun", "regroup"]
+__all__ = ["StopUpdateFields", "check_stops", "dr_gyro_rows", "with_dr_gyro", "GROUPS", "GROUP_SIZES", "VelocityAidedRun", "regroup"]
 
 #: the measurement groups, in the order they are applied within an epoch
 GROUPS = ("attitude", "velocity", "sensor_velocity", "nhc", "position", "height",
@@ -122,6 +123,20 @@ def with_dr_gyro(pieces, dtheta_dr_rows):
     if k != len(dtheta_dr_rows):
         raise BadInput(f"dtheta_dr: {len(dtheta_dr_rows)} rows for {k} IMU rows")
     return out
+
+
+class StopUpdateFields(BaseModel):
+    """The configuration fields of zero-velocity updates at stops, shared by every filter
+    that takes them (``dr-kf``, ``od-velocity-kf``, ``sins-dr`` and the paper-003 filters);
+    :func:`check_stops` checks the windows."""
+
+    stops_s: list[list[float]] = Field(
+        default_factory=list,
+        description="[start, end] windows [s] in which the vehicle stands still: zero-velocity "
+                    "updates at every measurement epoch inside (inmotion process fills them "
+                    "from the motion test)")
+    zupt_noise_m_s: float = Field(
+        0.02, gt=0, description="1-sigma of the zero-velocity update at a stop (sway) [m/s]")
 
 
 def check_stops(raw) -> np.ndarray:

@@ -137,6 +137,19 @@ class Gap:
 
 # --------------------------------------------------------------------------- reading
 
+def bundle_folder(path) -> Path:
+    """``path`` as a bundle folder that exists and is whole (not a staged or interrupted
+    write); :class:`BadInput` otherwise. Both readers (:func:`read_bundle`,
+    :func:`inmotion.io.bundle_stream.open_bundle`) start here."""
+    folder = Path(path)
+    if not folder.exists():
+        raise BadInput("bundle folder does not exist", file=folder)
+    if not folder.is_dir():
+        raise BadInput("a bundle must be a folder", file=folder)
+    refuse_partial(folder, "bundle")
+    return folder
+
+
 def read_bundle(path, *, max_gap_periods: float = MAX_GAP_PERIODS,
                 allow_imu_gaps: bool = False) -> Bundle:
     """Read and validate a bundle folder.
@@ -160,12 +173,7 @@ def read_bundle(path, *, max_gap_periods: float = MAX_GAP_PERIODS,
     BadInput
         On the first problem found, naming the file, the row and the time.
     """
-    folder = Path(path)
-    if not folder.exists():
-        raise BadInput("bundle folder does not exist", file=folder)
-    if not folder.is_dir():
-        raise BadInput("a bundle must be a folder", file=folder)
-    refuse_partial(folder, "bundle")
+    folder = bundle_folder(path)
     meta = read_meta(folder)
     files = _locate_tables(folder, meta)
     if "imu" not in files:

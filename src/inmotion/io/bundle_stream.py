@@ -44,7 +44,6 @@ from ..core.bundle import VELOCITY_SENSORS, Bundle, Truth, row_at_or_after
 from ..core.earth import radii
 from ..errors import BadInput
 from . import bundle as B
-from .safe_write import refuse_partial
 
 __all__ = ["open_bundle", "BundleStream", "TruthStream", "CHUNK_ROWS"]
 
@@ -501,12 +500,7 @@ def open_bundle(path, *, max_gap_periods: float = B.MAX_GAP_PERIODS,
         As :func:`read_bundle`, for what can be checked before the rows are read; the rest
         when the rows are read.
     """
-    folder = Path(path)
-    if not folder.exists():
-        raise BadInput("bundle folder does not exist", file=folder)
-    if not folder.is_dir():
-        raise BadInput("a bundle must be a folder", file=folder)
-    refuse_partial(folder, "bundle")
+    folder = B.bundle_folder(path)
     chunk_rows = CHUNK_ROWS if chunk_rows is None else int(chunk_rows)
     meta = B.read_meta(folder)
     files = B._locate_tables(folder, meta)

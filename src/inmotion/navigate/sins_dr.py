@@ -74,7 +74,7 @@ import time
 from typing import Callable, Literal, Optional
 
 import numpy as np
-from pydantic import BaseModel, ConfigDict, Field
+from pydantic import ConfigDict, Field
 from ..estimation import chi2
 
 from ..core import earth
@@ -84,7 +84,7 @@ from ..core.solution import NavState, Solution
 from ..errors import BadInput
 from ..estimation import error_model as em
 from ..estimation.layout import Layout, position_units
-from ..estimation.velocity_aided import (GROUP_SIZES, GROUPS, VelocityAidedRun, dr_gyro_rows,
+from ..estimation.velocity_aided import (StopUpdateFields, GROUP_SIZES, GROUPS, VelocityAidedRun, dr_gyro_rows,
                                          with_dr_gyro)
 from .pure import mounting_matrix, velocity_source
 
@@ -101,7 +101,7 @@ MODES = {"attitude-position": ("attitude", "position"),
          "velocity-position": ("velocity", "position")}
 
 
-class SinsDrConfig(BaseModel):
+class SinsDrConfig(StopUpdateFields):
     """Configuration of ``sins-dr``; every field carries its unit in its name.
 
     Priors are 1-sigma at the start (a fine-aligned SINS; the DR starts from the same state,
@@ -151,13 +151,6 @@ class SinsDrConfig(BaseModel):
         False,
         description="forward-backward: Rauch-Tung-Striebel smoothing over the whole run "
                     "(estimation.smoother); sigma_forward_* keeps the forward filter's sigma")
-    stops_s: list[list[float]] = Field(
-        default_factory=list,
-        description="[start, end] windows [s] in which the vehicle stands still: a "
-                    "zero-velocity update at every measurement epoch inside (inmotion process "
-                    "fills them from the motion test)")
-    zupt_noise_m_s: float = Field(
-        0.02, gt=0, description="1-sigma of the zero-velocity update at a stop (sway) [m/s]")
     dr_sees_gyro_drift: bool = Field(
         True,
         description="keep the -C_b^n eps term in the DR attitude rows (False: paper 000's printed"
