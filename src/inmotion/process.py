@@ -65,6 +65,7 @@ from typing import Callable, Optional
 import numpy as np
 from pydantic import BaseModel, ConfigDict, Field
 
+from . import config_fields as cf
 from . import registry
 from .core import earth, rotations
 from .core.bundle import Bundle
@@ -138,9 +139,7 @@ class ProcessConfig(BaseModel):
         0.1, gt=0, description="1-sigma radar speed of the parked vehicle (motion test) [m/s]")
     false_alarm_rate: float = Field(
         1e-4, gt=0, lt=1, description="false-alarm probability of the motion test")
-    confirm_s: float = Field(
-        0.5, ge=0, description="moving is declared after the test exceeds its threshold for "
-                               "this long [s]")
+    confirm_s: float = cf.confirm_s(0.5)
     still_accel_m_s2: float = Field(
         0.15, gt=0,
         description="no velocity sensor: the vehicle is still at the start while every 0.25 s "

@@ -103,6 +103,7 @@ from typing import Callable, Literal, Optional
 import numpy as np
 from pydantic import ConfigDict, Field, ValidationError
 
+from .. import config_fields as cf
 from ..core import earth, rotations
 from ..core import _kernels as K
 from ..core.bundle import Bundle
@@ -136,47 +137,34 @@ class NhcKfConfig(StopUpdateFields):
     """Common configuration (human units in the field names)."""
 
     model_config = ConfigDict(extra="forbid")
-    filter_rate_hz: float = Field(
-        10.0, gt=0,
-        description="Kalman prediction (and model relinearization) rate [Hz], rounded to whole "
-                    "IMU rows")
+    filter_rate_hz: float = cf.filter_rate_hz(10.0)
     measurement_period_s: float = Field(0.5, gt=0, description="measurement update period [s]")
     main_period_s: float = Field(10.0, gt=0, description="fusion and feedback period")
-    output_interval_s: float = Field(1.0, gt=0, description="spacing of the output rows [s]")
+    output_interval_s: float = cf.output_interval_s(1.0)
     smooth: bool = Field(
         False,
         description="forward-backward: Rauch-Tung-Striebel smoothing over the whole run "
                     "(estimation.smoother); a bank (fkf, od-kf / ldv-kf with the NHC fallback) "
                     "keeps its FDI: the forward bank decides which samples are accepted and a "
                     "central filter over exactly those is smoothed")
-    use_baro: bool = Field(
-        True,
-        description="add the barometric height measurement h_SINS - h_baro (needs a baro table)")
+    use_baro: bool = cf.use_baro(True)
     mounting_from_meta: bool = Field(True, description="nominal IMU-to-vehicle mounting from "
                                      "meta vehicle_mounting_arcmin (else zero)")
     # priors (1-sigma)
-    init_tilt_sigma_deg: float = Field(
-        0.5, gt=0, description="initial 1-sigma of the level (pitch, roll) error [deg]")
-    init_heading_sigma_deg: float = Field(
-        2.0, gt=0, description="initial 1-sigma of the heading error [deg]")
-    init_velocity_sigma_m_s: float = Field(
-        0.2, gt=0, description="initial 1-sigma of the velocity error per axis [m/s]")
-    init_position_sigma_m: float = Field(
-        5.0, gt=0, description="initial 1-sigma of the position error per axis [m]")
+    init_tilt_sigma_deg: float = cf.init_tilt_sigma_deg(0.5)
+    init_heading_sigma_deg: float = cf.init_heading_sigma_deg(2.0)
+    init_velocity_sigma_m_s: float = cf.init_velocity_sigma_m_s(0.2)
+    init_position_sigma_m: float = cf.init_position_sigma_m(5.0)
     init_velocity_from_attitude: bool = Field(
         False,
         description="the start velocity was made from the start attitude and the sensor's "
                     "speed (a coarse alignment's hand-over): its prior error follows the "
                     "attitude error, dv = [v x] phi, plus init_velocity_sigma_m_s")
-    gyro_drift_deg_h: float = Field(
-        0.01, ge=0, description="1-sigma gyro drift (constant bias) per axis [deg/h]")
-    accel_bias_ug: float = Field(
-        100.0, ge=0, description="1-sigma accelerometer bias per axis [ug]")
+    gyro_drift_deg_h: float = cf.gyro_drift_deg_h(0.01)
+    accel_bias_ug: float = cf.accel_bias_ug(100.0)
     # noise
-    gyro_arw_deg_sqrt_h: float = Field(
-        0.001, ge=0, description="gyro angle random walk [deg/sqrt(h)]")
-    accel_vrw_ug_sqrt_hz: float = Field(
-        10.0, ge=0, description="accelerometer velocity random walk [ug/sqrt(Hz)]")
+    gyro_arw_deg_sqrt_h: float = cf.gyro_arw_deg_sqrt_h(0.001)
+    accel_vrw_ug_sqrt_hz: float = cf.accel_vrw_ug_sqrt_hz(10.0)
     gyro_markov_deg_h: float = Field(
         0.0, ge=0,
         description="stationary 1-sigma of a first-order Gauss-Markov gyro bias per axis "
@@ -194,11 +182,8 @@ class NhcKfConfig(StopUpdateFields):
         None, gt=0,
         description="correlation time of the Gauss-Markov accelerometer bias [s]; null: "
                     "a random constant")
-    nhc_noise_m_s: float = Field(
-        0.1, gt=0,
-        description="1-sigma of the NHC pseudo-measurement (lateral and vertical velocity) [m/s]")
-    baro_noise_m: float = Field(
-        10.0, gt=0, description="1-sigma of the barometric height measurement [m]")
+    nhc_noise_m_s: float = cf.nhc_noise_m_s(0.1)
+    baro_noise_m: float = cf.baro_noise_m(10.0)
     keep_test_statistics: bool = Field(
         False,
         description="keep the chi-square test statistics series in the result's info")
@@ -237,14 +222,12 @@ class AidedKfConfig(NhcKfConfig):
         description="initial 1-sigma of the odometer scale-factor error [ppm]")
     ldv_scale_sigma_ppm: float = Field(
         1000.0, ge=0, description="initial 1-sigma of the LDV scale-factor error [ppm]")
-    mount_sigma_arcmin: float = Field(
-        30.0, ge=0, description="initial 1-sigma of the mounting angles [arcmin]")
+    mount_sigma_arcmin: float = cf.mount_sigma_arcmin(30.0)
     lever_sigma_m: float = Field(
         0.05, ge=0, description="initial 1-sigma of the lever-arm error per axis [m]")
     fdi: bool = Field(
         True, description="chi-square residual fault detection and isolation per channel")
-    false_alarm_rate: float = Field(
-        1e-3, gt=0, lt=1, description="false-alarm probability of the chi-square test")
+    false_alarm_rate: float = cf.false_alarm_rate(1e-3)
     return_after_s: float = Field(
         1.0, ge=0,
         description="an isolated channel returns after its test passes for this long [s]")

@@ -38,6 +38,7 @@ from typing import Literal, Optional
 
 from pydantic import BaseModel, ConfigDict, Field
 
+from .. import config_fields as cf
 from ..core.bundle import Bundle
 from ..core.solution import NavState, Solution
 from . import attitude_determination as ad
@@ -54,9 +55,7 @@ class CoarseInertialConfig(BaseModel):
     mode: Literal["auto", "parked", "moving"] = Field(
         "auto", description="parked: no velocity sensor used (zero velocity); moving: needs "
                             "one; auto: moving if the bundle has a velocity sensor")
-    velocity_sensor: Optional[Literal["radar", "ldv", "odometer"]] = Field(
-        None,
-        description="forward-velocity sensor: radar, ldv or odometer; None: the first present")
+    velocity_sensor: Optional[Literal["radar", "ldv", "odometer"]] = cf.velocity_sensor(None)
     lowpass_time_constant_s: Optional[float] = Field(1.0, gt=0.0, le=60.0,
                                                      description="low-pass of the vectors; None: off")
     center_vectors: bool = Field(

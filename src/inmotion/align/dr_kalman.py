@@ -75,6 +75,7 @@ from typing import Callable, Literal, Optional
 
 import numpy as np
 from pydantic import ConfigDict, Field, ValidationError
+from .. import config_fields as cf
 from ..estimation import chi2
 
 from ..core import earth
@@ -116,23 +117,14 @@ class OdVelocityKfConfig(StopUpdateFields):
     """
 
     model_config = ConfigDict(extra="forbid")
-    velocity_sensor: Optional[Literal["radar", "ldv", "odometer"]] = Field(
-        None,
-        description="forward-velocity sensor: radar, ldv or odometer; None: the first present")
-    filter_rate_hz: float = Field(
-        10.0, gt=0,
-        description="Kalman prediction (and model relinearization) rate [Hz], rounded to whole "
-                    "IMU rows")
-    measurement_rate_hz: float = Field(
-        2.0, gt=0,
-        description="measurement update rate [Hz], rounded to whole filter epochs")
+    velocity_sensor: Optional[Literal["radar", "ldv", "odometer"]] = cf.velocity_sensor(None)
+    filter_rate_hz: float = cf.filter_rate_hz(10.0)
+    measurement_rate_hz: float = cf.measurement_rate_hz(2.0)
     use_nhc: bool = Field(
         True,
         description="add the non-holonomic constraint (zero lateral and vertical velocity in the "
                     "vehicle frame)")
-    use_baro: bool = Field(
-        True,
-        description="add the barometric height measurement h_SINS - h_baro (needs a baro table)")
+    use_baro: bool = cf.use_baro(True)
     nhc_mount_terms: bool = Field(
         True,
         description="NHC rows with the mounting-angle columns (False: paper 000 eq. 37 as "
@@ -143,58 +135,32 @@ class OdVelocityKfConfig(StopUpdateFields):
     feedback_rate_hz: float = Field(
         2.0, gt=0,
         description="closed-loop feedback rate [Hz], rounded to whole filter epochs")
-    gate_probability: float = Field(
-        0.9999, gt=0.5, le=1.0,
-        description="chi-square gate probability per measurement group (1: no gate)")
+    gate_probability: float = cf.gate_probability(0.9999)
     keep_covariance: bool = Field(
         False,
         description="keep the attitude covariance series in the result's info (memory)")
-    smooth: bool = Field(
-        False,
-        description="forward-backward: Rauch-Tung-Striebel smoothing over the whole run "
-                    "(estimation.smoother); sigma_forward_* keeps the forward filter's sigma")
+    smooth: bool = cf.smooth(False)
     # priors
-    init_tilt_sigma_deg: float = Field(
-        1.0, gt=0, description="initial 1-sigma of the level (pitch, roll) error [deg]")
-    init_heading_sigma_deg: float = Field(
-        1.0, gt=0, description="initial 1-sigma of the heading error [deg]")
-    init_velocity_sigma_m_s: float = Field(
-        0.1, gt=0, description="initial 1-sigma of the velocity error per axis [m/s]")
-    init_position_sigma_m: float = Field(
-        15.0, gt=0, description="initial 1-sigma of the position error per axis [m]")
-    gyro_drift_deg_h: float = Field(
-        0.03, ge=0, description="1-sigma gyro drift (constant bias) per axis [deg/h]")
-    accel_bias_ug: float = Field(
-        100.0, ge=0, description="1-sigma accelerometer bias per axis [ug]")
-    mount_sigma_arcmin: float = Field(
-        20.0, ge=0, description="initial 1-sigma of the mounting angles [arcmin]")
-    dk_sigma_ppm: float = Field(
-        1000.0, ge=0,
-        description="1-sigma of the velocity sensor's scale-factor error (first-order Markov) "
-                    "[ppm]")
-    dk_tau_s: float = Field(
-        300.0, gt=0, description="correlation time of the scale-factor Markov process [s]")
+    init_tilt_sigma_deg: float = cf.init_tilt_sigma_deg(1.0)
+    init_heading_sigma_deg: float = cf.init_heading_sigma_deg(1.0)
+    init_velocity_sigma_m_s: float = cf.init_velocity_sigma_m_s(0.1)
+    init_position_sigma_m: float = cf.init_position_sigma_m(15.0)
+    gyro_drift_deg_h: float = cf.gyro_drift_deg_h(0.03)
+    accel_bias_ug: float = cf.accel_bias_ug(100.0)
+    mount_sigma_arcmin: float = cf.mount_sigma_arcmin(20.0)
+    dk_sigma_ppm: float = cf.dk_sigma_ppm(1000.0)
+    dk_tau_s: float = cf.dk_tau_s(300.0)
     # noise
-    gyro_arw_deg_sqrt_h: float = Field(
-        0.003, ge=0, description="gyro angle random walk [deg/sqrt(h)]")
-    accel_vrw_ug_sqrt_hz: float = Field(
-        10.0, ge=0, description="accelerometer velocity random walk [ug/sqrt(Hz)]")
-    gyro_bias_rw_deg_h_sqrt_h: float = Field(
-        0.0, ge=0, description="gyro bias random walk [deg/h/sqrt(h)] (0: constant drift)")
-    accel_bias_rw_ug_sqrt_h: float = Field(
-        0.0, ge=0,
-        description="accelerometer bias random walk [ug/sqrt(h)] (0: constant bias)")
-    velocity_noise_m_s: float = Field(
-        0.1, gt=0,
-        description="1-sigma of the velocity-difference measurement along the vehicle [m/s]")
-    nhc_noise_m_s: float = Field(
-        0.03, gt=0,
-        description="1-sigma of the NHC pseudo-measurement (lateral and vertical velocity) [m/s]")
+    gyro_arw_deg_sqrt_h: float = cf.gyro_arw_deg_sqrt_h(0.003)
+    accel_vrw_ug_sqrt_hz: float = cf.accel_vrw_ug_sqrt_hz(10.0)
+    gyro_bias_rw_deg_h_sqrt_h: float = cf.gyro_bias_rw_deg_h_sqrt_h(0.0)
+    accel_bias_rw_ug_sqrt_h: float = cf.accel_bias_rw_ug_sqrt_h(0.0)
+    velocity_noise_m_s: float = cf.velocity_noise_m_s(0.1)
+    nhc_noise_m_s: float = cf.nhc_noise_m_s(0.03)
     lateral_noise_m_s: float = Field(
         0.03, gt=0,
         description="noise floor of the velocity difference across the sensor's axis [m/s]")
-    baro_noise_m: float = Field(
-        2.0, gt=0, description="1-sigma of the barometric height measurement [m]")
+    baro_noise_m: float = cf.baro_noise_m(2.0)
 
 
 class DrKfConfig(OdVelocityKfConfig):
@@ -204,13 +170,8 @@ class DrKfConfig(OdVelocityKfConfig):
     use_attitude: bool = Field(
         True, description="use Z1's attitude half (SINS minus DR heading, pitch, roll)")
     use_velocity: bool = Field(True, description="use Z1's velocity half (SINS minus DR velocity)")
-    attitude_noise_arcmin: float = Field(
-        0.2, gt=0,
-        description="1-sigma of the SINS-minus-DR attitude measurement [arcmin]")
-    dr_sees_gyro_drift: bool = Field(
-        True,
-        description="keep the -C_b^n eps term in the DR attitude rows (False: paper 000's printed"
-                    " F)")
+    attitude_noise_arcmin: float = cf.attitude_noise_arcmin(0.2)
+    dr_sees_gyro_drift: bool = cf.dr_sees_gyro_drift(True)
 
 
 def _process_noise(cfg) -> em.ProcessNoise:

@@ -67,6 +67,7 @@ from typing import Callable, Optional
 import numpy as np
 from pydantic import BaseModel, ConfigDict, Field
 
+from .. import config_fields as cf
 from ..core import earth
 from ..core.bundle import Bundle
 from ..core.mechanization import _first_row
@@ -94,26 +95,16 @@ class ParkedKfConfig(BaseModel):
     """Configuration of ``parked-kf`` (human units)."""
 
     model_config = ConfigDict(extra="forbid")
-    filter_rate_hz: float = Field(
-        10.0, gt=0,
-        description="Kalman prediction (and model relinearization) rate [Hz], rounded to whole "
-                    "IMU rows")
-    init_tilt_sigma_deg: float = Field(
-        0.5, gt=0, description="initial 1-sigma of the level (pitch, roll) error [deg]")
-    init_heading_sigma_deg: float = Field(
-        5.0, gt=0, description="initial 1-sigma of the heading error [deg]")
-    init_velocity_sigma_m_s: float = Field(
-        0.1, gt=0, description="initial 1-sigma of the velocity error per axis [m/s]")
-    gyro_drift_deg_h: float = Field(
-        0.01, ge=0, description="1-sigma gyro drift (constant bias) per axis [deg/h]")
-    accel_bias_ug: float = Field(
-        100.0, ge=0, description="1-sigma accelerometer bias per axis [ug]")
-    gyro_arw_deg_sqrt_h: float = Field(
-        0.001, ge=0, description="gyro angle random walk [deg/sqrt(h)]")
-    accel_vrw_ug_sqrt_hz: float = Field(
-        10.0, ge=0, description="accelerometer velocity random walk [ug/sqrt(Hz)]")
+    filter_rate_hz: float = cf.filter_rate_hz(10.0)
+    init_tilt_sigma_deg: float = cf.init_tilt_sigma_deg(0.5)
+    init_heading_sigma_deg: float = cf.init_heading_sigma_deg(5.0)
+    init_velocity_sigma_m_s: float = cf.init_velocity_sigma_m_s(0.1)
+    gyro_drift_deg_h: float = cf.gyro_drift_deg_h(0.01)
+    accel_bias_ug: float = cf.accel_bias_ug(100.0)
+    gyro_arw_deg_sqrt_h: float = cf.gyro_arw_deg_sqrt_h(0.001)
+    accel_vrw_ug_sqrt_hz: float = cf.accel_vrw_ug_sqrt_hz(10.0)
     zero_velocity_noise_m_s: float = Field(0.01, gt=0, description="vibration velocity")
-    output_interval_s: float = Field(1.0, gt=0, description="spacing of the output rows [s]")
+    output_interval_s: float = cf.output_interval_s(1.0)
 
 
 def parked_F(lat: float, C_nb, f_n) -> np.ndarray:

@@ -35,6 +35,7 @@ from typing import Callable, Literal, Optional
 import numpy as np
 from pydantic import BaseModel, ConfigDict, Field
 
+from .. import config_fields as cf
 from ..core import rotations
 from ..core.bundle import Bundle
 from ..core.solution import NavState, Solution
@@ -58,11 +59,8 @@ class AdaptiveConfig(BaseModel):
     model_config = ConfigDict(extra="forbid")
     parked_speed_noise_m_s: list[float] = Field([0.02, 0.02], min_length=2, max_length=2,
                                                 description="[odometer, ldv] 1-sigma parked")
-    false_alarm_rate: float = Field(
-        1e-4, gt=0, lt=1, description="false-alarm probability of the chi-square test")
-    confirm_s: float = Field(
-        0.5, ge=0,
-        description="moving is declared after the test exceeds its threshold for this long [s]")
+    false_alarm_rate: float = cf.false_alarm_rate(1e-4)
+    confirm_s: float = cf.confirm_s(0.5)
     test_rate_hz: float = Field(
         10.0, gt=0, description="rate of the parked/moving chi-square test [Hz]")
     parked_coarse_s: float = Field(

@@ -39,6 +39,7 @@ import numpy as np
 import pandas as pd
 import yaml
 
+from ..io.safe_write import atomic_write
 from .._typing import PathLike
 from ..errors import BadInput
 from . import plots
@@ -545,7 +546,6 @@ def build_report(path: PathLike, output: Optional[PathLike] = None, *,
         _collection(page, root, paper)
         _versions_section(page, None)
     out.parent.mkdir(parents=True, exist_ok=True)
-    tmp = out.with_name(f".{out.name}.tmp")
-    tmp.write_text(page.html(), encoding="utf-8")
-    tmp.replace(out)
+    text = page.html()
+    atomic_write(out, lambda tmp: Path(tmp).write_text(text, encoding="utf-8"))
     return out

@@ -22,6 +22,7 @@ from typing import Callable, Literal, Optional
 import numpy as np
 from pydantic import BaseModel, ConfigDict, Field
 
+from .. import config_fields as cf
 from ..core import rotations
 from ..core.bundle import Bundle
 from ..core.deadreckoning import dead_reckon_rows
@@ -57,9 +58,7 @@ class SinsConfig(BaseModel):
     baro_tau_s: float = Field(
         10.0, gt=0,
         description="time constant of the critically damped barometric height loop [s]")
-    out_stride: int = Field(
-        1, ge=1,
-        description="output the initial state, then every out_stride-th IMU epoch")
+    out_stride: int = cf.out_stride(1)
 
 
 class DrConfig(BaseModel):
@@ -98,19 +97,11 @@ class DrConfig(BaseModel):
     speed_scale: float = Field(
         1.0, gt=0,
         description="multiplies the sensor's speed (1 / (1 + dk) undoes a scale-factor error dk)")
-    mounting_arcmin: Optional[tuple[float, float, float]] = Field(
-        None,
-        description="IMU mounting in the vehicle [alpha, beta, gamma] [arcmin], C_v^b = exp([A "
-                    "x]); None: vehicle_mounting_arcmin of meta.yaml, else zero")
-    lever_arm_m: Optional[tuple[float, float, float]] = Field(
-        None,
-        description="the sensor's position relative to the IMU in b [x, y, z] [m]; None: from "
-                    "meta.yaml, else zero")
+    mounting_arcmin: Optional[tuple[float, float, float]] = cf.mounting_arcmin(None)
+    lever_arm_m: Optional[tuple[float, float, float]] = cf.lever_arm_m(None)
     max_gap_s: Optional[float] = Field(
         None, gt=0, description="sensor gap threshold [s]; None: 5 sensor periods")
-    out_stride: int = Field(
-        1, ge=1,
-        description="output the initial state, then every out_stride-th IMU epoch")
+    out_stride: int = cf.out_stride(1)
 
 
 def _require_init(init: Optional[NavState], method: str) -> NavState:

@@ -75,6 +75,7 @@ from typing import Callable, Literal, Optional
 
 import numpy as np
 from pydantic import ConfigDict, Field
+from .. import config_fields as cf
 from ..estimation import chi2
 
 from ..core import earth
@@ -129,86 +130,45 @@ class SinsDrConfig(StopUpdateFields):
         "attitude-position",
         description="measurement: attitude-position (paper 002 eq. 44) or velocity-position (eq. "
                     "52)")
-    velocity_sensor: Optional[Literal["radar", "ldv", "odometer"]] = Field(
-        None,
-        description="forward-velocity sensor: radar, ldv or odometer; None: the first present")
-    filter_rate_hz: float = Field(
-        10.0, gt=0,
-        description="Kalman prediction (and model relinearization) rate [Hz], rounded to whole "
-                    "IMU rows")
-    measurement_rate_hz: float = Field(
-        10.0, gt=0,
-        description="measurement update rate [Hz], rounded to whole filter epochs")
+    velocity_sensor: Optional[Literal["radar", "ldv", "odometer"]] = cf.velocity_sensor(None)
+    filter_rate_hz: float = cf.filter_rate_hz(10.0)
+    measurement_rate_hz: float = cf.measurement_rate_hz(10.0)
     output_rate_hz: Optional[float] = Field(
         None, gt=0, description="rate of the output rows [Hz]; None: the filter rate")
-    use_baro: bool = Field(
-        False,
-        description="add the barometric height measurement h_SINS - h_baro (needs a baro table)")
-    gate_probability: float = Field(
-        1.0, gt=0.5, le=1.0,
-        description="chi-square gate probability per measurement group (1: no gate)")
-    smooth: bool = Field(
-        False,
-        description="forward-backward: Rauch-Tung-Striebel smoothing over the whole run "
-                    "(estimation.smoother); sigma_forward_* keeps the forward filter's sigma")
-    dr_sees_gyro_drift: bool = Field(
-        True,
-        description="keep the -C_b^n eps term in the DR attitude rows (False: paper 000's printed"
-                    " F)")
-    mounting_arcmin: Optional[tuple[float, float, float]] = Field(
-        None,
-        description="IMU mounting in the vehicle [alpha, beta, gamma] [arcmin], C_v^b = exp([A "
-                    "x]); None: vehicle_mounting_arcmin of meta.yaml, else zero")
-    lever_arm_m: Optional[tuple[float, float, float]] = Field(
-        None,
-        description="the sensor's position relative to the IMU in b [x, y, z] [m]; None: from "
-                    "meta.yaml, else zero")
+    use_baro: bool = cf.use_baro(False)
+    gate_probability: float = cf.gate_probability(1.0)
+    smooth: bool = cf.smooth(False)
+    dr_sees_gyro_drift: bool = cf.dr_sees_gyro_drift(True)
+    mounting_arcmin: Optional[tuple[float, float, float]] = cf.mounting_arcmin(None)
+    lever_arm_m: Optional[tuple[float, float, float]] = cf.lever_arm_m(None)
     # priors
     init_tilt_sigma_arcmin: float = Field(
         1.0, gt=0, description="initial 1-sigma of the level (pitch, roll) error [arcmin]")
     init_heading_sigma_arcmin: float = Field(
         5.0, gt=0, description="initial 1-sigma of the heading error [arcmin]")
-    init_velocity_sigma_m_s: float = Field(
-        0.1, gt=0, description="initial 1-sigma of the velocity error per axis [m/s]")
-    init_position_sigma_m: float = Field(
-        15.0, gt=0, description="initial 1-sigma of the position error per axis [m]")
-    gyro_drift_deg_h: float = Field(
-        0.01, ge=0, description="1-sigma gyro drift (constant bias) per axis [deg/h]")
-    accel_bias_ug: float = Field(
-        100.0, ge=0, description="1-sigma accelerometer bias per axis [ug]")
-    dk_sigma_ppm: float = Field(
-        1000.0, ge=0,
-        description="1-sigma of the velocity sensor's scale-factor error (first-order Markov) "
-                    "[ppm]")
-    dk_tau_s: float = Field(
-        300.0, gt=0, description="correlation time of the scale-factor Markov process [s]")
+    init_velocity_sigma_m_s: float = cf.init_velocity_sigma_m_s(0.1)
+    init_position_sigma_m: float = cf.init_position_sigma_m(15.0)
+    gyro_drift_deg_h: float = cf.gyro_drift_deg_h(0.01)
+    accel_bias_ug: float = cf.accel_bias_ug(100.0)
+    dk_sigma_ppm: float = cf.dk_sigma_ppm(1000.0)
+    dk_tau_s: float = cf.dk_tau_s(300.0)
     # process noise
-    gyro_arw_deg_sqrt_h: float = Field(
-        0.003, ge=0, description="gyro angle random walk [deg/sqrt(h)]")
-    accel_vrw_ug_sqrt_hz: float = Field(
-        10.0, ge=0, description="accelerometer velocity random walk [ug/sqrt(Hz)]")
-    gyro_bias_rw_deg_h_sqrt_h: float = Field(
-        0.0, ge=0, description="gyro bias random walk [deg/h/sqrt(h)] (0: constant drift)")
-    accel_bias_rw_ug_sqrt_h: float = Field(
-        0.0, ge=0,
-        description="accelerometer bias random walk [ug/sqrt(h)] (0: constant bias)")
+    gyro_arw_deg_sqrt_h: float = cf.gyro_arw_deg_sqrt_h(0.003)
+    accel_vrw_ug_sqrt_hz: float = cf.accel_vrw_ug_sqrt_hz(10.0)
+    gyro_bias_rw_deg_h_sqrt_h: float = cf.gyro_bias_rw_deg_h_sqrt_h(0.0)
+    accel_bias_rw_ug_sqrt_h: float = cf.accel_bias_rw_ug_sqrt_h(0.0)
     speed_noise_m_s: float = Field(
         0.1, ge=0,
         description="white noise of the sensor's speed, drives the DR position random walk [m/s]")
     # measurement noise
-    attitude_noise_arcmin: float = Field(
-        0.2, gt=0,
-        description="1-sigma of the SINS-minus-DR attitude measurement [arcmin]")
+    attitude_noise_arcmin: float = cf.attitude_noise_arcmin(0.2)
     position_noise_m: float = Field(
         0.5, gt=0, description="1-sigma of the SINS-minus-DR position measurement [m]")
-    velocity_noise_m_s: float = Field(
-        0.1, gt=0,
-        description="1-sigma of the velocity-difference measurement along the vehicle [m/s]")
+    velocity_noise_m_s: float = cf.velocity_noise_m_s(0.1)
     velocity_cross_noise_m_s: float = Field(
         0.1, gt=0,
         description="1-sigma of the velocity difference across and up the vehicle [m/s]")
-    baro_noise_m: float = Field(
-        2.0, gt=0, description="1-sigma of the barometric height measurement [m]")
+    baro_noise_m: float = cf.baro_noise_m(2.0)
 
 
 def process_noise(cfg: SinsDrConfig) -> em.ProcessNoise:

@@ -16,6 +16,7 @@ import html
 import re
 from pathlib import Path
 
+from ..io.safe_write import atomic_write
 from ..evaluate.report import _Page, _table, _versions_section
 
 __all__ = ["write_page", "markdown_to_html"]
@@ -159,7 +160,6 @@ def write_page(path, results, title: str) -> Path:
         _paper_section(page, r)
     _versions_section(page, None)
     out.parent.mkdir(parents=True, exist_ok=True)
-    tmp = out.with_name(f".{out.name}.tmp")
-    tmp.write_text(page.html(), encoding="utf-8")
-    tmp.replace(out)
+    text = page.html()
+    atomic_write(out, lambda tmp: Path(tmp).write_text(text, encoding="utf-8"))
     return out
