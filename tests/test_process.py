@@ -429,3 +429,19 @@ def test_stop_windows_refuse_a_zero_speed_the_imu_does_not_confirm():
     stops, why = stop_windows(b, ProcessConfig(), 0.0)
     assert len(stops) == 1 and 40 < stops[0][0] < 43 and 60 < stops[0][1] < 63, stops
     assert "refused" in why
+
+
+@pytest.mark.parametrize("method", ["dr-kf", "sins-dr", "od-kf"])
+@pytest.mark.parametrize("stops, message", [
+    ([[10.0]], r"stops_s: each stop is \[start, end\] seconds$"),
+    ([[20.0, 10.0]], r"stops_s: each stop is \[start, end\] seconds with end >= start"),
+    ([[10.0, float("nan")]], r"stops_s: each stop is \[start, end\] seconds with end >= start"),
+])
+def test_bad_stop_windows_are_bad_input(od_only, radar_only, method, stops, message):
+    """Every filter that takes stop windows refuses a malformed one with one message."""
+    from inmotion import registry
+    from inmotion.errors import BadInput
+    b = radar_only if method in ("dr-kf", "sins-dr") else od_only
+    run, cls = registry.get(method).load()
+    with pytest.raises(BadInput, match=message):
+        run(b, cls(stops_s=stops), NavState.from_truth(b.truth))

@@ -234,6 +234,9 @@ def test_rows_compare_only_the_same_statistic_over_comparable_sample_sizes():
     assert "std over 50 against the paper's over 5" in rows[0]["why"]
     counts = count_verdicts(rows)
     assert counts["better"] == 1 and counts["not comparable"] == 3 and counts["ablation"] == 1
+    with pytest.raises(BadInput, match=r"measured_interval must be \[lo, hi\], got \[3.0, 1.0\]"):
+        compare_rows([{"quantity": "g", "paper": 1.0, "measured": 2.0,
+                       "measured_interval": [3.0, 1.0]}])
     with pytest.raises(BadInput, match="kind must be paper, ablation or timing"):
         compare_rows([{"quantity": "f", "paper": 1, "measured": 1, "kind": "mine"}])
 
