@@ -23,6 +23,13 @@ comma2k19 (60 s highway, phone IMU, CAN speed; moving from the first sample)
       README scale; the scale and mounting *estimated* by ``od-kf``; and the scale and
       mounting *measured from the reference* (:func:`reference_calibration`, an oracle, the
       best a perfect estimator could give). ``sins`` is the unaided baseline.
+    * **Constant + Gauss-Markov gyro bias** (issue 15, :func:`od_kf_constant_plus_gm`): the
+      phone's gyro error is a constant (~107 deg/h in z) plus a wander; the constant is
+      estimated by ``od-kf`` with a constant-bias model, removed, and ``od-kf`` with the
+      spec's Gauss-Markov model then gives scale and mounting. The calibrated dead reckoning
+      (:func:`calibrated_dr`) uses scale, mounting *and* the constant gyro bias, against the
+      oracle with all three from the reference (:func:`oracle_calibration`);
+      :func:`split_check` calibrates on one half and dead-reckons the other.
 EMS (511 s city drive, 20 Hz MEMS, no odometer)
     Every run starts from the reference at the end of the still period
     (:func:`still_period_end`) with the gyro bias measured over the still period removed
@@ -68,7 +75,9 @@ from ..core.metrics import error_series, interpolate_truth
 
 __all__ = ["default_data_root", "reference_calibration", "estimated_sensor",
            "coarse_alignment", "level_error", "gyro_minus_reference", "od_kf_iterated",
-           "run_comma2k19", "run_ems", "ems_pseudo_odometer",
+           "run_comma2k19", "run_ems", "od_kf_constant_plus_gm", "calibrated_dr",
+           "reference_gyro_bias", "oracle_calibration", "speed_lag_s", "split_check",
+           "imu_reference_yaw_from_accel", "ems_pseudo_odometer",
            "still_period_end", "still_gyro_bias", "result_rows", "reproduce", "reproduce_real",
            "README_CAN_SCALE", "STILL_SPEED_M_S", "OBSERVABILITY"]
 
@@ -82,21 +91,30 @@ NOT_DONE = [
     "comma2k19: the lever arm states of od-kf are estimated but not reported (no reference for "
     "them: the reference gives the camera's pose only)",
     "comma2k19 od-kf yaw mounting (issue 15 target: within 0.2 deg of the reference-derived "
-    "value): with the constant-bias model it was 0.7 deg off with a 0.17 deg sigma (the "
-    "phone gyro's z error changes by ~100 deg/h within the minute); with the Gauss-Markov "
-    "gyro bias it moves towards the reference and its sigma covers the error, but it stays "
-    "0.2-0.6 deg off depending on the undocumented sigma and tau (sensitivity table) and on "
-    "the start priors (loose start). An accelerometer Gauss-Markov bias as well (tried: "
-    "5-20 mg, 10-60 s) moves the yaw closer but the pitch mounting 0.6-0.9 deg away from the "
-    "reference; not adopted",
-    "a bias as a constant plus a Gauss-Markov part (two states per axis): the single "
-    "Gauss-Markov state forgets the phone's ~100 deg/h mean z error, so od-kf's own comma2k19 "
-    "position gets worse (24.8 m against 14.5 m) while its mounting gets better",
-    "comma2k19 calibrated dead reckoning (issue 15 target: within 20 m after 1 km): the "
-    "same DR with the scale and mounting measured from the reference (an oracle) ends "
-    "20.4 m off, because the DR's heading drifts with the uncompensated phone gyro (1.85 deg "
-    "at the end); the scale and mounting alone cannot bring it below that, and with the "
-    "estimated ones (yaw 0.3 deg off = 5 m over 1 km) it ends 24-31 m off",
+    "-0.81 deg): NOT met. Constant gyro bias: -0.10 deg (sigma 0.17, overconfident); "
+    "Gauss-Markov (150 deg/h, 30 s): -0.52 (sigma 0.26); constant + Gauss-Markov in two stages "
+    "(od_kf_constant_plus_gm): -0.48 (sigma 0.26, covers the error). Every model is within "
+    "0.1-0.15 deg in the first 10 s (the acceleration from 8 to 20 m/s) and drifts after; "
+    "varying the stage-2 gyro model (ARW 0.5-3.5 deg/sqrt(h), Gauss-Markov 60-150 deg/h, "
+    "3-30 s, or none) keeps the end value in -0.32 .. -0.58 deg. Ruled out: speed lag "
+    "(-0.03 s), z gyro scale (heading spans 1.2 deg). Open: the lateral accelerometer bias "
+    "and level error (0.08 m/s^2, 30 arcmin at the end) on a straight road at nearly constant "
+    "speed, and the reference itself: it gives the camera's yaw, and the accelerometers put "
+    "the IMU's axes 0.1-0.3 deg off the camera's in yaw, the size of the target",
+    "a single-pass constant + Gauss-Markov bias (two error states per axis) needs the engine's "
+    "state layout (owned elsewhere); done here in two stages (constant first, then the "
+    "Gauss-Markov model on the compensated gyro). Iterating the constant stage runs away "
+    "(z 104, 150, 169 deg/h against the reference's 107) and is not used",
+    "comma2k19 calibrated dead reckoning (issue 15 target: within 20 m after 1 km): met with "
+    "the gyro bias in the calibration (9.4 m; oracle 3.0 m); without it even the oracle scale "
+    "and mounting end 20.4 m off (the DR heading drifts with the phone gyro). The calibration "
+    "is estimated on the same 60 s the DR runs on: the dataset copy holds one segment, so no "
+    "per-segment spread can be given; the split check (fit one half, DR the other, ~500 m) "
+    "is the out-of-sample figure (3.3 and 6.5 m; oracle 2.8 and 3.4 m). The Gauss-Markov "
+    "parameters are not fitted from this data: the z error against the reference (Allan "
+    "deviation ~100 deg/h at 0.5-2 s, ~60 deg/h at 5-10 s) mixes the reference's own "
+    "attitude noise with the gyro's, and the only data is the evaluation segment; the "
+    "importer's spec stays `source: assumed`",
     "EMS od-kf with the pseudo-odometer: its yaw mounting ends at -1.4 deg against -0.18 "
     "from the reference, and the second pass, started from that value, ends 97 m off where the "
     "first pass ends 38 m off and DR with the same speed 32 m off (heading -9 deg vs -2.7 "
@@ -260,6 +278,47 @@ def gyro_minus_reference(bundle: Bundle, window_s: float = 10.0) -> dict:
             "mean_deg_h": (np.degrees(mean) * 3600).tolist()}
 
 
+def _specific_forces(bundle: Bundle, lag_s: float = 0.0):
+    """``(f_imu, f_ref, lat, h)`` over the reference intervals (:func:`accel_minus_reference`),
+    the IMU's read ``lag_s`` later than the reference's."""
+    imu, tr = bundle.imu, bundle.truth
+    inside = (tr.t >= imu.t[0] + max(0.0, -lag_s)) & (tr.t <= imu.t[-1] - max(0.0, lag_s))
+    t, C, vel, lat, h = (tr.t[inside], tr.C_nb[inside], tr.vel_n[inside], tr.lat[inside],
+                         tr.h[inside])
+    vsum = np.vstack([np.zeros(3), np.cumsum(imu.dvel[1:], axis=0)])
+    vs = np.column_stack([np.interp(t + lag_s, imu.t, vsum[:, i]) for i in range(3)])
+    dt = np.diff(t)[:, None]
+    f_imu = np.diff(vs, axis=0) / dt
+    mid = 0.5 * (vel[1:] + vel[:-1])
+    lat_m, h_m = 0.5 * (lat[1:] + lat[:-1]), 0.5 * (h[1:] + h[:-1])
+    cor = np.cross(2.0 * earth.omega_ie_n(lat_m) + earth.omega_en_n(lat_m, h_m, mid), mid)
+    f_n = np.diff(vel, axis=0) / dt + cor - earth.gravity_n(lat_m, h_m)
+    f_ref = np.einsum("kji,kj->ki", C[:-1], f_n)
+    return f_imu, f_ref, lat_m, h_m
+
+
+def imu_reference_yaw_from_accel(bundle: Bundle, lags_s=(-0.05, 0.0, 0.05)) -> dict:
+    """How well the IMU's axes agree in yaw with the reference's (the camera's), seen by the
+    accelerometers: if the IMU frame is turned by ``delta`` about z from the reference's,
+    ``f_imu,x = f_x + delta f_y`` (small angle), so the lateral residual ``f_imu,x - f_ref,x``
+    regressed on the forward specific force ``f_ref,y`` (with a constant for the bias and a
+    term in ``f_ref,z`` for a roll difference) has slope ``delta``. A cross-axis sensitivity
+    of the accelerometer gives the same slope, so this is the scale of the axes' yaw
+    disagreement, not a calibration; the lags show its sensitivity to timing.
+
+    Returns
+    -------
+    dict ``lag_s -> delta_deg``.
+    """
+    out = {}
+    for lag in lags_s:
+        f_imu, f_ref, _, _ = _specific_forces(bundle, lag)
+        A = np.column_stack([f_ref[:, 1], f_ref[:, 2], np.ones(len(f_ref))])
+        c, *_ = np.linalg.lstsq(A, f_imu[:, 0] - f_ref[:, 0], rcond=None)
+        out[float(lag)] = float(np.degrees(c[0]))
+    return out
+
+
 def accel_minus_reference(bundle: Bundle) -> dict:
     """Mean accelerometer error against the reference over the drive, and the level error
     it implies.
@@ -281,20 +340,7 @@ def accel_minus_reference(bundle: Bundle) -> dict:
     -------
     dict with ``bias_m_s2`` (3,) in b and ``level_error_arcmin``.
     """
-    imu, tr = bundle.imu, bundle.truth
-    inside = (tr.t >= imu.t[0]) & (tr.t <= imu.t[-1])
-    t, C, vel, lat, h = (tr.t[inside], tr.C_nb[inside], tr.vel_n[inside], tr.lat[inside],
-                         tr.h[inside])
-    vsum = np.vstack([np.zeros(3), np.cumsum(imu.dvel[1:], axis=0)])
-    vs = np.column_stack([np.interp(t, imu.t, vsum[:, i]) for i in range(3)])
-    dt = np.diff(t)[:, None]
-    f_imu = np.diff(vs, axis=0) / dt
-    mid = 0.5 * (vel[1:] + vel[:-1])
-    lat_m, h_m = 0.5 * (lat[1:] + lat[:-1]), 0.5 * (h[1:] + h[:-1])
-    cor = np.cross(2.0 * earth.omega_ie_n(lat_m) + earth.omega_en_n(lat_m, h_m, mid), mid)
-    f_n = np.diff(vel, axis=0) / dt + cor - earth.gravity_n(lat_m, h_m)
-    C_mid = C[:-1]
-    f_ref = np.einsum("kji,kj->ki", C_mid, f_n)
+    f_imu, f_ref, lat_m, h_m = _specific_forces(bundle)
     bias = (f_imu - f_ref).mean(axis=0)
     g = float(np.mean(earth.gravity(lat_m, h_m)))
     return {"bias_m_s2": [float(x) for x in bias],
@@ -422,6 +468,123 @@ def od_kf_iterated(bundle: Bundle, config: dict, init: NavState, passes: int = 2
     return row, e, sol, est
 
 
+def _final_gyro_bias(sol) -> np.ndarray:
+    """The filter's gyro bias estimate ``eps`` [rad/s] in b at the last solution row."""
+    return np.array([float(sol.states[f"eps_{a}"][-1]) for a in "xyz"])
+
+
+def od_kf_constant_plus_gm(bundle: Bundle, init: NavState, const_cfg=None, gm_cfg=None,
+                           passes: int = OD_KF_PASSES):
+    """The phone's gyro bias as a constant plus a Gauss-Markov part, in two stages (issue 15);
+    ``(row, errors, estimate)`` of the second stage, the estimate carrying the constant part
+    (``gyro_bias_rad_s``, ``gyro_bias_deg_h``, b axes).
+
+    The bias the data shows (``gyro_minus_reference``: z 107 deg/h on average over the minute,
+    wandering by +-50 deg/h around it) is ``b = b_c + b_gm``: a constant ``b_c`` and a
+    zero-mean first-order Gauss-Markov ``b_gm`` (``error_model`` module docstring). One error
+    state per axis cannot hold both: as a random constant it cannot follow the wander, which
+    goes into the yaw mounting; as a Gauss-Markov state it forgets the mean with ``tau``
+    (its z estimate stays near -11 deg/h against the reference's 107). Two stages:
+
+    1. ``od-kf`` (:func:`od_kf_iterated`) with the bias a random constant
+       (``const_cfg``, default :data:`PHONE_OD_KF_CONSTANT`, prior 150 deg/h): its last
+       estimate ``eps`` is the constant's estimate from the whole run, ``b_c``;
+    2. the gyro compensated by ``b_c`` (:func:`_compensated`), ``od-kf`` again with the
+       zero-mean Gauss-Markov bias of the sensor spec (``gm_cfg``, default
+       :data:`PHONE_OD_KF`: 150 deg/h, 30 s from ``meta.imu``), which is the model's
+       condition (mean removed). Scale and mounting are this stage's.
+
+    Only one stage 1: re-estimating ``b_c`` on the compensated gyro and compensating again
+    runs away (z: 104, 150, 169 deg/h after 1, 2, 3 rounds against the reference's 107;
+    the filter fits its own residual), so it is not iterated.
+    """
+    const_cfg = PHONE_OD_KF_CONSTANT if const_cfg is None else const_cfg
+    gm_cfg = PHONE_OD_KF if gm_cfg is None else gm_cfg
+    _, _, sol_c, _ = od_kf_iterated(bundle, const_cfg, init, passes)
+    b_c = _final_gyro_bias(sol_c)
+    row, e, _, est = od_kf_iterated(_compensated(bundle, b_c), gm_cfg, init, passes)
+    est["gyro_bias_rad_s"] = b_c
+    est["gyro_bias_deg_h"] = [float(x) for x in np.degrees(b_c) * 3600.0]
+    return row, e, est
+
+
+def calibrated_dr(bundle: Bundle, est: dict, init: NavState, label="dr"):
+    """Dead reckoning (``dr``, CAN speed) with a calibration ``est``: the speed divided by
+    ``scale``, the mounting ``pitch_mount_deg``, ``yaw_mount_deg`` and, when ``est`` has
+    ``gyro_bias_rad_s``, the gyro compensated by it; ``(row, errors, solution)``."""
+    b = _compensated(bundle, est["gyro_bias_rad_s"]) if "gyro_bias_rad_s" in est else bundle
+    mount = (est["pitch_mount_deg"] * 60.0, 0.0, est["yaw_mount_deg"] * 60.0)
+    return _run(label, "dr", b, DrConfig(sensor="odometer", speed_scale=1.0 / est["scale"],
+                                         mounting_arcmin=mount), init)
+
+
+def reference_gyro_bias(bundle: Bundle) -> np.ndarray:
+    """The gyro's mean error [rad/s] in b against the reference over the whole bundle
+    (:func:`gyro_minus_reference` with one window): the oracle's constant gyro bias."""
+    span = float(bundle.truth.t[-1] - bundle.truth.t[0]) + 1.0
+    return np.radians(np.asarray(gyro_minus_reference(bundle, span)["mean_deg_h"][0])) / 3600.0
+
+
+def oracle_calibration(bundle: Bundle) -> dict:
+    """:func:`reference_calibration` plus :func:`reference_gyro_bias`: what a perfect
+    estimator of the constant scale, mounting and gyro bias would give (an oracle)."""
+    cal = reference_calibration(bundle)
+    g = reference_gyro_bias(bundle)
+    return {**cal, "gyro_bias_rad_s": g, "gyro_bias_deg_h": [float(x) for x in
+                                                              np.degrees(g) * 3600.0]}
+
+
+def speed_lag_s(bundle: Bundle, max_lag_s=0.3, step_s=0.01) -> float:
+    """Lag [s] of the odometer against the reference speed: the shift ``d`` for which
+    ``v_odo(t + d)`` best fits ``k v_ref(t) + c`` (least squares) on a 100 Hz grid, over
+    ``+-max_lag_s``. A lag between the speed and the IMU puts ``a d`` into the along-track
+    velocity (not into the lateral one the yaw mounting is seen in)."""
+    tr, odo = bundle.truth, bundle.odometer
+    speed = np.linalg.norm(tr.vel_n, axis=1)
+    lo = max(tr.t[0], odo.t[0]) + max_lag_s
+    hi = min(tr.t[-1], odo.t[-1]) - max_lag_s
+    if hi - lo < 1.0:
+        raise BadInput("odometer and reference overlap by less than 1 s")
+    tt = np.arange(lo, hi, 0.01)
+    ref = np.column_stack([np.interp(tt, tr.t, speed), np.ones_like(tt)])
+    lags = np.arange(-max_lag_s, max_lag_s + 0.5 * step_s, step_s)
+    rms = []
+    for d in lags:
+        v = np.interp(tt + d, odo.t, odo.speed())
+        c, *_ = np.linalg.lstsq(ref, v, rcond=None)
+        rms.append(float(np.std(v - ref @ c)))
+    return float(lags[int(np.argmin(rms))])
+
+
+def split_check(bundle: Bundle) -> list:
+    """Two-fold check on the one segment: calibrate (:func:`od_kf_constant_plus_gm`) on one
+    half, dead-reckon the *other* half with that calibration from the reference there, and the
+    same with the oracle calibration (:func:`oracle_calibration`) of the calibration half: an
+    out-of-sample figure (each half ~500 m), since the dataset copy holds no second segment.
+    Rows: ``fit, evaluate, yaw_mount_deg, yaw_mount_sigma_deg, yaw_mount_ref_deg,
+    gyro_bias_z_deg_h, gyro_bias_z_ref_deg_h, dr_m, dr_oracle_m, distance_m``."""
+    t0, t1 = bundle.imu.t[0], bundle.imu.t[-1]
+    tm = 0.5 * (t0 + t1)
+    out = []
+    for fit, ev, (a, b), (c, d) in (("first half", "second half", (None, tm), (tm, None)),
+                                    ("second half", "first half", (tm, None), (None, tm))):
+        bf, be = bundle.window(a, b), bundle.window(c, d)
+        init_f = _init_from_truth(bf, bf.imu.t[0])
+        init_e = _init_from_truth(be, be.imu.t[0])
+        _, _, est = od_kf_constant_plus_gm(bf, init_f)
+        orc = oracle_calibration(bf)
+        dr, _, _ = calibrated_dr(be, est, init_e)
+        dro, _, _ = calibrated_dr(be, orc, init_e)
+        out.append({"fit": fit, "evaluate": ev, "yaw_mount_deg": est["yaw_mount_deg"],
+                    "yaw_mount_sigma_deg": est["yaw_mount_sigma_deg"],
+                    "yaw_mount_ref_deg": orc["yaw_mount_deg"],
+                    "gyro_bias_z_deg_h": est["gyro_bias_deg_h"][2],
+                    "gyro_bias_z_ref_deg_h": orc["gyro_bias_deg_h"][2],
+                    "dr_m": dr["final_horizontal_m"], "dr_oracle_m": dro["final_horizontal_m"],
+                    "distance_m": dr["distance_m"]})
+    return out
+
+
 def run_comma2k19(bundle: Bundle) -> dict:
     """The comma2k19 runs (module docstring): rows, error series, calibration, estimates."""
     init = _init_from_truth(bundle, bundle.imu.t[0])
@@ -475,9 +638,34 @@ def run_comma2k19(bundle: Bundle) -> dict:
     add("dr scale + mounting (from reference)", "dr", bundle,
         DrConfig(sensor="odometer", speed_scale=1.0 / cal["scale"], mounting_arcmin=cal_mount),
         "oracle: measured from the reference, not estimated (upper bound)")
+    row, e, two = od_kf_constant_plus_gm(bundle, init)
+    rows.append({**row, "run": "od-kf constant + Gauss-Markov bias",
+                 "note": "two stages (od_kf_constant_plus_gm): constant gyro bias estimated, "
+                         "removed, then the Gauss-Markov model of meta.imu"})
+    series["od-kf constant + Gauss-Markov bias"] = e
+    oracle = oracle_calibration(bundle)
+    for label, cal_, note in (
+            ("dr calibrated (od-kf constant + Gauss-Markov)", two,
+             "scale, mounting and constant gyro bias estimated by od_kf_constant_plus_gm"),
+            ("dr calibrated (from reference)", oracle,
+             "oracle: scale, mounting and mean gyro error measured from the reference")):
+        row, e, _ = calibrated_dr(bundle, cal_, init, label)
+        rows.append({**row, "note": note})
+        series[label] = e
     add("sins", "sins", bundle, SinsConfig(), "pure inertial, no aiding")
     coarse = coarse_alignment(bundle)
+    yaw = np.degrees(np.unwrap(bundle.truth.euler[:, 2]))
     return {"runs": rows, "coarse": coarse, "series": series,
+            "estimated_two_stage": two, "oracle_calibration": oracle,
+            "split_check": split_check(bundle),
+            "speed_lag_s": speed_lag_s(bundle),
+            "imu_reference_yaw_deg": [[k, v] for k, v in
+                                      imu_reference_yaw_from_accel(bundle).items()],
+            "heading_span_deg": float(yaw.max() - yaw.min()),
+            "yaw_track": {"t_s": list(YAW_TRACK_S), **{
+                k: [_yaw_at(v, x) for x in YAW_TRACK_S] for k, v in
+                (("od-kf constant bias", const), ("od-kf Gauss-Markov", est),
+                 ("od-kf constant + Gauss-Markov", two))}},
             "estimated_constant_bias": const,
             "gm_sensitivity": gm_sensitivity(bundle, init),
             "gyro_minus_reference": gyro_minus_reference(bundle),
@@ -645,6 +833,7 @@ def result_rows(comma: dict, ems: dict) -> list:
     (``reference``: the figure derived from the data's reference or README, None if none)."""
     cal, est, loose = comma["reference_calibration"], comma["estimated"], comma["estimated_loose"]
     const = comma["estimated_constant_bias"]
+    two, orc = comma["estimated_two_stage"], comma["oracle_calibration"]
     dr = {r["run"]: r["final_horizontal_m"] for r in comma["runs"]}
     rows = [
         {"quantity": "comma2k19 odometer scale (CAN / true speed), od-kf", "reference":
@@ -665,15 +854,44 @@ def result_rows(comma: dict, ems: dict) -> list:
         {"quantity": "comma2k19 mounting yaw, od-kf constant gyro bias (before issue 15)",
          "reference": cal["yaw_mount_deg"], "measured": const["yaw_mount_deg"], "unit": "deg",
          "note": f"filter 1-sigma {const['yaw_mount_sigma_deg']:.2f} deg"},
-        {"quantity": "comma2k19 calibrated DR after 1 km, od-kf scale + mounting",
+        {"quantity": "comma2k19 mounting yaw, od-kf constant + Gauss-Markov gyro bias",
+         "reference": cal["yaw_mount_deg"], "measured": two["yaw_mount_deg"], "unit": "deg",
+         "note": f"filter 1-sigma {two['yaw_mount_sigma_deg']:.2f} deg; two stages "
+                 "(od_kf_constant_plus_gm); issue 15 target: within "
+                 f"{TARGET_YAW_MOUNT_DEG} deg ({_met(two['yaw_mount_deg'] - cal['yaw_mount_deg'], TARGET_YAW_MOUNT_DEG)}); "
+                 f"at 10 s it was {_yaw_at(two, 10.0):.2f} deg, then it drifts (report)"},
+        {"quantity": "comma2k19 z gyro bias (constant part), od-kf constant + Gauss-Markov",
+         "reference": orc["gyro_bias_deg_h"][2], "measured": two["gyro_bias_deg_h"][2],
+         "unit": "deg/h", "note": "reference: mean gyro minus reference body rate over the "
+                                  "segment (gyro_minus_reference)"},
+        {"quantity": "comma2k19 calibrated DR after 1 km, od-kf constant + Gauss-Markov "
+                     "calibration", "reference": dr["dr calibrated (from reference)"],
+         "measured": dr["dr calibrated (od-kf constant + Gauss-Markov)"], "unit": "m",
+         "note": "calibration = scale, mounting and constant gyro bias, estimated over the "
+                 "same segment the DR runs on (no second segment); reference: the same DR with "
+                 "the three measured from the reference (oracle); scale + mounting only: "
+                 f"{dr['dr scale + mounting (od-kf)']:.1f} m (Gauss-Markov), "
+                 f"{dr['dr scale + mounting (od-kf constant bias)']:.1f} m (constant), oracle "
+                 f"{dr['dr scale + mounting (from reference)']:.1f} m; issue 15 target: within "
+                 f"{TARGET_DR_M:.0f} m "
+                 f"({'met' if dr['dr calibrated (od-kf constant + Gauss-Markov)'] <= TARGET_DR_M else 'NOT met'})"},
+        {"quantity": "comma2k19 calibrated DR after 1 km, od-kf scale + mounting (no gyro bias)",
          "reference": dr["dr scale + mounting (from reference)"],
          "measured": dr["dr scale + mounting (od-kf)"], "unit": "m",
-         "note": "reference: the same DR with the scale and mounting measured from the "
-                 "reference (oracle); constant gyro bias model: "
-                 f"{dr['dr scale + mounting (od-kf constant bias)']:.1f} m; issue 15 target: "
-                 f"within {TARGET_DR_M:.0f} m "
-                 f"({'met' if dr['dr scale + mounting (od-kf)'] <= TARGET_DR_M else 'NOT met'})"},
+         "note": "the figure before the gyro bias was part of the calibration: the DR's "
+                 "heading drifts with the uncompensated phone gyro, so even the oracle scale "
+                 "and mounting end about 20 m off"},
     ]
+    for s in comma["split_check"]:
+        rows.append({"quantity": f"comma2k19 split check: fit {s['fit']}, mounting yaw",
+                     "reference": s["yaw_mount_ref_deg"], "measured": s["yaw_mount_deg"],
+                     "unit": "deg", "note": f"filter 1-sigma {s['yaw_mount_sigma_deg']:.2f} "
+                     f"deg; reference from the fit half ({_met(s['yaw_mount_deg'] - s['yaw_mount_ref_deg'], TARGET_YAW_MOUNT_DEG)} at {TARGET_YAW_MOUNT_DEG} deg)"})
+        rows.append({"quantity": f"comma2k19 split check: DR on the {s['evaluate']} with the "
+                                 f"calibration of the {s['fit']}",
+                     "reference": s["dr_oracle_m"], "measured": s["dr_m"], "unit": "m",
+                     "note": f"out of sample, {s['distance_m']:.0f} m; reference: the oracle "
+                             "calibration of the fit half"})
     ecal, eest = ems["reference_calibration"], ems["estimated"]
     for key, what in (("pitch_mount_deg", "pitch"), ("yaw_mount_deg", "yaw")):
         rows.append({"quantity": f"EMS mounting {what}, od-kf pseudo-odometer",
@@ -699,6 +917,21 @@ def result_rows(comma: dict, ems: dict) -> list:
                          "note": f"{r['final_horizontal_pct_distance']:.2f} % of "
                                  f"{r['distance_m']:.0f} m; {r['note']}"})
     return rows
+
+
+#: times [s from the start] at which the report shows the yaw mounting estimates
+YAW_TRACK_S = (5.0, 10.0, 20.0, 30.0, 40.0, 50.0, 60.0)
+
+
+def _yaw_at(est: dict, t_s: float) -> float:
+    """The yaw mounting estimate [deg] of ``est`` (:func:`estimated_sensor`) at ``t_s`` from
+    its start (its last value beyond the end)."""
+    t = np.asarray(est["t"]) - est["t"][0]
+    return float(est["yaw_series_deg"][min(int(np.searchsorted(t, t_s)), len(t) - 1)])
+
+
+def _met(err, limit) -> str:
+    return "met" if abs(err) <= limit else "NOT met"
 
 
 def _fmt(x, nd=2):
@@ -734,6 +967,83 @@ def _gyro_lines(g: dict, what: str, comment: str) -> list:
     lines += [f"| {t:.0f} | {m[0]:.0f} | {m[1]:.0f} | {m[2]:.0f} |"
               for t, m in zip(w, g["mean_deg_h"])]
     return lines + ["", comment]
+
+
+def _two_stage_lines(c: dict) -> list:
+    """The report's section on the constant + Gauss-Markov calibration (issue 15)."""
+    two, orc, cal = c["estimated_two_stage"], c["oracle_calibration"], c["reference_calibration"]
+    runs = {r["run"]: r for r in c["runs"]}
+    drm = runs["dr calibrated (od-kf constant + Gauss-Markov)"]["final_horizontal_m"]
+    dro = runs["dr calibrated (from reference)"]["final_horizontal_m"]
+    yt = c["yaw_track"]
+    lines = ["### Constant + Gauss-Markov gyro bias (issue 15)", "",
+             "The phone's z gyro error against the reference is a mean of "
+             f"{orc['gyro_bias_deg_h'][2]:.0f} deg/h with a wander of about +-50 deg/h "
+             "around it (table above): a constant plus a Gauss-Markov part. "
+             "`od_kf_constant_plus_gm` estimates the two in two stages: `od-kf` with the bias "
+             "a random constant gives the constant (z: "
+             f"{two['gyro_bias_deg_h'][2]:.0f} deg/h; x, y: {two['gyro_bias_deg_h'][0]:.0f}, "
+             f"{two['gyro_bias_deg_h'][1]:.0f}; reference {orc['gyro_bias_deg_h'][0]:.0f}, "
+             f"{orc['gyro_bias_deg_h'][1]:.0f}, {orc['gyro_bias_deg_h'][2]:.0f}), the gyro "
+             "is compensated by it, and `od-kf` with the spec's zero-mean Gauss-Markov bias "
+             "gives scale and mounting. The calibration is then scale "
+             f"{two['scale']:.4f}, pitch {two['pitch_mount_deg']:.2f} deg, yaw "
+             f"{two['yaw_mount_deg']:.2f} +- {two['yaw_mount_sigma_deg']:.2f} deg, and the "
+             "constant gyro bias (reference: "
+             f"{cal['scale']:.4f}, {cal['pitch_mount_deg']:.2f}, {cal['yaw_mount_deg']:.2f} "
+             "deg).", "",
+             f"- **Calibrated DR after 1 km: {drm:.1f} m** with this estimated calibration "
+             f"(target {TARGET_DR_M:.0f} m; {_met(drm - 0.0, TARGET_DR_M)}); the oracle with "
+             f"the same three quantities from the reference: {dro:.1f} m. Without the gyro "
+             "bias in the calibration even the oracle scale and mounting end "
+             f"{runs['dr scale + mounting (from reference)']['final_horizontal_m']:.1f} m off: "
+             "the DR heading drifts with the uncompensated gyro, which is why the gyro bias "
+             "belongs to the calibration. Caveat: the calibration is estimated on the same "
+             "60 s the DR runs on (the only comma2k19 segment here); the split check below is "
+             "the out-of-sample figure.",
+             f"- **Mounting yaw: {two['yaw_mount_deg']:.2f} +- "
+             f"{two['yaw_mount_sigma_deg']:.2f} deg** against {cal['yaw_mount_deg']:.2f} "
+             f"(target {TARGET_YAW_MOUNT_DEG} deg: "
+             f"{_met(two['yaw_mount_deg'] - cal['yaw_mount_deg'], TARGET_YAW_MOUNT_DEG)}; the "
+             "sigma covers the error). Every bias model is near the reference in the first "
+             "10 s and then drifts away (estimates [deg] at these times from the start; the "
+             "reference-derived value over 10 s windows stays within -0.73 .. -0.87):", "",
+             "| model | " + " | ".join(f"{t:.0f} s" for t in yt["t_s"]) + " |",
+             "| --- | " + " | ".join("---:" for _ in yt["t_s"]) + " |"]
+    lines += [f"| {k} | " + " | ".join(f"{x:.2f}" for x in v) + " |"
+              for k, v in yt.items() if k != "t_s"]
+    lines += ["", "The drift starts where the z gyro error drops from ~140 to ~45 deg/h "
+              "(30-40 s) and it appears with every bias model tried, constant, Gauss-Markov "
+              "(9 settings, table above) and constant + Gauss-Markov: the lateral velocity "
+              "`v gamma` that shows the yaw mounting is matched, at nearly constant speed on a "
+              "straight road, by a heading error or a lateral accelerometer bias, and what "
+              "the bias model does not follow goes into gamma. Checked and ruled out as "
+              f"causes: the odometer lag against the reference speed is {c['speed_lag_s']:+.2f}"
+              " s (and a speed lag acts along track, not laterally); the z gyro scale "
+              "factor cannot matter here, the reference heading spans only "
+              f"{c['heading_span_deg']:.2f} deg over the segment (a 5 % scale error = "
+              f"{0.05 * c['heading_span_deg']:.2f} deg). 0.2 deg of yaw on this 60 s "
+              "highway segment is not reached by any model tried (see Not done).", "",
+              "How far the reference can certify a yaw mounting: the reference attitude is the "
+              "camera's, and the IMU's axes are taken equal to it (data README: they agree in "
+              "*rate*). The accelerometers say the two frames differ in yaw by "
+              + ", ".join(f"{d:+.2f} deg (IMU lag {lag:+.2f} s)"
+                          for lag, d in c["imu_reference_yaw_deg"])
+              + " (`imu_reference_yaw_from_accel`: lateral residual against forward specific "
+              "force; an accelerometer cross-axis sensitivity looks the same): of the order of "
+              f"the {TARGET_YAW_MOUNT_DEG} deg target itself.", "",
+              "Split check (calibrate on one half, dead-reckon the other half from the "
+              "reference there, about 500 m each; the only out-of-sample figure this one "
+              "segment allows):", "",
+              "| fit | evaluate | yaw mount deg | 1-sigma | reference (fit half) | z bias deg/h "
+              "| reference | DR m | oracle DR m | distance m |",
+              "| --- | --- | ---: | ---: | ---: | ---: | ---: | ---: | ---: | ---: |"]
+    lines += [f"| {s['fit']} | {s['evaluate']} | {s['yaw_mount_deg']:.2f} "
+              f"| {s['yaw_mount_sigma_deg']:.2f} | {s['yaw_mount_ref_deg']:.2f} "
+              f"| {s['gyro_bias_z_deg_h']:.0f} | {s['gyro_bias_z_ref_deg_h']:.0f} "
+              f"| {s['dr_m']:.1f} | {s['dr_oracle_m']:.1f} | {s['distance_m']:.0f} |"
+              for s in c["split_check"]]
+    return lines + [""]
 
 
 def report_markdown(results: dict, rows: list) -> str:
@@ -786,12 +1096,14 @@ def report_markdown(results: dict, rows: list) -> str:
               f"{runs['od-kf']['final_horizontal_m']:.1f} m with the Gauss-Markov bias against "
               f"{runs['od-kf constant bias']['final_horizontal_m']:.1f} m with the constant one. "
               "The phone's residual z error keeps a mean of about 100 deg/h over the minute "
-              "(table above), which a zero-mean Gauss-Markov state forgets with tau; a bias "
-              "that is a constant plus a Gauss-Markov part needs two states per axis (not "
-              "done). `inmotion process` keeps the constant model (its spec folds the "
+              "(table above), which a zero-mean Gauss-Markov state forgets with tau (its z "
+              "estimate stays near -11 deg/h); the constant + Gauss-Markov calibration below "
+              f"brings it to {runs['od-kf constant + Gauss-Markov bias']['final_horizontal_m']:.1f} m. "
+              "`inmotion process` keeps the constant model (its spec folds the "
               "Gauss-Markov part into the constant's sigma).",
-              "",
-              "## EMS: runs", "",
+              ""]
+    lines += _two_stage_lines(c)
+    lines += ["## EMS: runs", "",
               f"Start: the end of the still period, {sp['still_end_s']:.2f} s (reference speed "
               f"> {STILL_SPEED_M_S} m/s). Gyro bias measured there [deg/h] (x, y, z in b): "
               f"{', '.join(f'{x:.0f}' for x in sp['gyro_bias_deg_h'])}; removed from every run "
@@ -823,7 +1135,8 @@ def report_markdown(results: dict, rows: list) -> str:
 
 def _jsonable(res: dict) -> dict:
     out = {k: v for k, v in res.items() if k != "series"}
-    for k in ("estimated", "estimated_loose", "estimated_constant_bias"):
+    for k in ("estimated", "estimated_loose", "estimated_constant_bias",
+              "estimated_two_stage", "oracle_calibration"):
         if k in out:
             out[k] = {a: b for a, b in out[k].items() if not isinstance(b, np.ndarray)}
     if "reference_calibration" in out:
