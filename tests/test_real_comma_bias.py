@@ -90,7 +90,8 @@ def test_constant_part_of_the_z_gyro_bias_against_the_reference(comma):
 def test_calibrated_dead_reckoning_within_the_issue_target(comma):
     """Issue 15: DR over the segment (1 km) with the estimated calibration within 20 m
     (measured 9.4 m); without the gyro bias even the reference's scale and mounting end
-    20.4 m off. The yaw mounting misses its 0.2 deg target (-0.48 against -0.81, report.md
+    20.4 m off. On this segment only: on simulated truth the constant z bias from 60 s is
+    often far off and the same DR misses 20 m in about half the runs (report.md). The yaw mounting misses its 0.2 deg target (-0.48 against -0.81, report.md
     says why) but its sigma covers its error."""
     b, init, _, est = comma
     row, _, _ = rr.calibrated_dr(b, est, init)
@@ -113,3 +114,17 @@ def test_split_check_out_of_sample(comma):
     for r in rows:
         assert r["distance_m"] > 400.0
         assert r["dr_m"] < 0.02 * r["distance_m"], r
+
+
+def test_simulated_check_yaw_against_truth_and_the_constant_models_overconfidence():
+    """Simulated truth (10 runs of the comma2k19-like drive, gyro bias constant + Gauss-Markov,
+    filters with the importer's assumed spec): the two-stage yaw mounting is within the
+    0.2 deg target in RMS and its sigma covers its error; the constant-bias model's sigma
+    claims a fraction of its error (the overconfidence issue 15 reports on the real log); the
+    oracle calibration (true scale, mounting, mean gyro bias) dead-reckons within 20 m."""
+    sim = rr.simulated_calibration_check(runs=10, seed=7)
+    two, const = sim["models"]["constant + gauss-markov"], sim["models"]["constant"]
+    assert two["yaw_error_rms_deg"] < rr.TARGET_YAW_MOUNT_DEG
+    assert two["yaw_error_over_sigma_rms"] < 1.5
+    assert const["yaw_error_over_sigma_rms"] > 2.0
+    assert sim["models"]["oracle"]["dr_within_target"] == 1.0

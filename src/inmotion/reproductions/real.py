@@ -93,7 +93,10 @@ NOT_DONE = [
     "comma2k19 od-kf yaw mounting (issue 15 target: within 0.2 deg of the reference-derived "
     "-0.81 deg): NOT met. Constant gyro bias: -0.10 deg (sigma 0.17, overconfident); "
     "Gauss-Markov (150 deg/h, 30 s): -0.52 (sigma 0.26); constant + Gauss-Markov in two stages "
-    "(od_kf_constant_plus_gm): -0.48 (sigma 0.26, covers the error). Every model passes "
+    "(od_kf_constant_plus_gm): -0.48 (sigma 0.26, covers the error). On simulated truth of "
+    "the same kind the two-stage estimate is within 0.2 deg in ~94 % of runs (RMS 0.1 deg), "
+    "so the miss on the real segment is something the simulation does not have. Every model "
+    "passes "
     "near the reference while the car accelerates (5-10 s, pitch not yet converged) and "
     "drifts after; "
     "varying the stage-2 gyro model (ARW 0.5-3.5 deg/sqrt(h), Gauss-Markov 60-150 deg/h, "
@@ -110,16 +113,22 @@ NOT_DONE = [
     "state layout (owned elsewhere); done here in two stages (constant first, then the "
     "Gauss-Markov model on the compensated gyro). Iterating the constant stage runs away "
     "(z 104, 150, 169 deg/h against the reference's 107) and is not used",
-    "comma2k19 calibrated dead reckoning (issue 15 target: within 20 m after 1 km): met with "
-    "the gyro bias in the calibration (9.4 m; oracle 3.0 m); without it even the oracle scale "
-    "and mounting end 20.4 m off (the DR heading drifts with the phone gyro). The calibration "
-    "is estimated on the same 60 s the DR runs on: the dataset copy holds one segment, so no "
-    "per-segment spread can be given; the split check (fit one half, DR the other, ~500 m) "
-    "is the out-of-sample figure (3.3 and 6.5 m; oracle 2.8 and 3.4 m). The Gauss-Markov "
-    "parameters are not fitted from this data: the z error against the reference (Allan "
-    "deviation ~100 deg/h at 0.5-2 s, ~60 deg/h at 5-10 s) mixes the reference's own "
-    "attitude noise with the gyro's, and the only data is the evaluation segment; the "
-    "importer's spec stays `source: assumed`",
+    "comma2k19 calibrated dead reckoning (issue 15 target: within 20 m after 1 km): met on "
+    "the segment only with the gyro bias in the calibration (9.4 m; oracle 3.0 m), and not "
+    "robustly: on simulated truth of the same kind (simulated_calibration_check, 50 runs) "
+    "the constant stage's z bias from 60 s is off by a median of ~150 deg/h and the same "
+    "calibrated DR is within 20 m in under half of the runs; scale and mounting alone give "
+    "26.4 m here (64-72 % of simulated runs within 20 m, whichever bias model), and even "
+    "the oracle scale and mounting end 20.4 m off (the DR heading drifts with the phone "
+    "gyro). What the target needs is the z gyro bias to ~20 deg/h (the oracle's mean gyro "
+    "error gives 3.0 m), which 60 s of a straight drive with a speed sensor do not give; a "
+    "drive with stops (zero-rate updates) or turns would. The dataset copy holds one "
+    "segment, so no per-segment spread; the split check (fit one half, DR the other, "
+    "~500 m: 3.3 and 6.5 m) is the out-of-sample figure. The Gauss-Markov parameters are "
+    "not fitted from this data: the z error against the reference (Allan deviation "
+    "~100 deg/h at 0.5-2 s, ~60 deg/h at 5-10 s) mixes the reference's own attitude noise "
+    "with the gyro's, and the only data is the evaluation segment; the importer's spec "
+    "stays `source: assumed`",
     "EMS od-kf with the pseudo-odometer: its yaw mounting ends at -1.4 deg against -0.18 "
     "from the reference, and the second pass, started from that value, ends 97 m off where the "
     "first pass ends 38 m off and DR with the same speed 32 m off (heading -9 deg vs -2.7 "
@@ -590,6 +599,130 @@ def split_check(bundle: Bundle) -> list:
     return out
 
 
+#: the simulated check of the comma2k19 calibration (issue 15): IMU mounting in the car
+#: [arcmin] (the real segment's, about 3.8 deg pitch, -0.8 deg yaw) and Monte Carlo runs
+SIM_MOUNT_ARCMIN = (228.0, 0.0, -48.0)
+SIM_RUNS = 50
+
+
+def comma_like_scenario() -> dict:
+    """A comma2k19-like 60 s drive as a scenario dict (:mod:`inmotion.sim.scenario`): 8 -> 20
+    m/s, a slow-down to 14 m/s and a 1.2 deg curve, about 1 km, IMU mounted
+    :data:`SIM_MOUNT_ARCMIN`; phone-grade IMU with the gyro bias the real segment shows, a
+    random constant (1-sigma 110 deg/h per axis) plus a Gauss-Markov wander (50 deg/h,
+    30 s), accelerometer bias 8 mg (random), ARW 0.5 deg/sqrt(h), VRW 300 ug/sqrt(Hz);
+    odometer scale -0.9 %, speed at 100 Hz, 1 mm pulses."""
+    return {
+        "name": "comma_like", "description": "comma2k19-like 60 s highway drive (issue 15)",
+        "start": {"lat_deg": 37.4, "lon_deg": -122.1, "h_m": 20.0, "heading_deg": 140.0,
+                  "speed_m_s": 8.0},
+        "vehicle_mounting_arcmin": list(SIM_MOUNT_ARCMIN),
+        "segments": [{"kind": "accelerate", "to_speed_m_s": 20.0, "accel_m_s2": 1.2},
+                     {"kind": "cruise", "duration_s": 15},
+                     {"kind": "decelerate", "to_speed_m_s": 14.0, "decel_m_s2": 0.8},
+                     {"kind": "turn", "angle_deg": 1.2, "rate_deg_s": 0.2},
+                     {"kind": "accelerate", "to_speed_m_s": 18.0, "accel_m_s2": 0.6},
+                     {"kind": "cruise", "duration_s": 10}],
+        "imu": {"rate_hz": 100.0, "constant_errors": "random",
+                "gyro": {"drift_deg_h": 110.0, "arw_deg_sqrt_h": 0.5,
+                         "drift_markov_deg_h": 50.0, "drift_markov_tau_s": 30.0},
+                "accel": {"bias_ug": 8000.0, "vrw_ug_sqrt_hz": 300.0}},
+        "sensors": {"odometer": {"rate_hz": 100.0, "pulses_per_m": 1000.0,
+                                 "scale_factor_ppm": -9000.0, "scale_factor_sigma_ppm": 0.0,
+                                 "lever_arm_m": [0.0, 0.0, 0.0]}},
+    }
+
+
+#: the models of :func:`simulated_calibration_check`, in report order
+SIM_MODELS = ("constant", "gauss-markov", "constant + gauss-markov",
+              "constant + gauss-markov, DR without the gyro bias", "oracle")
+
+
+def _simulated_run(seed: int) -> dict:
+    from ..io.importers.comma2k19 import PHONE_IMU_SPEC
+    from ..sim.scenario import load_scenario
+    from ..sim.simulate import simulate
+    b = simulate(load_scenario(comma_like_scenario()), np.random.default_rng(seed))
+    b.meta = {**b.meta, "imu": {"rate_hz": 100.0, **PHONE_IMU_SPEC}}
+    init = _init_from_truth(b, b.imu.t[0])
+    yaw_true = SIM_MOUNT_ARCMIN[2] / 60.0
+    out = {}
+    for label, cfg in (("constant", PHONE_OD_KF_CONSTANT), ("gauss-markov", PHONE_OD_KF)):
+        _, _, _, est = od_kf_iterated(b, cfg, init, OD_KF_PASSES)
+        dr, _, _ = calibrated_dr(b, est, init)
+        out[label] = (est["yaw_mount_deg"] - yaw_true, est["yaw_mount_sigma_deg"],
+                      dr["final_horizontal_m"])
+    _, _, two = od_kf_constant_plus_gm(b, init)
+    orc = oracle_calibration(b)
+    for label, cal in (("constant + gauss-markov", two),
+                       ("constant + gauss-markov, DR without the gyro bias",
+                        {k: v for k, v in two.items() if k != "gyro_bias_rad_s"}),
+                       ("oracle", orc)):
+        dr, _, _ = calibrated_dr(b, cal, init)
+        e = two["yaw_mount_deg"] - yaw_true if label != "oracle" else float("nan")
+        s = two["yaw_mount_sigma_deg"] if label != "oracle" else float("nan")
+        out[label] = (e, s, dr["final_horizontal_m"])
+    out["gyro_bias_z_error_deg_h"] = two["gyro_bias_deg_h"][2] - orc["gyro_bias_deg_h"][2]
+    out["distance_m"] = dr["distance_m"]
+    return out
+
+
+def simulated_calibration_check(runs: int = SIM_RUNS, seed: int = 0) -> dict:
+    """The comma2k19 calibration methods on simulated truth (:func:`comma_like_scenario`),
+    Monte Carlo over ``runs`` seeds; every filter runs with the comma2k19 importer's assumed
+    spec in ``meta.imu``, as on the real log. Per model of :data:`SIM_MODELS`: the yaw
+    mounting error against the simulated truth (mean, RMS, mean filter sigma, RMS of error /
+    sigma, share within the 0.2 deg target) and the dead reckoning after the drive with that
+    calibration (median, 90th percentile, share within the 20 m target); plus the constant
+    stage's z gyro bias error (against the mean of the simulated bias)."""
+    rows = [_simulated_run(seed + 1000 + k) for k in range(runs)]
+    out = {"runs": runs, "distance_m": float(np.mean([r["distance_m"] for r in rows])),
+           "models": {}}
+    for m in SIM_MODELS:
+        e = np.array([r[m][0] for r in rows])
+        s = np.array([r[m][1] for r in rows])
+        d = np.array([r[m][2] for r in rows])
+        row = {"dr_median_m": float(np.median(d)), "dr_p90_m": float(np.percentile(d, 90)),
+               "dr_within_target": float(np.mean(d <= TARGET_DR_M))}
+        if m != "oracle":
+            row.update(yaw_error_mean_deg=float(e.mean()),
+                       yaw_error_rms_deg=float(np.sqrt(np.mean(e ** 2))),
+                       yaw_sigma_mean_deg=float(s.mean()),
+                       yaw_error_over_sigma_rms=float(np.sqrt(np.mean((e / s) ** 2))),
+                       yaw_within_target=float(np.mean(np.abs(e) <= TARGET_YAW_MOUNT_DEG)))
+        out["models"][m] = row
+    z = np.abs([r["gyro_bias_z_error_deg_h"] for r in rows])
+    out["gyro_bias_z_abs_error_deg_h"] = {"median": float(np.median(z)),
+                                          "p90": float(np.percentile(z, 90))}
+    return out
+
+
+def _simulated_lines(sim: dict) -> list:
+    lines = [f"Simulated truth (`simulated_calibration_check`, {sim['runs']} runs of a "
+             f"comma2k19-like {sim['distance_m']:.0f} m drive, `comma_like_scenario`: "
+             "constant + Gauss-Markov gyro bias as the real segment shows, every filter with "
+             "the importer's assumed spec):", "",
+             "| model | yaw error mean deg | RMS deg | mean 1-sigma deg | RMS(error / sigma) "
+             f"| within {TARGET_YAW_MOUNT_DEG} deg | DR median m | DR 90 % m "
+             f"| DR within {TARGET_DR_M:.0f} m |",
+             "| --- | ---: | ---: | ---: | ---: | ---: | ---: | ---: | ---: |"]
+    for m, r in sim["models"].items():
+        if "yaw_error_rms_deg" in r:
+            yaw = (f"{r['yaw_error_mean_deg']:+.3f} | {r['yaw_error_rms_deg']:.3f} "
+                   f"| {r['yaw_sigma_mean_deg']:.3f} | {r['yaw_error_over_sigma_rms']:.2f} "
+                   f"| {100 * r['yaw_within_target']:.0f} %")
+        else:
+            yaw = "- | - | - | - | -"
+        lines.append(f"| {m} | {yaw} | {r['dr_median_m']:.1f} | {r['dr_p90_m']:.1f} "
+                     f"| {100 * r['dr_within_target']:.0f} % |")
+    z = sim["gyro_bias_z_abs_error_deg_h"]
+    lines += ["", f"The constant stage's z gyro bias is off by {z['median']:.0f} deg/h "
+              f"(median; 90 %: {z['p90']:.0f} deg/h) from the simulated bias's mean: 60 s of "
+              "a straight drive do not determine it, and compensating the DR with it "
+              "helps only when it happens to be right.", ""]
+    return lines
+
+
 def run_comma2k19(bundle: Bundle) -> dict:
     """The comma2k19 runs (module docstring): rows, error series, calibration, estimates."""
     init = _init_from_truth(bundle, bundle.imu.t[0])
@@ -652,6 +785,9 @@ def run_comma2k19(bundle: Bundle) -> dict:
     for label, cal_, note in (
             ("dr calibrated (od-kf constant + Gauss-Markov)", two,
              "scale, mounting and constant gyro bias estimated by od_kf_constant_plus_gm"),
+            ("dr scale + mounting (od-kf constant + Gauss-Markov)",
+             {k: v for k, v in two.items() if k != "gyro_bias_rad_s"},
+             "scale and mounting of od_kf_constant_plus_gm, gyro not compensated"),
             ("dr calibrated (from reference)", oracle,
              "oracle: scale, mounting and mean gyro error measured from the reference")):
         row, e, _ = calibrated_dr(bundle, cal_, init, label)
@@ -865,7 +1001,8 @@ def result_rows(comma: dict, ems: dict) -> list:
          "note": f"filter 1-sigma {two['yaw_mount_sigma_deg']:.2f} deg; two stages "
                  "(od_kf_constant_plus_gm); issue 15 target: within "
                  f"{TARGET_YAW_MOUNT_DEG} deg ({_met(two['yaw_mount_deg'] - cal['yaw_mount_deg'], TARGET_YAW_MOUNT_DEG)}); "
-                 f"at 10 s it was {_yaw_at(two, 10.0):.2f} deg, then it drifts (report)"},
+                 f"at 10 s it was {_yaw_at(two, 10.0):.2f} deg, then it drifts (report); "
+                 + _sim_yaw_note(comma)},
         {"quantity": "comma2k19 z gyro bias (constant part), od-kf constant + Gauss-Markov",
          "reference": orc["gyro_bias_deg_h"][2], "measured": two["gyro_bias_deg_h"][2],
          "unit": "deg/h", "note": "reference: mean gyro minus reference body rate over the "
@@ -880,7 +1017,13 @@ def result_rows(comma: dict, ems: dict) -> list:
                  f"{dr['dr scale + mounting (od-kf constant bias)']:.1f} m (constant), oracle "
                  f"{dr['dr scale + mounting (from reference)']:.1f} m; issue 15 target: within "
                  f"{TARGET_DR_M:.0f} m "
-                 f"({'met' if dr['dr calibrated (od-kf constant + Gauss-Markov)'] <= TARGET_DR_M else 'NOT met'})"},
+                 f"({'met' if dr['dr calibrated (od-kf constant + Gauss-Markov)'] <= TARGET_DR_M else 'NOT met'}"
+                 " on this segment, but not robustly: " + _sim_dr_note(comma) + ")"},
+        {"quantity": "comma2k19 calibrated DR after 1 km, od-kf constant + Gauss-Markov scale "
+                     "+ mounting, gyro not compensated",
+         "reference": dr["dr scale + mounting (from reference)"],
+         "measured": dr["dr scale + mounting (od-kf constant + Gauss-Markov)"], "unit": "m",
+         "note": "reference: the oracle scale and mounting, gyro not compensated either"},
         {"quantity": "comma2k19 calibrated DR after 1 km, od-kf scale + mounting (no gyro bias)",
          "reference": dr["dr scale + mounting (from reference)"],
          "measured": dr["dr scale + mounting (od-kf)"], "unit": "m",
@@ -934,6 +1077,30 @@ def _yaw_at(est: dict, t_s: float) -> float:
     its start (its last value beyond the end)."""
     t = np.asarray(est["t"]) - est["t"][0]
     return float(est["yaw_series_deg"][min(int(np.searchsorted(t, t_s)), len(t) - 1)])
+
+
+def _sim_yaw_note(comma: dict) -> str:
+    """The simulated check's yaw figures for a results-row note."""
+    sim = comma.get("simulated_check")
+    if sim is None:
+        return "no simulated check in this run"
+    r = sim["models"]["constant + gauss-markov"]
+    return (f"on simulated truth ({sim['runs']} runs) within {TARGET_YAW_MOUNT_DEG} deg in "
+            f"{100 * r['yaw_within_target']:.0f} % of runs, RMS {r['yaw_error_rms_deg']:.2f} "
+            "deg")
+
+
+def _sim_dr_note(comma: dict) -> str:
+    """The simulated check's DR figures for a results-row note ("" without it)."""
+    sim = comma.get("simulated_check")
+    if sim is None:
+        return "no simulated check in this run"
+    m = sim["models"]
+    a, b = m["constant + gauss-markov"], m["constant + gauss-markov, DR without the gyro bias"]
+    return (f"on simulated truth ({sim['runs']} runs) the same calibration is within "
+            f"{TARGET_DR_M:.0f} m in {100 * a['dr_within_target']:.0f} % of runs (median "
+            f"{a['dr_median_m']:.1f} m, 90 % {a['dr_p90_m']:.1f} m), without the gyro bias in "
+            f"{100 * b['dr_within_target']:.0f} %")
 
 
 def _met(err, limit) -> str:
@@ -1000,19 +1167,27 @@ def _two_stage_lines(c: dict) -> list:
              f"{cal['scale']:.4f}, {cal['pitch_mount_deg']:.2f}, {cal['yaw_mount_deg']:.2f} "
              "deg).", "",
              f"- **Calibrated DR after 1 km: {drm:.1f} m** with this estimated calibration "
-             f"(target {TARGET_DR_M:.0f} m; {_met(drm - 0.0, TARGET_DR_M)}); the oracle with "
+             f"(target {TARGET_DR_M:.0f} m; {_met(drm, TARGET_DR_M)} on this segment); the oracle with "
              f"the same three quantities from the reference: {dro:.1f} m. Without the gyro "
              "bias in the calibration even the oracle scale and mounting end "
              f"{runs['dr scale + mounting (from reference)']['final_horizontal_m']:.1f} m off: "
              "the DR heading drifts with the uncompensated gyro, which is why the gyro bias "
-             "belongs to the calibration. Caveat: the calibration is estimated on the same "
-             "60 s the DR runs on (the only comma2k19 segment here); the split check below is "
-             "the out-of-sample figure.",
+             "belongs to the calibration. **But this is not a robust result**: the constant "
+             "stage's z bias happens to be right here (104 against 107 deg/h); on simulated "
+             "truth (table below) it is off by a median of "
+             + (f"{c['simulated_check']['gyro_bias_z_abs_error_deg_h']['median']:.0f} deg/h "
+                if "simulated_check" in c else "(no simulated check in this run) ")
+             + "and the calibrated DR is within the target in only part of the runs. Without "
+             "the gyro bias the estimated scale and mounting give "
+             f"{runs['dr scale + mounting (od-kf constant + Gauss-Markov)']['final_horizontal_m']:.1f}"
+             " m. The calibration is estimated on the same 60 s the DR runs on (the only "
+             "comma2k19 segment here); the split check below is the out-of-sample figure.",
              f"- **Mounting yaw: {two['yaw_mount_deg']:.2f} +- "
              f"{two['yaw_mount_sigma_deg']:.2f} deg** against {cal['yaw_mount_deg']:.2f} "
              f"(target {TARGET_YAW_MOUNT_DEG} deg: "
              f"{_met(two['yaw_mount_deg'] - cal['yaw_mount_deg'], TARGET_YAW_MOUNT_DEG)}; the "
-             "sigma covers the error). Every bias model passes near the reference while the "
+             "sigma covers the error; " + _sim_yaw_note(c) + ", so the miss here is something "
+             "the simulation does not have). Every bias model passes near the reference while the "
              "car accelerates from 8 to 20 m/s (5-10 s; the pitch mounting is then still "
              "about 1 deg off, `real_mounting.png`, so that is no converged value) and ends "
              "0.3-0.7 deg off (estimates [deg] at these times from the start; the "
@@ -1063,7 +1238,10 @@ def _two_stage_lines(c: dict) -> list:
               f"| {s['gyro_bias_z_deg_h']:.0f} | {s['gyro_bias_z_ref_deg_h']:.0f} "
               f"| {s['dr_m']:.1f} | {s['dr_oracle_m']:.1f} | {s['distance_m']:.0f} |"
               for s in c["split_check"]]
-    return lines + [""]
+    lines += [""]
+    if "simulated_check" in c:
+        lines += _simulated_lines(c["simulated_check"])
+    return lines
 
 
 def report_markdown(results: dict, rows: list) -> str:
@@ -1183,8 +1361,9 @@ def reproduce(out_dir, runs=None, workers=None, seed=0, progress=True, data_root
     rows of :func:`result_rows`), ``real_results.json`` (all runs) and three PNG figures to
     ``out_dir``; return the ``real_results`` dict.
 
-    ``runs``, ``workers``, ``seed`` are accepted for the signature shared with the
-    ``reproduce_00x`` modules and ignored: there is one recorded drive each, nothing random.
+    ``runs`` and ``seed`` set the Monte Carlo of :func:`simulated_calibration_check` (default
+    :data:`SIM_RUNS`, 0); ``workers`` is accepted for the signature shared with the
+    ``reproduce_00x`` modules and ignored. The real drives are one recording each.
     ``data_root`` is the folder of the real drives (default :func:`default_data_root`).
     """
     t_wall = time.perf_counter()
@@ -1192,6 +1371,8 @@ def reproduce(out_dir, runs=None, workers=None, seed=0, progress=True, data_root
     if not root.is_dir():
         raise BadInput("real data folder not found", root)
     comma = run_comma2k19(import_log("comma2k19", root / "comma2k19_rav4_60s"))
+    comma["simulated_check"] = simulated_calibration_check(
+        SIM_RUNS if runs is None else int(runs), seed)
     ems = run_ems(import_log("ems", root / "ems_toronto_511s" / "ems_data_for_lc.mat"))
     rlg, mems = _run_psins(root)
     rows = result_rows(comma, ems) + rp.psins_rows(rlg, mems)
