@@ -721,8 +721,9 @@ def _simulated_lines(sim: dict) -> list:
               f"{two['yaw_sigma_mean_deg'] / two['yaw_error_rms_deg']:.1f} times their RMS "
               "error here: it covers the error but is conservative, the spec's assumed 150 "
               "deg/h wander being three times the simulated 50 deg/h (the real one is not "
-              "known well enough to set it: Not done). The constant model's sigma is a third "
-              "of its error, the overconfidence of issue 15."]
+              "known well enough to set it: Not done). The constant model's error is "
+              f"{sim['models']['constant']['yaw_error_over_sigma_rms']:.1f} times its sigma "
+              "(RMS), the overconfidence of issue 15."]
     lines += ["", f"The constant stage's z gyro bias is off by {z['median']:.0f} deg/h "
               f"(median; 90 %: {z['p90']:.0f} deg/h) from the simulated bias's mean: 60 s of "
               "a straight drive do not determine it, and compensating the DR with it "
