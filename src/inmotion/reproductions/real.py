@@ -23,6 +23,13 @@ comma2k19 (60 s highway, phone IMU, CAN speed; moving from the first sample)
       README scale; the scale and mounting *estimated* by ``od-kf``; and the scale and
       mounting *measured from the reference* (:func:`reference_calibration`, an oracle, the
       best a perfect estimator could give). ``sins`` is the unaided baseline.
+    * **Constant + Gauss-Markov gyro bias** (issue 15, :func:`od_kf_constant_plus_gm`): the
+      phone's gyro error is a constant (~107 deg/h in z) plus a wander; the constant is
+      estimated by ``od-kf`` with a constant-bias model, removed, and ``od-kf`` with the
+      spec's Gauss-Markov model then gives scale and mounting. The calibrated dead reckoning
+      (:func:`calibrated_dr`) uses scale, mounting *and* the constant gyro bias, against the
+      oracle with all three from the reference (:func:`oracle_calibration`);
+      :func:`split_check` calibrates on one half and dead-reckons the other.
 EMS (511 s city drive, 20 Hz MEMS, no odometer)
     Every run starts from the reference at the end of the still period
     (:func:`still_period_end`) with the gyro bias measured over the still period removed
@@ -68,7 +75,9 @@ from ..core.metrics import error_series, interpolate_truth
 
 __all__ = ["default_data_root", "reference_calibration", "estimated_sensor",
            "coarse_alignment", "level_error", "gyro_minus_reference", "od_kf_iterated",
-           "run_comma2k19", "run_ems", "ems_pseudo_odometer",
+           "run_comma2k19", "run_ems", "od_kf_constant_plus_gm", "calibrated_dr",
+           "reference_gyro_bias", "oracle_calibration", "speed_lag_s", "split_check",
+           "imu_reference_yaw_from_accel", "ems_pseudo_odometer",
            "still_period_end", "still_gyro_bias", "result_rows", "reproduce", "reproduce_real",
            "README_CAN_SCALE", "STILL_SPEED_M_S", "OBSERVABILITY"]
 
@@ -82,21 +91,44 @@ NOT_DONE = [
     "comma2k19: the lever arm states of od-kf are estimated but not reported (no reference for "
     "them: the reference gives the camera's pose only)",
     "comma2k19 od-kf yaw mounting (issue 15 target: within 0.2 deg of the reference-derived "
-    "value): with the constant-bias model it was 0.7 deg off with a 0.17 deg sigma (the "
-    "phone gyro's z error changes by ~100 deg/h within the minute); with the Gauss-Markov "
-    "gyro bias it moves towards the reference and its sigma covers the error, but it stays "
-    "0.2-0.6 deg off depending on the undocumented sigma and tau (sensitivity table) and on "
-    "the start priors (loose start). An accelerometer Gauss-Markov bias as well (tried: "
-    "5-20 mg, 10-60 s) moves the yaw closer but the pitch mounting 0.6-0.9 deg away from the "
-    "reference; not adopted",
-    "a bias as a constant plus a Gauss-Markov part (two states per axis): the single "
-    "Gauss-Markov state forgets the phone's ~100 deg/h mean z error, so od-kf's own comma2k19 "
-    "position gets worse (24.8 m against 14.5 m) while its mounting gets better",
-    "comma2k19 calibrated dead reckoning (issue 15 target: within 20 m after 1 km): the "
-    "same DR with the scale and mounting measured from the reference (an oracle) ends "
-    "20.4 m off, because the DR's heading drifts with the uncompensated phone gyro (1.85 deg "
-    "at the end); the scale and mounting alone cannot bring it below that, and with the "
-    "estimated ones (yaw 0.3 deg off = 5 m over 1 km) it ends 24-31 m off",
+    "-0.81 deg): NOT met. Constant gyro bias: -0.10 deg (sigma 0.17, overconfident); "
+    "Gauss-Markov (150 deg/h, 30 s): -0.52 (sigma 0.26); constant + Gauss-Markov in two stages "
+    "(od_kf_constant_plus_gm): -0.48 (sigma 0.26, covers the error). On simulated truth of "
+    "the same kind the two-stage estimate is within 0.2 deg in ~94 % of runs (RMS 0.1 deg), "
+    "so the miss on the real segment is something the simulation does not have. Every model "
+    "passes "
+    "near the reference while the car accelerates (5-10 s, pitch not yet converged) and "
+    "drifts after; "
+    "varying the stage-2 gyro model (ARW 0.5-3.5 deg/sqrt(h), Gauss-Markov 60-150 deg/h, "
+    "3-30 s, or none) keeps the end value in -0.32 .. -0.58 deg. Ruled out: speed lag "
+    "(-0.03 s), z gyro scale (heading spans 1.2 deg), lateral accelerometer bias and roll "
+    "(estimated as the reference gives). What remains: on a straight road at nearly "
+    "constant speed the speed sensor sees the course, heading + gamma, and the split rests "
+    "on the gyro, whose error after removing the constant still wanders by +-50 deg/h "
+    "(0.3 deg of heading at 30-40 s); and the reference itself: it gives the camera's yaw, and the accelerometers put "
+    "the IMU's axes -0.16 deg off the camera's in yaw (+0.04 .. -0.27 over +-0.05 s of "
+    "timing), the size of the target; as an axis misalignment it would make the IMU's own "
+    "yaw mounting -0.66 deg, 0.17 deg from the estimate, as cross-axis sensitivity nothing",
+    "a single-pass constant + Gauss-Markov bias (two error states per axis) needs the engine's "
+    "state layout (owned elsewhere); done here in two stages (constant first, then the "
+    "Gauss-Markov model on the compensated gyro). Iterating the constant stage runs away "
+    "(z 104, 150, 169 deg/h against the reference's 107) and is not used",
+    "comma2k19 calibrated dead reckoning (issue 15 target: within 20 m after 1 km): met on "
+    "the segment only with the gyro bias in the calibration (9.4 m; oracle 3.0 m), and not "
+    "robustly: on simulated truth of the same kind (simulated_calibration_check, 50 runs) "
+    "the constant stage's z bias from 60 s is off by a median of ~150 deg/h and the same "
+    "calibrated DR is within 20 m in under half of the runs; scale and mounting alone give "
+    "26.4 m here (64-72 % of simulated runs within 20 m, whichever bias model), and even "
+    "the oracle scale and mounting end 20.4 m off (the DR heading drifts with the phone "
+    "gyro). What the target needs is the z gyro bias to ~20 deg/h (the oracle's mean gyro "
+    "error gives 3.0 m), which 60 s of a straight drive with a speed sensor do not give; a "
+    "drive with stops (zero-rate updates) or turns would. The dataset copy holds one "
+    "segment, so no per-segment spread; the split check (fit one half, DR the other, "
+    "~500 m: 3.3 and 6.5 m) is the out-of-sample figure. The Gauss-Markov parameters are "
+    "not fitted from this data: the z error against the reference (Allan deviation "
+    "~100 deg/h at 0.5-2 s, ~60 deg/h at 5-10 s) mixes the reference's own attitude noise "
+    "with the gyro's, and the only data is the evaluation segment; the importer's spec "
+    "stays `source: assumed`",
     "EMS od-kf with the pseudo-odometer: its yaw mounting ends at -1.4 deg against -0.18 "
     "from the reference, and the second pass, started from that value, ends 97 m off where the "
     "first pass ends 38 m off and DR with the same speed 32 m off (heading -9 deg vs -2.7 "
@@ -260,6 +292,47 @@ def gyro_minus_reference(bundle: Bundle, window_s: float = 10.0) -> dict:
             "mean_deg_h": (np.degrees(mean) * 3600).tolist()}
 
 
+def _specific_forces(bundle: Bundle, lag_s: float = 0.0):
+    """``(f_imu, f_ref, lat, h)`` over the reference intervals (:func:`accel_minus_reference`),
+    the IMU's read ``lag_s`` later than the reference's."""
+    imu, tr = bundle.imu, bundle.truth
+    inside = (tr.t >= imu.t[0] + max(0.0, -lag_s)) & (tr.t <= imu.t[-1] - max(0.0, lag_s))
+    t, C, vel, lat, h = (tr.t[inside], tr.C_nb[inside], tr.vel_n[inside], tr.lat[inside],
+                         tr.h[inside])
+    vsum = np.vstack([np.zeros(3), np.cumsum(imu.dvel[1:], axis=0)])
+    vs = np.column_stack([np.interp(t + lag_s, imu.t, vsum[:, i]) for i in range(3)])
+    dt = np.diff(t)[:, None]
+    f_imu = np.diff(vs, axis=0) / dt
+    mid = 0.5 * (vel[1:] + vel[:-1])
+    lat_m, h_m = 0.5 * (lat[1:] + lat[:-1]), 0.5 * (h[1:] + h[:-1])
+    cor = np.cross(2.0 * earth.omega_ie_n(lat_m) + earth.omega_en_n(lat_m, h_m, mid), mid)
+    f_n = np.diff(vel, axis=0) / dt + cor - earth.gravity_n(lat_m, h_m)
+    f_ref = np.einsum("kji,kj->ki", C[:-1], f_n)
+    return f_imu, f_ref, lat_m, h_m
+
+
+def imu_reference_yaw_from_accel(bundle: Bundle, lags_s=(-0.05, 0.0, 0.05)) -> dict:
+    """How well the IMU's axes agree in yaw with the reference's (the camera's), seen by the
+    accelerometers: if the IMU frame is turned by ``delta`` about z from the reference's,
+    ``f_imu,x = f_x + delta f_y`` (small angle), so the lateral residual ``f_imu,x - f_ref,x``
+    regressed on the forward specific force ``f_ref,y`` (with a constant for the bias and a
+    term in ``f_ref,z`` for a roll difference) has slope ``delta``. A cross-axis sensitivity
+    of the accelerometer gives the same slope, so this is the scale of the axes' yaw
+    disagreement, not a calibration; the lags show its sensitivity to timing.
+
+    Returns
+    -------
+    dict ``lag_s -> delta_deg``.
+    """
+    out = {}
+    for lag in lags_s:
+        f_imu, f_ref, _, _ = _specific_forces(bundle, lag)
+        A = np.column_stack([f_ref[:, 1], f_ref[:, 2], np.ones(len(f_ref))])
+        c, *_ = np.linalg.lstsq(A, f_imu[:, 0] - f_ref[:, 0], rcond=None)
+        out[float(lag)] = float(np.degrees(c[0]))
+    return out
+
+
 def accel_minus_reference(bundle: Bundle) -> dict:
     """Mean accelerometer error against the reference over the drive, and the level error
     it implies.
@@ -281,20 +354,7 @@ def accel_minus_reference(bundle: Bundle) -> dict:
     -------
     dict with ``bias_m_s2`` (3,) in b and ``level_error_arcmin``.
     """
-    imu, tr = bundle.imu, bundle.truth
-    inside = (tr.t >= imu.t[0]) & (tr.t <= imu.t[-1])
-    t, C, vel, lat, h = (tr.t[inside], tr.C_nb[inside], tr.vel_n[inside], tr.lat[inside],
-                         tr.h[inside])
-    vsum = np.vstack([np.zeros(3), np.cumsum(imu.dvel[1:], axis=0)])
-    vs = np.column_stack([np.interp(t, imu.t, vsum[:, i]) for i in range(3)])
-    dt = np.diff(t)[:, None]
-    f_imu = np.diff(vs, axis=0) / dt
-    mid = 0.5 * (vel[1:] + vel[:-1])
-    lat_m, h_m = 0.5 * (lat[1:] + lat[:-1]), 0.5 * (h[1:] + h[:-1])
-    cor = np.cross(2.0 * earth.omega_ie_n(lat_m) + earth.omega_en_n(lat_m, h_m, mid), mid)
-    f_n = np.diff(vel, axis=0) / dt + cor - earth.gravity_n(lat_m, h_m)
-    C_mid = C[:-1]
-    f_ref = np.einsum("kji,kj->ki", C_mid, f_n)
+    f_imu, f_ref, lat_m, h_m = _specific_forces(bundle)
     bias = (f_imu - f_ref).mean(axis=0)
     g = float(np.mean(earth.gravity(lat_m, h_m)))
     return {"bias_m_s2": [float(x) for x in bias],
@@ -422,6 +482,255 @@ def od_kf_iterated(bundle: Bundle, config: dict, init: NavState, passes: int = 2
     return row, e, sol, est
 
 
+def _final_gyro_bias(sol) -> np.ndarray:
+    """The filter's gyro bias estimate ``eps`` [rad/s] in b at the last solution row."""
+    return np.array([float(sol.states[f"eps_{a}"][-1]) for a in "xyz"])
+
+
+def od_kf_constant_plus_gm(bundle: Bundle, init: NavState, const_cfg=None, gm_cfg=None,
+                           passes: int = OD_KF_PASSES):
+    """The phone's gyro bias as a constant plus a Gauss-Markov part, in two stages (issue 15);
+    ``(row, errors, estimate)`` of the second stage, the estimate carrying the constant part
+    (``gyro_bias_rad_s``, ``gyro_bias_deg_h``, b axes).
+
+    The bias the data shows (``gyro_minus_reference``: z 107 deg/h on average over the minute,
+    wandering by +-50 deg/h around it) is ``b = b_c + b_gm``: a constant ``b_c`` and a
+    zero-mean first-order Gauss-Markov ``b_gm`` (``error_model`` module docstring). One error
+    state per axis cannot hold both: as a random constant it cannot follow the wander, which
+    goes into the yaw mounting; as a Gauss-Markov state it forgets the mean with ``tau``
+    (its z estimate stays near -11 deg/h against the reference's 107). Two stages:
+
+    1. ``od-kf`` (:func:`od_kf_iterated`) with the bias a random constant
+       (``const_cfg``, default :data:`PHONE_OD_KF_CONSTANT`, prior 150 deg/h): its last
+       estimate ``eps`` is the constant's estimate from the whole run, ``b_c``;
+    2. the gyro compensated by ``b_c`` (:func:`_compensated`), ``od-kf`` again with the
+       zero-mean Gauss-Markov bias of the sensor spec (``gm_cfg``, default
+       :data:`PHONE_OD_KF`: 150 deg/h, 30 s from ``meta.imu``), which is the model's
+       condition (mean removed). Scale and mounting are this stage's.
+
+    Only one stage 1: re-estimating ``b_c`` on the compensated gyro and compensating again
+    runs away (z: 104, 150, 169 deg/h after 1, 2, 3 rounds against the reference's 107;
+    the filter fits its own residual), so it is not iterated.
+    """
+    const_cfg = PHONE_OD_KF_CONSTANT if const_cfg is None else const_cfg
+    gm_cfg = PHONE_OD_KF if gm_cfg is None else gm_cfg
+    _, _, sol_c, _ = od_kf_iterated(bundle, const_cfg, init, passes)
+    b_c = _final_gyro_bias(sol_c)
+    row, e, _, est = od_kf_iterated(_compensated(bundle, b_c), gm_cfg, init, passes)
+    est["gyro_bias_rad_s"] = b_c
+    est["gyro_bias_deg_h"] = [float(x) for x in np.degrees(b_c) * 3600.0]
+    return row, e, est
+
+
+def calibrated_dr(bundle: Bundle, est: dict, init: NavState, label="dr"):
+    """Dead reckoning (``dr``, CAN speed) with a calibration ``est``: the speed divided by
+    ``scale``, the mounting ``pitch_mount_deg``, ``yaw_mount_deg`` and, when ``est`` has
+    ``gyro_bias_rad_s``, the gyro compensated by it; ``(row, errors, solution)``."""
+    b = _compensated(bundle, est["gyro_bias_rad_s"]) if "gyro_bias_rad_s" in est else bundle
+    mount = (est["pitch_mount_deg"] * 60.0, 0.0, est["yaw_mount_deg"] * 60.0)
+    return _run(label, "dr", b, DrConfig(sensor="odometer", speed_scale=1.0 / est["scale"],
+                                         mounting_arcmin=mount), init)
+
+
+def reference_gyro_bias(bundle: Bundle) -> np.ndarray:
+    """The gyro's mean error [rad/s] in b against the reference over the whole bundle
+    (:func:`gyro_minus_reference` with one window): the oracle's constant gyro bias."""
+    span = float(bundle.truth.t[-1] - bundle.truth.t[0]) + 1.0
+    return np.radians(np.asarray(gyro_minus_reference(bundle, span)["mean_deg_h"][0])) / 3600.0
+
+
+def oracle_calibration(bundle: Bundle) -> dict:
+    """:func:`reference_calibration` plus :func:`reference_gyro_bias`: what a perfect
+    estimator of the constant scale, mounting and gyro bias would give (an oracle)."""
+    cal = reference_calibration(bundle)
+    g = reference_gyro_bias(bundle)
+    return {**cal, "gyro_bias_rad_s": g, "gyro_bias_deg_h": [float(x) for x in
+                                                              np.degrees(g) * 3600.0]}
+
+
+def speed_lag_s(bundle: Bundle, max_lag_s=0.3, step_s=0.01) -> float:
+    """Lag [s] of the odometer against the reference speed: the shift ``d`` for which
+    ``v_odo(t + d)`` best fits ``k v_ref(t) + c`` (least squares) on a 100 Hz grid, over
+    ``+-max_lag_s``. A lag between the speed and the IMU puts ``a d`` into the along-track
+    velocity (not into the lateral one the yaw mounting is seen in)."""
+    tr, odo = bundle.truth, bundle.odometer
+    speed = np.linalg.norm(tr.vel_n, axis=1)
+    lo = max(tr.t[0], odo.t[0]) + max_lag_s
+    hi = min(tr.t[-1], odo.t[-1]) - max_lag_s
+    if hi - lo < 1.0:
+        raise BadInput("odometer and reference overlap by less than 1 s")
+    tt = np.arange(lo, hi, 0.01)
+    ref = np.column_stack([np.interp(tt, tr.t, speed), np.ones_like(tt)])
+    lags = np.arange(-max_lag_s, max_lag_s + 0.5 * step_s, step_s)
+    rms = []
+    for d in lags:
+        v = np.interp(tt + d, odo.t, odo.speed())
+        c, *_ = np.linalg.lstsq(ref, v, rcond=None)
+        rms.append(float(np.std(v - ref @ c)))
+    return float(lags[int(np.argmin(rms))])
+
+
+def split_check(bundle: Bundle) -> list:
+    """Two-fold check on the one segment: calibrate (:func:`od_kf_constant_plus_gm`) on one
+    half, dead-reckon the *other* half with that calibration from the reference there, and the
+    same with the oracle calibration (:func:`oracle_calibration`) of the calibration half: an
+    out-of-sample figure (each half ~500 m), since the dataset copy holds no second segment.
+    Rows: ``fit, evaluate, yaw_mount_deg, yaw_mount_sigma_deg, yaw_mount_ref_deg,
+    gyro_bias_z_deg_h, gyro_bias_z_ref_deg_h, dr_m, dr_oracle_m, distance_m``."""
+    t0, t1 = bundle.imu.t[0], bundle.imu.t[-1]
+    tm = 0.5 * (t0 + t1)
+    out = []
+    for fit, ev, (a, b), (c, d) in (("first half", "second half", (None, tm), (tm, None)),
+                                    ("second half", "first half", (tm, None), (None, tm))):
+        bf, be = bundle.window(a, b), bundle.window(c, d)
+        init_f = _init_from_truth(bf, bf.imu.t[0])
+        init_e = _init_from_truth(be, be.imu.t[0])
+        _, _, est = od_kf_constant_plus_gm(bf, init_f)
+        orc = oracle_calibration(bf)
+        dr, _, _ = calibrated_dr(be, est, init_e)
+        dro, _, _ = calibrated_dr(be, orc, init_e)
+        out.append({"fit": fit, "evaluate": ev, "yaw_mount_deg": est["yaw_mount_deg"],
+                    "yaw_mount_sigma_deg": est["yaw_mount_sigma_deg"],
+                    "yaw_mount_ref_deg": orc["yaw_mount_deg"],
+                    "gyro_bias_z_deg_h": est["gyro_bias_deg_h"][2],
+                    "gyro_bias_z_ref_deg_h": orc["gyro_bias_deg_h"][2],
+                    "dr_m": dr["final_horizontal_m"], "dr_oracle_m": dro["final_horizontal_m"],
+                    "distance_m": dr["distance_m"]})
+    return out
+
+
+#: the simulated check of the comma2k19 calibration (issue 15): IMU mounting in the car
+#: [arcmin] (the real segment's, about 3.8 deg pitch, -0.8 deg yaw) and Monte Carlo runs
+SIM_MOUNT_ARCMIN = (228.0, 0.0, -48.0)
+SIM_RUNS = 50
+
+
+def comma_like_scenario() -> dict:
+    """A comma2k19-like 60 s drive as a scenario dict (:mod:`inmotion.sim.scenario`): 8 -> 20
+    m/s, a slow-down to 14 m/s and a 1.2 deg curve, about 1 km, IMU mounted
+    :data:`SIM_MOUNT_ARCMIN`; phone-grade IMU with the gyro bias the real segment shows, a
+    random constant (1-sigma 110 deg/h per axis) plus a Gauss-Markov wander (50 deg/h,
+    30 s), accelerometer bias 8 mg (random), ARW 0.5 deg/sqrt(h), VRW 300 ug/sqrt(Hz);
+    odometer scale -0.9 %, speed at 100 Hz, 1 mm pulses."""
+    return {
+        "name": "comma_like", "description": "comma2k19-like 60 s highway drive (issue 15)",
+        "start": {"lat_deg": 37.4, "lon_deg": -122.1, "h_m": 20.0, "heading_deg": 140.0,
+                  "speed_m_s": 8.0},
+        "vehicle_mounting_arcmin": list(SIM_MOUNT_ARCMIN),
+        "segments": [{"kind": "accelerate", "to_speed_m_s": 20.0, "accel_m_s2": 1.2},
+                     {"kind": "cruise", "duration_s": 15},
+                     {"kind": "decelerate", "to_speed_m_s": 14.0, "decel_m_s2": 0.8},
+                     {"kind": "turn", "angle_deg": 1.2, "rate_deg_s": 0.2},
+                     {"kind": "accelerate", "to_speed_m_s": 18.0, "accel_m_s2": 0.6},
+                     {"kind": "cruise", "duration_s": 10}],
+        "imu": {"rate_hz": 100.0, "constant_errors": "random",
+                "gyro": {"drift_deg_h": 110.0, "arw_deg_sqrt_h": 0.5,
+                         "drift_markov_deg_h": 50.0, "drift_markov_tau_s": 30.0},
+                "accel": {"bias_ug": 8000.0, "vrw_ug_sqrt_hz": 300.0}},
+        "sensors": {"odometer": {"rate_hz": 100.0, "pulses_per_m": 1000.0,
+                                 "scale_factor_ppm": -9000.0, "scale_factor_sigma_ppm": 0.0,
+                                 "lever_arm_m": [0.0, 0.0, 0.0]}},
+    }
+
+
+#: the models of :func:`simulated_calibration_check`, in report order
+SIM_MODELS = ("constant", "gauss-markov", "constant + gauss-markov",
+              "constant + gauss-markov, DR without the gyro bias", "oracle")
+
+
+def _simulated_run(seed: int) -> dict:
+    from ..io.importers.comma2k19 import PHONE_IMU_SPEC
+    from ..sim.scenario import load_scenario
+    from ..sim.simulate import simulate
+    b = simulate(load_scenario(comma_like_scenario()), np.random.default_rng(seed))
+    b.meta = {**b.meta, "imu": {"rate_hz": 100.0, **PHONE_IMU_SPEC}}
+    init = _init_from_truth(b, b.imu.t[0])
+    yaw_true = SIM_MOUNT_ARCMIN[2] / 60.0
+    out = {}
+    for label, cfg in (("constant", PHONE_OD_KF_CONSTANT), ("gauss-markov", PHONE_OD_KF)):
+        _, _, _, est = od_kf_iterated(b, cfg, init, OD_KF_PASSES)
+        dr, _, _ = calibrated_dr(b, est, init)
+        out[label] = (est["yaw_mount_deg"] - yaw_true, est["yaw_mount_sigma_deg"],
+                      dr["final_horizontal_m"])
+    _, _, two = od_kf_constant_plus_gm(b, init)
+    orc = oracle_calibration(b)
+    for label, cal in (("constant + gauss-markov", two),
+                       ("constant + gauss-markov, DR without the gyro bias",
+                        {k: v for k, v in two.items() if k != "gyro_bias_rad_s"}),
+                       ("oracle", orc)):
+        dr, _, _ = calibrated_dr(b, cal, init)
+        e = two["yaw_mount_deg"] - yaw_true if label != "oracle" else float("nan")
+        s = two["yaw_mount_sigma_deg"] if label != "oracle" else float("nan")
+        out[label] = (e, s, dr["final_horizontal_m"])
+    out["gyro_bias_z_error_deg_h"] = two["gyro_bias_deg_h"][2] - orc["gyro_bias_deg_h"][2]
+    out["distance_m"] = dr["distance_m"]
+    return out
+
+
+def simulated_calibration_check(runs: int = SIM_RUNS, seed: int = 0) -> dict:
+    """The comma2k19 calibration methods on simulated truth (:func:`comma_like_scenario`),
+    Monte Carlo over ``runs`` seeds; every filter runs with the comma2k19 importer's assumed
+    spec in ``meta.imu``, as on the real log. Per model of :data:`SIM_MODELS`: the yaw
+    mounting error against the simulated truth (mean, RMS, mean filter sigma, RMS of error /
+    sigma, share within the 0.2 deg target) and the dead reckoning after the drive with that
+    calibration (median, 90th percentile, share within the 20 m target); plus the constant
+    stage's z gyro bias error (against the mean of the simulated bias)."""
+    rows = [_simulated_run(seed + 1000 + k) for k in range(runs)]
+    out = {"runs": runs, "distance_m": float(np.mean([r["distance_m"] for r in rows])),
+           "models": {}}
+    for m in SIM_MODELS:
+        e = np.array([r[m][0] for r in rows])
+        s = np.array([r[m][1] for r in rows])
+        d = np.array([r[m][2] for r in rows])
+        row = {"dr_median_m": float(np.median(d)), "dr_p90_m": float(np.percentile(d, 90)),
+               "dr_within_target": float(np.mean(d <= TARGET_DR_M))}
+        if m != "oracle":
+            row.update(yaw_error_mean_deg=float(e.mean()),
+                       yaw_error_rms_deg=float(np.sqrt(np.mean(e ** 2))),
+                       yaw_sigma_mean_deg=float(s.mean()),
+                       yaw_error_over_sigma_rms=float(np.sqrt(np.mean((e / s) ** 2))),
+                       yaw_within_target=float(np.mean(np.abs(e) <= TARGET_YAW_MOUNT_DEG)))
+        out["models"][m] = row
+    z = np.abs([r["gyro_bias_z_error_deg_h"] for r in rows])
+    out["gyro_bias_z_abs_error_deg_h"] = {"median": float(np.median(z)),
+                                          "p90": float(np.percentile(z, 90))}
+    return out
+
+
+def _simulated_lines(sim: dict) -> list:
+    lines = [f"Simulated truth (`simulated_calibration_check`, {sim['runs']} runs of a "
+             f"comma2k19-like {sim['distance_m']:.0f} m drive, `comma_like_scenario`: "
+             "constant + Gauss-Markov gyro bias as the real segment shows, every filter with "
+             "the importer's assumed spec):", "",
+             "| model | yaw error mean deg | RMS deg | mean 1-sigma deg | RMS(error / sigma) "
+             f"| within {TARGET_YAW_MOUNT_DEG} deg | DR median m | DR 90 % m "
+             f"| DR within {TARGET_DR_M:.0f} m |",
+             "| --- | ---: | ---: | ---: | ---: | ---: | ---: | ---: | ---: |"]
+    for m, r in sim["models"].items():
+        if "yaw_error_rms_deg" in r:
+            yaw = (f"{r['yaw_error_mean_deg']:+.3f} | {r['yaw_error_rms_deg']:.3f} "
+                   f"| {r['yaw_sigma_mean_deg']:.3f} | {r['yaw_error_over_sigma_rms']:.2f} "
+                   f"| {100 * r['yaw_within_target']:.0f} %")
+        else:
+            yaw = "- | - | - | - | -"
+        lines.append(f"| {m} | {yaw} | {r['dr_median_m']:.1f} | {r['dr_p90_m']:.1f} "
+                     f"| {100 * r['dr_within_target']:.0f} % |")
+    z = sim["gyro_bias_z_abs_error_deg_h"]
+    two = sim["models"]["constant + gauss-markov"]
+    lines += ["", "The Gauss-Markov models' yaw sigma is "
+              f"{two['yaw_sigma_mean_deg'] / two['yaw_error_rms_deg']:.1f} times their RMS "
+              "error here: it covers the error but is conservative, the spec's assumed 150 "
+              "deg/h wander being three times the simulated 50 deg/h (the real one is not "
+              "known well enough to set it: Not done). The constant model's error is "
+              f"{sim['models']['constant']['yaw_error_over_sigma_rms']:.1f} times its sigma "
+              "(RMS), the overconfidence of issue 15."]
+    lines += ["", f"The constant stage's z gyro bias is off by {z['median']:.0f} deg/h "
+              f"(median; 90 %: {z['p90']:.0f} deg/h) from the simulated bias's mean: 60 s of "
+              "a straight drive do not determine it, and compensating the DR with it "
+              "helps only when it happens to be right.", ""]
+    return lines
+
+
 def run_comma2k19(bundle: Bundle) -> dict:
     """The comma2k19 runs (module docstring): rows, error series, calibration, estimates."""
     init = _init_from_truth(bundle, bundle.imu.t[0])
@@ -475,9 +784,37 @@ def run_comma2k19(bundle: Bundle) -> dict:
     add("dr scale + mounting (from reference)", "dr", bundle,
         DrConfig(sensor="odometer", speed_scale=1.0 / cal["scale"], mounting_arcmin=cal_mount),
         "oracle: measured from the reference, not estimated (upper bound)")
+    row, e, two = od_kf_constant_plus_gm(bundle, init)
+    rows.append({**row, "run": "od-kf constant + Gauss-Markov bias",
+                 "note": "two stages (od_kf_constant_plus_gm): constant gyro bias estimated, "
+                         "removed, then the Gauss-Markov model of meta.imu"})
+    series["od-kf constant + Gauss-Markov bias"] = e
+    oracle = oracle_calibration(bundle)
+    for label, cal_, note in (
+            ("dr calibrated (od-kf constant + Gauss-Markov)", two,
+             "scale, mounting and constant gyro bias estimated by od_kf_constant_plus_gm"),
+            ("dr scale + mounting (od-kf constant + Gauss-Markov)",
+             {k: v for k, v in two.items() if k != "gyro_bias_rad_s"},
+             "scale and mounting of od_kf_constant_plus_gm, gyro not compensated"),
+            ("dr calibrated (from reference)", oracle,
+             "oracle: scale, mounting and mean gyro error measured from the reference")):
+        row, e, _ = calibrated_dr(bundle, cal_, init, label)
+        rows.append({**row, "note": note})
+        series[label] = e
     add("sins", "sins", bundle, SinsConfig(), "pure inertial, no aiding")
     coarse = coarse_alignment(bundle)
+    yaw = np.degrees(np.unwrap(bundle.truth.euler[:, 2]))
     return {"runs": rows, "coarse": coarse, "series": series,
+            "estimated_two_stage": two, "oracle_calibration": oracle,
+            "split_check": split_check(bundle),
+            "speed_lag_s": speed_lag_s(bundle),
+            "imu_reference_yaw_deg": [[k, v] for k, v in
+                                      imu_reference_yaw_from_accel(bundle).items()],
+            "heading_span_deg": float(yaw.max() - yaw.min()),
+            "yaw_track": {"t_s": list(YAW_TRACK_S), **{
+                k: [_yaw_at(v, x) for x in YAW_TRACK_S] for k, v in
+                (("od-kf constant bias", const), ("od-kf Gauss-Markov", est),
+                 ("od-kf constant + Gauss-Markov", two))}},
             "estimated_constant_bias": const,
             "gm_sensitivity": gm_sensitivity(bundle, init),
             "gyro_minus_reference": gyro_minus_reference(bundle),
@@ -629,7 +966,8 @@ def _figure_mounting(comma: dict) -> Figure:
     for ax, key, ref, title in ((axes[0], "pitch", cal["pitch_mount_deg"], "mounting pitch"),
                                 (axes[1], "yaw", cal["yaw_mount_deg"], "mounting yaw")):
         for lab, est in (("od-kf", comma["estimated"]), ("od-kf loose start",
-                                                          comma["estimated_loose"])):
+                                                          comma["estimated_loose"]),
+                         ("od-kf constant + Gauss-Markov", comma["estimated_two_stage"])):
             ax.plot(est["t"] - est["t"][0], est[f"{key}_series_deg"], lw=1.0, label=lab)
         ax.axhline(ref, color="k", ls="--", lw=1.0, label="from the reference")
         ax.set_xlabel("time from start [s]")
@@ -645,6 +983,7 @@ def result_rows(comma: dict, ems: dict) -> list:
     (``reference``: the figure derived from the data's reference or README, None if none)."""
     cal, est, loose = comma["reference_calibration"], comma["estimated"], comma["estimated_loose"]
     const = comma["estimated_constant_bias"]
+    two, orc = comma["estimated_two_stage"], comma["oracle_calibration"]
     dr = {r["run"]: r["final_horizontal_m"] for r in comma["runs"]}
     rows = [
         {"quantity": "comma2k19 odometer scale (CAN / true speed), od-kf", "reference":
@@ -665,15 +1004,51 @@ def result_rows(comma: dict, ems: dict) -> list:
         {"quantity": "comma2k19 mounting yaw, od-kf constant gyro bias (before issue 15)",
          "reference": cal["yaw_mount_deg"], "measured": const["yaw_mount_deg"], "unit": "deg",
          "note": f"filter 1-sigma {const['yaw_mount_sigma_deg']:.2f} deg"},
-        {"quantity": "comma2k19 calibrated DR after 1 km, od-kf scale + mounting",
+        {"quantity": "comma2k19 mounting yaw, od-kf constant + Gauss-Markov gyro bias",
+         "reference": cal["yaw_mount_deg"], "measured": two["yaw_mount_deg"], "unit": "deg",
+         "note": f"filter 1-sigma {two['yaw_mount_sigma_deg']:.2f} deg; two stages "
+                 "(od_kf_constant_plus_gm); issue 15 target: within "
+                 f"{TARGET_YAW_MOUNT_DEG} deg ({_met(two['yaw_mount_deg'] - cal['yaw_mount_deg'], TARGET_YAW_MOUNT_DEG)}); "
+                 f"at 10 s it was {_yaw_at(two, 10.0):.2f} deg, then it drifts (report); "
+                 + _sim_yaw_note(comma)},
+        {"quantity": "comma2k19 z gyro bias (constant part), od-kf constant + Gauss-Markov",
+         "reference": orc["gyro_bias_deg_h"][2], "measured": two["gyro_bias_deg_h"][2],
+         "unit": "deg/h", "note": "reference: mean gyro minus reference body rate over the "
+                                  "segment (gyro_minus_reference)"},
+        {"quantity": "comma2k19 calibrated DR after 1 km, od-kf constant + Gauss-Markov "
+                     "calibration", "reference": dr["dr calibrated (from reference)"],
+         "measured": dr["dr calibrated (od-kf constant + Gauss-Markov)"], "unit": "m",
+         "note": "calibration = scale, mounting and constant gyro bias, estimated over the "
+                 "same segment the DR runs on (no second segment); reference: the same DR with "
+                 "the three measured from the reference (oracle); scale + mounting only: "
+                 f"{dr['dr scale + mounting (od-kf)']:.1f} m (Gauss-Markov), "
+                 f"{dr['dr scale + mounting (od-kf constant bias)']:.1f} m (constant), oracle "
+                 f"{dr['dr scale + mounting (from reference)']:.1f} m; issue 15 target: within "
+                 f"{TARGET_DR_M:.0f} m "
+                 f"({'met' if dr['dr calibrated (od-kf constant + Gauss-Markov)'] <= TARGET_DR_M else 'NOT met'}"
+                 " on this segment, but not robustly: " + _sim_dr_note(comma) + ")"},
+        {"quantity": "comma2k19 calibrated DR after 1 km, od-kf constant + Gauss-Markov scale "
+                     "+ mounting, gyro not compensated",
+         "reference": dr["dr scale + mounting (from reference)"],
+         "measured": dr["dr scale + mounting (od-kf constant + Gauss-Markov)"], "unit": "m",
+         "note": "reference: the oracle scale and mounting, gyro not compensated either"},
+        {"quantity": "comma2k19 calibrated DR after 1 km, od-kf scale + mounting (no gyro bias)",
          "reference": dr["dr scale + mounting (from reference)"],
          "measured": dr["dr scale + mounting (od-kf)"], "unit": "m",
-         "note": "reference: the same DR with the scale and mounting measured from the "
-                 "reference (oracle); constant gyro bias model: "
-                 f"{dr['dr scale + mounting (od-kf constant bias)']:.1f} m; issue 15 target: "
-                 f"within {TARGET_DR_M:.0f} m "
-                 f"({'met' if dr['dr scale + mounting (od-kf)'] <= TARGET_DR_M else 'NOT met'})"},
+         "note": "the figure before the gyro bias was part of the calibration: the DR's "
+                 "heading drifts with the uncompensated phone gyro, so even the oracle scale "
+                 "and mounting end about 20 m off"},
     ]
+    for s in comma["split_check"]:
+        rows.append({"quantity": f"comma2k19 split check: fit {s['fit']}, mounting yaw",
+                     "reference": s["yaw_mount_ref_deg"], "measured": s["yaw_mount_deg"],
+                     "unit": "deg", "note": f"filter 1-sigma {s['yaw_mount_sigma_deg']:.2f} "
+                     f"deg; reference from the fit half ({_met(s['yaw_mount_deg'] - s['yaw_mount_ref_deg'], TARGET_YAW_MOUNT_DEG)} at {TARGET_YAW_MOUNT_DEG} deg)"})
+        rows.append({"quantity": f"comma2k19 split check: DR on the {s['evaluate']} with the "
+                                 f"calibration of the {s['fit']}",
+                     "reference": s["dr_oracle_m"], "measured": s["dr_m"], "unit": "m",
+                     "note": f"out of sample, {s['distance_m']:.0f} m; reference: the oracle "
+                             "calibration of the fit half"})
     ecal, eest = ems["reference_calibration"], ems["estimated"]
     for key, what in (("pitch_mount_deg", "pitch"), ("yaw_mount_deg", "yaw")):
         rows.append({"quantity": f"EMS mounting {what}, od-kf pseudo-odometer",
@@ -699,6 +1074,45 @@ def result_rows(comma: dict, ems: dict) -> list:
                          "note": f"{r['final_horizontal_pct_distance']:.2f} % of "
                                  f"{r['distance_m']:.0f} m; {r['note']}"})
     return rows
+
+
+#: times [s from the start] at which the report shows the yaw mounting estimates
+YAW_TRACK_S = (5.0, 10.0, 20.0, 30.0, 40.0, 50.0, 60.0)
+
+
+def _yaw_at(est: dict, t_s: float) -> float:
+    """The yaw mounting estimate [deg] of ``est`` (:func:`estimated_sensor`) at ``t_s`` from
+    its start (its last value beyond the end)."""
+    t = np.asarray(est["t"]) - est["t"][0]
+    return float(est["yaw_series_deg"][min(int(np.searchsorted(t, t_s)), len(t) - 1)])
+
+
+def _sim_yaw_note(comma: dict) -> str:
+    """The simulated check's yaw figures for a results-row note."""
+    sim = comma.get("simulated_check")
+    if sim is None:
+        return "no simulated check in this run"
+    r = sim["models"]["constant + gauss-markov"]
+    return (f"on simulated truth ({sim['runs']} runs) within {TARGET_YAW_MOUNT_DEG} deg in "
+            f"{100 * r['yaw_within_target']:.0f} % of runs, RMS {r['yaw_error_rms_deg']:.2f} "
+            "deg")
+
+
+def _sim_dr_note(comma: dict) -> str:
+    """The simulated check's DR figures for a results-row note ("" without it)."""
+    sim = comma.get("simulated_check")
+    if sim is None:
+        return "no simulated check in this run"
+    m = sim["models"]
+    a, b = m["constant + gauss-markov"], m["constant + gauss-markov, DR without the gyro bias"]
+    return (f"on simulated truth ({sim['runs']} runs) the same calibration is within "
+            f"{TARGET_DR_M:.0f} m in {100 * a['dr_within_target']:.0f} % of runs (median "
+            f"{a['dr_median_m']:.1f} m, 90 % {a['dr_p90_m']:.1f} m), without the gyro bias in "
+            f"{100 * b['dr_within_target']:.0f} %")
+
+
+def _met(err, limit) -> str:
+    return "met" if abs(err) <= limit else "NOT met"
 
 
 def _fmt(x, nd=2):
@@ -734,6 +1148,108 @@ def _gyro_lines(g: dict, what: str, comment: str) -> list:
     lines += [f"| {t:.0f} | {m[0]:.0f} | {m[1]:.0f} | {m[2]:.0f} |"
               for t, m in zip(w, g["mean_deg_h"])]
     return lines + ["", comment]
+
+
+def _two_stage_lines(c: dict) -> list:
+    """The report's section on the constant + Gauss-Markov calibration (issue 15)."""
+    two, orc, cal = c["estimated_two_stage"], c["oracle_calibration"], c["reference_calibration"]
+    runs = {r["run"]: r for r in c["runs"]}
+    drm = runs["dr calibrated (od-kf constant + Gauss-Markov)"]["final_horizontal_m"]
+    dro = runs["dr calibrated (from reference)"]["final_horizontal_m"]
+    yt = c["yaw_track"]
+    d0 = dict((lag, d) for lag, d in c["imu_reference_yaw_deg"]).get(0.0, float("nan"))
+    lines = ["### Constant + Gauss-Markov gyro bias (issue 15)", "",
+             "The phone's z gyro error against the reference is a mean of "
+             f"{orc['gyro_bias_deg_h'][2]:.0f} deg/h with a wander of about +-50 deg/h "
+             "around it (table above): a constant plus a Gauss-Markov part. "
+             "`od_kf_constant_plus_gm` estimates the two in two stages: `od-kf` with the bias "
+             "a random constant gives the constant (z: "
+             f"{two['gyro_bias_deg_h'][2]:.0f} deg/h; x, y: {two['gyro_bias_deg_h'][0]:.0f}, "
+             f"{two['gyro_bias_deg_h'][1]:.0f}; reference {orc['gyro_bias_deg_h'][0]:.0f}, "
+             f"{orc['gyro_bias_deg_h'][1]:.0f}, {orc['gyro_bias_deg_h'][2]:.0f}), the gyro "
+             "is compensated by it, and `od-kf` with the spec's zero-mean Gauss-Markov bias "
+             "gives scale and mounting. The calibration is then scale "
+             f"{two['scale']:.4f}, pitch {two['pitch_mount_deg']:.2f} deg, yaw "
+             f"{two['yaw_mount_deg']:.2f} +- {two['yaw_mount_sigma_deg']:.2f} deg, and the "
+             "constant gyro bias (reference: "
+             f"{cal['scale']:.4f}, {cal['pitch_mount_deg']:.2f}, {cal['yaw_mount_deg']:.2f} "
+             "deg).", "",
+             f"- **Calibrated DR after 1 km: {drm:.1f} m** with this estimated calibration "
+             f"(target {TARGET_DR_M:.0f} m; {_met(drm, TARGET_DR_M)} on this segment); the oracle with "
+             f"the same three quantities from the reference: {dro:.1f} m. Without the gyro "
+             "bias in the calibration even the oracle scale and mounting end "
+             f"{runs['dr scale + mounting (from reference)']['final_horizontal_m']:.1f} m off: "
+             "the DR heading drifts with the uncompensated gyro, which is why the gyro bias "
+             "belongs to the calibration. **But this is not a robust result**: the constant "
+             "stage's z bias happens to be right here (104 against 107 deg/h); on simulated "
+             "truth (table below) it is off by a median of "
+             + (f"{c['simulated_check']['gyro_bias_z_abs_error_deg_h']['median']:.0f} deg/h "
+                if "simulated_check" in c else "(no simulated check in this run) ")
+             + "and the calibrated DR is within the target in only part of the runs. Without "
+             "the gyro bias the estimated scale and mounting give "
+             f"{runs['dr scale + mounting (od-kf constant + Gauss-Markov)']['final_horizontal_m']:.1f}"
+             " m. The calibration is estimated on the same 60 s the DR runs on (the only "
+             "comma2k19 segment here); the split check below is the out-of-sample figure.",
+             f"- **Mounting yaw: {two['yaw_mount_deg']:.2f} +- "
+             f"{two['yaw_mount_sigma_deg']:.2f} deg** against {cal['yaw_mount_deg']:.2f} "
+             f"(target {TARGET_YAW_MOUNT_DEG} deg: "
+             f"{_met(two['yaw_mount_deg'] - cal['yaw_mount_deg'], TARGET_YAW_MOUNT_DEG)}; the "
+             "sigma covers the error; " + _sim_yaw_note(c) + ", so the miss here is something "
+             "the simulation does not have). Every bias model passes near the reference while the "
+             "car accelerates from 8 to 20 m/s (5-10 s; the pitch mounting is then still "
+             "about 1 deg off, `real_mounting.png`, so that is no converged value) and ends "
+             "0.3-0.7 deg off (estimates [deg] at these times from the start; the "
+             "reference-derived value over 10 s windows stays within -0.73 .. -0.87):", "",
+             "| model | " + " | ".join(f"{t:.0f} s" for t in yt["t_s"]) + " |",
+             "| --- | " + " | ".join("---:" for _ in yt["t_s"]) + " |"]
+    lines += [f"| {k} | " + " | ".join(f"{x:.2f}" for x in v) + " |"
+              for k, v in yt.items() if k != "t_s"]
+    lines += ["", "The drift appears with every bias model tried, constant, Gauss-Markov "
+              "(9 settings, table above) and constant + Gauss-Markov (and, in development "
+              "runs, with the stage-2 gyro ARW 0.5-3.5 deg/sqrt(h) and Gauss-Markov 60-150 "
+              "deg/h, 3-30 s: end values -0.32 .. -0.58 deg). What the speed sensor sees is "
+              "the course, heading + gamma; on a straight road at nearly constant speed the "
+              "split between the two rests on the start heading and on the gyro, whose "
+              "error after removing the constant still wanders by +-50 deg/h (the "
+              "compensated gyro's heading is 0.3 deg off the reference at 30-40 s and back at "
+              "60 s); the filter tracks part of that as bias and the rest ends in gamma. "
+              "(In the same runs the lateral accelerometer bias is estimated at 0.07-0.08 "
+              "m/s^2 from the start, as the reference gives, and the roll stays within a "
+              "few arcmin: they are not the cause.) Checked and ruled out as "
+              f"causes: the odometer lag against the reference speed is {c['speed_lag_s']:+.2f}"
+              " s (and a speed lag acts along track, not laterally); the z gyro scale "
+              "factor cannot matter here, the reference heading spans only "
+              f"{c['heading_span_deg']:.2f} deg over the segment (a 5 % scale error = "
+              f"{0.05 * c['heading_span_deg']:.2f} deg). 0.2 deg of yaw on this 60 s "
+              "highway segment is not reached by any model tried (see Not done).", "",
+              "How far the reference can certify a yaw mounting: the reference attitude is the "
+              "camera's, and the IMU's axes are taken equal to it (data README: they agree in "
+              "*rate*). The accelerometers say the two frames differ in yaw by "
+              + ", ".join(f"{d:+.2f} deg (IMU lag {lag:+.2f} s)"
+                          for lag, d in c["imu_reference_yaw_deg"])
+              + " (`imu_reference_yaw_from_accel`: lateral residual against forward specific "
+              "force; an accelerometer cross-axis sensitivity looks the same): of the order of "
+              f"the {TARGET_YAW_MOUNT_DEG} deg target itself. Were the {d0:+.2f} deg (no lag) "
+              "an axis misalignment, the IMU's own yaw mounting would be gamma_camera - delta "
+              f"= {cal['yaw_mount_deg'] - d0:.2f} deg, "
+              f"{abs(two['yaw_mount_deg'] - (cal['yaw_mount_deg'] - d0)):.2f} deg from the "
+              "estimate; were it cross-axis sensitivity, -0.81 stands. The reference cannot "
+              "tell which.", "",
+              "Split check (calibrate on one half, dead-reckon the other half from the "
+              "reference there, about 500 m each; the only out-of-sample figure this one "
+              "segment allows):", "",
+              "| fit | evaluate | yaw mount deg | 1-sigma | reference (fit half) | z bias deg/h "
+              "| reference | DR m | oracle DR m | distance m |",
+              "| --- | --- | ---: | ---: | ---: | ---: | ---: | ---: | ---: | ---: |"]
+    lines += [f"| {s['fit']} | {s['evaluate']} | {s['yaw_mount_deg']:.2f} "
+              f"| {s['yaw_mount_sigma_deg']:.2f} | {s['yaw_mount_ref_deg']:.2f} "
+              f"| {s['gyro_bias_z_deg_h']:.0f} | {s['gyro_bias_z_ref_deg_h']:.0f} "
+              f"| {s['dr_m']:.1f} | {s['dr_oracle_m']:.1f} | {s['distance_m']:.0f} |"
+              for s in c["split_check"]]
+    lines += [""]
+    if "simulated_check" in c:
+        lines += _simulated_lines(c["simulated_check"])
+    return lines
 
 
 def report_markdown(results: dict, rows: list) -> str:
@@ -786,12 +1302,14 @@ def report_markdown(results: dict, rows: list) -> str:
               f"{runs['od-kf']['final_horizontal_m']:.1f} m with the Gauss-Markov bias against "
               f"{runs['od-kf constant bias']['final_horizontal_m']:.1f} m with the constant one. "
               "The phone's residual z error keeps a mean of about 100 deg/h over the minute "
-              "(table above), which a zero-mean Gauss-Markov state forgets with tau; a bias "
-              "that is a constant plus a Gauss-Markov part needs two states per axis (not "
-              "done). `inmotion process` keeps the constant model (its spec folds the "
+              "(table above), which a zero-mean Gauss-Markov state forgets with tau (its z "
+              "estimate stays near -11 deg/h); the constant + Gauss-Markov calibration below "
+              f"brings it to {runs['od-kf constant + Gauss-Markov bias']['final_horizontal_m']:.1f} m. "
+              "`inmotion process` keeps the constant model (its spec folds the "
               "Gauss-Markov part into the constant's sigma).",
-              "",
-              "## EMS: runs", "",
+              ""]
+    lines += _two_stage_lines(c)
+    lines += ["## EMS: runs", "",
               f"Start: the end of the still period, {sp['still_end_s']:.2f} s (reference speed "
               f"> {STILL_SPEED_M_S} m/s). Gyro bias measured there [deg/h] (x, y, z in b): "
               f"{', '.join(f'{x:.0f}' for x in sp['gyro_bias_deg_h'])}; removed from every run "
@@ -823,7 +1341,8 @@ def report_markdown(results: dict, rows: list) -> str:
 
 def _jsonable(res: dict) -> dict:
     out = {k: v for k, v in res.items() if k != "series"}
-    for k in ("estimated", "estimated_loose", "estimated_constant_bias"):
+    for k in ("estimated", "estimated_loose", "estimated_constant_bias",
+              "estimated_two_stage", "oracle_calibration"):
         if k in out:
             out[k] = {a: b for a, b in out[k].items() if not isinstance(b, np.ndarray)}
     if "reference_calibration" in out:
@@ -850,8 +1369,9 @@ def reproduce(out_dir, runs=None, workers=None, seed=0, progress=True, data_root
     rows of :func:`result_rows`), ``real_results.json`` (all runs) and three PNG figures to
     ``out_dir``; return the ``real_results`` dict.
 
-    ``runs``, ``workers``, ``seed`` are accepted for the signature shared with the
-    ``reproduce_00x`` modules and ignored: there is one recorded drive each, nothing random.
+    ``runs`` and ``seed`` set the Monte Carlo of :func:`simulated_calibration_check` (default
+    :data:`SIM_RUNS`, 0); ``workers`` is accepted for the signature shared with the
+    ``reproduce_00x`` modules and ignored. The real drives are one recording each.
     ``data_root`` is the folder of the real drives (default :func:`default_data_root`).
     """
     t_wall = time.perf_counter()
@@ -859,6 +1379,8 @@ def reproduce(out_dir, runs=None, workers=None, seed=0, progress=True, data_root
     if not root.is_dir():
         raise BadInput("real data folder not found", root)
     comma = run_comma2k19(import_log("comma2k19", root / "comma2k19_rav4_60s"))
+    comma["simulated_check"] = simulated_calibration_check(
+        SIM_RUNS if runs is None else int(runs), seed)
     ems = run_ems(import_log("ems", root / "ems_toronto_511s" / "ems_data_for_lc.mat"))
     rlg, mems = _run_psins(root)
     rows = result_rows(comma, ems) + rp.psins_rows(rlg, mems)

@@ -1,0 +1,130 @@
+"""Issue 15 on comma2k19: the phone's gyro bias as a constant plus a Gauss-Markov part
+(``od_kf_constant_plus_gm``), dead reckoning with the estimated calibration (scale, mounting,
+constant gyro bias), and the diagnostics behind the report (speed lag, IMU / reference yaw).
+The synthetic tests inject a known lag / rotation / bias; the real-data ones compare with the
+drive's reference and are skipped without the data."""
+import numpy as np
+import pytest
+
+from inmotion.core.bundle import Bundle, ImuData, SpeedData, Truth
+from inmotion.reproductions import real as rr
+
+D = np.pi / 180.0
+COMMA = rr.default_data_root() / "comma2k19_rav4_60s"
+needs_comma = pytest.mark.skipif(not COMMA.is_dir(), reason=f"comma2k19 not found at {COMMA}")
+
+
+def _straight_drive(n=1200, dt=0.05, heading=30 * D):
+    """Level drive along ``heading`` with a speed 15 + 3 sin(0.7 t) m/s: truth at 20 Hz."""
+    t = np.arange(n) * dt
+    speed = 15.0 + 3.0 * np.sin(0.7 * t)
+    vel = np.column_stack([speed * np.sin(heading), speed * np.cos(heading), np.zeros(n)])
+    lat = 37.0 * D + np.cumsum(vel[:, 1]) * dt / 6.37e6
+    lon = -122.0 * D + np.cumsum(vel[:, 0]) * dt / (6.37e6 * np.cos(37.0 * D))
+    euler = np.tile([0.0, 0.0, heading], (n, 1))
+    return Truth(t, lat, lon, np.full(n, 10.0), vel, euler)
+
+
+def test_speed_lag_recovers_an_injected_odometer_delay():
+    tr = _straight_drive()
+    speed = np.linalg.norm(tr.vel_n, axis=1)
+    for lag in (-0.12, 0.0, 0.08):
+        odo = SpeedData(tr.t, v=0.99 * np.interp(tr.t - lag, tr.t, speed) + 0.01)
+        b = Bundle(imu=ImuData(tr.t, np.zeros((len(tr.t), 3)), np.zeros((len(tr.t), 3))),
+                   meta={}, odometer=odo, truth=tr)
+        assert rr.speed_lag_s(b) == pytest.approx(lag, abs=0.011)
+
+
+def test_imu_reference_yaw_recovers_an_injected_rotation_of_the_accelerometer_axes():
+    """The IMU's specific force is the reference's turned by ``delta`` about z plus a bias;
+    the regression on the forward specific force gives ``delta`` back."""
+    tr = _straight_drive()
+    ref = Bundle(imu=ImuData(tr.t, np.zeros((len(tr.t), 3)), np.zeros((len(tr.t), 3))),
+                 meta={}, truth=tr)
+    _, f_ref, _, _ = rr._specific_forces(ref)
+    delta = 0.3 * D
+    c, s = np.cos(delta), np.sin(delta)
+    f_imu = f_ref @ np.array([[c, -s, 0.0], [s, c, 0.0], [0.0, 0.0, 1.0]]) \
+        + np.array([0.07, -0.05, 0.1])
+    dvel = np.vstack([np.zeros(3), f_imu * np.diff(tr.t)[:, None]])
+    b = Bundle(imu=ImuData(tr.t, np.zeros_like(dvel), dvel), meta={}, truth=tr)
+    got = rr.imu_reference_yaw_from_accel(b, lags_s=(0.0,))
+    assert got[0.0] == pytest.approx(0.3, abs=0.01)
+
+
+def test_oracle_calibration_carries_the_mean_gyro_error():
+    """A constant gyro bias on a level, straight drive: the oracle's bias is that constant
+    (plus nothing else: the increments are the Earth rate seen in b)."""
+    from inmotion.core import earth
+    tr = _straight_drive()
+    bias = np.array([-100.0, 50.0, 107.0]) * D / 3600.0
+    w = tr.C_nb[0].T @ earth.omega_ie_n(tr.lat[0]) + bias
+    dtheta = np.vstack([np.zeros(3), np.tile(w, (len(tr.t) - 1, 1)) * np.diff(tr.t)[:, None]])
+    b = Bundle(imu=ImuData(tr.t, dtheta, np.zeros_like(dtheta)), meta={},
+               odometer=SpeedData(tr.t, v=np.linalg.norm(tr.vel_n, axis=1)), truth=tr)
+    orc = rr.oracle_calibration(b)
+    assert np.allclose(orc["gyro_bias_deg_h"], [-100.0, 50.0, 107.0], atol=2.0)
+    assert orc["scale"] == pytest.approx(1.0, abs=1e-9)
+    assert orc["yaw_mount_deg"] == pytest.approx(0.0, abs=1e-6)
+
+
+@pytest.fixture(scope="module")
+def comma():
+    from inmotion.io.importers import import_log
+    b = import_log("comma2k19", COMMA)
+    init = rr._init_from_truth(b, b.imu.t[0])
+    row, _, est = rr.od_kf_constant_plus_gm(b, init)
+    return b, init, row, est
+
+
+@needs_comma
+def test_constant_part_of_the_z_gyro_bias_against_the_reference(comma):
+    """The constant stage's z bias (104 deg/h) against the phone's mean z error measured from
+    the reference over the segment (107 deg/h): within 20 deg/h, a fifth of the wander."""
+    b, _, _, est = comma
+    ref = np.degrees(rr.reference_gyro_bias(b)) * 3600.0
+    assert est["gyro_bias_deg_h"][2] == pytest.approx(ref[2], abs=20.0)
+
+
+@needs_comma
+def test_calibrated_dead_reckoning_within_the_issue_target(comma):
+    """Issue 15: DR over the segment (1 km) with the estimated calibration within 20 m
+    (measured 9.4 m); without the gyro bias even the reference's scale and mounting end
+    20.4 m off. On this segment only: on simulated truth the constant z bias from 60 s is
+    often far off and the same DR misses 20 m in about half the runs (report.md). The yaw mounting misses its 0.2 deg target (-0.48 against -0.81, report.md
+    says why) but its sigma covers its error."""
+    b, init, _, est = comma
+    row, _, _ = rr.calibrated_dr(b, est, init)
+    assert row["distance_m"] > 1000.0
+    assert row["final_horizontal_m"] < rr.TARGET_DR_M
+    cal = rr.reference_calibration(b)
+    row_ref, _, _ = rr.calibrated_dr(b, cal, init)        # scale and mounting, no gyro bias
+    assert row["final_horizontal_m"] < row_ref["final_horizontal_m"]
+    assert abs(est["yaw_mount_deg"] - cal["yaw_mount_deg"]) <= 2.0 * est["yaw_mount_sigma_deg"]
+    assert est["pitch_mount_deg"] == pytest.approx(cal["pitch_mount_deg"], abs=0.3)
+
+
+@needs_comma
+def test_split_check_out_of_sample(comma):
+    """Calibrated on one half, dead-reckoned on the other (about 500 m): within 2 % of the
+    distance, the issue's 20 m per km (measured 3.3 and 6.5 m)."""
+    b = comma[0]
+    rows = rr.split_check(b)
+    assert [r["fit"] for r in rows] == ["first half", "second half"]
+    for r in rows:
+        assert r["distance_m"] > 400.0
+        assert r["dr_m"] < 0.02 * r["distance_m"], r
+
+
+def test_simulated_check_yaw_against_truth_and_the_constant_models_overconfidence():
+    """Simulated truth (10 runs of the comma2k19-like drive, gyro bias constant + Gauss-Markov,
+    filters with the importer's assumed spec): the two-stage yaw mounting is within the
+    0.2 deg target in RMS and its sigma covers its error; the constant-bias model's sigma
+    claims a fraction of its error (the overconfidence issue 15 reports on the real log); the
+    oracle calibration (true scale, mounting, mean gyro bias) dead-reckons within 20 m."""
+    sim = rr.simulated_calibration_check(runs=10, seed=7)
+    two, const = sim["models"]["constant + gauss-markov"], sim["models"]["constant"]
+    assert two["yaw_error_rms_deg"] < rr.TARGET_YAW_MOUNT_DEG
+    assert two["yaw_error_over_sigma_rms"] < 1.5
+    assert const["yaw_error_over_sigma_rms"] > 2.0
+    assert sim["models"]["oracle"]["dr_within_target"] == 1.0
