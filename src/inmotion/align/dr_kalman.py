@@ -48,8 +48,26 @@ a surveyed installation value, :func:`inmotion.navigate.pure.mounting_from_meta`
 the DR as by ``sins-dr``: the DR removes the ``omega x l`` part of the sensor's reading (the
 layout has no lever-arm state; unremoved, a 1.2 m arm in a 5 deg/s turn reads 0.03 m/s off,
 which an LDV's 0.01 m/s noise does not cover, and the smoothed tilt went overconfident, issue
-14). Open loop (``closed_loop=False``): nothing is fed back, the output is the
-SINS corrected by the current estimate.
+14). ``od-velocity-kf`` removes the same term from the speed it matches
+(:func:`inmotion.estimation.velocity_aided.imu_point_speed`): paper 000's velocity model
+(eq. 8-11) is the IMU point's, and left in, a 0.3 m lateral arm in a 4 deg/s turn reads
+0.02 m/s high, which the filter took for a tilt (issue 15: a level error of -0.1 to -0.26
+arcmin about East against a 0.08 arcmin sigma, NEES 7.3 over 6 runs). Open loop
+(``closed_loop=False``): nothing is fed back, the output is the SINS corrected by the current
+estimate.
+
+Noise settings (issue 15): with ``noise_preset: matched`` (the default) every IMU figure, the
+sensor's forward noise and its scale-factor model that the configuration does not set come
+from the bundle's ``meta.yaml`` (:func:`config_with_spec`, :func:`sensor_spec_fields`; the
+origin of each in ``info["config_source"]``); ``paper`` keeps the field defaults, paper 000
+sec. 5's figures (on paper 000's simulated bundles both give the same values). Two settings
+matter for the consistency of the sigma on a distance-output LDV: its 500 ppm constant scale
+factor modelled as paper 000's 1000 ppm / 300 s Markov process left the level sigma twice the
+error; its 0.01 m/s per-sample noise is 0.0071 m/s in the speed at a measurement epoch (the
+mean of two intervals). The lateral / NHC rows' floor (``lateral_noise_m_s``,
+``nhc_noise_m_s``) is not a sensor figure and stays as configured. Measured over Monte Carlo
+runs of paper 003's drive: ``tests/test_consistency_nees_other.py``,
+``benchmarks/nees_methods.py``.
 
 The filter rate and measurement rate are set in the configuration, independent of the IMU
 rate (rounded to a whole number of IMU rows). Defaults: prediction at 10 Hz, measurements and
