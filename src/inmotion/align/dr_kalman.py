@@ -250,16 +250,32 @@ def sensor_spec_fields(meta, sensor: str) -> tuple[dict, str]:
     return out, origin
 
 
+def _imu_spec_meta(meta):
+    """``meta`` as an IMU specification: a simulated IMU with ``constant_errors: fixed`` (the
+    simulator's default) carries in ``drift_deg_h`` and ``bias_ug`` the run's actual errors, not
+    a 1-sigma: they are dropped (the priors keep the configuration's; paper 000's reproduction
+    draws them per run and writes them so), the noise densities kept."""
+    imu = meta.get("imu") if isinstance(meta, dict) else None
+    if not (isinstance(imu, dict) and imu.get("constant_errors") == "fixed"):
+        return meta
+    imu = dict(imu)
+    for part, key in (("gyro", "drift_deg_h"), ("accel", "bias_ug")):
+        if isinstance(imu.get(part), dict):
+            imu[part] = {k: v for k, v in imu[part].items() if k != key}
+    return dict(meta, imu=imu)
+
+
 def config_with_spec(cfg, meta, sensor: str) -> tuple:
     """``(cfg, config_source)``: with ``noise_preset: matched``, ``cfg`` with the IMU fields
     (:data:`IMU_SPEC_FIELDS`, from ``meta['imu']``:
     :func:`inmotion.align.parked_kf.config_with_spec`) and the sensor fields
-    (:func:`sensor_spec_fields`) it does not set taken from the bundle; ``paper`` keeps every
+    (:func:`sensor_spec_fields`) it does not set taken from the bundle (a simulated IMU's
+    fixed constant errors are not a specification, :func:`_imu_spec_meta`); ``paper`` keeps every
     field as configured. ``{field: origin}`` says where each value came from (``config``,
     ``meta.imu (simulated)``, ``meta.sensors ...``, ``default``)."""
     from .parked_kf import config_with_spec as imu_with_spec
     matched = cfg.noise_preset == "matched"
-    cfg, src = imu_with_spec(cfg, meta if matched else {}, IMU_SPEC_FIELDS)
+    cfg, src = imu_with_spec(cfg, _imu_spec_meta(meta) if matched else {}, IMU_SPEC_FIELDS)
     spec, origin = sensor_spec_fields(meta, sensor) if matched else ({}, "")
     upd = {}
     for f in ("velocity_noise_m_s", "dk_sigma_ppm", "dk_tau_s"):
