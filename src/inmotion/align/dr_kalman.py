@@ -222,7 +222,9 @@ def sensor_spec_fields(meta, sensor: str) -> tuple[dict, str]:
     simulator's radar) gives it, a constant part ``scale_factor_sigma_ppm`` folded into its
     sigma (root sum of squares: the prior is right, the process noise then over-states the
     wander, on the safe side); a spec with only ``scale_factor_sigma_ppm`` (LDV, odometer: a
-    per-run constant) gives a random constant, ``dk_tau_s = inf``. Modelled as a 300 s Markov
+    per-run constant) gives a random constant, ``dk_tau_s = inf``. A stated mean error
+    ``scale_factor_ppm`` is folded into the constant's sigma too (the DR runs at scale 1, so
+    the state ``dk`` must hold it). Modelled as a 300 s Markov
     of 1000 ppm, the LDV's 500 ppm constant left the level sigma twice the error (issue 15).
     Fields the spec does not give are left out."""
     meta = meta if isinstance(meta, dict) else {}
@@ -241,11 +243,12 @@ def sensor_spec_fields(meta, sensor: str) -> tuple[dict, str]:
             out["velocity_noise_m_s"] = fwd
     else:
         origin = sensor_noise_from_meta(meta, sensor, 1.0, "velocity")[2]
-    const = float(spec.get("scale_factor_sigma_ppm") or 0.0)
+    const = float(np.hypot(float(spec.get("scale_factor_sigma_ppm") or 0.0),
+                           float(spec.get("scale_factor_ppm") or 0.0)))
     mk, tau = float(spec.get("scale_markov_sigma_ppm") or 0.0), spec.get("scale_markov_tau_s")
     if mk > 0 and tau:
         out["dk_sigma_ppm"], out["dk_tau_s"] = float(np.hypot(const, mk)), float(tau)
-    elif "scale_factor_sigma_ppm" in spec:
+    elif "scale_factor_sigma_ppm" in spec or "scale_factor_ppm" in spec:
         out["dk_sigma_ppm"], out["dk_tau_s"] = const, float("inf")
     return out, origin
 
