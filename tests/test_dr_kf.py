@@ -264,5 +264,11 @@ def test_matched_noise_from_the_sensor_spec():
     cfg, src = dr_kalman.config_with_spec(dr_kalman.DrKfConfig(), fixed, "ldv")
     assert cfg.gyro_drift_deg_h == 0.03 and src["gyro_drift_deg_h"] == "default"
     assert cfg.gyro_arw_deg_sqrt_h == 0.0005
+    # nor is a white noise switched off (paper 000's noise-off study): no process noise
+    quiet = dict(meta, imu=dict(meta["imu"], gyro={"drift_deg_h": 0.005, "arw_deg_sqrt_h": 0.0},
+                                accel={"bias_ug": 50.0, "vrw_ug_sqrt_hz": 0.0}))
+    cfg, src = dr_kalman.config_with_spec(dr_kalman.DrKfConfig(), quiet, "ldv")
+    assert (cfg.gyro_arw_deg_sqrt_h, cfg.accel_vrw_ug_sqrt_hz) == (0.003, 10.0)
+    assert cfg.gyro_drift_deg_h == 0.005 and src["gyro_arw_deg_sqrt_h"] == "default"
     cfg, src = dr_kalman.config_with_spec(dr_kalman.DrKfConfig(noise_preset="paper"), meta, "ldv")
     assert cfg == dr_kalman.DrKfConfig(noise_preset="paper") and set(src.values()) == {"default"}

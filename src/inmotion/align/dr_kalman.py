@@ -261,14 +261,22 @@ def _imu_spec_meta(meta):
     """``meta`` as an IMU specification: a simulated IMU with ``constant_errors: fixed`` (the
     simulator's default) carries in ``drift_deg_h`` and ``bias_ug`` the run's actual errors, not
     a 1-sigma: they are dropped (the priors keep the configuration's; paper 000's reproduction
-    draws them per run and writes them so), the noise densities kept."""
+    draws them per run and writes them so). A noise density of zero (a simulation with the
+    white noise switched off, paper 000's noise-off study) is no filter setting either (no
+    process noise on the attitude and velocity): dropped too, the configuration's kept."""
     imu = meta.get("imu") if isinstance(meta, dict) else None
-    if not (isinstance(imu, dict) and imu.get("constant_errors") == "fixed"):
+    if not isinstance(imu, dict):
         return meta
+    drop = {"gyro": {"arw_deg_sqrt_h"}, "accel": {"vrw_ug_sqrt_hz", "vrw_m_s_sqrt_h"}}
+    if imu.get("constant_errors") == "fixed":
+        drop["gyro"].add("drift_deg_h")
+        drop["accel"].add("bias_ug")
     imu = dict(imu)
-    for part, key in (("gyro", "drift_deg_h"), ("accel", "bias_ug")):
+    for part, keys in drop.items():
         if isinstance(imu.get(part), dict):
-            imu[part] = {k: v for k, v in imu[part].items() if k != key}
+            imu[part] = {k: v for k, v in imu[part].items()
+                         if not (k in keys and (k in ("drift_deg_h", "bias_ug")
+                                                or not np.any(np.asarray(v or 0.0, float))))}
     return dict(meta, imu=imu)
 
 
