@@ -1,24 +1,46 @@
-"""Final-attitude NEES per Kalman-type method over a small Monte Carlo (issue 15): the cases of
-``tests/test_consistency_nees*.py`` with their means, bands and per-run values printed, plus
-the overconfident settings. Usage (from the repository root)::
+"""Final-attitude NEES per Kalman-type method over a Monte Carlo (issue 15): the cases of
+``tests/test_consistency_nees*.py`` with their means, 95 % bands and per-run values printed,
+plus the overconfident settings. Usage (from the repository root)::
 
-    PYTHONPATH=src:tests OPENBLAS_NUM_THREADS=1 nice -n 10 python benchmarks/nees_methods.py
+    PYTHONPATH=src:tests OPENBLAS_NUM_THREADS=1 nice -n 10 python benchmarks/nees_methods.py [RUNS] [METHOD,...]
 
-About 90 s on one core.
+``RUNS`` (default 6, the tests' count) runs per case; ``METHOD,...`` keeps only those methods'
+cases. About 90 s on one core at 6 runs.
 """
 import sys
+
+import numpy as np
+
 sys.path.insert(0, "tests")
-from consistency_mc import *
-import test_consistency_nees as A
-d = drive_003(); p = parked_003()
-cases = [(m, c, d, A.START_SIGMA_DEG) for m, c in [("fkf", A.PRIOR), ("od-kf", A.PRIOR), ("ldv-kf", A.PRIOR), ("nhc-kf", dict(A.PRIOR, nhc_noise_m_s=0.01)),
-          ("fkf", dict(A.PRIOR, noise_preset="conservative")),
-          ("fkf", dict(A.PRIOR, od_noise_m_s=[3e-5, 1e-4, 3e-5], ldv_noise_m_s=[3e-5, 5e-5, 3e-5], gyro_drift_deg_h=0.0005, accel_bias_ug=5.0))]]
-cases += [("parked-kf", {"init_heading_sigma_deg": 2.0}, p, (0.5, 0.5, 2.0)), ("parked-kf", {"init_heading_sigma_deg": 2.0, "zero_velocity_noise_m_s": 1e-4}, p, (0.5, 0.5, 2.0)),
-          ("sins-dr", dict(IMU_003, velocity_sensor="ldv", init_tilt_sigma_arcmin=6.0, init_heading_sigma_arcmin=30.0, speed_noise_m_s=0.01), d, (0.1, 0.1, 0.5))]
-cfgv = dict(IMU_003, velocity_sensor="ldv", init_tilt_sigma_deg=0.1, init_heading_sigma_deg=0.5, velocity_noise_m_s=0.01, nhc_noise_m_s=3e-3, lateral_noise_m_s=3e-3)
-cases += [("dr-kf", cfgv, d, (0.1, 0.1, 0.5)), ("od-velocity-kf", cfgv, d, (0.1, 0.1, 0.5))]
-for m, c, sc, sd in cases:
-    mean, band, v = final_nees(m, c, sc, 6, sd)
-    extra = {k: c[k] for k in c if k in ("noise_preset", "zero_velocity_noise_m_s", "od_noise_m_s", "nhc_noise_m_s")}
-    print(f"{m:15s} {extra} mean NEES {mean:.2f} band [{band[0]:.2f}, {band[1]:.2f}] runs {np.round(v, 1).tolist()}", flush=True)
+import test_consistency_nees as A  # noqa: E402
+import test_consistency_nees_other as B  # noqa: E402
+from consistency_mc import IMU_003, drive_003, final_nees, parked_003  # noqa: E402
+
+runs = int(sys.argv[1]) if len(sys.argv) > 1 else 6
+only = set(sys.argv[2].split(",")) if len(sys.argv) > 2 else None
+d, p = drive_003(), parked_003()
+sd = A.START_SIGMA_DEG
+cases = [(m, c, d, sd, 0.0) for m, c in [
+    ("fkf", A.PRIOR), ("od-kf", A.PRIOR), ("ldv-kf", A.PRIOR),
+    ("nhc-kf", dict(A.PRIOR, nhc_noise_m_s=0.01)),
+    ("fkf", dict(A.PRIOR, noise_preset="conservative")),
+    ("fkf", dict(A.PRIOR, od_noise_m_s=[3e-5, 1e-4, 3e-5], ldv_noise_m_s=[3e-5, 5e-5, 3e-5],
+                 gyro_drift_deg_h=0.0005, accel_bias_ug=5.0))]]
+cases += [("parked-kf", {"init_heading_sigma_deg": 2.0}, p, (0.5, 0.5, 2.0), 0.0),
+          ("parked-kf", {"init_heading_sigma_deg": 2.0, "zero_velocity_noise_m_s": 1e-4}, p,
+           (0.5, 0.5, 2.0), 0.0),
+          ("sins-dr", dict(IMU_003, velocity_sensor="ldv", init_tilt_sigma_arcmin=6.0,
+                           init_heading_sigma_arcmin=30.0, speed_noise_m_s=0.01), d,
+           (0.1, 0.1, 0.5), 0.0)]
+vm = B.VELOCITY_MATCHING
+cases += [(m, c, d, (0.1, 0.1, 0.5), 0.1) for m, c in [
+    ("dr-kf", vm), ("od-velocity-kf", vm), ("dr-kf", dict(vm, noise_preset="paper")),
+    ("od-velocity-kf", dict(vm, velocity_noise_m_s=7e-4))]]
+for m, c, sc, sd_, vs in cases:
+    if only and m not in only:
+        continue
+    mean, band, v = final_nees(m, c, sc, runs, sd_, velocity_sigma_m_s=vs)
+    extra = {k: c[k] for k in c if k in ("noise_preset", "zero_velocity_noise_m_s", "od_noise_m_s",
+                                         "nhc_noise_m_s", "velocity_noise_m_s")}
+    print(f"{m:15s} {extra} runs {runs} mean NEES {mean:.2f} band [{band[0]:.2f}, {band[1]:.2f}] "
+          f"runs {np.round(v, 1).tolist()}", flush=True)

@@ -46,10 +46,13 @@ def parked_003(duration_s=120.0):
     return load_scenario(d)
 
 
-def final_nees(method, config, scenario, runs, start_sigma_deg, seed0=100):
+def final_nees(method, config, scenario, runs, start_sigma_deg, seed0=100,
+               velocity_sigma_m_s=0.0):
     """``(mean, (lo, hi), per_run)``: the final-attitude NEES over ``runs`` runs and the 95 %
     band of its mean (module docstring); ``start_sigma_deg`` = 1-sigma of the drawn start
-    error [pitch, roll, yaw] [deg]."""
+    error [pitch, roll, yaw] [deg]; ``velocity_sigma_m_s``: 1-sigma of a start velocity error
+    drawn per axis too (0: the true velocity), for a method whose prior states one that its
+    measurements observe together with the attitude (velocity matching)."""
     run, Config = registry.get(method).load()
     vals = []
     for k in range(runs):
@@ -57,6 +60,8 @@ def final_nees(method, config, scenario, runs, start_sigma_deg, seed0=100):
         b = simulate(scenario, rng)
         err = np.radians(np.asarray(start_sigma_deg, float)) * rng.standard_normal(3)
         init = NavState.from_truth(b.truth, euler_error=err)
+        if velocity_sigma_m_s:
+            init.vel_n = init.vel_n + velocity_sigma_m_s * rng.standard_normal(3)
         sol = run(b, Config(**config), init)
         e = error_series(sol, b.truth)
         phi = e[["phi_E_arcmin", "phi_N_arcmin", "phi_U_arcmin"]].to_numpy()[-1] / ARCMIN

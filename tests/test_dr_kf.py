@@ -210,3 +210,65 @@ def test_dr_gyro_rows_must_match_the_imu_and_be_finite(drive):
     bad[7, 1] = np.nan
     with pytest.raises(BadInput, match=r"dtheta_dr: row 7 \(t = "):
         dr_kalman.run_dr_kf(drive, {}, _init(drive), dtheta_dr=bad)
+
+
+def test_imu_point_speed_removes_the_lever_arm_term_against_truth():
+    """An LDV 1.3 m from the IMU in a 6 deg/s turn (speed output, no noise or scale error):
+    corrected with the gyro rows, its reading is the IMU point's forward speed of the truth
+    to 1e-3 m/s; raw, it is off by omega * l_x = 0.05 m/s (what od-velocity-kf used to match)."""
+    from inmotion.estimation.velocity_aided import imu_point_speed
+    lever = np.array([0.5, 1.0, -0.4])
+    sc = dict(name="lever", start=dict(lat_deg=34.0, lon_deg=108.0, h_m=400.0, heading_deg=30.0,
+                                       speed_m_s=10.0),
+              segments=[dict(kind="cruise", duration_s=5.0),
+                        dict(kind="turn", angle_deg=60.0, rate_deg_s=6.0)],
+              imu=dict(rate_hz=100, gyro=dict(drift_deg_h=0.0), accel=dict(bias_ug=0.0)),
+              sensors=dict(ldv=dict(rate_hz=100, noise_m_s=0.0, output="speed",
+                                    lever_arm_m=lever.tolist())))
+    b = simulate(sc, np.random.default_rng(0))
+    tr, imu, ldv = b.truth, b.imu, b.ldv
+    k = np.arange(1, len(imu.t))
+    v = np.interp(imu.t[k], ldv.t, ldv.v)
+    u = imu_point_speed(v, imu.dtheta[k], np.diff(imu.t), np.array([0.0, 1.0, 0.0]), lever)
+    C_bn = np.transpose(tr.C_nb[np.searchsorted(tr.t, imu.t[k] - 1e-9)], (0, 2, 1))
+    fwd = np.einsum("kij,kj->ki", C_bn, tr.vel_n[np.searchsorted(tr.t, imu.t[k] - 1e-9)])[:, 1]
+    turning = np.abs(imu.dtheta[k, 2] / np.diff(imu.t)) > np.radians(5.9)
+    assert turning.sum() > 300
+    assert np.max(np.abs(u - fwd)[turning]) < 1e-3
+    assert np.min(np.abs(v - fwd)[turning]) > 0.04
+
+
+def test_matched_noise_from_the_sensor_spec():
+    """noise_preset matched: the LDV's per-sample noise as it is at a measurement epoch (the mean
+    of two distance intervals), its constant scale factor as a random constant, the IMU's
+    figures; a value the configuration sets wins; paper keeps the defaults."""
+    meta = {"simulated": True, "imu": {"constant_errors": "random",
+                                       "gyro": {"drift_deg_h": 0.005, "arw_deg_sqrt_h": 0.0005},
+                                       "accel": {"bias_ug": 50.0, "vrw_ug_sqrt_hz": 5.0}},
+            "sensors": {"ldv": {"rate_hz": 100.0, "noise_m_s": 0.01, "output": "distance",
+                                "scale_factor_sigma_ppm": 500.0},
+                        "radar": {"rate_hz": 10.0, "noise_m_s": 0.1, "output": "speed",
+                                  "scale_markov_sigma_ppm": 1000.0, "scale_markov_tau_s": 300.0}}}
+    cfg, src = dr_kalman.config_with_spec(dr_kalman.DrKfConfig(velocity_noise_m_s=0.02), meta,
+                                          "ldv")
+    assert cfg.velocity_noise_m_s == 0.02 and src["velocity_noise_m_s"] == "config"
+    cfg, src = dr_kalman.config_with_spec(dr_kalman.DrKfConfig(), meta, "ldv")
+    assert cfg.velocity_noise_m_s == pytest.approx(0.01 / np.sqrt(2))
+    assert (cfg.dk_sigma_ppm, cfg.dk_tau_s) == (500.0, np.inf)
+    assert (cfg.gyro_drift_deg_h, cfg.accel_vrw_ug_sqrt_hz) == (0.005, 5.0)
+    assert src["gyro_drift_deg_h"] == "meta.imu (simulated)"
+    cfg, _ = dr_kalman.config_with_spec(dr_kalman.DrKfConfig(), meta, "radar")
+    assert (cfg.velocity_noise_m_s, cfg.dk_sigma_ppm, cfg.dk_tau_s) == (0.1, 1000.0, 300.0)
+    # a simulated IMU's fixed errors are the run's, not a spec: the priors stay
+    fixed = dict(meta, imu=dict(meta["imu"], constant_errors="fixed"))
+    cfg, src = dr_kalman.config_with_spec(dr_kalman.DrKfConfig(), fixed, "ldv")
+    assert cfg.gyro_drift_deg_h == 0.03 and src["gyro_drift_deg_h"] == "default"
+    assert cfg.gyro_arw_deg_sqrt_h == 0.0005
+    # nor is a white noise switched off (paper 000's noise-off study): no process noise
+    quiet = dict(meta, imu=dict(meta["imu"], gyro={"drift_deg_h": 0.005, "arw_deg_sqrt_h": 0.0},
+                                accel={"bias_ug": 50.0, "vrw_ug_sqrt_hz": 0.0}))
+    cfg, src = dr_kalman.config_with_spec(dr_kalman.DrKfConfig(), quiet, "ldv")
+    assert (cfg.gyro_arw_deg_sqrt_h, cfg.accel_vrw_ug_sqrt_hz) == (0.003, 10.0)
+    assert cfg.gyro_drift_deg_h == 0.005 and src["gyro_arw_deg_sqrt_h"] == "default"
+    cfg, src = dr_kalman.config_with_spec(dr_kalman.DrKfConfig(noise_preset="paper"), meta, "ldv")
+    assert cfg == dr_kalman.DrKfConfig(noise_preset="paper") and set(src.values()) == {"default"}
