@@ -283,22 +283,67 @@ SIM_CONSTRAINT_PER_FORWARD = 0.25
 #: (horizontal error 9.7 m against 29 m without them, the test asks for 30 %); the rows then
 #: keep the configured values (issue 15, a measured gate, not a derivation)
 SIM_CONSTRAINT_MAX_DRIFT_DEG_H = 1.0
+def markov_mean_sigma(sigma, tau_s, interval_s):
+    """1-sigma of the mean over ``interval_s`` of a stationary first-order Gauss-Markov
+    process (1-sigma ``sigma``, correlation time ``tau_s``): ``sigma^2 (2 tau^2 / T^2)
+    (T / tau - 1 + exp(-T / tau))`` (the double integral of ``sigma^2 exp(-|s| / tau)`` over
+    the interval, divided by ``T^2``; -> ``sigma^2`` as ``T / tau -> 0``, ``2 sigma^2 tau /
+    T`` as ``T / tau -> inf``)."""
+    if sigma <= 0.0:
+        return 0.0
+    x = interval_s / tau_s
+    if x < 1e-6:
+        return float(sigma)
+    return float(sigma * np.sqrt(2.0 * (x - 1.0 + np.exp(-x)) / (x * x)))
+
+
+def vehicle_constraint_noise(meta, interval_s: float):
+    """``(lateral, vertical)`` 1-sigma [m/s] of the vehicle constraint's violation over a
+    measurement interval from ``meta['vehicle']['constraint_violation']`` (the simulator's
+    :class:`inmotion.sim.scenario.ConstraintViolation`, or what an importer documents), or
+    None when the bundle has no such spec: the spread of the interval's mean velocity
+    (:func:`markov_mean_sigma`), which is what a displacement row over the interval sees.
+    The rows take it as white noise; successive intervals of a process with correlation time
+    ``tau`` are correlated (``0.54`` for the adjacent means at ``T = tau``), a
+    model simplification written down with the measured consistency (module docstring)."""
+    veh = meta.get("vehicle") if isinstance(meta, dict) else None
+    cv = veh.get("constraint_violation") if isinstance(veh, dict) else None
+    if not isinstance(cv, dict):
+        return None
+    try:
+        out = tuple(markov_mean_sigma(float(cv.get(f"{a}_sigma_m_s", 0.0) or 0.0),
+                                      float(cv.get(f"{a}_tau_s", 1.0) or 1.0), interval_s)
+                    for a in ("lateral", "vertical"))
+    except (TypeError, ValueError):
+        raise BadInput("meta vehicle.constraint_violation: sigma and tau must be numbers "
+                       f"(got {cv!r})"[:200]) from None
+    return out if max(out) > 0.0 else None
+
+
 def sensor_noise_from_meta(meta, name: str, interval_s: float, measurement: str):
     """``(forward, lateral, origin)``: the 1-sigma [m/s] of a velocity sensor's forward row
-    and of its lateral / vertical rows from ``meta['sensors'][name]`` (None where the spec
-    says nothing), and where they came from.
+    and of its lateral / vertical rows from the bundle's ``meta`` (None where it says
+    nothing; ``lateral`` a float for both rows or a ``(lateral, vertical)`` pair), and where
+    they came from.
 
-    Forward: the displacement form over an interval ``T`` sums the white noise of
-    ``T * rate_hz`` samples (``noise_m_s`` per sample, in distance ``noise_m_s / rate_hz``)
-    and differences two pulse quantizations (uniform over ``1 / pulses_per_m``, variance
-    ``q^2 / 12`` each), so ``sigma^2 = noise_m_s^2 / (rate_hz T) + 2 q^2 / (12 T^2)``; the
-    velocity form reads one sample, ``noise_m_s^2 + 2 q^2 rate_hz^2 / 12`` (a speed from two
-    quantized counts one period apart). Lateral / vertical: ``constraint_noise_m_s`` in the
-    spec, else, for the displacement form on a simulated bundle with no disturbances and a
-    gyro drift of at most :data:`SIM_CONSTRAINT_MAX_DRIFT_DEG_H`,
-    :data:`SIM_CONSTRAINT_PER_FORWARD` times the forward value (the velocity form's rows
-    compare the SINS velocity at the epoch's end with the sensor's mean over its last period, a lag that leaves
-    centimetres per second in turns and accelerations: it keeps the configured values).
+    Forward, from ``meta['sensors'][name]``: the displacement form over an interval ``T``
+    sums the white noise of ``T * rate_hz`` samples (``noise_m_s`` per sample, in distance
+    ``noise_m_s / rate_hz``) and differences two pulse quantizations (uniform over ``1 /
+    pulses_per_m``, variance ``q^2 / 12`` each), so ``sigma^2 = noise_m_s^2 / (rate_hz T) +
+    2 q^2 / (12 T^2)``; the velocity form reads one sample, ``noise_m_s^2 + 2 q^2 rate_hz^2 /
+    12`` (a speed from two quantized counts one period apart).
+
+    Lateral / vertical, in this order: ``constraint_noise_m_s`` in the sensor's spec; for the
+    displacement form, the vehicle's measured constraint violation
+    ``meta['vehicle']['constraint_violation']`` (:func:`vehicle_constraint_noise`, root sum of
+    squares with the rows' own model error, :data:`SIM_CONSTRAINT_PER_FORWARD` of the forward
+    value on a simulated bundle whose IMU is within :data:`SIM_CONSTRAINT_MAX_DRIFT_DEG_H`);
+    the fallback when the bundle has no vehicle spec: for the displacement form on a simulated
+    bundle with no disturbances and such an IMU, :data:`SIM_CONSTRAINT_PER_FORWARD` times the
+    forward value (the margin measured on a simulator whose constraint holds exactly). The
+    velocity form's rows compare the SINS velocity at the epoch's end with the sensor's mean
+    over its last period, a lag that leaves centimetres per second in turns and accelerations:
+    they keep the configured values.
     """
     meta = meta if isinstance(meta, dict) else {}
     spec = (meta.get("sensors") or {}).get(name) if isinstance(meta.get("sensors"), dict) else None
@@ -319,11 +364,21 @@ def sensor_noise_from_meta(meta, name: str, interval_s: float, measurement: str)
     calm = isinstance(dist, dict) and not any(dist.get(k) for k in dist)
     gyro = ((meta.get("imu") or {}).get("gyro") or {}) if isinstance(meta.get("imu"), dict) else {}
     drift = np.abs(np.atleast_1d(np.asarray(gyro.get("drift_deg_h", 0.0) or 0.0, float))).max()
-    if (lat is None and fwd is not None and meta.get("simulated") and calm
-            and measurement == "displacement" and drift <= SIM_CONSTRAINT_MAX_DRIFT_DEG_H):
-        lat = SIM_CONSTRAINT_PER_FORWARD * fwd
+    model = (SIM_CONSTRAINT_PER_FORWARD * fwd if fwd is not None and meta.get("simulated")
+             and measurement == "displacement" and drift <= SIM_CONSTRAINT_MAX_DRIFT_DEG_H
+             else None)
+    veh = vehicle_constraint_noise(meta, interval_s) if measurement == "displacement" else None
+    from_vehicle = lat is None and veh is not None
+    if from_vehicle:
+        lat = tuple(float(np.hypot(x, model or 0.0)) for x in veh)
+    elif lat is None and model is not None and calm:
+        lat = model
     origin = ("meta.sensors (documented)" if spec.get("source") == "documented"
               else "meta.sensors (simulated)" if meta.get("simulated") else "meta.sensors")
+    if from_vehicle:
+        origin += " + meta.vehicle.constraint_violation (lateral/vertical)"
+    if isinstance(lat, tuple):
+        return fwd, lat, origin
     return fwd, (None if lat is None else float(lat)), origin
 
 
@@ -454,7 +509,7 @@ def config_with_spec(cfg, meta, sensors=()):
         val = list(getattr(cfg, field))
         parts = []
         if lat is not None:
-            val[0] = val[2] = lat
+            val[0], val[2] = lat if isinstance(lat, tuple) else (lat, lat)
             parts.append("lateral/vertical")
         if fwd is not None:
             val[1] = fwd
