@@ -38,9 +38,8 @@ import time
 
 import numpy as np
 
-from inmotion.align.aided_kf import run_fkf
+from inmotion.align.aided_kf import run_fkf, weighted_chi2_threshold
 from inmotion.core.solution import NavState
-from inmotion.estimation import chi2
 from inmotion.io.safe_yaml import load_yaml_file
 from inmotion.sim import simulate
 from inmotion.sim.scenario import find_scenario, load_scenario
@@ -98,7 +97,7 @@ def false_alarms(runs: int, preset: str, seed0: int = 1000):
     lag-1 correlation of the exceedance indicators at 0.05 (how far the pooled interval's
     independence assumption is off)."""
     sc = _scenario()
-    lam_all, per_run, chans = [], [], None
+    lam_all, per_run, chans, thr_runs = [], [], None, []
     for k in range(runs):
         b = simulate(sc, np.random.default_rng(seed0 + k))
         sol = run_fkf(b, {**EXTRA, "fdi": False, "keep_test_statistics": True,
@@ -108,20 +107,34 @@ def false_alarms(runs: int, preset: str, seed0: int = 1000):
         per_run.append(ts["lambda"])
         lam = ts["lambda"]
         lam_all.append(lam[np.isfinite(lam)])
+        wts = sol.info["residual_test_weights"]
+        thr_runs.append({a: np.array([weighted_chi2_threshold(a, wts[c]["weights"],
+                                                              wts[c]["gauss_fraction"])
+                                       for c in chans]) for a in RATES})
     lam = np.concatenate(lam_all)
     out = {"preset": preset, "runs": runs, "tests": int(lam.size),
            "mean_statistic": float(lam.mean()), "max_statistic": float(lam.max()),
            "mean_statistic_per_channel": {
                c: float(np.nanmean(np.concatenate([L[:, i] for L in per_run])))
                for i, c in enumerate(chans)}}
+    out["residual_test_weights"] = wts
     for a in RATES:
-        thr = chi2.threshold(a, 3)
-        k = int(np.sum(lam > thr))
+        exc = [(L > th[a][None, :])[np.isfinite(L)] for L, th in zip(per_run, thr_runs)]
+        k = int(sum(e.sum() for e in exc))
         lo, hi = clopper_pearson(k, lam.size)
-        rates = [float(np.mean(L[np.isfinite(L)] > thr)) for L in per_run]
+        rates = [float(e.mean()) for e in exc]
         m, (rlo, rhi) = run_level_ci(rates)
-        rho = float(np.mean([lag1_correlation(L[np.isfinite(L[:, i]), i] > thr)
-                             for L in per_run for i in range(L.shape[1])]))
+        rho = float(np.mean([lag1_correlation(L[np.isfinite(L[:, i]), i] > th[a][i])
+                             for L, th in zip(per_run, thr_runs) for i in range(L.shape[1])]))
+        out[f"threshold_{a:g}"] = {c: float(thr_runs[-1][a][i]) for i, c in enumerate(chans)}
+        per_ch = {}
+        for i, c in enumerate(chans):
+            col = [L[:, i] for L in per_run]
+            n_i = sum(int(np.isfinite(x).sum()) for x in col)
+            k_i = sum(int((x[np.isfinite(x)] > th[a][i]).sum()) for x, th in zip(col, thr_runs))
+            per_ch[c] = {"exceedances": k_i, "tests": n_i, "rate": k_i / max(n_i, 1),
+                         "ci95": list(clopper_pearson(k_i, n_i))}
+        out[f"per_channel_{a:g}"] = per_ch
         out[f"rate_{a:g}"] = {"exceedances": k, "rate": k / lam.size, "ci95": [lo, hi],
                               "within_ci": bool(lo <= a <= hi),
                               "run_level_ci95": [rlo, rhi],
@@ -178,15 +191,26 @@ def main(argv=None):
         print(f"[{preset}] {fa['runs']} fault-free runs, {fa['tests']} tests, mean statistic "
               f"{fa['mean_statistic']:.2f} (chi2(3): 3), max {fa['max_statistic']:.1f}")
         print("  mean statistic per channel: " + ", ".join(
-            f"{c} {v:.2f}" for c, v in fa["mean_statistic_per_channel"].items()))
+            f"{c} {v:.2f}" for c, v in fa["mean_statistic_per_channel"].items())
+              + "; row weights " + ", ".join(
+            f"{c} [{', '.join(f'{x:.3f}' for x in w['weights'])}] (Gaussian share of the "
+            f"forward row {w['gauss_fraction']:.2f})"
+            for c, w in fa["residual_test_weights"].items()))
+        print("  expected mean statistic (sum of the weights): " + ", ".join(
+            f"{c} {sum(w['weights']):.2f}" for c, w in fa["residual_test_weights"].items()))
         for a in RATES:
             r = fa[f"rate_{a:g}"]
-            print(f"  set rate {a:g}: {r['exceedances']} exceedances, rate {r['rate']:.2e}, "
+            print(f"  set rate {a:g} (thresholds " + ", ".join(
+                f"{c} {v:.2f}" for c, v in fa[f"threshold_{a:g}"].items()) + "):")
+            print(f"    {r['exceedances']} exceedances, rate {r['rate']:.2e}, "
                   f"95 % CI [{r['ci95'][0]:.2e}, {r['ci95'][1]:.2e}] (independent tests) "
                   f"{'contains' if r['within_ci'] else 'EXCLUDES'} the set rate; over runs "
                   f"[{r['run_level_ci95'][0]:.2e}, {r['run_level_ci95'][1]:.2e}] "
                   f"{'contains' if r['within_run_level_ci'] else 'EXCLUDES'} it; lag-1 "
                   f"correlation of exceedances {r['lag1_correlation']:.3f}")
+            for c, v in fa[f"per_channel_{a:g}"].items():
+                print(f"    {c}: {v['exceedances']}/{v['tests']} = {v['rate']:.2e} "
+                      f"[{v['ci95'][0]:.2e}, {v['ci95'][1]:.2e}]")
         det = (detection(args.det_runs, preset, biases, args.fault_start, args.within)
                if args.det_runs > 0 else [])
         res["presets"][preset]["detection"] = det

@@ -16,16 +16,17 @@ RUNS = 2
 T = 0.5          # the measurement interval (AidedKfConfig.measurement_period_s default)
 
 
-def _expected_nis_per_dof(cv):
+def _expected_nis_per_dof(cv, beta):
     """Per row, the residual's variance over the row noise, the state part neglected: 1 for
     the forward row (the sensor's own noise, matched), and for the lateral / vertical rows
     the variance of an interval mean of a Gauss-Markov process, ``sigma^2 2 (x - 1 + e^-x) /
     x^2`` with ``x = T / tau``, over the white-equivalent noise the filter carries, ``2
-    sigma^2 tau / T`` (derived here from the process, independently of the library)."""
+    sigma^2 tau / T``, shared out by ``1 / beta`` (derived here from the process,
+    independently of the library)."""
     r = []
     for a in ("lateral", "vertical"):
         x = T / cv[f"{a}_tau_s"]
-        r.append((2 * (x - 1 + np.exp(-x)) / x ** 2) / (2 / x))
+        r.append(beta * (2 * (x - 1 + np.exp(-x)) / x ** 2) / (2 / x))
     return (1.0 + sum(r)) / 3.0
 
 
@@ -49,11 +50,11 @@ def _pooled(cfg):
 def test_sub_filter_nis_follows_the_vehicle_spec_and_an_overconfident_setting_fails():
     matched, b = _pooled({})
     cv = b.meta["vehicle"]["constraint_violation"]
-    expect = _expected_nis_per_dof(cv)          # 0.667 for paper 003's figures
-    assert expect == pytest.approx(0.667, abs=0.01)
+    expect = _expected_nis_per_dof(cv, 0.5)     # 0.5 for paper 003's figures, beta 1/2
+    assert expect == pytest.approx(0.5, abs=0.01)
     src = ak.run_fkf(b, {"fdi": False}, NavState.from_truth(b.truth)).info["config_source"]
     assert "meta.vehicle.constraint_violation" in src["od_noise_m_s"]
-    # band: +-30 % (a few thousand correlated rows; measured 0.70 odometer, 0.66 LDV)
+    # band: +-30 % (a few hundred correlated rows; the state part adds a little)
     for ch, m in matched.items():
         assert 0.7 * expect < m < 1.3 * expect, (ch, m, expect)
     fwd_od, lat_od, _ = ak.sensor_noise_from_meta(b.meta, "odometer", T, "displacement")
@@ -72,6 +73,12 @@ def test_row_noise_from_the_vehicle_spec_and_the_fallback_without_it():
             "vehicle": {"constraint_violation": cv}}
     fwd, (lat, vert), origin = ak.sensor_noise_from_meta(meta, "ldv", T, "displacement")
     model = ak.SIM_CONSTRAINT_PER_FORWARD * fwd
+    # the test's statistic model: one-interval spread over the rows' noise; LDV all Gaussian
+    cfg, src = ak.config_with_spec(ak.AidedKfConfig(), meta, ("ldv",))
+    tw = ak.residual_test_weights(cfg, meta, "ldv", src)
+    one = 0.01 ** 2 * 2 * (1 - 1 + np.exp(-1.0))      # x = T / tau = 1
+    assert tw["weights"][0] == pytest.approx((one + model ** 2) / lat ** 2)
+    assert tw["gauss_fraction"] == 1.0
     # white equivalent of 0.5 s means: sqrt(2 sigma^2 tau / T), with the rows' model error
     assert lat == pytest.approx(np.hypot(0.01 * np.sqrt(2 * 0.5 / 0.5), model))
     assert vert == pytest.approx(np.hypot(0.02 * np.sqrt(2 * 0.2 / 0.5), model))
@@ -85,3 +92,22 @@ def test_row_noise_from_the_vehicle_spec_and_the_fallback_without_it():
     fwd, lat, origin = ak.sensor_noise_from_meta(meta, "ldv", T, "displacement")
     assert lat == pytest.approx(ak.SIM_CONSTRAINT_PER_FORWARD * fwd)
     assert "vehicle" not in origin
+
+
+@pytest.mark.parametrize("weights, g", [([1.0, 1.0, 1.0], 1.0), ([0.186, 1.0, 0.318], 0.0),
+                                        ([0.184, 1.0, 0.317], 1.0), ([0.3, 1.0, 0.5], 0.5)])
+def test_residual_test_threshold_against_monte_carlo(weights, g):
+    """The threshold of the test statistic's model (weighted chi-square rows, a forward row
+    part Gaussian, part a triangular quantization difference) has the set tail probability
+    in 1e6 draws of that model (binomial 1-sigma at 1e-3: 3 %)."""
+    from inmotion.estimation import chi2
+    rng = np.random.default_rng(11)
+    n = rng.standard_normal((1_000_000, 3))
+    tri = (rng.random(len(n)) - rng.random(len(n))) * np.sqrt(6.0)     # unit variance
+    e = np.sqrt(g) * n[:, 1] + np.sqrt(1.0 - g) * tri
+    q = weights[0] * n[:, 0] ** 2 + weights[1] * e ** 2 + weights[2] * n[:, 2] ** 2
+    for rate in (0.05, 1e-3):
+        x = ak.weighted_chi2_threshold(rate, weights, g)
+        assert np.mean(q > x) == pytest.approx(rate, rel=0.15 if rate < 0.01 else 0.03)
+        if g == 1.0 and weights == [1.0, 1.0, 1.0]:
+            assert x == chi2.threshold(rate, 3)

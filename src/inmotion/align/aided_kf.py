@@ -336,7 +336,8 @@ def vehicle_constraint_noise(meta, interval_s: float, equivalent: bool = True):
     return out if max(out) > 0.0 else None
 
 
-def sensor_noise_from_meta(meta, name: str, interval_s: float, measurement: str):
+def sensor_noise_from_meta(meta, name: str, interval_s: float, measurement: str,
+                           share: float = 1.0, equivalent: bool = True):
     """``(forward, lateral, origin)``: the 1-sigma [m/s] of a velocity sensor's forward row
     and of its lateral / vertical rows from the bundle's ``meta`` (None where it says
     nothing; ``lateral`` a float for both rows or a ``(lateral, vertical)`` pair), and where
@@ -351,8 +352,10 @@ def sensor_noise_from_meta(meta, name: str, interval_s: float, measurement: str)
 
     Lateral / vertical, in this order: ``constraint_noise_m_s`` in the sensor's spec; for the
     displacement form, the vehicle's measured constraint violation
-    ``meta['vehicle']['constraint_violation']`` (:func:`vehicle_constraint_noise`, root sum of
-    squares with the rows' own model error, :data:`SIM_CONSTRAINT_PER_FORWARD` of the forward
+    ``meta['vehicle']['constraint_violation']`` (:func:`vehicle_constraint_noise`, its variance
+    divided by the channel's sharing factor ``share``, then root sum of squares with the rows'
+    own model error; ``equivalent=False``: the one-interval spread instead of the white
+    equivalent, what a single residual sees, :data:`SIM_CONSTRAINT_PER_FORWARD` of the forward
     value on a simulated bundle whose IMU is within :data:`SIM_CONSTRAINT_MAX_DRIFT_DEG_H`);
     the fallback when the bundle has no vehicle spec: for the displacement form on a simulated
     bundle with no disturbances and such an IMU, :data:`SIM_CONSTRAINT_PER_FORWARD` times the
@@ -383,10 +386,11 @@ def sensor_noise_from_meta(meta, name: str, interval_s: float, measurement: str)
     model = (SIM_CONSTRAINT_PER_FORWARD * fwd if fwd is not None and meta.get("simulated")
              and measurement == "displacement" and drift <= SIM_CONSTRAINT_MAX_DRIFT_DEG_H
              else None)
-    veh = vehicle_constraint_noise(meta, interval_s) if measurement == "displacement" else None
+    veh = (vehicle_constraint_noise(meta, interval_s, equivalent)
+           if measurement == "displacement" else None)
     from_vehicle = lat is None and veh is not None
     if from_vehicle:
-        lat = tuple(float(np.hypot(x, model or 0.0)) for x in veh)
+        lat = tuple(float(np.hypot(x / np.sqrt(share), model or 0.0)) for x in veh)
     elif lat is None and model is not None and calm:
         lat = model
     origin = ("meta.sensors (documented)" if spec.get("source") == "documented"
@@ -520,8 +524,14 @@ def config_with_spec(cfg, meta, sensors=()):
         if field in cfg.model_fields_set:
             src[field] = "config"
             continue
-        fwd, lat, org = (sensor_noise_from_meta(meta, name, T, cfg.measurement) if matched
-                         else (None, None, ""))
+        # the vehicle's violation is one motion that every channel's lateral and vertical rows
+        # see: common information, shared out by the channel's factor beta as the barometer's
+        # is (eq. 33-35), so the federated fusion does not count it once per channel
+        beta = (float(getattr(cfg, f"beta_{'od' if name == 'odometer' else 'ldv'}", 1.0))
+                if len(sensors) > 1 else 1.0)
+        fwd, lat, org = (sensor_noise_from_meta(meta, name, T, cfg.measurement,
+                                                share=beta if 0 < beta < 1 else 1.0)
+                         if matched else (None, None, ""))
         val = list(getattr(cfg, field))
         parts = []
         if lat is not None:
@@ -536,6 +546,129 @@ def config_with_spec(cfg, meta, sensors=()):
         else:
             src[field] = "default"
     return (cfg.model_copy(update=upd) if upd else cfg), src
+
+
+#: Imhof's integral on a uniform grid: the step (at least 10 points per oscillation, period
+#: ``4 pi / x``, for thresholds ``x`` up to 25) and the grid's end
+IMHOF_STEP, IMHOF_END = 0.05, 2.0e3
+
+
+def weighted_chi2_sf(x, weights, noncentral=None) -> np.ndarray:
+    """``P(sum_i w_i chi2_1(d_i) > x)`` for each ``x``: the tail of a weighted sum of
+    independent (non-central, ``d_i`` the non-centrality, 0 by default) ``chi2(1)``
+    variables, by Imhof's integral (J. P. Imhof, Biometrika 48, 1961, eq. 3.2 with unit
+    multiplicities): ``1/2 + (1/pi) int_0^inf sin(theta(u)) / (u rho(u)) du``, ``theta =
+    sum_i [arctan(w_i u) + d_i w_i u / (1 + w_i^2 u^2)] / 2 - x u / 2``, ``rho = prod_i (1 +
+    w_i^2 u^2)^(1/4) exp(sum_i d_i w_i^2 u^2 / (2 (1 + w_i^2 u^2)))``; trapezoid rule on
+    ``[0, IMHOF_END]`` (the integrand is finite at 0 and its envelope beyond the end,
+    ``u^(-1 - n/2) / sqrt(prod w)``, leaves less than 1e-4 for three weights above 0.05).
+    ``x`` and ``noncentral`` may be arrays (broadcast over rows). With all weights 1 and no
+    non-centrality it is the ``chi2(n)`` tail (checked in ``tests/test_fdi_nis_vehicle.py``,
+    with Monte Carlo)."""
+    w = np.asarray(weights, dtype=float)
+    x = np.atleast_1d(np.asarray(x, dtype=float))
+    d = np.zeros((len(x), len(w))) if noncentral is None else np.broadcast_to(
+        np.asarray(noncentral, dtype=float), (len(x), len(w)))
+    u = np.arange(1, int(IMHOF_END / IMHOF_STEP) + 1) * IMHOF_STEP
+    wu = np.outer(u, w)                                   # (K, n)
+    q = 1.0 + wu * wu
+    base = 0.5 * np.arctan(wu).sum(1)                     # (K,)
+    lrho = 0.25 * np.log(q).sum(1)
+    th = base[None, :] + 0.5 * (d @ (w[:, None] * u[None, :] / q.T)) - 0.5 * np.outer(x, u)
+    lr = lrho[None, :] + 0.5 * (d @ (w[:, None] ** 2 * u[None, :] ** 2 / q.T))
+    f = np.sin(th) * np.exp(-lr) / u[None, :]
+    f0 = 0.5 * (float(w.sum()) + (d * w).sum(1) - x)
+    val = IMHOF_STEP * (0.5 * f0 + f[:, :-1].sum(1) + 0.5 * f[:, -1])
+    return np.clip(0.5 + val / np.pi, 0.0, 1.0)
+
+
+#: Gauss-Legendre nodes on each half of the triangular density of a quantization difference
+TRIANGLE_NODES = 24
+
+
+def residual_test_sf(x: float, weights, gauss_fraction: float = 1.0) -> float:
+    """Tail of the residual test statistic ``w_0 chi2_1 + w_2 chi2_1 + w_1 e^2`` of a sensor
+    channel (rows lateral, forward, vertical) whose forward error ``e`` (unit variance) is a
+    Gaussian part of variance ``gauss_fraction`` plus the difference of two pulse
+    quantizations (triangular on ``+-sqrt(6 (1 - g))``, variance ``1 - g``): conditional on
+    the triangular part ``t``, the forward term is ``w_1 g chi2_1(t^2 / g)`` (non-central;
+    for ``g = 0`` the constant ``w_1 t^2``), integrated over ``t`` by Gauss-Legendre on each
+    half of the triangle. A bounded quantization error has a lighter tail than a Gaussian
+    one: a pure odometer channel (``g = 0``) never exceeds ``6 w_1`` by its forward row alone,
+    where ``chi2`` would put 1.4 % beyond it."""
+    w = np.asarray(weights, dtype=float)
+    g = float(np.clip(gauss_fraction, 0.0, 1.0))
+    if g >= 1.0 - 1e-12:
+        return float(weighted_chi2_sf(x, w)[0])
+    b = np.sqrt(6.0 * (1.0 - g))                         # half-width of the triangle
+    z, wt = np.polynomial.legendre.leggauss(TRIANGLE_NODES)
+    t = 0.5 * b * (z + 1.0)                              # nodes on [0, b] (symmetric)
+    dens = (b - t) / (b * b)                             # triangular density on [-b, b]
+    wts = 2.0 * 0.5 * b * wt * dens                      # both halves
+    if g <= 1e-12:
+        tail = weighted_chi2_sf(x - w[1] * t * t, w[[0, 2]])
+    else:
+        ww = np.array([w[0], w[1] * g, w[2]])
+        nc = np.zeros((len(t), 3))
+        nc[:, 1] = t * t / g
+        tail = weighted_chi2_sf(np.full(len(t), x), ww, nc)
+    return float(np.clip(np.dot(wts, tail), 0.0, 1.0))
+
+
+@functools.lru_cache(maxsize=256)
+def _weighted_threshold(rate: float, weights: tuple, gauss_fraction: float = 1.0) -> float:
+    from scipy.optimize import brentq
+    w = np.asarray(weights, dtype=float)
+    hi = chi2.threshold(rate, len(w)) * max(1.0, float(w.max())) * 1.5
+    return float(brentq(lambda x: residual_test_sf(x, w, gauss_fraction) - rate, 1e-6, hi,
+                        xtol=1e-6))
+
+
+def weighted_chi2_threshold(false_alarm_rate: float, weights,
+                            gauss_fraction: float = 1.0) -> float:
+    """The threshold ``x`` with ``P(statistic > x) = false_alarm_rate`` for the statistic of
+    :func:`residual_test_sf` (root by Brent's method; all weights 1 and a Gaussian forward
+    row: the ``chi2(n)`` threshold of :func:`inmotion.estimation.chi2.threshold`)."""
+    w = np.asarray(weights, dtype=float)
+    if np.allclose(w, 1.0) and gauss_fraction >= 1.0:
+        return chi2.threshold(false_alarm_rate, len(w))
+    return _weighted_threshold(float(false_alarm_rate), tuple(np.round(w, 12).tolist()),
+                               float(round(gauss_fraction, 12)))
+
+
+def residual_test_weights(cfg, meta, name: str, cfg_source) -> dict:
+    """The residual test's statistic model of a sensor channel: ``{"weights": [lateral,
+    forward, vertical], "gauss_fraction": g}``. ``weights``: per row the variance a single
+    residual's noise really has over the variance the filter's ``R`` gives it, when the
+    lateral and vertical rows carry the vehicle's constraint violation (the white equivalent,
+    shared by ``1 / beta``, :func:`sensor_noise_from_meta`): the one-interval spread
+    (``equivalent=False``) over the filter's figure; the forward row's 1 (its noise is the
+    spec's). ``g``: the Gaussian share of the forward row's variance, the rest the pulse
+    quantization difference (displacement form: ``noise_m_s^2 / (rate_hz T)`` against ``2
+    q^2 / (12 T^2)``). The statistic ``r^T C^-1 r`` is then, to the extent ``R`` dominates
+    ``C`` (the state part ``H P H^T`` is what this neglects), distributed as
+    :func:`residual_test_sf` says rather than as ``chi2(3)``, and its threshold for a set
+    false-alarm rate is that distribution's quantile (:func:`weighted_chi2_threshold`).
+    Without a vehicle spec, or with row noise the configuration sets (``cfg_source``:
+    :func:`config_with_spec`'s origins), or ``conservative``: weights 1, ``g = 1``, the
+    ``chi2(3)`` test."""
+    field = f"{'od' if name == 'odometer' else 'ldv'}_noise_m_s"
+    out = {"weights": [1.0, 1.0, 1.0], "gauss_fraction": 1.0}
+    if (getattr(cfg, "noise_preset", "matched") != "matched" or not hasattr(cfg, field)
+            or "constraint_violation" not in str((cfg_source or {}).get(field, ""))):
+        return out
+    T = cfg.measurement_period_s
+    _, one, _ = sensor_noise_from_meta(meta, name, T, cfg.measurement, equivalent=False)
+    if not isinstance(one, tuple):
+        return out
+    val = getattr(cfg, field)
+    out["weights"] = [float((one[0] / val[0]) ** 2), 1.0, float((one[1] / val[2]) ** 2)]
+    spec = (meta.get("sensors") or {}).get(name) or {}
+    rate, ppm = spec.get("rate_hz"), spec.get("pulses_per_m")
+    var_w = float(spec.get("noise_m_s") or 0.0) ** 2 / (float(rate) * T) if rate else 0.0
+    var_q = 2.0 / (12.0 * (float(ppm) * T) ** 2) if ppm else 0.0
+    out["gauss_fraction"] = float(var_w / (var_w + var_q)) if var_w + var_q > 0 else 1.0
+    return out
 
 
 def _warnings(f, sensors, cfg, cfg_source, meta, res) -> list:
@@ -616,6 +749,10 @@ def run_aided(bundle: Bundle, cfg, init: NavState, sensors: tuple, *, method: st
     use_nhc = nhc_only or getattr(cfg, "nhc_fallback", False)
     fdi = getattr(cfg, "fdi", False)
     thr = chi2.threshold(cfg.false_alarm_rate, 3) if fdi else 0.0
+    weights = {s_: residual_test_weights(cfg, bundle.meta, s_, cfg_source) for s_ in sensors}
+    thr_ch = {s_: (weighted_chi2_threshold(cfg.false_alarm_rate, weights[s_]["weights"],
+                                           weights[s_]["gauss_fraction"]) if fdi else 0.0)
+              for s_ in sensors}
     ret = max(1, int(round(getattr(cfg, "return_after_s", 1.0) / (meas_every * t_ep))))
     A = np.zeros(3)
     if cfg.mounting_from_meta:
@@ -623,7 +760,7 @@ def run_aided(bundle: Bundle, cfg, init: NavState, sensors: tuple, *, method: st
     C_vb0 = rotations.mounting_dcm(A)
     locals_, meas = [], []
     for c, s_ in enumerate(sensors):
-        lf, m = _channel(bundle, s_, cfg, betas[s_], P15, Q15, c, C_vb0, thr, ret)
+        lf, m = _channel(bundle, s_, cfg, betas[s_], P15, Q15, c, C_vb0, thr_ch[s_], ret)
         locals_.append(lf)
         meas.append(m)
     lay = SUB_LAYOUT if sensors else NHC_LAYOUT
@@ -655,9 +792,10 @@ def run_aided(bundle: Bundle, cfg, init: NavState, sensors: tuple, *, method: st
         res, extra = _smooth_bank(f, res, bundle, cfg, init, k0, sensors, use_nhc, use_baro,
                                   P15, Q15, C_vb0, n_ep, meas_every, fuse_every, out_every,
                                   progress, stops, t_ep)
-    sol = _solution(res, f, init, cfg, method, sensors, thr, time.perf_counter() - t_wall,
+    sol = _solution(res, f, init, cfg, method, sensors, thr_ch, time.perf_counter() - t_wall,
                     P15)
     sol.info["config_source"] = cfg_source
+    sol.info["residual_test_weights"] = weights
     sol.info["nis"] = f.nis_summary()
     sol.info["warnings"] = _warnings(f, sensors, cfg, cfg_source, bundle.meta, res)
     if extra is not None:
@@ -928,7 +1066,7 @@ def _events(f, sensors, thr):
         else:
             out.append({"t_s": float(t), "event": "detected" if k == EVENT_DETECTED
                         else "returned", "channel": names[int(c)], "test_value": float(val),
-                        "threshold": thr})
+                        "threshold": thr[names[int(c)]] if isinstance(thr, dict) else thr})
     return out, dropped
 
 
@@ -987,7 +1125,10 @@ def _solution(res, f, init, cfg, method, sensors, thr, wall, P15):
             "smoothed": "first" in res,
             "layout_subfilter": list(SUB_LAYOUT.names), "layout_common": list(lay.names),
             "events": events, "events_dropped": dropped,
-            "fdi_threshold": thr, "tests": counts,
+            "fdi_threshold": (max(thr.values()) if thr else 0.0) if isinstance(thr, dict)
+            else thr,
+            "fdi_thresholds": thr if isinstance(thr, dict) else {},
+            "tests": counts,
             "output_mode": [MODE_NAMES[int(m)] for m in modes[-1:]],
             "measurements": cnt, "wall_time_s": wall}
     if cfg.keep_test_statistics:
