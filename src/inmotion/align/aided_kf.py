@@ -49,35 +49,39 @@ every noise and prior the configuration does not set is taken from the bundle's
 ``meta['sensors']`` (:func:`sensor_noise_from_meta`: white noise ``noise_m_s`` at
 ``rate_hz`` and the odometer's pulse quantization ``1 / pulses_per_m``, over the
 measurement interval), the lateral and vertical values from ``constraint_noise_m_s`` in the
-sensor's spec or, for a simulated vehicle with no disturbances (whose constraint holds
-exactly), :data:`SIM_CONSTRAINT_PER_FORWARD` times the forward value, the rows' residual
-model error as measured on simulated drives. ``noise_preset: conservative`` keeps the fixed
-field defaults whatever the bundle says (the setting before issue 15: sensor rows ``[0.05,
-0.02, 0.05]`` m/s, IMU priors twice paper 003's sensor figures): conservative, the residual
-test then rarely fires. Paper 003 gives no measurement noise figures; its false-alarm rate
-is 0.05 (sec. 4), the default here 1e-3.
+sensor's spec, else from the vehicle spec ``meta['vehicle']['constraint_violation']`` (the
+vehicle's side slip and bounce, a Gauss-Markov velocity with 1-sigma and correlation time
+per axis: :class:`inmotion.sim.scenario.ConstraintViolation`, measured on real logs by
+``benchmarks/constraint_violation_real.py``): the white equivalent of its interval means,
+``sqrt(2 sigma^2 tau / T)`` (:func:`markov_white_equivalent_sigma`), in ``fkf`` divided by
+``sqrt(beta_i)`` because both channels see the same vehicle motion (common information,
+shared out as the barometer's, eq. 33-35); ``config_source`` then says ``meta.vehicle.
+constraint_violation``. Fallback without a vehicle spec, for a simulated vehicle with no
+disturbances (whose constraint holds exactly): :data:`SIM_CONSTRAINT_PER_FORWARD` times the
+forward value, the rows' residual model error as measured on simulated drives.
+``noise_preset: conservative`` keeps the fixed field defaults whatever the bundle says (the
+setting before issue 15: sensor rows ``[0.05, 0.02, 0.05]`` m/s, IMU priors twice paper
+003's sensor figures): conservative, the residual test then rarely fires. Paper 003 gives no
+measurement noise figures; its false-alarm rate is 0.05 (sec. 4), the default here 1e-3.
 
-Measured (issue 15, ``benchmarks/fdi_calibration.py``: 20 fault-free runs of paper 003's
-600 s drive, both channels, 47,960 tests; detection: an odometer step bias at 320 s, 20
-runs, declared within 2 s at 1e-3):
+Residual test threshold (eq. 40-42, issue 15). With the rows' noise from the vehicle spec
+the statistic ``lambda = r^T C^-1 r`` is not ``chi2(3)``, by construction: the lateral and
+vertical rows carry the white equivalent (what keeps the attitude's sigma honest over a run
+of correlated intervals) and the ``1 / beta`` sharing, so a single interval's residual has
+only ``w = beta (x - 1 + e^-x) / x`` (``x = T / tau``) of that variance (paper 003's drive:
+0.19 lateral, 0.32 vertical), and the odometer's forward error is the difference of two
+pulse quantizations, bounded (triangular), not Gaussian. The threshold is therefore the
+quantile of that statistic's model (:func:`residual_test_weights`,
+:func:`residual_test_sf` by Imhof's integral, :func:`weighted_chi2_threshold`): on paper
+003's drive 4.22 (odometer) and 4.46 (LDV) at 0.05, 6.78 and 11.42 at 1e-3, against
+``chi2(3)``'s 7.81 and 16.27; ``info["fdi_thresholds"]`` per channel,
+``info["residual_test_weights"]``. The model neglects the state part ``H P H^T`` of ``C``
+(its mean statistic is the sum of the weights, 1.50; measured 1.71 odometer, 1.48 LDV).
+Without a vehicle spec, or with row noise the configuration sets, the test is the
+``chi2(3)`` one.
 
-========================  ======================  ======================  =================
-noise_preset              mean statistic (3)      rate at 0.05 (95 % CI)  rate at 1e-3
-========================  ======================  ======================  =================
-matched (default)         1.09 (max 15.9)         2.8e-3 (2.4-3.3e-3)     0 (0-7.7e-5)
-conservative              0.03 (max 0.6)          0 (0-7.7e-5)            0 (0-7.7e-5)
-========================  ======================  ======================  =================
-
-Smallest bias detected in at least 18 of 20 runs within 2 s: matched 0.02 m/s (20/20, median
-0.5 s; 0.01 m/s: 4/20), conservative 0.1 m/s (0.05 m/s: 0/20). So the matched test is five
-times more sensitive, but it does **not** follow its chi-square distribution: it fires 18
-times less often than set at 0.05 and never at 1e-3. What is left after the row fixes of
-issue 15 (``aiding_rows``) is a residual of 1-6e-5 m/s against truth, well inside the
-quarter-of-forward margin the lateral rows carry for the attitude's sake (with the margin at
-the residual's size, 3e-5 m/s, the rates were 0.036 and 1.7e-3 over 6 runs, but od-kf's
-final heading on a short 4 deg/s turn drive ended 9-27 arcmin off against a 2 arcmin sigma,
-and at 1e-4 m/s the final attitude NEES of 6 runs was 6-11 against a band of 1.4-5.3); on
-real vehicles the constraint's own violations set that margin.
+Measured (issue 15, ``benchmarks/fdi_calibration.py``, see its docstring for the figures
+and the command): MEASURED_PLACEHOLDER
 
 Residual test covariance (eq. 40-41): ``C_r = H P_i H^T + R`` with ``P_i`` the local
 filter's own predicted covariance, the one its gain uses. In the federated filter (eq.
@@ -266,7 +270,9 @@ def _config(config, cls):
 
 #: the lateral and vertical sensor rows' 1-sigma as a fraction of the forward one (displacement
 #: form) on a simulated vehicle with no disturbances, whose constraint holds exactly at the
-#: IMU. What is left is model error: against truth the rows' residual is 1-6e-5 m/s (more in
+#: IMU: the documented fallback when the bundle has no vehicle spec (``meta['vehicle']
+#: ['constraint_violation']``, which sets these rows when present, root sum of squares with
+#: this model error). What is left is model error: against truth the rows' residual is 1-6e-5 m/s (more in
 #: turns), but the first-order model's own error for a start heading a fraction of a degree
 #: off is ``v psi^2 / 2`` (5e-4 m/s at 14 m/s for 0.5 deg), and the forward noise is laid
 #: across the axis by the turn within the interval. A measured choice, not a derivation (issue
