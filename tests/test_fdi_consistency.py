@@ -42,7 +42,8 @@ def test_config_source_says_where_each_value_came_from():
     assert src["accel_bias_ug"] == "config" and cfg["accel_bias_ug"] == 80.0
     assert src["gyro_drift_deg_h"] == "meta.imu (simulated)"
     assert cfg["gyro_drift_deg_h"] == pytest.approx(0.005)
-    assert src["od_noise_m_s"] == "meta.sensors (simulated)"
+    assert src["od_noise_m_s"] == ("meta.sensors (simulated) + meta.vehicle.constraint_violation"
+                                   " (lateral/vertical)")
     sol = ak.run_fkf(b, {"noise_preset": "conservative"}, init)
     assert sol.info["config_source"]["od_noise_m_s"] == "default"
     assert sol.info["config"]["od_noise_m_s"] == [0.05, 0.02, 0.05]

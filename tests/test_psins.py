@@ -223,6 +223,7 @@ def _parked_sim(vibration_m_s, seed=0):
     d = yaml.safe_load(open(find_scenario("paper003_parked_then_drive")).read())
     d["segments"] = [{"kind": "rest", "duration_s": 300}]
     d.pop("disturbances")
+    d["vehicle"].pop("constraint_violation", None)    # none at rest; it would draw first
     d["imu"] = {"rate_hz": 100.0, "gyro": {"drift_deg_h": 0.01, "arw_deg_sqrt_h": 0.001},
                 "accel": {"bias_ug": 100.0, "vrw_ug_sqrt_hz": 10.0}}
     b = simulate(load_scenario(d), np.random.default_rng(seed))

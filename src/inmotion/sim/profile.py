@@ -14,7 +14,9 @@ at the ends), so acceleration, yaw rate and pitch are C3; speed ``v = v0 + int a
 convention where positive roll lowers the right side).
 
 Disturbances add to the vehicle velocity ``v_v`` and the Euler angles in their windows (side slips, jumps,
-engine vibration; see :mod:`inmotion.sim.scenario`).
+engine vibration; see :mod:`inmotion.sim.scenario`). A vehicle's ``constraint_violation`` (real
+side slip and bounce, a random process drawn per run) adds to ``v_v``'s lateral and vertical
+components throughout (:func:`violation_ppoly`).
 
 Everything is evaluated vectorized at any array of times, together with the analytic time
 derivatives the IMU needs (Euler rates, body acceleration).
@@ -26,7 +28,7 @@ from dataclasses import dataclass
 import numpy as np
 from scipy.interpolate import PPoly
 
-__all__ = ["Profile", "build_profile", "smoothstep7"]
+__all__ = ["Profile", "build_profile", "smoothstep7", "violation_ppoly"]
 
 #: coefficients of S(x) = 35 x^4 - 84 x^5 + 70 x^6 - 20 x^7, lowest power first
 _S7 = np.array([0.0, 0.0, 0.0, 0.0, 35.0, -84.0, 70.0, -20.0])
@@ -90,6 +92,10 @@ class Profile:
     disturbances: object    #: scenario.Disturbances
     duration_s: float
     segments: list          #: [(kind, t_start, t_end)]
+    #: the vehicle constraint's violation, vehicle-frame ``[lateral, vertical]`` velocity
+    #: [m/s] before the standstill fade (a (k, m, 2) PPoly), or None
+    violation: object = None
+    fade_speed_m_s: float = 1.0
 
     def kinematics(self, t):
         """Euler angles, their rates, vehicle velocity and its time derivative at times ``t``.
@@ -110,11 +116,17 @@ class Profile:
         vel_v = np.stack([z, v, z], -1)
         acc_v = np.stack([z, a, z], -1)
         _add_disturbances(self.disturbances, t, euler, euler_dot, vel_v, acc_v)
+        if self.violation is not None:
+            _add_violation(self.violation, self.fade_speed_m_s, t, v, a, vel_v, acc_v)
         return euler, euler_dot, vel_v, acc_v
 
 
-def build_profile(scenario) -> Profile:
+def build_profile(scenario, rng=None) -> Profile:
     """The motion channels of a :class:`inmotion.sim.scenario.Scenario`.
+
+    ``rng`` (numpy Generator): draws the realization of ``vehicle.constraint_violation`` when
+    the scenario has one (:func:`violation_ppoly`); None: no violation (the error-free,
+    deterministic motion).
 
     Segment timing: ``accelerate`` / ``decelerate`` / ``stop`` last ``|dv| / a + tau`` (ramps of
     the acceleration of length ``tau`` at both ends, so the plateau acceleration is the one given
@@ -167,8 +179,54 @@ def build_profile(scenario) -> Profile:
     yaw_pp = rate_pp.antiderivative()
     yaw_pp.c[-1] += np.radians(scenario.start.heading_deg)
     k = np.radians(scenario.vehicle.roll_per_lateral_accel_deg_per_m_s2)
+    cv = scenario.vehicle.constraint_violation
+    viol = (violation_ppoly(cv, t0, t_end, rng) if cv is not None and cv.active
+            and rng is not None else None)
     return Profile(accel_pp, _clean_speed(speed_pp), rate_pp, yaw_pp, pitch.ppoly(t_end), k,
-                   scenario.disturbances, t, segs)
+                   scenario.disturbances, t, segs, viol,
+                   cv.fade_speed_m_s if cv is not None else 1.0)
+
+
+#: longest knot spacing of a constraint violation's realization [s]
+VIOLATION_KNOT_S = 0.05
+
+
+def violation_ppoly(cv, t_begin, t_end, rng) -> PPoly:
+    """One realization of the vehicle constraint's violation (``scenario.
+    ConstraintViolation``): the lateral and vertical velocities [m/s] as a cubic spline
+    (``(4, m, 2)`` PPoly) through samples of two independent stationary first-order
+    Gauss-Markov processes (:func:`inmotion.sim.random_processes.markov`: 1-sigma
+    ``*_sigma_m_s``, autocorrelation ``sigma^2 exp(-|dt| / tau)``) every
+    ``h = min(VIOLATION_KNOT_S, tau_min / 5)`` s (a multiple of 0.01 s apart from
+    ``t_begin``, so 100 Hz IMU intervals lie within one cubic piece). The spline makes the
+    process differentiable (a Gauss-Markov path is not): the accelerometers sense its
+    derivative, and its spectrum is the process's up to about ``1 / (2 h)`` Hz. Draws
+    ``2 n`` normals from ``rng`` (n knots), lateral first."""
+    from scipy.interpolate import CubicSpline
+
+    from .random_processes import markov
+    tau_min = min(cv.lateral_tau_s, cv.vertical_tau_s)
+    h = max(0.01, np.floor(min(VIOLATION_KNOT_S, tau_min / 5.0) * 100.0 + 1e-9) / 100.0)
+    n = int(np.ceil((t_end - t_begin) / h)) + 1
+    x = np.stack([markov(n, h, cv.lateral_sigma_m_s, cv.lateral_tau_s, rng)
+                  if cv.lateral_sigma_m_s > 0 else np.zeros(n),
+                  markov(n, h, cv.vertical_sigma_m_s, cv.vertical_tau_s, rng)
+                  if cv.vertical_sigma_m_s > 0 else np.zeros(n)], -1)
+    sp = CubicSpline(t_begin + h * np.arange(n), x, axis=0, bc_type="natural")
+    return PPoly(sp.c, sp.x, extrapolate=True)
+
+
+def _add_violation(pp, v0, t, v, a, vel_v, acc_v):
+    """Add the violation ``g(v) x(t)`` to the vehicle frame's x (lateral) and z (vertical)
+    velocity and ``g'(v) a x + g x'`` to its derivative in place; ``g = v^2 / (v^2 + v0^2)``
+    fades it out towards standstill (exactly 0 at rest)."""
+    x, xd = pp(t), pp(t, 1)
+    d = v * v + v0 * v0
+    g = v * v / d
+    gd = 2.0 * v * v0 * v0 / (d * d) * a
+    for col, k in ((0, 0), (2, 1)):
+        vel_v[:, col] += g * x[:, k]
+        acc_v[:, col] += gd * x[:, k] + g * xd[:, k]
 
 
 def _clean_speed(speed_pp: PPoly) -> PPoly:

@@ -97,10 +97,41 @@ class Vehicle(_Model):
     vehicles; roll = -k * v * yaw_rate (a right turn, yaw rate > 0, rolls the body left: roll < 0).
     ``transition_s``: default length of the smooth (C3, septic smoothstep) blends at the start
     and end of every acceleration, turn and pitch change.
+    ``constraint_violation``: the vehicle's side slip and bounce (:class:`ConstraintViolation`;
+    absent: none, the vehicle constraint holds exactly at the IMU).
     """
 
     roll_per_lateral_accel_deg_per_m_s2: float = Field(0.4, ge=0.0, le=5.0)
     transition_s: float = Field(2.0, gt=0.0, le=60.0)
+    constraint_violation: Optional["ConstraintViolation"] = None
+
+
+class ConstraintViolation(_Model):
+    """How far a real vehicle breaks its motion constraint (zero lateral and vertical velocity
+    in the vehicle frame, issue 15): tyre side slip (lateral, x) and body bounce on the
+    suspension (vertical, z), each a stationary first-order Gauss-Markov velocity with 1-sigma
+    ``*_sigma_m_s`` and correlation time ``*_tau_s``, added to the vehicle frame's velocity at
+    the IMU, faded out towards standstill by ``v^2 / (v^2 + fade_speed_m_s^2)`` (a parked
+    vehicle neither slips nor bounces). Off when absent (the constraint then holds exactly).
+
+    The simulator draws one realization per run (:func:`inmotion.sim.profile.build_profile`):
+    samples every ``min(0.05 s, tau / 5)`` joined by a cubic spline, so velocity, its
+    derivative (what the accelerometers sense) and the position integrate the same motion.
+    Measured on real logs by ``benchmarks/constraint_violation_real.py`` (FOG INS reference of
+    the PSINS moving log: lateral 0.010 m/s, 0.5 s; vertical 0.020 m/s, 0.2 s)."""
+
+    lateral_sigma_m_s: float = Field(0.0, ge=0.0, le=5.0)
+    lateral_tau_s: float = Field(0.5, gt=0.0, le=3600.0)
+    vertical_sigma_m_s: float = Field(0.0, ge=0.0, le=5.0)
+    vertical_tau_s: float = Field(0.2, gt=0.0, le=3600.0)
+    fade_speed_m_s: float = Field(1.0, gt=0.0, le=50.0)
+
+    @property
+    def active(self) -> bool:
+        return self.lateral_sigma_m_s > 0.0 or self.vertical_sigma_m_s > 0.0
+
+
+Vehicle.model_rebuild()
 
 
 # ----------------------------------------------------------------------------- segments

@@ -1,8 +1,9 @@
 """Scenario -> :class:`inmotion.core.bundle.Bundle`: truth, IMU, velocity sensors, baro, meta.
 
 ``simulate(scenario, rng)`` is the one entry point. All randomness goes through ``rng``:
-draws happen in a fixed order (IMU constants, IMU noise, then each present sensor in the order
-radar, ldv, odometer, baro), so a seed reproduces a bundle bit for bit.
+draws happen in a fixed order (the vehicle's constraint violation if the scenario has one, IMU
+constants, IMU noise, then each present sensor in the order radar, ldv, odometer, baro), so a
+seed reproduces a bundle bit for bit (and a scenario without a violation draws as before).
 
 The ``meta`` dict is what :mod:`inmotion.io` writes as ``meta.yaml``: the scenario name and
 description, the initial position and attitude (degrees), ``vehicle_mounting_arcmin`` (the IMU's
@@ -10,7 +11,9 @@ mounting in the vehicle, ``C_v^b = exp([A x])``: what a dead reckoner's ``C_bm``
 rate and specification, each sensor's specification (human units, with lever arm
 ``lever_arm_m`` in b and beam misalignment ``mounting_arcmin`` relative to the vehicle), the
 faults, which sensors exist, the segment timeline, the distance
-driven, and under ``simulated_errors`` the constants drawn for this run (the truth an
+driven, the vehicle spec ``vehicle`` (roll gain, blend time and, when present, the
+``constraint_violation``: lateral / vertical 1-sigma and correlation times, the figures a
+filter's matched noise reads), and under ``simulated_errors`` the constants drawn for this run (the truth an
 estimator's calibration can be checked against).
 """
 from __future__ import annotations
@@ -31,14 +34,15 @@ from .trajectory import generate
 __all__ = ["simulate", "simulate_truth"]
 
 
-def simulate_truth(scenario: Union[Scenario, dict, PathLike]) -> tuple:
+def simulate_truth(scenario: Union[Scenario, dict, PathLike], rng=None) -> tuple:
     """``(Scenario, Profile, Trajectory)``: the error-free truth and increments of a scenario.
 
     The profile moves the vehicle frame v; the IMU is turned from it by
     ``vehicle_mounting_arcmin`` (``C_v^b``, None when zero so that an aligned IMU is exactly
-    the vehicle)."""
+    the vehicle). ``rng``: draws the vehicle's ``constraint_violation`` if the scenario has
+    one (None: the motion without it)."""
     sc = load_scenario(scenario)
-    prof = build_profile(sc)
+    prof = build_profile(sc, rng)
     rate = sc.imu.rate_hz
     n_rows = int(round(prof.duration_s * rate)) + 1
     C_vb = vehicle_C_vb(sc.vehicle_mounting_arcmin) if any(sc.vehicle_mounting_arcmin) else None
@@ -68,7 +72,7 @@ def simulate(scenario: Union[Scenario, dict, PathLike], rng: np.random.Generator
     """
     if not isinstance(rng, np.random.Generator):
         raise TypeError("simulate needs a numpy.random.Generator (np.random.default_rng(seed))")
-    sc, prof, traj = simulate_truth(scenario)
+    sc, prof, traj = simulate_truth(scenario, rng)
     rate = sc.imu.rate_hz
     err = draw_imu_errors(sc.imu, rng)
     dtheta, dvel = apply_imu_errors(traj.dtheta, traj.dvel, 1.0 / rate, err, rng,
@@ -109,6 +113,7 @@ def _meta(sc, prof, traj, drawn) -> dict:
         "initial_attitude_deg": {k: _tidy(np.degrees(traj.euler[0, i]))
                                  for i, k in enumerate(("pitch", "roll", "yaw"))},
         "vehicle_mounting_arcmin": [float(x) for x in sc.vehicle_mounting_arcmin],
+        "vehicle": sc.vehicle.model_dump(exclude_none=True),
         "duration_s": float(traj.t[-1] - traj.t[0]),
         "distance_m": traj.distance_m,
         "imu": {"rate_hz": sc.imu.rate_hz, **sc.imu.model_dump(exclude={"rate_hz"})},
