@@ -16,7 +16,9 @@ The report is then built from the campaign's results table
 (:func:`inmotion.evaluate.montecarlo.read_results`) and the runs' arrays. A run function whose
 record is nested (lists of dicts, arrays deep inside) returns it through :func:`pack_record`
 (the record as JSON text in one column, its arrays in the run's ``.npz``) and the report reads
-it back with :func:`unpack_record`, value for value.
+it back with :func:`unpack_record`, value for value. Besides the engine's ``elapsed_s`` and
+``worker``, the only values of a record that differ between two executions of a run are the
+timings a paper measures itself (its filters' ``wall_s``, paper 000's ``cpu_s``).
 
 ``inmotion reproduce ... --scheduler ADDRESS`` (:func:`engine`) opens the client once for every
 paper of the command; without it each campaign opens a local cluster of ``--workers``

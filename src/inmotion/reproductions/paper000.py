@@ -11,6 +11,10 @@ which shared gyros cannot reach); and the velocity-matching baseline ``od-veloci
 Trajectory 1 adds eq. 37 as printed (``with_Z2_paper_H2``) and a rerun with the IMU's white
 noise off (``with_Z2_imu_white_noise_off``: what limits the mounting angle gamma).
 
+The Monte Carlo is two campaign specifications, ``inmotion/reproductions/campaigns/
+paper000.yaml`` (grid over the experiments; run function :func:`run`) and ``paper000_z2.yaml``
+(grid over the Z2-study conditions; :func:`run_z2`), run by the campaign engine.
+
 Per run (all draws from one ``numpy.random.Generator`` seeded by ``(seed, experiment, run)``):
 
 * gyro drift and accelerometer bias per axis from N(0, 0.03 deg/h) and N(0, 100 ug) (the
