@@ -98,6 +98,12 @@ ATT = Block("dR", ("x", "y", "z"), tuple(StateUnit("arcmin", 180.0 / np.pi * 60.
 LAYOUT_ATT = Layout([ATT])
 #: error of the LDV sample taken as v^b(0) [m/s] (see inmotion.align.usque_model)
 DV0 = Block("dv0", ("",), (StateUnit("m/s"),))
+#: the measurement's integrated IMU noise, a random walk resolved in i [m/s]
+#: (inmotion.align.usque_model, "What the measurement's error is")
+W = Block("w", ("x", "y", "z"), tuple(StateUnit("m/s") for _ in range(3)))
+_EXTRA_BLOCKS = {"dv0": DV0, "w": W}
+#: 1-sigma of w(0) on the axes no start error reaches [m/s] (P0 positive definite)
+W0_FLOOR_M_S = 1e-4
 
 
 class UsqueConfig(BaseModel):
@@ -184,6 +190,12 @@ class UsqueConfig(BaseModel):
     """
 
     model_config = ConfigDict(extra="forbid")
+    noise_preset: Literal["matched", "paper"] = Field(
+        "matched",
+        description="matched: a consistent filter (integrated-noise state w, IMU bias/drift and "
+                    "sensor scale states, noise from meta.yaml's sensor spec where the config "
+                    "does not set it); paper: paper 001's settings as configured, attitude "
+                    "state only (overconfident: NEES ~2e4 against a band of 2.2-3.9)")
     sensor: Literal["auto", "ldv", "radar", "odometer"] = Field(
         "auto", description="forward-velocity sensor of the measurement; auto: the first present "
                             "of ldv (the paper's), radar, odometer (info: sensor)")
@@ -210,16 +222,28 @@ class UsqueConfig(BaseModel):
         1.0, gt=0, le=1, description="sigma-point spread parameter of eq. 24-26")
     ut_kappa: float = Field(0.0, ge=0, description="sigma-point parameter kappa of eq. 24-26")
     ut_zeta: float = Field(2.0, description="sigma-point parameter zeta of eq. 24-26")
-    estimate_scale: bool = Field(
-        False,
-        description="add the velocity sensor's scale-factor error dk to the state (paper: no)")
+    estimate_scale: Optional[bool] = Field(
+        None,
+        description="add the velocity sensor's scale-factor error dk to the state (paper: no; "
+                    "None: yes with noise_preset matched)")
     scale_sigma0_ppm: float = Field(1000.0, gt=0, description="initial 1-sigma of dk [ppm]")
-    estimate_accel_bias: bool = Field(
-        False, description="add the accelerometer bias to the state (not in the paper)")
+    estimate_accel_bias: Optional[bool] = Field(
+        None, description="add the accelerometer bias to the state (not in the paper; None: yes "
+                          "with noise_preset matched)")
     accel_bias_sigma0_ug: float = Field(
         100.0, gt=0, description="initial 1-sigma of the accelerometer bias [ug]")
-    estimate_gyro_drift: bool = Field(
-        False, description="add the gyro drift to the state (not in the paper)")
+    estimate_gyro_drift: Optional[bool] = Field(
+        None, description="add the gyro drift to the state (not in the paper; None: yes with "
+                          "noise_preset matched)")
+    estimate_integrated_noise: Optional[bool] = Field(
+        None, description="add w, the random walk of the IMU noise the measurement integrates "
+                          "(not in the paper; None: yes with noise_preset matched)")
+    gyro_arw_deg_sqrt_h: float = Field(
+        0.003, ge=0, description="gyro angle random walk [deg/sqrt(h)] (noise_preset matched; "
+                                 "meta.yaml's imu spec where the config does not set it)")
+    accel_vrw_ug_sqrt_hz: float = Field(
+        50.0, ge=0, description="accelerometer velocity random walk [ug/sqrt(Hz)] (noise_preset "
+                                "matched; meta.yaml's imu spec where the config does not set it)")
     gyro_drift_sigma0_deg_h: float = Field(
         0.01, gt=0, description="initial 1-sigma of the gyro drift [deg/h]")
     estimate_initial_speed_error: bool = Field(
@@ -312,6 +336,80 @@ def _speed_at_imu(bundle: Bundle, sensor: str):
     return np.interp(t_imu, sp.t, v)
 
 
+# ----------------------------------------------------------------------------- noise presets
+#: the states ``noise_preset: matched`` adds where the configuration leaves them None
+_MATCHED_STATES = ("estimate_scale", "estimate_accel_bias", "estimate_gyro_drift",
+                   "estimate_integrated_noise")
+
+
+def resolve_noise(config: UsqueConfig, meta, dt_update_s: float) -> tuple:
+    """``(config, config_source)``: the configuration with every noise figure and state
+    choice made concrete for ``noise_preset`` (module docstring, "Noise presets"), and
+    ``{field: origin}`` (``config``, ``meta.imu (simulated)``, ``meta.sensors.<name>``,
+    ``preset matched``, ``preset paper``, ``default``).
+
+    ``paper``: the fields as configured; states left None are off.
+    ``matched``: states left None are on (``w``, ``dk``, ``nabla``, ``eps``; ``w`` is
+    unavailable with ``vectors: obs_vectors``, which keeps the attitude state only); the IMU
+    figures the configuration does not set come from ``meta['imu']``
+    (:func:`inmotion.align.parked_kf.spec_from_meta`: ``accel_bias_sigma0_ug``,
+    ``gyro_drift_sigma0_deg_h``, ``gyro_arw_deg_sqrt_h``, ``accel_vrw_ug_sqrt_hz``), the
+    sensor's from ``meta['sensors'][sensor]`` (``meas_noise_m_s`` from ``noise_m_s``, one
+    sample's white noise; ``scale_sigma0_ppm`` from ``scale_factor_sigma_ppm``), and the
+    attitude's ``process_noise_deg`` is ``ARW sqrt(dt_update)`` (the gyro's angle random walk
+    over one update).
+    """
+    from .parked_kf import spec_from_meta
+    set_ = config.model_fields_set
+    src = {}
+    upd = {}
+    preset = config.noise_preset
+    for f in _MATCHED_STATES:
+        if f in set_ and getattr(config, f) is not None:
+            src[f] = "config"
+            continue
+        on = preset == "matched" and not (config.vectors == "obs_vectors")
+        upd[f] = on
+        src[f] = f"preset {preset}" + ("" if on or preset == "paper" else " (obs_vectors)")
+    if preset == "paper":
+        for f in ("process_noise_deg", "meas_noise_m_s"):
+            src[f] = "config" if f in set_ else "preset paper (default)"
+        return config.model_copy(update=upd), src
+    meta = meta if isinstance(meta, dict) else {}
+    spec, origin = spec_from_meta(meta)
+    imu_map = {"accel_bias_sigma0_ug": "accel_bias_ug",
+               "gyro_drift_sigma0_deg_h": "gyro_drift_deg_h",
+               "gyro_arw_deg_sqrt_h": "gyro_arw_deg_sqrt_h",
+               "accel_vrw_ug_sqrt_hz": "accel_vrw_ug_sqrt_hz"}
+    for f, key in imu_map.items():
+        if f in set_:
+            src[f] = "config"
+        elif key in spec:
+            upd[f], src[f] = spec[key], origin
+        else:
+            src[f] = "default"
+    sensors = meta.get("sensors") if isinstance(meta.get("sensors"), dict) else {}
+    sens = sensors.get(config.sensor) if isinstance(sensors.get(config.sensor), dict) else {}
+    s_origin = f"meta.sensors.{config.sensor}"
+    for f, key, floor in (("meas_noise_m_s", "noise_m_s", 1e-4),
+                          ("scale_sigma0_ppm", "scale_factor_sigma_ppm", 1.0)):
+        if f in set_:
+            src[f] = "config"
+        elif sens.get(key) is not None:
+            # floors: R and P0 must stay positive definite for the sigma points
+            upd[f], src[f] = max(float(sens[key]), floor), s_origin
+        else:
+            src[f] = "default"
+    if "process_noise_deg" in set_:
+        src["process_noise_deg"] = "config"
+    else:
+        arw = upd.get("gyro_arw_deg_sqrt_h", config.gyro_arw_deg_sqrt_h)
+        upd["process_noise_deg"] = arw / 60.0 * np.sqrt(dt_update_s)
+        src["process_noise_deg"] = "preset matched: ARW sqrt(dt) (ARW from " + \
+            src["gyro_arw_deg_sqrt_h"] + ")"
+    return config.model_copy(update=upd), src
+
+
 # ----------------------------------------------------------------------------- the filter
 class _Filter:
     """State, covariance and the cycle of the module docstring (one instance per run)."""
@@ -321,9 +419,10 @@ class _Filter:
         self.extra = [name for name, on in (("dk", cfg.estimate_scale),
                                             ("nabla", cfg.estimate_accel_bias),
                                             ("eps", cfg.estimate_gyro_drift),
-                                            ("dv0", cfg.estimate_initial_speed_error)) if on]
-        self.layout = Layout([ATT] + [DV0 if name == "dv0" else block(name)
-                                      for name in self.extra])
+                                            ("dv0", cfg.estimate_initial_speed_error),
+                                            ("w", cfg.estimate_integrated_noise)) if on]
+        self.layout = Layout([ATT] + [_EXTRA_BLOCKS[name] if name in _EXTRA_BLOCKS
+                                      else block(name) for name in self.extra])
         self.att = self.layout["dR"]
         self.a = cfg.grp_a
         self.f = 2.0 * (cfg.grp_a + 1.0) if cfg.grp_f is None else cfg.grp_f
@@ -334,6 +433,11 @@ class _Filter:
         p0["nabla"] = (cfg.accel_bias_sigma0_ug * 1e-6 * _G0) ** 2
         p0["eps"] = (cfg.gyro_drift_sigma0_deg_h * _DEG / 3600.0) ** 2
         p0["dv0"] = cfg.initial_speed_sigma0_m_s ** 2
+        # w(0): the error of the sample taken as v^b(0) along b(0)'s forward axis = i's y
+        # (without a dv0 state), and a floor on the other axes (module docstring)
+        p0["w"] = np.array([W0_FLOOR_M_S, 0.0 if cfg.estimate_initial_speed_error
+                            else cfg.meas_noise_m_s, W0_FLOOR_M_S]) ** 2
+        p0["w"][1] = max(p0["w"][1], W0_FLOOR_M_S ** 2)
         p0 = {k: v for k, v in p0.items() if k in self.layout}
         self.P = self.layout.diag(p0)
         self.Q = self.layout.diag(q)
@@ -349,6 +453,18 @@ class _Filter:
         self.hinf_weights[self.att] = 1.0
         self.floor_hits = 0
         self.dt_update_s = 1.0 / cfg.update_rate_hz    # set by run() from the IMU rate
+        # integrated-noise state w: its index and the noise densities (rad^2/s, (m/s)^2/s)
+        self.i_w = self.layout["w"].start if "w" in self.layout else -1
+        self.arw2 = (cfg.gyro_arw_deg_sqrt_h * _DEG / 60.0) ** 2
+        self.vrw2 = (cfg.accel_vrw_ug_sqrt_hz * 1e-6 * _G0) ** 2
+
+    def process_noise(self, acc):
+        """``Q`` of one update: the configured one, with ``w``'s block and its coupling to the
+        attitude (:func:`inmotion.align.usque_model.add_integrated_noise`) when ``w`` is on."""
+        if self.i_w < 0:
+            return self.Q
+        return model.add_integrated_noise(self.Q, acc, self.i_w, self.arw2 * self.dt_update_s,
+                                          self.vrw2 * self.dt_update_s)
 
     def gamma_fixed(self):
         """The fixed gamma of one update [rad]: ``gamma_c / sqrt(dt_update)`` (module docstring)."""
@@ -365,8 +481,8 @@ class _Filter:
         dq = rotations.quat_multiply(chi_q, rotations.quat_conjugate(q_ref))
         return rotations.grp_from_quat(dq, self.a, self.f)
 
-    def predict(self, dq_n):
-        """Time update through eq. 9 (eq. 24-33)."""
+    def predict(self, dq_n, Q=None):
+        """Time update through eq. 9 (eq. 24-33); ``Q`` None: the configured one."""
         Wm, Wc = self.scheme.Wm, self.scheme.Wc
         chi = self.scheme.points(self.x, self.P)
         chi_q = model.propagate(self._quats(chi, self.q), dq_n)
@@ -375,7 +491,7 @@ class _Filter:
         chi[:, self.att] = self._grp_about(chi_q, q_bar)
         x = Wm @ chi
         dev = chi - x
-        self.P = (dev * Wc[:, None]).T @ dev + self.Q
+        self.P = (dev * Wc[:, None]).T @ dev + (self.Q if Q is None else Q)
         # fold the mean attitude error into the reference quaternion, reset it
         self.q = rotations.quat_normalize(rotations.quat_multiply(
             rotations.quat_from_grp(x[self.att], self.a, self.f), q_bar))
@@ -476,6 +592,7 @@ def run(bundle: Bundle, config: UsqueConfig, init: Optional[NavState] = None,
     speed = _speed_at_imu(bundle, config.sensor)
     lat, lon, h = _initial_position(bundle, init)
     stride = max(1, int(round(1.0 / (config.update_rate_hz * imu.dt))))
+    config, cfg_source = resolve_noise(config, bundle.meta, stride * imu.dt)
     flt = _Filter(config)
     flt.dt_update_s = stride * imu.dt
     acc = model.new_accumulator(lat, lon, h, speed[0])
@@ -493,7 +610,8 @@ def run(bundle: Bundle, config: UsqueConfig, init: Optional[NavState] = None,
     info = {"method": method, "config": config.model_dump(), "sensor": config.sensor,
             "timing_s": time.perf_counter() - t_start, "update_stride_rows": stride,
             "final_R_m_s": out.R[-1].tolist(), "hinf_floor_hits": int(flt.floor_hits),
-            "start_attitude": "q = [1 0 0 0] (C_b^n = I), the paper's start"}
+            "start_attitude": "q = [1 0 0 0] (C_b^n = I), the paper's start",
+            "noise_preset": config.noise_preset, "config_source": cfg_source}
     return out.solution(imu.t[np.concatenate([[0], epochs])], speed[np.concatenate([[0], epochs])],
                         flt, info)
 
@@ -503,6 +621,7 @@ def _run_obs_vectors(bundle, config, init, method, t_start):
     from . import obs_vectors as ov
     from . import usque_kernel as kernel
     from . import velocity_source as vs
+    config, cfg_source = resolve_noise(config, bundle.meta, 2.0 * bundle.imu.dt)
     flt = _Filter(config)
     flt.dt_update_s = 2.0 * bundle.imu.dt           # two-sample intervals
     if flt.extra:
@@ -539,7 +658,8 @@ def _run_obs_vectors(bundle, config, init, method, t_start):
             "timing_s": time.perf_counter() - t_start, "update_stride_rows": 2,
             "final_R_m_s": out.R[-1].tolist(), "hinf_floor_hits": int(hits),
             "vectors": "inmotion.align.obs_vectors (MODEL_VB_EARTH)",
-            "start_attitude": "q = [1 0 0 0] (C_b^n = I), the paper's start"}
+            "start_attitude": "q = [1 0 0 0] (C_b^n = I), the paper's start",
+            "noise_preset": config.noise_preset, "config_source": cfg_source}
     return out.solution(vr.t, speed[i_speed], flt, info)
 
 
@@ -553,7 +673,7 @@ def _run_reference(flt, acc, imu, speed, epochs, out, progress):
         model.accumulate(acc, imu.dtheta[k_prev + 1:k + 1], imu.dvel[k_prev + 1:k + 1],
                          dt_rows[k_prev:k], speed[k_prev + 1:k + 1], q_bn)
         obs = model.observation(acc)
-        flt.predict(model.nav_increment(q_n0n_prev, obs["q_n0n"]))
+        flt.predict(model.nav_increment(q_n0n_prev, obs["q_n0n"]), flt.process_noise(acc))
         flt.update(obs)
         out.record(j, flt, obs, acc)
         q_n0n_prev = obs["q_n0n"]
@@ -575,7 +695,7 @@ def _run_compiled(flt, acc, imu, speed, epochs, out):
         flt.R_max, mode, flt.gamma_fixed(), cfg.k0, cfg.gamma_min_deg * _DEG,
         cfg.gamma_max_deg * _DEG, cfg.hinf_margin, flt.hinf_weights,
         "dk" in flt.extra, "nabla" in flt.extra, "eps" in flt.extra, "dv0" in flt.extra,
-        out.q_in, out.q_ib, out.lla, out.P, out.R, out.gamma, out.x)
+        "w" in flt.extra, flt.arw2 * flt.dt_update_s, flt.vrw2 * flt.dt_update_s, out.q_in, out.q_ib, out.lla, out.P, out.R, out.gamma, out.x)
 
 
 def _positive_definite(P):

@@ -70,7 +70,7 @@ import numpy as np
 from ..core import _kernels as kn
 
 __all__ = ["ACC", "new_accumulator", "accumulate", "observation", "propagate",
-           "predict_measurement", "attitude_bn"]
+           "predict_measurement", "attitude_bn", "add_integrated_noise"]
 
 
 # Named slots of the flat accumulator state (module constants, so numba sees them).
@@ -256,13 +256,40 @@ def sensitivity(obs, blocks):
     """``S`` (3, n_e): the linear part of ``h`` in the extra states, columns in ``blocks`` order.
 
     ``dk`` -> ``V_i``; ``nabla`` -> ``-B``; ``eps`` -> ``J`` (see :func:`observation`);
-    ``dv0`` -> ``[0, -1, 0]``.
+    ``dv0`` -> ``[0, -1, 0]``; ``w`` (the integrated IMU noise, module docstring) -> ``I``.
     """
     cols = {"dk": obs["V_i"][:, None], "nabla": -obs["B"], "eps": obs["J"],
-            "dv0": np.array([[0.0], [-1.0], [0.0]])}
+            "dv0": np.array([[0.0], [-1.0], [0.0]]), "w": np.eye(3)}
     if not blocks:
         return np.zeros((3, 0))
     return np.hstack([cols[name] for name in blocks])
+
+
+@numba.njit(cache=True)
+def add_integrated_noise(Q, acc, i_w, arw2_dt, vrw2_dt):
+    """The process noise of one update with the integrated-noise state ``w`` (module
+    docstring, "What the measurement's error is"): ``Q`` (n, n) with, for the update's
+    attitude increment ``d theta = -d psi`` (``E[d psi d psi^T] = arw2_dt I``, already in the
+    attitude block of ``Q``) and ``w``'s increment ``d w = [A' x] d psi - int C_b^i n_a``:
+
+        Q_ww += vrw2_dt I + arw2_dt [A' x] [A' x]^T,    Q_{att,w} += arw2_dt [A' x],
+        Q_{w,att} = Q_{att,w}^T,
+
+    with ``A' = int C_b^i f^b dtau + v_m^b(0)`` from the accumulator ``acc`` (resolved in
+    i), ``i_w`` the index of ``w_x`` (the attitude is at 0-2). Returns a new array.
+    """
+    Qk = Q.copy()
+    a0 = acc[ALPHA_F] + 0.0
+    a1 = acc[ALPHA_F + 1] + acc[V0]
+    a2 = acc[ALPHA_F + 2] + 0.0
+    Ax = np.array([[0.0, -a2, a1], [a2, 0.0, -a0], [-a1, a0, 0.0]])
+    AAt = Ax @ Ax.T
+    for r in range(3):
+        for c in range(3):
+            Qk[i_w + r, i_w + c] += arw2_dt * AAt[r, c] + (vrw2_dt if r == c else 0.0)
+            Qk[r, i_w + c] += arw2_dt * Ax[r, c]
+            Qk[i_w + c, r] += arw2_dt * Ax[r, c]
+    return Qk
 
 
 def nav_increment(q_n0n_old, q_n0n_new):
