@@ -104,6 +104,10 @@ W = Block("w", ("x", "y", "z"), tuple(StateUnit("m/s") for _ in range(3)))
 _EXTRA_BLOCKS = {"dv0": DV0, "w": W}
 #: 1-sigma of w(0) on the axes no start error reaches [m/s] (P0 positive definite)
 W0_FLOOR_M_S = 1e-4
+#: floor of the matched measurement noise [m/s]: the accumulator's own integration error
+#: (1.1e-4 m/s at 300 s on the error-free paper001_urban drive, a drift the white R does
+#: not model) with a margin
+MEAS_FLOOR_M_S = 1e-3
 
 
 class UsqueConfig(BaseModel):
@@ -391,15 +395,29 @@ def resolve_noise(config: UsqueConfig, meta, dt_update_s: float) -> tuple:
     sensors = meta.get("sensors") if isinstance(meta.get("sensors"), dict) else {}
     sens = sensors.get(config.sensor) if isinstance(sensors.get(config.sensor), dict) else {}
     s_origin = f"meta.sensors.{config.sensor}"
-    for f, key, floor in (("meas_noise_m_s", "noise_m_s", 1e-4),
-                          ("scale_sigma0_ppm", "scale_factor_sigma_ppm", 1.0)):
+    for f, key in (("meas_noise_m_s", "noise_m_s"), ("scale_sigma0_ppm", "scale_factor_sigma_ppm")):
         if f in set_:
             src[f] = "config"
         elif sens.get(key) is not None:
-            # floors: R and P0 must stay positive definite for the sigma points
-            upd[f], src[f] = max(float(sens[key]), floor), s_origin
+            upd[f], src[f] = float(sens[key]), s_origin
         else:
             src[f] = "default"
+    if upd.get("meas_noise_m_s", 1.0) < MEAS_FLOOR_M_S:
+        upd["meas_noise_m_s"] = MEAS_FLOOR_M_S
+        src["meas_noise_m_s"] += f" (below the floor, {MEAS_FLOOR_M_S:g})"
+    # a state whose spec is zero has nothing to estimate (and a zero prior the sigma points
+    # cannot spread): off, unless the configuration asks for it
+    for state, f in (("estimate_scale", "scale_sigma0_ppm"),
+                     ("estimate_accel_bias", "accel_bias_sigma0_ug"),
+                     ("estimate_gyro_drift", "gyro_drift_sigma0_deg_h")):
+        if f not in upd or upd[f] > 0.0:
+            continue
+        if upd.get(state):
+            upd[state] = False
+            src[state] = f"preset matched: off ({f} = 0 in {src[f]})"
+        elif getattr(config, state):          # asked for: keep the configured prior
+            del upd[f]
+            src[f] = f"default ({src[f]} gives 0)"
     if "process_noise_deg" in set_:
         src["process_noise_deg"] = "config"
     else:
@@ -443,9 +461,11 @@ class _Filter:
         self.Q = self.layout.diag(q)
         self.x = self.layout.zeros()
         self.q = np.array([1.0, 0.0, 0.0, 0.0])      # C_{n(0)}^i, the paper's start
-        self.R = np.full(3, cfg.meas_noise_m_s ** 2)
         self.R_min = np.full(3, cfg.r_min_m_s ** 2)
         self.R_max = np.full(3, cfg.r_max_m_s ** 2)
+        self.R = np.full(3, cfg.meas_noise_m_s ** 2)
+        if cfg.adaptive_r:          # the adaptive R lives within its bounds from the start
+            self.R = np.clip(self.R, self.R_min, self.R_max)
         self.eta = 1.0
         self.gamma = np.inf
         # H-infinity bounds the attitude error only (eq. 46 with S = L x, L selecting dR)
