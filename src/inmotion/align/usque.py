@@ -405,6 +405,15 @@ def resolve_noise(config: UsqueConfig, meta, dt_update_s: float) -> tuple:
     if upd.get("meas_noise_m_s", 1.0) < MEAS_FLOOR_M_S:
         upd["meas_noise_m_s"] = MEAS_FLOOR_M_S
         src["meas_noise_m_s"] += f" (below the floor, {MEAS_FLOOR_M_S:g})"
+    # the adaptive R's lower bound: the sensor's own white noise (the correlated errors that
+    # the paper preset's 0.05 m/s covered are states now)
+    if "r_min_m_s" in set_:
+        src["r_min_m_s"] = "config"
+    elif "meas_noise_m_s" in upd:
+        upd["r_min_m_s"] = min(upd["meas_noise_m_s"], config.r_max_m_s)
+        src["r_min_m_s"] = "preset matched: meas_noise_m_s"
+    else:
+        src["r_min_m_s"] = "default"
     # a state whose spec is zero has nothing to estimate (and a zero prior the sigma points
     # cannot spread): off, unless the configuration asks for it
     for state, f in (("estimate_scale", "scale_sigma0_ppm"),
