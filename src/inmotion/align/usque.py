@@ -329,6 +329,10 @@ class UsqueConfig(BaseModel):
     k0: float = Field(
         30.0, gt=0,
         description="coefficient of the adaptive gamma, eq. 55 (30: ~30 s memory)")
+    hinf_memory_s: float = Field(
+        1500.0, gt=0,
+        description="noise_preset matched: the adaptive gamma's memory [s]; k0 = "
+                    "sqrt(hinf_memory_s / update interval) - 1 unless k0 is set")
     gamma_min_deg: float = Field(0.1, gt=0, description="lower bound of the adaptive gamma [deg]")
     gamma_max_deg: float = Field(30.0, gt=0, description="upper bound of the adaptive gamma [deg]")
     hinf_margin: float = Field(
@@ -482,6 +486,11 @@ def resolve_noise(config: UsqueConfig, meta, dt_update_s: float) -> tuple:
         elif getattr(config, state):          # asked for: keep the configured prior
             del upd[f]
             src[f] = f"default ({src[f]} gives 0)"
+    if "k0" in set_:
+        src["k0"] = "config"
+    else:            # memory ~ dt (1 + k0)^2 (module docstring, "Gamma for the matched noise")
+        upd["k0"] = max(np.sqrt(config.hinf_memory_s / dt_update_s) - 1.0, 1.0)
+        src["k0"] = "preset matched: sqrt(hinf_memory_s / dt) - 1"
     if "process_noise_deg" in set_:
         src["process_noise_deg"] = "config"
     else:
