@@ -4,7 +4,8 @@ the overconfident settings. Usage (from the repository root)::
 
     PYTHONPATH=src:tests OPENBLAS_NUM_THREADS=1 nice -n 10 python benchmarks/nees_methods.py
 
-About 90 s on one core.
+About 90 s on one core. Paper 001's USQUE family (its own drive, 100 Hz, both noise
+presets): ``benchmarks/nees_usque.py``.
 """
 import sys
 sys.path.insert(0, "tests")
