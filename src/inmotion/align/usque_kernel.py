@@ -151,7 +151,7 @@ def _observation(acc, has_dk, has_nabla, has_eps, has_dv0, has_w):
     S = np.zeros((3, n_e))
     c = 0
     if has_dk:
-        S[:, 0] = V_i
+        S[:, 0] = model.dk_column(acc, kn.dcm_from_quat(q_ib))
         c = 1
     B = acc[model.B_I:model.B_I + 9].reshape(3, 3).copy()
     if has_nabla:
