@@ -28,7 +28,8 @@ states (paper eq. 22), all entering linearly to first order with the sensitiviti
 (:func:`sensitivity`):
 
 - ``dk``, LDV scale-factor error, ``v_true = (1 - dk) v_m``: column ``V_i = C_b^i v_m(t) - v_m(0)``
-  (its tiny effect on the Earth-rate term is neglected);
+  (its tiny effect on the Earth-rate term is neglected; the samples are lagged by one row,
+  :func:`dk_column`);
 - ``nabla``, accelerometer bias in b [m/s^2] (``f_measured = f + nabla``): columns
   ``-B(t)``, ``B = int C_b^i dtau``;
 - ``eps``, gyro drift in b [rad/s] (``omega_measured = omega + eps``): the computed
@@ -73,7 +74,9 @@ gyro and accelerometer noise of densities ``ARW``, ``VRW``; constant drift ``eps
   ``t^2``; constants, states.
 * LDV: the current sample's white noise reaches ``y`` as ``C_b^i [0, n_v, 0]`` (white, one
   sample, ``sigma_v``); the sample taken as ``v^b(0)`` is a constant ``-dv0`` along i's y
-  (i = b(0)); the scale factor ``dk``, a constant (column ``V_i``).
+  (i = b(0)); the scale factor ``dk``, a constant (column ``V_i``, built from samples
+  whose noise is not the one in ``y``: :func:`dk_column`; with the current samples the
+  estimate of ``dk`` took an errors-in-variables bias of ``sigma_v^2 / v^2``).
 * The accumulator's own integration error: 1.1e-4 m/s at 300 s on the error-free drive
   (``tests/test_usque.py``), below the floor of 1e-3 m/s on ``sigma_v``.
 
