@@ -17,41 +17,39 @@ Printed per scheme and preset: the mean over the runs of the NEES of the attitud
 
 About 40 s per run on one core (both presets, four schemes).
 
-Measured (issue 15, h15usque; load 18-23 on 2 cores, which changes only the time):
+Measured (issue 15, h15usque; load 18-23 on 2 cores, which changes only the time), the final
+code (dk's column from lagged samples):
 
 test 1, 10 runs, seeds 1000-1009, band of the mean at 300 s [1.68, 4.70]:
 
     scheme      preset    NEES 300 s  in band  NEES 181-300 s  per axis E, N, U at 300 s
-    usque       matched         3.43      yes            3.18  0.82, 1.03, 1.59
+    usque       matched         3.35      yes            3.15  0.80, 0.95, 1.59
     usque       paper       2.97e+04       no        1.64e+04  1454, 27986, 297
-    ausque      matched         3.38      yes            3.14  0.81, 0.99, 1.58
+    ausque      matched         3.33      yes            3.13  0.80, 0.94, 1.59
     ausque      paper       5.05e+04       no        2.93e+04  2596, 47475, 463
-    usque-hinf  matched         3.43      yes            3.18  0.82, 1.03, 1.59
+    usque-hinf  matched         3.35      yes            3.15  0.80, 0.95, 1.59
     usque-hinf  paper       2.97e+04       no        1.64e+04  1454, 27988, 297
-    ausquhe     matched         3.37      yes            3.14  0.81, 0.99, 1.57
+    ausquhe     matched         3.31      yes            3.12  0.80, 0.94, 1.57
     ausquhe     paper       4.79e+04       no        2.69e+04  573, 47277, 94
 
-(``ausquhe`` matched with the paper's ``k0 = 30`` instead of the derived one: 1.41, below the
-band; per axis 0.22, 0.97, 0.22.)
+(the paper rows do not depend on the dk column: no dk state.) ``ausquhe`` matched with the
+paper's ``k0 = 30`` instead of the derived one (before the dk fix): 1.41, below the band; per
+axis 0.22, 0.97, 0.22.
 
-test 2 (``--test 2 --presets matched``), 10 runs, same seeds and band: NOT consistent:
+test 2 (``--test 2 --presets matched``: LDV noise 0.3 m/s and outlier bursts), 10 runs, same
+seeds and band:
 
-    usque       matched         43.6       no             211  21.3, 6.6, 15.8
-    ausque      matched         7.97       no            18.5  2.6, 2.1, 3.3
-    usque-hinf  matched         44.1       no             212  21.6, 6.5, 16.0
-    ausquhe     matched         7.92       no            18.4  2.6, 2.1, 3.3
+    usque       matched         3.86      yes            4.21  1.14, 1.04, 1.69
+    ausque      matched         3.06      yes            2.17  0.90, 0.93, 1.22
+    usque-hinf  matched         3.85      yes            4.21  1.13, 1.03, 1.69
+    ausquhe     matched         3.05      yes            2.17  0.90, 0.93, 1.22
 
-The outlier bursts are not in the sensor specification, but they are not the whole cause:
-without them (0.3 m/s white LDV noise only, 4 runs, band [1.10, 5.83]) ``usque`` gives 9.1 and
-``ausque`` 7.5 at 300 s, and with the start error removed too (truth heading 0) ``usque``'s
-ensemble NEES is 24.6 at 100 s and 41 at 200 s, its errors of one sign in every run: a
-systematic error that grows with the LDV noise (open, issue 15). Ablations there (3 runs,
-start error removed, NEES at 100 / 200 / 300 s): without the LDV scale state ``dk`` 2.8 / 9.6 /
-4.3 (with it 25 / 41 / 7.5); without ``eps`` and ``nabla`` 40 / 49 / 22; without ``w`` 385 /
-246 / 630; a smaller sigma-point spread (``ut_sigma 0.3``) changes nothing; R doubled (0.6 m/s)
-1.5 / 5.5 / 3.3. So the ``dk`` state (its column ``C_b^i v_m(t) - v_m(0)`` is built from the
-noisy samples) is where test 2's overconfidence enters; on test 1 ``dk`` is needed (without
-it 67 / 35 / 10 over 4 runs). Mechanism not yet shown.
+Before the dk column was built from lagged samples, test 2 gave 43.6, 7.97, 44.1, 7.92 (out of
+band): the column carried the same LDV noise as the innovation, an errors-in-variables bias of
+``dk`` of ``sigma_v^2 / v^2``. Ablations that found it (3 runs, start error removed, ``usque``,
+NEES at 100 / 200 / 300 s): with the old column 25 / 41 / 7.5; without the ``dk`` state 2.8 /
+9.6 / 4.3; a smaller sigma-point spread (``ut_sigma 0.3``) changed nothing; with the lagged
+column 1.9 / 3.0 / 2.4. On test 1 ``dk`` is needed (without it 67 / 35 / 10 over 4 runs).
 """
 from __future__ import annotations
 
