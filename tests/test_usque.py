@@ -170,7 +170,11 @@ def test_adaptive_r_in_bounds_and_follows_a_noise_step(clean_drive):
     cfg = usque.AusqueConfig()
     sol = usque.run(noisy, cfg, None)
     R = np.stack([sol.states[k] for k in ("R_x", "R_y", "R_z")], -1)
-    assert R.min() >= cfg.r_min_m_s * (1 - 1e-9) and R.max() <= cfg.r_max_m_s * (1 + 1e-9)
+    # the bounds the run used (noise_preset matched takes the lower one from the sensor spec)
+    used = sol.info["config"]
+    assert used["r_min_m_s"] == pytest.approx(usque.MEAS_FLOOR_M_S)  # meta: noise 0 -> floor
+    assert R.min() >= used["r_min_m_s"] * (1 - 1e-9)
+    assert R.max() <= used["r_max_m_s"] * (1 + 1e-9)
     # the LDV noise acts along the body forward axis, horizontal in i: R_x^2 + R_y^2 ~ sigma^2
     horiz = np.sqrt(R[:, 0] ** 2 + R[:, 1] ** 2)
     quiet, loud = (sol.t > 60) & (sol.t < 150), sol.t > 200
@@ -280,3 +284,77 @@ def test_positive_definite_check_of_the_covariance_history():
     assert usque._positive_definite(P)
     P[3, 0, 1] = P[3, 1, 0] = 1.1e-8                            # correlation 1.1 at epoch 3
     assert not usque._positive_definite(P)
+
+
+# ------------------------------------------------------------------ the matched noise model
+def test_integrated_noise_model_matches_monte_carlo_of_the_accumulator(clean_drive):
+    """usque_model's derivation against truth: over 200 noise realizations (gyro white noise
+    1 deg/sqrt(h), accelerometer 50 ug/sqrt(Hz)) on the error-free drive's first 40 s, the
+    attitude error theta = -psi of the effective C_n^i and the measurement's residual
+    w = y - h(effective C_n^i) have the covariance add_integrated_noise accumulates: the
+    joint (theta, w) whitened by it averages chi-square(6); the same with the coupling's sign
+    flipped does not."""
+    b = clean_drive.window(0.0, 40.0)
+    imu, v, tr = b.imu, b.ldv.speed(), b.truth
+    dt = np.diff(imu.t)
+    arw, vrw = np.radians(1.0) / 60.0, 50e-6 * 9.80665          # rad/sqrt(s), m/s/sqrt(s)
+    q_bn = rotations.quat_from_euler(tr.euler[0])
+    # the model: Q summed over the updates of a 100 Hz filter, A' from the clean accumulator
+    acc = model.new_accumulator(tr.lat[0], tr.lon[0], tr.h[0], v[0])
+    Q = np.zeros((6, 6))
+    for k in range(1, len(imu.t)):
+        model.accumulate(acc, imu.dtheta[k:k + 1], imu.dvel[k:k + 1], dt[k - 1:k], v[k:k + 1],
+                         q_bn)
+        Q = model.add_integrated_noise(Q, acc, 3, arw ** 2 * dt[k - 1], vrw ** 2 * dt[k - 1])
+        Q[:3, :3] += arw ** 2 * dt[k - 1] * np.eye(3)
+    C_true = rotations.dcm_from_quat(acc[model.ACC.Q_IB:model.ACC.Q_IB + 4])
+    C_bn = rotations.dcm_from_euler(tr.euler[-1])
+    rng = np.random.default_rng(7)
+    X = []
+    for _ in range(200):
+        n = len(imu.t)
+        dth = imu.dtheta + arw * np.sqrt(0.01) * rng.standard_normal((n, 3))
+        dv = imu.dvel + vrw * np.sqrt(0.01) * rng.standard_normal((n, 3))
+        a = model.new_accumulator(tr.lat[0], tr.lon[0], tr.h[0], v[0])
+        model.accumulate(a, dth[1:], dv[1:], dt, v[1:], q_bn)
+        obs = model.observation(a)
+        C_comp = rotations.dcm_from_quat(obs["q_ib"])
+        M = np.eye(3) - C_comp @ C_true.T                    # [psi x]
+        psi = np.array([M[2, 1], M[0, 2], M[1, 0]])
+        q_eff = rotations.quat_from_dcm(C_comp @ C_bn.T)     # effective C_n^i
+        z = model.predict_measurement(q_eff[None], np.zeros((1, 0)), np.zeros((3, 0)), obs)[0]
+        X.append(np.concatenate([-psi, obs["y"] - z]))
+    X = np.array(X)
+    stat = np.mean(np.einsum("ri,ij,rj->r", X, np.linalg.inv(Q), X))
+    flip = Q.copy()
+    flip[:3, 3:] *= -1
+    flip[3:, :3] *= -1
+    stat_flipped = np.mean(np.einsum("ri,ij,rj->r", X, np.linalg.inv(flip), X))
+    # chi-square(6) mean over 200 runs: 6 +- 0.25 (1 sigma)
+    assert 5.2 < stat < 6.8, stat
+    assert stat_flipped > 10.0, stat_flipped
+
+
+def test_noise_presets_resolve_from_the_sensor_spec():
+    meta = {"simulated": True,
+            "imu": {"gyro": {"drift_deg_h": 0.008, "arw_deg_sqrt_h": 0.003},
+                    "accel": {"bias_ug": 50.0, "vrw_ug_sqrt_hz": 0.0}},
+            "sensors": {"ldv": {"noise_m_s": 0.02, "scale_factor_sigma_ppm": 0.0}}}
+    cfg, src = usque.resolve_noise(usque.AusqueConfig(sensor="ldv"), meta, 0.01)
+    assert (cfg.estimate_integrated_noise, cfg.estimate_accel_bias, cfg.estimate_gyro_drift,
+            cfg.estimate_scale) == (True, True, True, False)      # the spec's scale is 0
+    assert cfg.meas_noise_m_s == 0.02 and cfg.r_min_m_s == 0.02
+    assert cfg.gyro_drift_sigma0_deg_h == 0.008 and cfg.accel_bias_sigma0_ug == 50.0
+    assert cfg.process_noise_deg == pytest.approx(0.003 / 60.0 * 0.1)   # ARW sqrt(dt)
+    assert src["meas_noise_m_s"] == "meta.sensors.ldv" and src["estimate_scale"].startswith(
+        "preset matched: off")
+    # set in the configuration: kept, and said so
+    cfg, src = usque.resolve_noise(usque.UsqueConfig(sensor="ldv", meas_noise_m_s=0.5), meta,
+                                   0.01)
+    assert cfg.meas_noise_m_s == 0.5 and src["meas_noise_m_s"] == "config"
+    # the paper preset: the configured figures, attitude state only
+    paper = usque.UsqueConfig(sensor="ldv", noise_preset="paper")
+    cfg, src = usque.resolve_noise(paper, meta, 0.01)
+    assert cfg.process_noise_deg == 1e-7 and cfg.meas_noise_m_s == 0.07
+    assert not any(getattr(cfg, f) for f in usque._MATCHED_STATES)
+    assert usque._Filter(cfg).layout.n == 3

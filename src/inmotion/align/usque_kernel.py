@@ -133,9 +133,10 @@ def _h(chi_q, chi, beta_n, wie_n, D_i, S):
 
 
 @numba.njit(cache=True)
-def _observation(acc, has_dk, has_nabla, has_eps, has_dv0):
+def _observation(acc, has_dk, has_nabla, has_eps, has_dv0, has_w):
     """Per-epoch quantities of :func:`inmotion.align.usque_model.observation` and
-    :func:`~inmotion.align.usque_model.sensitivity` (columns dk, nabla, eps as present)."""
+    :func:`~inmotion.align.usque_model.sensitivity` (columns dk, nabla, eps, dv0, w as
+    present)."""
     q_ib = acc[model.Q_IB:model.Q_IB + 4].copy()
     q_n0n = acc[model.Q_N0N:model.Q_N0N + 4].copy()
     u_i = kn.dcm_from_quat(q_ib) @ np.array([0.0, acc[model.V_PREV], 0.0])
@@ -146,11 +147,11 @@ def _observation(acc, has_dk, has_nabla, has_eps, has_dv0):
     wie_n = np.array([0.0, model.kn.OMEGA_IE * math.cos(lat), model.kn.OMEGA_IE * math.sin(lat)])
     y = V_i - acc[model.ALPHA_F:model.ALPHA_F + 3]
     D_i = acc[model.D_I:model.D_I + 3].copy()
-    n_e = int(has_dk) + 3 * int(has_nabla) + 3 * int(has_eps) + int(has_dv0)
+    n_e = int(has_dk) + 3 * int(has_nabla) + 3 * int(has_eps) + int(has_dv0) + 3 * int(has_w)
     S = np.zeros((3, n_e))
     c = 0
     if has_dk:
-        S[:, 0] = V_i
+        S[:, 0] = model.dk_column(acc, kn.dcm_from_quat(q_ib))
         c = 1
     B = acc[model.B_I:model.B_I + 9].reshape(3, 3).copy()
     if has_nabla:
@@ -164,6 +165,10 @@ def _observation(acc, has_dk, has_nabla, has_eps, has_dv0):
         c += 3
     if has_dv0:
         S[1, c] = -1.0
+        c += 1
+    if has_w:
+        for r in range(3):
+            S[r, c + r] = 1.0
     return y, beta_n, wie_n, D_i, S, q_ib, q_n0n
 
 
@@ -215,15 +220,19 @@ def _update(x, P, q, obs_y, beta_n, wie_n, D_i, S, Wm, Wc, scale, a, f, R, eta,
 @numba.njit(cache=True)
 def run_epochs(acc, dtheta, dvel, dt_rows, speed, epochs, x, P, q, Q, Wm, Wc, scale, a, f,
                R, eta, adaptive_r, c_fade, R_min, R_max, hinf_mode, gamma_fixed, k0,
-               gamma_min, gamma_max, margin, hinf_w, has_dk, has_nabla, has_eps, has_dv0, out_q_in, out_q_ib, out_lla, out_P, out_R, out_gamma,
+               gamma_min, gamma_max, margin, hinf_w, has_dk, has_nabla, has_eps, has_dv0,
+               has_w, arw2_dt, vrw2_dt, out_q_in, out_q_ib, out_lla, out_P, out_R, out_gamma,
                out_x):
     """All filter epochs. ``epochs[j]`` is the IMU row of update ``j``; row 0 is the start.
 
     Outputs (preallocated, row ``j + 1`` for epoch ``j``; row 0 is filled by the caller):
     quaternions of ``C_n^i`` and ``C_b^i``, DR position, covariance, sqrt(R), gamma, state.
+    With ``has_w`` the integrated-noise state ``w`` is the last block and each update's
+    process noise is :func:`inmotion.align.usque_model.add_integrated_noise` of ``Q``.
     Returns the number of H-infinity floor hits.
     """
     k_prev = 0
+    i_w = x.shape[0] - 3
     q_n0n_prev = acc[model.Q_N0N:model.Q_N0N + 4].copy()
     hits = 0
     for j in range(len(epochs)):
@@ -231,9 +240,11 @@ def run_epochs(acc, dtheta, dvel, dt_rows, speed, epochs, x, P, q, Q, Wm, Wc, sc
         q_bn = _qmul(_qconj(q), acc[model.Q_IB:model.Q_IB + 4])
         model.accumulate(acc, dtheta[k_prev + 1:k + 1], dvel[k_prev + 1:k + 1],
                          dt_rows[k_prev:k], speed[k_prev + 1:k + 1], q_bn)
-        y, beta_n, wie_n, D_i, S, q_ib, q_n0n = _observation(acc, has_dk, has_nabla, has_eps, has_dv0)
+        y, beta_n, wie_n, D_i, S, q_ib, q_n0n = _observation(acc, has_dk, has_nabla, has_eps,
+                                                             has_dv0, has_w)
         dq_n = _qmul(_qconj(q_n0n_prev), q_n0n)
-        x, P, q = _predict(x, P, q, dq_n, Wm, Wc, scale, Q, a, f)
+        Qk = model.add_integrated_noise(Q, acc, i_w, arw2_dt, vrw2_dt) if has_w else Q
+        x, P, q = _predict(x, P, q, dq_n, Wm, Wc, scale, Qk, a, f)
         x, P, q, R, eta, gamma, hit, e = _update(
             x, P, q, y, beta_n, wie_n, D_i, S, Wm, Wc, scale, a, f, R, eta, adaptive_r,
             c_fade, R_min, R_max, hinf_mode, gamma_fixed, k0, gamma_min, gamma_max, margin, hinf_w)

@@ -111,7 +111,7 @@ EXTRA_VARIANTS = {
 #: change of the library's defaults does not change the reproduction): initial covariance
 #: diag(3, 3, 12 deg)^2, process noise (1e-7 deg)^2, initial R (0.07 m/s)^2
 PAPER_FILTER = {"sigma0_deg": (3.0, 3.0, 12.0), "process_noise_deg": 1e-7,
-                "meas_noise_m_s": 0.07}
+                "meas_noise_m_s": 0.07, "noise_preset": "paper"}
 
 #: the whole-circle experiment (issue 17). The filters start at yaw 0 (the paper's
 #: q = [1 0 0 0]), so the truth's start heading h is a start error of -h. Test 2's drive from
