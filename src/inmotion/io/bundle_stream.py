@@ -153,7 +153,7 @@ def _numeric(frame, col, path, t, offset):
     import pyarrow.types as pat
     if not (pat.is_floating(x.type) or pat.is_integer(x.type)):
         return B._numeric({col: x.to_pandas()}, col, path, t, offset)
-    raw = x.to_numpy(zero_copy_only=False)               # nulls -> NaN
+    raw = B.arrow_to_numpy(x)                            # nulls -> NaN
     v = raw.astype(float, copy=False)
     bad = ~np.isfinite(v)
     if bad.any():
