@@ -219,7 +219,50 @@ def cli(ctx, quiet, as_json, debug):
 
 def main() -> None:
     """Console-script entry point."""
+    numba_without_blas_probe()
     cli.main()
+
+
+def numba_without_blas_probe() -> bool:
+    """Spare a run numba's start-up import of ``scipy.linalg`` (0.17 s of CPU, an eighth of a
+    command's fixed cost); True if done.
+
+    Why numba imports it: the first call of any ``@njit`` function, even one loaded from
+    numba's cache that does no linear algebra, builds numba's CPU target
+    (``CPUContext.refresh`` -> ``load_additional_registries``), which imports
+    ``numba.np.arraymath``; that module's top level runs ``_HAVE_BLAS = _check_blas()``, i.e.
+    ``numba.np.linalg.ensure_blas()``: ``import scipy.linalg.cython_blas`` (which executes the
+    whole ``scipy.linalg`` package) plus an LP64/ILP64 check of scipy's build. Nothing in our
+    kernels can avoid it, and numba has no setting for it (numba 0.68).
+
+    What this does: imports ``numba.np.arraymath`` once with ``ensure_blas`` replaced by a
+    no-op, then puts the original back. ``_HAVE_BLAS`` then says True (right: only done when
+    scipy is installed; it only selects BLAS inner products for ``np.correlate``/``convolve``
+    at compile time). Every compilation that uses BLAS or LAPACK (``np.dot``, ``np.linalg``)
+    still calls the real ``ensure_blas`` (with its width check), and numba's runtime loads
+    ``scipy.linalg.cython_blas`` by itself when such a compiled function is first called. It
+    touches numba internals, so it does nothing (False) where they differ, or where
+    ``INMOTION_NUMBA_BLAS_PROBE=1`` asks for numba's own behaviour.
+    """
+    import importlib.util
+    import os
+    if os.environ.get("INMOTION_NUMBA_BLAS_PROBE") == "1" or "numba.np.arraymath" in sys.modules:
+        return False
+    if importlib.util.find_spec("scipy") is None:    # numba's check would say "no BLAS"
+        return False
+    try:
+        import numba.np.linalg as nl
+    except ImportError:
+        return False
+    original = getattr(nl, "ensure_blas", None)
+    if original is None:
+        return False
+    nl.ensure_blas = lambda: None
+    try:
+        import numba.np.arraymath  # noqa: F401
+    finally:
+        nl.ensure_blas = original
+    return True
 
 
 # --------------------------------------------------------------------------- simulate

@@ -199,7 +199,7 @@ def consistency_block(solution: Solution,
     are correlated in time), ``in_band`` and ``fraction_rows_above_99`` (rows above the
     chi-square(3) 99 % point, 11.34: 1 % expected). Groups without sigmas are left out.
     """
-    from scipy.special import chdtri       # chi-square quantiles (upper tail), no scipy.stats
+    from ..estimation.chi2 import isf      # chi-square upper quantiles (scipy's chdtri)
 
     te = _column(errors, "t")
     inside = (solution.t >= te[0]) & (solution.t <= te[-1])
@@ -216,9 +216,9 @@ def consistency_block(solution: Solution,
             continue
         nees = np.sum((e[ok] / s[ok]) ** 2, axis=1)
         n = len(nees)
-        lo, hi = chdtri(3 * n, 0.975) / n, chdtri(3 * n, 0.025) / n
+        lo, hi = isf(0.975, 3 * n) / n, isf(0.025, 3 * n) / n
         m = float(nees.mean())
         block[name] = {"mean": m, "dof": 3, "rows": n, "band_95": [float(lo), float(hi)],
                        "in_band": bool(lo <= m <= hi),
-                       "fraction_rows_above_99": float(np.mean(nees > chdtri(3, 0.01)))}
+                       "fraction_rows_above_99": float(np.mean(nees > isf(0.01, 3)))}
     return block
