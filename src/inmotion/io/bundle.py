@@ -69,6 +69,7 @@ is exact.
 from __future__ import annotations
 
 import math
+import re
 import warnings
 from dataclasses import dataclass
 from pathlib import Path
@@ -291,14 +292,41 @@ def _locate_tables(folder: Path, meta: dict) -> dict:
     return found
 
 
-def _read_table(path: Path) -> pd.DataFrame:
-    import pandas as pd
+class _ArrowColumns(dict):
+    """A Parquet table's columns ``{name: pyarrow.Array}``, read with pyarrow alone (pandas
+    costs a third of a second of a command's start-up); what :func:`_columns` reads. Its
+    columns come out as writable float64 copies, as pandas gave them (a table read in chunks,
+    :mod:`inmotion.io.bundle_stream`, gets read-only views of Arrow's buffers)."""
+
+    copy_values = True
+
+    @property
+    def columns(self) -> list:
+        return list(self)
+
+
+def _read_parquet(path: Path) -> _ArrowColumns:
+    import pyarrow.parquet as pq
+    table = pq.ParquetFile(path).read()        # (pq.read_table imports pyarrow.dataset)
+    if table.num_rows == 0:
+        raise BadInput("table has no data rows", file=path)
+    return _ArrowColumns((str(n).strip(), table.column(i).combine_chunks())
+                         for i, n in enumerate(table.column_names)
+                         if not re.fullmatch(r"__index_level_\d+__", str(n)))
+
+
+def _read_table(path: Path) -> "pd.DataFrame | _ArrowColumns":
     fmt = SUFFIXES.get(path.suffix)
+    if fmt == "parquet":
+        try:
+            return _read_parquet(path)
+        except BadInput:
+            raise
+        except Exception as e:
+            raise cannot_read(e, path) from None
+    import pandas as pd
     try:
-        if fmt == "parquet":
-            df = pd.read_parquet(path)
-        else:
-            df = pd.read_csv(path, skipinitialspace=True)
+        df = pd.read_csv(path, skipinitialspace=True)
     except Exception as e:
         raise cannot_read(e, path) from None
     df.columns = [str(c).strip() for c in df.columns]
@@ -338,7 +366,11 @@ def _columns(df: pd.DataFrame, names, path: Path) -> dict:
 
 def _numeric(df, col, path, t, offset: int = 0):
     """Column ``col`` as finite float64, or BadInput at the first bad row (``offset``: rows of
-    the table before ``df``'s first, for a table read in chunks)."""
+    the table before ``df``'s first, for a table read in chunks). ``df[col]`` is a pandas
+    Series (CSV) or a pyarrow array (Parquet: numbers go straight to numpy without pandas;
+    any other type through pandas, for the same message)."""
+    if hasattr(df[col], "type"):
+        return _arrow_numeric(df, col, path, t, offset)
     import pandas as pd
     s = df[col]
     if pd.api.types.is_datetime64_any_dtype(s) or pd.api.types.is_timedelta64_dtype(s):
@@ -358,6 +390,24 @@ def _numeric(df, col, path, t, offset: int = 0):
         raise BadInput(f"column {col!r}: value {what} is {kind}", file=path, row=offset + i + 1,
                        time=tt)
     return x
+
+
+def _arrow_numeric(frame, col, path, t, offset):
+    """:func:`_numeric` of a pyarrow column."""
+    import pyarrow.types as pat
+    x = frame[col]
+    if not (pat.is_floating(x.type) or pat.is_integer(x.type)):
+        return _numeric({col: x.to_pandas()}, col, path, t, offset)
+    raw = arrow_to_numpy(x)                            # nulls -> NaN
+    v = raw.astype(float, copy=getattr(frame, "copy_values", False))
+    bad = ~np.isfinite(v)
+    if bad.any():
+        i = int(np.argmax(bad))
+        what = "NaN or empty" if np.isnan(raw[i]) else _short(raw[i], 40)
+        tt = None if t is None or not np.isfinite(t[i]) else float(t[i])
+        raise BadInput(f"column {col!r}: value {what} is not a finite number", file=path,
+                       row=offset + i + 1, time=tt)
+    return v
 
 
 def _is_number(raw):
