@@ -1,7 +1,7 @@
 """A command-line run imports neither pandas nor scipy.linalg (issue 13, "a CLI run's fixed
 cost"): the result is written from numpy columns with pyarrow, a Parquet bundle read with
 pyarrow alone, and numba's start-up probe of scipy's BLAS skipped
-(:func:`inmotion.cli.main.numba_without_blas_probe`). The files are the ones the pandas route
+(:func:`inmotion.cli.main.skip_numba_blas_probe`). The files are the ones the pandas route
 wrote: CSV byte for byte, Parquet the same columns and values.
 """
 import subprocess
@@ -125,8 +125,9 @@ def test_arrow_numpy_views_match_pyarrow_conversions():
 _NUMBA_PROBE = """
 import sys
 import numpy as np
-from inmotion.cli.main import numba_without_blas_probe
-assert numba_without_blas_probe()
+from inmotion.cli.main import skip_numba_blas_probe
+assert skip_numba_blas_probe()
+assert 'numba' not in sys.modules                        # nothing imported until numba is
 import numba
 
 @numba.njit
