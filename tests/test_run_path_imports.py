@@ -154,3 +154,39 @@ def test_numba_runs_without_importing_scipy_linalg_and_blas_still_works():
     out = subprocess.run([sys.executable, "-c", _NUMBA_PROBE], capture_output=True,
                          text=True, check=True).stdout.splitlines()
     assert out == ["after plain kernel False", "after BLAS kernel True"]
+
+
+def test_the_command_exits_fast_with_its_output_and_status(tmp_path):
+    """``python -m inmotion`` ends with ``os._exit`` after a run (no interpreter teardown):
+    what it printed arrives whole through a pipe, and the exit status is the command's."""
+    import json
+    write_bundle(_bundle(), tmp_path / "b", fmt="parquet")
+    run = subprocess.run([sys.executable, "-m", "inmotion", "--json", "navigate",
+                          str(tmp_path / "b"), "--method", "sins", "--init", "meta", "-o",
+                          str(tmp_path / "out")], capture_output=True, text=True)
+    assert run.returncode == 0, run.stderr
+    assert json.loads(run.stdout)["method"] == "sins"
+    bad = subprocess.run([sys.executable, "-m", "inmotion", "navigate", str(tmp_path / "none"),
+                          "--method", "sins", "-o", str(tmp_path / "o2")], capture_output=True,
+                         text=True)
+    assert bad.returncode == 2 and bad.stderr.startswith("inmotion: error: ")
+
+
+def test_fast_exit_falls_back_to_a_normal_exit_when_not_safe(monkeypatch):
+    import threading
+
+    from inmotion.cli.main import fast_exit
+    release = threading.Event()
+    worker = threading.Thread(target=release.wait)
+    worker.start()
+    try:
+        with pytest.raises(SystemExit) as e:          # another thread alive: Python's exit
+            fast_exit(3)
+        assert e.value.code == 3
+    finally:
+        release.set()
+        worker.join()
+    monkeypatch.setenv("INMOTION_FAST_EXIT", "0")
+    with pytest.raises(SystemExit) as e:
+        fast_exit(None)
+    assert e.value.code == 0

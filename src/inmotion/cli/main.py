@@ -218,9 +218,52 @@ def cli(ctx, quiet, as_json, debug):
 
 
 def main() -> None:
-    """Console-script entry point."""
+    """The command line, in-process: exits by ``SystemExit`` (0, 2 bad input, 1 internal)."""
     skip_numba_blas_probe()
     cli.main()
+
+
+def entry() -> None:
+    """Console-script entry point (``inmotion``, ``python -m inmotion``): :func:`main`, then
+    :func:`fast_exit`."""
+    try:
+        main()
+    except SystemExit as e:
+        fast_exit(e.code)
+    fast_exit(0)
+
+
+def fast_exit(code=0) -> None:
+    """End the process without tearing down the interpreter, when that is safe.
+
+    Python's own exit destroys every module object; after a run that loaded numba and its
+    LLVM objects this costs about 0.25 s of CPU (a fifth of a short command), all spent after
+    the result is written. Here, when no other thread or child process is alive, the exit
+    handlers (``atexit``) run and the standard streams are flushed, then ``os._exit`` ends the
+    process; every file this package writes is closed before (``atomic_write``,
+    ``with open``). Otherwise, or with ``INMOTION_FAST_EXIT=0``, or if flushing fails (a
+    closed pipe), it raises ``SystemExit(code)`` as usual. ``code`` as ``sys.exit`` takes it.
+    """
+    import os
+    import threading
+    if code is None:
+        code = 0
+    elif not isinstance(code, int):
+        print(code, file=sys.stderr)
+        code = 1
+    children = ("multiprocessing" in sys.modules
+                and bool(sys.modules["multiprocessing"].active_children()))
+    if (os.environ.get("INMOTION_FAST_EXIT") == "0" or threading.active_count() > 1
+            or children):
+        raise SystemExit(code)
+    import atexit
+    try:
+        atexit._run_exitfuncs()
+        sys.stdout.flush()
+        sys.stderr.flush()
+    except Exception:              # e.g. BrokenPipeError: let Python report it its own way
+        raise SystemExit(code) from None
+    os._exit(code)
 
 
 def skip_numba_blas_probe() -> bool:
@@ -1232,4 +1275,4 @@ cli.add_command(reproduce)
 
 
 if __name__ == "__main__":  # python -m inmotion.cli.main
-    main()
+    entry()
