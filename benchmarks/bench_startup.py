@@ -19,7 +19,9 @@ start-up. Beside it, each in a bare interpreter (``python -c``), the floors it s
   a kernel (the command line, the method, the result writer, the chunked Parquet reader).
 
 Beside the real run, the same run with ``INMOTION_NUMBA_BLAS_PROBE=1`` (numba's own start-up,
-importing ``scipy.linalg``) gives what skipping the probe saves.
+importing ``scipy.linalg``) gives what skipping the probe saves, and with
+``INMOTION_FAST_EXIT=0`` (Python's own exit, tearing down every module) what
+:func:`inmotion.cli.main.fast_exit` saves.
 
 Best of ``--repeat`` wall times of each, and best CPU time (user + system of the child: on a
 shared machine the wall time waits for a core, the CPU time hardly moves), after one warm-up
@@ -106,6 +108,9 @@ def main():
             if method == "sins-dr":
                 wall, cpu = best_wall(cmd, args.repeat, dict(env, INMOTION_NUMBA_BLAS_PROBE="1"))
                 print(f"CLI fixed cost (navigate {method}) with numba's BLAS probe: {wall:.3f} s "
+                      f"wall, {cpu:.3f} s CPU")
+                wall, cpu = best_wall(cmd, args.repeat, dict(env, INMOTION_FAST_EXIT="0"))
+                print(f"CLI fixed cost (navigate {method}) with Python's own exit: {wall:.3f} s "
                       f"wall, {cpu:.3f} s CPU")
         wall, cpu = best_wall([py, "-m", "inmotion.cli.main", "--help"], args.repeat, env)
         print(f"CLI --help: {wall:.3f} s wall, {cpu:.3f} s CPU")
