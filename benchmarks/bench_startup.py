@@ -11,7 +11,18 @@ start-up. Beside it, each in a bare interpreter (``python -c``), the floors it s
 * ``numba floor``: ``import numba`` and the first call of one trivial ``@njit(cache=True)``
   function loaded from numba's cache: numba builds its CPU target on the first call, which
   imports ``scipy.linalg`` for its BLAS (``numba.np.linalg.ensure_blas``) whatever the
-  function does. No run that calls a numba kernel can start faster than this.
+  function does. No run that calls a numba kernel can start faster than this;
+* ``numba floor as the command line runs it``: the same after
+  :func:`inmotion.cli.main.skip_numba_blas_probe`, ending with ``os._exit`` as
+  :func:`inmotion.cli.main.fast_exit` does (the plain floor above includes Python's teardown
+  of numba's modules, about 0.2 s): the floor of a command whose kernels use no BLAS;
+* ``run-path imports``: importing what ``navigate --method sins-dr`` imports before it calls
+  a kernel (the command line, the method, the result writer, the chunked Parquet reader).
+
+Beside the real run, the same run with ``INMOTION_NUMBA_BLAS_PROBE=1`` (numba's own start-up,
+importing ``scipy.linalg``) gives what skipping the probe saves, and with
+``INMOTION_FAST_EXIT=0`` (Python's own exit, tearing down every module) what
+:func:`inmotion.cli.main.fast_exit` saves.
 
 Best of ``--repeat`` wall times of each, and best CPU time (user + system of the child: on a
 shared machine the wall time waits for a core, the CPU time hardly moves), after one warm-up
@@ -32,6 +43,7 @@ from pathlib import Path
 
 import numpy as np
 
+import inmotion
 from inmotion.io.bundle import write_bundle
 from inmotion.sim import simulate
 from inmotion.sim.scenario import load_scenario
@@ -80,7 +92,9 @@ def main():
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--repeat", type=int, default=5)
     args = ap.parse_args()
-    env = dict(os.environ, OPENBLAS_NUM_THREADS="1")
+    here = str(Path(inmotion.__file__).resolve().parents[1])     # children run in a tmp dir
+    env = dict(os.environ, OPENBLAS_NUM_THREADS="1",
+               PYTHONPATH=os.pathsep.join(p for p in (here, os.environ.get("PYTHONPATH")) if p))
     py = sys.executable
     with tempfile.TemporaryDirectory() as tmp:
         bundle = Path(tmp) / "tiny"
@@ -92,13 +106,27 @@ def main():
             wall, cpu = best_wall(cmd, args.repeat, env)
             print(f"CLI fixed cost (navigate {method}, 7 s bundle): {wall:.3f} s wall "
                   f"(target 0.4 s), {cpu:.3f} s CPU")
+            if method == "sins-dr":
+                wall, cpu = best_wall(cmd, args.repeat, dict(env, INMOTION_NUMBA_BLAS_PROBE="1"))
+                print(f"CLI fixed cost (navigate {method}) with numba's BLAS probe: {wall:.3f} s "
+                      f"wall, {cpu:.3f} s CPU")
+                wall, cpu = best_wall(cmd, args.repeat, dict(env, INMOTION_FAST_EXIT="0"))
+                print(f"CLI fixed cost (navigate {method}) with Python's own exit: {wall:.3f} s "
+                      f"wall, {cpu:.3f} s CPU")
         wall, cpu = best_wall([py, "-m", "inmotion.cli.main", "--help"], args.repeat, env)
         print(f"CLI --help: {wall:.3f} s wall, {cpu:.3f} s CPU")
         (Path(tmp) / "k.py").write_text(NJIT)
         floors = {"python": "pass"}
-        for mod in ("numpy", "pandas", "pydantic", "pyarrow.parquet", "scipy.linalg", "numba"):
+        for mod in ("numpy", "pandas", "pydantic", "pyarrow.parquet", "scipy.linalg",
+                    "scipy.special", "numba"):
             floors[f"import {mod}"] = f"import {mod}"
         floors["numba floor"] = "import numpy as np, k; k.f(np.ones(3))"
+        floors["numba floor as the command line runs it (BLAS probe skipped, fast exit)"] = (
+            "from inmotion.cli.main import skip_numba_blas_probe as p; p(); "
+            "import os, numpy as np, k; k.f(np.ones(3)); os._exit(0)")
+        floors["run-path imports (navigate sins-dr, before a kernel runs)"] = (
+            "import inmotion.cli.main, inmotion.navigate.sins_dr, inmotion.io.result, "
+            "inmotion.io.bundle_stream, pyarrow.parquet")
         for name, code in floors.items():
             wall, cpu = best_wall([py, "-c", code], args.repeat, env, cwd=tmp)
             print(f"  bare interpreter, {name}: {wall:.3f} s wall, {cpu:.3f} s CPU")

@@ -1,4 +1,4 @@
 """``python -m inmotion ...``: the command line (:mod:`inmotion.cli.main`)."""
-from inmotion.cli.main import main
+from inmotion.cli.main import entry
 
-main()
+entry()

@@ -24,7 +24,7 @@ from __future__ import annotations
 
 import numpy as np
 from numpy.typing import ArrayLike
-import pandas as pd
+from typing import TYPE_CHECKING, Mapping
 
 from . import rotations
 from .bundle import Truth
@@ -32,7 +32,10 @@ from .earth import radii
 from .solution import Solution
 from ..errors import BadInput
 
-__all__ = ["ERROR_KEYS", "error_series", "errors_block", "interpolate_truth"]
+if TYPE_CHECKING:                 # pandas only where a caller asks for a DataFrame
+    import pandas as pd
+
+__all__ = ["ERROR_KEYS", "error_series", "error_columns", "errors_block", "interpolate_truth"]
 
 ARCMIN_PER_RAD = 180.0 * 60.0 / np.pi
 
@@ -62,8 +65,9 @@ def interpolate_truth(truth: Truth, t: ArrayLike) -> Truth:
     return Truth(t, lin(truth.lat), lin(np.unwrap(truth.lon)), lin(truth.h), vel, euler)
 
 
-def error_series(solution: Solution, truth: Truth) -> pd.DataFrame:
-    """Error time series of ``solution`` against ``truth``, estimate minus truth.
+def error_series(solution: Solution, truth: Truth) -> "pd.DataFrame":
+    """Error time series of ``solution`` against ``truth``, estimate minus truth, as a
+    DataFrame (the columns of :func:`error_columns`, in its order).
 
     Parameters
     ----------
@@ -73,6 +77,24 @@ def error_series(solution: Solution, truth: Truth) -> pd.DataFrame:
     Returns
     -------
     pandas.DataFrame
+        The columns of :func:`error_columns`.
+    """
+    import pandas as pd
+    return pd.DataFrame(error_columns(solution, truth))
+
+
+def error_columns(solution: Solution, truth: Truth) -> dict[str, np.ndarray]:
+    """Error time series of ``solution`` against ``truth``, estimate minus truth, as ordered
+    columns (what ``errors.csv`` holds; no pandas, so a command-line run does not import it).
+
+    Parameters
+    ----------
+    solution : Solution
+    truth : Truth
+
+    Returns
+    -------
+    dict of str to (N,) float arrays
         Columns ``t`` [s], ``pitch_arcmin, roll_arcmin, yaw_arcmin`` (Euler differences wrapped
         to +-180 deg), ``phi_E_arcmin, phi_N_arcmin, phi_U_arcmin`` (misalignment),
         ``vE_m_s, vN_m_s, vU_m_s``, ``north_m, east_m, horizontal_m, vertical_m`` and
@@ -98,7 +120,7 @@ def error_series(solution: Solution, truth: Truth) -> pd.DataFrame:
     cols["horizontal_m"] = np.hypot(d_north, d_east)
     cols["vertical_m"] = solution.h[inside] - tr.h
     cols["distance_m"] = _path_length(truth, t)
-    return pd.DataFrame(cols)
+    return cols
 
 
 def _ne_offsets(lat, lon, tr: Truth):
@@ -125,8 +147,15 @@ def _path_length(truth: Truth, t) -> np.ndarray:
     return s - s[0]
 
 
-def errors_block(errors: pd.DataFrame, window_s: float = LAST_WINDOW_S) -> dict:
-    """The ``errors`` block of ``summary.json`` from an :func:`error_series` table.
+def _column(table, name: str) -> np.ndarray:
+    """Column ``name`` of a DataFrame or of a mapping of arrays, as a numpy array."""
+    return np.asarray(table[name])
+
+
+def errors_block(errors: "pd.DataFrame | Mapping[str, np.ndarray]",
+                 window_s: float = LAST_WINDOW_S) -> dict:
+    """The ``errors`` block of ``summary.json`` from an :func:`error_series` table (or the
+    columns of :func:`error_columns`).
 
     Returns
     -------
@@ -135,15 +164,15 @@ def errors_block(errors: pd.DataFrame, window_s: float = LAST_WINDOW_S) -> dict:
         :data:`ERROR_KEYS`), ``distance_m`` (truth distance over the run) and ``duration_s``.
         ``horizontal_m`` is a magnitude (>= 0); every other key is signed in ``final``.
     """
-    t = errors["t"].to_numpy()
+    t = _column(errors, "t")
     last = t >= t[-1] - window_s
     block = {"final": {}, "rms_last_100s": {}, "max_abs_last_100s": {}}
     for k in ERROR_KEYS:
-        x = errors[k].to_numpy()
+        x = _column(errors, k)
         block["final"][k] = float(x[-1])
         block["rms_last_100s"][k] = float(np.sqrt(np.mean(x[last] ** 2)))
         block["max_abs_last_100s"][k] = float(np.max(np.abs(x[last])))
-    block["distance_m"] = float(errors["distance_m"].to_numpy()[-1])
+    block["distance_m"] = float(_column(errors, "distance_m")[-1])
     block["duration_s"] = float(t[-1] - t[0])
     return block
 
@@ -157,7 +186,8 @@ NEES_GROUPS = {
 }
 
 
-def consistency_block(solution: Solution, errors: pd.DataFrame) -> dict:
+def consistency_block(solution: Solution,
+                      errors: "pd.DataFrame | Mapping[str, np.ndarray]") -> dict:
     """The ``consistency`` block of ``summary.json``: does the filter's sigma cover its error?
 
     For each group of :data:`NEES_GROUPS` whose sigmas the solution reports, the normalized
@@ -169,14 +199,15 @@ def consistency_block(solution: Solution, errors: pd.DataFrame) -> dict:
     are correlated in time), ``in_band`` and ``fraction_rows_above_99`` (rows above the
     chi-square(3) 99 % point, 11.34: 1 % expected). Groups without sigmas are left out.
     """
-    from scipy.special import chdtri       # chi-square quantiles (upper tail), no scipy.stats
+    from ..estimation.chi2 import isf      # chi-square upper quantiles (scipy's chdtri)
 
-    inside = (solution.t >= errors["t"].iloc[0]) & (solution.t <= errors["t"].iloc[-1])
+    te = _column(errors, "t")
+    inside = (solution.t >= te[0]) & (solution.t <= te[-1])
     block = {}
     for name, (cols, scale, keys) in NEES_GROUPS.items():
         if not all(k in solution.sigma for k in keys):
             continue
-        e = np.column_stack([errors[c].to_numpy() * scale for c in cols])
+        e = np.column_stack([_column(errors, c) * scale for c in cols])
         s = np.column_stack([np.asarray(solution.sigma[k])[inside] for k in keys])
         ok = np.all(s > 0, axis=1) & np.all(np.isfinite(s), axis=1) & np.all(np.isfinite(e),
                                                                              axis=1)
@@ -185,9 +216,9 @@ def consistency_block(solution: Solution, errors: pd.DataFrame) -> dict:
             continue
         nees = np.sum((e[ok] / s[ok]) ** 2, axis=1)
         n = len(nees)
-        lo, hi = chdtri(3 * n, 0.975) / n, chdtri(3 * n, 0.025) / n
+        lo, hi = isf(0.975, 3 * n) / n, isf(0.025, 3 * n) / n
         m = float(nees.mean())
         block[name] = {"mean": m, "dof": 3, "rows": n, "band_95": [float(lo), float(hi)],
                        "in_band": bool(lo <= m <= hi),
-                       "fraction_rows_above_99": float(np.mean(nees > chdtri(3, 0.01)))}
+                       "fraction_rows_above_99": float(np.mean(nees > isf(0.01, 3)))}
     return block

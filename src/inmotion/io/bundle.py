@@ -69,6 +69,7 @@ is exact.
 from __future__ import annotations
 
 import math
+import re
 import warnings
 from dataclasses import dataclass
 from pathlib import Path
@@ -83,10 +84,13 @@ from ..errors import BadInput
 from .safe_write import atomic_write, refuse_partial, staged_folder
 
 if TYPE_CHECKING:                      # pandas is imported where a table is read or written
+    from collections.abc import Mapping
+
     import pandas as pd
 
 __all__ = ["read_bundle", "write_bundle", "find_gaps", "Gap", "BundleGapWarning", "LIMITS",
-           "TABLES", "read_meta", "meta_initial", "atomic_write", "write_csv", "check_bundle",
+           "TABLES", "read_meta", "meta_initial", "atomic_write", "write_csv", "arrow_table",
+           "numpy_to_arrow", "arrow_to_numpy", "check_bundle",
            "check_imu", "check_clocks"]
 
 #: the tables a bundle may hold, in write order
@@ -288,14 +292,41 @@ def _locate_tables(folder: Path, meta: dict) -> dict:
     return found
 
 
-def _read_table(path: Path) -> pd.DataFrame:
-    import pandas as pd
+class _ArrowColumns(dict):
+    """A Parquet table's columns ``{name: pyarrow.Array}``, read with pyarrow alone (pandas
+    costs a third of a second of a command's start-up); what :func:`_columns` reads. Its
+    columns come out as writable float64 copies, as pandas gave them (a table read in chunks,
+    :mod:`inmotion.io.bundle_stream`, gets read-only views of Arrow's buffers)."""
+
+    copy_values = True
+
+    @property
+    def columns(self) -> list:
+        return list(self)
+
+
+def _read_parquet(path: Path) -> _ArrowColumns:
+    import pyarrow.parquet as pq
+    table = pq.ParquetFile(path).read()        # (pq.read_table imports pyarrow.dataset)
+    if table.num_rows == 0:
+        raise BadInput("table has no data rows", file=path)
+    return _ArrowColumns((str(n).strip(), table.column(i).combine_chunks())
+                         for i, n in enumerate(table.column_names)
+                         if not re.fullmatch(r"__index_level_\d+__", str(n)))
+
+
+def _read_table(path: Path) -> "pd.DataFrame | _ArrowColumns":
     fmt = SUFFIXES.get(path.suffix)
+    if fmt == "parquet":
+        try:
+            return _read_parquet(path)
+        except BadInput:
+            raise
+        except Exception as e:
+            raise cannot_read(e, path) from None
+    import pandas as pd
     try:
-        if fmt == "parquet":
-            df = pd.read_parquet(path)
-        else:
-            df = pd.read_csv(path, skipinitialspace=True)
+        df = pd.read_csv(path, skipinitialspace=True)
     except Exception as e:
         raise cannot_read(e, path) from None
     df.columns = [str(c).strip() for c in df.columns]
@@ -335,7 +366,11 @@ def _columns(df: pd.DataFrame, names, path: Path) -> dict:
 
 def _numeric(df, col, path, t, offset: int = 0):
     """Column ``col`` as finite float64, or BadInput at the first bad row (``offset``: rows of
-    the table before ``df``'s first, for a table read in chunks)."""
+    the table before ``df``'s first, for a table read in chunks). ``df[col]`` is a pandas
+    Series (CSV) or a pyarrow array (Parquet: numbers go straight to numpy without pandas;
+    any other type through pandas, for the same message)."""
+    if hasattr(df[col], "type"):
+        return _arrow_numeric(df, col, path, t, offset)
     import pandas as pd
     s = df[col]
     if pd.api.types.is_datetime64_any_dtype(s) or pd.api.types.is_timedelta64_dtype(s):
@@ -355,6 +390,24 @@ def _numeric(df, col, path, t, offset: int = 0):
         raise BadInput(f"column {col!r}: value {what} is {kind}", file=path, row=offset + i + 1,
                        time=tt)
     return x
+
+
+def _arrow_numeric(frame, col, path, t, offset):
+    """:func:`_numeric` of a pyarrow column."""
+    import pyarrow.types as pat
+    x = frame[col]
+    if not (pat.is_floating(x.type) or pat.is_integer(x.type)):
+        return _numeric({col: x.to_pandas()}, col, path, t, offset)
+    raw = arrow_to_numpy(x)                            # nulls -> NaN
+    v = raw.astype(float, copy=getattr(frame, "copy_values", False))
+    bad = ~np.isfinite(v)
+    if bad.any():
+        i = int(np.argmax(bad))
+        what = "NaN or empty" if np.isnan(raw[i]) else _short(raw[i], 40)
+        tt = None if t is None or not np.isfinite(t[i]) else float(t[i])
+        raise BadInput(f"column {col!r}: value {what} is not a finite number", file=path,
+                       row=offset + i + 1, time=tt)
+    return v
 
 
 def _is_number(raw):
@@ -768,18 +821,65 @@ def _write_table(df, p, fmt):
         df.to_parquet(p, index=False, engine="pyarrow", row_group_size=PARQUET_ROW_GROUP)
 
 
-def write_csv(df: pd.DataFrame, path) -> None:
+def write_csv(df: "pd.DataFrame | Mapping[str, np.ndarray]", path) -> None:
     """Write ``df`` as CSV: plain header, every float64 in its shortest round-trip form.
 
-    Uses Arrow's CSV writer (five times faster than pandas' on 100 Hz hour-long tables);
-    a float written and read back is bit-identical. NaN is written as an empty field.
+    ``df`` is a DataFrame or a mapping of column name to 1-D array (in column order; what a
+    command-line run writes, so that it need not import pandas). Uses Arrow's CSV writer
+    (five times faster than pandas' on 100 Hz hour-long tables); a float written and read back
+    is bit-identical. NaN is written as an empty field.
     """
-    import pyarrow as pa
     import pyarrow.csv as pacsv
-    table = pa.Table.from_pandas(df, preserve_index=False)
+    table = arrow_table(df)
     with open(path, "wb") as f:
-        f.write((",".join(map(str, df.columns)) + "\n").encode())
+        f.write((",".join(map(str, table.column_names)) + "\n").encode())
         pacsv.write_csv(table, f, write_options=pacsv.WriteOptions(include_header=False))
+
+
+def arrow_table(df: "pd.DataFrame | Mapping[str, np.ndarray]"):
+    """A ``pyarrow.Table`` of a DataFrame (``from_pandas``, no index) or of a mapping of
+    column name to 1-D array, NaN as null in both (as ``from_pandas`` does), so CSV and
+    Parquet files are the same whichever a writer passes."""
+    import pyarrow as pa
+    if hasattr(df, "iloc"):                                            # a pandas DataFrame
+        return pa.Table.from_pandas(df, preserve_index=False)
+    names = [str(k) for k in df]
+    return pa.Table.from_arrays([numpy_to_arrow(v) for v in df.values()], names=names)
+
+
+def numpy_to_arrow(values):
+    """A 1-D numeric or boolean numpy array as a ``pyarrow.Array`` built on its buffer, NaN as
+    null (what ``pa.array(values, from_pandas=True)`` gives). Built from buffers because
+    pyarrow's own conversions (``pa.array``, ``Array.to_numpy``) import pandas to ask whether
+    the input is one of its types: a third of a second of every command-line run."""
+    import pyarrow as pa
+    v = np.ascontiguousarray(values)
+    if v.ndim != 1 or v.dtype.kind not in "fiub":
+        return pa.array(v, from_pandas=True)                           # anything else
+    n, validity, nulls = len(v), None, 0
+    if v.dtype.kind == "f":
+        ok = ~np.isnan(v)
+        nulls = n - int(np.count_nonzero(ok))
+        if nulls:
+            validity = pa.py_buffer(np.packbits(ok, bitorder="little"))
+    if v.dtype.kind == "b":
+        data, typ = pa.py_buffer(np.packbits(v, bitorder="little")), pa.bool_()
+    else:
+        data, typ = pa.py_buffer(v), pa.from_numpy_dtype(v.dtype)
+    return pa.Array.from_buffers(typ, n, [validity, data], null_count=nulls)
+
+
+def arrow_to_numpy(x) -> np.ndarray:
+    """A numeric ``pyarrow.Array`` without nulls as a read-only numpy view of its buffer (what
+    ``x.to_numpy()`` gives, without the pandas import that costs); others through
+    ``to_numpy`` (nulls become NaN)."""
+    import pyarrow.types as pat
+    if x.null_count == 0 and (pat.is_floating(x.type) or pat.is_integer(x.type)):
+        kind = "f" if pat.is_floating(x.type) else "i" if pat.is_signed_integer(x.type) else "u"
+        dtype = np.dtype(f"{kind}{x.type.bit_width // 8}")
+        return np.frombuffer(x.buffers()[1], dtype=dtype, count=len(x),
+                             offset=x.offset * dtype.itemsize)
+    return x.to_numpy(zero_copy_only=False)
 
 
 def _plain(x):

@@ -109,10 +109,10 @@ class _Table:
         for frame in self._frames(names):
             if len(frame["t"]) == 0:
                 continue
-            t = _numeric(frame, "t", self.path, None, offset)
+            t = B._numeric(frame, "t", self.path, None, offset)
             out = {"t": t}
             for c in names[1:]:
-                out[c] = _numeric(frame, c, self.path, t, offset)
+                out[c] = B._numeric(frame, c, self.path, t, offset)
             B._check_increasing(t, self.path, offset, t_prev)
             yield offset, out
             offset += len(t)
@@ -138,31 +138,10 @@ class _Table:
                 col = self._pf.read(columns=[self.raw["t"]]).column(0).combine_chunks()
             except Exception as e:
                 raise B.cannot_read(e, self.path) from None
-            t = _numeric({"t": col}, "t", self.path, None, 0)
+            t = B._numeric({"t": col}, "t", self.path, None, 0)
             B._check_increasing(t, self.path)
         self._t = t
         return t
-
-
-def _numeric(frame, col, path, t, offset):
-    """:func:`inmotion.io.bundle._numeric` on a pyarrow column (numbers straight to numpy;
-    any other type through pandas, for the same message) or a pandas Series."""
-    x = frame[col]
-    if not hasattr(x, "type"):                           # pandas (CSV)
-        return B._numeric(frame, col, path, t, offset)
-    import pyarrow.types as pat
-    if not (pat.is_floating(x.type) or pat.is_integer(x.type)):
-        return B._numeric({col: x.to_pandas()}, col, path, t, offset)
-    raw = x.to_numpy(zero_copy_only=False)               # nulls -> NaN
-    v = raw.astype(float, copy=False)
-    bad = ~np.isfinite(v)
-    if bad.any():
-        i = int(np.argmax(bad))
-        what = "NaN or empty" if np.isnan(raw[i]) else B._short(raw[i], 40)
-        tt = None if t is None or not np.isfinite(t[i]) else float(t[i])
-        raise BadInput(f"column {col!r}: value {what} is not a finite number", file=path,
-                       row=offset + i + 1, time=tt)
-    return v
 
 
 # --------------------------------------------------------------------------- the IMU

@@ -32,17 +32,21 @@ import json
 import math
 from pathlib import Path
 
+from typing import TYPE_CHECKING
+
 import numpy as np
-import pandas as pd
 
 from .._typing import PathLike
 from ..core import rotations
 from ..core.bundle import Truth
 from ..core.solution import Solution, StateUnit
 from ..errors import BadInput
-from ..core.metrics import consistency_block, error_series, errors_block
-from .bundle import _plain, write_csv
+from ..core.metrics import consistency_block, error_columns, errors_block
+from .bundle import _plain, arrow_table, write_csv
 from .safe_write import atomic_write, refuse_partial, staged_folder
+
+if TYPE_CHECKING:      # writing a result needs no pandas (a run's start-up); reading does
+    import pandas as pd
 
 __all__ = ["write_result", "read_result", "write_errors", "SOLUTION_COLUMNS", "SIGMA_UNITS",
            "read_summary", "write_summary", "thin", "find_table", "read_table", "FORMATS",
@@ -59,14 +63,15 @@ SIGMA_UNITS = {"north": 1.0, "east": 1.0, "h": 1.0, "vE": 1.0, "vN": 1.0, "vU": 
                "phi_E": 180.0 / np.pi, "phi_N": 180.0 / np.pi, "phi_U": 180.0 / np.pi}
 
 
-def _solution_frame(sol: Solution) -> pd.DataFrame:
+def _solution_columns(sol: Solution) -> dict[str, np.ndarray]:
+    """The columns of ``solution.csv``, in order, in file units."""
     e = np.degrees(sol.euler)
     cols = {"t": sol.t, "lat": np.degrees(sol.lat), "lon": np.degrees(sol.lon), "h": sol.h,
             "vE": sol.vel_n[:, 0], "vN": sol.vel_n[:, 1], "vU": sol.vel_n[:, 2],
             "pitch": e[:, 0], "roll": e[:, 1], "yaw": np.mod(e[:, 2], 360.0)}
     for name, x in sol.sigma.items():
         cols[f"sigma_{name}"] = np.asarray(x, dtype=float) * SIGMA_UNITS.get(name, 1.0)
-    return pd.DataFrame(cols)
+    return cols
 
 
 def _state_columns(sol: Solution) -> dict:
@@ -116,8 +121,9 @@ def find_table(folder: PathLike, stem: str) -> Path | None:
     return None
 
 
-def read_table(path: PathLike) -> pd.DataFrame:
+def read_table(path: PathLike) -> "pd.DataFrame":
     """A result table (CSV or Parquet by its suffix); :class:`BadInput` if unreadable/empty."""
+    import pandas as pd
     p = Path(path)
     if p.suffix == ".parquet":
         try:
@@ -131,11 +137,16 @@ def read_table(path: PathLike) -> pd.DataFrame:
     return _read_csv(p)
 
 
-def _write_table(df: pd.DataFrame, folder: Path, stem: str, fmt: str) -> None:
+def _write_table(df: "pd.DataFrame | dict[str, np.ndarray]", folder: Path, stem: str,
+                 fmt: str) -> None:
+    """Write one table (a DataFrame or ordered columns) as ``stem.csv`` or ``stem.parquet``
+    with pyarrow (NaN as null / an empty CSV field either way)."""
     if fmt not in FORMATS:
         raise BadInput(f"unknown result format {fmt!r}; choose from {', '.join(FORMATS)}")
     if fmt == "parquet":
-        atomic_write(folder / f"{stem}.parquet", lambda p: df.to_parquet(p, index=False))
+        import pyarrow.parquet as pq
+        atomic_write(folder / f"{stem}.parquet",
+                     lambda p: pq.write_table(arrow_table(df), p))
     else:
         _write_csv(df, folder / f"{stem}.csv")
     for other in FORMATS:          # one format per table: remove an earlier run's other one
@@ -180,12 +191,12 @@ _DIVERGED = (" (the method diverged, or its input or configuration is wrong); no
 
 
 def _write_result_files(solution, folder: Path, truth, summary_extra, fmt) -> dict:
-    _write_table(_solution_frame(solution), folder, "solution", fmt)
+    _write_table(_solution_columns(solution), folder, "solution", fmt)
     states = _state_columns(solution)
     if states:
-        df = pd.DataFrame({"t": solution.t, **{s["column"]: np.asarray(solution.states[n]) *
-                                                s["scale"] for n, s in states.items()}})
-        _write_table(df, folder, "states", fmt)
+        cols = {"t": solution.t, **{s["column"]: np.asarray(solution.states[n]) * s["scale"]
+                                    for n, s in states.items()}}
+        _write_table(cols, folder, "states", fmt)
     else:
         _unlink_table(folder, "states")
     if truth is None:
@@ -242,7 +253,7 @@ def write_errors(solution: Solution, truth: Truth, folder: PathLike,
     if fmt is None:
         sol = find_table(folder, "solution")
         fmt = sol.suffix[1:] if sol is not None else "csv"
-    err = error_series(solution, truth)
+    err = error_columns(solution, truth)
     _write_table(err, folder, "errors", fmt)
     block = errors_block(err)
     cons = consistency_block(solution, err)
@@ -270,11 +281,12 @@ def _json_safe(x):
     return str(x)
 
 
-def _write_csv(df: pd.DataFrame, target: Path) -> None:
+def _write_csv(df: "pd.DataFrame | dict[str, np.ndarray]", target: Path) -> None:
     atomic_write(target, lambda p: write_csv(df, p))
 
 
-def _read_csv(p: Path) -> pd.DataFrame:
+def _read_csv(p: Path) -> "pd.DataFrame":
+    import pandas as pd
     try:
         df = pd.read_csv(p)
     except (pd.errors.ParserError, pd.errors.EmptyDataError, UnicodeDecodeError) as e:
@@ -335,6 +347,7 @@ def read_result(path: PathLike) -> Solution:
     p = find_table(folder, "solution")
     if p is None:
         raise BadInput("missing solution.csv (or solution.parquet)", file=folder / "solution.csv")
+    import pandas as pd
     df = read_table(p)
     missing = [c for c in SOLUTION_COLUMNS if c not in df.columns]
     if missing:
@@ -368,6 +381,7 @@ def _read_states(folder: Path, smap: dict, n: int):
     p = find_table(folder, "states")
     if p is None:
         raise BadInput("missing states.csv that summary.json lists", file=folder / "states.csv")
+    import pandas as pd
     df = read_table(p)
     if len(df) != n:
         raise BadInput(f"{len(df)} rows but solution.csv has {n}", file=p)
