@@ -12,15 +12,13 @@ start-up. Beside it, each in a bare interpreter (``python -c``), the floors it s
   function loaded from numba's cache: numba builds its CPU target on the first call, which
   imports ``scipy.linalg`` for its BLAS (``numba.np.linalg.ensure_blas``) whatever the
   function does. No run that calls a numba kernel can start faster than this;
-* ``numba floor as the command line runs it``: the same after
-  :func:`inmotion.cli.main.skip_numba_blas_probe`, ending with ``os._exit`` as
+* ``numba floor as the command line runs it``: the same, ending with ``os._exit`` as
   :func:`inmotion.cli.main.fast_exit` does (the plain floor above includes Python's teardown
-  of numba's modules, about 0.2 s): the floor of a command whose kernels use no BLAS;
+  of numba's modules, about 0.2 s): the floor of any command that calls a kernel;
 * ``run-path imports``: importing what ``navigate --method sins-dr`` imports before it calls
   a kernel (the command line, the method, the result writer, the chunked Parquet reader).
 
-Beside the real run, the same run with ``INMOTION_NUMBA_BLAS_PROBE=1`` (numba's own start-up,
-importing ``scipy.linalg``) gives what skipping the probe saves, and with
+Beside the real run, the same run with
 ``INMOTION_FAST_EXIT=0`` (Python's own exit, tearing down every module) what
 :func:`inmotion.cli.main.fast_exit` saves.
 
@@ -107,9 +105,6 @@ def main():
             print(f"CLI fixed cost (navigate {method}, 7 s bundle): {wall:.3f} s wall "
                   f"(target 0.4 s), {cpu:.3f} s CPU")
             if method == "sins-dr":
-                wall, cpu = best_wall(cmd, args.repeat, dict(env, INMOTION_NUMBA_BLAS_PROBE="1"))
-                print(f"CLI fixed cost (navigate {method}) with numba's BLAS probe: {wall:.3f} s "
-                      f"wall, {cpu:.3f} s CPU")
                 wall, cpu = best_wall(cmd, args.repeat, dict(env, INMOTION_FAST_EXIT="0"))
                 print(f"CLI fixed cost (navigate {method}) with Python's own exit: {wall:.3f} s "
                       f"wall, {cpu:.3f} s CPU")
@@ -121,8 +116,7 @@ def main():
                     "scipy.special", "numba"):
             floors[f"import {mod}"] = f"import {mod}"
         floors["numba floor"] = "import numpy as np, k; k.f(np.ones(3))"
-        floors["numba floor as the command line runs it (BLAS probe skipped, fast exit)"] = (
-            "from inmotion.cli.main import skip_numba_blas_probe as p; p(); "
+        floors["numba floor as the command line runs it (fast exit)"] = (
             "import os, numpy as np, k; k.f(np.ones(3)); os._exit(0)")
         floors["run-path imports (navigate sins-dr, before a kernel runs)"] = (
             "import inmotion.cli.main, inmotion.navigate.sins_dr, inmotion.io.result, "

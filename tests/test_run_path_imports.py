@@ -1,7 +1,8 @@
-"""A command-line run imports neither pandas nor scipy.linalg (issue 13, "a CLI run's fixed
-cost"): the result is written from numpy columns with pyarrow, a Parquet bundle read with
-pyarrow alone, and numba's start-up probe of scipy's BLAS skipped
-(:func:`inmotion.cli.main.skip_numba_blas_probe`). The files are the ones the pandas route
+"""A command-line run imports neither pandas nor scipy.stats (issue 13, "a CLI run's fixed
+cost"): the result is written from numpy columns with pyarrow and a Parquet bundle read with
+pyarrow alone. (numba itself imports ``scipy.linalg`` when it builds its CPU target, to probe
+scipy's BLAS: numba 0.68 has no setting for it, and the project does not patch numba's
+internals to skip it.) The files are the ones the pandas route
 wrote: CSV byte for byte, Parquet the same columns and values.
 """
 import subprocess
@@ -42,7 +43,7 @@ def _modules_after_cli(args):
 
 
 @pytest.mark.parametrize("method,fmt", [("sins-dr", "csv"), ("sins", "parquet")])
-def test_navigate_imports_no_pandas_no_scipy_linalg(tmp_path, method, fmt):
+def test_navigate_imports_no_pandas_no_scipy_stats(tmp_path, method, fmt):
     bundle = tmp_path / "b"
     write_bundle(_bundle(), bundle, fmt="parquet")
     out = tmp_path / "out"
@@ -50,7 +51,7 @@ def test_navigate_imports_no_pandas_no_scipy_linalg(tmp_path, method, fmt):
                                "meta", "-o", str(out), "--format", fmt])
     assert (out / f"solution.{fmt}").is_file() and (out / "summary.json").is_file()
     assert "numba" in mods                      # it ran compiled code ...
-    for heavy in ("pandas", "scipy.linalg", "scipy.stats", "pyarrow.dataset"):
+    for heavy in ("pandas", "scipy.stats", "pyarrow.dataset"):
         assert heavy not in mods, f"inmotion navigate --method {method} imports {heavy}"
 
 
@@ -120,40 +121,6 @@ def test_arrow_numpy_views_match_pyarrow_conversions():
     a = numpy_to_arrow(x)
     assert a.equals(pa.array(x, from_pandas=True)) and a.null_count == 1
     assert numpy_to_arrow(np.array([True, False, True])).equals(pa.array([True, False, True]))
-
-
-_NUMBA_PROBE = """
-import sys
-import numpy as np
-from inmotion.cli.main import skip_numba_blas_probe
-assert skip_numba_blas_probe()
-assert 'numba' not in sys.modules                        # nothing imported until numba is
-import numba
-
-@numba.njit
-def total(x):
-    s = 0.0
-    for v in x:
-        s += v
-    return s
-
-assert total(np.ones(4)) == 4.0
-print('after plain kernel', 'scipy.linalg' in sys.modules)
-
-@numba.njit
-def dot(a, b):
-    return np.dot(a, b)
-
-a = np.arange(6.0).reshape(2, 3)
-assert np.array_equal(dot(a, a.T), a @ a.T)              # BLAS still there when asked for
-print('after BLAS kernel', 'scipy.linalg' in sys.modules)
-"""
-
-
-def test_numba_runs_without_importing_scipy_linalg_and_blas_still_works():
-    out = subprocess.run([sys.executable, "-c", _NUMBA_PROBE], capture_output=True,
-                         text=True, check=True).stdout.splitlines()
-    assert out == ["after plain kernel False", "after BLAS kernel True"]
 
 
 def test_the_command_exits_fast_with_its_output_and_status(tmp_path):

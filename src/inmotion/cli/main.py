@@ -219,7 +219,6 @@ def cli(ctx, quiet, as_json, debug):
 
 def main() -> None:
     """The command line, in-process: exits by ``SystemExit`` (0, 2 bad input, 1 internal)."""
-    skip_numba_blas_probe()
     cli.main()
 
 
@@ -264,69 +263,6 @@ def fast_exit(code=0) -> None:
     except Exception:              # e.g. BrokenPipeError: let Python report it its own way
         raise SystemExit(code) from None
     os._exit(code)
-
-
-def skip_numba_blas_probe() -> bool:
-    """Spare a run numba's start-up import of ``scipy.linalg`` (0.17 s of CPU); True if the
-    hook is in place. Costs nothing until numba is used (``--help`` imports no numba).
-
-    Why numba imports it: the first call of any ``@njit`` function, even one loaded from
-    numba's cache that does no linear algebra, builds numba's CPU target
-    (``CPUContext.refresh`` -> ``load_additional_registries``), which imports
-    ``numba.np.arraymath``; that module's top level runs ``_HAVE_BLAS = _check_blas()``, i.e.
-    ``numba.np.linalg.ensure_blas()``: ``import scipy.linalg.cython_blas`` (which executes the
-    whole ``scipy.linalg`` package) plus an LP64/ILP64 check of scipy's build. Nothing in our
-    kernels can avoid it, and numba has no setting for it (numba 0.68).
-
-    What this does: an import hook runs ``numba.np.arraymath``'s module code, when numba
-    first imports it, with ``ensure_blas`` replaced by a no-op, then puts the original back.
-    ``_HAVE_BLAS`` then says True (right: only done when scipy is installed; it only selects
-    BLAS inner products for ``np.correlate``/``convolve`` at compile time). Every compilation
-    that uses BLAS or LAPACK (``np.dot``, ``@``, ``np.linalg``) still calls the real
-    ``ensure_blas`` (with its width check), and numba's runtime loads
-    ``scipy.linalg.cython_blas`` by itself when such a compiled function is first called. It
-    touches numba internals, so where they differ it does nothing; ``INMOTION_NUMBA_BLAS_PROBE=1``
-    asks for numba's own behaviour.
-    """
-    import importlib.util
-    import os
-    if (os.environ.get("INMOTION_NUMBA_BLAS_PROBE") == "1" or "numba.np.arraymath" in sys.modules
-            or any(isinstance(f, _NumbaBlasProbeHook) for f in sys.meta_path)):
-        return False
-    if importlib.util.find_spec("scipy") is None:    # numba's check would say "no BLAS"
-        return False
-    sys.meta_path.insert(0, _NumbaBlasProbeHook())
-    return True
-
-
-class _NumbaBlasProbeHook:
-    """Meta-path finder for :func:`skip_numba_blas_probe`: finds ``numba.np.arraymath`` with
-    the other finders and wraps its loader's ``exec_module``; removes itself once used."""
-
-    def find_spec(self, name, path=None, target=None):
-        if name != "numba.np.arraymath":
-            return None
-        import importlib.util
-        sys.meta_path.remove(self)
-        spec = importlib.util.find_spec(name)
-        nl = sys.modules.get("numba.np.linalg")
-        if spec is None or spec.loader is None or not hasattr(nl, "ensure_blas"):
-            return spec
-        run = spec.loader.exec_module
-
-        def exec_module(module):
-            original = nl.ensure_blas
-            nl.ensure_blas = _no_blas_probe
-            try:
-                run(module)
-            finally:
-                nl.ensure_blas = original
-        spec.loader.exec_module = exec_module
-        return spec
-
-
-def _no_blas_probe() -> None:
-    """``numba.np.linalg.ensure_blas`` while ``numba.np.arraymath`` is first imported."""
 
 
 # --------------------------------------------------------------------------- simulate
