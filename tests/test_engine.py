@@ -129,9 +129,9 @@ def test_streaming_sample_by_sample_equals_the_batch_run(short_drive):
 
 
 def test_the_fast_path_epoch_equals_the_full_epoch(short_drive):
-    """Epochs with no due sample and no output run the predict inside ``_advance`` (no
-    ``_epoch_end`` call, issue 13); with an output every epoch every one takes
-    ``_epoch_end``. The two give the same filter bit for bit (mid-epoch samples too)."""
+    """Epochs with no due sample and no output take no call of the rare-path functions
+    (issue 13); with an output every epoch every one calls ``_epoch_outputs``. The two
+    give the same filter bit for bit (mid-epoch samples too)."""
     init, t, dth, dv, speed, h = short_drive
     res = []
     for out_every in (1, 7):

@@ -21,7 +21,7 @@ What happens per IMU row and per filter epoch (one numba loop, :func:`_advance`)
    the row. The DR integrates the SINS's compensated gyro rows, or, with
    ``dr_sees_gyro_drift=False`` (paper 000's printed F), the raw rows; a caller may hand the
    DR its own gyro rows (``dtheta_dr``: a second gyro triad, or a simulation study);
-2. after ``step_rows`` rows (a filter epoch; :func:`_epoch_predict`) ``F`` is built at the
+2. after ``step_rows`` rows (a filter epoch) ``F`` is built at the
    SINS state with the epoch's mean specific force
    (:func:`inmotion.estimation.error_model._fill_F`) and ``x, P`` are
    predicted over the epoch (second-order transition, trapezoid ``Q_d``) on F's nonzero rows
@@ -74,16 +74,27 @@ machine at load 7-9): 0.47-0.50 s per hour of data with the predict kernel gener
 pattern, 0.81-0.84 s with the former BLAS predict, measured side by side (KF-GINS 3.5 s).
 Measured by switching parts off (load ~15, so every figure is inflated alike): the predict
 0.10 s (~0.29 us a row), ``_fill_F`` 0.025 s, mechanization 0.07 s, the rest of the per-row
-path 0.065 s, the 10 Hz sample epochs (the ``_epoch_end`` call, two fills, five scalar Joseph
-rows, mode, feedback, the 1 Hz output; ~5 us each) 0.2 s: the sample epochs and the per-row
-path, not the predict, now stand between the engine and issue 13's 0.25 s.
+path 0.065 s, the 10 Hz sample epochs (then a call of a separate epoch-end function, two
+fills, five scalar Joseph rows, mode, feedback, the 1 Hz output; ~5 us each) 0.2 s.
+Switching parts off again at load ~20 showed the five scalar updates to be nearly all of a
+sample epoch's own cost (0.12 s of 0.14 s per hour; the fills ~0, the feedback 0.013 s).
+Since then (issue 13, this module and :func:`inmotion.estimation.kalman.sequential_joseph`):
+every epoch runs the same inline code in :func:`_advance` (the predict, then the due
+samples), the scalar update is the optimal-gain form ``P -= (P h^T)(P h^T)^T / s`` (a fifth
+of the arithmetic of the expanded Joseph form, exactly symmetric), the mode is recomputed
+only when a measurement can be isolated. Side by side at load ~20-24 (best of 5,
+``benchmarks/bench_engine.py``'s workload): 0.51 -> 0.39-0.42 s per hour.
 A call that passes the namedtuples ``S`` and ``C`` costs ~0.5 us whether inlined or not
-(numba increfs and decrefs each of their ~50 arrays), so the per-row path makes none: an
-epoch with no due sample and no output runs the predict (:func:`_epoch_predict`'s body) inside
-:func:`_advance`; :func:`_epoch_end` is called at sample and output epochs only, and its
-common calls take arrays (:func:`_mode_of`, :func:`_feed_back_arrays`, ``sequential_joseph``
-directly; :func:`_apply` for FDI, NIS logging and shared measurements). Work that must happen
-at *every* epoch belongs in :func:`_epoch_predict` and its inline copy in :func:`_advance`.
+(numba increfs and decrefs each of their ~50 arrays), so neither the per-row path nor a sample
+epoch's common case makes one: :func:`_advance` binds their arrays once, predicts inline and
+applies samples through calls that take arrays (the fill through its pointer,
+``sequential_joseph``, :func:`_feed_back_arrays`); ``S`` and ``C`` are passed only on the
+rare paths (:func:`_apply` for FDI, NIS logging and shared measurements, :func:`_global`
+for a fused estimate, :func:`_epoch_outputs` for records and output rows).
+Numba's disk cache of :func:`_advance` is keyed on this file's contents only: a change to a
+function it calls in another module (``sequential_joseph``, ``_fill_F``, the fills' helpers)
+is not seen by a cached ``_advance``, which may have that function's old code inlined; clear
+``__pycache__/engine._advance*`` after such a change (a fresh install has no cache).
 """
 from __future__ import annotations
 
