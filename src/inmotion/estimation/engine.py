@@ -82,8 +82,10 @@ Since then (issue 13, this module and :func:`inmotion.estimation.kalman.sequenti
 every epoch runs the same inline code in :func:`_advance` (the predict, then the due
 samples), the scalar update is the optimal-gain form ``P -= (P h^T)(P h^T)^T / s`` (a fifth
 of the arithmetic of the expanded Joseph form, exactly symmetric), the mode is recomputed
-only when a measurement can be isolated. Side by side at load ~20-24 (best of 5,
-``benchmarks/bench_engine.py``'s workload): 0.51 -> 0.39-0.42 s per hour.
+only when a measurement can be isolated. Side by side, before and after, alternating
+(best of 5, ``benchmarks/bench_engine.py``'s workload): 0.414-0.416 -> 0.338-0.344 s per
+hour at load ~3.8, 0.436-0.454 -> 0.372-0.381 at load ~9; ``bench_engine.py --repeat 2
+--no-cli`` at load ~9-12: engine 0.447 -> 0.391, ``sins-dr`` at 100 Hz 0.869 -> 0.733 s.
 A call that passes the namedtuples ``S`` and ``C`` costs ~0.5 us whether inlined or not
 (numba increfs and decrefs each of their ~50 arrays), so neither the per-row path nor a sample
 epoch's common case makes one: :func:`_advance` binds their arrays once, predicts inline and
