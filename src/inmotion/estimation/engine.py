@@ -21,7 +21,7 @@ What happens per IMU row and per filter epoch (one numba loop, :func:`_advance`)
    the row. The DR integrates the SINS's compensated gyro rows, or, with
    ``dr_sees_gyro_drift=False`` (paper 000's printed F), the raw rows; a caller may hand the
    DR its own gyro rows (``dtheta_dr``: a second gyro triad, or a simulation study);
-2. after ``step_rows`` rows (a filter epoch; :func:`_epoch_predict`) ``F`` is built at the
+2. after ``step_rows`` rows (a filter epoch) ``F`` is built at the
    SINS state with the epoch's mean specific force
    (:func:`inmotion.estimation.error_model._fill_F`) and ``x, P`` are
    predicted over the epoch (second-order transition, trapezoid ``Q_d``) on F's nonzero rows
@@ -74,16 +74,29 @@ machine at load 7-9): 0.47-0.50 s per hour of data with the predict kernel gener
 pattern, 0.81-0.84 s with the former BLAS predict, measured side by side (KF-GINS 3.5 s).
 Measured by switching parts off (load ~15, so every figure is inflated alike): the predict
 0.10 s (~0.29 us a row), ``_fill_F`` 0.025 s, mechanization 0.07 s, the rest of the per-row
-path 0.065 s, the 10 Hz sample epochs (the ``_epoch_end`` call, two fills, five scalar Joseph
-rows, mode, feedback, the 1 Hz output; ~5 us each) 0.2 s: the sample epochs and the per-row
-path, not the predict, now stand between the engine and issue 13's 0.25 s.
+path 0.065 s, the 10 Hz sample epochs (then a call of a separate epoch-end function, two
+fills, five scalar Joseph rows, mode, feedback, the 1 Hz output; ~5 us each) 0.2 s.
+Switching parts off again at load ~20 showed the five scalar updates to be nearly all of a
+sample epoch's own cost (0.12 s of 0.14 s per hour; the fills ~0, the feedback 0.013 s).
+Since then (issue 13, this module and :func:`inmotion.estimation.kalman.sequential_joseph`):
+every epoch runs the same inline code in :func:`_advance` (the predict, then the due
+samples), the scalar update is the optimal-gain form ``P -= (P h^T)(P h^T)^T / s`` (a fifth
+of the arithmetic of the expanded Joseph form, exactly symmetric), the mode is recomputed
+only when a measurement can be isolated. Side by side, before and after, alternating
+(best of 5, ``benchmarks/bench_engine.py``'s workload): 0.414-0.416 -> 0.338-0.344 s per
+hour at load ~3.8, 0.436-0.454 -> 0.372-0.381 at load ~9; ``bench_engine.py --repeat 2
+--no-cli`` at load ~9-12: engine 0.447 -> 0.391, ``sins-dr`` at 100 Hz 0.869 -> 0.733 s.
 A call that passes the namedtuples ``S`` and ``C`` costs ~0.5 us whether inlined or not
-(numba increfs and decrefs each of their ~50 arrays), so the per-row path makes none: an
-epoch with no due sample and no output runs the predict (:func:`_epoch_predict`'s body) inside
-:func:`_advance`; :func:`_epoch_end` is called at sample and output epochs only, and its
-common calls take arrays (:func:`_mode_of`, :func:`_feed_back_arrays`, ``sequential_joseph``
-directly; :func:`_apply` for FDI, NIS logging and shared measurements). Work that must happen
-at *every* epoch belongs in :func:`_epoch_predict` and its inline copy in :func:`_advance`.
+(numba increfs and decrefs each of their ~50 arrays), so neither the per-row path nor a sample
+epoch's common case makes one: :func:`_advance` binds their arrays once, predicts inline and
+applies samples through calls that take arrays (the fill through its pointer,
+``sequential_joseph``, :func:`_feed_back_arrays`); ``S`` and ``C`` are passed only on the
+rare paths (:func:`_apply` for FDI, NIS logging and shared measurements, :func:`_global`
+for a fused estimate, :func:`_epoch_outputs` for records and output rows).
+Numba's disk cache of :func:`_advance` is keyed on this file's contents only: a change to a
+function it calls in another module (``sequential_joseph``, ``_fill_F``, the fills' helpers)
+is not seen by a cached ``_advance``, which may have that function's old code inlined; clear
+``__pycache__/engine._advance*`` after such a change (a fresh install has no cache).
 """
 from __future__ import annotations
 
@@ -389,110 +402,32 @@ def _record_epoch(S, O, t_now):
 
 
 @numba.njit(cache=True)
-def _epoch_predict(xs, acc, X, P, F, Q, Qc, ws, W, offs9, inv_tau_dk, dr_eps, grav_grad,
-                   with_dr, o_dpD, q_dr_m2_s, inv_tau_b):
-    """The predict of a filter epoch (arrays only: a call with the namedtuples ``S``, ``C``
-    costs an incref and a decref of each of their ~50 arrays, 0.5 us): ``F`` at the SINS
-    state with the epoch's mean specific force (``W = (C_S, f_b, f_n, vel)`` filled), every
-    local filter's ``x, P`` predicted over the epoch."""
-    sum_dt = acc[_A_DT]
-    C_S, f_b, f_n, vel = W
-    K.dcm_from_quat_into((xs[K.Q0], xs[K.Q0 + 1], xs[K.Q0 + 2], xs[K.Q3]), C_S)
-    for i in range(3):
-        f_b[i] = acc[_A_F + i] / sum_dt
-        vel[i] = xs[K.VE + i]
-    for i in range(3):
-        f_n[i] = C_S[i, 0] * f_b[0] + C_S[i, 1] * f_b[1] + C_S[i, 2] * f_b[2]
-    # F was zeroed once: _fill_F overwrites its structural entries (error_model.F_pattern)
-    em._fill_F(F, offs9, xs[K.LAT], xs[K.H], vel, C_S, f_n, inv_tau_dk, dr_eps, grav_grad,
-               inv_tau_b[0], inv_tau_b[1])
-    for l in range(X.shape[0]):
-        if with_dr:
-            _dr_position_noise(Q, Qc[l], o_dpD, xs[K.LAT], xs[K.H], q_dr_m2_s)
-            predict_sparse(X[l], P[l], F, Q, sum_dt, ws)
-        else:
-            predict_sparse(X[l], P[l], F, Qc[l], sum_dt, ws)
-
-
-@numba.njit(cache=True, inline="always")
-def _epoch_end(S, C, fills, t_now, qt, qj, qd, qi, O, F, Q, aux, z, H, r, xw, Pw, x_g, P_g, W,
-               last):
-    """Close a filter epoch: predict, apply the due samples, feed back, output. Returns the
-    next queue index."""
-    sum_dt = S.acc[_A_DT]
-    C_S, f_b, f_n, vel = W
-    _epoch_predict(S.xs, S.acc, S.X, S.P, F, Q, C.Qc, C.ws, W, C.offs9, C.inv_tau_dk,
-                   C.dr_eps, C.grav_grad, C.with_dr, C.offs[DP_D], C.q_dr_m2_s, C.inv_tau_b)
-    S.ints[_I_EPOCHS] += 1
-    S.t_end[0] = t_now
-    if C.record:                     # the forward pass of a smoother: Phi, P_k|k-1
-        _record_predict(S, C)
-    aux[AUX_T] = t_now
-    for i in range(3):
-        aux[AUX_WIB + i] = S.acc[_A_W + i] / sum_dt
-        aux[AUX_FB + i] = f_b[i]
-        aux[AUX_WNB + i] = S.acc[_A_NB + i] / sum_dt
-    applied = False
-    while qi < qt.shape[0] and qt[qi] <= t_now:
-        j = qj[qi]
-        m_max = C.dofs[j]
-        for a in range(m_max):
-            z[a] = 0.0
-            r[a] = 0.0
-            for b in range(H.shape[1]):
-                H[a, b] = 0.0
-        m = fills[j](S.xs, S.xd, aux, S.macc[j], qd[qi], C.params[j], C.offs, z, H, r)
-        applied = True
-        if m > 0:
-            l = C.local[j]
-            if l >= 0 and not C.isolate[j] and not C.log_nis[j]:
-                # _apply's common case, without its call (S, C: 0.5 us of reference counting)
-                ok, nis = sequential_joseph(S.X[l], S.P[l], z, H, r, 0, m, C.gates[j], xw, Pw)
-                if ok:
-                    S.used[j] += 1
-                    S.nis_sum[j] += nis
-                    S.dof_sum[j] += m
-                else:
-                    S.rejected[j] += 1
-            elif l >= 0:
-                _apply(S, C, fills, j, l, z, H, r, m, xw, Pw, t_now, True)
-            else:                    # shared: every local filter, noise scaled (eq. 33-35)
-                for l in range(S.X.shape[0]):
-                    _apply(S, C, fills, j, l, z, H, r, m, xw, Pw, t_now, l == 0)
-        if C.has_acc[j]:
-            S.macc[j, :] = 0.0
-        qi += 1
-    if applied:
-        S.ints[_I_UPDATES] += 1
-        mode = _mode_of(S.healthy, C.isolate, C.local, C.primary, C.fallback)
-        if mode != S.ints[_I_MODE]:
-            _log_event(S, t_now, -1, EVENT_MODE, mode)
-            S.ints[_I_MODE] = mode
-        if (C.feedback_every > 0 and S.ints[_I_UPDATES] % C.feedback_every == 0
-                and mode != MODE_NONE):
-            if mode >= 0:                # one local's estimate (_global without P_g)
-                x_g[:] = S.X[mode]
-            else:
-                _global(S, C, mode, x_g, P_g)
-            _feed_back_arrays(S.xs, S.ms, S.xd, S.md, S.bias_g, S.bias_a, S.fed_back, S.X,
-                              C.offs, C.fb_mask, C.fb_states, C.with_dr, x_g)
+def _epoch_outputs(S, C, O, t_now, x_g, P_g, applied, last):
+    """The rare end-of-epoch work, after the predict and the samples: the smoother's record
+    and the output row (a call with the namedtuples ``S``, ``C``: 0.5 us of reference
+    counting, paid at output and record epochs only)."""
     if C.record and (applied or last or S.ints[_I_EPOCHS] % C.out_every == 0):
         _record_epoch(S, O, t_now)   # only where the smoother has something to say
     if S.ints[_I_EPOCHS] % C.out_every == 0:
         _write_output(S, C, O, t_now, x_g, P_g)
-    for i in range(_A_SIZE):
-        S.acc[i] = 0.0
-    return qi
 
 
 @numba.njit(cache=True)
 def _advance(S, C, fills, accs, t, dtheta, dvel, dt, ds, v, dth_dr, rows, qt, qj, qd, O,
-             flush):
+             flush, t_last):
     """Run IMU rows ``t`` (M,) through the filter (module docstring); ``ds``, ``v`` (M,) the
     DR's sensor distance and speed per row, ``dth_dr`` (M, 3) the DR's own gyro rows or an
     empty (0, 3) array; ``rows`` (J, M, R) the measurements' row data for their
     accumulators; ``qt``, ``qj``, ``qd`` the queued samples (time, kind, data).
-    ``flush``: close a partial last epoch. Returns the number of queued samples consumed."""
+    ``flush``: close a partial last epoch, at the last row's time (``t_last`` [s], the last
+    row before this call, when ``t`` is empty). Returns the number of queued samples consumed.
+
+    One loop, every epoch the same code (issue 13): the predict inline, then, at an epoch
+    with due samples, each sample's fill and its scalar Joseph rows through calls that take
+    arrays only (a call passing the namedtuples ``S``, ``C`` costs an incref and a decref of
+    each of their ~50 arrays, 0.5 us, and so does a function inlined with them); only the
+    rare paths (FDI, shared measurements, the fused estimate, records, output rows) pass
+    ``S``, ``C``."""
     n = S.X.shape[1]
     F = np.zeros((n, n))
     Q = np.zeros((n, n))
@@ -509,89 +444,158 @@ def _advance(S, C, fills, accs, t, dtheta, dvel, dt, ds, v, dth_dr, rows, qt, qj
     P_g = np.zeros((n, n))
     th_nb = np.zeros(3)
     v_old = np.zeros(3)
-    W = (np.empty((3, 3)), np.empty(3), np.empty(3), np.empty(3))   # epoch-end work arrays
+    C_S = np.empty((3, 3))
+    f_b = np.empty(3)
+    f_n = np.empty(3)
+    vel = np.empty(3)
     nan = np.nan
     own_dr_gyro = dth_dr.shape[0] > 0
     qi = 0
-    # the fast path's arrays and constants, bound once
-    xs, acc, X, P, ints, t_end = S.xs, S.acc, S.X, S.P, S.ints, S.t_end
+    # the arrays and constants, bound once (no S, C in the per-row and per-sample paths)
+    xs, ms, xd, md, acc, X, P, ints, t_end = S.xs, S.ms, S.xd, S.md, S.acc, S.X, S.P, S.ints, \
+        S.t_end
+    bias_g, bias_a, fed_back, macc = S.bias_g, S.bias_a, S.fed_back, S.macc
+    used, rejected, nis_sum, dof_sum = S.used, S.rejected, S.nis_sum, S.dof_sum
     Qc, ws, offs9, inv_tau_dk, dr_eps = C.Qc, C.ws, C.offs9, C.inv_tau_dk, C.dr_eps
     itau_g, itau_a = C.inv_tau_b[0], C.inv_tau_b[1]
     grav_grad, with_dr, o_dpD, q_dr_m2_s = C.grav_grad, C.with_dr, C.offs[DP_D], C.q_dr_m2_s
-    out_every = C.out_every
+    offs, params, dofs, local, gates, has_acc = C.offs, C.params, C.dofs, C.local, C.gates, \
+        C.has_acc
+    isolate, log_nis, fb_mask, fb_states = C.isolate, C.log_nis, C.fb_mask, C.fb_states
+    feedback_every, out_every, step, need_nb = C.feedback_every, C.out_every, C.step, C.need_nb
+    C_bm, l_b = C.C_bm, C.l_b
+    any_isolate = False               # without FDI the global estimate's source is fixed
+    for j in range(isolate.shape[0]):
+        any_isolate = any_isolate or isolate[j]
     record = C.record            # a smoother's forward pass records every epoch's transition
     n_q = qt.shape[0]
-    C_S, f_b, f_n, vel = W
-    for k in range(t.shape[0]):
-        dth, dvl = compensated_row(dtheta, dvel, k, dt[k], S.bias_g, S.bias_a)
-        if C.need_nb:
-            for i in range(3):
-                v_old[i] = S.xs[K.VE + i]
-        K.sins_step(S.xs, S.ms, dth, dvl, dt[k], nan, 0.0, 0.0)
-        S.ms[K.M_COUNT] += 1.0
-        if C.with_dr:
-            if own_dr_gyro:
-                if C.dr_eps:
-                    g = (dth_dr[k, 0] - S.bias_g[0] * dt[k], dth_dr[k, 1] - S.bias_g[1] * dt[k],
-                         dth_dr[k, 2] - S.bias_g[2] * dt[k])
-                else:
-                    g = (dth_dr[k, 0], dth_dr[k, 1], dth_dr[k, 2])
-            elif C.dr_eps:
-                g = dth
-            else:           # the printed model's DR has no drift: nothing is compensated
-                g = (dtheta[k, 0], dtheta[k, 1], dtheta[k, 2])
-            K.dr_step(S.xd, S.md, g, ds[k], v[k], dt[k], C.C_bm, C.l_b)
-            S.md[K.M_COUNT] += 1.0
-        if C.need_nb:       # body rate w.r.t. n over the row, for rate-dependent measurements
-            Cnb = dcm_of_q(S.xs[K.Q0:K.Q3 + 1])
-            w_in = K.omega_ie_n(S.xs[K.LAT])
-            w_en = K.omega_en_n(S.xs[K.LAT], S.xs[K.H], (S.xs[K.VE], S.xs[K.VN], S.xs[K.VU]))
-            for i in range(3):
-                acc_i = 0.0
-                for jj in range(3):
-                    acc_i += Cnb[jj, i] * (w_in[jj] + w_en[jj])
-                th_nb[i] = dth[i] - acc_i * dt[k]
-                S.acc[_A_NB + i] += th_nb[i]
-            for j in range(C.has_acc.shape[0]):
-                if C.has_acc[j]:
-                    accs[j](S.macc[j], S.xs, v_old, th_nb, dt[k], rows[j, k], C.params[j])
-        S.acc[_A_ROWS] += 1.0
-        S.acc[_A_DT] += dt[k]
-        for i in range(3):
-            S.acc[_A_F + i] += dvl[i]
-            S.acc[_A_W + i] += dth[i]
-        if S.acc[_A_ROWS] >= C.step:
-            if (not record and (qi >= n_q or qt[qi] > t[k])
-                    and (ints[_I_EPOCHS] + 1) % out_every != 0):
-                # no sample due, no output: the epoch is its predict (_epoch_end without the
-                # call, whose namedtuple arguments cost 0.5 us of reference counting)
-                # _epoch_predict's body, kept in step with it (a call passing its 20 arrays
-                # costs 0.2 us of reference counting, 0.07 s per hour at 100 Hz)
-                sum_dt = acc[_A_DT]
-                K.dcm_from_quat_into((xs[K.Q0], xs[K.Q0 + 1], xs[K.Q0 + 2], xs[K.Q3]), C_S)
+    M = t.shape[0]
+    for k in range(M + 1):
+        if k < M:
+            dtk = dt[k]
+            dth, dvl = compensated_row(dtheta, dvel, k, dtk, bias_g, bias_a)
+            if need_nb:
                 for i in range(3):
-                    f_b[i] = acc[_A_F + i] / sum_dt
-                    vel[i] = xs[K.VE + i]
-                for i in range(3):
-                    f_n[i] = C_S[i, 0] * f_b[0] + C_S[i, 1] * f_b[1] + C_S[i, 2] * f_b[2]
-                em._fill_F(F, offs9, xs[K.LAT], xs[K.H], vel, C_S, f_n, inv_tau_dk, dr_eps,
-                           grav_grad, itau_g, itau_a)
-                for l in range(X.shape[0]):
-                    if with_dr:
-                        _dr_position_noise(Q, Qc[l], o_dpD, xs[K.LAT], xs[K.H], q_dr_m2_s)
-                        predict_sparse(X[l], P[l], F, Q, sum_dt, ws)
+                    v_old[i] = xs[K.VE + i]
+            K.sins_step(xs, ms, dth, dvl, dtk, nan, 0.0, 0.0)
+            ms[K.M_COUNT] += 1.0
+            if with_dr:
+                if own_dr_gyro:
+                    if dr_eps:
+                        g = (dth_dr[k, 0] - bias_g[0] * dtk, dth_dr[k, 1] - bias_g[1] * dtk,
+                             dth_dr[k, 2] - bias_g[2] * dtk)
                     else:
-                        predict_sparse(X[l], P[l], F, Qc[l], sum_dt, ws)
-                ints[_I_EPOCHS] += 1
-                t_end[0] = t[k]
-                for i in range(_A_SIZE):
-                    acc[i] = 0.0
+                        g = (dth_dr[k, 0], dth_dr[k, 1], dth_dr[k, 2])
+                elif dr_eps:
+                    g = dth
+                else:       # the printed model's DR has no drift: nothing is compensated
+                    g = (dtheta[k, 0], dtheta[k, 1], dtheta[k, 2])
+                K.dr_step(xd, md, g, ds[k], v[k], dtk, C_bm, l_b)
+                md[K.M_COUNT] += 1.0
+            if need_nb:     # body rate w.r.t. n over the row, for rate-dependent measurements
+                Cnb = dcm_of_q(xs[K.Q0:K.Q3 + 1])
+                w_in = K.omega_ie_n(xs[K.LAT])
+                w_en = K.omega_en_n(xs[K.LAT], xs[K.H], (xs[K.VE], xs[K.VN], xs[K.VU]))
+                for i in range(3):
+                    acc_i = 0.0
+                    for jj in range(3):
+                        acc_i += Cnb[jj, i] * (w_in[jj] + w_en[jj])
+                    th_nb[i] = dth[i] - acc_i * dtk
+                    acc[_A_NB + i] += th_nb[i]
+                for j in range(has_acc.shape[0]):
+                    if has_acc[j]:
+                        accs[j](macc[j], xs, v_old, th_nb, dtk, rows[j, k], params[j])
+            acc[_A_ROWS] += 1.0
+            acc[_A_DT] += dtk
+            for i in range(3):
+                acc[_A_F + i] += dvl[i]
+                acc[_A_W + i] += dth[i]
+            if acc[_A_ROWS] < step:
+                continue
+            t_now = t[k]
+            last = False
+        else:                              # after the rows: close a partial last epoch
+            if not (flush and acc[_A_ROWS] > 0):
+                break
+            t_now = t[M - 1] if M > 0 else t_last
+            last = True
+        # ---- the epoch's predict: F at the SINS state with the epoch's mean specific force
+        sum_dt = acc[_A_DT]
+        K.dcm_from_quat_into((xs[K.Q0], xs[K.Q0 + 1], xs[K.Q0 + 2], xs[K.Q3]), C_S)
+        for i in range(3):
+            f_b[i] = acc[_A_F + i] / sum_dt
+            vel[i] = xs[K.VE + i]
+        for i in range(3):
+            f_n[i] = C_S[i, 0] * f_b[0] + C_S[i, 1] * f_b[1] + C_S[i, 2] * f_b[2]
+        # F was zeroed once: _fill_F overwrites its structural entries (error_model.F_pattern)
+        em._fill_F(F, offs9, xs[K.LAT], xs[K.H], vel, C_S, f_n, inv_tau_dk, dr_eps,
+                   grav_grad, itau_g, itau_a)
+        for l in range(X.shape[0]):
+            if with_dr:
+                _dr_position_noise(Q, Qc[l], o_dpD, xs[K.LAT], xs[K.H], q_dr_m2_s)
+                predict_sparse(X[l], P[l], F, Q, sum_dt, ws)
             else:
-                qi = _epoch_end(S, C, fills, t[k], qt, qj, qd, qi, O, F, Q, aux, z, H, r, xw,
-                                Pw, x_g, P_g, W, False)
-    if flush and S.acc[_A_ROWS] > 0:
-        qi = _epoch_end(S, C, fills, t[t.shape[0] - 1], qt, qj, qd, qi, O, F, Q, aux, z, H,
-                        r, xw, Pw, x_g, P_g, W, True)
+                predict_sparse(X[l], P[l], F, Qc[l], sum_dt, ws)
+        ints[_I_EPOCHS] += 1
+        t_end[0] = t_now
+        if record:                     # the forward pass of a smoother: Phi, P_k|k-1
+            _record_predict(S, C)
+        # ---- the samples that fell due, in queue order
+        applied = False
+        if qi < n_q and qt[qi] <= t_now:
+            aux[AUX_T] = t_now
+            for i in range(3):
+                aux[AUX_WIB + i] = acc[_A_W + i] / sum_dt
+                aux[AUX_FB + i] = f_b[i]
+                aux[AUX_WNB + i] = acc[_A_NB + i] / sum_dt
+            while qi < n_q and qt[qi] <= t_now:
+                j = qj[qi]
+                for a in range(dofs[j]):
+                    z[a] = 0.0
+                    r[a] = 0.0
+                    for b in range(n):
+                        H[a, b] = 0.0
+                m = fills[j](xs, xd, aux, macc[j], qd[qi], params[j], offs, z, H, r)
+                applied = True
+                if m > 0:
+                    l = local[j]
+                    if l >= 0 and not isolate[j] and not log_nis[j]:
+                        ok, nis = sequential_joseph(X[l], P[l], z, H, r, 0, m, gates[j], xw,
+                                                    Pw)
+                        if ok:
+                            used[j] += 1
+                            nis_sum[j] += nis
+                            dof_sum[j] += m
+                        else:
+                            rejected[j] += 1
+                    elif l >= 0:
+                        _apply(S, C, fills, j, l, z, H, r, m, xw, Pw, t_now, True)
+                    else:                # shared: every local filter, noise scaled (eq. 33-35)
+                        for l in range(X.shape[0]):
+                            _apply(S, C, fills, j, l, z, H, r, m, xw, Pw, t_now, l == 0)
+                if has_acc[j]:
+                    macc[j, :] = 0.0
+                qi += 1
+        if applied:
+            ints[_I_UPDATES] += 1
+            mode = ints[_I_MODE]
+            if any_isolate:
+                mode = _mode_of(S.healthy, isolate, local, C.primary, C.fallback)
+                if mode != ints[_I_MODE]:
+                    _log_event(S, t_now, -1, EVENT_MODE, mode)
+                    ints[_I_MODE] = mode
+            if (feedback_every > 0 and ints[_I_UPDATES] % feedback_every == 0
+                    and mode != MODE_NONE):
+                if mode >= 0:            # one local's estimate (_global without P_g)
+                    x_g[:] = X[mode]
+                else:
+                    _global(S, C, mode, x_g, P_g)
+                _feed_back_arrays(xs, ms, xd, md, bias_g, bias_a, fed_back, X, offs, fb_mask,
+                                  fb_states, with_dr, x_g)
+        if record or ints[_I_EPOCHS] % out_every == 0:
+            _epoch_outputs(S, C, O, t_now, x_g, P_g, applied, last)
+        for i in range(_A_SIZE):
+            acc[i] = 0.0
     return qi
 
 
@@ -890,7 +894,8 @@ class ErrorStateFilter:
         cap = n_ep // self.out_every + 1 if max_out is None else int(max_out)
         O = self._out(cap, n_ep if self._C.record else 0)
         used = _advance(self._S, self._C, self._fills, self._accs, t, dtheta, dvel, dt, ds,
-                        speed, dth_dr, rows, self._qt, self._qj, self._qd, O, bool(flush))
+                        speed, dth_dr, rows, self._qt, self._qj, self._qd, O, bool(flush),
+                        self.t)
         if used:
             self._qt, self._qj, self._qd = self._qt[used:], self._qj[used:], self._qd[used:]
         if m:
