@@ -92,6 +92,12 @@ class CampaignResult:
     wall_s: float
     _store: object = field(default=None, repr=False)
 
+    @property
+    def run_s(self) -> float:
+        """The runs' own wall times summed [s] (``elapsed_s`` of each record): what the
+        campaign cost in worker time, also when this call only resumed it."""
+        return float(self.table["elapsed_s"].sum())
+
     def arrays(self, point_id: int, run_index: int) -> dict:
         """The arrays run ``run_index`` of point ``point_id`` returned (``{}`` if none)."""
         if self._store is None:

@@ -167,8 +167,12 @@ def conditions() -> list:
          f"gyro {fk.gyro_drift_deg_h} deg/h, {fk.gyro_arw_deg_sqrt_h} deg/sqrt(h); accel "
          f"{fk.accel_bias_ug} ug, {fk.accel_vrw_ug_sqrt_hz} ug/sqrt(Hz)", ""),
         ("fkf sensor noise tuning (not in the paper)", "not given",
-         f"OD {fk.od_noise_m_s} m/s, LDV {fk.ldv_noise_m_s} m/s, NHC {fk.nhc_noise_m_s} m/s "
-         "[right, forward, up]", "library defaults"),
+         (f"noise_preset {fk.noise_preset}: forward rows from the bundle's sensor specs, "
+          "lateral and vertical rows from the vehicle's constraint violation (meta.yaml; "
+          f"info.config_source); NHC {fk.nhc_noise_m_s} m/s") if fk.noise_preset == "matched"
+         else (f"OD {fk.od_noise_m_s} m/s, LDV {fk.ldv_noise_m_s} m/s, NHC "
+               f"{fk.nhc_noise_m_s} m/s [right, forward, up]"),
+         "library default preset (issue 15: consistent with the simulated sensors)"),
         ("fine filter start heading sigma", "not given", f"{fk.init_heading_sigma_deg:g} deg",
          "library default; covers the 53' start"),
         ("coarse alignment", "inertial frame, over the whole 10 min",
@@ -680,7 +684,9 @@ def _wd(d, n=2):
 def _report(res, figs, runs, wall):
     nw = len(res["table3_per_window_heading"])
     L = ["# Paper 003 reproduced in simulation", ""] + conditions_table() + [
-         f"{runs} Monte Carlo drives x {nw} windows of {WINDOW_S:.0f} s; wall time {wall:.0f} s.",
+         f"{runs} Monte Carlo drives x {nw} windows of {WINDOW_S:.0f} s; wall time {wall:.0f} s "
+         f"(this call; a resumed campaign only reads its runs), the runs' own time "
+         f"{res.get('run_time_s', float('nan')):.0f} s.",
          "Errors are estimate minus truth at the window's end, arc-minutes.", ""]
     if "table2_within_drive" in res:
         L += ["## Table 2 analogue: heading error, the paper's statistic (within one drive)", "",
@@ -811,5 +817,6 @@ def reproduce(out_dir, runs: int = 20, workers: int = 2, seed: int = 0,
     (out / "results.json").write_text(json.dumps(res, indent=1))
     (out / "runs.json").write_text(json.dumps([{k: v for k, v in r.items() if k != "series"}
                                                for r in recs], indent=0))
+    res["run_time_s"] = camp.run_s
     (out / "report.md").write_text(_report(res, figs, runs, wall))
     return res
