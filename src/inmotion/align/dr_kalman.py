@@ -300,7 +300,38 @@ def config_with_spec(cfg, meta, sensor: str) -> tuple:
             upd[f], src[f] = spec[f], origin
         else:
             src[f] = "default"
+    cons = constraint_noise_from_meta(cfg, meta) if matched else {}
+    for f in ("lateral_noise_m_s", "nhc_noise_m_s"):
+        if f in cfg.model_fields_set:
+            src[f] = "config"
+        elif f in cons:
+            upd[f], src[f] = cons[f], "meta.vehicle.constraint_violation"
+        else:
+            src[f] = "default"
     return (cfg.model_copy(update=upd) if upd else cfg), src
+
+
+def constraint_noise_from_meta(cfg, meta) -> dict:
+    """``lateral_noise_m_s`` and ``nhc_noise_m_s`` from the vehicle's measured constraint
+    violation ``meta['vehicle']['constraint_violation']`` (issue 15), ``{}`` without one.
+
+    The vehicle's real lateral and vertical velocity (side slip, bounce; a Gauss-Markov
+    velocity of 1-sigma ``sigma`` and correlation time ``tau``) is what both the velocity
+    difference's cross rows (Z1's velocity half: the DR takes the velocity along the sensor's
+    axis only) and the vehicle-constraint rows (Z2) take as noise. At the measurement interval
+    ``T = 1 / measurement_rate_hz`` its white equivalent is ``sqrt(2 sigma^2 tau / T)``
+    (:func:`inmotion.align.aided_kf.markov_white_equivalent_sigma`: what keeps the attitude's
+    sigma honest over a run of correlated rows). One field covers both cross axes, so the
+    larger of the lateral and vertical figures. Both groups see the same violation: when both
+    are used each gets the variance twice over (half the information each, as ``fkf`` shares
+    it between its channels), so together they claim no more than the violation allows."""
+    from .aided_kf import vehicle_constraint_noise
+    cv = vehicle_constraint_noise(meta, 1.0 / cfg.measurement_rate_hz)
+    if cv is None:
+        return {}
+    sigma = max(cv)
+    share = np.sqrt(2.0) if cfg.use_nhc else 1.0
+    return {"lateral_noise_m_s": float(sigma * share), "nhc_noise_m_s": float(sigma * share)}
 
 
 def _process_noise(cfg) -> em.ProcessNoise:
