@@ -90,3 +90,12 @@ def test_omitted_earth_rate_term_is_bounded_by_omega_v_t():
     # a tau: the drive's accelerations stay below 2 m/s^2
     assert 0.0 < lag["max_m_s"] <= 2.0 * 0.1
     assert not any(term.startswith("lever arm") for term, _ in rows)
+
+
+def test_conditions_name_the_term_sizes_settings_and_the_drives_run():
+    rows = {row[0]: row for row in r4.conditions(7)}
+    assert rows["car test (Tables 4-5)"][2].startswith("7 simulated one-hour drives")
+    assert rows["noise the omitted terms are set against"][2].startswith(
+        f"{r4.PAPER_VB_NOISE_M_S} m/s")
+    assert f"{r4.PITCH_GRADIENT_DEG_PER_G:g} deg per g" in rows["pitch and bounce"][2]
+    assert r4.conditions()[0] == r4.conditions(None)[0]

@@ -701,8 +701,9 @@ def reproduce(out_dir, runs: int = 30, workers: int = 2, seed: int = 0,
             raise BadInput(f"the results to reuse were made with seed {old.get('seed')}, "
                            f"not {seed}", file=out / "results.json")
         summary = {k: v for k, v in old.items() if k not in ("whole_circle", "k0_sweep")}
-        summary["reused_tables"] = {"elapsed_s": old["elapsed_s"], "runs": old["runs"],
-                                    "workers": old["workers"]}
+        summary["reused_tables"] = old.get("reused_tables") or {
+            "elapsed_s": old["elapsed_s"] - old.get("circle_s", 0.0), "runs": old["runs"],
+            "workers": old["workers"]}
         results = None
     else:
         timing = _time_schemes(seed)
@@ -717,6 +718,7 @@ def reproduce(out_dir, runs: int = 30, workers: int = 2, seed: int = 0,
         summary["timing_pass_s"] = t_mc - t0
         summary["monte_carlo_s"] = time.perf_counter() - t_mc
         summary["runs"], summary["seed"], summary["workers"] = runs, seed, workers
+    summary["checkpointed_before"] = {n: _lines(out / f"{n}_runs.jsonl") for n in ("k0", "circle")}
     t_k0 = time.perf_counter()
     k0 = run_tasks_checkpointed(run_k0_one, k0_tasks(seed, k0_runs), workers,
                                 out / "k0_runs.jsonl", desc="paper 001 k0",
@@ -730,9 +732,8 @@ def reproduce(out_dir, runs: int = 30, workers: int = 2, seed: int = 0,
     summary["whole_circle"] = _summarize_circle(circle)
     summary["circle_s"] = time.perf_counter() - t_circle
     summary["circle_workers"] = workers
-    summary["elapsed_s"] = (summary["reused_tables"]["elapsed_s"] - old.get("circle_s", 0.0)
-                            + summary["circle_s"] + summary["k0_s"]) if reuse_tables \
-        else time.perf_counter() - t0
+    summary["elapsed_s"] = (summary["reused_tables"]["elapsed_s"] + summary["circle_s"]
+                            + summary["k0_s"]) if reuse_tables else time.perf_counter() - t0
     (out / "results.json").write_text(json.dumps(summary, indent=1))
     if results is not None:
         _figures(results, out)
@@ -740,6 +741,11 @@ def reproduce(out_dir, runs: int = 30, workers: int = 2, seed: int = 0,
     text = _report(summary)
     (out / "report.md").write_text(text)
     return text
+
+
+def _lines(path: Path) -> int:
+    """Records already in a checkpoint file (0 if none)."""
+    return len(path.read_text().splitlines()) if path.is_file() else 0
 
 
 def rewrite_report(out_dir) -> str:
@@ -1351,6 +1357,10 @@ def _report(summary) -> str:
             "run of the same code and seed (`reuse_tables`); the whole circle and the k0 sweep "
             f"were re-run on {S.get('circle_workers')} workers, and the total counts the "
             "earlier run's time without its circle. " if S.get("reused_tables") else "")
+         + ("The circle's and the sweep's runs were kept as they finished and the run "
+            "resumed from them (circle: {circle}, k0 sweep: {k0} runs done before the last "
+            "call; its times count only that call). ".format(**S["checkpointed_before"])
+            if any((S.get("checkpointed_before") or {}).values()) else "")
          + "Heading error "
          "(estimate minus truth) in deg. Measured Mean: average over the runs of each run's "
          "window mean, +- the SD of those means across runs; measured STD: average of each "
