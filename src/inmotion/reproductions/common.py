@@ -102,7 +102,8 @@ def _on_client(client, fn, tasks, chunksize, bar) -> list:
     return [r for f in futures for r in f.result()]
 
 
-def run_tasks_checkpointed(fn, tasks, workers, path, *, desc: str, progress: bool = True) -> list:
+def run_tasks_checkpointed(fn, tasks, workers, path, *, desc: str, progress: bool = True,
+                           run_missing: bool = True) -> list:
     """:func:`run_tasks` that keeps every finished task's record in the JSON-lines file
     ``path`` and, when called again with the same file, runs only the tasks not in it.
 
@@ -110,7 +111,9 @@ def run_tasks_checkpointed(fn, tasks, workers, path, *, desc: str, progress: boo
     tasks that finished (the caller orders its tasks so that a prefix is a complete smaller
     experiment). A task is identified by ``json.dumps(task, default=str)`` (a SeedSequence
     by its repr); records come back from the file as JSON (lists for arrays). A torn last
-    line (a write interrupted) is ignored and its task run again.
+    line (a write interrupted) is ignored and its task run again. ``run_missing=False``:
+    run nothing, return the records of the tasks in the file (in task order; the others
+    are left out).
     """
     path = Path(path)
     done = {}
@@ -123,6 +126,8 @@ def run_tasks_checkpointed(fn, tasks, workers, path, *, desc: str, progress: boo
                 continue
     keys = [_task_key(t) for t in tasks]
     todo = [t for t, k in zip(tasks, keys) if k not in done]
+    if not run_missing:
+        return [done[k] for k in keys if k in done]
     new = run_tasks(functools.partial(_run_and_append, fn, str(path)), todo, workers,
                     desc=desc, progress=progress)
     fresh = dict(zip((_task_key(t) for t in todo), new))

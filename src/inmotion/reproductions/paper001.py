@@ -571,9 +571,9 @@ def _summarize_circle(results) -> dict:
             for h in out["headings_deg"]}
         out.setdefault("final_deg", {})[key] = [
             [r["heading_deg"], r["run"], float(np.asarray(r["yaw"][key])[-1])] for r in results]
-        if key in results[0]["sigma_u_2s_deg"]:
-            out["sigma_u_2s_deg"][key] = float(np.median(
-                [r["sigma_u_2s_deg"][key] for r in results]))
+        sig = [r["sigma_u_2s_deg"][key] for r in results if key in r["sigma_u_2s_deg"]]
+        if sig:     # runs carried over from an earlier circle keep only their final errors
+            out["sigma_u_2s_deg"][key] = float(np.median(sig))
     return out
 
 
@@ -680,14 +680,17 @@ def _time_schemes(seed: int, repeats: int = TIMING_REPEATS) -> dict:
 
 def reproduce(out_dir, runs: int = 30, workers: int = 2, seed: int = 0,
               progress: bool = True, circle_runs: int = CIRCLE_RUNS,
-              k0_runs: int = K0_TUNING_RUNS, reuse_tables: bool = False) -> str:
+              k0_runs: int = K0_TUNING_RUNS, reuse_tables: bool = False,
+              run_missing: bool = True) -> str:
     """Run the tests ``runs`` times with the five schemes, the whole-circle experiment with
     ``circle_runs`` seeds per start heading (0: none) and the k0 sweep with ``k0_runs``
     tuning drives per start heading (0: none); write the report; return its text.
 
     The circle's and the sweep's runs are kept in ``circle_runs.jsonl`` / ``k0_runs.jsonl``
     in ``out_dir`` as they finish; a second call with the same folder runs only the missing
-    ones (:func:`inmotion.reproductions.common.run_tasks_checkpointed`).
+    ones (:func:`inmotion.reproductions.common.run_tasks_checkpointed`); ``run_missing=False``
+    runs none and reports what the files hold (a run cut short: pass the counts that are
+    complete).
 
     ``reuse_tables``: keep Tables 1-3, the ranking, the NEES and the test figures of the
     ``results.json`` already in ``out_dir`` (a run of the same code and seed) and run only the
@@ -726,13 +729,14 @@ def reproduce(out_dir, runs: int = 30, workers: int = 2, seed: int = 0,
     t_circle = time.perf_counter()
     circle = run_tasks_checkpointed(run_circle_one, circle_tasks(seed, circle_runs), workers,
                                     out / "circle_runs.jsonl", desc="paper 001 circle",
-                                    progress=progress) if circle_runs else []
+                                    progress=progress, run_missing=run_missing) \
+        if circle_runs else []
     summary["whole_circle"] = _summarize_circle(circle)
     summary["circle_s"] = time.perf_counter() - t_circle
     t_k0 = time.perf_counter()
     k0 = run_tasks_checkpointed(run_k0_one, k0_tasks(seed, k0_runs), workers,
                                 out / "k0_runs.jsonl", desc="paper 001 k0",
-                                progress=progress) if k0_runs else []
+                                progress=progress, run_missing=run_missing) if k0_runs else []
     summary["k0_sweep"] = _summarize_k0(k0)
     summary["k0_s"] = time.perf_counter() - t_k0
     summary["circle_workers"] = workers
@@ -1542,7 +1546,9 @@ if __name__ == "__main__":
     ap.add_argument("--circle-runs", type=int, default=CIRCLE_RUNS)
     ap.add_argument("--k0-runs", type=int, default=K0_TUNING_RUNS)
     ap.add_argument("--reuse-tables", action="store_true")
+    ap.add_argument("--no-run-missing", action="store_true")
     a = ap.parse_args()
     from inmotion.reproductions import paper001 as _m   # the workers import it by name
     _m.reproduce(a.out_dir, runs=a.runs, workers=a.workers, seed=a.seed,
-              circle_runs=a.circle_runs, k0_runs=a.k0_runs, reuse_tables=a.reuse_tables)
+              circle_runs=a.circle_runs, k0_runs=a.k0_runs, reuse_tables=a.reuse_tables,
+              run_missing=not a.no_run_missing)

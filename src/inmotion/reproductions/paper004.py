@@ -924,7 +924,7 @@ def _figures(results, curves, out: Path) -> None:
 
 def reproduce(out_dir, runs: int = 50, workers: int = 2, seed: int = 0, progress: bool = True,
               segments: bool = True, car_drives: int | None = None,
-              reuse_speeds: bool = False) -> dict:
+              reuse_speeds: bool = False, run_missing: bool = True) -> dict:
     """Run paper 004's Monte Carlo and write ``report.md``, ``results.json``, ``runs.csv`` and the
     MAE/STD figures to ``out_dir``. Returns the results dictionary.
 
@@ -941,7 +941,8 @@ def reproduce(out_dir, runs: int = 50, workers: int = 2, seed: int = 0, progress
 
     The car drives are kept in ``car_runs.jsonl`` in ``out_dir`` as they finish; a second
     call with the same folder runs only the missing ones
-    (:func:`inmotion.reproductions.common.run_tasks_checkpointed`).
+    (:func:`inmotion.reproductions.common.run_tasks_checkpointed`; ``run_missing=False``: none,
+    the report is of what the file holds).
 
     ``reuse_speeds``: keep the straight-run Monte Carlo (Tables 2, 4-6 on the straight runs,
     ``runs.csv`` and the figures) of the ``results.json`` already in ``out_dir`` (a run of the
@@ -976,7 +977,7 @@ def reproduce(out_dir, runs: int = 50, workers: int = 2, seed: int = 0, progress
         car_tasks = [(e, d, car_seeds[d]) for d in range(n_car) for e in CAR_EFFECTS]
         car = run_tasks_checkpointed(run_car_segments, car_tasks, workers,
                                      out / "car_runs.jsonl", desc="paper 004 car effects",
-                                     progress=progress)
+                                     progress=progress, run_missing=run_missing)
     car_s = time.perf_counter() - t_car
     if recs is None:
         results = _speed_keys({k: v for k, v in old.items()
