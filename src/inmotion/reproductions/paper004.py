@@ -756,6 +756,17 @@ def _car_tables(results) -> list[str]:
     return L
 
 
+def _predicted(e: dict, lab: str) -> tuple:
+    """The degradation share :func:`degradation_rate` gives from the two MAEs of effect
+    summary ``e`` (rho 0 and 0.9, low to high)."""
+    q = mechanism_requirement(e["MAE"]["imada-vb"], e["MAE"][lab] - e["MAE"]["imada-vb"])
+    return tuple(sorted((q["rate_rho0"], q["rate_rho09"])))
+
+
+def _overlap(a, b) -> bool:
+    return a[0] <= b[1] and b[0] <= a[1]
+
+
 def _mechanism_text(results) -> list[str]:
     """Issue 17's "or show with the paper's own sensors that it cannot appear": the paper's
     Table 4 as one requirement on the second level, ours per effect, and the analytic size of
@@ -795,9 +806,7 @@ def _mechanism_text(results) -> list[str]:
             cells = []
             for lab in ("mimada", "mimada-dual"):
                 r = e["MAE"][lab] / e["MAE"]["imada-vb"]
-                q = mechanism_requirement(e["MAE"]["imada-vb"],
-                                          e["MAE"][lab] - e["MAE"]["imada-vb"])
-                lo, hi = sorted((q["rate_rho0"], q["rate_rho09"]))
+                lo, hi = _predicted(e, lab)
                 cells += [f"{r:.3f}", f"{e[lab]['rate']:.2f} ({e[lab]['rate_interval'][0]:.2f}-"
                           f"{e[lab]['rate_interval'][1]:.2f})", f"{lo:.2f}-{hi:.2f}"]
             L.append(f"| {effect} | " + " | ".join(cells) + " |")
@@ -806,10 +815,17 @@ def _mechanism_text(results) -> list[str]:
                  f"{p5[4] / 30:.2f} | {q5['rate_rho09']:.2f}-{q5['rate_rho0']:.2f} |")
         worst = max(car, key=lambda k: car[k]["MAE"]["mimada"] / car[k]["MAE"]["imada-vb"])
         rw = car[worst]["MAE"]["mimada"] / car[worst]["MAE"]["imada-vb"]
+        fit = [k for k, e in car.items()
+               if _overlap(e["mimada"]["rate_interval"], _predicted(e, "mimada"))]
         L += ["", f"The largest ratio of ours is {rw:.3f} ({worst}), against the paper's "
-              f"{q4['ratio']:.2f}. Where the measured share lies inside or near the predicted "
-              "range, the normal model holds and the counts add nothing beyond the MAE ratio.",
-              ""]
+              f"{q4['ratio']:.2f}. The measured share of degradations (Wilson 95 %) meets the "
+              f"predicted range for {len(fit)} of {len(car)} effects"
+              + (f" ({', '.join(fit)})" if fit else "")
+              + ("; where it does not (" + ", ".join(k for k in car if k not in fit) + "), "
+                 "the errors are probably not zero-mean normal (a constant offset moves both "
+                 "levels) and the count says less than the MAE ratio"
+                 if len(fit) < len(car) else "")
+              + ". Either way no effect comes near the paper's ratio.", ""]
     if terms:
         noise = PAPER_VB_NOISE_M_S
         L += [f"**Each omitted term's size in the vector pairs** (`omitted_term_sizes`, on the "
@@ -840,10 +856,12 @@ def _mechanism_text(results) -> list[str]:
               f"{q4['ratio']:.1f} times worse than the V^b level; our simulations agree "
               "(ratios in the table above). The paper's Table 4 needs a cause outside the V^b "
               "model's omissions: its car-test V^n second level must have carried an error of "
-              "its own that its V^b level did not (for instance a V^n reference, position or "
-              "transport rate with its own error; the paper does not say how V^n was formed "
-              "in the car test). Pitch and bounce are kept out of the simulated effects for "
-              "the reason in the module (`CAR_EFFECTS`); their size is in the table.", ""]
+              "its own that its V^b level did not. The paper forms V^n from the first level's "
+              "C_b^n(0) and V^b (sec. 3), as ours does; what else differed in its car (a V^b "
+              "error that is not white, more levels, its segment boundaries) its data do not "
+              "let us say, and we have not found a setting that produces it. Pitch and bounce "
+              "are kept out of the simulated effects for the reason in the module "
+              "(`CAR_EFFECTS`); their size is in the table.", ""]
     return L
 
 
@@ -858,6 +876,10 @@ def write_report(results: dict, out: Path) -> str:
          + (f"; the car effects: {results.get('car_drives')} one-hour drives per effect, "
             f"{results['car_s']:.0f} s on {results.get('car_workers')} worker(s)"
             if "car_s" in results else "")
+         + (f"; the car effects have {results['car_drives']} drives per effect, fewer than "
+            f"the module's {CAR_DRIVES} (issue 17's count, not reached in the time the shared "
+            "machine allowed this run)" if results.get("car_drives") and results["car_drives"] < CAR_DRIVES
+            else "")
          + (f". The straight-run Monte Carlo (Tables 2, 6, the straight-run Tables 4-5, "
             f"runs.csv and the figures) is that of an earlier run of the same code, runs and "
             f"seed ({ru['elapsed_s']:.0f} s, `reuse_speeds`); only the car effects were re-run"
@@ -1012,10 +1034,17 @@ def _speed_keys(results: dict) -> dict:
     return results
 
 
-def rewrite_report(out_dir) -> str:
-    """Re-write ``report.md`` from the ``results.json`` in ``out_dir`` (no run)."""
+def rewrite_report(out_dir, term_sizes: bool = False) -> str:
+    """Re-write ``report.md`` from the ``results.json`` in ``out_dir`` (no Monte Carlo run).
+
+    ``term_sizes``: also compute :func:`omitted_term_sizes` (a noise-free drive, seconds) if
+    the results lack them, and store them in ``results.json``."""
     out = Path(out_dir)
-    return write_report(_speed_keys(json.loads((out / "results.json").read_text())), out)
+    results = _speed_keys(json.loads((out / "results.json").read_text()))
+    if term_sizes and "term_sizes" not in results:
+        results["term_sizes"] = omitted_term_sizes()
+        (out / "results.json").write_text(json.dumps(results, indent=1))
+    return write_report(results, out)
 
 
 def _collect(recs, runs, seed, workers, elapsed):
