@@ -560,6 +560,8 @@ def _summarize_circle(results) -> dict:
     if not results:
         return out
     out["runs_per_heading"] = max(r["run"] for r in results) + 1
+    out["carried_over"] = sorted({r["carried_over"] for r in results if r.get("carried_over")})
+    out["carried_over_runs"] = sum(1 for r in results if r.get("carried_over"))
     circle = [r for r in results if r["heading_deg"] in CIRCLE_HEADINGS_DEG]
     start = [r for r in results if r["heading_deg"] == PAPER_START_DEG]
     for key in CIRCLE_KEYS:
@@ -1368,6 +1370,12 @@ def _report(summary) -> str:
             "run of the same code and seed (`reuse_tables`); the whole circle and the k0 sweep "
             f"were re-run on {S.get('circle_workers')} workers, and the total counts the "
             "earlier run's time without its circle. " if S.get("reused_tables") else "")
+         + (f"{S['whole_circle']['carried_over_runs']} of the circle's drives (its first "
+            "seeds) are carried over, final errors only, from "
+            + "; ".join(S["whole_circle"]["carried_over"])
+            + ": the same seeds and settings (a fresh run of one of them gave the same final "
+            "errors to the last bit), so only the new seeds were run. "
+            if (S.get("whole_circle") or {}).get("carried_over_runs") else "")
          + ("The circle's and the sweep's runs were kept as they finished and the run "
             "resumed from them (circle: {circle}, k0 sweep: {k0} runs done before the last "
             "call; its times count only that call). ".format(**S["checkpointed_before"])
