@@ -50,11 +50,14 @@ Documented choices:
 * Whole circle (issue 17): the paper's point is alignment from an unknown attitude (its test
   2 starts about 155-180 deg off in heading; our Tables 1-2 start 8 deg off). Test 2's drive
   is run from the truth's start headings every 30 deg and from 170 deg (the paper's start),
-  ``circle_runs`` seeds each, with every scheme; success is |heading error| < 1 deg at 300 s,
-  given with its Clopper-Pearson 95 % interval (:func:`binomial_interval`) and the error
-  distribution. The heading 1-sigma each filter claims at 2 s is set against the Cramer-Rao
-  bound of the Earth-rate signal (:func:`earth_rate_heading_sigma_deg`): the mechanism that
-  keeps the USQUE family from large starts (report, "Alignment from an unknown heading").
+  ``circle_runs`` seeds each (:data:`CIRCLE_RUNS`), with the schemes of :data:`CIRCLE_KEYS`;
+  success is |heading error| < 1 deg at 300 s, given with its Clopper-Pearson 95 % interval
+  (:func:`binomial_interval`) and the error distribution. The heading 1-sigma each filter
+  claims at 2 s is set against the Cramer-Rao bound of the Earth-rate signal
+  (:func:`earth_rate_heading_sigma_deg`): the mechanism that keeps the USQUE family from
+  large starts (report, "Alignment from an unknown heading"). The attitude-only state's
+  ceiling: the v^b(0) sample's noise leaves a heading error that no start and no k0 removes
+  (:func:`v0_heading_sigma_deg`, :func:`success_ceiling`).
 * Conditions table (issue 17): :func:`conditions` reads "ours" from the scenarios and the
   filter configurations the runs use (a test checks them); the paper's filter settings
   (:data:`PAPER_FILTER`) and our choices where it gives none (:data:`USQUE_TUNING`) are
