@@ -840,12 +840,18 @@ def _mechanism_text(results) -> list[str]:
             L.append(f"| {t['term']} | {t['setting']} | {t['rms_m_s']:.4f} | "
                      f"{t['p99_m_s']:.4f} | {t['max_m_s']:.4f} | {t['share_above_noise']:.1%} "
                      f"| {enters} |")
+        model = [t for t in terms if not t["term"].startswith(("V^b noise", "accelerometer"))]
         L += ["", "What the sizes say:", "",
-              "* Only the mounting (a constant turn of V^b, absorbed as a constant attitude "
-              "offset by both levels) and the omitted omega_ie x V integral (growing over the "
-              "segment) exceed the paper's V^b noise most of the time; lever arm, side slip, "
-              "speed lag and bounce exceed it only in turns, speed changes or jolts "
-              "(a few per cent of the time), and the body pitch against the road stays below it.",
+              "* Above the paper's V^b noise for a quarter of the time or more: "
+              + (", ".join(f"{t['term']} ({t['setting']}: {t['share_above_noise']:.0%})"
+                           for t in model if t["share_above_noise"] >= 0.25) or "none")
+              + "; above it now and then (turns, speed changes, jolts): "
+              + (", ".join(f"{t['term']} ({t['share_above_noise']:.2%})" for t in model
+                           if 0 < t["share_above_noise"] < 0.25) or "none")
+              + "; never above it: "
+              + (", ".join(t["term"] for t in model if t["share_above_noise"] == 0) or "none")
+              + ". The mounting is a constant turn of V^b that both levels absorb as a constant "
+              "attitude offset; the Earth-rate integral grows over each segment.",
               "* Every speed-channel term enters the V^b and the V^n level as the same vector "
               "(on alpha in eq. 9, turned by the fixed C_hat onto beta in eq. 10): to first "
               "order it moves both levels alike and cannot make the V^n level worse on its own "
