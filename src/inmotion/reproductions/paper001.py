@@ -705,7 +705,8 @@ def reproduce(out_dir, runs: int = 30, workers: int = 2, seed: int = 0,
     out = Path(out_dir)
     out.mkdir(parents=True, exist_ok=True)
     t0 = time.perf_counter()
-    _warm_up()
+    if run_missing:
+        _warm_up()
     if reuse_tables:
         old = json.loads((out / "results.json").read_text())
         if old.get("seed") != seed:
