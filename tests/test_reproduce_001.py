@@ -321,3 +321,11 @@ def test_checkpointed_tasks_resume_and_keep_order(tmp_path):
 
 def _square(x):
     return {"x": np.array([x * x])}
+
+
+def test_near_far_p_value_of_known_tables():
+    # Fisher's exact test, two-sided, by hand: [[8, 2], [1, 5]], margins 10, 6 / 9, 7; the
+    # hypergeometric tables no more likely than the observed one (C(10,8) C(6,1) = 270) are
+    # a = 8, 9, 3: (270 + 10 + 120) / C(16, 9) = 400 / 11440; equal rates give p = 1
+    assert r.near_far_p_value((8, 10), (1, 6)) == pytest.approx(400 / 11440, rel=1e-9)
+    assert r.near_far_p_value((5, 10), (5, 10)) == pytest.approx(1.0)

@@ -333,6 +333,16 @@ def v0_heading_sigma_deg(t_s, lat_deg, dv0_m_s, weighting: str = "last") -> floa
     return float(np.degrees(f * dv0_m_s / s))
 
 
+def near_far_p_value(near, far) -> float:
+    """Two-sided p-value of Fisher's exact test that the success rate from near starts
+    ``near = (successes, n)`` equals that from far starts ``far = (successes, n)``."""
+    from scipy.stats import fisher_exact
+    (a, n1), (b, n2) = near, far
+    if n1 == 0 or n2 == 0:
+        return float("nan")
+    return float(fisher_exact([[a, n1 - a], [b, n2 - b]])[1])
+
+
 def success_ceiling(sigma_deg: float, success_deg: float = SUCCESS_DEG) -> float:
     """P(|e| < success_deg) for a zero-mean normal error of 1-sigma ``sigma_deg``: the
     success rate a scheme cannot exceed when that error is left in it."""
@@ -1275,7 +1285,7 @@ def _k0_text(S) -> list:
          "\"determined by experiment\", no value), both state sets, on tuning drives of test "
          f"{CIRCLE_TEST} that are none of the circle's or the tables' (Generator spawn key "
          f"({CIRCLE_TEST}, 2, heading, run)), from the same {len(K['headings_deg'])} start "
-         f"headings, {K['runs_per_heading']} drives each; everything else as in the tables "
+         f"headings, {K['runs_per_heading']} drive(s) each; everything else as in the tables "
          "(`FILTER`). Success |heading error| < "
          f"{SUCCESS_DEG:g} deg at 300 s, Clopper-Pearson 95 %; within {NEAR_DEG:g} / beyond "
          f"{FAR_DEG:g} deg: successes of runs, gross (> {GROSS_DEG:g} deg).", "",
@@ -1292,7 +1302,18 @@ def _k0_text(S) -> list:
                  f"{st['max_abs_deg']:.1f} |")
         if state not in best or st["successes"] > best[state][1]["successes"]:
             best[state] = (k0, st)
+    fish = []
+    for key in ("ausquhe/paper", "ausquhe/extended", "usque/paper", "oba/paper-form"):
+        if key in C.get("final_deg", {}):
+            b = circle_bins(C["final_deg"][key])
+            p = near_far_p_value(b["near"][:2], b["far"][:2])
+            fish.append(f"{_label(key)} {b['near'][0]} of {b['near'][1]} near against "
+                        f"{b['far'][0]} of {b['far'][1]} far (p = {p:.2g})")
     L += ["", "What this settles:", "",
+          "* **Does the start heading lower the success rate? The circle's drives** "
+          f"({C.get('runs_per_heading', 0)} per start heading; Fisher's exact test, two-sided, "
+          f"of success from starts within {NEAR_DEG:g} deg against beyond {FAR_DEG:g} deg; a "
+          "small p: the start matters): " + "; ".join(fish) + ".",
           f"* **A ceiling for the attitude-only state, from any start.** The one LDV sample "
           f"taken as v^b(0) carries the test's {noise:g} m/s of noise, a constant in every "
           f"vector pair that the paper's state cannot absorb. Against the heading's signal, "
@@ -1346,8 +1367,9 @@ def _k0_text(S) -> list:
                     "spurious early heading information above, which no setting of eq. 55's "
                     "k0 removes without also opening the heading to the noise."
                     if top["interval"][1] < o["interval"][0] else
-                    "Its interval reaches `oba`'s: with that k0 the start heading costs "
-                    "`ausquhe` no more than the batch solution."))
+                    f"Its interval reaches `oba`'s: on {top['n']} tuning drives the sweep "
+                    "cannot tell that k0 from the batch solution; the circle's own runs of "
+                    "k0 = 30 (above, near against far) are the larger sample."))
     return L
 
 
@@ -1362,27 +1384,30 @@ def _report(summary) -> str:
                       "the scenarios and filter settings the runs use) and why ours differs.",
                       ""] + table[2:]
     L += ["## The runs", "",
-         f"{S['runs']} Monte Carlo runs per test, seed {S['seed']}, {S['workers']} workers; "
-         f"{S['elapsed_s']:.0f} s in all ({S.get('timing_pass_s', 0):.0f} s of it the timing "
-         f"pass of Table 3, {S.get('monte_carlo_s', S['elapsed_s']):.0f} s the Monte Carlo, "
-         f"{S.get('circle_s', 0):.0f} s the whole circle "
-         f"({S.get('whole_circle', {}).get('runs_per_heading', 0)} runs per start heading), "
-         f"{S.get('k0_s', 0):.0f} s the k0 sweep "
-         f"({S.get('k0_sweep', {}).get('runs_per_heading', 0)} tuning drives per start "
-         "heading)). "
+         f"{S['runs']} Monte Carlo runs per test, seed {S['seed']}, {S['workers']} worker(s); "
+         + (f"{S['elapsed_s']:.0f} s in all ({S.get('timing_pass_s', 0):.0f} s of it the "
+            f"timing pass of Table 3, {S.get('monte_carlo_s', S['elapsed_s']):.0f} s the "
+            f"Monte Carlo, {S.get('circle_s', 0):.0f} s the whole circle, "
+            f"{S.get('k0_s', 0):.0f} s the k0 sweep). "
+            if not any((S.get("checkpointed_before") or {}).values()) else
+            f"Tables 1-3: {S.get('timing_pass_s', 0):.0f} s the timing pass, "
+            f"{S.get('monte_carlo_s', 0):.0f} s the Monte Carlo. ")
+         + f"Whole circle: {S.get('whole_circle', {}).get('runs_per_heading', 0)} runs per "
+         f"start heading; k0 sweep: {S.get('k0_sweep', {}).get('runs_per_heading', 0)} tuning "
+         "drive(s) per start heading. "
          + ("Tables 1-3, the ranking, the NEES and the test figures are those of an earlier "
             "run of the same code and seed (`reuse_tables`); the whole circle and the k0 sweep "
-            f"were re-run on {S.get('circle_workers')} workers, and the total counts the "
-            "earlier run's time without its circle. " if S.get("reused_tables") else "")
+            "were re-run. " if S.get("reused_tables") else "")
          + (f"{S['whole_circle']['carried_over_runs']} of the circle's drives (its first "
             "seeds) are carried over, final errors only, from "
             + "; ".join(S["whole_circle"]["carried_over"])
             + ": the same seeds and settings (a fresh run of one of them gave the same final "
             "errors to the last bit), so only the new seeds were run. "
             if (S.get("whole_circle") or {}).get("carried_over_runs") else "")
-         + ("The circle's and the sweep's runs were kept as they finished and the run "
-            "resumed from them (circle: {circle}, k0 sweep: {k0} runs done before the last "
-            "call; its times count only that call). ".format(**S["checkpointed_before"])
+         + ("The circle's and the sweep's runs were kept as they finished "
+            "(`run_tasks_checkpointed`) and ran over several calls on a shared, loaded "
+            "machine (circle: {circle}, k0 sweep: {k0} runs done before the last call), so "
+            "their wall time is not given. ".format(**S["checkpointed_before"])
             if any((S.get("checkpointed_before") or {}).values()) else "")
          + "Heading error "
          "(estimate minus truth) in deg. Measured Mean: average over the runs of each run's "
