@@ -11,9 +11,11 @@ to ``DIR/paper_rows.json`` and an HTML page ``DIR/report.html``; ``all`` runs ev
 (paper figure, measured figure, better or worse). ``--runs`` defaults to each paper's issue
 count (000: 50, 001: 30, 002: 20, 003: 20, 004: 50). ``--reuse`` skips a paper whose results
 file is already in its folder and only re-reads it (e.g. to assemble ``all`` from runs made
-one by one). The Monte Carlo runs go to the campaign engine's Dask workers: ``--workers N``
-local processes, or an existing scheduler with ``--scheduler ADDRESS`` (as for ``inmotion
-campaign``). Progress goes to stderr; ``--quiet`` silences it; ``--json`` prints the summary
+one by one). A paper's Monte Carlo is a campaign specification shipped in
+``inmotion/reproductions/campaigns/`` (papers 000, 002, 003), run by the campaign engine into
+``DIR/campaign/<name>/``, so the same command again resumes an interrupted reproduction; the
+runs go to the engine's Dask workers: ``--workers N`` local processes, or an existing
+scheduler with ``--scheduler ADDRESS`` (as for ``inmotion montecarlo``). Progress goes to stderr; ``--quiet`` silences it; ``--json`` prints the summary
 rows. An unknown PAPER is bad input (exit status 2), with the valid names.
 """
 from __future__ import annotations

@@ -74,9 +74,9 @@ import numpy as np
 from ..estimation import chi2
 
 from ..core.bundle import row_at_or_after
-from .common import conditions_markdown, drift_free_dr_gyro, run_tasks
+from .common import conditions_markdown, drift_free_dr_gyro
 
-__all__ = ["reproduce", "run_one", "EXPERIMENTS", "PAPER", "observability",
+__all__ = ["reproduce", "run", "run_z2", "run_one", "EXPERIMENTS", "PAPER", "observability",
            "gyrocompass_heading_limit", "conditions", "z2_redundancy", "Z2_STUDY",
            "one_run_interval", "rewrite_report"]
 
@@ -178,6 +178,35 @@ def run_one(task) -> dict:
         out[NOISE_FREE_LABEL] = _align(bundle_q, SETTINGS["with_Z2"], init, None)
     out["cpu_s"] = time.process_time() - cpu0
     return out
+
+
+def run(spec: dict, rng) -> dict:
+    """The run function of the campaign ``campaigns/paper000.yaml``: run ``k`` of experiment
+    ``spec["experiment"]`` (:func:`run_one`), drawn from ``default_rng([seed, e, k])`` with
+    ``(seed, k)`` = :func:`~inmotion.reproductions.common.run_key` of the campaign's generator
+    (the stream of the committed snapshot). The nested record travels as
+    :func:`~inmotion.reproductions.common.pack_record`."""
+    from .common import pack_record, run_key
+    seed, k = run_key(rng)
+    return pack_record(run_one((spec["experiment"], k, seed)))
+
+
+def run_z2(spec: dict, rng) -> dict:
+    """The run function of ``campaigns/paper000_z2.yaml``: run ``k`` of the Z2-study
+    condition ``spec["condition"]`` (:func:`_z2_run`, ``default_rng([seed, 50 + c, k])``)."""
+    from .common import pack_record, run_key
+    seed, k = run_key(rng)
+    return pack_record(_z2_run(("z2", spec["condition"], k, seed)))
+
+
+def _check_key(spec, key, allowed):
+    from ..errors import BadInput
+    if spec.get(key) not in allowed:
+        raise BadInput(f"{key} {spec.get(key)!r} is not one of {', '.join(allowed)}")
+
+
+run.validate_spec = lambda spec: _check_key(spec, "experiment", EXPERIMENTS)
+run_z2.validate_spec = lambda spec: _check_key(spec, "condition", Z2_STUDY)
 
 
 #: trajectory 1 with Z2, the IMU's white noise (angle and velocity random walk) switched off
@@ -462,12 +491,6 @@ def conditions() -> list:
 #: Monte Carlo runs of each Z2-study condition (at most; fewer when ``runs`` is smaller):
 #: the study costs about 4.7 CPU-s a run against 1 for the three experiments
 Z2_RUNS = 20
-
-
-def _tasks(runs, seed, z2_runs=None):
-    z2_runs = min(runs, Z2_RUNS) if z2_runs is None else z2_runs
-    return ([(exp, i, seed) for exp in EXPERIMENTS for i in range(runs)]
-            + [("z2", cond, i, seed) for cond in Z2_STUDY for i in range(z2_runs)])
 
 
 # -- observability -------------------------------------------------------------------------
@@ -1022,10 +1045,13 @@ def reproduce(out_dir, runs=50, workers=2, seed=0, progress=True, z2_runs=None) 
     ----------
     out_dir : folder to write into (created)
     runs : Monte Carlo runs per experiment
-    workers : processes (``ProcessPoolExecutor``); 1 runs in this process
-    seed : base seed; run ``i`` of experiment ``e`` uses ``default_rng([seed, e, i])``
+    workers : local worker processes of the campaign engine (when no engine is open)
+    seed : the campaigns' seed; run ``i`` of experiment ``e`` uses ``default_rng([seed, e, i])``
     progress : show a tqdm progress bar
     z2_runs : runs of each Z2-study condition (default ``min(runs, Z2_RUNS)``)
+
+    The runs are the campaigns ``campaigns/paper000.yaml`` and ``paper000_z2.yaml``, run into
+    ``out_dir/campaign/<name>/`` (resumed if there).
 
     Returns
     -------
@@ -1033,11 +1059,17 @@ def reproduce(out_dir, runs=50, workers=2, seed=0, progress=True, z2_runs=None) 
     """
     out = Path(out_dir)
     out.mkdir(parents=True, exist_ok=True)
-    tasks = _tasks(runs, seed, z2_runs)
-    t0 = time.perf_counter()
-    results = run_tasks(run_one, tasks, workers, desc="paper 000 Monte Carlo",
-                        progress=progress, chunksize=2)
-    wall = time.perf_counter() - t0
+    from .common import run_campaign_file
+    z2_runs = min(runs, Z2_RUNS) if z2_runs is None else z2_runs
+    camp = run_campaign_file("paper000", out, runs=runs, seed=seed, workers=workers,
+                             progress=progress)
+    results = camp.records()
+    wall = camp.wall_s
+    if z2_runs > 0:
+        camp_z2 = run_campaign_file("paper000_z2", out, runs=z2_runs, seed=seed,
+                                    workers=workers, progress=progress)
+        results += camp_z2.records()
+        wall += camp_z2.wall_s
     main = [r for r in results if r["experiment"] != "z2"]
     summary = _aggregate(main, runs)
     z2 = _aggregate_z2([r for r in results if r["experiment"] == "z2"])

@@ -49,8 +49,11 @@ Set-up (documented choices):
 * The report opens with a conditions table (:func:`conditions`), and every paper figure (one
   run's envelope) stands beside the median over runs and the single-run 95 % interval of the
   runs' maxima.
-* Run ``i`` simulates with ``numpy.random.default_rng([seed, i])`` and draws its initial
-  attitude error from the same generator afterwards: a seed reproduces a run.
+* The Monte Carlo is the campaign ``inmotion/reproductions/campaigns/paper002.yaml`` (a grid
+  over the variants of :data:`METHODS`; :func:`run` is its run function). Run ``i`` simulates
+  with ``numpy.random.default_rng([seed, i])`` and draws its initial attitude error from the
+  same generator afterwards: a seed reproduces a run, and every variant of run ``i`` sees the
+  same drive.
 """
 from __future__ import annotations
 
@@ -60,9 +63,10 @@ from pathlib import Path
 
 import numpy as np
 
-from .common import conditions_markdown, drift_free_dr_gyro, run_tasks
+from .common import campaign_paper as _campaign_paper
+from .common import conditions_markdown, drift_free_dr_gyro
 
-__all__ = ["reproduce", "run_one", "PAPER", "SETTLE_S", "METHODS", "INIT_SIGMA_ARCMIN",
+__all__ = ["reproduce", "run", "collect", "PAPER", "SETTLE_S", "METHODS", "INIT_SIGMA_ARCMIN",
            "CROSS_NOISE_M_S", "conditions", "crossover", "rewrite_report"]
 
 ARCMIN = np.pi / 180.0 / 60.0
@@ -75,9 +79,9 @@ INIT_SIGMA_ARCMIN = (0.5, 0.5, 3.2 * 0.01 / 0.03)
 #: [arcmin] (the same standard-normal draw per run, scaled; prior at least 0.1')
 START_HEADING_ARCMIN = {"attitude-position, start heading exact": 0.0,
                         "attitude-position, start heading 1.8'": 1.8}
-#: paper 002's figures per mode: horizontal [m], heading [arcmin], level [arcmin]
-PAPER = {"attitude-position": {"horizontal_m": 20.8, "heading_arcmin": 2.1, "level_arcmin": 0.5},
-         "velocity-position": {"horizontal_m": 49.2, "heading_arcmin": 4.0, "level_arcmin": 0.6}}
+#: paper 002's figures per mode: horizontal [m], heading [arcmin], level [arcmin] (the
+#: ``paper:`` block of the campaign file ``campaigns/paper002.yaml``, written there once)
+PAPER = _campaign_paper("paper002")
 #: label -> (method, configuration)
 _PRIORS = {"init_tilt_sigma_arcmin": INIT_SIGMA_ARCMIN[0],
            "init_heading_sigma_arcmin": INIT_SIGMA_ARCMIN[2],
@@ -144,41 +148,80 @@ def run_statistics(err) -> dict:
             "horizontal_final_m": float(hor[-1])}
 
 
-def run_one(task) -> dict:
-    """Simulate run ``index`` and navigate it with every method of :data:`METHODS`.
+def run(spec: dict, rng) -> dict:
+    """The campaign's run function (``campaigns/paper002.yaml``): variant ``spec["variant"]``
+    (a label of :data:`METHODS`) on run ``k``'s simulated drive of ``spec["scenario"]``.
 
-    ``task = (index, seed)``. Returns ``{"index", "distance_m", "t" (1 Hz), label: {"stats":
-    dict, "series": {name: (N,) at 1 Hz}, "wall_s"}}``.
+    The drive and the start's standard-normal attitude draw ``z`` come from
+    ``default_rng([seed, k])`` (``(seed, k)`` = :func:`~inmotion.reproductions.common.run_key`
+    of the campaign's generator): the stream the committed snapshot was drawn with, the same
+    for every variant of run ``k``. The drive is simulated once per worker and run index
+    (``affinity``: the variants of run ``k`` travel together).
+
+    Returns ``{"distance_m", "wall_s", "stats": {name: value}, "arrays": {"t" (1 Hz),
+    name: (N,) error series}}``.
     """
     from ..core.metrics import error_series
+    from ..evaluate.runs import simulate_cached
     from ..registry import get
-    from ..sim import simulate
-    from ..sim.scenario import find_scenario, load_scenario
-    index, seed = task
-    rng = np.random.default_rng([seed, index])
-    sc = load_scenario(find_scenario("paper002_hour"))
-    bundle = simulate(sc, rng)
+    from .common import run_key
+    label = spec["variant"]
+    name, cfg = METHODS[label]
+    seed, index = run_key(rng)
+    stream = np.random.default_rng([seed, index])
+    bundle = simulate_cached(spec["scenario"], stream)
+    from ..sim.scenario import load_scenario
+    sc = load_scenario(spec["scenario"])
     eps_b = np.deg2rad(np.array(sc.imu.gyro.drift_deg_h, dtype=float)
                        * np.ones(3)) / 3600.0          # fixed constants: the drift as given
-    z = rng.standard_normal(3)
-    out = {"index": index}
+    z = stream.standard_normal(3)
     t_grid = np.arange(0.0, bundle.truth.t[-1] + 0.5, 1.0)
-    for label, (name, cfg) in METHODS.items():
-        init = _initial_state(bundle.truth, z,
-                              START_HEADING_ARCMIN.get(label, INIT_SIGMA_ARCMIN[2]))
-        run, Cfg = get(name).load()
-        extra = ({"dtheta_dr": drift_free_dr_gyro(bundle.imu, eps_b)} if label in DRIFT_FREE_DR
-                 else {})
-        t0 = time.perf_counter()
-        sol = run(bundle, Cfg(**cfg), init, **extra)
-        wall = time.perf_counter() - t0
-        err = error_series(sol, bundle.truth)
-        te = err["t"].to_numpy()
-        out[label] = {"stats": run_statistics(err), "wall_s": wall,
-                      "series": {k: np.interp(t_grid, te, err[k].to_numpy()) for k in SERIES}}
-        out["distance_m"] = float(err["distance_m"].iloc[-1])
-    out["t"] = t_grid
-    return out
+    init = _initial_state(bundle.truth, z, START_HEADING_ARCMIN.get(label, INIT_SIGMA_ARCMIN[2]))
+    method, Cfg = get(name).load()
+    extra = ({"dtheta_dr": drift_free_dr_gyro(bundle.imu, eps_b)} if label in DRIFT_FREE_DR
+             else {})
+    t0 = time.perf_counter()
+    sol = method(bundle, Cfg(**cfg), init, **extra)
+    wall = time.perf_counter() - t0
+    err = error_series(sol, bundle.truth)
+    te = err["t"].to_numpy()
+    return {"distance_m": float(err["distance_m"].iloc[-1]), "wall_s": wall,
+            "stats": run_statistics(err),
+            "arrays": {"t": t_grid, **{k: np.interp(t_grid, te, err[k].to_numpy())
+                                       for k in SERIES}}}
+
+
+def validate_spec(spec: dict) -> None:
+    """A variant that is not a label of :data:`METHODS` fails before the campaign starts."""
+    from ..errors import BadInput
+    if spec.get("variant") not in METHODS:
+        raise BadInput(f"variant {spec.get('variant')!r} is not one of paper002.METHODS "
+                       f"({', '.join(METHODS)})")
+
+
+def _scenario_key(spec: dict) -> str:
+    from ..evaluate.runs import scenario_key
+    return scenario_key(spec)
+
+
+run.validate_spec = validate_spec
+run.affinity = _scenario_key
+
+
+def collect(camp) -> list:
+    """The campaign's runs as per-run records ``{"index", "distance_m", "t", label:
+    {"stats", "wall_s", "series"}}`` (what :func:`aggregate` and the figures read), from the
+    results table and the runs' arrays."""
+    by_run = {}
+    for row in camp.rows():
+        label = camp.sweep.points[int(row["point_id"])].params["variant"]
+        k = int(row["run_index"])
+        arrays = camp.arrays(row["point_id"], k)
+        rec = by_run.setdefault(k, {"index": k, "distance_m": row["distance_m"],
+                                    "t": arrays["t"]})
+        rec[label] = {"stats": {s: row[f"stats.{s}"] for s in STATS}, "wall_s": row["wall_s"],
+                      "series": {s: arrays[s] for s in SERIES}}
+    return [by_run[k] for k in sorted(by_run)]
 
 
 # ------------------------------------------------------------------------------ aggregate
@@ -524,9 +567,12 @@ def reproduce(out_dir, runs=20, workers=2, seed=0, progress=True) -> dict:
     ----------
     out_dir : folder to write into (created)
     runs : Monte Carlo runs (>= 1; the issue asks for at least 20)
-    workers : processes (``ProcessPoolExecutor``); 1 runs in this process
-    seed : base seed; run ``i`` uses ``default_rng([seed, i])``
+    workers : local worker processes of the campaign engine (when no engine is open)
+    seed : the campaign's seed; run ``i`` draws from ``default_rng([seed, i])`` (:func:`run`)
     progress : show a tqdm progress bar
+
+    The Monte Carlo is the campaign ``campaigns/paper002.yaml`` (:func:`run`), run into
+    ``out_dir/campaign/paper002/`` (resumed if there).
 
     Returns
     -------
@@ -534,15 +580,15 @@ def reproduce(out_dir, runs=20, workers=2, seed=0, progress=True) -> dict:
     the files written.
     """
     from ..errors import BadInput
+    from .common import run_campaign_file
     if int(runs) < 1 or int(workers) < 1:
         raise BadInput(f"runs and workers must be >= 1, got runs={runs}, workers={workers}")
     out = Path(out_dir)
     out.mkdir(parents=True, exist_ok=True)
-    tasks = [(i, int(seed)) for i in range(int(runs))]
-    t0 = time.perf_counter()
-    results = run_tasks(run_one, tasks, workers, desc="paper 002 Monte Carlo",
-                        progress=progress)
-    wall = time.perf_counter() - t0
+    camp = run_campaign_file("paper002", out, runs=int(runs), seed=int(seed), workers=workers,
+                             progress=progress)
+    results = collect(camp)
+    wall = camp.wall_s
     agg = aggregate(results)
     ver = verdicts(agg)
     cross = crossovers(results)

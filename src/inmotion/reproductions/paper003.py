@@ -44,7 +44,10 @@ error 5 ug/sqrt(Hz); odometer scale factor 0.2 %; LDV 0.05 %; barometer 10 m (sc
 * each window's fine alignment starts at the window's start time from the true position there
   (a known start position, as the drive's first window has from ``meta``).
 
-Run ``r`` uses ``default_rng(SeedSequence(seed).spawn(runs)[r])``; any run can be redone alone.
+The Monte Carlo is the campaign ``inmotion/reproductions/campaigns/paper003.yaml`` (run function
+:func:`run`). Run ``r`` uses ``SeedSequence(seed).spawn(runs)[r]`` (the campaign engine's run
+stream ``SeedSequence(seed, spawn_key=(r,))``, spawned into one child per drive); any run can
+be redone alone.
 """
 from __future__ import annotations
 
@@ -57,9 +60,9 @@ import yaml
 
 from ..core.bundle import row_at_or_after
 from ..core.rotations import wrap_pi
-from .common import conditions_markdown, run_tasks, turned_heading
+from .common import conditions_markdown, turned_heading
 
-__all__ = ["reproduce", "PAPER_TABLE2", "PAPER_TABLE3", "run_one"]
+__all__ = ["reproduce", "PAPER_TABLE2", "PAPER_TABLE3", "run"]
 
 ARCMIN = 180.0 / np.pi * 60.0
 N_WINDOWS = 10
@@ -395,10 +398,34 @@ def _adaptive(bundle):
             "final_error_arcmin": _err(sol, bundle.truth).tolist()}
 
 
-def run_one(task):
-    """One Monte Carlo run: ``(r, SeedSequence, keep_series, n_windows)`` -> record."""
+def run(spec: dict, rng) -> dict:
+    """The campaign's run function (``campaigns/paper003.yaml``): one Monte Carlo run.
+
+    The four drives come from ``rng``'s ``SeedSequence`` spawned four ways (run ``r``'s is
+    ``SeedSequence(seed, spawn_key=(r,))`` = ``SeedSequence(seed).spawn(runs)[r]``, the seeding
+    of the committed snapshot); ``spec["windows"]`` alignment windows. Run 0 also keeps the
+    series the figures draw. The record is nested, so it travels as
+    :func:`~inmotion.reproductions.common.pack_record` (JSON text + arrays)."""
+    from .common import pack_record, run_key
+    r = run_key(rng)[1]
+    rec = _run_record(r, rng.bit_generator.seed_seq, r == 0, int(spec.get("windows", N_WINDOWS)))
+    return pack_record(rec)
+
+
+def validate_spec(spec: dict) -> None:
+    from ..errors import BadInput
+    w = spec.get("windows", N_WINDOWS)
+    if isinstance(w, bool) or not isinstance(w, int) or not 1 <= w <= N_WINDOWS:
+        raise BadInput(f"windows must be an integer in 1..{N_WINDOWS}, got {w!r}")
+
+
+run.validate_spec = validate_spec
+
+
+def _run_record(r, ss, keep, n_windows):
+    """One Monte Carlo run: run index ``r``, its ``SeedSequence``, whether to keep the
+    figures' series, the number of windows -> record."""
     from ..sim import simulate
-    r, ss, keep, n_windows = task
     rngs = [np.random.default_rng(s) for s in ss.spawn(4)]
     drive = simulate(_scenario("paper003_drive", extend=True), rngs[0])
     rows, series, lam = _windows(drive, keep, n_windows)
@@ -745,13 +772,15 @@ def reproduce(out_dir, runs: int = 20, workers: int = 2, seed: int = 0,
               progress: bool = True, windows: int = N_WINDOWS) -> dict:
     """Run the paper 003 Monte Carlo; write ``report.md``, ``results.json``, ``runs.json`` and
     the figures to ``out_dir``; returns the results. ``windows`` (default 10, the paper's)
-    alignment windows per run; fewer only for quick checks."""
+    alignment windows per run; fewer only for quick checks. The runs are the campaign
+    ``campaigns/paper003.yaml``, run into ``out_dir/campaign/paper003/`` (resumed if there)."""
     out = Path(out_dir)
     out.mkdir(parents=True, exist_ok=True)
-    children = np.random.SeedSequence(seed).spawn(runs)
-    tasks = [(r, children[r], r == 0, windows) for r in range(runs)]
+    from .common import run_campaign_file
     t0 = time.perf_counter()
-    recs = run_tasks(run_one, tasks, workers, desc="paper 003 Monte Carlo", progress=progress)
+    camp = run_campaign_file("paper003", out, runs=runs, seed=seed, workers=workers,
+                             progress=progress, overrides={"windows": int(windows)})
+    recs = camp.records()
     res = _summarize(recs)
     figs = _figures(recs[0].get("series", {}), out)
     wall = time.perf_counter() - t0
