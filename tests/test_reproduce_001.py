@@ -306,22 +306,6 @@ def test_k0_summary_of_a_known_table():
     assert "best k0 on the tuning drives: 1" in sec
 
 
-def test_checkpointed_tasks_resume_and_keep_order(tmp_path):
-    from inmotion.reproductions.common import run_tasks_checkpointed
-    path = tmp_path / "runs.jsonl"
-    assert run_tasks_checkpointed(_square, [1, 2], 1, path, desc="", progress=False) == [
-        {"x": [1]}, {"x": [4]}]
-    # a torn last line is ignored; done tasks are read back, the new one runs
-    with open(path, "a") as f:
-        f.write('{"key": "3", "rec')
-    out = run_tasks_checkpointed(_square, [3, 1, 2], 1, path, desc="", progress=False)
-    assert out == [{"x": [9]}, {"x": [1]}, {"x": [4]}]
-    assert sum(1 for ln in path.read_text().splitlines() if ln.endswith("}")) == 3
-
-
-def _square(x):
-    return {"x": np.array([x * x])}
-
 
 def test_near_far_p_value_of_known_tables():
     # Fisher's exact test, two-sided, by hand: [[8, 2], [1, 5]], margins 10, 6 / 9, 7; the
@@ -329,3 +313,32 @@ def test_near_far_p_value_of_known_tables():
     # a = 8, 9, 3: (270 + 10 + 120) / C(16, 9) = 400 / 11440; equal rates give p = 1
     assert r.near_far_p_value((8, 10), (1, 6)) == pytest.approx(400 / 11440, rel=1e-9)
     assert r.near_far_p_value((5, 10), (5, 10)) == pytest.approx(1.0)
+
+
+# ----------------------------------------------------------------------------- campaign form
+def test_campaign_files_are_the_experiment_and_keep_the_streams(monkeypatch):
+    # the sweep files hold the grid and the runs the module uses
+    from inmotion.evaluate.campaign import run_seed_sequence
+    from inmotion.evaluate.sweep import load_sweep
+    from inmotion.reproductions.common import campaign_file, unpack_record
+    circle = load_sweep(campaign_file("paper001_circle"))
+    heads = [p.params["heading_deg"] for p in circle.points]
+    assert heads == list(r.CIRCLE_HEADINGS_DEG) + [r.PAPER_START_DEG]
+    assert circle.runs == r.CIRCLE_RUNS >= 10
+    assert [p.params["test"] for p in load_sweep(campaign_file("paper001")).points] == list(
+        r.TESTS)
+    # the run functions pass (point, engine run k, seed) to the task functions unchanged,
+    # so a campaign run draws the stream of the former task loop
+    monkeypatch.setattr(r, "run_circle_one", lambda task: {"task": list(task)})
+    monkeypatch.setattr(r, "run_one", lambda task: {"task": list(task)})
+    monkeypatch.setattr(r, "run_k0_one", lambda task: {"task": list(task)})
+    rng = np.random.default_rng(run_seed_sequence(7, 4))
+    rec = lambda out: unpack_record(out["record"], out.get("arrays", {}))   # noqa: E731
+    assert rec(r.run_circle({"heading_deg": 170.0}, rng))["task"] == [170.0, 4, 7]
+    assert rec(r.run({"test": 2}, rng))["task"] == [2, 4, 7]
+    assert rec(r.run_k0({"heading_deg": -90.0}, rng))["task"] == [-90.0, 4, 7]
+    from inmotion.errors import BadInput
+    with pytest.raises(BadInput, match="test must be one of"):
+        r.run.validate_spec({"test": 4})
+    with pytest.raises(BadInput, match="heading_deg"):
+        r.run_circle.validate_spec({"heading_deg": "north"})

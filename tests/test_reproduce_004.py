@@ -99,3 +99,28 @@ def test_conditions_name_the_term_sizes_settings_and_the_drives_run():
         f"{r4.PAPER_VB_NOISE_M_S} m/s")
     assert f"{r4.PITCH_GRADIENT_DEG_PER_G:g} deg per g" in rows["pitch and bounce"][2]
     assert r4.conditions()[0] == r4.conditions(None)[0]
+
+
+def test_campaign_files_keep_the_streams(monkeypatch):
+    from inmotion.evaluate.campaign import run_seed_sequence
+    from inmotion.evaluate.sweep import load_sweep
+    from inmotion.reproductions.common import campaign_file, unpack_record
+    car = load_sweep(campaign_file("paper004_car"))
+    assert [p.params["effect"] for p in car.points] == list(r4.CAR_EFFECTS)
+    assert car.runs == r4.CAR_DRIVES >= 15
+    assert tuple(p.params["speed_m_s"] for p in load_sweep(campaign_file("paper004")).points) \
+        == r4.SPEEDS_M_S
+    seen = {}
+    monkeypatch.setattr(r4, "run_car_segments", lambda task: seen.setdefault("car", task) and {})
+    monkeypatch.setattr(r4, "run_one", lambda task: seen.setdefault("one", task) and {})
+    rng = np.random.default_rng(run_seed_sequence(0, 3))
+    unpack_record(r4.run_car({"effect": "lag"}, rng)["record"], {})
+    unpack_record(r4.run({"speed_m_s": 60}, rng)["record"], {})
+    # drive d of every effect: SeedSequence([seed, 4]).spawn(n)[d], the former car seeds
+    eff, d, ss = seen["car"]
+    ref = np.random.SeedSequence([0, 4]).spawn(5)[3]
+    assert (eff, d) == ("lag", 3) and ss.entropy == ref.entropy and ss.spawn_key == ref.spawn_key
+    # run r at every speed: SeedSequence(seed).spawn(runs)[r], the former straight runs
+    v, k, ss = seen["one"]
+    ref = np.random.SeedSequence(0).spawn(5)[3]
+    assert (v, k) == (60, 3) and ss.entropy == ref.entropy and ss.spawn_key == ref.spawn_key

@@ -25,7 +25,6 @@ single-threaded processes.
 from __future__ import annotations
 
 import contextlib
-import functools
 import json
 import time
 from dataclasses import dataclass, field
@@ -34,7 +33,7 @@ from typing import Optional
 
 import numpy as np
 
-__all__ = ["run_tasks", "run_tasks_checkpointed", "engine", "drift_free_dr_gyro",
+__all__ = ["run_tasks", "engine", "drift_free_dr_gyro",
            "conditions_markdown", "turned_heading", "CAMPAIGNS_DIR", "campaign_file",
            "campaign_paper", "run_campaign_file", "CampaignResult", "pack_record",
            "unpack_record", "run_key"]
@@ -261,58 +260,6 @@ def _on_client(client, fn, tasks, chunksize, bar) -> list:
         if bar is not None:
             bar.update(len(chunks[futures.index(f)]))
     return [r for f in futures for r in f.result()]
-
-
-def run_tasks_checkpointed(fn, tasks, workers, path, *, desc: str, progress: bool = True,
-                           run_missing: bool = True) -> list:
-    """:func:`run_tasks` that keeps every finished task's record in the JSON-lines file
-    ``path`` and, when called again with the same file, runs only the tasks not in it.
-
-    A long reproduction on a loaded machine can then be stopped and resumed, or cut to the
-    tasks that finished (the caller orders its tasks so that a prefix is a complete smaller
-    experiment). A task is identified by ``json.dumps(task, default=str)`` (a SeedSequence
-    by its repr); records come back from the file as JSON (lists for arrays). A torn last
-    line (a write interrupted) is ignored and its task run again. ``run_missing=False``:
-    run nothing, return the records of the tasks in the file (in task order; the others
-    are left out).
-    """
-    path = Path(path)
-    done = {}
-    if path.is_file():
-        for line in path.read_text().splitlines():
-            try:
-                r = json.loads(line)
-                done[r["key"]] = r["record"]
-            except (json.JSONDecodeError, KeyError, TypeError):
-                continue
-    keys = [_task_key(t) for t in tasks]
-    todo = [t for t, k in zip(tasks, keys) if k not in done]
-    if not run_missing:
-        return [done[k] for k in keys if k in done]
-    new = run_tasks(functools.partial(_run_and_append, fn, str(path)), todo, workers,
-                    desc=desc, progress=progress)
-    fresh = dict(zip((_task_key(t) for t in todo), new))
-    return [done[k] if k in done else fresh[k] for k in keys]
-
-
-def _task_key(task) -> str:
-    return json.dumps(task, default=str)
-
-
-def _jsonable(x):
-    if isinstance(x, np.ndarray):
-        return x.tolist()
-    if isinstance(x, np.generic):
-        return x.item()
-    return str(x)
-
-
-def _run_and_append(fn, path, task):
-    rec = fn(task)
-    line = json.dumps({"key": _task_key(task), "record": rec}, default=_jsonable)
-    with open(path, "a") as f:         # one write of one line: workers may append at once
-        f.write(line + "\n")
-    return rec
 
 
 def turned_heading(C_nb, d_yaw_rad):

@@ -81,7 +81,7 @@ from pathlib import Path
 
 import numpy as np
 
-from .common import conditions_markdown, run_tasks, run_tasks_checkpointed
+from .common import conditions_markdown
 
 __all__ = ["reproduce", "rewrite_report", "run_one", "window_stats", "ranking_stats",
            "nees_stats", "PAPER_TABLE1", "PAPER_TABLE2", "PAPER_TABLE3", "SCHEMES", "WINDOWS",
@@ -138,13 +138,23 @@ FILTER = {**PAPER_FILTER, **USQUE_TUNING}
 #: q = [1 0 0 0]), so the truth's start heading h is a start error of -h. Test 2's drive from
 #: every 30 deg of the circle and from the paper's own start, CIRCLE_RUNS seeds each.
 CIRCLE_TEST = 2
-CIRCLE_HEADINGS_DEG = tuple(float(h) for h in range(-180, 180, 30))
 #: the paper's test 2 starts about 155-180 deg off: Table 2's 1-120 s means 121-178 deg and
 #: its fig. 9 (the issue's reading); 170 deg is the value tried in the issue
 PAPER_START_DEG = 170.0
-#: seeds per start heading (issue 17: >= 10, so that a success rate has an interval that
-#: means something; 3 before)
-CIRCLE_RUNS = 10
+
+
+def _campaign_doc(name: str) -> dict:
+    import yaml
+    from .common import campaign_file
+    return yaml.safe_load(campaign_file(name).read_text())
+
+
+#: start headings and seeds per heading of the circle: the grid and runs of
+#: ``campaigns/paper001_circle.yaml`` (issue 17: >= 10 seeds, so that a success rate has an
+#: interval that means something; 3 before), the paper's start apart
+CIRCLE_HEADINGS_DEG = tuple(float(h) for h in _campaign_doc("paper001_circle")["grid"]
+                            ["heading_deg"] if float(h) != PAPER_START_DEG)
+CIRCLE_RUNS = int(_campaign_doc("paper001_circle")["runs"])
 #: success: |heading error| below this at 300 s [deg] (the issue's criterion)
 SUCCESS_DEG = 1.0
 #: schemes of the circle; ``ausquhe`` (paper) and ``oba (paper-form)`` are the paper's scheme
@@ -163,7 +173,7 @@ CIRCLE_K0 = 3.0
 #: circle's has 1 in the second place), from every heading of the circle and the paper's start,
 #: K0_TUNING_RUNS seeds each; the other settings are FILTER's
 K0_SWEEP = (1.0, 3.0, 10.0, 30.0)
-K0_TUNING_RUNS = 1
+K0_TUNING_RUNS = int(_campaign_doc("paper001_k0")["runs"])
 K0_STATE_SETS = ("paper", "extended")
 #: variants that exist only in the circle: ausquhe with k0 = CIRCLE_K0
 CIRCLE_VARIANTS: dict = {"ausquhe": {"paper-k0-3": {"k0": CIRCLE_K0},
@@ -512,6 +522,65 @@ def run_k0_one(task) -> dict:
     return out
 
 
+# ------------------------------------------------------------------------------ campaigns
+#: the campaign files of this reproduction (``campaigns/<name>.yaml``): Tables 1-2 and test 3,
+#: the whole circle, the k0 sweep
+CAMPAIGNS = {"tables": "paper001", "circle": "paper001_circle", "k0": "paper001_k0"}
+
+
+def run(spec: dict, rng) -> dict:
+    """Run function of ``campaigns/paper001.yaml``: run ``k`` of test ``spec["test"]``,
+    :func:`run_one` on ``(test, k, seed)`` with ``(seed, k)`` the campaign generator's
+    :func:`~inmotion.reproductions.common.run_key` (the drive's stream is ``SeedSequence(seed,
+    spawn_key=(test, k))`` as before the campaign form); the record travels as
+    :func:`~inmotion.reproductions.common.pack_record`."""
+    from .common import pack_record, run_key
+    seed, k = run_key(rng)
+    return pack_record(run_one((int(spec["test"]), k, seed)))
+
+
+def run_circle(spec: dict, rng) -> dict:
+    """Run function of ``campaigns/paper001_circle.yaml``: :func:`run_circle_one` on
+    ``(spec["heading_deg"], k, seed)``."""
+    from .common import pack_record, run_key
+    seed, k = run_key(rng)
+    return pack_record(run_circle_one((float(spec["heading_deg"]), k, seed)))
+
+
+def run_k0(spec: dict, rng) -> dict:
+    """Run function of ``campaigns/paper001_k0.yaml``: :func:`run_k0_one` on
+    ``(spec["heading_deg"], k, seed)``."""
+    from .common import pack_record, run_key
+    seed, k = run_key(rng)
+    return pack_record(run_k0_one((float(spec["heading_deg"]), k, seed)))
+
+
+def _validate_test(spec: dict) -> None:
+    from ..errors import BadInput
+    if spec.get("test") not in TESTS:
+        raise BadInput(f"test must be one of {list(TESTS)}, got {spec.get('test')!r}")
+
+
+def _validate_heading(spec: dict) -> None:
+    from ..errors import BadInput
+    h = spec.get("heading_deg")
+    if isinstance(h, bool) or not isinstance(h, (int, float)) or not -180.0 <= h < 360.0:
+        raise BadInput(f"heading_deg must be a number in [-180, 360), got {h!r}")
+
+
+run.validate_spec = _validate_test
+run_circle.validate_spec = _validate_heading
+run_k0.validate_spec = _validate_heading
+
+
+def _campaign(key: str, out: Path, runs, seed, workers, progress) -> list:
+    """The records of campaign ``CAMPAIGNS[key]`` run (or resumed) into ``out/campaign/``."""
+    from .common import run_campaign_file
+    camp = run_campaign_file(CAMPAIGNS[key], out, runs=runs, seed=seed, workers=workers,
+                             progress=progress)
+    return camp.records()
+
+
 def _summarize_k0(results) -> dict:
     """Per state set and k0: :func:`circle_stats` over all tuning drives, and
     :func:`circle_bins` (starts within NEAR_DEG / beyond FAR_DEG: successes, n, gross)."""
@@ -695,17 +764,14 @@ def _time_schemes(seed: int, repeats: int = TIMING_REPEATS) -> dict:
 
 def reproduce(out_dir, runs: int = 30, workers: int = 2, seed: int = 0,
               progress: bool = True, circle_runs: int = CIRCLE_RUNS,
-              k0_runs: int = K0_TUNING_RUNS, reuse_tables: bool = False,
-              run_missing: bool = True) -> str:
+              k0_runs: int = K0_TUNING_RUNS, reuse_tables: bool = False) -> str:
     """Run the tests ``runs`` times with the five schemes, the whole-circle experiment with
     ``circle_runs`` seeds per start heading (0: none) and the k0 sweep with ``k0_runs``
     tuning drives per start heading (0: none); write the report; return its text.
 
-    The circle's and the sweep's runs are kept in ``circle_runs.jsonl`` / ``k0_runs.jsonl``
-    in ``out_dir`` as they finish; a second call with the same folder runs only the missing
-    ones (:func:`inmotion.reproductions.common.run_tasks_checkpointed`); ``run_missing=False``
-    runs none and reports what the files hold (a run cut short: pass the counts that are
-    complete).
+    The Monte Carlo runs are the campaigns of :data:`CAMPAIGNS` (``campaigns/paper001*.yaml``)
+    on the campaign engine, into ``out_dir/campaign/<name>/``: a second call with the same
+    folder runs only what is missing.
 
     ``reuse_tables``: keep Tables 1-3, the ranking, the NEES and the test figures of the
     ``results.json`` already in ``out_dir`` (a run of the same code and seed) and run only the
@@ -715,8 +781,7 @@ def reproduce(out_dir, runs: int = 30, workers: int = 2, seed: int = 0,
     out = Path(out_dir)
     out.mkdir(parents=True, exist_ok=True)
     t0 = time.perf_counter()
-    if run_missing:
-        _warm_up()
+    _warm_up()
     if reuse_tables:
         old = json.loads((out / "results.json").read_text())
         if old.get("seed") != seed:
@@ -731,8 +796,7 @@ def reproduce(out_dir, runs: int = 30, workers: int = 2, seed: int = 0,
     else:
         timing = _time_schemes(seed)
         t_mc = time.perf_counter()
-        tasks = [(test, r, seed) for test in TESTS for r in range(runs)]
-        results = run_tasks(run_one, tasks, workers, desc="paper 001", progress=progress)
+        results = _campaign("tables", out, runs, seed, workers, progress)
         summary = _summarize(results)
         summary["time_cpu_repeats_s"] = timing.get("cpu_repeats_s", {})
         summary["time_s"] = timing["wall_s"]
@@ -741,18 +805,12 @@ def reproduce(out_dir, runs: int = 30, workers: int = 2, seed: int = 0,
         summary["timing_pass_s"] = t_mc - t0
         summary["monte_carlo_s"] = time.perf_counter() - t_mc
         summary["runs"], summary["seed"], summary["workers"] = runs, seed, workers
-    summary["checkpointed_before"] = {n: _lines(out / f"{n}_runs.jsonl") for n in ("k0", "circle")}
     t_circle = time.perf_counter()
-    circle = run_tasks_checkpointed(run_circle_one, circle_tasks(seed, circle_runs), workers,
-                                    out / "circle_runs.jsonl", desc="paper 001 circle",
-                                    progress=progress, run_missing=run_missing) \
-        if circle_runs else []
+    circle = _campaign("circle", out, circle_runs, seed, workers, progress) if circle_runs else []
     summary["whole_circle"] = _summarize_circle(circle)
     summary["circle_s"] = time.perf_counter() - t_circle
     t_k0 = time.perf_counter()
-    k0 = run_tasks_checkpointed(run_k0_one, k0_tasks(seed, k0_runs), workers,
-                                out / "k0_runs.jsonl", desc="paper 001 k0",
-                                progress=progress, run_missing=run_missing) if k0_runs else []
+    k0 = _campaign("k0", out, k0_runs, seed, workers, progress) if k0_runs else []
     summary["k0_sweep"] = _summarize_k0(k0)
     summary["k0_s"] = time.perf_counter() - t_k0
     summary["circle_workers"] = workers
@@ -765,11 +823,6 @@ def reproduce(out_dir, runs: int = 30, workers: int = 2, seed: int = 0,
     text = _report(summary)
     (out / "report.md").write_text(text)
     return text
-
-
-def _lines(path: Path) -> int:
-    """Records already in a checkpoint file (0 if none)."""
-    return len(path.read_text().splitlines()) if path.is_file() else 0
 
 
 def rewrite_report(out_dir) -> str:
@@ -1407,7 +1460,7 @@ def _report(summary) -> str:
             "errors to the last bit), so only the new seeds were run. "
             if (S.get("whole_circle") or {}).get("carried_over_runs") else "")
          + ("The circle's and the sweep's runs were kept as they finished "
-            "(`run_tasks_checkpointed`) and ran over several calls on a shared, loaded "
+            "and ran over several calls on a shared, loaded "
             "machine (circle: {circle}, k0 sweep: {k0} runs done before the last call), so "
             "their wall time is not given. ".format(**S["checkpointed_before"])
             if any((S.get("checkpointed_before") or {}).values()) else "")
@@ -1585,9 +1638,7 @@ if __name__ == "__main__":
     ap.add_argument("--circle-runs", type=int, default=CIRCLE_RUNS)
     ap.add_argument("--k0-runs", type=int, default=K0_TUNING_RUNS)
     ap.add_argument("--reuse-tables", action="store_true")
-    ap.add_argument("--no-run-missing", action="store_true")
     a = ap.parse_args()
     from inmotion.reproductions import paper001 as _m   # the workers import it by name
     _m.reproduce(a.out_dir, runs=a.runs, workers=a.workers, seed=a.seed,
-              circle_runs=a.circle_runs, k0_runs=a.k0_runs, reuse_tables=a.reuse_tables,
-              run_missing=not a.no_run_missing)
+              circle_runs=a.circle_runs, k0_runs=a.k0_runs, reuse_tables=a.reuse_tables)

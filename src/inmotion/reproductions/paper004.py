@@ -52,12 +52,21 @@ from pathlib import Path
 
 import numpy as np
 
-from .common import conditions_markdown, run_tasks, run_tasks_checkpointed
+from .common import conditions_markdown, run_campaign_file
 
 __all__ = ["reproduce", "SPEEDS_M_S", "PAPER_TABLE2", "PAPER_TABLE6", "PAPER_TABLE4",
            "PAPER_TABLE5"]
 
-SPEEDS_M_S = (20, 60, 80)
+
+
+def _campaign_doc(name: str) -> dict:
+    import yaml
+    from .common import campaign_file
+    return yaml.safe_load(campaign_file(name).read_text())
+
+
+#: the speeds of the straight runs: the grid of ``campaigns/paper004.yaml``
+SPEEDS_M_S = tuple(int(v) for v in _campaign_doc("paper004")["grid"]["speed_m_s"])
 STAT_NAMES = ("MAE", "mean", "STD", "max", "min", "max_abs")
 
 #: paper 004 Table 2 (imada-vb, 50 runs, heading at 120 s) [deg], per speed
@@ -288,8 +297,9 @@ CAR_EFFECTS["all"] = ("every effect above at once except the quiet V^b and the h
 #: labels aligned on each segment of the car-effects experiment (paper form)
 CAR_LABELS = ("imada-vb", "mimada", "mimada-dual")
 #: simulated one-hour drives per effect (each cut into 30 segments, like the paper's one;
-#: issue 17: 15 so that a rate of 1/2 is known to +-0.06 from 450 segments; 5 before)
-CAR_DRIVES = 15
+#: issue 17: 15 so that a rate of 1/2 is known to +-0.06 from 450 segments; 5 before): the
+#: runs of ``campaigns/paper004_car.yaml``, whose grid is the effects of CAR_EFFECTS
+CAR_DRIVES = int(_campaign_doc("paper004_car")["runs"])
 
 
 def car_test_scenario(effect: str) -> dict:
@@ -547,6 +557,44 @@ def run_car_segments(task) -> dict:
         for key in keys:
             out[key].append(r[key])
     return {"effect": effect, "drive": drive, **out}
+
+
+# ------------------------------------------------------------------------------ campaigns
+def run(spec: dict, rng) -> dict:
+    """Run function of ``campaigns/paper004.yaml``: :func:`run_one` at ``spec["speed_m_s"]``
+    with the campaign generator's ``SeedSequence`` (run ``r``'s is ``SeedSequence(seed,
+    spawn_key=(r,))`` = ``SeedSequence(seed).spawn(runs)[r]``, the stream of the committed
+    snapshot); the record travels as :func:`~inmotion.reproductions.common.pack_record`."""
+    from .common import pack_record, run_key
+    return pack_record(run_one((int(spec["speed_m_s"]), run_key(rng)[1],
+                                rng.bit_generator.seed_seq)))
+
+
+def run_car(spec: dict, rng) -> dict:
+    """Run function of ``campaigns/paper004_car.yaml``: :func:`run_car_segments` of effect
+    ``spec["effect"]`` on drive ``d`` from ``SeedSequence([seed, 4], spawn_key=(d,))`` (=
+    ``SeedSequence([seed, 4]).spawn(n)[d]``, the same drive under every effect)."""
+    from .common import pack_record, run_key
+    seed, d = run_key(rng)
+    return pack_record(run_car_segments(
+        (spec["effect"], d, np.random.SeedSequence([seed, 4], spawn_key=(d,)))))
+
+
+def _validate_speed(spec: dict) -> None:
+    from ..errors import BadInput
+    if spec.get("speed_m_s") not in SPEEDS_M_S:
+        raise BadInput(f"speed_m_s must be one of {list(SPEEDS_M_S)} (a shipped "
+                       f"paper004_v* scenario), got {spec.get('speed_m_s')!r}")
+
+
+def _validate_effect(spec: dict) -> None:
+    from ..errors import BadInput
+    if spec.get("effect") not in CAR_EFFECTS:
+        raise BadInput(f"effect must be one of {list(CAR_EFFECTS)}, got {spec.get('effect')!r}")
+
+
+run.validate_spec = _validate_speed
+run_car.validate_spec = _validate_effect
 
 
 # ------------------------------------------------------------------------------ statistics
@@ -952,7 +1000,7 @@ def _figures(results, curves, out: Path) -> None:
 
 def reproduce(out_dir, runs: int = 50, workers: int = 2, seed: int = 0, progress: bool = True,
               segments: bool = True, car_drives: int | None = None,
-              reuse_speeds: bool = False, run_missing: bool = True) -> dict:
+              reuse_speeds: bool = False) -> dict:
     """Run paper 004's Monte Carlo and write ``report.md``, ``results.json``, ``runs.csv`` and the
     MAE/STD figures to ``out_dir``. Returns the results dictionary.
 
@@ -967,10 +1015,9 @@ def reproduce(out_dir, runs: int = 50, workers: int = 2, seed: int = 0, progress
     differences between speeds are the speed's effect, not sampling noise); any run can be
     redone alone.
 
-    The car drives are kept in ``car_runs.jsonl`` in ``out_dir`` as they finish; a second
-    call with the same folder runs only the missing ones
-    (:func:`inmotion.reproductions.common.run_tasks_checkpointed`; ``run_missing=False``: none,
-    the report is of what the file holds).
+    The runs are the campaigns ``campaigns/paper004.yaml`` (speeds x runs) and
+    ``campaigns/paper004_car.yaml`` (effects x drives) on the campaign engine, into
+    ``out_dir/campaign/<name>/``: a second call with the same folder runs only what is missing.
 
     ``reuse_speeds``: keep the straight-run Monte Carlo (Tables 2, 4-6 on the straight runs,
     ``runs.csv`` and the figures) of the ``results.json`` already in ``out_dir`` (a run of the
@@ -989,23 +1036,14 @@ def reproduce(out_dir, runs: int = 50, workers: int = 2, seed: int = 0, progress
                            file=out / "results.json")
         recs = None
     else:
-        children = np.random.SeedSequence(seed).spawn(runs)
-        tasks = [(v, r, children[r]) for v in SPEEDS_M_S for r in range(runs)]
-        recs = run_tasks(run_one, tasks, workers, desc="paper 004 Monte Carlo",
-                         progress=progress,
-                         chunksize=max(1, len(tasks) // (8 * max(int(workers or 1), 1))))
+        recs = run_campaign_file("paper004", out, runs=runs, seed=seed, workers=workers,
+                                 progress=progress).records()
     t_car = time.perf_counter()
-    ck = out / "car_runs.jsonl"
-    car_before = len(ck.read_text().splitlines()) if ck.is_file() else 0
     car = None
     n_car = (CAR_DRIVES if runs >= 10 else 0) if car_drives is None else int(car_drives)
     if segments and n_car > 0:
-        car_seeds = np.random.SeedSequence([seed, 4]).spawn(n_car)
-        # drive-major: a prefix of the list is every effect on the same first drives
-        car_tasks = [(e, d, car_seeds[d]) for d in range(n_car) for e in CAR_EFFECTS]
-        car = run_tasks_checkpointed(run_car_segments, car_tasks, workers,
-                                     out / "car_runs.jsonl", desc="paper 004 car effects",
-                                     progress=progress, run_missing=run_missing)
+        car = run_campaign_file("paper004_car", out, runs=n_car, seed=seed, workers=workers,
+                                progress=progress).records()
     car_s = time.perf_counter() - t_car
     if recs is None:
         results = _speed_keys({k: v for k, v in old.items()
@@ -1016,7 +1054,6 @@ def reproduce(out_dir, runs: int = 50, workers: int = 2, seed: int = 0, progress
     else:
         results, curves = _collect(recs, runs, seed, workers, time.perf_counter() - t0)
     results["car_s"], results["car_workers"] = car_s, workers
-    results["car_checkpointed_before"] = car_before
     if car is not None:
         results["car_effects"] = car_summary(car)
         results["car_drives"] = n_car
