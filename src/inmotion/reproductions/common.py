@@ -209,8 +209,8 @@ def _apply_chunk(fn, chunk):
 
 
 def run_tasks(fn, tasks, workers, *, desc: str, progress: bool = True, chunksize: int = 1) -> list:
-    """``[fn(task) for task in tasks]`` on the campaign engine's workers (the former harness,
-    kept while papers 001 and 004 still use it; the others are campaigns).
+    """``[fn(task) for task in tasks]`` on the campaign engine's workers (the former harness;
+    every paper is a campaign now and none calls it).
 
     Parameters
     ----------

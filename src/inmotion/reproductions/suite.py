@@ -5,7 +5,7 @@ Each paper has its own module (:mod:`inmotion.reproductions.paper000` ... ``_004
 (paper beside measured), PNG figures and a results JSON into a folder. The Monte Carlo is a
 campaign specification (a sweep file in ``reproductions/campaigns/``, run by the campaign
 engine through :func:`inmotion.reproductions.common.run_campaign_file` into
-``<folder>/campaign/<name>/``; papers 000, 002, 003). This module
+``<folder>/campaign/<name>/``; papers 000 to 004). This module
 
 * names them (``000``, ``001``, ``002``, ``003``, ``004``, ``real``) and calls each with the
   arguments its function actually takes (:func:`run_reproduction`); the numerics are theirs;
