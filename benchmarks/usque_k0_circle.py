@@ -9,7 +9,10 @@ error over 181-300 s, the error at 300 s and at 100 s, and the heading 1-sigma a
 What it showed (issue 17): with the paper state a small k0 (3-10) brings ausquhe from 170
 deg to within about 2 deg where k0 = 30 is still 16-20 deg off; with the extended state no k0
 is robust (tens of degrees off from some starts for every k0). The reproduction's circle
-then runs k0 = 3 on its own seeds (``inmotion.reproductions.paper001.CIRCLE_K0``).
+then runs k0 = 3 on its own seeds (``inmotion.reproductions.paper001.CIRCLE_K0``), and
+its k0 sweep (``paper001.run_k0_one``, K0_SWEEP on tuning drives from every start heading,
+spawn_key (2, 2, heading, run), apart from these and from the circle's) turns this into success
+rates with their intervals; its table is in the report's whole-circle section.
 
     OPENBLAS_NUM_THREADS=1 PYTHONPATH=src nice -n 10 .venv/bin/python benchmarks/usque_k0_circle.py
 """
@@ -34,8 +37,8 @@ def main(test: int = 2) -> None:
             b = simulate(m._scenario(test, h), rng)
             for var in ("paper", "extended"):
                 for k0, gmax in COMBOS:
-                    sol = run(b, Config(**m.PAPER_FILTER, **m.STATE_SETS[var], k0=k0,
-                                        gamma_max_deg=gmax), None)
+                    sol = run(b, Config(**{**m.FILTER, **m.STATE_SETS[var], "k0": k0,
+                                           "gamma_max_deg": gmax}), None)
                     E = m._errors_on_grid(sol, b.truth)[:, 2]
                     print(f"h={h:6.0f} s={seed} {var:9s} k0={k0:4.0f} gmax={gmax:5.0f}  "
                           f"w={E[181:].mean():8.2f} f={E[-1]:8.2f} e100={E[100]:8.2f} "

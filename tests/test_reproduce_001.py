@@ -247,3 +247,98 @@ def test_circle_bins_wrap_the_start_heading():
     assert b["near"] == (1, 2, 0)
     assert b["far"] == (2, 3, 1)
     assert r._agree({"final_deg": {"a": rows, "oba/paper-form": rows}}, "a") == "6 of 6"
+
+
+# ----------------------------------------------------------------------------- k0 sweep
+def test_v0_heading_error_against_a_least_squares_fit():
+    # dv0 is a constant in every pair; the heading's signal is s(t) = g Omega cos L t^2 / 2:
+    # fit psi s(t) to the constant on a dense grid, equal weights, and compare
+    from inmotion.core import earth
+    lat, dv0, T = 28.2, 0.3, 300.0
+    t = np.linspace(0.0, T, 30001)
+    s = 9.79 * earth.OMEGA_IE * np.cos(np.radians(lat)) * t ** 2 / 2.0
+    psi = np.sum(s * dv0) / np.sum(s * s)
+    assert r.v0_heading_sigma_deg(T, lat, dv0, "uniform") == pytest.approx(np.degrees(psi),
+                                                                          rel=1e-3)
+    assert r.v0_heading_sigma_deg(T, lat, dv0, "last") == pytest.approx(
+        np.degrees(dv0 / s[-1]), rel=1e-9)
+    # the module's figure for 0.3 m/s at 200 s (inmotion.align.usque_model): 1.4 deg
+    assert r.v0_heading_sigma_deg(200.0, lat, dv0) == pytest.approx(1.4, abs=0.05)
+
+
+def test_success_ceiling_is_the_normal_probability():
+    # P(|Z| < 1) = 0.6827, P(|Z| < 2) = 0.9545 (normal tables)
+    assert r.success_ceiling(1.0, 1.0) == pytest.approx(0.6827, abs=1e-4)
+    assert r.success_ceiling(0.5, 1.0) == pytest.approx(0.9545, abs=1e-4)
+
+
+def test_k0_summary_of_a_known_table():
+    # k0 = 1 succeeds from every start; k0 = 3 only within 60 deg; the rest fail by 10 deg
+    recs = []
+    for h, run, _ in r.k0_tasks(0, runs=1):
+        near = abs(((h + 180.0) % 360.0) - 180.0) <= 60.0
+        fin = {}
+        for state in r.K0_STATE_SETS:
+            for k0 in r.K0_SWEEP:
+                ok = k0 == 1.0 or (k0 == 3.0 and near)
+                fin[f"{state}/k0={k0:g}"] = 0.3 if ok else -10.0
+        recs.append({"heading_deg": h, "run": run, "final_deg": fin})
+    K = r._summarize_k0(recs)
+    n = len(r.CIRCLE_HEADINGS_DEG) + 1
+    assert K["runs_per_heading"] == 1 and len(K["headings_deg"]) == n
+    st = K["stats"]["paper/k0=1"]
+    assert st["successes"] == n and st["interval"] == r.binomial_interval(n, n)
+    # near: -60, -30, 0, 30, 60 (5); far: -180, -150, -120, 120, 150, 170 (6)
+    assert tuple(K["stats"]["extended/k0=3"]["near"]) == (5, 5, 0)
+    assert tuple(K["stats"]["extended/k0=3"]["far"]) == (0, 6, 6)
+    assert K["stats"]["paper/k0=30"]["successes"] == 0
+    assert K["stats"]["paper/k0=30"]["max_abs_deg"] == 10.0
+    # and the report renders the sweep with these counts
+    S = r._summarize(_fake_results())
+    keys = r._keys()
+    S["time_s"] = {t: {k: 0.5 for k in keys} for t in ("1", "2")}
+    S["time_cpu_s"] = S["time_s"]
+    S.update(elapsed_s=1.0, runs=3, seed=0, workers=1, k0_sweep=K,
+             whole_circle=r._summarize_circle(_fake_circle()))
+    text = r._report(S)
+    sec = text.split("### Can `ausquhe` be made robust?")[1].split("\n## ")[0]
+    assert f"| extended | 3 | 5 / {n} |" in sec and "| 5 / 5, 0 | 0 / 6, 6 |" in sec
+    assert "best k0 on the tuning drives: 1" in sec
+
+
+
+def test_near_far_p_value_of_known_tables():
+    # Fisher's exact test, two-sided, by hand: [[8, 2], [1, 5]], margins 10, 6 / 9, 7; the
+    # hypergeometric tables no more likely than the observed one (C(10,8) C(6,1) = 270) are
+    # a = 8, 9, 3: (270 + 10 + 120) / C(16, 9) = 400 / 11440; equal rates give p = 1
+    assert r.near_far_p_value((8, 10), (1, 6)) == pytest.approx(400 / 11440, rel=1e-9)
+    assert r.near_far_p_value((5, 10), (5, 10)) == pytest.approx(1.0)
+
+
+# ----------------------------------------------------------------------------- campaign form
+def test_campaign_files_are_the_experiment_and_keep_the_streams(monkeypatch):
+    # the sweep files hold the grid and the runs the module uses
+    from inmotion.evaluate.campaign import run_seed_sequence
+    from inmotion.evaluate.sweep import load_sweep
+    from inmotion.reproductions.common import campaign_file, unpack_record
+    circle = load_sweep(campaign_file("paper001_circle"))
+    heads = [p.params["heading_deg"] for p in circle.points]
+    assert heads == list(r.CIRCLE_HEADINGS_DEG) + [r.PAPER_START_DEG]
+    assert circle.runs == r.CIRCLE_RUNS >= 10
+    assert [p.params["test"] for p in load_sweep(campaign_file("paper001")).points] == list(
+        r.TESTS)
+    # the run functions pass (point, engine run k, seed) to the task functions unchanged,
+    # so a campaign run draws the stream of the former task loop
+    monkeypatch.setattr(r, "run_circle_one", lambda task: {"task": list(task)})
+    monkeypatch.setattr(r, "run_one", lambda task: {"task": list(task)})
+    monkeypatch.setattr(r, "run_k0_one", lambda task: {"task": list(task)})
+    rng = np.random.default_rng(run_seed_sequence(7, 4))
+    rec = lambda out: unpack_record(out["record"], out.get("arrays", {}))   # noqa: E731
+    assert rec(r.run_circle({"heading_deg": 170.0}, rng))["task"] == [170.0, 4, 7]
+    assert rec(r.run({"test": 2}, rng))["task"] == [2, 4, 7]
+    assert rec(r.run_k0({"heading_deg": -90.0}, rng))["task"] == [-90.0, 4, 7]
+    from inmotion.errors import BadInput
+    with pytest.raises(BadInput, match="test must be one of"):
+        r.run.validate_spec({"test": 4})
+    with pytest.raises(BadInput, match="heading_deg"):
+        r.run_circle.validate_spec({"heading_deg": "north"})

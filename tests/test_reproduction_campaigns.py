@@ -51,8 +51,9 @@ def test_run_key_names_the_run_and_the_stream_is_the_former_spawn():
     assert rng.random(5).tolist() == former.random(5).tolist()
 
 
-@pytest.mark.parametrize("name, issue", [("paper000", "000"), ("paper002", "002"),
-                                         ("paper003", "003")])
+@pytest.mark.parametrize("name, issue", [("paper000", "000"), ("paper001", "001"),
+                                         ("paper002", "002"), ("paper003", "003"),
+                                         ("paper004", "004")])
 def test_shipped_campaigns_load_with_the_issue_runs(name, issue):
     sweep = load_sweep(common.campaign_file(name))
     assert sweep.name == name and sweep.runs == suite.get(issue).issue_runs

@@ -12,7 +12,7 @@ to ``DIR/paper_rows.json`` and an HTML page ``DIR/report.html``; ``all`` runs ev
 count (000: 50, 001: 30, 002: 20, 003: 20, 004: 50). ``--reuse`` skips a paper whose results
 file is already in its folder and only re-reads it (e.g. to assemble ``all`` from runs made
 one by one). A paper's Monte Carlo is a campaign specification shipped in
-``inmotion/reproductions/campaigns/`` (papers 000, 002, 003), run by the campaign engine into
+``inmotion/reproductions/campaigns/`` (papers 000 to 004), run by the campaign engine into
 ``DIR/campaign/<name>/``, so the same command again resumes an interrupted reproduction; the
 runs go to the engine's Dask workers: ``--workers N`` local processes, or an existing
 scheduler with ``--scheduler ADDRESS`` (as for ``inmotion montecarlo``). Progress goes to stderr; ``--quiet`` silences it; ``--json`` prints the summary

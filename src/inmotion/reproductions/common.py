@@ -35,9 +35,10 @@ from typing import Optional
 
 import numpy as np
 
-__all__ = ["run_tasks", "engine", "drift_free_dr_gyro", "conditions_markdown", "turned_heading",
-           "CAMPAIGNS_DIR", "campaign_file", "campaign_paper", "run_campaign_file", "CampaignResult",
-           "pack_record", "unpack_record", "run_key"]
+__all__ = ["run_tasks", "engine", "drift_free_dr_gyro",
+           "conditions_markdown", "turned_heading", "CAMPAIGNS_DIR", "campaign_file",
+           "campaign_paper", "run_campaign_file", "CampaignResult", "pack_record",
+           "unpack_record", "run_key"]
 
 #: the client opened by :func:`engine` (None: each campaign opens its own)
 _CLIENT = None
@@ -216,8 +217,8 @@ def _apply_chunk(fn, chunk):
 
 
 def run_tasks(fn, tasks, workers, *, desc: str, progress: bool = True, chunksize: int = 1) -> list:
-    """``[fn(task) for task in tasks]`` on the campaign engine's workers (the former harness,
-    kept while papers 001 and 004 still use it; the others are campaigns).
+    """``[fn(task) for task in tasks]`` on the campaign engine's workers (the former harness;
+    every paper is a campaign now and none calls it).
 
     Parameters
     ----------

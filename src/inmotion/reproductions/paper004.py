@@ -52,12 +52,21 @@ from pathlib import Path
 
 import numpy as np
 
-from .common import conditions_markdown, run_tasks
+from .common import conditions_markdown, run_campaign_file
 
 __all__ = ["reproduce", "SPEEDS_M_S", "PAPER_TABLE2", "PAPER_TABLE6", "PAPER_TABLE4",
            "PAPER_TABLE5"]
 
-SPEEDS_M_S = (20, 60, 80)
+
+
+def _campaign_doc(name: str) -> dict:
+    import yaml
+    from .common import campaign_file
+    return yaml.safe_load(campaign_file(name).read_text())
+
+
+#: the speeds of the straight runs: the grid of ``campaigns/paper004.yaml``
+SPEEDS_M_S = tuple(int(v) for v in _campaign_doc("paper004")["grid"]["speed_m_s"])
 STAT_NAMES = ("MAE", "mean", "STD", "max", "min", "max_abs")
 
 #: paper 004 Table 2 (imada-vb, 50 runs, heading at 120 s) [deg], per speed
@@ -97,9 +106,10 @@ AXES = ("pitch", "roll", "heading")
 
 
 # ------------------------------------------------------------------------------ conditions
-def conditions() -> list:
+def conditions(car_drives=None) -> list:
     """The conditions table: ``(parameter, paper, ours, why)`` rows, "ours" read from the
-    scenarios and settings the experiment really uses."""
+    scenarios and settings the experiment really uses (``car_drives``: the drives per effect
+    of the run reported; default :data:`CAR_DRIVES`)."""
     sc = _scenario(20)
     car = drive_scenario()
     g, a = sc.imu.gyro, sc.imu.accel
@@ -132,7 +142,8 @@ def conditions() -> list:
          "(centred) shown apart", ""),
         ("car test (Tables 4-5)", "60 min of a car in Harbin, 30 segments of 120 s; V^b from "
          "the DGPS / FOG-SINS reference, 0.05 m/s RMS",
-         f"{CAR_DRIVES} simulated one-hour drives per effect (route of paper002_hour, start "
+         f"{car_drives or CAR_DRIVES} simulated one-hour drives per effect (route of "
+         "paper002_hour, start "
          f"{car['start']['lat_deg']} N), 30 segments each; forward speed with "
          f"{car['sensors']['radar']['noise_m_s']} m/s white noise",
          "the paper's route and data are not available; several drives give the counts an "
@@ -140,15 +151,23 @@ def conditions() -> list:
         ("car effects", "whatever the real car had (not stated)",
          "; ".join(f"{k}: {v[1]}" for k, v in CAR_EFFECTS.items() if v[1]),
          "each effect the V^b model leaves out, alone and together (issue 17)"),
+        ("pitch and bounce", "whatever the car had (not stated)",
+         f"not a simulated effect (reason at CAR_EFFECTS); sizes estimated: body pitch "
+         f"{PITCH_GRADIENT_DEG_PER_G:g} deg per g of forward acceleration, bounce 5 cm over "
+         "0.6 s every 30 s", "a jolt's vertical velocity is gone before the next vector pair "
+         "(one drive: final errors equal to 3 decimals); the pitch gradient is a typical car's, "
+         "an assumption"),
+        ("noise the omitted terms are set against", "V^b 0.05 m/s RMS (Table 3, DGPS velocity)",
+         f"{PAPER_VB_NOISE_M_S} m/s per V^b sample", "the paper's own sensor"),
         ("first-level dependence", "not measured (argued, sec. 3)",
          f"second level from the true C_b^n(0) turned by {list(LEVEL1_ERRORS_DEG)} deg",
          "the mechanism the paper names, measured directly"),
     ]
 
 
-def conditions_table() -> list:
+def conditions_table(car_drives=None) -> list:
     """The conditions table as markdown lines (from :func:`conditions`)."""
-    return conditions_markdown(conditions())
+    return conditions_markdown(conditions(car_drives))
 
 
 # ------------------------------------------------------------------------------ one run
@@ -277,8 +296,10 @@ CAR_EFFECTS["all"] = ("every effect above at once except the quiet V^b and the h
 #: simulation time. ``jump_m`` still works in :func:`car_test_scenario`.
 #: labels aligned on each segment of the car-effects experiment (paper form)
 CAR_LABELS = ("imada-vb", "mimada", "mimada-dual")
-#: simulated one-hour drives per effect (each cut into 30 segments, like the paper's one)
-CAR_DRIVES = 5
+#: simulated one-hour drives per effect (each cut into 30 segments, like the paper's one;
+#: issue 17: 15 so that a rate of 1/2 is known to +-0.06 from 450 segments; 5 before): the
+#: runs of ``campaigns/paper004_car.yaml``, whose grid is the effects of CAR_EFFECTS
+CAR_DRIVES = int(_campaign_doc("paper004_car")["runs"])
 
 
 def car_test_scenario(effect: str) -> dict:
@@ -324,6 +345,163 @@ def car_test_bundle(effect: str, rng):
     return bundle
 
 
+# ------------------------------------------------------------------------------ term sizes
+#: the paper's sensors in the car test (paper 004 Table 3 = Table 1 IMU; V^b from the DGPS
+#: velocity, 0.05 m/s RMS): what a term of the V^b vector pairs must be compared with
+PAPER_VB_NOISE_M_S = 0.05
+#: body pitch of a car against the road per g of forward acceleration (squat / dive): not in
+#: paper 004; a typical passenger-car suspension value, an assumption of ours
+PITCH_GRADIENT_DEG_PER_G = 1.5
+#: sampling of the noise-free drive for the term sizes [s]
+TERM_STEP_S = 0.1
+
+
+def omitted_term_sizes(effects: dict = None) -> list:
+    """Analytic size of each term the ``V^b`` model of paper 004 eq. 9 leaves out, on the
+    noise-free car-test stand-in (:func:`drive_scenario`), beside the noise that the paper's
+    own sensors put into the same vector pairs (issue 17).
+
+    Every term is an error of ``alpha = C_{b(t)}^{b(0)} v^b(t) - v^b(0) - int f dt`` in m/s
+    (the vector pairs' unit), evaluated every :data:`TERM_STEP_S` over the hour from the
+    profile's kinematics (:meth:`inmotion.sim.profile.Profile.kinematics`):
+
+    * lever arm ``l``: ``|omega_nb^b x l|`` with ``omega ~ [pitch', roll', yaw']`` (small
+      angles; the Earth rate, 1e-4 of it, left out);
+    * mounting ``d``: ``|v| |d|`` (the speed read along an axis turned by ``d``);
+    * side slip: the scenario's lateral velocity bumps;
+    * pitch against the road: ``|v| K |a_fwd| / g`` (``K`` = :data:`PITCH_GRADIENT_DEG_PER_G`);
+      bounce: the vertical velocity of the scenario's jolts (``jump_m`` settings are read
+      from ``CAR_EFFECTS`` only where present; else 5 cm over 0.6 s, the jolt tried before);
+    * lag ``tau``: ``|a_fwd| tau``;
+    * the omitted ``int omega_ie^b x V^b dt`` (eq. 9 drops it): ``|int_0^t omega_ie^n x v^n|``
+      from each 120 s segment's start, at 1x and at the "high speed" factor.
+
+    The noise of the paper's sensors in the same pairs: the raw ``V^b(0)`` sample and each
+    ``V^b(t)`` sample carry :data:`PAPER_VB_NOISE_M_S` (white); the accelerometer's white
+    noise (Table 1: 10 ug/sqrt(Hz)) adds ``10 ug sqrt(t)`` after ``t`` s.
+
+    Returns rows ``{"term", "setting", "rms_m_s", "p99_m_s", "max_m_s",
+    "share_above_noise"}``: RMS, 99th percentile and maximum over the hour, and the share of
+    the time the term exceeds the V^b noise.
+    """
+    from ..sim.profile import build_profile
+    from ..sim.scenario import load_scenario
+    effects = CAR_EFFECTS if effects is None else effects
+    from ..core.earth import G0 as g
+
+    def kin(sc):
+        prof = build_profile(load_scenario(sc))
+        t = np.arange(0.0, prof.duration_s, TERM_STEP_S)
+        e, ed, vv, av = prof.kinematics(t)
+        return t, e, ed, vv, av
+
+    base = drive_scenario()
+    lat = np.radians(base["start"]["lat_deg"])
+    t, eul, eul_dot, vel_v, acc_v = kin(base)
+    speed, a_fwd = vel_v[:, 1], acc_v[:, 1]
+    rows = []
+
+    def add(term, setting, x):
+        x = np.abs(np.asarray(x, dtype=float))
+        rows.append({"term": term, "setting": setting, "rms_m_s": float(np.sqrt(np.mean(x ** 2))),
+                     "p99_m_s": float(np.percentile(x, 99)), "max_m_s": float(x.max()),
+                     "share_above_noise": float(np.mean(x > PAPER_VB_NOISE_M_S))})
+
+    add("V^b noise of the paper's sensor (one sample)", f"{PAPER_VB_NOISE_M_S} m/s RMS",
+        np.full(3, PAPER_VB_NOISE_M_S))
+    add("accelerometer white noise over a segment", "10 ug/sqrt(Hz), 120 s",
+        np.full(3, 10e-6 * g * np.sqrt(SEGMENT_S)))
+    la = effects.get("lever arm", (None, {}))[1].get("lever_arm_m")
+    if la is not None:
+        w = eul_dot[:, [0, 1, 2]]
+        add("lever arm omega x l", f"l = {la} m", np.linalg.norm(np.cross(w, la), axis=1))
+    mo = effects.get("mounting", (None, {}))[1].get("vehicle_mounting_arcmin")
+    if mo is not None:
+        d = np.radians(np.hypot(mo[0], mo[2]) / 60.0)
+        add("mounting (V^b off the IMU's y axis)", f"{mo} arcmin", speed * d)
+    ss = effects.get("side slip", (None, {}))[1].get("side_slip_m_s")
+    if ss:
+        sc = car_test_scenario("side slip")
+        _, _, _, vv, _ = kin(sc)
+        add("side slip (lateral V^b)", f"{ss} m/s peak, 4 s every 60 s", vv[:, 0])
+    K = np.radians(PITCH_GRADIENT_DEG_PER_G)
+    add("body pitch against the road (squat / dive)", f"{PITCH_GRADIENT_DEG_PER_G} deg per g "
+        "(assumed)", speed * K * np.abs(a_fwd) / g)
+    jump = next((v[1]["jump_m"] for v in effects.values() if v[1].get("jump_m")), 0.05)
+    sc = drive_scenario()
+    sc["disturbances"] = {"side_slips": [], "vibration": [],
+                          "jumps": [{"t_s": float(x), "duration_s": 0.6, "height_m": jump}
+                                    for x in np.arange(5.0, 3595.0, 30.0)]}
+    _, _, _, vv, _ = kin(sc)
+    add("bounce (vertical jolts)", f"{jump * 100:g} cm over 0.6 s every 30 s", vv[:, 2])
+    lag = effects.get("lag", (None, {}))[1].get("lag_s")
+    if lag:
+        add("speed lag a tau", f"tau = {lag} s", a_fwd * lag)
+    for f in (1.0, effects.get("high speed", (None, {}))[1].get("speed_factor")):
+        if not f:
+            continue
+        v_n = (f * speed)[:, None] * np.stack([np.sin(eul[:, 2]), np.cos(eul[:, 2]),
+                                               np.zeros_like(t)], -1)
+        from ..core.earth import OMEGA_IE
+        w_ie = OMEGA_IE * np.array([0.0, np.cos(lat), np.sin(lat)])
+        wv = np.cross(w_ie, v_n)
+        seg = np.floor(t / SEGMENT_S).astype(int)
+        acc = np.zeros_like(wv)
+        for k in np.unique(seg):
+            m = seg == k
+            acc[m] = np.cumsum(wv[m], axis=0) * TERM_STEP_S
+        add("omitted int omega_ie x V^b dt (eq. 9)", f"speed x {f:g}, from each segment's start",
+            np.linalg.norm(acc, axis=1))
+    return rows
+
+
+#: how each term of :func:`omitted_term_sizes` enters the two second levels (paper 004 eq. 9
+#: V^b: ``alpha = C v^b(t) - v^b(0) - I_f``; eq. 10 V^n: ``beta = C_hat (C v^b(t) - v^b(0)) +
+#: I_wv_n - I_g``): a speed error is the same vector in both, on alpha in one and (turned by
+#: the fixed ``C_hat``) on beta in the other, the same residual to first order; eq. 9 drops
+#: ``omega_ie x V`` that eq. 10 keeps (term name prefix -> how it enters)
+TERM_ENTRY = {
+    "V^b noise": "both levels alike (the speed channel)",
+    "accelerometer": "both levels alike (I_f)",
+    "lever arm": "both levels alike (the speed channel)",
+    "mounting": "both levels alike (the speed channel)",
+    "side slip": "both levels alike (the speed channel)",
+    "body pitch": "both levels alike (the speed channel)",
+    "bounce": "both levels alike (the speed channel)",
+    "speed lag": "both levels alike (the speed channel)",
+    "omitted int": "the V^b level only (eq. 10 keeps it)",
+}
+
+
+def degradation_rate(sigma1_deg: float, sigma2_deg: float, rho: float = 0.0) -> float:
+    """P(|e2| > |e1|) for zero-mean jointly normal heading errors of the first level (1-sigma
+    ``sigma1_deg``) and the second (``sigma2_deg``), correlation ``rho``: with ``u = e2 - e1``,
+    ``w = e2 + e1``, ``|e2| > |e1|`` is ``u w > 0``, and for jointly normal ``u, w``
+    ``P(u w > 0) = 1/2 + arcsin(rho_uw) / pi`` (orthant probability) with
+    ``rho_uw = (s2^2 - s1^2) / sqrt((s1^2 + s2^2)^2 - 4 rho^2 s1^2 s2^2)``. Our derivation
+    (paper 004 gives no model of its counts); a test checks it against simulated draws."""
+    a, b = float(sigma1_deg) ** 2, float(sigma2_deg) ** 2
+    r = (b - a) / np.sqrt((a + b) ** 2 - 4.0 * rho ** 2 * a * b)
+    return float(0.5 + np.arcsin(np.clip(r, -1.0, 1.0)) / np.pi)
+
+
+def mechanism_requirement(mae1_deg: float, mean_change_deg: float) -> dict:
+    """What a mean change of ``|e2| - |e1|`` over segments says about the second level: the
+    mean change IS ``MAE2 - MAE1`` (an identity), so ``MAE2 = MAE1 + change``; for zero-mean
+    normal errors ``sigma = MAE / sqrt(2 / pi)``, and :func:`degradation_rate` gives the share
+    of degradations that follows from the two spreads for correlations 0 and 0.9."""
+    mae2 = mae1_deg + mean_change_deg
+    k = np.sqrt(2.0 / np.pi)
+    s1, s2 = mae1_deg / k, mae2 / k
+    return {"mae2_deg": float(mae2), "ratio": float(mae2 / mae1_deg),
+            "rate_rho0": degradation_rate(s1, s2, 0.0),
+            "rate_rho09": degradation_rate(s1, s2, 0.9)}
+
+
+#: heading MAE of the 30 car segments, paper 004 sec. 4 (text beside Figures 10-11):
+#: traditional V^b IMADA (imada-vb) 0.7991, improved MIMADA (mimada-dual) 0.6174 [deg]
+PAPER_CAR_VB_MAE_DEG = 0.7991
+PAPER_CAR_DUAL_MAE_DEG = 0.6174
 #: first-level heading errors injected in the dependence experiment [deg]
 LEVEL1_ERRORS_DEG = (-5.0, -2.0, 0.0, 2.0, 5.0)
 
@@ -379,6 +557,44 @@ def run_car_segments(task) -> dict:
         for key in keys:
             out[key].append(r[key])
     return {"effect": effect, "drive": drive, **out}
+
+
+# ------------------------------------------------------------------------------ campaigns
+def run(spec: dict, rng) -> dict:
+    """Run function of ``campaigns/paper004.yaml``: :func:`run_one` at ``spec["speed_m_s"]``
+    with the campaign generator's ``SeedSequence`` (run ``r``'s is ``SeedSequence(seed,
+    spawn_key=(r,))`` = ``SeedSequence(seed).spawn(runs)[r]``, the stream of the committed
+    snapshot); the record travels as :func:`~inmotion.reproductions.common.pack_record`."""
+    from .common import pack_record, run_key
+    return pack_record(run_one((int(spec["speed_m_s"]), run_key(rng)[1],
+                                rng.bit_generator.seed_seq)))
+
+
+def run_car(spec: dict, rng) -> dict:
+    """Run function of ``campaigns/paper004_car.yaml``: :func:`run_car_segments` of effect
+    ``spec["effect"]`` on drive ``d`` from ``SeedSequence([seed, 4], spawn_key=(d,))`` (=
+    ``SeedSequence([seed, 4]).spawn(n)[d]``, the same drive under every effect)."""
+    from .common import pack_record, run_key
+    seed, d = run_key(rng)
+    return pack_record(run_car_segments(
+        (spec["effect"], d, np.random.SeedSequence([seed, 4], spawn_key=(d,)))))
+
+
+def _validate_speed(spec: dict) -> None:
+    from ..errors import BadInput
+    if spec.get("speed_m_s") not in SPEEDS_M_S:
+        raise BadInput(f"speed_m_s must be one of {list(SPEEDS_M_S)} (a shipped "
+                       f"paper004_v* scenario), got {spec.get('speed_m_s')!r}")
+
+
+def _validate_effect(spec: dict) -> None:
+    from ..errors import BadInput
+    if spec.get("effect") not in CAR_EFFECTS:
+        raise BadInput(f"effect must be one of {list(CAR_EFFECTS)}, got {spec.get('effect')!r}")
+
+
+run.validate_spec = _validate_speed
+run_car.validate_spec = _validate_effect
 
 
 # ------------------------------------------------------------------------------ statistics
@@ -588,14 +804,144 @@ def _car_tables(results) -> list[str]:
     return L
 
 
+def _predicted(e: dict, lab: str) -> tuple:
+    """The degradation share :func:`degradation_rate` gives from the two MAEs of effect
+    summary ``e`` (rho 0 and 0.9, low to high)."""
+    q = mechanism_requirement(e["MAE"]["imada-vb"], e["MAE"][lab] - e["MAE"]["imada-vb"])
+    return tuple(sorted((q["rate_rho0"], q["rate_rho09"])))
+
+
+def _overlap(a, b) -> bool:
+    return a[0] <= b[1] and b[0] <= a[1]
+
+
+def _mechanism_text(results) -> list[str]:
+    """Issue 17's "or show with the paper's own sensors that it cannot appear": the paper's
+    Table 4 as one requirement on the second level, ours per effect, and the analytic size of
+    each omitted term against the paper's sensor noise."""
+    car = results.get("car_effects") or {}
+    terms = results.get("term_sizes") or []
+    if not car and not terms:
+        return []
+    p4, p5 = PAPER_TABLE4["heading"], PAPER_TABLE5["heading"]
+    mae1 = PAPER_CAR_VB_MAE_DEG
+    q4, q5 = mechanism_requirement(mae1, p4[0]), mechanism_requirement(mae1, p5[0])
+    L = ["### Can the paper's mechanism appear with the paper's own sensors?", "",
+         "**The paper's count and mean change are one figure.** The mean over segments of "
+         "|e2| - |e1| is MAE2 - MAE1 (an identity). The paper's car: imada-vb MAE "
+         f"{mae1:.4f} deg, so traditional MIMADA's MAE is {q4['mae2_deg']:.2f} deg, "
+         f"{q4['ratio']:.2f} times the first level's; improved MIMADA's {q5['mae2_deg']:.2f} deg "
+         f"({q5['ratio']:.2f} times; the paper's own MAE of it, {PAPER_CAR_DUAL_MAE_DEG} deg in "
+         f"sec. 4, gives {PAPER_CAR_DUAL_MAE_DEG - mae1:+.4f} against Table 5's {p5[0]:+.4f}: "
+         "the identity holds on the paper's figures to 0.005 deg). For zero-mean normal errors the share of degradations "
+         "follows from the two spreads and their correlation rho (`degradation_rate`, "
+         "an orthant probability): "
+         f"{q4['rate_rho0']:.2f} (rho 0) to {q4['rate_rho09']:.2f} (rho 0.9) for the "
+         f"traditional, i.e. {30 * q4['rate_rho0']:.0f}-{30 * q4['rate_rho09']:.0f} of 30 "
+         f"(paper {p4[4]}); {q5['rate_rho09']:.2f}-{q5['rate_rho0']:.2f} for the improved, "
+         f"{30 * q5['rate_rho09']:.0f}-{30 * q5['rate_rho0']:.0f} of 30 (paper {p5[4]}). "
+         "So Table 4 says one thing: in the car, the V^n second level ended about "
+         f"{q4['ratio']:.1f} times worse than the V^b level it started from. For that the V^n "
+         "level must be worse on its own than the V^b level: it keeps a share (the slope "
+         "below) of the first level's error and adds its own.", ""]
+    if car:
+        L += ["Ours, per effect: the ratio of the second level's heading MAE to imada-vb's, "
+              "and the share of degradations, measured and as `degradation_rate` predicts "
+              "from the two MAEs (rho 0 .. 0.9):", "",
+              "| effect | mimada / imada-vb MAE | degradations measured | predicted | "
+              "mimada-dual / imada-vb MAE | measured | predicted |", "|---|---|---|---|---|---|---|"]
+        for effect, e in car.items():
+            cells = []
+            for lab in ("mimada", "mimada-dual"):
+                r = e["MAE"][lab] / e["MAE"]["imada-vb"]
+                lo, hi = _predicted(e, lab)
+                cells += [f"{r:.3f}", f"{e[lab]['rate']:.2f} ({e[lab]['rate_interval'][0]:.2f}-"
+                          f"{e[lab]['rate_interval'][1]:.2f})", f"{lo:.2f}-{hi:.2f}"]
+            L.append(f"| {effect} | " + " | ".join(cells) + " |")
+        L.append(f"| paper (car) | {q4['ratio']:.3f} | {p4[4] / 30:.2f} | "
+                 f"{q4['rate_rho0']:.2f}-{q4['rate_rho09']:.2f} | {q5['ratio']:.3f} | "
+                 f"{p5[4] / 30:.2f} | {q5['rate_rho09']:.2f}-{q5['rate_rho0']:.2f} |")
+        worst = max(car, key=lambda k: car[k]["MAE"]["mimada"] / car[k]["MAE"]["imada-vb"])
+        rw = car[worst]["MAE"]["mimada"] / car[worst]["MAE"]["imada-vb"]
+        fit = [k for k, e in car.items()
+               if _overlap(e["mimada"]["rate_interval"], _predicted(e, "mimada"))]
+        L += ["", f"The largest ratio of ours is {rw:.3f} ({worst}), against the paper's "
+              f"{q4['ratio']:.2f}. The measured share of degradations (Wilson 95 %) meets the "
+              f"predicted range for {len(fit)} of {len(car)} effects"
+              + (f" ({', '.join(fit)})" if fit else "")
+              + ("; where it does not (" + ", ".join(k for k in car if k not in fit) + "), "
+                 "the errors are probably not zero-mean normal (a constant offset moves both "
+                 "levels) and the count says less than the MAE ratio"
+                 if len(fit) < len(car) else "")
+              + ". Either way no effect comes near the paper's ratio.", ""]
+    if terms:
+        noise = PAPER_VB_NOISE_M_S
+        L += [f"**Each omitted term's size in the vector pairs** (`omitted_term_sizes`, on the "
+              f"noise-free stand-in drive, every {TERM_STEP_S:g} s over the hour; m/s, the "
+              f"unit of alpha and beta), against the paper's own V^b noise, {noise:g} m/s per "
+              "sample (Table 3: the DGPS velocity RMS), which the raw V^b(0) sample puts into "
+              "every pair of a segment:", "",
+              "| term | setting | RMS | 99 % | max | time above the V^b noise | enters |",
+              "|---|---|---|---|---|---|---|"]
+        for t in terms:
+            enters = next((v for k, v in TERM_ENTRY.items() if t["term"].startswith(k)), "-")
+            L.append(f"| {t['term']} | {t['setting']} | {t['rms_m_s']:.4f} | "
+                     f"{t['p99_m_s']:.4f} | {t['max_m_s']:.4f} | {t['share_above_noise']:.1%} "
+                     f"| {enters} |")
+        model = [t for t in terms if not t["term"].startswith(("V^b noise", "accelerometer"))]
+        L += ["", "What the sizes say:", "",
+              "* Above the paper's V^b noise for a quarter of the time or more: "
+              + (", ".join(f"{t['term']} ({t['setting']}: {t['share_above_noise']:.0%})"
+                           for t in model if t["share_above_noise"] >= 0.25) or "none")
+              + "; above it now and then (turns, speed changes, jolts): "
+              + (", ".join(f"{t['term']} ({t['share_above_noise']:.2%})" for t in model
+                           if 0 < t["share_above_noise"] < 0.25) or "none")
+              + "; never above it: "
+              + (", ".join(t["term"] for t in model if t["share_above_noise"] == 0) or "none")
+              + ". The mounting is a constant turn of V^b that both levels absorb as a constant "
+              "attitude offset; the Earth-rate integral grows over each segment.",
+              "* Every speed-channel term enters the V^b and the V^n level as the same vector "
+              "(on alpha in eq. 9, turned by the fixed C_hat onto beta in eq. 10): to first "
+              "order it moves both levels alike and cannot make the V^n level worse on its own "
+              "than the V^b level. The one term that differs, omega_ie x V, is dropped by eq. 9 "
+              "and kept by eq. 10: it makes the V^b level worse, which lowers the count "
+              "(our `high speed` row), the opposite of Table 4.",
+              "* Hence with the paper's sensors none of these terms can produce a V^n level "
+              f"{q4['ratio']:.1f} times worse than the V^b level; our simulations agree "
+              "(ratios in the table above). The paper's Table 4 needs a cause outside the V^b "
+              "model's omissions: its car-test V^n second level must have carried an error of "
+              "its own that its V^b level did not. The paper forms V^n from the first level's "
+              "C_b^n(0) and V^b (sec. 3), as ours does; what else differed in its car (a V^b "
+              "error that is not white, more levels, its segment boundaries) its data do not "
+              "let us say, and we have not found a setting that produces it. Pitch and bounce "
+              "are kept out of the simulated effects for the reason in the module "
+              "(`CAR_EFFECTS`); their size is in the table.", ""]
+    return L
+
+
 def write_report(results: dict, out: Path) -> str:
     """Markdown with the paper's figures beside the measured ones; returns the text."""
     runs = results["runs"]
     L = ["# Paper 004 reproduction: in-motion attitude determination alignment", ""]
-    L += conditions_table()
+    L += conditions_table(results.get("car_drives"))
+    ru = results.get("reused_speeds")
     L += [f"{runs} simulated runs per speed, seed {results['seed']}, "
-         f"{results['elapsed_s']:.1f} s on {results['workers']} worker(s). "
-         "Heading error = estimate minus truth at the end of the 120 s window.",
+         f"{results['elapsed_s']:.1f} s on {results['workers']} worker(s)"
+         + (f"; the car effects: {results.get('car_drives')} one-hour drives per effect, "
+            f"{results['car_s']:.0f} s on {results.get('car_workers')} worker(s)"
+            if "car_s" in results else "")
+         + (f"; the car effects have {results['car_drives']} drives per effect, fewer than "
+            f"the module's {CAR_DRIVES} (issue 17's count, not reached in the time the shared "
+            "machine allowed this run)" if results.get("car_drives") and results["car_drives"] < CAR_DRIVES
+            else "")
+         + (f". The straight-run Monte Carlo (Tables 2, 6, the straight-run Tables 4-5, "
+            f"runs.csv and the figures) is that of an earlier run of the same code, runs and "
+            f"seed ({ru['elapsed_s']:.0f} s, `reuse_speeds`); only the car effects were re-run"
+            if ru else "")
+         + (f"; {results['car_checkpointed_before']} car drives were done before the last "
+            "call and read back from `car_runs.jsonl` (its time counts only that call)"
+            if results.get("car_checkpointed_before") else "")
+         + ". Heading error = estimate minus truth at the end of the 120 s window.",
          "'paper form': raw first speed sample as V^b(0), plain q-method (as in the paper); "
          "'centred': this package's default (centred q-method, line-fitted V^b(0)).", ""]
     L += _stats_table("Table 2: imada-vb (traditional V^b IMADA)", results,
@@ -613,6 +959,7 @@ def write_report(results: dict, out: Path) -> str:
     L.append("| paper: mimada-dual | 1.3063 | 1.3102 | 1.3564 | 3.8% |")
     L += [""]
     L += _car_tables(results)
+    L += _mechanism_text(results)
     L += _degr_table("Table 4 statistics on the straight runs: traditional MIMADA vs imada-vb "
                      "(|dX_mimada| - |dX_vb|)", results, "mimada", PAPER_TABLE4, second="variance")
     L += _degr_table("Table 5 statistics on the straight runs: improved MIMADA vs imada-vb "
@@ -652,7 +999,8 @@ def _figures(results, curves, out: Path) -> None:
 
 
 def reproduce(out_dir, runs: int = 50, workers: int = 2, seed: int = 0, progress: bool = True,
-              segments: bool = True, car_drives: int | None = None) -> dict:
+              segments: bool = True, car_drives: int | None = None,
+              reuse_speeds: bool = False) -> dict:
     """Run paper 004's Monte Carlo and write ``report.md``, ``results.json``, ``runs.csv`` and the
     MAE/STD figures to ``out_dir``. Returns the results dictionary.
 
@@ -666,31 +1014,80 @@ def reproduce(out_dir, runs: int = 50, workers: int = 2, seed: int = 0, progress
     random numbers: the three speeds see the same IMU error draws and noise sequences, so the
     differences between speeds are the speed's effect, not sampling noise); any run can be
     redone alone.
+
+    The runs are the campaigns ``campaigns/paper004.yaml`` (speeds x runs) and
+    ``campaigns/paper004_car.yaml`` (effects x drives) on the campaign engine, into
+    ``out_dir/campaign/<name>/``: a second call with the same folder runs only what is missing.
+
+    ``reuse_speeds``: keep the straight-run Monte Carlo (Tables 2, 4-6 on the straight runs,
+    ``runs.csv`` and the figures) of the ``results.json`` already in ``out_dir`` (a run of the
+    same code, runs and seed) and run only the car-effects experiment;
+    ``python -m inmotion.reproductions.paper004 OUT --reuse-speeds`` does this.
     """
     out = Path(out_dir)
     out.mkdir(parents=True, exist_ok=True)
-    children = np.random.SeedSequence(seed).spawn(runs)
-    tasks = [(v, r, children[r]) for v in SPEEDS_M_S for r in range(runs)]
     t0 = time.perf_counter()
-    recs = run_tasks(run_one, tasks, workers, desc="paper 004 Monte Carlo", progress=progress,
-                     chunksize=max(1, len(tasks) // (8 * max(int(workers or 1), 1))))
+    if reuse_speeds:
+        old = json.loads((out / "results.json").read_text())
+        if (old.get("runs"), old.get("seed")) != (runs, seed):
+            from ..errors import BadInput
+            raise BadInput(f"the results to reuse are of {old.get('runs')} runs, seed "
+                           f"{old.get('seed')}, not {runs} runs, seed {seed}",
+                           file=out / "results.json")
+        recs = None
+    else:
+        recs = run_campaign_file("paper004", out, runs=runs, seed=seed, workers=workers,
+                                 progress=progress).records()
+    t_car = time.perf_counter()
     car = None
     n_car = (CAR_DRIVES if runs >= 10 else 0) if car_drives is None else int(car_drives)
     if segments and n_car > 0:
-        car_seeds = np.random.SeedSequence([seed, 4]).spawn(n_car)
-        car_tasks = [(e, d, car_seeds[d]) for e in CAR_EFFECTS for d in range(n_car)]
-        car = run_tasks(run_car_segments, car_tasks, workers, desc="paper 004 car effects",
-                        progress=progress)
-    elapsed = time.perf_counter() - t0
-    results, curves = _collect(recs, runs, seed, workers, elapsed)
+        car = run_campaign_file("paper004_car", out, runs=n_car, seed=seed, workers=workers,
+                                progress=progress).records()
+    car_s = time.perf_counter() - t_car
+    if recs is None:
+        results = _speed_keys({k: v for k, v in old.items()
+                               if k not in ("car_effects", "car_drives", "term_sizes")})
+        results["reused_speeds"] = old.get("reused_speeds") or {
+            "elapsed_s": old["elapsed_s"] - old.get("car_s", 0.0), "workers": old["workers"]}
+        results["elapsed_s"] = results["reused_speeds"]["elapsed_s"] + car_s
+    else:
+        results, curves = _collect(recs, runs, seed, workers, time.perf_counter() - t0)
+    results["car_s"], results["car_workers"] = car_s, workers
     if car is not None:
         results["car_effects"] = car_summary(car)
         results["car_drives"] = n_car
-    _write_runs_csv(recs, out)
+    results["term_sizes"] = omitted_term_sizes()
+    if recs is not None:
+        _write_runs_csv(recs, out)
+    if car is not None:
+        _write_car_csv(car, out)
     (out / "results.json").write_text(json.dumps(results, indent=1))
     write_report(results, out)
-    _figures(results, curves, out)
+    if recs is not None:
+        _figures(results, curves, out)
     return results
+
+
+def _speed_keys(results: dict) -> dict:
+    """``results`` read back from JSON with the per-speed tables keyed by int again."""
+    for k in ("stats", "stats_se", "degradation"):
+        if k in results:
+            results[k] = {int(v): x for v, x in results[k].items()}
+    return results
+
+
+def rewrite_report(out_dir, term_sizes: bool = False) -> str:
+    """Re-write ``report.md`` from the ``results.json`` in ``out_dir`` (no Monte Carlo run).
+
+    ``term_sizes``: also compute :func:`omitted_term_sizes` (a noise-free drive, seconds) if
+    the results lack them, and store them in ``results.json``."""
+    out = Path(out_dir)
+    results = _speed_keys(json.loads((out / "results.json").read_text()))
+    if term_sizes and "term_sizes" not in results:
+        results["term_sizes"] = omitted_term_sizes()
+        (out / "results.json").write_text(json.dumps(results, indent=1))
+    return write_report(results, out)
 
 
 def _collect(recs, runs, seed, workers, elapsed):
@@ -712,6 +1109,20 @@ def _collect(recs, runs, seed, workers, elapsed):
     return results, curves
 
 
+def _write_car_csv(car, out: Path) -> None:
+    """``car_runs.csv``: every segment of the car-effects experiment, the three levels'
+    pitch, roll and heading errors [deg] (the counts can be re-derived from it)."""
+    cols = ["effect", "drive", "segment"] + [f"{lab}|{ax}_err_deg" for lab in CAR_LABELS
+                                             for ax in AXES]
+    lines = [",".join(cols)]
+    for r in car:
+        for k in range(len(r[CAR_LABELS[0]])):
+            vals = [r["effect"].replace(" ", "_"), str(r["drive"]), str(k)]
+            vals += [f"{r[lab][k][i]:.6f}" for lab in CAR_LABELS for i in range(3)]
+            lines.append(",".join(vals))
+    (out / "car_runs.csv").write_text("\n".join(lines) + "\n")
+
+
 def _write_runs_csv(recs, out: Path) -> None:
     cols = ["speed_m_s", "run"] + [f"{lab}|{ax}_err_deg" for lab in VARIANTS for ax in AXES]
     lines = [",".join(cols)]
@@ -723,7 +1134,15 @@ def _write_runs_csv(recs, out: Path) -> None:
 
 
 if __name__ == "__main__":
-    import sys
-    res = reproduce(sys.argv[1] if len(sys.argv) > 1 else "reproduce_004",
-                    runs=int(sys.argv[2]) if len(sys.argv) > 2 else 50)
-    print((Path(sys.argv[1] if len(sys.argv) > 1 else "reproduce_004") / "report.md").read_text())
+    import argparse
+    ap = argparse.ArgumentParser(description="paper 004 reproduction")
+    ap.add_argument("out_dir")
+    ap.add_argument("--runs", type=int, default=50)
+    ap.add_argument("--workers", type=int, default=2)
+    ap.add_argument("--seed", type=int, default=0)
+    ap.add_argument("--car-drives", type=int, default=None)
+    ap.add_argument("--reuse-speeds", action="store_true")
+    a = ap.parse_args()
+    from inmotion.reproductions import paper004 as _m   # the workers import it by name
+    _m.reproduce(a.out_dir, runs=a.runs, workers=a.workers, seed=a.seed,
+                 car_drives=a.car_drives, reuse_speeds=a.reuse_speeds)

@@ -5,7 +5,7 @@ Each paper has its own module (:mod:`inmotion.reproductions.paper000` ... ``_004
 (paper beside measured), PNG figures and a results JSON into a folder. The Monte Carlo is a
 campaign specification (a sweep file in ``reproductions/campaigns/``, run by the campaign
 engine through :func:`inmotion.reproductions.common.run_campaign_file` into
-``<folder>/campaign/<name>/``; papers 000, 002, 003). This module
+``<folder>/campaign/<name>/``; papers 000 to 004). This module
 
 * names them (``000``, ``001``, ``002``, ``003``, ``004``, ``real``) and calls each with the
   arguments its function actually takes (:func:`run_reproduction`); the numerics are theirs;
@@ -187,7 +187,8 @@ def _rows_001(res: dict) -> list:
     start the paper's one successful run against the range of one run's outcome under our
     model (:func:`paper001.single_run_interval`). The other schemes' rates are ablations
     (the paper claims no success for them). Table 3: each scheme's CPU time over oba's, on
-    one machine (the paper's ratio compares; its seconds do not: ``comparable: False``).
+    one machine (the paper's ratio compares; its seconds do not: ``comparable: False``). The
+    k0 sweep's success rates (``k0_sweep``) are ablations.
     """
     import numpy as np
     from . import paper001 as m
@@ -258,6 +259,16 @@ def _rows_001(res: dict) -> list:
                 n_runs=ps["n"], paper_n=1, kind=kind,
                 note="measured: success rate over the runs; interval: where one run's outcome "
                      "(0 or 1) falls under our model (paper: one run, -0.62 deg at 181-300 s)"))
+    K = res.get("k0_sweep") or {}
+    for key, st in (K.get("stats") or {}).items():
+        state, k0 = key.split("/k0=")
+        rows.append(_row(
+            f"001 test {m.CIRCLE_TEST} ausquhe ({state} states) k0 = {k0}: success rate from "
+            "the whole circle (tuning drives)", "1", None, st["rate"], better="higher",
+            measured_interval=list(st["interval"]), statistic="success rate", n_runs=st["n"],
+            kind="ablation",
+            note=f"k0 sweep of eq. 55 on tuning drives apart from the circle's, "
+                 f"{K.get('runs_per_heading')} per start heading; Clopper-Pearson 95 %"))
     reps = res.get("time_cpu_repeats_s") or {}
     for test in (1, 2):
         times = res.get("time_cpu_s", {}).get(str(test)) or res.get("time_s", {}).get(
