@@ -35,7 +35,7 @@ from typing import Optional
 
 import numpy as np
 
-__all__ = ["run_tasks", "engine", "drift_free_dr_gyro",
+__all__ = ["engine", "drift_free_dr_gyro",
            "conditions_markdown", "turned_heading", "CAMPAIGNS_DIR", "campaign_file",
            "campaign_paper", "run_campaign_file", "CampaignResult", "pack_record",
            "unpack_record", "run_key"]
@@ -48,7 +48,7 @@ CAMPAIGNS_DIR = Path(__file__).with_name("campaigns")
 
 @contextlib.contextmanager
 def engine(workers: Optional[int] = None, scheduler: Optional[str] = None):
-    """Run every campaign (and :func:`run_tasks`) inside the block on one Dask client:
+    """Run every campaign inside the block on one Dask client:
     connected to ``scheduler`` (an address such as ``tcp://host:8786``), or a local cluster of
     ``workers`` processes when ``workers > 1``; with neither, each campaign opens its own."""
     global _CLIENT
@@ -212,64 +212,6 @@ def unpack_record(text: str, arrays: dict) -> dict:
 
 
 # ------------------------------------------------------------------------------ task lists
-def _apply_chunk(fn, chunk):
-    return [fn(t) for t in chunk]
-
-
-def run_tasks(fn, tasks, workers, *, desc: str, progress: bool = True, chunksize: int = 1) -> list:
-    """``[fn(task) for task in tasks]`` on the campaign engine's workers (the former harness;
-    every paper is a campaign now and none calls it).
-
-    Parameters
-    ----------
-    fn : callable
-        The run function (module-level, so that a worker can import it).
-    tasks : list
-        One argument of ``fn`` per run; the results come back in this order.
-    workers : int or None
-        Worker processes when no :func:`engine` is open: ``> 1`` starts a local Dask cluster
-        for this call; ``None``, 0 or 1 run in this process.
-    desc : str
-        The progress bar's label (``tqdm``, one step a task).
-    progress : bool
-        Show the bar.
-    chunksize : int
-        Tasks sent to a worker as one Dask task (short runs: less scheduler cost).
-    """
-    tasks = list(tasks)
-    bar = None
-    if progress:
-        from tqdm import tqdm
-        bar = tqdm(total=len(tasks), desc=desc, unit="run")
-    try:
-        if _CLIENT is not None:
-            return _on_client(_CLIENT, fn, tasks, chunksize, bar)
-        if workers and workers > 1:
-            with engine(workers) as client:
-                return _on_client(client, fn, tasks, chunksize, bar)
-        results = []
-        for task in tasks:
-            results.append(fn(task))
-            if bar is not None:
-                bar.update(1)
-        return results
-    finally:
-        if bar is not None:
-            bar.close()
-
-
-def _on_client(client, fn, tasks, chunksize, bar) -> list:
-    from distributed import as_completed
-    size = max(1, int(chunksize))
-    chunks = [tasks[i:i + size] for i in range(0, len(tasks), size)]
-    futures = [client.submit(_apply_chunk, fn, c, pure=False) for c in chunks]
-    for f in as_completed(futures):
-        f.result()                      # a run's exception stops the reproduction here
-        if bar is not None:
-            bar.update(len(chunks[futures.index(f)]))
-    return [r for f in futures for r in f.result()]
-
-
 def turned_heading(C_nb, d_yaw_rad):
     """``C_b^n`` with its heading (ENU Euler yaw) changed by ``d_yaw_rad``, pitch and roll kept:
     a start or a first-level answer made a chosen amount worse (paper 003's 53' coarse start,
