@@ -667,15 +667,34 @@ def _simulated_run(seed: int) -> dict:
     return out
 
 
-def simulated_calibration_check(runs: int = SIM_RUNS, seed: int = 0) -> dict:
+def run_simulated(spec: dict, rng) -> dict:
+    """The run function of the campaign ``campaigns/real_sim.yaml``: run ``k`` of campaign
+    seed ``s`` is :func:`_simulated_run` of seed ``s + 1000 + k`` (the stream of the first
+    snapshot), its nested record packed (:func:`~inmotion.reproductions.common.pack_record`)."""
+    from .common import pack_record, run_key
+    seed, k = run_key(rng)
+    return pack_record(_simulated_run(seed + 1000 + k))
+
+
+def simulated_calibration_check(runs: int = SIM_RUNS, seed: int = 0, out_dir=None,
+                                workers=None, progress: bool = False) -> dict:
     """The comma2k19 calibration methods on simulated truth (:func:`comma_like_scenario`),
-    Monte Carlo over ``runs`` seeds; every filter runs with the comma2k19 importer's assumed
+    Monte Carlo over ``runs`` seeds, run as the campaign ``campaigns/real_sim.yaml`` on the
+    campaign engine (into ``out_dir/campaign/real_sim/``, resumed if there; a temporary
+    folder when ``out_dir`` is None); every filter runs with the comma2k19 importer's assumed
     spec in ``meta.imu``, as on the real log. Per model of :data:`SIM_MODELS`: the yaw
     mounting error against the simulated truth (mean, RMS, mean filter sigma, RMS of error /
     sigma, share within the 0.2 deg target) and the dead reckoning after the drive with that
     calibration (median, 90th percentile, share within the 20 m target); plus the constant
     stage's z gyro bias error (against the mean of the simulated bias)."""
-    rows = [_simulated_run(seed + 1000 + k) for k in range(runs)]
+    import tempfile
+
+    from .common import run_campaign_file
+    with tempfile.TemporaryDirectory() as tmp:
+        camp = run_campaign_file("real_sim", out_dir if out_dir is not None else tmp,
+                                 runs=int(runs), seed=int(seed), workers=workers,
+                                 progress=progress)
+        rows = camp.records()
     out = {"runs": runs, "distance_m": float(np.mean([r["distance_m"] for r in rows])),
            "models": {}}
     for m in SIM_MODELS:
@@ -1370,8 +1389,8 @@ def reproduce(out_dir, runs=None, workers=None, seed=0, progress=True, data_root
     ``out_dir``; return the ``real_results`` dict.
 
     ``runs`` and ``seed`` set the Monte Carlo of :func:`simulated_calibration_check` (default
-    :data:`SIM_RUNS`, 0); ``workers`` is accepted for the signature shared with the
-    ``reproduce_00x`` modules and ignored. The real drives are one recording each.
+    :data:`SIM_RUNS`, 0), the campaign ``campaigns/real_sim.yaml`` run into
+    ``out_dir/campaign/real_sim/`` on ``workers``. The real drives are one recording each.
     ``data_root`` is the folder of the real drives (default :func:`default_data_root`).
     """
     t_wall = time.perf_counter()
@@ -1380,7 +1399,8 @@ def reproduce(out_dir, runs=None, workers=None, seed=0, progress=True, data_root
         raise BadInput("real data folder not found", root)
     comma = run_comma2k19(import_log("comma2k19", root / "comma2k19_rav4_60s"))
     comma["simulated_check"] = simulated_calibration_check(
-        SIM_RUNS if runs is None else int(runs), seed)
+        SIM_RUNS if runs is None else int(runs), seed, out_dir=out_dir, workers=workers,
+        progress=progress)
     ems = run_ems(import_log("ems", root / "ems_toronto_511s" / "ems_data_for_lc.mat"))
     rlg, mems = _run_psins(root)
     rows = result_rows(comma, ems) + rp.psins_rows(rlg, mems)
