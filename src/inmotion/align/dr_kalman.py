@@ -289,25 +289,18 @@ def config_with_spec(cfg, meta, sensor: str) -> tuple:
     field as configured. ``{field: origin}`` says where each value came from (``config``,
     ``meta.imu (simulated)``, ``meta.sensors ...``, ``default``)."""
     from .parked_kf import config_with_spec as imu_with_spec
+    from .parked_kf import fields_not_set
     matched = cfg.noise_preset == "matched"
     cfg, src = imu_with_spec(cfg, _imu_spec_meta(meta) if matched else {}, IMU_SPEC_FIELDS)
     spec, origin = sensor_spec_fields(meta, sensor) if matched else ({}, "")
-    upd = {}
-    for f in ("velocity_noise_m_s", "dk_sigma_ppm", "dk_tau_s"):
-        if f in cfg.model_fields_set:
-            src[f] = "config"
-        elif f in spec:
-            upd[f], src[f] = spec[f], origin
-        else:
-            src[f] = "default"
+    upd, s1 = fields_not_set(cfg, ("velocity_noise_m_s", "dk_sigma_ppm", "dk_tau_s"), spec,
+                             origin)
     cons = constraint_noise_from_meta(cfg, meta) if matched else {}
-    for f in ("lateral_noise_m_s", "nhc_noise_m_s"):
-        if f in cfg.model_fields_set:
-            src[f] = "config"
-        elif f in cons:
-            upd[f], src[f] = cons[f], "meta.vehicle.constraint_violation"
-        else:
-            src[f] = "default"
+    u2, s2 = fields_not_set(cfg, ("lateral_noise_m_s", "nhc_noise_m_s"), cons,
+                            "meta.vehicle.constraint_violation")
+    upd.update(u2)
+    src.update(s1)
+    src.update(s2)
     return (cfg.model_copy(update=upd) if upd else cfg), src
 
 

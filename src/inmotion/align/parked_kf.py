@@ -194,15 +194,24 @@ def config_with_spec(cfg, meta, fields=SPEC_FIELDS, markov=False) -> tuple:
     ``meta['imu']`` (:func:`spec_from_meta`), and ``{field: origin}`` for each of them
     (``config``, ``meta.imu (documented)`` ..., ``default``)."""
     spec, origin = spec_from_meta(meta, markov=markov)
+    upd, src = fields_not_set(cfg, fields, spec, origin)
+    return (cfg.model_copy(update=upd) if upd else cfg), src
+
+
+def fields_not_set(cfg, fields, values: dict, origin: str) -> tuple:
+    """``(update, source)`` for the ``fields`` of configuration ``cfg``: a field the user set
+    keeps its value (source ``config``); one they did not set takes ``values[field]`` where
+    there is one (source ``origin``, e.g. ``meta.imu (documented)``), else keeps its default
+    (``default``). ``update`` holds only the fields taken from ``values``."""
     src, upd = {}, {}
     for f in fields:
         if f in cfg.model_fields_set:
             src[f] = "config"
-        elif f in spec:
-            upd[f], src[f] = spec[f], origin
+        elif f in values:
+            upd[f], src[f] = values[f], origin
         else:
             src[f] = "default"
-    return (cfg.model_copy(update=upd) if upd else cfg), src
+    return upd, src
 
 
 def run_parked_kf(bundle: Bundle, config: ParkedKfConfig | dict | None = None,
