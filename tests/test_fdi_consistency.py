@@ -6,7 +6,7 @@ Carlo of ``benchmarks/fdi_calibration.py``."""
 import numpy as np
 import pytest
 
-from consistency_mc import drive_003
+from consistency_mc import drive_003, pooled_fkf_nis
 from inmotion.align import aided_kf as ak
 from inmotion.core.solution import NavState
 from inmotion.sim import simulate
@@ -50,20 +50,7 @@ def test_config_source_says_where_each_value_came_from():
 
 
 def _pooled_nis(preset):
-    sc = drive_003()
-    sums = {"odometer": [0.0, 0], "ldv": [0.0, 0]}
-    for k in range(RUNS):
-        rng = np.random.default_rng(300 + k)
-        b = simulate(sc, rng)
-        init = NavState.from_truth(b.truth, euler_error=np.radians([0.1, 0.1, 0.5])
-                                   * rng.standard_normal(3))
-        sol = ak.run_fkf(b, {"fdi": False, "noise_preset": preset,
-                             "init_tilt_sigma_deg": 0.1, "init_heading_sigma_deg": 0.5}, init)
-        for ch in sums:
-            n = sol.info["nis"][ch]
-            sums[ch][0] += n["mean_per_dof"] * n["dof"]
-            sums[ch][1] += n["dof"]
-    return {ch: s / d for ch, (s, d) in sums.items()}
+    return pooled_fkf_nis({"noise_preset": preset}, RUNS, 300)[0]
 
 
 def test_nis_per_dof_near_one_with_matched_noise_and_not_with_the_former_fixed_noise():

@@ -7,10 +7,9 @@ band. The false-alarm calibration itself is ``benchmarks/fdi_calibration.py``.""
 import numpy as np
 import pytest
 
-from consistency_mc import drive_003
+from consistency_mc import pooled_fkf_nis
 from inmotion.align import aided_kf as ak
 from inmotion.core.solution import NavState
-from inmotion.sim import simulate
 
 RUNS = 2
 T = 0.5          # the measurement interval (AidedKfConfig.measurement_period_s default)
@@ -31,20 +30,7 @@ def _expected_nis_per_dof(cv, beta):
 
 
 def _pooled(cfg):
-    sc = drive_003()
-    sums = {"odometer": [0.0, 0], "ldv": [0.0, 0]}
-    for k in range(RUNS):
-        rng = np.random.default_rng(500 + k)
-        b = simulate(sc, rng)
-        init = NavState.from_truth(b.truth, euler_error=np.radians([0.1, 0.1, 0.5])
-                                   * rng.standard_normal(3))
-        sol = ak.run_fkf(b, {"fdi": False, "init_tilt_sigma_deg": 0.1,
-                             "init_heading_sigma_deg": 0.5, **cfg}, init)
-        for ch in sums:
-            n = sol.info["nis"][ch]
-            sums[ch][0] += n["mean_per_dof"] * n["dof"]
-            sums[ch][1] += n["dof"]
-    return {ch: s / d for ch, (s, d) in sums.items()}, b
+    return pooled_fkf_nis(cfg, RUNS, 500)
 
 
 def test_sub_filter_nis_follows_the_vehicle_spec_and_an_overconfident_setting_fails():
