@@ -23,7 +23,7 @@ d, p = drive_003(), parked_003()
 sd = A.START_SIGMA_DEG
 cases = [(m, c, d, sd, 0.0) for m, c in [
     ("fkf", A.PRIOR), ("od-kf", A.PRIOR), ("ldv-kf", A.PRIOR),
-    ("nhc-kf", dict(A.PRIOR, nhc_noise_m_s=0.01)),
+    ("nhc-kf", A.PRIOR), ("nhc-kf", dict(A.PRIOR, nhc_noise_m_s=0.01)),
     ("fkf", dict(A.PRIOR, noise_preset="conservative")),
     ("fkf", dict(A.PRIOR, od_noise_m_s=[3e-5, 1e-4, 3e-5], ldv_noise_m_s=[3e-5, 5e-5, 3e-5],
                  gyro_drift_deg_h=0.0005, accel_bias_ug=5.0))]]

@@ -51,10 +51,19 @@ drive with the aiding the bundle has (``inmotion process``, issue 14).
    the bank decides which samples count, a central filter over them is smoothed
    (:func:`inmotion.align.aided_kf._smooth_bank`).
 
-Filter noise and priors (``gyro_drift_deg_h``, ``gyro_arw_deg_sqrt_h``, ``accel_bias_ug``,
-``accel_vrw_ug_sqrt_hz``) come from ``meta.yaml``'s IMU spec where it gives them
-(``info["imu_spec"]``), else from each method's defaults; ``config.methods`` overrides any
-method's settings.
+Filter noise and priors: one rule, the methods' own (``noise_preset: matched``, issue 15).
+Process passes each stage only what it decides itself (the priors handed over from the
+previous stage, the sensor, the stops, the gate, smoothing; for an IMU that cannot
+gyrocompass on a bundle whose ``meta.yaml`` is silent the :data:`MEMS_CLASS` figures; without
+``vehicle_mounting_arcmin`` the :data:`UNKNOWN_MOUNTING` priors; after a still start's bias
+removal the residual drift) and what the user sets (``config.methods``, over everything);
+each method takes every other noise figure and prior from the bundle's specs itself (IMU,
+sensors, the vehicle's constraint violation: ``aided_kf.config_with_spec``,
+``dr_kalman.config_with_spec``, ``sins_dr.config_with_spec``, ``parked_kf.config_with_spec``).
+``info["config_source"]`` holds, per method run, where each value came from (the method's
+``config_source`` with its ``config`` entries named: ``process (...)`` or ``config
+(methods.NAME)``); ``info["imu_spec"]`` the IMU figures process itself reasons with (the
+heading rule, the still start, the heading sigma floor).
 """
 from __future__ import annotations
 
@@ -251,15 +260,13 @@ def _speed_sensors(bundle):
     return [s for s in registry.SPEED_SENSORS if getattr(bundle, s) is not None]
 
 
-def _cfg(cls, base: dict, cfg: ProcessConfig, name: str, spec: dict):
-    """Configuration ``cls`` of method ``name``: the IMU spec, then the stage's ``base``, then
-    the user's ``methods[name]``; fields the class lacks are dropped."""
+def _cfg(cls, base: dict, cfg: ProcessConfig, name: str, own: dict):
+    """Configuration ``cls`` of method ``name``: process's own settings ``own`` (``{field:
+    (value, why)}``, module docstring), then the stage's ``base``, then the user's
+    ``methods[name]``; fields the class lacks are dropped. Every field not set here the
+    method takes from the bundle's specs (its matched preset) or its defaults."""
     fields = cls.model_fields
-    data = {k: v for k, v in spec.items() if k in fields}
-    # ``spec`` folds a Gauss-Markov bias into the constant's sigma (spec_from_meta); a filter
-    # with the Gauss-Markov option would add it again from meta.yaml: keep it constant here
-    # (``methods: {od-kf: {gyro_markov_tau_s: ...}}`` turns it on)
-    data.update({k: None for k in ("gyro_markov_tau_s", "accel_markov_tau_s") if k in fields})
+    data = {k: v for k, (v, _) in own.items() if k in fields}
     data.update({k: v for k, v in base.items() if k in fields})
     user = cfg.methods.get(name) or {}
     if not isinstance(user, dict):
@@ -269,6 +276,20 @@ def _cfg(cls, base: dict, cfg: ProcessConfig, name: str, spec: dict):
         return cls(**data)
     except Exception as e:  # pydantic
         raise BadInput(f"process configuration of {name}: {str(e).splitlines()[0]}") from None
+
+
+def _config_source(sol: Solution, cfg: ProcessConfig, name: str, own: dict) -> dict:
+    """The method's ``info["config_source"]`` with its ``config`` entries named: the user's
+    ``methods[name]`` (``config (methods.NAME)``), process's own settings (``process (why)``),
+    the stage's hand-over (``process (stage)``)."""
+    src = dict(sol.info.get("config_source") or {})
+    user = cfg.methods.get(name) or {}
+    for k, v in src.items():
+        if v != "config":
+            continue
+        src[k] = (f"config (methods.{name})" if k in user
+                  else f"process ({own[k][1]})" if k in own else "process (stage)")
+    return src
 
 
 def _with_heading(C, yaw):
@@ -483,6 +504,7 @@ def run_process(bundle: Bundle, config: ProcessConfig | dict | None = None,
                        f"{t0:.6g} s: too short to process", file="imu")
     lat, lon, h = initial_position(bundle, init)
     spec, spec_origin = spec_from_meta(bundle.meta)
+    own: dict = {}          # process's own settings: {field: (value, why)}
     stages: list[dict] = []
 
     def log(stage, method, start, end, why, sol=None, **extra):
@@ -521,10 +543,14 @@ def run_process(bundle: Bundle, config: ProcessConfig | dict | None = None,
             and head["drift_deg_h"] / OMEGA_DEG_H < 0.1:
         pass                # a navigation-grade IMU on a short drive: its own priors stay
     elif from_init:         # not a gyrocompassing IMU: MEMS-class priors where meta is silent
-        spec = {**{k: v for k, v in MEMS_CLASS.items() if k not in spec}, **spec}
+        mems = {k: v for k, v in MEMS_CLASS.items() if k not in spec}
+        own.update({k: (v, "MEMS class default: the IMU cannot gyrocompass and meta.yaml does "
+                           "not give it") for k, v in mems.items()})
+        spec = {**mems, **spec}
         spec_origin = (spec_origin + " + " if spec_origin else "") + "MEMS class defaults"
     if "vehicle_mounting_arcmin" not in (bundle.meta or {}):
-        spec = {**UNKNOWN_MOUNTING, **spec}
+        own.update({k: (v, "meta.yaml has no vehicle_mounting_arcmin")
+                    for k, v in UNKNOWN_MOUNTING.items()})
     yaw0, head_sig = None, None
     if from_init:
         if init is None or not ii.has_attitude:
@@ -573,13 +599,14 @@ def run_process(bundle: Bundle, config: ProcessConfig | dict | None = None,
         pbase = {"output_interval_s": 1.0}
         if from_init:
             pbase["init_heading_sigma_deg"] = head_sig
-        pcfg = _cfg(ParkedKfConfig, pbase, cfg, "parked-kf", {})
+        pcfg = _cfg(ParkedKfConfig, pbase, cfg, "parked-kf", own)
         start = NavState(t0, lat, lon, h, np.zeros(3), rotations.quat_from_dcm(C0))
         parked = run_parked_kf(bundle, pcfg, start, progress=progress_part(0.0, 0.3),
                                end_s=t_park_end)
         parts.append(parked)
         log("parked fine", "parked-kf", t0, t_park_end,
-            "zero-velocity fine alignment while parked (paper 003 eq. 11-13)", parked)
+            "zero-velocity fine alignment while parked (paper 003 eq. 11-13)", parked,
+            config_source=_config_source(parked, cfg, "parked-kf", own))
         if t_move is None or t_end - t_move < 1.0:
             handover = None
         else:
@@ -624,6 +651,9 @@ def run_process(bundle: Bundle, config: ProcessConfig | dict | None = None,
             bundle, handover, tilt_sig, h_sig, spec, rm = _still_stage(
                 bundle, cfg, init, ii, t0, t_move, (lat, lon, h), yaw0 if from_init else None,
                 head_sig, spec, from_init)
+            if rm is not None:
+                own["gyro_drift_deg_h"] = (spec["gyro_drift_deg_h"], "residual drift after the "
+                                           "still start's gyro bias was removed")
             log("still start", "imu", t0, t_move,
                 f"still {parked_s:.2f} s < {cfg.parked_coarse_s:g} s, no velocity sensor: "
                 "level from the still specific force, heading from init"
@@ -643,7 +673,7 @@ def run_process(bundle: Bundle, config: ProcessConfig | dict | None = None,
                 attitude_start_deg=_attitude_deg(handover))
     # ---- 5: fine alignment and navigation to the end
     if handover is not None:
-        parts += _navigate(bundle, cfg, handover, tilt_sig, h_sig, spec, log,
+        parts += _navigate(bundle, cfg, handover, tilt_sig, h_sig, own, log,
                            progress_part(0.3 if parts else 0.0, 1.0), stages)
     sol = _concat(parts)
     sol.info.update({
@@ -652,6 +682,8 @@ def run_process(bundle: Bundle, config: ProcessConfig | dict | None = None,
         "sensors_present": registry.present_sensors(bundle),
         "sensors_used": sorted({s for p in parts for s in registry.sensors_used(p.info)}),
         "imu_spec": {"values": spec, "from": spec_origin or "none (method defaults)"},
+        "config_source": {e["method"]: e["config_source"] for e in stages
+                          if "config_source" in e},
         "init": ii.model_dump(), "wall_time_s": time.perf_counter() - w0})
     if from_init and "phi_U" in sol.sigma:
         # the heading is not observable: its sigma cannot fall below the init's, grown by the
@@ -735,41 +767,7 @@ def _coarse_moving(bundle, cfg, init, t0, t1, speed):
     return C0, {"attitude_start_deg": a, "speed_sensor": name}, "coarse-inertial"
 
 
-def _sensor_spec(bundle, cls) -> dict:
-    """Settings of the paper 003 filters from ``meta.yaml``'s sensor specs
-    (``sensors.<name>.noise_m_s``, ``scale_factor_sigma_ppm``): the forward row noise is at
-    least the sensor's white noise (a 0.3 m/s LDV against the default 0.02 m/s row would fail
-    every chi-square test and be isolated for good), the scale-factor prior its stated
-    sigma."""
-    sensors = (bundle.meta or {}).get("sensors") if isinstance(bundle.meta, dict) else None
-    out = {}
-    if not isinstance(sensors, dict):
-        return out
-    fields = cls.model_fields
-    for name, short in (("odometer", "od"), ("ldv", "ldv")):
-        sp = sensors.get(name)
-        if not isinstance(sp, dict) or getattr(bundle, name) is None:
-            continue
-        noise = sp.get("noise_m_s")
-        key = f"{short}_noise_m_s"
-        if isinstance(noise, (int, float)) and noise > 0 and key in fields:
-            base = list(fields[key].default)
-            out[key] = [max(base[0], noise), max(base[1], float(noise)), max(base[2], noise)]
-        sig = sp.get("scale_factor_sigma_ppm")
-        key = f"{short}_scale_sigma_ppm"
-        if isinstance(sig, (int, float)) and sig > 0 and key in fields:
-            out[key] = max(float(sig), 100.0)
-    sp = sensors.get("radar")
-    if isinstance(sp, dict) and bundle.radar is not None:
-        noise = sp.get("noise_m_s")
-        if isinstance(noise, (int, float)) and noise > 0:
-            for key in ("velocity_noise_m_s", "speed_noise_m_s"):
-                if key in fields:
-                    out[key] = max(float(fields[key].default), float(noise))
-    return out
-
-
-def _navigate(bundle, cfg, state, tilt_sig, head_sig, spec, log, progress, stages):
+def _navigate(bundle, cfg, state, tilt_sig, head_sig, own, log, progress, stages):
     """Fine alignment and navigation from ``state`` to the end (module docstring, rule 5)."""
     speed = _speed_sensors(bundle)
     t_end = float(bundle.imu.t[-1])
@@ -780,8 +778,8 @@ def _navigate(bundle, cfg, state, tilt_sig, head_sig, spec, log, progress, stage
         from .align.dr_kalman import DrKfConfig, run_dr_kf
         from .navigate.sins_dr import SinsDrConfig, run_sins_dr
         stops, why_stops = stop_windows(bundle, cfg, t0) if cfg.zupt else ([], "")
-        dcfg = _cfg(DrKfConfig, {**prior, "velocity_sensor": "radar", "stops_s": stops,
-                                 **_sensor_spec(bundle, DrKfConfig)}, cfg, "dr-kf", spec)
+        dcfg = _cfg(DrKfConfig, {**prior, "velocity_sensor": "radar", "stops_s": stops}, cfg,
+                    "dr-kf", own)
         fine = run_dr_kf(bundle, dcfg, state,
                          progress=None if progress is None else lambda f: progress(0.5 * f))
         sig_u = np.degrees(fine.sigma["phi_U"]) * 60.0
@@ -803,7 +801,8 @@ def _navigate(bundle, cfg, state, tilt_sig, head_sig, spec, log, progress, stage
             why += "; smoothed forward-backward (RTS) over the stage"
         if stops:
             why += f"; zero-velocity updates at the stops ({len(stops)} in the drive)"
-        log("fine", "dr-kf", t0, t1, why, _head(fine, t1))
+        log("fine", "dr-kf", t0, t1, why, _head(fine, t1),
+            config_source=_config_source(fine, cfg, "dr-kf", own))
         out = [fine]
         if len(ok):
             k = int(ok[0])
@@ -812,12 +811,11 @@ def _navigate(bundle, cfg, state, tilt_sig, head_sig, spec, log, progress, stage
                         float(np.degrees(fine.sigma["phi_E"][k])),
                         float(np.degrees(fine.sigma["phi_N"][k])), 1e-3),
                     "init_heading_sigma_arcmin": 1.5 * max(float(sig_u[k]), 0.01),
-                    "velocity_sensor": "radar", "gate_probability": cfg.gate_probability,
-                    **_sensor_spec(bundle, SinsDrConfig)}
+                    "velocity_sensor": "radar", "gate_probability": cfg.gate_probability}
             nav_stops = [w for w in stops if w[1] > st.t]
             if nav_stops:
                 base["stops_s"] = nav_stops
-            ncfg = _cfg(SinsDrConfig, {**base, "smooth": cfg.smooth}, cfg, "sins-dr", spec)
+            ncfg = _cfg(SinsDrConfig, {**base, "smooth": cfg.smooth}, cfg, "sins-dr", own)
             nav = run_sins_dr(bundle, ncfg, st,
                               progress=None if progress is None else
                               lambda f: progress(0.5 + 0.5 * f))
@@ -827,7 +825,7 @@ def _navigate(bundle, cfg, state, tilt_sig, head_sig, spec, log, progress, stage
                                                 else "")
                 + ("; smoothed forward-backward (RTS)" if cfg.smooth else "")
                 + (f"; zero-velocity updates at {len(nav_stops)} stop(s)" if nav_stops else ""),
-                nav)
+                nav, config_source=_config_source(nav, cfg, "sins-dr", own))
             out.append(nav)
         if stops:
             log("stops", "zero-velocity", stops[0][0], stops[-1][1], why_stops, stops_s=stops)
@@ -839,12 +837,12 @@ def _navigate(bundle, cfg, state, tilt_sig, head_sig, spec, log, progress, stage
            "nhc-kf": ak.run_nhc_kf}[name]
     cls = {"fkf": ak.FkfConfig, "od-kf": ak.AidedKfConfig, "ldv-kf": ak.AidedKfConfig,
            "nhc-kf": ak.NhcKfConfig}[name]
-    base = {**prior, **_sensor_spec(bundle, cls), "smooth": cfg.smooth}
+    base = {**prior, "smooth": cfg.smooth}
     stops = []
     if cfg.zupt and speed:
         stops, why_stops = stop_windows(bundle, cfg, t0)
         base["stops_s"] = stops
-    fcfg = _cfg(cls, base, cfg, name, spec)
+    fcfg = _cfg(cls, base, cfg, name, own)
     sol = run(bundle, fcfg, state, progress=progress)
     why = {"fkf": "odometer and LDV: federated filter with chi-square FDI and Table 1 "
                   "reconfiguration (paper 003)",
@@ -859,6 +857,7 @@ def _navigate(bundle, cfg, state, tilt_sig, head_sig, spec, log, progress, stage
         why += f"; zero-velocity and zero angular rate updates at {len(stops)} stop(s)"
     log("fine + navigate", name, t0, t_end, why + (", barometer" if bundle.baro is not None
                                                   else ""), sol,
+        config_source=_config_source(sol, cfg, name, own),
         **({"smoothing": sol.info["smoothing"]} if "smoothing" in sol.info else {}))
     if stops:
         log("stops", "zero-velocity + zero-rate", stops[0][0], stops[-1][1], why_stops,

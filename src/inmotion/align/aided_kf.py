@@ -336,6 +336,47 @@ def markov_white_equivalent_sigma(sigma, tau_s, interval_s):
     return float(np.sqrt(2.0 * sigma * sigma * tau_s / interval_s)) if sigma > 0 else 0.0
 
 
+def markov_sample_white_equivalent_sigma(sigma, tau_s, interval_s):
+    """1-sigma of the white sequence equivalent to samples of a stationary first-order
+    Gauss-Markov process (1-sigma ``sigma``, correlation time ``tau_s``) taken every
+    ``interval_s``: the sum of the samples' autocovariances over all lags, ``sigma^2 (1 +
+    2 sum_k rho^k) = sigma^2 (1 + rho) / (1 - rho) = sigma^2 coth(T / (2 tau))`` with ``rho =
+    exp(-T / tau)`` (-> ``2 sigma^2 tau / T``, :func:`markov_white_equivalent_sigma`, as ``T /
+    tau -> 0``; -> ``sigma^2`` as ``T / tau -> inf``). The rows of a point measurement (the
+    SINS velocity at an epoch against the vehicle constraint, ``nhc-kf`` and the NHC fallback)
+    see the violation at the epoch, not its mean over the interval."""
+    if sigma <= 0.0:
+        return 0.0
+    x = interval_s / (2.0 * tau_s)
+    return float(sigma * np.sqrt(1.0 / np.tanh(x))) if x > 1e-9 else float("inf")
+
+
+def nhc_noise_from_meta(meta, interval_s: float):
+    """``nhc_noise_m_s`` of the vehicle-constraint rows (``nhc-kf``, the NHC fallback of
+    ``od-kf`` / ``ldv-kf`` / ``fkf``) from the vehicle's measured constraint violation
+    ``meta['vehicle']['constraint_violation']`` (issue 15), or None without one: the white
+    equivalent of its samples at the rows' interval (:func:`markov_sample_white_equivalent_sigma`),
+    the larger of the lateral and vertical figures (one noise for both rows).
+
+    Measured (issue 15, ``benchmarks/nees_methods.py 20 nhc-kf``, paper 003's drive cut to 85
+    s with the violation 0.010 m/s / 0.5 s lateral, 0.020 m/s / 0.2 s vertical, rows every 0.5
+    s: 0.0217 m/s): final-attitude NEES over 20 runs 3.57 (band 2.02-4.16); with the 0.01 m/s
+    the test set before, 6.18 (overconfident: the violation alone exceeds it); with the
+    lateral figure (0.0147 m/s) for both rows 4.34."""
+    veh = meta.get("vehicle") if isinstance(meta, dict) else None
+    cv = veh.get("constraint_violation") if isinstance(veh, dict) else None
+    if not isinstance(cv, dict):
+        return None
+    try:
+        out = max(markov_sample_white_equivalent_sigma(
+            float(cv.get(f"{a}_sigma_m_s", 0.0) or 0.0), float(cv.get(f"{a}_tau_s", 1.0) or 1.0),
+            interval_s) for a in ("lateral", "vertical"))
+    except (TypeError, ValueError):
+        raise BadInput("meta vehicle.constraint_violation: sigma and tau must be numbers "
+                       f"(got {cv!r})"[:200]) from None
+    return out if out > 0.0 else None
+
+
 def vehicle_constraint_noise(meta, interval_s: float, equivalent: bool = True):
     """``(lateral, vertical)`` 1-sigma [m/s] of the vehicle constraint's violation over a
     measurement interval from ``meta['vehicle']['constraint_violation']`` (the simulator's
@@ -536,17 +577,33 @@ def config_with_spec(cfg, meta, sensors=()):
     rule as ``parked-kf``, the Gauss-Markov parts kept apart since these filters model them)
     and the ``sensors``' ``*_noise_m_s`` it does not set from ``meta['sensors']``
     (:func:`sensor_noise_from_meta`; a field whose value the spec gives only in part keeps the
-    default for the rest, and says so); ``conservative`` leaves every field as configured.
+    default for the rest, and says so) and ``nhc_noise_m_s`` from the vehicle's constraint
+    violation (:func:`nhc_noise_from_meta`) and each sensor's scale-factor prior
+    ``*_scale_sigma_ppm`` from its spec (:func:`_scale_sigma_from_meta`); ``conservative``
+    leaves every field as configured.
     ``{field: origin}`` says where each value came from."""
     from .parked_kf import config_with_spec as _with_spec   # parked_kf imports this module
+    from .parked_kf import fields_not_set
     matched = getattr(cfg, "noise_preset", "matched") == "matched"
     cfg, src = _with_spec(cfg, meta if matched else {}, SPEC_FIELDS, markov=True)
     upd = {}
     T = cfg.measurement_period_s
+    nhc = nhc_noise_from_meta(meta, T) if matched else None
+    u_nhc, s_nhc = fields_not_set(cfg, ("nhc_noise_m_s",),
+                                  {} if nhc is None else {"nhc_noise_m_s": nhc},
+                                  "meta.vehicle.constraint_violation")
+    upd.update(u_nhc)
+    src.update(s_nhc)
     for name in sensors:
         field = f"{'od' if name == 'odometer' else 'ldv'}_noise_m_s"
         if not hasattr(cfg, field):
             continue
+        sfield = f"{'od' if name == 'odometer' else 'ldv'}_scale_sigma_ppm"
+        sc = _scale_sigma_from_meta(meta, name) if matched else None
+        u_sc, s_sc = fields_not_set(cfg, (sfield,), {} if sc is None else {sfield: sc[0]},
+                                    sc[1] if sc else "")
+        upd.update(u_sc)
+        src.update(s_sc)
         if field in cfg.model_fields_set:
             src[field] = "config"
             continue
@@ -572,6 +629,29 @@ def config_with_spec(cfg, meta, sensors=()):
         else:
             src[field] = "default"
     return (cfg.model_copy(update=upd) if upd else cfg), src
+
+
+def _scale_sigma_from_meta(meta, name: str):
+    """``(prior 1-sigma [ppm], origin)`` of a velocity sensor's scale-factor error from its
+    spec ``meta['sensors'][name]``: the per-run constant ``scale_factor_sigma_ppm`` and a
+    stated mean error ``scale_factor_ppm`` (root sum of squares, as
+    :func:`inmotion.align.dr_kalman.sensor_spec_fields` folds them), or None when the spec
+    gives neither."""
+    sensors = meta.get("sensors") if isinstance(meta, dict) else None
+    spec = sensors.get(name) if isinstance(sensors, dict) else None
+    if not isinstance(spec, dict) or not ("scale_factor_sigma_ppm" in spec
+                                          or "scale_factor_ppm" in spec):
+        return None
+    try:
+        val = float(np.hypot(float(spec.get("scale_factor_sigma_ppm") or 0.0),
+                             float(spec.get("scale_factor_ppm") or 0.0)))
+    except (TypeError, ValueError):
+        raise BadInput(f"meta sensors.{name}: scale_factor_sigma_ppm and scale_factor_ppm must "
+                       "be numbers") from None
+    if val <= 0.0:
+        return None
+    return val, ("meta.sensors (documented)" if spec.get("source") == "documented"
+                 else "meta.sensors (simulated)" if meta.get("simulated") else "meta.sensors")
 
 
 #: Imhof's integral on a uniform grid: the step (at least 10 points per oscillation, period

@@ -89,7 +89,8 @@ from ..estimation.velocity_aided import (StopUpdateFields, GROUP_SIZES, GROUPS, 
                                          with_dr_gyro)
 from .pure import mounting_matrix, velocity_source
 
-__all__ = ["SinsDrConfig", "run_sins_dr", "LAYOUT_SINS_DR", "MODES", "initial_covariance"]
+__all__ = ["SinsDrConfig", "run_sins_dr", "LAYOUT_SINS_DR", "MODES", "initial_covariance",
+           "config_with_spec"]
 
 ARCMIN = np.pi / 180.0 / 60.0
 DEG_H = np.pi / 180.0 / 3600.0
@@ -131,6 +132,12 @@ class SinsDrConfig(StopUpdateFields):
         description="measurement: attitude-position (paper 002 eq. 44) or velocity-position (eq. "
                     "52)")
     velocity_sensor: Optional[Literal["radar", "ldv", "odometer"]] = cf.velocity_sensor(None)
+    noise_preset: Literal["matched", "paper"] = Field(
+        "matched",
+        description="matched: the IMU figures, the sensor's speed noise and scale-factor model "
+                    "and the cross-axis noise from the vehicle's constraint violation that the "
+                    "configuration does not set come from meta.yaml (config_with_spec); paper: "
+                    "the field defaults (paper 002, paper 000 sec. 5) whatever the bundle says")
     filter_rate_hz: float = cf.filter_rate_hz(10.0)
     measurement_rate_hz: float = cf.measurement_rate_hz(10.0)
     output_rate_hz: Optional[float] = Field(
@@ -169,6 +176,46 @@ class SinsDrConfig(StopUpdateFields):
         0.1, gt=0,
         description="1-sigma of the velocity difference across and up the vehicle [m/s]")
     baro_noise_m: float = cf.baro_noise_m(2.0)
+
+
+def config_with_spec(cfg: SinsDrConfig, meta, sensor: str) -> tuple:
+    """``(cfg, config_source)``: with ``noise_preset: matched``, ``cfg`` with the fields it does
+    not set taken from the bundle's ``meta.yaml``, by the rules ``dr-kf`` uses
+    (:func:`inmotion.align.dr_kalman.config_with_spec`, one rule for both): the IMU figures
+    (``gyro_drift_deg_h``, ``gyro_arw_deg_sqrt_h``, ``accel_bias_ug``, ``accel_vrw_ug_sqrt_hz``
+    from ``meta['imu']``; a simulated IMU's fixed constant errors are not a specification);
+    the sensor's forward noise at a measurement epoch (``velocity_noise_m_s``) and its
+    scale-factor model (``dk_sigma_ppm``, ``dk_tau_s``) from ``meta['sensors'][sensor]``
+    (:func:`inmotion.align.dr_kalman.sensor_spec_fields`); ``speed_noise_m_s`` (the DR position
+    random walk) the sensor's per-sample white noise ``noise_m_s``; and
+    ``velocity_cross_noise_m_s`` from the vehicle's constraint violation (the white equivalent
+    at the measurement interval, :func:`inmotion.align.aided_kf.vehicle_constraint_noise`, the
+    larger of the lateral and vertical figures). ``paper`` keeps every field as configured.
+    ``{field: origin}`` says where each value came from (``config``, ``meta.imu (simulated)``,
+    ``meta.sensors ...``, ``default``)."""
+    from ..align.aided_kf import vehicle_constraint_noise
+    from ..align.dr_kalman import IMU_SPEC_FIELDS, _imu_spec_meta, sensor_spec_fields
+    from ..align.parked_kf import config_with_spec as imu_with_spec
+    from ..align.parked_kf import fields_not_set
+    matched = cfg.noise_preset == "matched"
+    cfg, src = imu_with_spec(cfg, _imu_spec_meta(meta) if matched else {}, IMU_SPEC_FIELDS)
+    spec, origin = sensor_spec_fields(meta, sensor) if matched else ({}, "")
+    sp = ((meta.get("sensors") or {}).get(sensor) if matched and isinstance(meta, dict)
+          and isinstance(meta.get("sensors"), dict) else None)
+    if isinstance(sp, dict) and float(sp.get("noise_m_s") or 0.0) > 0.0:
+        # a zero (the white noise switched off in a simulation) is no filter setting (as
+        # dr_kalman._imu_spec_meta's zero densities): the configuration's is kept
+        spec["speed_noise_m_s"] = float(sp["noise_m_s"])
+    upd, s1 = fields_not_set(cfg, ("velocity_noise_m_s", "speed_noise_m_s", "dk_sigma_ppm",
+                                   "dk_tau_s"), spec, origin)
+    cv = vehicle_constraint_noise(meta, 1.0 / cfg.measurement_rate_hz) if matched else None
+    u2, s2 = fields_not_set(cfg, ("velocity_cross_noise_m_s",),
+                            {} if cv is None else {"velocity_cross_noise_m_s": max(cv)},
+                            "meta.vehicle.constraint_violation")
+    upd.update(u2)
+    src.update(s1)
+    src.update(s2)
+    return (cfg.model_copy(update=upd) if upd else cfg), src
 
 
 def process_noise(cfg: SinsDrConfig) -> em.ProcessNoise:
@@ -237,6 +284,7 @@ def build_filter(bundle: Bundle, cfg: SinsDrConfig, init: NavState):
     with ``rows`` the IMU slice after ``init.t`` and ``sensor = (name, SpeedData)``."""
     _check_config(cfg, bundle)
     sensor = _sensor(bundle, cfg)
+    cfg, _ = config_with_spec(cfg, bundle.meta, sensor[0])
     imu = bundle.imu
     k0 = start_row(imu.t, init.t)
     filt = _make_filter(bundle, cfg, init, sensor, float(np.median(np.diff(imu.t))))
@@ -349,6 +397,7 @@ def run_sins_dr(bundle: Bundle, config: SinsDrConfig | dict | None = None,
     t0 = time.perf_counter()
     _check_config(cfg, bundle)
     sensor = _sensor(bundle, cfg)
+    cfg, cfg_source = config_with_spec(cfg, bundle.meta, sensor[0])
     n_rows, imu_dt, pieces, k0 = bundle.imu_rows_after(init.t)   # whole, or read in chunks
     filt = _make_filter(bundle, cfg, init, sensor, imu_dt)
     name, speed = sensor[:2]
@@ -357,4 +406,6 @@ def run_sins_dr(bundle: Bundle, config: SinsDrConfig | dict | None = None,
                                                    slice(k0, k0 + n_rows)))
     out = filt.run_stream(pieces, n_rows, speed, h_baro=_baro_source(bundle, cfg), sensor=name,
                           progress=progress)
-    return _solution(filt, out, cfg, name, time.perf_counter() - t0)
+    sol = _solution(filt, out, cfg, name, time.perf_counter() - t0)
+    sol.info["config_source"] = cfg_source
+    return sol
