@@ -138,7 +138,7 @@ from ..errors import BadInput
 from ..estimation import chi2
 from ..estimation import error_model as em
 from ..estimation import measurements as ms
-from ..estimation.velocity_aided import StopUpdateFields
+from ..estimation.velocity_aided import StopUpdateFields, calm_simulation, zupt_noise_from_meta
 from ..estimation.aiding_rows import NHC_LAYOUT, SUB_LAYOUT
 from ..estimation.engine import (EVENT_DETECTED, EVENT_MODE, MODE_FUSED, MODE_NONE,
                                  ErrorStateFilter, LocalFilter)
@@ -446,8 +446,7 @@ def sensor_noise_from_meta(meta, name: str, interval_s: float, measurement: str,
             var = float(noise) ** 2 + 2 * (q * float(rate)) ** 2 / 12
         fwd = float(np.sqrt(var))
     lat = spec.get("constraint_noise_m_s")
-    dist = meta.get("disturbances") or {}
-    calm = isinstance(dist, dict) and not any(dist.get(k) for k in dist)
+    calm = calm_simulation(meta)
     gyro = ((meta.get("imu") or {}).get("gyro") or {}) if isinstance(meta.get("imu"), dict) else {}
     drift = np.abs(np.atleast_1d(np.asarray(gyro.get("drift_deg_h", 0.0) or 0.0, float))).max()
     model = (SIM_CONSTRAINT_PER_FORWARD * fwd if fwd is not None and meta.get("simulated")
@@ -578,7 +577,9 @@ def config_with_spec(cfg, meta, sensors=()):
     and the ``sensors``' ``*_noise_m_s`` it does not set from ``meta['sensors']``
     (:func:`sensor_noise_from_meta`; a field whose value the spec gives only in part keeps the
     default for the rest, and says so) and ``nhc_noise_m_s`` from the vehicle's constraint
-    violation (:func:`nhc_noise_from_meta`) and each sensor's scale-factor prior
+    violation (:func:`nhc_noise_from_meta`), ``zupt_noise_m_s`` on a still simulated vehicle
+    (:func:`inmotion.estimation.velocity_aided.zupt_noise_from_meta`) and each sensor's
+    scale-factor prior
     ``*_scale_sigma_ppm`` from its spec (:func:`_scale_sigma_from_meta`); ``conservative``
     leaves every field as configured.
     ``{field: origin}`` says where each value came from."""
@@ -594,6 +595,11 @@ def config_with_spec(cfg, meta, sensors=()):
                                   "meta.vehicle.constraint_violation")
     upd.update(u_nhc)
     src.update(s_nhc)
+    u_z, s_z = fields_not_set(cfg, ("zupt_noise_m_s",),
+                             zupt_noise_from_meta(meta) if matched else {},
+                             "meta (simulated, no disturbances: the vehicle stands still)")
+    upd.update(u_z)
+    src.update(s_z)
     for name in sensors:
         field = f"{'od' if name == 'odometer' else 'ldv'}_noise_m_s"
         if not hasattr(cfg, field):

@@ -108,7 +108,7 @@ from ..errors import BadInput
 from ..estimation import error_model as em
 from ..estimation.layout import Layout, position_units
 from ..estimation.velocity_aided import (StopUpdateFields, GROUP_SIZES, GROUPS, VelocityAidedRun, dr_gyro_rows,
-                                         with_dr_gyro)
+                                         with_dr_gyro, zupt_noise_from_meta)
 
 __all__ = ["DrKfConfig", "OdVelocityKfConfig", "run_dr_kf", "run_od_velocity_kf",
            "config_with_spec", "sensor_spec_fields", "IMU_SPEC_FIELDS",
@@ -259,11 +259,20 @@ def sensor_spec_fields(meta, sensor: str) -> tuple[dict, str]:
 
 def _imu_spec_meta(meta):
     """``meta`` as an IMU specification: a simulated IMU with ``constant_errors: fixed`` (the
-    simulator's default) carries in ``drift_deg_h`` and ``bias_ug`` the run's actual errors, not
-    a 1-sigma: they are dropped (the priors keep the configuration's; paper 000's reproduction
-    draws them per run and writes them so). A noise density of zero (a simulation with the
-    white noise switched off, paper 000's noise-off study) is no filter setting either (no
-    process noise on the attitude and velocity): dropped too, the configuration's kept."""
+    simulator's default) carries in ``drift_deg_h`` and ``bias_ug`` the run's actual errors.
+    Given per axis (a list: a run's own draw, as paper 000's reproduction draws them and writes
+    them so) they are no specification and are dropped (the priors keep the configuration's).
+    Given as one figure for every axis (a scenario's own figure, e.g. ``tests/test_process.py``'s
+    drives) they are kept as the 1-sigma, as ``parked-kf`` and the paper 003 filters
+    (:func:`inmotion.align.parked_kf.spec_from_meta`) take them: the errors' size is exactly
+    that, and the field defaults (0.03 deg/h, 100 ug) may be far off it. Measured (issue 15,
+    ``inmotion process`` on the methods' own matched presets): dropping them gave a 1 deg/h,
+    300 ug IMU the priors of a 0.03 deg/h, 100 ug one (along-track velocity at the stops of
+    the stop-and-go radar drive 3 sigma off), and a 0.005 deg/h IMU's dr-kf the 0.03 deg/h prior
+    whose heading sigma never reached process's 10 arcmin hand-over. A noise density of zero (a
+    simulation with the white noise switched off, paper 000's noise-off study) is no filter
+    setting either (no process noise on the attitude and velocity): dropped too, the
+    configuration's kept."""
     imu = meta.get("imu") if isinstance(meta, dict) else None
     if not isinstance(imu, dict):
         return meta
@@ -275,8 +284,9 @@ def _imu_spec_meta(meta):
     for part, keys in drop.items():
         if isinstance(imu.get(part), dict):
             imu[part] = {k: v for k, v in imu[part].items()
-                         if not (k in keys and (k in ("drift_deg_h", "bias_ug")
-                                                or not np.any(np.asarray(v or 0.0, float))))}
+                         if not (k in keys and (np.ndim(v) > 0 if k in ("drift_deg_h",
+                                                                        "bias_ug")
+                                                else not np.any(np.asarray(v or 0.0, float))))}
     return dict(meta, imu=imu)
 
 
@@ -285,7 +295,10 @@ def config_with_spec(cfg, meta, sensor: str) -> tuple:
     (:data:`IMU_SPEC_FIELDS`, from ``meta['imu']``:
     :func:`inmotion.align.parked_kf.config_with_spec`) and the sensor fields
     (:func:`sensor_spec_fields`) it does not set taken from the bundle (a simulated IMU's
-    fixed constant errors are not a specification, :func:`_imu_spec_meta`); ``paper`` keeps every
+    fixed constant errors drawn per axis are not a specification, :func:`_imu_spec_meta`), the
+    cross rows' and NHC noise from the vehicle's constraint violation and ``zupt_noise_m_s`` on
+    a still simulated vehicle (:func:`inmotion.estimation.velocity_aided.zupt_noise_from_meta`);
+    ``paper`` keeps every
     field as configured. ``{field: origin}`` says where each value came from (``config``,
     ``meta.imu (simulated)``, ``meta.sensors ...``, ``default``)."""
     from .parked_kf import config_with_spec as imu_with_spec
@@ -299,6 +312,10 @@ def config_with_spec(cfg, meta, sensor: str) -> tuple:
     u2, s2 = fields_not_set(cfg, ("lateral_noise_m_s", "nhc_noise_m_s"), cons,
                             "meta.vehicle.constraint_violation")
     upd.update(u2)
+    u3, s3 = fields_not_set(cfg, ("zupt_noise_m_s",), zupt_noise_from_meta(meta) if matched else {},
+                            "meta (simulated, no disturbances: the vehicle stands still)")
+    upd.update(u3)
+    src.update(s3)
     src.update(s1)
     src.update(s2)
     return (cfg.model_copy(update=upd) if upd else cfg), src
