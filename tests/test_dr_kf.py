@@ -259,11 +259,21 @@ def test_matched_noise_from_the_sensor_spec():
     assert src["gyro_drift_deg_h"] == "meta.imu (simulated)"
     cfg, _ = dr_kalman.config_with_spec(dr_kalman.DrKfConfig(), meta, "radar")
     assert (cfg.velocity_noise_m_s, cfg.dk_sigma_ppm, cfg.dk_tau_s) == (0.1, 1000.0, 300.0)
-    # a simulated IMU's fixed errors are the run's, not a spec: the priors stay
-    fixed = dict(meta, imu=dict(meta["imu"], constant_errors="fixed"))
+    # a simulated IMU's fixed errors drawn per axis (paper 000's reproduction) are the run's,
+    # not a spec: the priors stay; one figure for every axis (a scenario's own) is the errors'
+    # size and is taken as the 1-sigma, as parked-kf and the paper 003 filters take it
+    fixed = dict(meta, imu=dict(meta["imu"], constant_errors="fixed",
+                                gyro={"drift_deg_h": [0.004, -0.002, 0.001],
+                                      "arw_deg_sqrt_h": 0.0005},
+                                accel={"bias_ug": [30.0, -10.0, 5.0], "vrw_ug_sqrt_hz": 5.0}))
     cfg, src = dr_kalman.config_with_spec(dr_kalman.DrKfConfig(), fixed, "ldv")
     assert cfg.gyro_drift_deg_h == 0.03 and src["gyro_drift_deg_h"] == "default"
+    assert cfg.accel_bias_ug == 100.0 and src["accel_bias_ug"] == "default"
     assert cfg.gyro_arw_deg_sqrt_h == 0.0005
+    one = dict(meta, imu=dict(meta["imu"], constant_errors="fixed"))
+    cfg, src = dr_kalman.config_with_spec(dr_kalman.DrKfConfig(), one, "ldv")
+    assert (cfg.gyro_drift_deg_h, cfg.accel_bias_ug) == (0.005, 50.0)
+    assert src["gyro_drift_deg_h"] == "meta.imu (simulated)"
     # nor is a white noise switched off (paper 000's noise-off study): no process noise
     quiet = dict(meta, imu=dict(meta["imu"], gyro={"drift_deg_h": 0.005, "arw_deg_sqrt_h": 0.0},
                                 accel={"bias_ug": 50.0, "vrw_ug_sqrt_hz": 0.0}))

@@ -148,6 +148,20 @@ def test_process_odometer_only_moving_from_t0(od_only):
     assert horiz < 0.005 * dist, (horiz, dist)
 
 
+def test_process_takes_noise_from_the_methods_matched_presets(ldv_only):
+    """One rule for noise settings (issue 15): process passes the stage's hand-over and the
+    user's ``methods`` settings; the method takes the rest from meta.yaml itself, and the
+    summary says where each value came from (``info.config_source`` per method)."""
+    sol = run_process(ldv_only, {"methods": {"ldv-kf": {"baro_noise_m": 3.0}}})
+    src = sol.info["config_source"]["ldv-kf"]
+    assert src["gyro_drift_deg_h"] == src["accel_vrw_ug_sqrt_hz"] == "meta.imu (simulated)"
+    assert src["ldv_noise_m_s"].startswith("meta.sensors (simulated)")
+    assert src["init_heading_sigma_deg"] == "process (stage)"
+    assert src["baro_noise_m"] == "config (methods.ldv-kf)"
+    fine = [s for s in sol.info["stages"] if s["method"] == "ldv-kf"][0]
+    assert fine["config_source"] == src
+
+
 def test_process_smooth_odometer_only(od_only):
     """``smooth``: the odometer drive through ``od-kf`` with its NHC fallback and FDI (a bank:
     the bank decides, a central filter over the accepted samples is smoothed),

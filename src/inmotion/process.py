@@ -278,18 +278,23 @@ def _cfg(cls, base: dict, cfg: ProcessConfig, name: str, own: dict):
         raise BadInput(f"process configuration of {name}: {str(e).splitlines()[0]}") from None
 
 
-def _config_source(sol: Solution, cfg: ProcessConfig, name: str, own: dict) -> dict:
-    """The method's ``info["config_source"]`` with its ``config`` entries named: the user's
-    ``methods[name]`` (``config (methods.NAME)``), process's own settings (``process (why)``),
-    the stage's hand-over (``process (stage)``)."""
+def _config_source(sol: Solution, cfg: ProcessConfig, name: str, own: dict,
+                   base: dict) -> dict:
+    """``{field: origin}`` of method ``name``'s run ``sol``: its own ``info["config_source"]``
+    (what it took from the bundle or left at its default), and every field process passed,
+    named: the user's ``methods[name]`` (``config (methods.NAME)``), the stage's ``base``
+    (``process (stage)``), process's own settings ``own`` (``process (why)``)."""
     src = dict(sol.info.get("config_source") or {})
+    fields = set((sol.info.get("config") or {}).keys()) | set(src)
     user = cfg.methods.get(name) or {}
-    for k, v in src.items():
-        if v != "config":
-            continue
-        src[k] = (f"config (methods.{name})" if k in user
-                  else f"process ({own[k][1]})" if k in own else "process (stage)")
-    return src
+    for k in fields:
+        if k in user:
+            src[k] = f"config (methods.{name})"
+        elif k in base:
+            src[k] = "process (stage)"
+        elif k in own:
+            src[k] = f"process ({own[k][1]})"
+    return dict(sorted(src.items()))
 
 
 def _with_heading(C, yaw):
@@ -606,7 +611,7 @@ def run_process(bundle: Bundle, config: ProcessConfig | dict | None = None,
         parts.append(parked)
         log("parked fine", "parked-kf", t0, t_park_end,
             "zero-velocity fine alignment while parked (paper 003 eq. 11-13)", parked,
-            config_source=_config_source(parked, cfg, "parked-kf", own))
+            config_source=_config_source(parked, cfg, "parked-kf", own, pbase))
         if t_move is None or t_end - t_move < 1.0:
             handover = None
         else:
@@ -778,8 +783,8 @@ def _navigate(bundle, cfg, state, tilt_sig, head_sig, own, log, progress, stages
         from .align.dr_kalman import DrKfConfig, run_dr_kf
         from .navigate.sins_dr import SinsDrConfig, run_sins_dr
         stops, why_stops = stop_windows(bundle, cfg, t0) if cfg.zupt else ([], "")
-        dcfg = _cfg(DrKfConfig, {**prior, "velocity_sensor": "radar", "stops_s": stops}, cfg,
-                    "dr-kf", own)
+        dbase = {**prior, "velocity_sensor": "radar", "stops_s": stops}
+        dcfg = _cfg(DrKfConfig, dbase, cfg, "dr-kf", own)
         fine = run_dr_kf(bundle, dcfg, state,
                          progress=None if progress is None else lambda f: progress(0.5 * f))
         sig_u = np.degrees(fine.sigma["phi_U"]) * 60.0
@@ -802,7 +807,7 @@ def _navigate(bundle, cfg, state, tilt_sig, head_sig, own, log, progress, stages
         if stops:
             why += f"; zero-velocity updates at the stops ({len(stops)} in the drive)"
         log("fine", "dr-kf", t0, t1, why, _head(fine, t1),
-            config_source=_config_source(fine, cfg, "dr-kf", own))
+            config_source=_config_source(fine, cfg, "dr-kf", own, dbase))
         out = [fine]
         if len(ok):
             k = int(ok[0])
@@ -815,7 +820,8 @@ def _navigate(bundle, cfg, state, tilt_sig, head_sig, own, log, progress, stages
             nav_stops = [w for w in stops if w[1] > st.t]
             if nav_stops:
                 base["stops_s"] = nav_stops
-            ncfg = _cfg(SinsDrConfig, {**base, "smooth": cfg.smooth}, cfg, "sins-dr", own)
+            base["smooth"] = cfg.smooth
+            ncfg = _cfg(SinsDrConfig, base, cfg, "sins-dr", own)
             nav = run_sins_dr(bundle, ncfg, st,
                               progress=None if progress is None else
                               lambda f: progress(0.5 + 0.5 * f))
@@ -825,7 +831,7 @@ def _navigate(bundle, cfg, state, tilt_sig, head_sig, own, log, progress, stages
                                                 else "")
                 + ("; smoothed forward-backward (RTS)" if cfg.smooth else "")
                 + (f"; zero-velocity updates at {len(nav_stops)} stop(s)" if nav_stops else ""),
-                nav, config_source=_config_source(nav, cfg, "sins-dr", own))
+                nav, config_source=_config_source(nav, cfg, "sins-dr", own, base))
             out.append(nav)
         if stops:
             log("stops", "zero-velocity", stops[0][0], stops[-1][1], why_stops, stops_s=stops)
@@ -857,7 +863,7 @@ def _navigate(bundle, cfg, state, tilt_sig, head_sig, own, log, progress, stages
         why += f"; zero-velocity and zero angular rate updates at {len(stops)} stop(s)"
     log("fine + navigate", name, t0, t_end, why + (", barometer" if bundle.baro is not None
                                                   else ""), sol,
-        config_source=_config_source(sol, cfg, name, own),
+        config_source=_config_source(sol, cfg, name, own, base),
         **({"smoothing": sol.info["smoothing"]} if "smoothing" in sol.info else {}))
     if stops:
         log("stops", "zero-velocity + zero-rate", stops[0][0], stops[-1][1], why_stops,
