@@ -5,7 +5,9 @@ plus the overconfident settings. Usage (from the repository root)::
     PYTHONPATH=src:tests OPENBLAS_NUM_THREADS=1 nice -n 10 python benchmarks/nees_methods.py [RUNS] [METHOD,...]
 
 ``RUNS`` (default 6, the tests' count) runs per case; ``METHOD,...`` keeps only those methods'
-cases. About 90 s on one core at 6 runs. Paper 001's USQUE family (its own drive, 100 Hz, both
+cases. About 90 s on one core at 6 runs. ``nhc-kf`` runs twice: with its rows' noise from the
+drive's constraint violation (the default, ``aided_kf.nhc_noise_from_meta``) and with the
+0.01 m/s the test set before (overconfident: 6.18 over 20 runs, issue 15). Paper 001's USQUE family (its own drive, 100 Hz, both
 noise presets): ``benchmarks/nees_usque.py``.
 """
 import sys
