@@ -126,5 +126,9 @@ def test_simulated_check_yaw_against_truth_and_the_constant_models_overconfidenc
     two, const = sim["models"]["constant + gauss-markov"], sim["models"]["constant"]
     assert two["yaw_error_rms_deg"] < rr.TARGET_YAW_MOUNT_DEG
     assert two["yaw_error_over_sigma_rms"] < 1.5
+    # the single pass (constant + Gauss-Markov, two states per axis) likewise
+    one = sim["models"]["constant + gauss-markov, single pass"]
+    assert one["yaw_error_rms_deg"] < rr.TARGET_YAW_MOUNT_DEG
+    assert one["yaw_error_over_sigma_rms"] < 1.5
     assert const["yaw_error_over_sigma_rms"] > 2.0
     assert sim["models"]["oracle"]["dr_within_target"] == 1.0
