@@ -480,6 +480,39 @@ def _noise(cfg) -> em.ProcessNoise:
                            accel_vrw=cfg.accel_vrw_ug_sqrt_hz * UG, **gm)
 
 
+def two_part_gyro_bias(cfg) -> bool:
+    """Whether the gyro bias is modelled as a constant plus a Gauss-Markov part, two error
+    states per axis (``eps`` and ``eps_gm``, :mod:`inmotion.estimation.error_model`): when
+    the configuration (or the spec it took from ``meta.imu``) has both a constant
+    ``gyro_drift_deg_h > 0`` and a Gauss-Markov ``gyro_markov_deg_h > 0`` with
+    ``gyro_markov_tau_s`` (issue 15). Otherwise one state: a constant, or a Gauss-Markov
+    process whose prior is the root sum of squares of the two (:func:`_bias_prior`)."""
+    return (cfg.gyro_markov_tau_s is not None and cfg.gyro_markov_deg_h > 0
+            and cfg.gyro_drift_deg_h > 0 and not getattr(cfg, "smooth", False))
+
+
+def _with_gm_block(lay, locals_, cfg):
+    """``(layout, local filters)`` with the block ``eps_gm`` appended (not fed back, so it
+    stays after the fused common states) for :func:`two_part_gyro_bias`: each local filter's
+    prior gets ``eps`` = the constant's ``gyro_drift_deg_h``^2 and ``eps_gm`` = the
+    stationary ``gyro_markov_deg_h``^2, and its process noise the error model's on the new
+    layout (``Q_c[eps_gm] = 2 sigma^2 / tau``, none on ``eps``), both scaled by the local
+    filter's ``1 / beta`` share (``r_scale``) as :func:`_channel` scales the SINS part."""
+    out = lay + ["eps_gm"]
+    Qc = em.ErrorModel(out, _noise(cfg)).Qc()
+    e, g, n0 = out["eps"], out["eps_gm"], lay.n
+    new = []
+    for lf in locals_:
+        P = np.zeros((out.n, out.n))
+        P[:n0, :n0] = lf.P0
+        P[e, :] = 0.0
+        P[:, e] = 0.0
+        P[e, e] = np.eye(3) * lf.r_scale * (cfg.gyro_drift_deg_h * DEG_H) ** 2
+        P[g, g] = np.eye(3) * lf.r_scale * (cfg.gyro_markov_deg_h * DEG_H) ** 2
+        new.append(LocalFilter(P, lf.r_scale * Qc, r_scale=lf.r_scale, role=lf.role))
+    return out, new
+
+
 def _bias_prior(cfg):
     """1-sigma priors of the gyro drift [rad/s] and accelerometer bias [m/s^2]: the constant
     and, where its correlation time is set, the Gauss-Markov part (root sum of squares)."""
@@ -853,6 +886,8 @@ def run_aided(bundle: Bundle, cfg, init: NavState, sensors: tuple, *, method: st
         locals_.append(LocalFilter(pad(P15), pad(Q15), role="primary" if nhc_only
                                    else "fallback"))
         meas.append(_nhc(cfg, C_vb0, len(locals_) - 1))
+    if two_part_gyro_bias(cfg):         # constant + Gauss-Markov gyro bias (issue 15)
+        lay, locals_ = _with_gm_block(lay, locals_, cfg)
     use_baro = cfg.use_baro and bundle.baro is not None
     if use_baro:
         meas.append(ms.Height(cfg.baro_noise_m, local=None))
@@ -879,6 +914,16 @@ def run_aided(bundle: Bundle, cfg, init: NavState, sensors: tuple, *, method: st
     sol = _solution(res, f, init, cfg, method, sensors, thr_ch, time.perf_counter() - t_wall,
                     P15)
     sol.info["config_source"] = cfg_source
+    sol.info["gyro_bias_model"] = ("constant + gauss-markov" if "eps_gm" in lay else
+                                   "gauss-markov" if cfg.gyro_markov_tau_s is not None
+                                   else "constant")
+    if "eps_gm" in lay and extra is None:    # the GM part's estimate and sigma, deg/h
+        for i, a in enumerate("xyz"):
+            j = lay["eps_gm"].start + i
+            for key, arr, v0 in ((f"eps_gm_{a}", res["states"], 0.0),
+                                 (f"sigma_eps_gm_{a}", res["sigma"], cfg.gyro_markov_deg_h)):
+                sol.states[key] = np.concatenate([[v0 * DEG_H], arr[:, j]])
+                sol.state_units[key] = StateUnit("deg_h", 1.0 / DEG_H)
     sol.info["residual_test_weights"] = weights
     sol.info["nis"] = f.nis_summary()
     sol.info["warnings"] = _warnings(f, sensors, cfg, cfg_source, bundle.meta, res)

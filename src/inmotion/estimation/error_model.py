@@ -14,6 +14,8 @@ State (blocks of :mod:`inmotion.estimation.layout`; all SI)
     ``mount`` velocity-sensor mounting angles ``A = [alpha, beta, gamma]`` about b's x, y, z
     ``dk``    velocity-sensor scale-factor error, ``v_measured = (1 + dk) v``
     ``lever`` velocity-sensor lever-arm error in b (paper 003 hook)
+    ``eps_gm`` the Gauss-Markov part of a constant + Gauss-Markov gyro bias [rad/s] in b
+              (end of this docstring; issue 15)
 
 SINS error equations (phi-angle model in ENU, derived for the DESIGN convention)::
 
@@ -57,6 +59,27 @@ constant) decays towards zero mean with time constant ``tau``, which is right on
 bias whose mean was removed (the phone's "bias-corrected" gyro, or a bias compensated from a
 still period). A test checks the filter's propagated bias variance against the nonlinear
 simulated GM bias over Monte Carlo runs.
+
+Constant + Gauss-Markov gyro bias (issue 15, block ``eps_gm``): a real gyro's bias is a
+turn-on constant plus a slow wander (the comma2k19 phone: a mean of ~107 deg/h in z with
++-50 deg/h around it over a minute). One state per axis holds only one of the two; with
+``eps_gm`` in the layout the gyro error is ``eps + eps_gm``, ``eps`` a random constant
+(plus ``gyro_bias_rw``) and ``eps_gm`` the zero-mean first-order Gauss-Markov part of paper
+000 eq. 3 (the same law as above, moved to its own block)::
+
+    phi_dot   = ... - C_b^n (eps + eps_gm) - C_b^n w_g     (phi_D likewise, with dr_eps)
+    eps_dot   = w_rw,                         E[w_rw w_rw^T] = gyro_bias_rw^2 I
+    eps_gm_dot = -eps_gm / tau_g + w_gm,     E[w_gm w_gm^T] = 2 sigma_g^2 / tau_g I
+
+so ``F[phi, eps_gm] = -C_b^n`` (as ``F[phi, eps]``), ``F[eps_gm, eps_gm] = -1 / tau_g``, no
+``-1 / tau`` on ``eps``, and ``Q_c[eps_gm] = 2 sigma_g^2 / tau_g``, ``Q_c[eps] =
+gyro_bias_rw^2``. Its prior is the stationary ``sigma_g^2``. ``eps_gm`` is not fed back
+into the gyro compensation (the engine feeds back ``eps``): its estimate stays in the
+error state, where ``F`` makes it decay with ``tau_g`` as the process's conditional mean
+does, and drives ``phi`` through ``F[phi, eps_gm]``. Tests: the F entries against finite
+differences of the nonlinear attitude propagation, the engine's propagated variances
+against the exact GM law (``eps_gm``) and a random constant (``eps``), and attitude NEES of
+``od-kf`` on simulated constant + GM gyro biases (``tests/test_gyro_bias_two_part.py``).
 """
 from __future__ import annotations
 
@@ -204,7 +227,8 @@ def transport_jacobians(lat, h, vel_n):
 
 
 #: block offsets handed to the kernels, in this order; -1 marks a block the layout lacks
-_KERNEL_BLOCKS = ("phi", "dv", "dp", "eps", "nabla", "phi_D", "dp_D", "mount", "dk")
+#: (``eps_gm`` last: the constant + Gauss-Markov gyro bias, issue 15)
+_KERNEL_BLOCKS = ("phi", "dv", "dp", "eps", "nabla", "phi_D", "dp_D", "mount", "dk", "eps_gm")
 
 
 def _offsets(layout):
@@ -265,7 +289,7 @@ def _fill_F(F, offs, lat, h, vel_n, C, f_n, inv_tau_dk, dr_eps, grav_grad, inv_t
     pattern: zero it once and refill it each epoch with no clearing. ``inv_tau_gyro``,
     ``inv_tau_accel`` [1/s]: the Gauss-Markov biases' ``1 / tau`` (0: none; module docstring).
     """
-    o_phi, o_dv, o_dp, o_eps, o_nabla, o_phiD, o_dpD, o_mount, o_dk = offs
+    o_phi, o_dv, o_dp, o_eps, o_nabla, o_phiD, o_dpD, o_mount, o_dk, o_gm = offs
     ve, vn, vu = vel_n[0], vel_n[1], vel_n[2]
     (wie_n, wie_u, wen_e, wen_n, wen_u, inv_rm, inv_rn, t_rn, sec_rn,
      p02, p12, p20, p22, m10, m12, r_m, r_n) = _transport_scalars(lat, h, ve, vn)
@@ -388,9 +412,17 @@ def _fill_F(F, offs, lat, h, vel_n, C, f_n, inv_tau_dk, dr_eps, grav_grad, inv_t
                     F[o_phiD + i, o_eps + j] = -C[i, j]
     if o_dk >= 0 and inv_tau_dk != 0.0:
         F[o_dk, o_dk] = -inv_tau_dk
-    if o_eps >= 0 and inv_tau_gyro != 0.0:          # Gauss-Markov gyro bias
+    if o_eps >= 0 and inv_tau_gyro != 0.0 and o_gm < 0:   # Gauss-Markov gyro bias
         for i in range(3):
             F[o_eps + i, o_eps + i] = -inv_tau_gyro
+    if o_gm >= 0:     # constant + Gauss-Markov gyro bias: the GM part (module docstring)
+        for i in range(3):
+            for j in range(3):
+                F[o_phi + i, o_gm + j] = -C[i, j]
+                if o_phiD >= 0 and dr_eps:
+                    F[o_phiD + i, o_gm + j] = -C[i, j]
+            if inv_tau_gyro != 0.0:
+                F[o_gm + i, o_gm + i] = -inv_tau_gyro
     if o_nabla >= 0 and inv_tau_accel != 0.0:       # Gauss-Markov accelerometer bias
         for i in range(3):
             F[o_nabla + i, o_nabla + i] = -inv_tau_accel
@@ -451,6 +483,10 @@ class ErrorModel:
                 raise ValueError(f"the error model needs block {name!r} in the layout")
         if ("phi_D" in layout) != ("dp_D" in layout):
             raise ValueError("the DR blocks 'phi_D' and 'dp_D' come together")
+        if "eps_gm" in layout and not ("eps" in layout and np.isfinite(noise.gyro_bias_tau)):
+            raise ValueError("block 'eps_gm' (the Gauss-Markov part of a constant + "
+                             "Gauss-Markov gyro bias) needs 'eps' in the layout and a finite "
+                             "ProcessNoise.gyro_bias_tau")
         self.layout = layout
         self.noise = noise
         self.dr_sees_gyro_drift = dr_sees_gyro_drift
@@ -495,6 +531,9 @@ class ErrorModel:
         Q[lay["dv"], lay["dv"]] = (q.accel_vrw ** 2) * np.eye(3)
         gm_g = 2.0 * q.gyro_bias_sigma ** 2 / q.gyro_bias_tau     # 0 with tau = inf
         gm_a = 2.0 * q.accel_bias_sigma ** 2 / q.accel_bias_tau
+        if "eps_gm" in lay:            # constant + Gauss-Markov: the GM noise drives eps_gm
+            Q[lay["eps_gm"], lay["eps_gm"]] = gm_g * np.eye(3)
+            gm_g = 0.0
         for name, var in (("eps", q.gyro_bias_rw ** 2 + gm_g),
                           ("nabla", q.accel_bias_rw ** 2 + gm_a),
                           ("mount", q.mount_rw ** 2), ("lever", q.lever_rw ** 2)):

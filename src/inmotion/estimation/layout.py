@@ -21,6 +21,8 @@ dp_D       3     dead-reckoning position error lat, lon [rad], h [m] m (N, E, U)
 mount      3     velocity-sensor mounting angles about x, y, z [rad] arcmin
 dk         1     velocity-sensor scale-factor error [-]              ppm
 lever      3     lever arm error x, y, z in b [m]                    m
+eps_gm     3     Gauss-Markov part of a constant + GM gyro bias in b deg_h
+                 [rad/s] (error_model docstring; issue 15)
 =========  ====  ==================================================  ===========
 
 Unit strings are safe in file column names (``states.csv`` writes ``<name>_<unit>``).
@@ -93,10 +95,13 @@ BLOCKS = {
     "mount": _uniform("mount", "xyz", StateUnit("arcmin", _ARCMIN)),
     "dk": Block("dk", ("",), (StateUnit("ppm", 1e6),)),
     "lever": _uniform("lever", "xyz", StateUnit("m", 1.0)),
+    "eps_gm": _uniform("eps_gm", "xyz", StateUnit("deg_h", _DEG_H)),
 }
 
 
-#: the blocks a numba kernel can address, in the order of :meth:`Layout.offsets`
+#: the blocks a numba kernel can address, in the order of :meth:`Layout.offsets` (``eps_gm``
+#: is not among them: no measurement or feedback addresses it; the error model's ``F`` finds
+#: it through ``error_model._offsets``)
 KERNEL_BLOCKS = ("phi", "dv", "dp", "eps", "nabla", "phi_D", "dp_D", "mount", "dk", "lever")
 #: named indices into :meth:`Layout.offsets` (``offs[PHI]`` is the first state of ``phi``, -1
 #: when the layout lacks it): how kernels and measurement fills address the state vector,
