@@ -511,6 +511,13 @@ def _channel(bundle, name, cfg, beta, P15, Q15, c, C_vb0, thr, ret):
     return LocalFilter(P, _pad(Q15 / beta), r_scale=1.0 / beta), meas
 
 
+#: the largest angle [rad] between the SINS's displacement and the sensor's over an interval
+#: for which :func:`_length_fill` compares lengths: beyond it (the vehicle slow or stopped,
+#: the sensor's distance within the rows' noise) the expansion in the angle does not hold
+#: and the first-order rows stay (at 0.1 rad the next term, ``c^4 d / 8``, is 1e-5 of ``d``)
+LENGTH_MAX_ANGLE = 0.1
+
+
 @functools.lru_cache(maxsize=None)
 def _length_fill(fill):
     """The displacement-increment fill ``fill`` (paper 003 ref. 38, eq. 14-26's sensor rows)
@@ -551,9 +558,13 @@ def _length_fill(fill):
             return m
         along = 0.0
         q = 0.0
+        zz = 0.0
         for i in range(3):
             along += z[i] * e[i] / d
             q += (e[i] + z[i]) ** 2
+            zz += z[i] * z[i]
+        if zz - along * along > (LENGTH_MAX_ANGLE * d) ** 2:
+            return m              # slow or stopped: no small angle, the first-order rows stay
         dl = np.sqrt(q) - d - along
         for i in range(3):
             z[i] += dl * e[i] / d
