@@ -19,8 +19,9 @@ suite checks this in the linear Gaussian case).
 Why ``P_g`` bounds the fused error when the locals are not independent (issue 15; the paper
 states the sharing, this is the argument for it). Stack the local errors: their joint
 dynamics are driven by the common process noise, ``[Q Q; Q Q] <= diag(Q / beta_1,
-Q / beta_2)`` when ``beta_1 + beta_2 <= 1`` (the difference is ``(b^-1 - 1) Q``-weighted and
-positive semi-definite), likewise the common start error and a measurement noise common to
+Q / beta_2)`` when ``beta_1 + beta_2 <= 1`` (the difference ``[(1/beta_1 - 1) Q, -Q; -Q,
+(1/beta_2 - 1) Q]`` is positive semi-definite iff ``(1/beta_1 - 1)(1/beta_2 - 1) >= 1``, i.e.
+``beta_1 + beta_2 <= 1``), likewise the common start error and a measurement noise common to
 the channels (the barometer; the vehicle's constraint violation on the odometer's and LDV's
 lateral and vertical rows, shared by ``1 / beta`` in ``align.aided_kf``), while each
 sensor's own noise is independent. Each local filter's covariance ``P_ii`` is propagated with
