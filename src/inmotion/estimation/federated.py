@@ -14,7 +14,24 @@ lets the cross-covariances ``P_ij`` be ignored). The global estimate is eq. 36::
     P_g = (sum_i P_ii^-1)^-1,     X_g = P_g sum_i P_ii^-1 X_i
 
 which, for local estimates that really are independent, is the centralized estimate (the test
-suite checks this in the linear Gaussian case). Only the common states are fused; the
+suite checks this in the linear Gaussian case).
+
+Why ``P_g`` bounds the fused error when the locals are not independent (issue 15; the paper
+states the sharing, this is the argument for it). Stack the local errors: their joint
+dynamics are driven by the common process noise, ``[Q Q; Q Q] <= diag(Q / beta_1,
+Q / beta_2)`` when ``beta_1 + beta_2 <= 1`` (the difference ``[(1/beta_1 - 1) Q, -Q; -Q,
+(1/beta_2 - 1) Q]`` is positive semi-definite iff ``(1/beta_1 - 1)(1/beta_2 - 1) >= 1``, i.e.
+``beta_1 + beta_2 <= 1``), likewise the common start error and a measurement noise common to
+the channels (the barometer; the vehicle's constraint violation on the odometer's and LDV's
+lateral and vertical rows, shared by ``1 / beta`` in ``align.aided_kf``), while each
+sensor's own noise is independent. Each local filter's covariance ``P_ii`` is propagated with
+its own gains and the bounding noises, so ``diag(P_11, P_22)`` bounds the joint error
+covariance (the same Riccati / Lyapunov recursion with larger inputs), and for eq. 36's
+fusion ``E[e_g e_g^T] = P_g (sum_ij P_ii^-1 P_ij P_jj^-1) P_g <= P_g``. The non-reset mode's
+feedback shifts every local by the same known amount and leaves the errors unchanged. This
+holds for the linear model; the engine's local filters are extended ones, where what is
+left over is measured (``align.aided_kf``'s docstring: fkf's final-attitude NEES tracks the
+single-channel ldv-kf's, run by run). Only the common states are fused; the
 states private to one local filter (a sensor's scale factor, mounting, lever arm) stay there.
 """
 from __future__ import annotations
