@@ -1,4 +1,4 @@
-"""The command line's start-up shortcut :func:`inmotion.cli.main.light_numba_blas` (issue 13:
+"""The command line's start-up shortcut :func:`inmotion.cli.light_blas.light_numba_blas` (issue 13:
 a run's fixed cost): numba's CPU target gets SciPy's ``cython_blas`` without the
 ``scipy.linalg`` package, the run's result is the same file for file, and SciPy and numba's
 linear algebra work afterwards."""
@@ -60,7 +60,7 @@ def test_scipy_linalg_and_numba_lapack_work_after_it():
     code = """
 import sys
 import numpy as np
-from inmotion.cli.main import light_numba_blas
+from inmotion.cli.light_blas import light_numba_blas
 assert light_numba_blas()
 assert "scipy.linalg" not in sys.modules
 blas = sys.modules["scipy.linalg.cython_blas"]
