@@ -186,9 +186,9 @@ def _progress(ctx, desc: str):
 STREAMED = ("sins", "dr", "sins-dr", "dr-kf", "od-velocity-kf")
 
 
-def _read_bundle(ctx, path, allow_imu_gaps=False, chunked=False):
-    """Read a bundle (``chunked``: open it for reading in chunks, :func:`open_bundle`),
-    turning gap warnings into notes on stderr."""
+def _read_bundle(ctx, path, allow_imu_gaps=False, chunked=False, **kw):
+    """Read a bundle (``chunked``: open it for reading in chunks, :func:`open_bundle`; ``kw``:
+    :func:`read_bundle`'s), turning gap warnings into notes on stderr."""
     from ..io.bundle import BundleGapWarning
     if chunked:
         from ..io.bundle_stream import open_bundle as read_bundle
@@ -196,7 +196,7 @@ def _read_bundle(ctx, path, allow_imu_gaps=False, chunked=False):
         from ..io.bundle import read_bundle
     with warnings.catch_warnings(record=True) as caught:
         warnings.simplefilter("always", BundleGapWarning)
-        bundle = read_bundle(path, allow_imu_gaps=allow_imu_gaps)
+        bundle = read_bundle(path, allow_imu_gaps=allow_imu_gaps, **kw)
     for w in caught:
         if issubclass(w.category, BundleGapWarning):
             _note(ctx, f"warning: {w.message}")
@@ -956,7 +956,10 @@ def run_process_to(ctx, bundle, output, cfg, init=None, fmt="csv", output_rate=N
              "init": {"from": ii.get("source"), "t_s": None if state is None else state.t},
              "output_rate_hz": rate, "stages": sol.info.get("stages"),
              "heading": sol.info.get("heading")}
-    summary = write_result(sol, output, truth=bundle.truth, summary_extra=extra, fmt=fmt)
+    truth = bundle.truth
+    if hasattr(truth, "reduced"):        # read in chunks: the rows the output's errors need
+        truth = truth.reduced(sol.t)
+    summary = write_result(sol, output, truth=truth, summary_extra=extra, fmt=fmt)
     if report:
         from ..evaluate.report import build_report
         try:
@@ -999,6 +1002,25 @@ def _process_text(summary: dict, output) -> str:
     return "\n".join(lines)
 
 
+
+def _process_bundle(ctx, bundle_path, allow_imu_gaps, init):
+    """The bundle for ``process``: loaded whole (its stages take arrays) but for the truth,
+    opened for reading in chunks (``read_bundle(truth_in_chunks=True)``): the run reads the
+    truth for its errors only (``run_process_to``), so memory does not grow with it. Where
+    the run would take its start position from the truth (no ``--init`` and no position in
+    ``meta.yaml``: :func:`inmotion.align.attitude_determination.initial_position`), the
+    truth is loaded as before."""
+    import dataclasses
+
+    from ..align.attitude_determination import initial_position
+    bundle = _read_bundle(ctx, bundle_path, allow_imu_gaps, truth_in_chunks=True)
+    if init is None and bundle.truth is not None:
+        try:
+            initial_position(dataclasses.replace(bundle, truth=None), None)
+        except BadInput:                     # the position comes from the truth's first row
+            bundle = _read_bundle(ctx, bundle_path, allow_imu_gaps)
+    return bundle
+
 @cli.command()
 @click.argument("bundle_path", metavar="BUNDLE", type=click.Path())
 @click.option("-o", "--output", required=True, type=click.Path(file_okay=False),
@@ -1038,7 +1060,7 @@ def process(ctx, bundle_path, output, config_file, sets, init, start, end, smoot
     cfg = _load_process_config(config_file, sets)
     if smooth:
         cfg = cfg.model_copy(update={"smooth": True})
-    bundle = _read_bundle(ctx, bundle_path, allow_imu_gaps)
+    bundle = _process_bundle(ctx, bundle_path, allow_imu_gaps, init)
     if start is not None or end is not None:
         full = bundle
         bundle = bundle.window(start, end)

@@ -155,7 +155,7 @@ def bundle_folder(path) -> Path:
 
 
 def read_bundle(path, *, max_gap_periods: float = MAX_GAP_PERIODS,
-                allow_imu_gaps: bool = False) -> Bundle:
+                allow_imu_gaps: bool = False, truth_in_chunks: bool = False) -> Bundle:
     """Read and validate a bundle folder.
 
     Parameters
@@ -166,6 +166,13 @@ def read_bundle(path, *, max_gap_periods: float = MAX_GAP_PERIODS,
         A time step longer than this many median sample periods is a gap.
     allow_imu_gaps : bool
         Accept gaps in the IMU table instead of raising (see the module docstring).
+    truth_in_chunks : bool
+        Open the truth table for reading in chunks
+        (:class:`inmotion.io.bundle_stream.TruthStream`: ``t``, ``at``, ``window``,
+        ``reduced``) instead of loading it, for a run that reads the truth only for the
+        errors of its result (the command line's ``process``: the truth is the largest
+        table of a simulated bundle, and memory would grow with the log); its rows are read
+        and checked when :meth:`~inmotion.io.bundle_stream.TruthStream.reduced` reads them.
 
     Returns
     -------
@@ -195,7 +202,10 @@ def read_bundle(path, *, max_gap_periods: float = MAX_GAP_PERIODS,
     if "baro" in files:
         baro = _baro_from(_read_table(files["baro"]), files["baro"])
         _check_gaps("baro", baro.t, files["baro"], max_gap_periods, error=False)
-    if "truth" in files:
+    if "truth" in files and truth_in_chunks:
+        from .bundle_stream import CHUNK_ROWS, TruthStream, _Table
+        truth = TruthStream(_Table(files["truth"], CHUNK_ROWS), max_gap_periods)
+    elif "truth" in files:
         truth = _truth_from(_read_table(files["truth"]), files["truth"])
         _check_gaps("truth", truth.t, files["truth"], max_gap_periods, error=False)
     if truth is None:
