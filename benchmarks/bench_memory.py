@@ -19,7 +19,8 @@ design; everything else should not.
 The same for the main job, ``inmotion -q process BUNDLE --no-report -o OUT`` and with
 ``--smooth`` (the Rauch-Tung-Striebel pass stores its forward record, O(N) by nature: in
 files beyond a memory budget, :class:`inmotion.estimation.smoother.ForwardRecord`); ``process``
-loads the whole bundle (its stages take arrays), so its figure is measured, not yet a pass.
+loads the IMU and sensor tables whole (its stages take arrays; the truth is read in chunks),
+so its figure is measured, not yet a pass.
 ``--no-process`` leaves them out.
 
     OPENBLAS_NUM_THREADS=1 .venv/bin/python benchmarks/bench_memory.py [--repeat N] [--no-process]
