@@ -1,6 +1,9 @@
 """The RTS smoother (:mod:`inmotion.estimation.smoother`) against the batch least-squares
 solution of a linear Gaussian system, with closed-loop resets in the forward pass; and the
 engine's forward records smoothed on a simulated drive, against simulated truth."""
+import gc
+import os
+
 import numpy as np
 import pytest
 
@@ -102,6 +105,13 @@ def test_forward_record_spills_to_disk_beyond_its_budget(tmp_path):
         rec.append(chunk)
     rec.close()
     assert not list(tmp_path.iterdir())
+    lost = ForwardRecord(3, 10, memory_budget_bytes=0)      # dropped unclosed (a failed run)
+    lost.append(chunk)
+    folder = os.path.dirname(lost.paths["t"])
+    assert os.path.isdir(folder)
+    del lost
+    gc.collect()
+    assert not os.path.exists(folder)
     mem = ForwardRecord(3, 10)
     mem.append(chunk)
     assert not mem.on_disk

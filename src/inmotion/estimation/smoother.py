@@ -37,6 +37,7 @@ from __future__ import annotations
 import math
 import os
 import tempfile
+import weakref
 
 import numba
 import numpy as np
@@ -211,12 +212,15 @@ class ForwardRecord:
         self.size += k
 
     def _spill(self):
-        """Move the records kept so far to files; later appends go there too."""
+        """Move the records kept so far to files; later appends go there too. The files (and
+        the temporary folder) are removed by :meth:`close`, or when the record is dropped or
+        the interpreter exits (``weakref.finalize``: a run that fails midway leaves none)."""
         folder = self._folder
         if folder is None:
             self._tmp = tempfile.mkdtemp(prefix="inmotion-smoother-")
             folder = self._tmp
         self._files = {}
+        self._finalizer = weakref.finalize(self, _remove_files, self._files, self._tmp)
         for name in RECORD_FIELDS:
             self.paths[name] = os.path.join(folder, f"{name}.f64")
             self._files[name] = open(self.paths[name], "w+b")
@@ -251,14 +255,27 @@ class ForwardRecord:
         """Drop the records (and the files, and the temporary folder)."""
         self._parts = []
         if self._files is not None:
-            for name, f in self._files.items():
-                f.close()
-                os.unlink(self.paths[name])
+            self._finalizer()
             self._files = None
             self.paths = {}
-        if self._tmp is not None:
-            os.rmdir(self._tmp)
             self._tmp = None
+
+
+def _remove_files(files: dict, tmp):
+    """Close and delete a :class:`ForwardRecord`'s files (``{field: open file}``) and its
+    temporary folder ``tmp`` (None: a folder given by the caller, kept)."""
+    for f in files.values():
+        f.close()
+        try:
+            os.unlink(f.name)
+        except FileNotFoundError:
+            pass
+    files.clear()
+    if tmp is not None:
+        try:
+            os.rmdir(tmp)
+        except OSError:
+            pass
 
 
 @numba.njit(cache=True)
@@ -343,6 +360,7 @@ def smooth_at_outputs(record: ForwardRecord, filt, with_last: bool = True) -> di
     keep = ep % filt.out_every == 0
     if with_last:
         keep |= ep == ep[-1]
-    sm = smooth_record(record, filt.layout, np.flatnonzero(keep))
-    record.close()
-    return sm
+    try:
+        return smooth_record(record, filt.layout, np.flatnonzero(keep))
+    finally:
+        record.close()
