@@ -1,6 +1,9 @@
 """The RTS smoother (:mod:`inmotion.estimation.smoother`) against the batch least-squares
 solution of a linear Gaussian system, with closed-loop resets in the forward pass; and the
 engine's forward records smoothed on a simulated drive, against simulated truth."""
+import gc
+import os
+
 import numpy as np
 import pytest
 
@@ -86,18 +89,70 @@ def test_rts_equals_batch_least_squares_on_a_linear_gaussian_system(reset_every)
 
 
 def test_forward_record_spills_to_disk_beyond_its_budget(tmp_path):
-    rec = ForwardRecord(3, 10, memory_budget_bytes=100, folder=tmp_path)
-    assert rec.on_disk and (tmp_path / "phi.npy").exists()
+    rec = ForwardRecord(3, 10, memory_budget_bytes=2000, folder=tmp_path)
     chunk = {"t": np.arange(4.0), "phi": np.ones((4, 3, 3)), "p_pred": np.ones((4, 3, 3)),
              "x": np.ones((4, 3)), "p": np.ones((4, 3, 3)), "fb": np.zeros((4, 3)),
              "fed": np.zeros((4, 3)), "xs": np.zeros((4, 10)), "epoch": np.arange(4.0)}
-    rec.append(chunk)
-    rec.append(chunk)
-    assert rec.size == 8 and np.array_equal(rec["t"], np.r_[np.arange(4.0), np.arange(4.0)])
+    rec.append(chunk)                          # 4 x 8 x 48 bytes: within the budget
+    assert not rec.on_disk and not list(tmp_path.iterdir())
+    rec.append({**chunk, "t": np.arange(4.0, 8.0)})
+    assert rec.on_disk
+    assert rec.size == 8 and np.array_equal(rec["t"], np.arange(8.0))
+    assert np.array_equal(rec["phi"], np.ones((8, 3, 3)))
+    assert (tmp_path / "phi.f64").stat().st_size == 8 * 9 * 8
+    assert np.array_equal(rec.block(3, 6)["t"], [3.0, 4.0, 5.0])
     with pytest.raises(ValueError, match="holds 10 epochs"):
         rec.append(chunk)
+    rec.close()
+    assert not list(tmp_path.iterdir())
+    lost = ForwardRecord(3, 10, memory_budget_bytes=0)      # dropped unclosed (a failed run)
+    lost.append(chunk)
+    folder = os.path.dirname(lost.paths["t"])
+    assert os.path.isdir(folder)
+    del lost
+    gc.collect()
+    assert not os.path.exists(folder)
     mem = ForwardRecord(3, 10)
+    mem.append(chunk)
     assert not mem.on_disk
+
+
+def test_smoothing_from_files_in_blocks_is_the_smoothing_in_memory(monkeypatch):
+    """A record written to files and smoothed block by block (a budget of 40 records: the
+    blocks of the backward pass meet at shared records) gives the smoothed solution of the
+    record in memory bit for bit, and leaves no file behind."""
+    import tempfile
+    from pathlib import Path
+
+    from inmotion.align import dr_kalman
+    from inmotion.core.solution import NavState
+    from inmotion.estimation import smoother
+    from inmotion.sim import simulate
+    from inmotion.sim.scenario import find_scenario, load_scenario
+
+    b = simulate(load_scenario(find_scenario("paper000_traj1")), np.random.default_rng(0))
+    init = NavState.from_truth(b.truth, euler_error=np.radians([0.5, 0.5, 2.0]))
+    cfg = {"smooth": True}
+    ref = dr_kalman.run_dr_kf(b, cfg, init)
+    before = set(Path(tempfile.gettempdir()).glob("inmotion-smoother-*"))
+    seen = []
+    real_close = smoother.ForwardRecord.close
+
+    def close(rec):
+        seen.append(rec.on_disk)
+        real_close(rec)
+    monkeypatch.setattr(smoother.ForwardRecord, "close", close)
+    monkeypatch.setattr(smoother, "MEMORY_BUDGET_BYTES", 40 * 8 * 1700)
+    got = dr_kalman.run_dr_kf(b, cfg, init)
+    assert seen == [True]
+    assert set(Path(tempfile.gettempdir()).glob("inmotion-smoother-*")) == before
+    assert np.array_equal(got.t, ref.t)
+    for name in ("lat", "lon", "h", "vel_n", "euler"):
+        assert np.array_equal(getattr(got, name), getattr(ref, name)), name
+    for d in ("sigma", "states"):
+        assert getattr(got, d).keys() == getattr(ref, d).keys()
+        for key in getattr(ref, d):
+            assert np.array_equal(getattr(got, d)[key], getattr(ref, d)[key]), (d, key)
 
 
 def test_dr_kf_smoothed_against_truth_is_better_early_and_consistent():

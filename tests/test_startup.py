@@ -1,34 +1,11 @@
-"""Start-up cost: the chi-square quantiles without ``scipy.stats``, and what importing the
-package and the command line pulls in (issue 13, "Speed and memory": a CLI run's fixed cost).
+"""Start-up cost: what importing the package and the command line pulls in (issue 13, "Speed
+and memory": a CLI run's fixed cost). The chi-square quantiles without scipy:
+``tests/test_chi2_quantiles.py``.
 """
 import subprocess
 import sys
 
-import numpy as np
 import pytest
-from scipy.stats import chi2 as stats_chi2
-
-from inmotion.estimation import chi2
-
-
-@pytest.mark.parametrize("dof", [1, 2, 3, 6, 15])
-def test_chi2_quantiles_are_scipy_stats_values(dof):
-    p = np.array([0.0, 1e-9, 0.025, 0.5, 0.95, 0.975, 0.99, 0.999, 0.9999, 1 - 1e-9, 1.0])
-    assert np.array_equal(chi2.ppf(p, dof), stats_chi2.ppf(p, dof))
-    assert np.array_equal(chi2.isf(p, dof), stats_chi2.isf(p, dof))
-    for q in (0.01, 0.999):                  # scalars in, floats out, as scipy.stats gives
-        assert isinstance(chi2.ppf(q, dof), float)
-        assert chi2.ppf(q, dof) == float(stats_chi2.ppf(q, dof))
-        assert chi2.threshold(q, dof) == float(stats_chi2.isf(q, dof))
-
-
-def test_chi2_quantiles_broadcast_and_refuse_what_scipy_refuses():
-    got = chi2.ppf([0.025, 0.975], 3 * 50)     # the reproductions' NEES band
-    assert np.array_equal(got, stats_chi2.ppf([0.025, 0.975], 150))
-    assert np.array_equal(chi2.ppf(0.9, [1, 2, 3]), stats_chi2.ppf(0.9, [1, 2, 3]))
-    bad = chi2.ppf([-0.1, 1.1, np.nan], 3)
-    assert np.all(np.isnan(bad)) and np.all(np.isnan(stats_chi2.ppf([-0.1, 1.1, np.nan], 3)))
-    assert np.isnan(chi2.ppf(0.5, 0)) and np.isnan(stats_chi2.ppf(0.5, 0))
 
 
 def _modules_after(code):

@@ -49,6 +49,7 @@ from pathlib import Path
 import click
 
 from .. import registry
+from .light_blas import light_numba_blas
 from ..errors import BadInput
 
 __all__ = ["cli", "main", "parse_init_error"]
@@ -185,9 +186,9 @@ def _progress(ctx, desc: str):
 STREAMED = ("sins", "dr", "sins-dr", "dr-kf", "od-velocity-kf")
 
 
-def _read_bundle(ctx, path, allow_imu_gaps=False, chunked=False):
-    """Read a bundle (``chunked``: open it for reading in chunks, :func:`open_bundle`),
-    turning gap warnings into notes on stderr."""
+def _read_bundle(ctx, path, allow_imu_gaps=False, chunked=False, **kw):
+    """Read a bundle (``chunked``: open it for reading in chunks, :func:`open_bundle`; ``kw``:
+    :func:`read_bundle`'s), turning gap warnings into notes on stderr."""
     from ..io.bundle import BundleGapWarning
     if chunked:
         from ..io.bundle_stream import open_bundle as read_bundle
@@ -195,7 +196,7 @@ def _read_bundle(ctx, path, allow_imu_gaps=False, chunked=False):
         from ..io.bundle import read_bundle
     with warnings.catch_warnings(record=True) as caught:
         warnings.simplefilter("always", BundleGapWarning)
-        bundle = read_bundle(path, allow_imu_gaps=allow_imu_gaps)
+        bundle = read_bundle(path, allow_imu_gaps=allow_imu_gaps, **kw)
     for w in caught:
         if issubclass(w.category, BundleGapWarning):
             _note(ctx, f"warning: {w.message}")
@@ -698,6 +699,7 @@ def _run_command(ctx, kind, bundle_path, method, config_file, output, init, init
     if start is None and init_desc.startswith("result"):
         start = state.t
     config, thin_rate = apply_output_rate(config, bundle, rate, explicit)
+    light_numba_blas()
     sol, b = run_method(ctx, bundle, spec, config, state, (start, end))
     if thin_rate is not None:
         sol = thin(sol, thin_rate)
@@ -942,6 +944,7 @@ def run_process_to(ctx, bundle, output, cfg, init=None, fmt="csv", output_rate=N
     from ..process import run_process
     state, ii = _process_init(ctx, bundle, init)
     rate = parse_output_rate(output_rate) if output_rate is not None else 1.0
+    light_numba_blas()
     t0 = time.perf_counter()
     with _progress(ctx, "process") as progress:
         sol = run_process(bundle, cfg, state, ii, progress=progress)
@@ -953,7 +956,10 @@ def run_process_to(ctx, bundle, output, cfg, init=None, fmt="csv", output_rate=N
              "init": {"from": ii.get("source"), "t_s": None if state is None else state.t},
              "output_rate_hz": rate, "stages": sol.info.get("stages"),
              "heading": sol.info.get("heading")}
-    summary = write_result(sol, output, truth=bundle.truth, summary_extra=extra, fmt=fmt)
+    truth = bundle.truth
+    if hasattr(truth, "reduced"):        # read in chunks: the rows the output's errors need
+        truth = truth.reduced(sol.t)
+    summary = write_result(sol, output, truth=truth, summary_extra=extra, fmt=fmt)
     if report:
         from ..evaluate.report import build_report
         try:
@@ -996,6 +1002,25 @@ def _process_text(summary: dict, output) -> str:
     return "\n".join(lines)
 
 
+
+def _process_bundle(ctx, bundle_path, allow_imu_gaps, init):
+    """The bundle for ``process``: loaded whole (its stages take arrays) but for the truth,
+    opened for reading in chunks (``read_bundle(truth_in_chunks=True)``): the run reads the
+    truth for its errors only (``run_process_to``), so memory does not grow with it. Where
+    the run would take its start position from the truth (no ``--init`` and no position in
+    ``meta.yaml``: :func:`inmotion.align.attitude_determination.initial_position`), the
+    truth is loaded as before."""
+    import dataclasses
+
+    from ..align.attitude_determination import initial_position
+    bundle = _read_bundle(ctx, bundle_path, allow_imu_gaps, truth_in_chunks=True)
+    if init is None and bundle.truth is not None:
+        try:
+            initial_position(dataclasses.replace(bundle, truth=None), None)
+        except BadInput:                     # the position comes from the truth's first row
+            bundle = _read_bundle(ctx, bundle_path, allow_imu_gaps)
+    return bundle
+
 @cli.command()
 @click.argument("bundle_path", metavar="BUNDLE", type=click.Path())
 @click.option("-o", "--output", required=True, type=click.Path(file_okay=False),
@@ -1035,7 +1060,7 @@ def process(ctx, bundle_path, output, config_file, sets, init, start, end, smoot
     cfg = _load_process_config(config_file, sets)
     if smooth:
         cfg = cfg.model_copy(update={"smooth": True})
-    bundle = _read_bundle(ctx, bundle_path, allow_imu_gaps)
+    bundle = _process_bundle(ctx, bundle_path, allow_imu_gaps, init)
     if start is not None or end is not None:
         full = bundle
         bundle = bundle.window(start, end)

@@ -28,15 +28,16 @@ NHC fallback) is smoothed through a central filter over the measurements the ban
 
 :func:`rts_backward` is the numerical core (numba); a test checks it on a linear Gaussian
 system against the batch least-squares solution over all states at once. The records of a
-long drive go to a file (:class:`ForwardRecord`, ``numpy.memmap``) when they would not fit
-the memory budget.
+long drive go to files (:class:`ForwardRecord`) beyond a memory budget, and the backward
+pass reads them back block by block (:func:`smooth_record`): the memory of a smoothed run
+does not grow with the log's length.
 """
 from __future__ import annotations
 
 import math
 import os
 import tempfile
-from pathlib import Path
+import weakref
 
 import numba
 import numpy as np
@@ -45,14 +46,17 @@ from ..core import _kernels as K
 from .layout import DP, DV, PHI
 from .nav_ops import correct_nav
 
-__all__ = ["rts_backward", "ForwardRecord", "RECORD_FIELDS", "smooth_record",
-           "smooth_at_outputs"]
+__all__ = ["rts_backward", "ForwardRecord", "RECORD_FIELDS", "MEMORY_BUDGET_BYTES",
+           "smooth_record", "smooth_at_outputs"]
 
 #: relative eigenvalue below which a direction of the (correlation form of) P_k|k-1 counts as
 #: singular in the smoother gain (machine precision times the states' dynamic range)
 PINV_RCOND = 1e-12
 #: per-epoch records of the forward pass: name -> shape after the epoch axis (n: states)
 RECORD_FIELDS = ("t", "phi", "p_pred", "x", "p", "fb", "fed", "xs", "epoch")
+#: records a forward pass keeps in memory before it writes them to files [bytes] (about 8000
+#: epochs of 22 states: a 10 Hz hour of them is 440 MB)
+MEMORY_BUDGET_BYTES = 1e8
 
 
 @numba.njit(cache=True)
@@ -140,46 +144,50 @@ def rts_backward(x, P, Phi, P_pred, fb, xs_out, Ps_out):
 class ForwardRecord:
     """The forward pass's per-epoch records, appended chunk by chunk.
 
-    Kept in memory up to ``memory_budget_bytes``; beyond it every field is a
-    ``numpy.memmap`` in ``folder`` (a temporary folder by default, removed by :meth:`close`),
-    so a drive of hours can be smoothed with memory of the budget's size (plus the page
-    cache the operating system grants).
+    Kept in memory up to ``memory_budget_bytes`` of records; beyond it every field goes to a
+    file of its own in ``folder`` (a temporary folder by default, under ``TMPDIR``, removed by
+    :meth:`close`), written by plain appends and read back block by block by
+    :func:`smooth_record`, so a drive of hours is smoothed with memory of the budget's size
+    whatever its length. (Not a ``numpy.memmap``: the pages of a mapped file count in the
+    process's resident set as they are touched, so a mapped record grows the peak RSS with
+    the log as the arrays in memory did.)
 
     Parameters
     ----------
-    n : states;  capacity : epochs that will be recorded (known from the log's length)
+    n : states;  capacity : epochs that may be recorded at most (known from the log's length)
+    memory_budget_bytes : records kept in memory up to this size [bytes]; also the size of
+        the blocks the backward pass reads back (None: :data:`MEMORY_BUDGET_BYTES`)
+    folder : where the files go (None: a new temporary folder)
     """
 
-    def __init__(self, n: int, capacity: int, memory_budget_bytes: float = 5e8,
+    def __init__(self, n: int, capacity: int, memory_budget_bytes: float | None = None,
                  folder=None):
         self.n = int(n)
         self.capacity = int(capacity)
         self.size = 0
-        shapes = {"t": (), "phi": (n, n), "p_pred": (n, n), "x": (n,), "p": (n, n),
-                  "fb": (n,), "fed": (n,), "xs": (10,), "epoch": ()}
-        need = 8 * self.capacity * sum(int(np.prod(s)) for s in shapes.values())
+        self.shapes = {"t": (), "phi": (n, n), "p_pred": (n, n), "x": (n,), "p": (n, n),
+                       "fb": (n,), "fed": (n,), "xs": (10,), "epoch": ()}
+        self.record_bytes = 8 * sum(int(np.prod(s)) for s in self.shapes.values())
+        self.budget = float(MEMORY_BUDGET_BYTES if memory_budget_bytes is None
+                            else memory_budget_bytes)
+        self._folder = folder
         self._tmp = None
-        self.on_disk = need > memory_budget_bytes
-        self.arrays = {}
-        if self.on_disk:
-            if folder is None:
-                self._tmp = tempfile.mkdtemp(prefix="inmotion-smoother-")
-                folder = self._tmp
-            for name, s in shapes.items():
-                self.arrays[name] = np.lib.format.open_memmap(
-                    os.path.join(folder, f"{name}.npy"), mode="w+", dtype=np.float64,
-                    shape=(self.capacity,) + s)
-        else:
-            for name, s in shapes.items():
-                self.arrays[name] = np.empty((self.capacity,) + s)
+        self._files = None                  # field -> open file, once on disk
+        self.paths = {}
+        self._parts = []                    # in memory: the appended chunks
+
+    @property
+    def on_disk(self) -> bool:
+        """Whether the records went to files (the budget was exceeded)."""
+        return self._files is not None
 
     @classmethod
-    def for_filter(cls, filt, epochs: int) -> "ForwardRecord":
+    def for_filter(cls, filt, epochs: int, **kw) -> "ForwardRecord":
         """A record for ``epochs`` more epochs of the engine filter ``filt`` (made with
         ``record=True``), holding the start as record 0: ``x = 0`` (nothing estimated yet)
-        with ``P0``, the start state, epoch 0."""
+        with ``P0``, the start state, epoch 0. ``kw``: the constructor's."""
         n = filt.layout.n
-        rec = cls(n, int(epochs) + 1)
+        rec = cls(n, int(epochs) + 1, **kw)
         P0 = filt.covariance()
         rec.append({"t": [filt.t], "phi": np.eye(n)[None], "p_pred": P0[None], "x": filt.x[None],
                     "p": P0[None], "fb": np.zeros((1, n)), "fed": np.zeros((1, n)),
@@ -192,21 +200,82 @@ class ForwardRecord:
         if self.size + k > self.capacity:
             raise ValueError(f"ForwardRecord holds {self.capacity} epochs; got "
                              f"{self.size + k}")
-        for name in RECORD_FIELDS:
-            self.arrays[name][self.size:self.size + k] = rec[name]
+        part = {name: np.ascontiguousarray(rec[name], dtype=np.float64).reshape(
+            (k,) + self.shapes[name]) for name in RECORD_FIELDS}
+        if self._files is None and (self.size + k) * self.record_bytes > self.budget:
+            self._spill()
+        if self._files is None:
+            self._parts.append({name: a.copy() for name, a in part.items()})
+        else:
+            for name in RECORD_FIELDS:
+                self._files[name].write(part[name].tobytes())
         self.size += k
 
+    def _spill(self):
+        """Move the records kept so far to files; later appends go there too. The files (and
+        the temporary folder) are removed by :meth:`close`, or when the record is dropped or
+        the interpreter exits (``weakref.finalize``: a run that fails midway leaves none)."""
+        folder = self._folder
+        if folder is None:
+            self._tmp = tempfile.mkdtemp(prefix="inmotion-smoother-")
+            folder = self._tmp
+        self._files = {}
+        self._finalizer = weakref.finalize(self, _remove_files, self._files, self._tmp)
+        for name in RECORD_FIELDS:
+            self.paths[name] = os.path.join(folder, f"{name}.f64")
+            self._files[name] = open(self.paths[name], "w+b")
+            for part in self._parts:
+                self._files[name].write(part[name].tobytes())
+        self._parts = []
+
+    def block(self, a: int, b: int, fields=RECORD_FIELDS) -> dict:
+        """The records ``a .. b - 1`` of ``fields``: views of memory, or read from the files."""
+        a, b = max(0, int(a)), min(self.size, int(b))
+        if self._files is None:
+            if len(self._parts) > 1:               # one array per field from here on
+                self._parts = [{k: np.concatenate([p[k] for p in self._parts])
+                                for k in RECORD_FIELDS}]
+            if not self._parts:
+                return {k: np.empty((0,) + self.shapes[k]) for k in fields}
+            return {k: self._parts[0][k][a:b] for k in fields}
+        out = {}
+        for k in fields:
+            f = self._files[k]
+            f.flush()
+            width = int(np.prod(self.shapes[k]))
+            f.seek(8 * width * a)
+            out[k] = np.fromfile(f, dtype=np.float64, count=width * (b - a)).reshape(
+                (b - a,) + self.shapes[k])
+        return out
+
     def __getitem__(self, name):
-        return self.arrays[name][:self.size]
+        return self.block(0, self.size, (name,))[name]
 
     def close(self):
-        """Drop the arrays (and the temporary folder of the file-backed ones)."""
-        self.arrays = {}
-        if self._tmp is not None:
-            for p in Path(self._tmp).glob("*.npy"):
-                p.unlink()
-            os.rmdir(self._tmp)
+        """Drop the records (and the files, and the temporary folder)."""
+        self._parts = []
+        if self._files is not None:
+            self._finalizer()
+            self._files = None
+            self.paths = {}
             self._tmp = None
+
+
+def _remove_files(files: dict, tmp):
+    """Close and delete a :class:`ForwardRecord`'s files (``{field: open file}``) and its
+    temporary folder ``tmp`` (None: a folder given by the caller, kept)."""
+    for f in files.values():
+        f.close()
+        try:
+            os.unlink(f.name)
+        except FileNotFoundError:
+            pass
+    files.clear()
+    if tmp is not None:
+        try:
+            os.rmdir(tmp)
+        except OSError:
+            pass
 
 
 @numba.njit(cache=True)
@@ -222,8 +291,15 @@ def _smoothed_nav(xs, x, o_phi, o_dv, o_dp, out):
 
 def smooth_record(record: ForwardRecord, layout, rows=None) -> dict:
     """Run the backward pass over a forward pass's records and return the smoothed outputs
-    at the recorded epochs ``rows`` (indices; default all), in the fields of the engine's
-    outputs.
+    at the recorded epochs ``rows`` (indices, increasing; default all), in the fields of the
+    engine's outputs.
+
+    The pass runs over blocks of records from the last back to the first, each read whole
+    (in memory: one block, the whole record): :func:`rts_backward` on records ``a .. b``
+    with record ``b``'s ``x``, ``P`` replaced by its smoothed values from the block after
+    (``rts_backward`` starts from them and reads nothing else of record ``b``'s filtered
+    estimate), so the values are those of one pass over all records, bit for bit, and only
+    a block's records and the outputs at ``rows`` are held.
 
     Returns
     -------
@@ -234,30 +310,46 @@ def smooth_record(record: ForwardRecord, layout, rows=None) -> dict:
     N, n = record.size, record.n
     if N == 0:
         raise ValueError("no epochs recorded: nothing to smooth")
-    if record.on_disk:
-        folder = os.path.dirname(record.arrays["phi"].filename)
-        xs_out = np.lib.format.open_memmap(os.path.join(folder, "x_smooth.npy"), mode="w+",
-                                           dtype=np.float64, shape=(N, n))
-        Ps_out = np.lib.format.open_memmap(os.path.join(folder, "p_smooth.npy"), mode="w+",
-                                           dtype=np.float64, shape=(N, n, n))
-    else:
-        xs_out, Ps_out = np.empty((N, n)), np.empty((N, n, n))
-    arr = {k: np.asarray(record[k]) for k in RECORD_FIELDS}
-    rts_backward(arr["x"], arr["p"], arr["phi"], arr["p_pred"], arr["fb"],
-                 np.asarray(xs_out), np.asarray(Ps_out))
     rows = np.arange(N) if rows is None else np.asarray(rows, dtype=np.int64)
-    x_k = np.asarray(xs_out)[rows]
-    P_k = np.asarray(Ps_out)[rows]
-    nav = np.empty((len(rows), 10))
+    M = len(rows)
     o = layout.offsets()
-    _smoothed_nav(np.ascontiguousarray(arr["xs"][rows]), np.ascontiguousarray(x_k),
-                  int(o[PHI]), int(o[DV]), int(o[DP]), nav)
-    diag = np.sqrt(np.maximum(np.diagonal(P_k, axis1=1, axis2=2), 0.0))
     ph = layout["phi"]
-    return {"t": arr["t"][rows], "x_sins": nav, "sigma": diag,
-            "states": arr["fed"][rows] + x_k, "cov_phi": P_k[:, ph, ph],
-            "sigma_forward": np.sqrt(np.maximum(np.diagonal(arr["p"][rows], axis1=1, axis2=2),
-                                                0.0))}
+    out = {"t": np.empty(M), "x_sins": np.empty((M, 10)), "sigma": np.empty((M, n)),
+           "states": np.empty((M, n)), "cov_phi": np.empty((M, 3, 3)),
+           "sigma_forward": np.empty((M, n))}
+    # records per block: the whole record in memory, else what the budget holds (with the
+    # block's smoothed x, P beside it)
+    per = max(2, int(record.budget // (record.record_bytes + 8 * n * (n + 1)))
+              ) if record.on_disk else N
+    b = N                                   # this block: records a .. b - 1
+    x_next = P_next = None                  # the smoothed x, P of record b - 1
+    while b > 0:
+        a = max(0, b - per)
+        blk = record.block(a, b)
+        x, P = blk["x"], blk["p"]
+        if x_next is not None:
+            x, P = x.copy(), P.copy()
+            x[-1], P[-1] = x_next, P_next
+        xs_out, Ps_out = np.empty((b - a, n)), np.empty((b - a, n, n))
+        rts_backward(x, P, blk["phi"], blk["p_pred"], blk["fb"], xs_out, Ps_out)
+        sel = np.flatnonzero((rows >= a) & (rows < b))
+        r = rows[sel] - a
+        x_k, P_k = xs_out[r], Ps_out[r]
+        nav = np.empty((len(r), 10))
+        _smoothed_nav(np.ascontiguousarray(blk["xs"][r]), np.ascontiguousarray(x_k),
+                      int(o[PHI]), int(o[DV]), int(o[DP]), nav)
+        out["t"][sel] = blk["t"][r]
+        out["x_sins"][sel] = nav
+        out["sigma"][sel] = np.sqrt(np.maximum(np.diagonal(P_k, axis1=1, axis2=2), 0.0))
+        out["states"][sel] = blk["fed"][r] + x_k
+        out["cov_phi"][sel] = P_k[:, ph, ph]
+        out["sigma_forward"][sel] = np.sqrt(np.maximum(
+            np.diagonal(blk["p"][r], axis1=1, axis2=2), 0.0))
+        x_next, P_next = xs_out[0].copy(), Ps_out[0].copy()
+        if a == 0:
+            break
+        b = a + 1                           # the next block ends with this block's first
+    return out
 
 
 def smooth_at_outputs(record: ForwardRecord, filt, with_last: bool = True) -> dict:
@@ -268,6 +360,7 @@ def smooth_at_outputs(record: ForwardRecord, filt, with_last: bool = True) -> di
     keep = ep % filt.out_every == 0
     if with_last:
         keep |= ep == ep[-1]
-    sm = smooth_record(record, filt.layout, np.flatnonzero(keep))
-    record.close()
-    return sm
+    try:
+        return smooth_record(record, filt.layout, np.flatnonzero(keep))
+    finally:
+        record.close()

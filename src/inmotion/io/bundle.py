@@ -155,7 +155,7 @@ def bundle_folder(path) -> Path:
 
 
 def read_bundle(path, *, max_gap_periods: float = MAX_GAP_PERIODS,
-                allow_imu_gaps: bool = False) -> Bundle:
+                allow_imu_gaps: bool = False, truth_in_chunks: bool = False) -> Bundle:
     """Read and validate a bundle folder.
 
     Parameters
@@ -166,6 +166,13 @@ def read_bundle(path, *, max_gap_periods: float = MAX_GAP_PERIODS,
         A time step longer than this many median sample periods is a gap.
     allow_imu_gaps : bool
         Accept gaps in the IMU table instead of raising (see the module docstring).
+    truth_in_chunks : bool
+        Open the truth table for reading in chunks
+        (:class:`inmotion.io.bundle_stream.TruthStream`: ``t``, ``at``, ``window``,
+        ``reduced``) instead of loading it, for a run that reads the truth only for the
+        errors of its result (the command line's ``process``: the truth is the largest
+        table of a simulated bundle, and memory would grow with the log); its rows are read
+        and checked when :meth:`~inmotion.io.bundle_stream.TruthStream.reduced` reads them.
 
     Returns
     -------
@@ -195,7 +202,10 @@ def read_bundle(path, *, max_gap_periods: float = MAX_GAP_PERIODS,
     if "baro" in files:
         baro = _baro_from(_read_table(files["baro"]), files["baro"])
         _check_gaps("baro", baro.t, files["baro"], max_gap_periods, error=False)
-    if "truth" in files:
+    if "truth" in files and truth_in_chunks:
+        from .bundle_stream import CHUNK_ROWS, TruthStream, _Table
+        truth = TruthStream(_Table(files["truth"], CHUNK_ROWS), max_gap_periods)
+    elif "truth" in files:
         truth = _truth_from(_read_table(files["truth"]), files["truth"])
         _check_gaps("truth", truth.t, files["truth"], max_gap_periods, error=False)
     if truth is None:
@@ -292,27 +302,50 @@ def _locate_tables(folder: Path, meta: dict) -> dict:
     return found
 
 
-class _ArrowColumns(dict):
+class _ArrowColumns:
     """A Parquet table's columns ``{name: pyarrow.Array}``, read with pyarrow alone (pandas
-    costs a third of a second of a command's start-up); what :func:`_columns` reads. Its
-    columns come out as writable float64 copies, as pandas gave them (a table read in chunks,
+    costs a third of a second of a command's start-up); what :func:`_columns` reads. Each
+    column is read from the file when it is asked for (the last one kept), so reading a
+    table holds one column in Arrow's buffers at a time, not the whole table beside its
+    numpy copy (issue 13: a 100 Hz hour is 20 MB of IMU and 30 MB of truth). Its columns
+    come out as writable float64 copies, as pandas gave them (a table read in chunks,
     :mod:`inmotion.io.bundle_stream`, gets read-only views of Arrow's buffers)."""
 
     copy_values = True
 
+    def __init__(self, pf, names: dict, path):
+        self._pf, self._names, self._path = pf, names, path   # names: stripped -> the file's
+        self._last = (None, None)
+
     @property
     def columns(self) -> list:
-        return list(self)
+        return list(self._names)
+
+    def __contains__(self, name) -> bool:
+        return name in self._names
+
+    def __iter__(self):
+        return iter(self._names)
+
+    def __getitem__(self, name):
+        if self._last[0] != name:
+            if name not in self._names:
+                raise KeyError(name)
+            try:
+                col = self._pf.read(columns=[self._names[name]], use_threads=False).column(0)
+                self._last = (name, col.combine_chunks())
+            except Exception as e:
+                raise cannot_read(e, self._path) from None
+        return self._last[1]
 
 
 def _read_parquet(path: Path) -> _ArrowColumns:
     import pyarrow.parquet as pq
-    table = pq.ParquetFile(path).read()        # (pq.read_table imports pyarrow.dataset)
-    if table.num_rows == 0:
+    pf = pq.ParquetFile(path)                  # (pq.read_table imports pyarrow.dataset)
+    if pf.metadata.num_rows == 0:
         raise BadInput("table has no data rows", file=path)
-    return _ArrowColumns((str(n).strip(), table.column(i).combine_chunks())
-                         for i, n in enumerate(table.column_names)
-                         if not re.fullmatch(r"__index_level_\d+__", str(n)))
+    return _ArrowColumns(pf, {str(n).strip(): str(n) for n in pf.schema_arrow.names
+                              if not re.fullmatch(r"__index_level_\d+__", str(n))}, path)
 
 
 def _read_table(path: Path) -> "pd.DataFrame | _ArrowColumns":

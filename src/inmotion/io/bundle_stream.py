@@ -134,12 +134,11 @@ class _Table:
         if not self.parquet:
             t = self.read(("t",))["t"]
         else:
-            try:
-                col = self._pf.read(columns=[self.raw["t"]]).column(0).combine_chunks()
-            except Exception as e:
-                raise B.cannot_read(e, self.path) from None
-            t = B._numeric({"t": col}, "t", self.path, None, 0)
-            B._check_increasing(t, self.path)
+            # chunk by chunk into one array: Arrow holds one chunk at a time, not the whole
+            # column twice (read, then combined), which its allocator would keep afterwards
+            t = np.empty(self._pf.metadata.num_rows)
+            for offset, c in self.chunks(("t",)):
+                t[offset:offset + len(c["t"])] = c["t"]
         self._t = t
         return t
 
