@@ -15,10 +15,6 @@ start-up. Beside it, each in a bare interpreter (``python -c``), the floors it s
 * ``numba floor as the command line runs it``: the same, ending with ``os._exit`` as
   :func:`inmotion.cli.main.fast_exit` does (the plain floor above includes Python's teardown
   of numba's modules, about 0.2 s);
-* ``... with light BLAS``: the same after
-  :func:`inmotion.cli.light_blas.light_numba_blas` (SciPy's ``cython_blas`` loaded without
-  the ``scipy.linalg`` package), as a method run from the command line does: the floor of
-  any command that calls a kernel;
 * ``run-path imports``: importing what ``navigate --method sins-dr`` imports before it calls
   a kernel (the command line, the method, the result writer, the chunked Parquet reader).
 
@@ -122,9 +118,6 @@ def main():
         floors["numba floor"] = "import numpy as np, k; k.f(np.ones(3))"
         floors["numba floor as the command line runs it (fast exit)"] = (
             "import os, numpy as np, k; k.f(np.ones(3)); os._exit(0)")
-        floors["numba floor as the command line runs it (fast exit, light BLAS)"] = (
-            "import os, numpy as np, k; from inmotion.cli.light_blas import light_numba_blas; "
-            "assert light_numba_blas(); k.f(np.ones(3)); os._exit(0)")
         floors["run-path imports (navigate sins-dr, before a kernel runs)"] = (
             "import inmotion.cli.main, inmotion.navigate.sins_dr, inmotion.io.result, "
             "inmotion.io.bundle_stream, pyarrow.parquet")

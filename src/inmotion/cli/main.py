@@ -49,7 +49,6 @@ from pathlib import Path
 import click
 
 from .. import registry
-from .light_blas import light_numba_blas
 from ..errors import BadInput
 
 __all__ = ["cli", "main", "parse_init_error"]
@@ -699,7 +698,6 @@ def _run_command(ctx, kind, bundle_path, method, config_file, output, init, init
     if start is None and init_desc.startswith("result"):
         start = state.t
     config, thin_rate = apply_output_rate(config, bundle, rate, explicit)
-    light_numba_blas()
     sol, b = run_method(ctx, bundle, spec, config, state, (start, end))
     if thin_rate is not None:
         sol = thin(sol, thin_rate)
@@ -944,7 +942,6 @@ def run_process_to(ctx, bundle, output, cfg, init=None, fmt="csv", output_rate=N
     from ..process import run_process
     state, ii = _process_init(ctx, bundle, init)
     rate = parse_output_rate(output_rate) if output_rate is not None else 1.0
-    light_numba_blas()
     t0 = time.perf_counter()
     with _progress(ctx, "process") as progress:
         sol = run_process(bundle, cfg, state, ii, progress=progress)
