@@ -662,6 +662,17 @@ def weighted_chi2_threshold(false_alarm_rate: float, weights,
                                float(round(gauss_fraction, 12)))
 
 
+def residual_test_thresholds(weights: dict, false_alarm_rate: float) -> dict:
+    """``{channel: threshold}`` of the residual test at a set ``false_alarm_rate`` from a
+    run's statistic models ``info["residual_test_weights"]`` (:func:`residual_test_weights`,
+    :func:`weighted_chi2_threshold`): what ``info["fdi_thresholds"]`` holds for the
+    configured rate when the detection is on, for any rate and with the detection off (a
+    fault-free run's statistics counted against several rates, ``benchmarks/
+    fdi_calibration.py``, paper 003's reproduction)."""
+    return {c: weighted_chi2_threshold(false_alarm_rate, w["weights"], w["gauss_fraction"])
+            for c, w in weights.items()}
+
+
 def residual_test_weights(cfg, meta, name: str, cfg_source) -> dict:
     """The residual test's statistic model of a sensor channel: ``{"weights": [lateral,
     forward, vertical], "gauss_fraction": g}``. ``weights``: per row the variance a single
