@@ -393,8 +393,37 @@ def vehicle_constraint_noise(meta, interval_s: float, equivalent: bool = True):
     return out if max(out) > 0.0 else None
 
 
+def quantization_end_factor(alpha: float) -> float:
+    """Variance of a distance-output sensor's quantization error at a measurement interval's
+    end, in units of one sample's ``q^2 / 12``, when the end falls a fraction ``alpha`` of a
+    sample period after a sample: the engine interpolates the cumulative distance linearly
+    between samples (:func:`inmotion.core.deadreckoning.speed_on_epochs`), so the end's error
+    is ``(1 - alpha) e_k + alpha e_(k+1)`` of two samples' quantization errors, independent
+    and uniform over the drives (the phase step between samples is uniform over the
+    scale-factor spread): ``(1 - alpha)^2 + alpha^2`` (1 on a sample, 1/2 midway)."""
+    return float((1.0 - alpha) ** 2 + alpha ** 2)
+
+
+def interval_end_alpha(sensor_t, t_ends) -> float:
+    """The fraction ``alpha`` of a sample period at which the measurement intervals' ends
+    ``t_ends`` fall after the sensor's samples ``sensor_t``, as one figure: the ``alpha`` in
+    [0, 1/2] whose :func:`quantization_end_factor` is the ends' mean factor (ends outside the
+    samples' span are left out; 0 when every end falls on a sample, as when the run starts on
+    a sample and the sensor's period divides the measurement period; paper 003's drives
+    started at 0.15 s, a 10 Hz odometer and 0.5 s intervals: 1/2)."""
+    ts = np.asarray(sensor_t, dtype=float)
+    te = np.asarray(t_ends, dtype=float)
+    te = te[(te >= ts[0]) & (te <= ts[-1])] if len(ts) > 1 else te[:0]
+    if len(te) == 0:
+        return 0.0
+    i = np.clip(np.searchsorted(ts, te), 1, len(ts) - 1)
+    al = np.clip((te - ts[i - 1]) / np.maximum(ts[i] - ts[i - 1], 1e-12), 0.0, 1.0)
+    f = float(np.mean((1.0 - al) ** 2 + al ** 2))
+    return float(0.5 * (1.0 - np.sqrt(max(2.0 * f - 1.0, 0.0))))
+
+
 def sensor_noise_from_meta(meta, name: str, interval_s: float, measurement: str,
-                           share: float = 1.0, equivalent: bool = True):
+                           share: float = 1.0, equivalent: bool = True, alpha: float = 0.0):
     """``(forward, lateral, origin)``: the 1-sigma [m/s] of a velocity sensor's forward row
     and of its lateral / vertical rows from the bundle's ``meta`` (None where it says
     nothing; ``lateral`` a float for both rows or a ``(lateral, vertical)`` pair), and where
@@ -404,7 +433,10 @@ def sensor_noise_from_meta(meta, name: str, interval_s: float, measurement: str,
     sums the white noise of ``T * rate_hz`` samples (``noise_m_s`` per sample, in distance
     ``noise_m_s / rate_hz``) and differences two pulse quantizations (uniform over ``1 /
     pulses_per_m``, variance ``q^2 / 12`` each), so ``sigma^2 = noise_m_s^2 / (rate_hz T) +
-    2 q^2 / (12 T^2)``; the velocity form reads one sample, ``noise_m_s^2 + 2 q^2 rate_hz^2 /
+    2 f q^2 / (12 T^2)``, ``f`` the :func:`quantization_end_factor` of ``alpha``, where the
+    interval's ends fall between samples (1 on samples; 1/2 midway, where the forward
+    variance of paper 003's 10 Hz odometer halves: issue 15, its false-alarm rate at 0.05 was
+    1.3e-2 over 20 drives started 0.15 s off its samples); the velocity form reads one sample, ``noise_m_s^2 + 2 q^2 rate_hz^2 /
     12`` (a speed from two quantized counts one period apart).
 
     Lateral / vertical, in this order: ``constraint_noise_m_s`` in the sensor's spec; for the
@@ -431,7 +463,8 @@ def sensor_noise_from_meta(meta, name: str, interval_s: float, measurement: str,
     if noise is not None and rate:
         q = 1.0 / float(ppm) if ppm else 0.0
         if measurement == "displacement":
-            var = float(noise) ** 2 / (float(rate) * interval_s) + 2 * q * q / (12 * interval_s ** 2)
+            var = (float(noise) ** 2 / (float(rate) * interval_s)
+                   + 2 * quantization_end_factor(alpha) * q * q / (12 * interval_s ** 2))
         else:
             var = float(noise) ** 2 + 2 * (q * float(rate)) ** 2 / 12
         fwd = float(np.sqrt(var))
@@ -559,7 +592,7 @@ ISOLATED_WARN_FRACTION = 0.5
 PRIOR_WARN_SIGMAS = 4.0
 
 
-def config_with_spec(cfg, meta, sensors=()):
+def config_with_spec(cfg, meta, sensors=(), alphas=None):
     """``(cfg, config_source)``: with ``noise_preset: matched``, ``cfg`` with the
     :data:`SPEC_FIELDS` it does not set taken from the bundle's IMU specification
     ``meta['imu']`` (the simulator's, or what an importer documents or assumes, marked in
@@ -567,7 +600,9 @@ def config_with_spec(cfg, meta, sensors=()):
     rule as ``parked-kf``, the Gauss-Markov parts kept apart since these filters model them)
     and the ``sensors``' ``*_noise_m_s`` it does not set from ``meta['sensors']``
     (:func:`sensor_noise_from_meta`; a field whose value the spec gives only in part keeps the
-    default for the rest, and says so); ``conservative`` leaves every field as configured.
+    default for the rest, and says so; ``alphas``: per sensor, where the measurement
+    intervals end between its samples, :func:`interval_end_alpha`); ``conservative`` leaves
+    every field as configured.
     ``{field: origin}`` says where each value came from."""
     from .parked_kf import config_with_spec as _with_spec   # parked_kf imports this module
     matched = getattr(cfg, "noise_preset", "matched") == "matched"
@@ -587,7 +622,8 @@ def config_with_spec(cfg, meta, sensors=()):
         beta = (float(getattr(cfg, f"beta_{'od' if name == 'odometer' else 'ldv'}", 1.0))
                 if len(sensors) > 1 else 1.0)
         fwd, lat, org = (sensor_noise_from_meta(meta, name, T, cfg.measurement,
-                                                share=beta if 0 < beta < 1 else 1.0)
+                                                share=beta if 0 < beta < 1 else 1.0,
+                                                alpha=(alphas or {}).get(name, 0.0))
                          if matched else (None, None, ""))
         val = list(getattr(cfg, field))
         parts = []
@@ -643,7 +679,38 @@ def weighted_chi2_sf(x, weights, noncentral=None) -> np.ndarray:
 TRIANGLE_NODES = 24
 
 
-def residual_test_sf(x: float, weights, gauss_fraction: float = 1.0) -> float:
+#: grid of the quantization phases (per axis) for :func:`_quantization_density`, and the
+#: number of bins of its distribution
+QUANT_GRID, QUANT_NODES = 700, 160
+
+
+@functools.lru_cache(maxsize=64)
+def _quantization_density(alpha: float, samples: int):
+    """Nodes ``t >= 0`` and their probabilities of the unit-variance forward quantization error
+    of an interval whose two ends fall ``alpha`` of a sample period after a sample, ``samples``
+    sample periods apart: ``(1 - alpha) e_0 + alpha e_1 - (1 - alpha) e_m - alpha e_(m+1)``
+    with ``e_j = frac(u + j c) - 1/2`` the quantization error of sample ``j`` (in pulses),
+    ``u`` the phase at the interval's start and ``c`` the fraction of a pulse the vehicle adds
+    per sample, both uniform over the drives (the scale factor's spread); the four errors are
+    pairwise uncorrelated (so the variance is :func:`quantization_end_factor`'s) but not
+    independent, and their sum's law is computed on a ``QUANT_GRID``-square grid of ``(u,
+    c)``, binned. (``alpha`` = 0: the triangular law of :func:`residual_test_sf`.)"""
+    g = (np.arange(QUANT_GRID) + 0.5) / QUANT_GRID
+    u, c = np.meshgrid(g, g, indexing="ij")
+
+    def e(j):
+        return np.mod(u + j * c, 1.0) - 0.5
+
+    m = max(1, int(samples))
+    err = ((1.0 - alpha) * (e(0) - e(m)) + alpha * (e(1) - e(m + 1))).ravel()
+    err = np.abs(err) / np.sqrt(np.mean(err * err))
+    cnt, edges = np.histogram(err, bins=QUANT_NODES, range=(0.0, float(err.max()) * (1 + 1e-9)))
+    t = 0.5 * (edges[1:] + edges[:-1])
+    return t, cnt / cnt.sum()
+
+
+def residual_test_sf(x: float, weights, gauss_fraction: float = 1.0,
+                     alpha: float = 0.0, samples: int = 5) -> float:
     """Tail of the residual test statistic ``w_0 chi2_1 + w_2 chi2_1 + w_1 e^2`` of a sensor
     channel (rows lateral, forward, vertical) whose forward error ``e`` (unit variance) is a
     Gaussian part of variance ``gauss_fraction`` plus the difference of two pulse
@@ -652,16 +719,24 @@ def residual_test_sf(x: float, weights, gauss_fraction: float = 1.0) -> float:
     for ``g = 0`` the constant ``w_1 t^2``), integrated over ``t`` by Gauss-Legendre on each
     half of the triangle. A bounded quantization error has a lighter tail than a Gaussian
     one: a pure odometer channel (``g = 0``) never exceeds ``6 w_1`` by its forward row alone,
-    where ``chi2`` would put 1.4 % beyond it."""
+    where ``chi2`` would put 1.4 % beyond it. ``alpha`` > 0: the interval's ends fall that
+    fraction of a sample period after the samples, each end's error the interpolation of two
+    samples' (:func:`quantization_end_factor`): the quantization part is then a combination of
+    four samples' errors ``samples`` sample periods apart (:func:`_quantization_density`,
+    issue 15)."""
     w = np.asarray(weights, dtype=float)
     g = float(np.clip(gauss_fraction, 0.0, 1.0))
     if g >= 1.0 - 1e-12:
         return float(weighted_chi2_sf(x, w)[0])
-    b = np.sqrt(6.0 * (1.0 - g))                         # half-width of the triangle
-    z, wt = np.polynomial.legendre.leggauss(TRIANGLE_NODES)
-    t = 0.5 * b * (z + 1.0)                              # nodes on [0, b] (symmetric)
-    dens = (b - t) / (b * b)                             # triangular density on [-b, b]
-    wts = 2.0 * 0.5 * b * wt * dens                      # both halves
+    if alpha > 1e-9:
+        t, wts = _quantization_density(float(round(alpha, 9)), int(samples))
+        t = t * np.sqrt(1.0 - g)
+    else:
+        b = np.sqrt(6.0 * (1.0 - g))                     # half-width of the triangle
+        z, wt = np.polynomial.legendre.leggauss(TRIANGLE_NODES)
+        t = 0.5 * b * (z + 1.0)                          # nodes on [0, b] (symmetric)
+        dens = (b - t) / (b * b)                         # triangular density on [-b, b]
+        wts = 2.0 * 0.5 * b * wt * dens                  # both halves
     if g <= 1e-12:
         tail = weighted_chi2_sf(x - w[1] * t * t, w[[0, 2]])
     else:
@@ -673,16 +748,18 @@ def residual_test_sf(x: float, weights, gauss_fraction: float = 1.0) -> float:
 
 
 @functools.lru_cache(maxsize=256)
-def _weighted_threshold(rate: float, weights: tuple, gauss_fraction: float = 1.0) -> float:
+def _weighted_threshold(rate: float, weights: tuple, gauss_fraction: float = 1.0,
+                        alpha: float = 0.0, samples: int = 5) -> float:
     from scipy.optimize import brentq
     w = np.asarray(weights, dtype=float)
     hi = chi2.threshold(rate, len(w)) * max(1.0, float(w.max())) * 1.5
-    return float(brentq(lambda x: residual_test_sf(x, w, gauss_fraction) - rate, 1e-6, hi,
-                        xtol=1e-6))
+    return float(brentq(lambda x: residual_test_sf(x, w, gauss_fraction, alpha, samples) - rate,
+                        1e-6, hi, xtol=1e-6))
 
 
 def weighted_chi2_threshold(false_alarm_rate: float, weights,
-                            gauss_fraction: float = 1.0) -> float:
+                            gauss_fraction: float = 1.0, alpha: float = 0.0,
+                            samples: int = 5) -> float:
     """The threshold ``x`` with ``P(statistic > x) = false_alarm_rate`` for the statistic of
     :func:`residual_test_sf` (root by Brent's method; all weights 1 and a Gaussian forward
     row: the ``chi2(n)`` threshold of :func:`inmotion.estimation.chi2.threshold`)."""
@@ -690,7 +767,8 @@ def weighted_chi2_threshold(false_alarm_rate: float, weights,
     if np.allclose(w, 1.0) and gauss_fraction >= 1.0:
         return chi2.threshold(false_alarm_rate, len(w))
     return _weighted_threshold(float(false_alarm_rate), tuple(np.round(w, 12).tolist()),
-                               float(round(gauss_fraction, 12)))
+                               float(round(gauss_fraction, 12)), float(round(alpha, 9)),
+                               int(samples))
 
 
 def residual_test_thresholds(weights: dict, false_alarm_rate: float) -> dict:
@@ -700,11 +778,13 @@ def residual_test_thresholds(weights: dict, false_alarm_rate: float) -> dict:
     configured rate when the detection is on, for any rate and with the detection off (a
     fault-free run's statistics counted against several rates, ``benchmarks/
     fdi_calibration.py``, paper 003's reproduction)."""
-    return {c: weighted_chi2_threshold(false_alarm_rate, w["weights"], w["gauss_fraction"])
+    return {c: weighted_chi2_threshold(false_alarm_rate, w["weights"], w["gauss_fraction"],
+                                       w.get("quantization_alpha", 0.0),
+                                       w.get("quantization_samples", 5))
             for c, w in weights.items()}
 
 
-def residual_test_weights(cfg, meta, name: str, cfg_source) -> dict:
+def residual_test_weights(cfg, meta, name: str, cfg_source, alpha: float = 0.0) -> dict:
     """The residual test's statistic model of a sensor channel: ``{"weights": [lateral,
     forward, vertical], "gauss_fraction": g}``. ``weights``: per row the variance a single
     residual's noise really has over the variance the filter's ``R`` gives it, when the
@@ -717,9 +797,12 @@ def residual_test_weights(cfg, meta, name: str, cfg_source) -> dict:
     ``C`` (the state part ``H P H^T`` is what this neglects), distributed as
     :func:`residual_test_sf` says rather than as ``chi2(3)``, and its threshold for a set
     false-alarm rate is that distribution's quantile (:func:`weighted_chi2_threshold`).
-    Without a vehicle spec, or with row noise the configuration sets (``cfg_source``:
-    :func:`config_with_spec`'s origins), or ``conservative``: weights 1, ``g = 1``, the
-    ``chi2(3)`` test."""
+    ``quantization_alpha``: where the intervals' ends fall between the sensor's samples
+    (:func:`interval_end_alpha`; the quantization part's variance and shape, as the rows'
+    noise takes it, :func:`sensor_noise_from_meta`), ``quantization_samples`` the sensor's
+    samples per interval (the shape, :func:`_quantization_density`). Without a vehicle spec, or with row
+    noise the configuration sets (``cfg_source``: :func:`config_with_spec`'s origins), or
+    ``conservative``: weights 1, ``g = 1``, the ``chi2(3)`` test."""
     field = f"{'od' if name == 'odometer' else 'ldv'}_noise_m_s"
     out = {"weights": [1.0, 1.0, 1.0], "gauss_fraction": 1.0}
     if (getattr(cfg, "noise_preset", "matched") != "matched" or not hasattr(cfg, field)
@@ -734,8 +817,11 @@ def residual_test_weights(cfg, meta, name: str, cfg_source) -> dict:
     spec = (meta.get("sensors") or {}).get(name) or {}
     rate, ppm = spec.get("rate_hz"), spec.get("pulses_per_m")
     var_w = float(spec.get("noise_m_s") or 0.0) ** 2 / (float(rate) * T) if rate else 0.0
-    var_q = 2.0 / (12.0 * (float(ppm) * T) ** 2) if ppm else 0.0
+    var_q = (2.0 * quantization_end_factor(alpha) / (12.0 * (float(ppm) * T) ** 2)
+             if ppm else 0.0)
     out["gauss_fraction"] = float(var_w / (var_w + var_q)) if var_w + var_q > 0 else 1.0
+    out["quantization_alpha"] = float(alpha) if ppm else 0.0
+    out["quantization_samples"] = max(1, int(round(float(rate) * T))) if rate else 1
     return out
 
 
@@ -786,6 +872,29 @@ def _warnings(f, sensors, cfg, cfg_source, meta, res) -> list:
     return out
 
 
+def _interval_end_alphas(bundle, cfg, k0, sensors) -> dict:
+    """Per distance-output sensor of ``sensors``, where the displacement intervals' ends fall
+    between its samples (:func:`interval_end_alpha`), the ends placed as :func:`_feed` places
+    them (every ``meas_every``-th epoch end from row ``k0``); ``{}`` for the velocity form."""
+    if getattr(cfg, "measurement", "displacement") != "displacement" or not sensors:
+        return {}
+    t = bundle.imu.t[k0:]
+    n = len(t)
+    if n < 2:
+        return {}
+    dt = float(np.median(np.diff(t)))
+    step = max(1, int(round(1.0 / (cfg.filter_rate_hz * dt))))
+    meas_every = max(1, int(round(cfg.measurement_period_s / (step * dt))))
+    ep = np.arange(1, -(-n // step) + 1)
+    t_end = t[np.minimum(ep[ep % meas_every == 0] * step, n) - 1]
+    out = {}
+    for s in sensors:
+        sp = getattr(bundle, s, None)
+        if sp is not None and getattr(sp, "ds", None) is not None and len(sp.t) > 1:
+            out[s] = interval_end_alpha(sp.t, t_end)
+    return out
+
+
 def run_aided(bundle: Bundle, cfg, init: NavState, sensors: tuple, *, method: str,
               nhc_only=False, progress=None) -> Solution:
     """The shared run of the four methods: ``sensors`` are the bundle's velocity sensors that
@@ -797,8 +906,9 @@ def run_aided(bundle: Bundle, cfg, init: NavState, sensors: tuple, *, method: st
     channel with its NHC fallback) is smoothed by :func:`_smooth_bank` (the bank decides,
     a central filter over the accepted measurements is smoothed)."""
     t_wall = time.perf_counter()
-    cfg, cfg_source = config_with_spec(cfg, bundle.meta, sensors)
     k0 = _check_init(init, bundle)
+    alphas = _interval_end_alphas(bundle, cfg, k0, sensors)
+    cfg, cfg_source = config_with_spec(cfg, bundle.meta, sensors, alphas)
     for s in sensors:
         if getattr(bundle, s) is None:
             raise BadInput(f"bundle {bundle.name!r} has no {s} (needed by {method})")
@@ -817,10 +927,10 @@ def run_aided(bundle: Bundle, cfg, init: NavState, sensors: tuple, *, method: st
     use_nhc = nhc_only or getattr(cfg, "nhc_fallback", False)
     fdi = getattr(cfg, "fdi", False)
     thr = chi2.threshold(cfg.false_alarm_rate, 3) if fdi else 0.0
-    weights = {s_: residual_test_weights(cfg, bundle.meta, s_, cfg_source) for s_ in sensors}
-    thr_ch = {s_: (weighted_chi2_threshold(cfg.false_alarm_rate, weights[s_]["weights"],
-                                           weights[s_]["gauss_fraction"]) if fdi else 0.0)
-              for s_ in sensors}
+    weights = {s_: residual_test_weights(cfg, bundle.meta, s_, cfg_source, alphas.get(s_, 0.0))
+               for s_ in sensors}
+    thr_ch = {s_: (residual_test_thresholds({s_: weights[s_]}, cfg.false_alarm_rate)[s_]
+                   if fdi else 0.0) for s_ in sensors}
     ret = max(1, int(round(getattr(cfg, "return_after_s", 1.0) / (meas_every * t_ep))))
     A = np.zeros(3)
     if cfg.mounting_from_meta:
