@@ -63,8 +63,7 @@ import time
 
 import numpy as np
 
-from inmotion.align.aided_kf import (residual_test_sf, residual_test_thresholds, run_fkf,
-                                    weighted_chi2_threshold)
+from inmotion.align.aided_kf import residual_test_sf, residual_test_thresholds, run_fkf
 from inmotion.core.solution import NavState
 from inmotion.io.safe_yaml import load_yaml_file
 from inmotion.sim import simulate
@@ -121,7 +120,9 @@ RAW: dict = {}
 def model_cdf(x, w) -> np.ndarray:
     """``P(statistic <= x)`` under a channel's model ``w`` (``info["residual_test_weights"]
     [channel]``, :func:`inmotion.align.aided_kf.residual_test_sf`)."""
-    return np.array([1.0 - residual_test_sf(float(v), w["weights"], w["gauss_fraction"])
+    return np.array([1.0 - residual_test_sf(float(v), w["weights"], w["gauss_fraction"],
+                                            w.get("quantization_alpha", 0.0),
+                                            w.get("quantization_samples", 5))
                      for v in np.atleast_1d(x)])
 
 
@@ -152,14 +153,13 @@ def figure(path, raw) -> None:
     ps = np.r_[np.linspace(0.02, 0.9, 23), 0.95, 0.975, 0.99, 0.995, 0.998, 0.999]
     for i, c in enumerate(chans):
         lam = np.concatenate([L[np.isfinite(L[:, i]), i] for L in raw["per_run"]])
-        qm = np.array([weighted_chi2_threshold(1.0 - p, wts[c]["weights"],
-                                               wts[c]["gauss_fraction"]) for p in ps])
+        qm = np.array([residual_test_thresholds({c: wts[c]}, 1.0 - p)[c] for p in ps])
         qe = np.quantile(lam, ps)
         a = ax[0, i]
         a.plot(qm, qe, "o", ms=4, label="statistic")
         a.plot([0, qm[-1]], [0, qm[-1]], "k--", lw=1, label="y = x")
         for r in RATES:
-            t = weighted_chi2_threshold(r, wts[c]["weights"], wts[c]["gauss_fraction"])
+            t = residual_test_thresholds({c: wts[c]}, r)[c]
             a.axvline(t, color="gray", lw=0.8, ls=":")
             a.text(t, 0.3, f" {r:g}", fontsize=8, color="gray")
         a.set(xlabel="model quantile", ylabel="empirical quantile",
