@@ -365,7 +365,11 @@ def test_process_zero_velocity_updates_at_stops(smooth):
                       < 1e-3)
         _, (dp0, dv0, _, _, _) = res[False]
         hor, hor0 = np.hypot(*dp.T), np.hypot(*dp0.T)
-        assert hor.max() < 0.3 * hor0.max(), (seed, hor.max(), hor0.max())
+        # 0.4: the run without stops is the reference, and it drifts less since the odometer
+        # rows carry the quantization of interval ends that fall between its samples (issue
+        # 15: seed 0, forward, 46.5 -> 22.2 m without stops, 8.8 -> 7.6 m with them, ratio
+        # 0.19 -> 0.34; seed 1 0.16, smoothed 0.28 / 0.06); after the first stop 0.3 holds
+        assert hor.max() < 0.4 * hor0.max(), (seed, hor.max(), hor0.max())
         after = sol.t > b1                       # after the first stop
         assert hor[after].max() < 0.3 * hor0[after].max()
         assert (np.abs(dv[stopped]).max() < np.abs(dv0[stopped]).max()

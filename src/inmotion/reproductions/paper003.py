@@ -37,7 +37,17 @@ error 5 ug/sqrt(Hz); odometer scale factor 0.2 %; LDV 0.05 %; barometer 10 m (sc
   -10 % (350-360 s), LDV -0.5 m/s (350-360 s) and +0.5 m/s (500-510 s). Detection delay is
   the first ``detected`` event of the channel after the fault's start; the false-alarm rate is
   the fraction of chi-square tests above the threshold in the fault-free runs. Run at
-  ``false_alarm_rate`` 1e-3 (ours) and at the paper's 0.05 (:data:`FDI_RATES`);
+  ``false_alarm_rate`` 1e-3 (ours) and at the paper's 0.05 (:data:`FDI_RATES`), in two
+  settings kept apart (issue 15): the calibration (:data:`CONSISTENT_ROW`: the matched noise
+  preset, the detection off on the fault-free drive's window 0, every test of the healthy
+  filter counted against each rate's per-channel threshold,
+  :func:`inmotion.align.aided_kf.residual_test_thresholds`; intervals pooled and over drives,
+  :func:`run_interval`, the drive the unit since the odometer's tests are dependent within
+  one), the figures the test is judged by; and the paper's own setting (:data:`PAPER_ROWS`:
+  the detection on, a channel above the threshold isolated and returned after 1 s of passing
+  tests, main filter every 10 s), as measured: its tests after an isolation are of a filter
+  that ran without the channel, so its rates are what that configuration does, not the
+  test's calibration;
 * ``adaptive`` on ``paper003_parked_then_drive`` (3 min parked with engine vibration:
   Strategy 1) and on the same drive parked only ``STRATEGY2_PARKED_S`` (< the 60 s parked
   coarse: Strategy 2, in-motion coarse plus fine with multiplexing);
@@ -87,6 +97,13 @@ PAPER_FKF = {"measurement": "displacement", "beta_od": 0.5, "beta_ldv": 0.5,
              "main_period_s": 10.0, "fdi": True, **PAPER_IMU}
 #: false-alarm rates of the residual test: ours (1e-3 per test) and the paper's (sec. 4.3)
 FDI_RATES = (1e-3, 0.05)
+#: the report's row of the consistent false-alarm figures: the fault-free drive's window 0 with
+#: the detection off (every test of a healthy channel counted against the thresholds of each
+#: rate; the statistic as the filter computes it, no isolation changing the filter)
+CONSISTENT_ROW = "fault-free drive, detection off (calibration)"
+#: the paper's own setting's rows (detection on: a channel above the threshold is isolated and
+#: returns after ``return_after_s`` of passing tests, main filter every 10 s)
+PAPER_ROWS = ("fault-free drive", "fault runs, clean stretches")
 #: the paper's coarse heading error (Table 2 mean, without multiplexing) [arcmin]: the start of
 #: the multiplexing-gain experiment is made this poor
 MUX_START_ERROR_ARCMIN = PAPER_TABLE2["coarse (no multiplexing)"][0]
@@ -191,7 +208,8 @@ def conditions() -> list:
          "without it the simulated constraint holds exactly and the fault test's lateral and "
          "vertical rows carry no real residual (issue 15)"),
         ("FDI false-alarm rate", "0.05", " and ".join(f"{r:g}" for r in FDI_RATES),
-         "both run: ours (1e-3 per test at 2 Hz) and the paper's"),
+         "both run: ours (1e-3 per test at 2 Hz) and the paper's; the rates measured with "
+         "the detection off (calibration) and in the paper's setting (detection on), apart"),
         ("FDI threshold", "chi-square, 3 dof",
          "per channel: the quantile of the weighted chi-square the residual follows under the "
          "matched row noise (aided_kf.weighted_chi2_threshold)",
@@ -364,6 +382,28 @@ def _fdi_record(sol, truth, faulted):
     return out
 
 
+def _statistic_record(sol) -> dict:
+    """The false-alarm record of a fault-free ``fkf`` run with the detection off (every
+    residual test of a healthy channel, no isolation changing the filter): per rate of
+    :data:`FDI_RATES`, the tests above each channel's threshold (the quantile of the statistic's
+    model at that rate, :func:`inmotion.align.aided_kf.residual_test_thresholds`), the tests,
+    and the mean statistic per channel beside its model's (the sum of the weights)."""
+    from ..align.aided_kf import residual_test_thresholds
+    ts = sol.info["test_statistics"]
+    lam, chans = ts["lambda"], ts["channels"]
+    wts = sol.info["residual_test_weights"]
+    ok = np.isfinite(lam)
+    out = {"tests": [int(ok[:, c].sum()) for c in range(len(chans))],
+           "mean_statistic": [float(np.nanmean(lam[:, c])) for c in range(len(chans))],
+           "model_mean": [float(sum(wts[ch]["weights"])) for ch in chans]}
+    for rate in FDI_RATES:
+        thr = residual_test_thresholds(wts, rate)
+        out[f"exceedances {rate:g}"] = [int(np.sum(lam[ok[:, c], c] > thr[ch]))
+                                        for c, ch in enumerate(chans)]
+        out[f"threshold {rate:g}"] = [float(thr[ch]) for ch in chans]
+    return out
+
+
 def _faults(bundle, keep_series, clean_drive=None):
     """Fault experiment on window 0 of the faulted drive (sec. 4.3), at both FDI rates; the
     same FDI settings on window 0 of the fault-free drive ``clean_drive``."""
@@ -405,6 +445,8 @@ def _faults(bundle, keep_series, clean_drive=None):
         for rate in FDI_RATES:
             fdi[f"fault-free {rate:g}"] = _fdi_record(_fdi_run(win, startc, rate),
                                                       clean_drive.truth, False)
+        fdi["fault-free statistic"] = _statistic_record(
+            _fine(win, startc, "fkf", {"keep_test_statistics": True, "fdi": False}))
     out["fdi"] = fdi
     od = _fine(bundle, start, "OD displacement-aided", {"fdi": False})
     ldv = _fine(bundle, start, "LDV displacement-aided", {"fdi": False})
@@ -491,6 +533,19 @@ def within_drive(values) -> dict:
                      "se": float(per.std(ddof=1) / np.sqrt(n)) if n > 1 else float("nan"),
                      "lo": float(np.percentile(per, 2.5)), "hi": float(np.percentile(per, 97.5))}
     return out
+
+
+def run_interval(rates, level: float = 0.95) -> tuple:
+    """The t-interval of the mean of per-run rates: the drives are independent, the tests
+    within one are not (the odometer's quantization phase is fixed over a cruise, the
+    violation's correlation time, the filter's memory), so the drive is the unit; the pooled
+    :func:`wilson` interval counts every test as independent and is too narrow."""
+    from scipy.stats import t as student
+    r = np.asarray(rates, float)
+    if len(r) < 2:
+        return (float("nan"), float("nan"))
+    h = float(student.ppf(0.5 + level / 2, len(r) - 1) * r.std(ddof=1) / np.sqrt(len(r)))
+    return (float(r.mean() - h), float(r.mean() + h))
 
 
 def wilson(k: int, n: int, z: float = 1.96) -> tuple:
@@ -584,6 +639,20 @@ def _summarize(recs):
                               "false_isolations_per_run": float(iso[c] / len(xs))}
                          for c, ch in enumerate(("odometer", "ldv"))}
             fr[where]["heading"] = _stats([x["error"][2] for x in xs])
+        st = [x["fdi"]["fault-free statistic"] for x in f if "fault-free statistic" in x["fdi"]]
+        if st:
+            fr[CONSISTENT_ROW] = {}
+            for c, ch in enumerate(("odometer", "ldv")):
+                e = [x[f"exceedances {key}"][c] for x in st]
+                n = [x["tests"][c] for x in st]
+                fr[CONSISTENT_ROW][ch] = {
+                    "exceedances": int(sum(e)), "tests": int(sum(n)),
+                    "rate": float(sum(e) / max(sum(n), 1)),
+                    "interval": list(wilson(int(sum(e)), int(sum(n)))),
+                    "run_interval": list(run_interval([a / max(b, 1) for a, b in zip(e, n)])),
+                    "threshold": float(st[0][f"threshold {key}"][c]),
+                    "mean_statistic": float(np.mean([x["mean_statistic"][c] for x in st])),
+                    "model_mean": float(st[0]["model_mean"][c])}
         res["fdi_rates"][key] = fr
         if rate == FDI_RATES[0]:
             res["detection"] = det
@@ -752,25 +821,62 @@ def _report(res, figs, runs, wall):
         for d in fr["detection"]:
             L.append(f"| {d['fault']} | {d['start_s']:.0f} | {d['detected']} / {d['runs']} | "
                      f"{_f(d['mean_delay_s'])} | {_f(d['max_delay_s'])} |")
-        L += ["", "| where | channel | exceedances / tests | rate [95 % interval] | "
-              "isolations of a healthy channel per run |", "|---|---|---|---|---|"]
-        for where in ("fault-free drive", "fault runs, clean stretches"):
+        L += ["", "False alarms (tests above the threshold on healthy channels), two settings kept "
+              "apart. **Calibration**: the matched preset with the detection off, every test "
+              "of the fault-free drive's window 0 counted against each channel's threshold "
+              "(the statistic is the filter's; nothing isolated changes it): the figures the "
+              "test is judged by. **Paper's setting**: the detection on at this rate (a channel "
+              "above the threshold is isolated, tested on a copy, and returns after 1 s of "
+              "passing tests; main filter every 10 s): what the paper's configuration does; "
+              "its tests after an isolation are of a filter that ran without the channel, so "
+              "its rates are not the test's calibration. Intervals: pooled (Wilson, every "
+              "test independent) and over drives (t-interval of the per-drive rates; the "
+              "tests within a drive are not independent).", "",
+              "| setting | where | channel | exceedances / tests | rate [95 % pooled] | "
+              "[95 % over drives] | mean statistic (model) | isolations of a healthy "
+              "channel per run |", "|---|---|---|---|---|---|---|---|"]
+        for where in (CONSISTENT_ROW,) + PAPER_ROWS:
             if where not in fr:
                 continue
+            setting = "calibration" if where == CONSISTENT_ROW else "paper's setting"
+            label = "fault-free drive" if where == CONSISTENT_ROW else where
             for ch in ("odometer", "ldv"):
                 c = fr[where][ch]
-                L.append(f"| {where} | {ch} | {c['exceedances']} / {c['tests']} | "
+                ri = c.get("run_interval")
+                L.append(f"| {setting} | {label} | {ch} | {c['exceedances']} / {c['tests']} | "
                          f"{c['rate']:.2e} [{c['interval'][0]:.1e}, {c['interval'][1]:.1e}] | "
-                         f"{c['false_isolations_per_run']:.1f} |")
+                         + (f"[{ri[0]:.1e}, {ri[1]:.1e}]" if ri else "") + " | "
+                         + (f"{c['mean_statistic']:.2f} ({c['model_mean']:.2f})"
+                            if "mean_statistic" in c else "") + " | "
+                         + (f"{c['false_isolations_per_run']:.1f}"
+                            if "false_isolations_per_run" in c else "-") + " |")
+        if CONSISTENT_ROW in fr:
+            c = fr[CONSISTENT_ROW]
+            a_ = fr["false_alarm_rate_set"]
+            inside = [ch for ch in ("odometer", "ldv")
+                      if c[ch]["run_interval"][0] <= a_ <= c[ch]["run_interval"][1]]
+            L.append(f"\nCalibration at {a_:g}: the set rate is inside the over-drives "
+                     f"interval for {', '.join(inside) if inside else 'neither channel'}"
+                     + ("" if len(inside) == 2 else
+                        f"; outside for {', '.join(ch for ch in ('odometer', 'ldv') if ch not in inside)}")
+                     + f" (thresholds odometer {c['odometer']['threshold']:.2f}, LDV "
+                     f"{c['ldv']['threshold']:.2f}).")
+        if CONSISTENT_ROW in fr and "fault-free drive" in fr:
+            up = [(ch, fr["fault-free drive"][ch]["rate"] / max(fr[CONSISTENT_ROW][ch]["rate"],
+                                                               1e-12),
+                   fr["fault-free drive"][ch]["false_isolations_per_run"])
+                  for ch in ("odometer", "ldv")
+                  if fr["fault-free drive"][ch]["interval"][0]
+                  > fr[CONSISTENT_ROW][ch]["interval"][1]]
+            if up:
+                L.append("\nThe paper's setting fires more than the calibration on the same "
+                         "drives: " + "; ".join(f"{ch} {r:.1f} times ({n:.1f} isolations a "
+                                                f"run)" for ch, r, n in up)
+                         + ". The difference is the detection's own doing: each isolation "
+                         "leaves the channel's local filter without its sensor for at least "
+                         "1 s and the tests after it are of that filter; with the detection "
+                         "off the same drives' tests are calibrated (first rows).")
         if "fault-free drive" in fr:
-            c = fr["fault-free drive"]
-            hi = max(c[ch]["interval"][1] for ch in ("odometer", "ldv"))
-            if hi < fr["false_alarm_rate_set"]:
-                L.append(f"\nOn healthy channels the test fired less often than the set "
-                         f"{fr['false_alarm_rate_set']:g} per test (95 % upper bound "
-                         f"{hi:.1e}): its residual covariance overstates the residuals (the "
-                         "sensor-row noise is pessimistic), so the set rate is not the rate "
-                         "obtained.")
             h = fr["fault-free drive"]["heading"]
             L.append(f"\nfkf heading on the fault-free window 0 at this rate: mean "
                      f"{h['mean']:.2f}', std {h['std']:.2f}', max abs {h['max_abs']:.2f}'.")
