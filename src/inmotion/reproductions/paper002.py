@@ -83,7 +83,9 @@ START_HEADING_ARCMIN = {"attitude-position, start heading exact": 0.0,
 #: ``paper:`` block of the campaign file ``campaigns/paper002.yaml``, written there once)
 PAPER = _campaign_paper("paper002")
 #: label -> (method, configuration)
-_PRIORS = {"init_tilt_sigma_arcmin": INIT_SIGMA_ARCMIN[0],
+#: (``noise_preset: paper``: the filter's noise as the paper sets it, ``SinsDrConfig``'s
+#: field defaults, not the ``matched`` preset's figures from the bundle, issue 15)
+_PRIORS = {"noise_preset": "paper", "init_tilt_sigma_arcmin": INIT_SIGMA_ARCMIN[0],
            "init_heading_sigma_arcmin": INIT_SIGMA_ARCMIN[2],
            "init_velocity_sigma_m_s": 0.01, "init_position_sigma_m": 1.0}
 #: the sweep of the velocity difference's cross-axis (lateral and vertical) noise [m/s]
