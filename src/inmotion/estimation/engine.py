@@ -93,6 +93,22 @@ applies samples through calls that take arrays (the fill through its pointer,
 ``sequential_joseph``, :func:`_feed_back_arrays`); ``S`` and ``C`` are passed only on the
 rare paths (:func:`_apply` for FDI, NIS logging and shared measurements, :func:`_global`
 for a fused estimate, :func:`_epoch_outputs` for records and output rows).
+Then (issue 13, side by side, best of 7 at load ~1: 0.360-0.377 -> 0.334-0.350 s per
+hour, ratio ~0.92): :meth:`ErrorStateFilter._call_advance` calls the compiled overload's
+entry point with the types of ``S``, ``C`` and the measurement-function tuples computed
+once per filter (a call of the dispatcher typed them every time: 1.6 -> 0.85 ms a call;
+what remains is numba's unboxing of the 16 first-class functions); the predict kernel forms
+``Phi_a Pt`` in a padded buffer and writes ``P`` row by row (bit-identical, 7 % less per
+call); a smoother's record composes ``Phi`` over ``Phi_a``'s nonzeros into a buffer
+allocated once (was a dense product and an allocation every epoch) and copies
+``P_k|k-1`` only at the epochs that record (``sins-dr`` 1 h at 100 Hz smoothed 4.40 ->
+3.68 s, load ~10; the smoothed output equal to 2e-16 rad, 7e-12 m of height).
+Switching parts off (load 4-9, each figure the minimum of 5 runs, so only roughly
+additive): of ~0.38 s per hour the predict is ~0.18 s (0.36 us a call alone, the rest
+presumably instruction-cache pressure of its ~3,600 straight-line instructions beside the
+mechanization's), the mechanization ~0.065 s, the 10 Hz samples ~0.064 s, ``_fill_F``
+~0.03-0.06 s, the feedback ~0.008 s, and everything else (the loop, Python, dispatch)
+~0.057 s.
 Numba's disk cache of :func:`_advance` is keyed on this file's contents only: a change to a
 function it calls in another module (``sequential_joseph``, ``_fill_F``, the fills' helpers)
 is not seen by a cached ``_advance``, which may have that function's old code inlined; clear

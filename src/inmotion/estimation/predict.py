@@ -27,8 +27,11 @@ random-constant states (``eps, nabla, mount, lever``) have zero rows, i.e. ident
   indices ``Pt`` (+ dt/2 Qc). ``P'`` is written row by row (contiguous stores; the mirrored
   entries are read strided from the buffers instead, which costs less than strided stores).
   The sums are those of the former in-place form term for term, so the results are
-  bit-identical to it (issue 13: 0.42-0.44 -> 0.41 us a call for the engine workload,
-  side by side at load ~9.5; the write of ``P'`` 0.085 -> 0.049 us of it).
+  bit-identical to it (issue 13, side by side, median of 9 batches of 20,000 calls at
+  load 2.4: the engine workload's kernel 0.393 -> 0.363 us a call, ``sins-dr``'s 0.636 ->
+  0.628 us; the write of ``P'`` 0.085 -> 0.049 us of the former). The longer source costs
+  15-25 % more to compile (engine workload 2.6-2.9 -> 3.2-3.3 s CPU, ``sins-dr`` 5.7-5.8
+  -> 6.8-7.0 s, once per pattern, at load ~2).
 
 :func:`make_workspace` writes this as straight-line numba code for the one pattern it is given
 (F's nonzeros and ``Phi_a``'s, ``n``, ``act`` and ``Qc``'s pattern are literals: every loop has
