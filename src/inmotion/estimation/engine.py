@@ -99,10 +99,10 @@ entry point with the types of ``S``, ``C`` and the measurement-function tuples c
 once per filter (a call of the dispatcher typed them every time: 1.6 -> 0.85 ms a call;
 what remains is numba's unboxing of the 16 first-class functions); the predict kernel forms
 ``Phi_a Pt`` in a padded buffer and writes ``P`` row by row (bit-identical, 7 % less per
-call); a smoother's record composes ``Phi`` over ``Phi_a``'s nonzeros into a buffer
-allocated once (was a dense product and an allocation every epoch) and copies
-``P_k|k-1`` only at the epochs that record (``sins-dr`` 1 h at 100 Hz smoothed 4.40 ->
-3.68 s, load ~10; the smoothed output equal to 2e-16 rad, 7e-12 m of height).
+call); a smoother's forward pass calls :func:`_record_predict` with arrays instead of
+``S``, ``C`` and copies ``P_k|k-1`` only at the epochs that record (the same arithmetic:
+bit-identical records; the smoothed ``sins-dr`` hour's cost is elsewhere, 3.34-3.42 s
+before and about the same after at load ~2).
 Switching parts off (load 4-9, each figure the minimum of 5 runs, so only roughly
 additive): of ~0.38 s per hour the predict is ~0.18 s (0.36 us a call alone, the rest
 presumably instruction-cache pressure of its ~3,600 straight-line instructions beside the
@@ -382,29 +382,23 @@ def _apply(S, C, fills, j, l, z, H, r, m, xw, Pw, t_now, first):
 
 
 @numba.njit(cache=True)
-def _record_predict(phc, act, PhiT, buf):
+def _record_predict(phc, act, PhiT):
     """Compose the epoch's transition into ``phc`` (``Phi_k Phi_c``; ``Phi_k`` is the
     identity but on the predict's active rows ``act``, whose transposed rows are ``PhiT``'s
-    first ``na`` columns, from the predict's workspace), over ``Phi_a``'s nonzeros only:
-    ``phc[act[a]] <- sum_j Phi_a[a, j] phc[j]`` (``buf``: (na, n) scratch, allocated once).
+    first ``na`` columns, from the predict's workspace).
 
-    Issue 13: the former ``PhiT.T @ phc`` (a dense (na, n) x (n, n) product and an array
-    allocated every epoch) cost more than the rest of the epoch; the sums are the same up to
-    their order (rounding)."""
+    It takes arrays, not ``S``, ``C`` (a call with the namedtuples costs ~0.5 us of
+    reference counting, every epoch of a smoother's forward pass); ``P_k|k-1`` is copied by
+    the caller at the epochs that record only. A loop over ``Phi_a``'s nonzeros into a
+    buffer allocated once was tried and is slower than this dense product (0.76 against
+    0.55 us a call, n = 22, 9 active rows, load ~2)."""
     na = act.shape[0]
     n = phc.shape[0]
-    for a in range(na):
-        for c in range(n):
-            buf[a, c] = 0.0
-        for j in range(n):
-            p = PhiT[j, a]
-            if p != 0.0:
-                for c in range(n):
-                    buf[a, c] += p * phc[j, c]
-    for a in range(na):
-        i = act[a]
-        for c in range(n):
-            phc[i, c] = buf[a, c]
+    if na:
+        tmp = PhiT.T @ phc           # PhiT's columns past na are zero padding (rows ignored)
+        for a in range(na):
+            for c in range(n):
+                phc[act[a], c] = tmp[a, c]
 
 
 @numba.njit(cache=True)
@@ -496,7 +490,6 @@ def _advance(S, C, fills, accs, t, dtheta, dvel, dt, ds, v, dth_dr, rows, qt, qj
         any_isolate = any_isolate or isolate[j]
     record = C.record            # a smoother's forward pass records every epoch's transition
     phc, ppred = S.phc, S.ppred
-    phc_buf = np.empty((ws.act.shape[0], n))
     n_q = qt.shape[0]
     M = t.shape[0]
     for k in range(M + 1):
@@ -568,7 +561,7 @@ def _advance(S, C, fills, accs, t, dtheta, dvel, dt, ds, v, dth_dr, rows, qt, qj
         ints[_I_EPOCHS] += 1
         t_end[0] = t_now
         if record:                     # the forward pass of a smoother: Phi, P_k|k-1
-            _record_predict(phc, ws.act, ws.PhiT, phc_buf)
+            _record_predict(phc, ws.act, ws.PhiT)
             # P_k|k-1 is read only at the epochs that record (_epoch_outputs: samples due,
             # the last epoch, an output epoch)
             if (qi < n_q and qt[qi] <= t_now) or last or ints[_I_EPOCHS] % out_every == 0:
