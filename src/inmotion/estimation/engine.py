@@ -104,11 +104,12 @@ call); a smoother's forward pass calls :func:`_record_predict` with arrays inste
 bit-identical records; the smoothed ``sins-dr`` hour's cost is elsewhere, 3.34-3.42 s
 before and about the same after at load ~2).
 Switching parts off (load 4-9, each figure the minimum of 5 runs, so only roughly
-additive): of ~0.38 s per hour the predict is ~0.18 s (0.36 us a call alone, the rest
-presumably instruction-cache pressure of its ~3,600 straight-line instructions beside the
-mechanization's), the mechanization ~0.065 s, the 10 Hz samples ~0.064 s, ``_fill_F``
-~0.03-0.06 s, the feedback ~0.008 s, and everything else (the loop, Python, dispatch)
-~0.057 s.
+additive): of ~0.38 s per hour the predict ~0.18 s, the mechanization ~0.065 s, the 10 Hz
+samples ~0.064 s, ``_fill_F`` ~0.03-0.06 s, the feedback ~0.008 s, and everything else (the
+loop, Python, dispatch) ~0.057 s. A second predict kernel call per epoch (on a copy) adds
+0.12-0.15 s per hour (load ~1.5-2.5), i.e. 0.34-0.41 us a call, as much as the kernel alone
+in a tight loop (0.36 us): the predict's cost in the loop is its arithmetic (~950 4-wide
+and ~550 scalar FMAs and their loads, ~3,600 instructions), not a cold cache.
 Numba's disk cache of :func:`_advance` is keyed on this file's contents only: a change to a
 function it calls in another module (``sequential_joseph``, ``_fill_F``, the fills' helpers)
 is not seen by a cached ``_advance``, which may have that function's old code inlined; clear
