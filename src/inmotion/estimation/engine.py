@@ -94,7 +94,8 @@ applies samples through calls that take arrays (the fill through its pointer,
 rare paths (:func:`_apply` for FDI, NIS logging and shared measurements, :func:`_global`
 for a fused estimate, :func:`_epoch_outputs` for records and output rows).
 Then (issue 13, side by side, best of 7 at load ~1: 0.360-0.377 -> 0.334-0.350 s per
-hour, ratio ~0.92): :meth:`ErrorStateFilter._call_advance` calls the compiled overload's
+hour, ratio ~0.92; ``bench_engine.py --repeat 5 --no-cli`` alternating at load ~1: 0.374,
+0.356 -> 0.360, 0.341, ratio ~0.96): :meth:`ErrorStateFilter._call_advance` calls the compiled overload's
 entry point with the types of ``S``, ``C`` and the measurement-function tuples computed
 once per filter (a call of the dispatcher typed them every time: 1.6 -> 0.85 ms a call;
 what remains is numba's unboxing of the 16 first-class functions); the predict kernel forms
