@@ -93,6 +93,24 @@ applies samples through calls that take arrays (the fill through its pointer,
 ``sequential_joseph``, :func:`_feed_back_arrays`); ``S`` and ``C`` are passed only on the
 rare paths (:func:`_apply` for FDI, NIS logging and shared measurements, :func:`_global`
 for a fused estimate, :func:`_epoch_outputs` for records and output rows).
+Then (issue 13, side by side, best of 7 at load ~1: 0.360-0.377 -> 0.334-0.350 s per
+hour, ratio ~0.92; ``bench_engine.py --repeat 5 --no-cli`` alternating at load ~1: 0.374,
+0.356 -> 0.360, 0.341, ratio ~0.96): :meth:`ErrorStateFilter._call_advance` calls the compiled overload's
+entry point with the types of ``S``, ``C`` and the measurement-function tuples computed
+once per filter (a call of the dispatcher typed them every time: 1.6 -> 0.85 ms a call;
+what remains is numba's unboxing of the 16 first-class functions); the predict kernel forms
+``Phi_a Pt`` in a padded buffer and writes ``P`` row by row (bit-identical, 7 % less per
+call); a smoother's forward pass calls :func:`_record_predict` with arrays instead of
+``S``, ``C`` and copies ``P_k|k-1`` only at the epochs that record (the same arithmetic:
+bit-identical records; the smoothed ``sins-dr`` hour's cost is elsewhere, 3.34-3.42 s
+before and about the same after at load ~2).
+Switching parts off (load 4-9, each figure the minimum of 5 runs, so only roughly
+additive): of ~0.38 s per hour the predict ~0.18 s, the mechanization ~0.065 s, the 10 Hz
+samples ~0.064 s, ``_fill_F`` ~0.03-0.06 s, the feedback ~0.008 s, and everything else (the
+loop, Python, dispatch) ~0.057 s. A second predict kernel call per epoch (on a copy) adds
+0.12-0.15 s per hour (load ~1.5-2.5), i.e. 0.34-0.41 us a call, as much as the kernel alone
+in a tight loop (0.36 us): the predict's cost in the loop is its arithmetic (~950 4-wide
+and ~550 scalar FMAs and their loads, ~3,600 instructions), not a cold cache.
 Numba's disk cache of :func:`_advance` is keyed on this file's contents only: a change to a
 function it calls in another module (``sequential_joseph``, ``_fill_F``, the fills' helpers)
 is not seen by a cached ``_advance``, which may have that function's old code inlined; clear
@@ -366,18 +384,23 @@ def _apply(S, C, fills, j, l, z, H, r, m, xw, Pw, t_now, first):
 
 
 @numba.njit(cache=True)
-def _record_predict(S, C):
-    """Compose the epoch's transition into ``S.phc`` (``Phi_k Phi_c``; ``Phi_k`` is the
-    identity but on the predict's active rows, from its workspace) and keep ``P_k|k-1``."""
-    act, PhiT = C.ws.act, C.ws.PhiT
+def _record_predict(phc, act, PhiT):
+    """Compose the epoch's transition into ``phc`` (``Phi_k Phi_c``; ``Phi_k`` is the
+    identity but on the predict's active rows ``act``, whose transposed rows are ``PhiT``'s
+    first ``na`` columns, from the predict's workspace).
+
+    It takes arrays, not ``S``, ``C`` (a call with the namedtuples costs ~0.5 us of
+    reference counting, every epoch of a smoother's forward pass); ``P_k|k-1`` is copied by
+    the caller at the epochs that record only. A loop over ``Phi_a``'s nonzeros into a
+    buffer allocated once was tried and is slower than this dense product (0.76 against
+    0.55 us a call, n = 22, 9 active rows, load ~2)."""
     na = act.shape[0]
-    n = S.phc.shape[0]
+    n = phc.shape[0]
     if na:
-        tmp = PhiT.T @ S.phc         # PhiT's columns past na are zero padding (rows ignored)
+        tmp = PhiT.T @ phc           # PhiT's columns past na are zero padding (rows ignored)
         for a in range(na):
             for c in range(n):
-                S.phc[act[a], c] = tmp[a, c]
-    S.ppred[:, :] = S.P[0]
+                phc[act[a], c] = tmp[a, c]
 
 
 @numba.njit(cache=True)
@@ -468,6 +491,7 @@ def _advance(S, C, fills, accs, t, dtheta, dvel, dt, ds, v, dth_dr, rows, qt, qj
     for j in range(isolate.shape[0]):
         any_isolate = any_isolate or isolate[j]
     record = C.record            # a smoother's forward pass records every epoch's transition
+    phc, ppred = S.phc, S.ppred
     n_q = qt.shape[0]
     M = t.shape[0]
     for k in range(M + 1):
@@ -539,7 +563,14 @@ def _advance(S, C, fills, accs, t, dtheta, dvel, dt, ds, v, dth_dr, rows, qt, qj
         ints[_I_EPOCHS] += 1
         t_end[0] = t_now
         if record:                     # the forward pass of a smoother: Phi, P_k|k-1
-            _record_predict(S, C)
+            _record_predict(phc, ws.act, ws.PhiT)
+            # P_k|k-1 is read only at the epochs that record (_epoch_outputs: samples due,
+            # the last epoch, an output epoch)
+            if (qi < n_q and qt[qi] <= t_now) or last or ints[_I_EPOCHS] % out_every == 0:
+                P0 = P[0]
+                for i in range(n):
+                    for c in range(n):
+                        ppred[i, c] = P0[i, c]
         # ---- the samples that fell due, in queue order
         applied = False
         if qi < n_q and qt[qi] <= t_now:
@@ -893,15 +924,35 @@ class ErrorStateFilter:
         n_ep = (int(self._S.acc[_A_ROWS]) + m) // self.step + 1
         cap = n_ep // self.out_every + 1 if max_out is None else int(max_out)
         O = self._out(cap, n_ep if self._C.record else 0)
-        used = _advance(self._S, self._C, self._fills, self._accs, t, dtheta, dvel, dt, ds,
-                        speed, dth_dr, rows, self._qt, self._qj, self._qd, O, bool(flush),
-                        self.t)
+        used = self._call_advance(t, dtheta, dvel, dt, ds, speed, dth_dr, rows, self._qt,
+                                  self._qj, self._qd, O, bool(flush), float(self.t))
         if used:
             self._qt, self._qj, self._qd = self._qt[used:], self._qj[used:], self._qd[used:]
         if m:
             self.t = float(t[-1])
             self.rows += m
         return self._result(O)
+
+    def _call_advance(self, *args):
+        """:func:`_advance` on this filter's state with ``args``, through the compiled
+        overload's entry point when one matches the arguments' types.
+
+        A plain call of the dispatcher types every argument on every call, and typing the
+        tuples of measurement functions and the namedtuples ``S``, ``C`` costs ~1.2 ms of
+        the ~1.6 ms a call (issue 13: 22 calls, 0.035 s, of an hour fed in 16,384-row
+        chunks); their types are fixed for the filter's life (:meth:`restore` copies into
+        the same arrays), so they are typed once and only the other arguments per call.
+        """
+        head = (self._S, self._C, self._fills, self._accs)
+        cache = getattr(self, "_advance_types", None)
+        if cache is None or any(a is not b for a, b in zip(cache[0], head)):
+            cache = self._advance_types = (head, tuple(_advance.typeof_pyval(a)
+                                                       for a in head))
+        tys = cache[1] + tuple(_advance.typeof_pyval(a) for a in args)
+        cres = _advance.overloads.get(tys)
+        if cres is None:                   # first call of this signature: compile or load
+            return _advance(*head, *args)
+        return cres.entry_point(*head, *args)
 
     def _rows(self, row_data, m):
         J = len(self.measurements)
