@@ -152,12 +152,20 @@ BENCHES = {
                "s", 1.0),
         Figure("CLI start-up only (inmotion --help; the fixed cost of a run is bench_startup)", rf"CLI start-up only.*: {_NUM} s wall", "s"),
     ), "issue 13: 14x KF-GINS at equal work (KF-GINS: 3.5 s CPU per hour of 100 Hz)"),
-    "bench_memory.py": Bench(("--repeat", "2"), 400, (
+    "bench_memory.py": Bench(("--repeat", "2"), 800, (
         Figure("CLI sins-dr 1 h, Parquet in, 1 Hz out, peak RSS",
                rf"CLI sins-dr 1 h, .*peak RSS {_NUM} MiB", "MiB"),
         Figure("CLI sins-dr 4 h, Parquet in, 1 Hz out, peak RSS",
                rf"CLI sins-dr 4 h, .*peak RSS {_NUM} MiB", "MiB"),
         Figure("peak RSS 4 h / 1 h", rf"peak RSS 4 h / 1 h: {_NUM}", "", 1.15),
+        Figure("CLI process 1 h, Parquet in, peak RSS",
+               rf"CLI process 1 h, .*peak RSS {_NUM} MiB", "MiB"),
+        Figure("peak RSS 4 h / 1 h, process", rf"peak RSS 4 h / 1 h \(process\): {_NUM}", "",
+               1.15),
+        Figure("CLI process --smooth 1 h, Parquet in, peak RSS",
+               rf"CLI process --smooth 1 h, .*peak RSS {_NUM} MiB", "MiB"),
+        Figure("peak RSS 4 h / 1 h, process --smooth",
+               rf"peak RSS 4 h / 1 h \(process --smooth\): {_NUM}", "", 1.15),
     ), "issue 13: memory flat in log length, inputs read in chunks"),
     "bench_startup.py": Bench(("--repeat", "5"), 300, (
         Figure("CLI fixed cost (navigate sins-dr, 7 s bundle)",
