@@ -50,7 +50,7 @@ def _fill_F_before(F, offs, lat, h, vel_n, C, f_n, inv_tau_dk, dr_eps, grav_grad
     K = em.K
     skew = em.skew
     _put = em._put
-    o_phi, o_dv, o_dp, o_eps, o_nabla, o_phiD, o_dpD, o_mount, o_dk = offs
+    o_phi, o_dv, o_dp, o_eps, o_nabla, o_phiD, o_dpD, o_mount, o_dk = offs[:9]   # (eps_gm: none here)
     w_ie, w_en, Wie_p, Wen_v, Wen_p, Mpv, Mpp = em.transport_jacobians(lat, h, vel_n)
     V = skew(vel_n)
     _put(F, o_phi, o_phi, -skew(w_ie + w_en))
