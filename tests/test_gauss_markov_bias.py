@@ -110,11 +110,14 @@ START = dict(measurement="velocity", fdi=False, use_baro=False, nhc_fallback=Fal
 RUNS = 16
 
 
-def _attitude_nees(model_cfg):
-    sc = load_scenario(SCENARIO)
+def attitude_nees(model_cfg, scenario=None, seed=15, runs=RUNS):
+    """Per run, epoch and axis the attitude NEES ``(phi / sigma)^2`` of od-kf (:data:`START`
+    plus ``model_cfg``) started from truth on ``runs`` simulated drives of ``scenario``
+    (default :data:`SCENARIO`); returns ``(nees (runs, epochs, 3), the last solution)``."""
+    sc = load_scenario(SCENARIO if scenario is None else scenario)
     out = []
-    for k in range(RUNS):
-        b = simulate(sc, np.random.default_rng(np.random.SeedSequence(15, spawn_key=(k,))))
+    for k in range(runs):
+        b = simulate(sc, np.random.default_rng(np.random.SeedSequence(seed, spawn_key=(k,))))
         tr = b.truth
         init = NavState.from_euler(tr.t[0], tr.lat[0], tr.lon[0], tr.h[0], tr.vel_n[0],
                                    tr.euler[0])
@@ -128,7 +131,7 @@ def _attitude_nees(model_cfg):
 
 
 def test_od_kf_with_the_gm_spec_from_meta_is_consistent_on_simulated_gm_biases():
-    nees, sol = _attitude_nees({})
+    nees, sol = attitude_nees({})
     src = sol.info["config_source"]
     assert src["gyro_markov_tau_s"] == "meta.imu (simulated)"
     assert sol.info["config"]["gyro_markov_tau_s"] == 20.0
@@ -141,7 +144,7 @@ def test_od_kf_with_the_gm_spec_from_meta_is_consistent_on_simulated_gm_biases()
     run_mean = nees.mean(axis=(0, 1))
     assert ((run_mean > lo) & (run_mean < hi)).all(), run_mean
     # the same filter with random-constant biases of the same 1-sigma: overconfident
-    const, _ = _attitude_nees({"gyro_drift_deg_h": 100.0, "gyro_markov_deg_h": 0.0,
+    const, _ = attitude_nees({"gyro_drift_deg_h": 100.0, "gyro_markov_deg_h": 0.0,
                                "gyro_markov_tau_s": None, "accel_bias_ug": 500.0,
                                "accel_markov_ug": 0.0, "accel_markov_tau_s": None})
     assert const[:, -1, 2].mean() > 10 * hi

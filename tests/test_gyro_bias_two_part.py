@@ -22,17 +22,15 @@ import numpy as np
 import pytest
 from scipy.stats import chi2
 
-from inmotion.align.aided_kf import run_od_kf
 from inmotion.core import rotations
-from inmotion.core.metrics import error_series
 from inmotion.core.solution import NavState
 from inmotion.estimation import error_model as em
 from inmotion.estimation.engine import ErrorStateFilter
 from inmotion.estimation.kalman import _predict_kernel
 from inmotion.estimation.layout import Layout
 from inmotion.estimation.predict import make_workspace, predict_sparse
-from inmotion.sim.scenario import load_scenario
-from inmotion.sim.simulate import simulate
+from test_gauss_markov_bias import SCENARIO as GM_SCENARIO
+from test_gauss_markov_bias import attitude_nees
 
 DEG_H = np.pi / 180.0 / 3600.0
 LAY = Layout(["phi", "dv", "dp", "eps", "nabla", "eps_gm"])
@@ -156,48 +154,23 @@ def test_engine_propagates_constant_plus_gm_as_the_exact_laws():
     assert P[u, u] > 3 * gm_only
 
 
+#: the drive of test_gauss_markov_bias, its gyro bias a constant plus a Gauss-Markov part
 SCENARIO = {
-    "name": "two_part_drive", "description": "a 2-minute drive with a constant plus "
-    "Gauss-Markov gyro bias (issue 15 test)",
-    "start": {"lat_deg": 34.0, "lon_deg": 108.0, "h_m": 400.0, "heading_deg": 30.0,
-              "speed_m_s": 10.0},
-    "segments": [{"kind": "cruise", "duration_s": 20},
-                 {"kind": "turn", "angle_deg": 90, "rate_deg_s": 6},
-                 {"kind": "accelerate", "to_speed_m_s": 15, "accel_m_s2": 0.5},
-                 {"kind": "cruise", "duration_s": 20},
-                 {"kind": "turn", "angle_deg": -90, "rate_deg_s": 6},
-                 {"kind": "cruise", "duration_s": 20}],
+    **GM_SCENARIO, "name": "two_part_drive",
+    "description": "a 2-minute drive with a constant plus Gauss-Markov gyro bias (issue 15 test)",
     "imu": {"rate_hz": 100.0, "constant_errors": "random",
             "gyro": {"drift_deg_h": 100.0, "drift_markov_deg_h": 50.0,
                      "drift_markov_tau_s": 20.0, "arw_deg_sqrt_h": 0.05},
             "accel": {"bias_ug": 300.0, "vrw_ug_sqrt_hz": 30.0}},
-    "sensors": {"odometer": {"rate_hz": 10.0, "pulses_per_m": 200.0}},
 }
-START = dict(measurement="velocity", fdi=False, use_baro=False, nhc_fallback=False,
-             init_tilt_sigma_deg=0.01, init_heading_sigma_deg=0.01,
-             init_velocity_sigma_m_s=0.01, init_position_sigma_m=0.1, mount_sigma_arcmin=1.0,
-             od_scale_sigma_ppm=100.0, lever_sigma_m=0.01)
 RUNS = 24
 
 
 def test_od_kf_with_a_constant_plus_gm_spec_is_consistent_on_simulated_truth():
-    sc = load_scenario(SCENARIO)
-    nees = []
-    for k in range(RUNS):
-        b = simulate(sc, np.random.default_rng(np.random.SeedSequence(1515, spawn_key=(k,))))
-        tr = b.truth
-        init = NavState.from_euler(tr.t[0], tr.lat[0], tr.lon[0], tr.h[0], tr.vel_n[0],
-                                   tr.euler[0])
-        sol = run_od_kf(b, START, init)
-        e = error_series(sol, tr)
-        phi = np.radians(np.column_stack([e.phi_E_arcmin, e.phi_N_arcmin, e.phi_U_arcmin])
-                         / 60.0)
-        sig = np.column_stack([sol.sigma[k_] for k_ in ("phi_E", "phi_N", "phi_U")])
-        nees.append(((phi / sig) ** 2)[1:])
+    nees, sol = attitude_nees({}, SCENARIO, seed=1515, runs=RUNS)
     assert sol.info["gyro_bias_model"] == "constant + gauss-markov"
     assert sol.info["config_source"]["gyro_drift_deg_h"] == "meta.imu (simulated)"
     assert "eps_gm_z" in sol.states and "sigma_eps_gm_z" in sol.states
-    nees = np.array(nees)
     lo, hi = chi2.ppf([0.025, 0.975], RUNS) / RUNS
     end = nees[:, -1, :].mean(axis=0)
     run_mean = nees.mean(axis=(0, 1))
