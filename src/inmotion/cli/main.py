@@ -803,16 +803,22 @@ def navigate(ctx, bundle, method, config_file, output, init, init_error, start, 
 @_json_option
 @click.pass_context
 def evaluate(ctx, result, truth_bundle, as_json):
-    """Compare RESULT with the truth of a bundle; write errors.csv and the errors block."""
+    """Compare RESULT with the truth of a bundle; write errors.csv and the errors block.
+
+    The bundle is opened for reading in chunks (:func:`inmotion.io.bundle_stream.open_bundle`):
+    only its truth table is read, every row checked, and only the rows the result's times
+    need are kept (:meth:`~inmotion.io.bundle_stream.TruthStream.reduced`), so memory stays
+    flat in the length of the log (issue 13)."""
     from ..io.result import read_result, read_summary, write_errors, write_summary
     sol = read_result(result)
-    bundle = _read_bundle(ctx, truth_bundle)
+    bundle = _read_bundle(ctx, truth_bundle, chunked=True)
     if bundle.truth is None:
         raise BadInput("the bundle has no truth table", file=truth_bundle)
+    truth = bundle.truth.reduced(sol.t)
     from ..io.safe_write import staged_folder
     summary = read_summary(result)
     with staged_folder(result, what="result") as folder:    # errors.csv and summary together
-        block = write_errors(sol, bundle.truth, folder)
+        block = write_errors(sol, truth, folder)
         summary["errors"] = block
         write_summary(summary, folder)
     _emit(ctx, {"errors": block},
