@@ -226,7 +226,8 @@ from ..errors import BadInput
 from ..estimation import chi2
 from ..estimation import error_model as em
 from ..estimation import measurements as ms
-from ..estimation.velocity_aided import StopUpdateFields, calm_simulation, zupt_noise_from_meta
+from ..estimation.velocity_aided import (ZUPT_ORIGIN, StopUpdateFields, calm_simulation,
+                                         zupt_noise_from_meta)
 from ..estimation.aiding_rows import NHC_LAYOUT, SUB_LAYOUT
 from ..estimation.engine import (EVENT_DETECTED, EVENT_MODE, MODE_FUSED, MODE_NONE,
                                  ErrorStateFilter, LocalFilter)
@@ -452,18 +453,26 @@ def nhc_noise_from_meta(meta, interval_s: float):
     s: 0.0217 m/s): final-attitude NEES over 20 runs 3.57 (band 2.02-4.16); with the 0.01 m/s
     the test set before, 6.18 (overconfident: the violation alone exceeds it); with the
     lateral figure (0.0147 m/s) for both rows 4.34."""
+    out = _constraint_violation_sigmas(meta, markov_sample_white_equivalent_sigma, interval_s)
+    return None if out is None else max(out)
+
+
+def _constraint_violation_sigmas(meta, f, interval_s: float):
+    """``(f(lateral), f(vertical))``, ``f(sigma, tau, interval_s)`` of the Gauss-Markov
+    figures of ``meta['vehicle']['constraint_violation']``, or None without one or when both
+    are zero; :class:`~inmotion.errors.BadInput` when its figures are not numbers."""
     veh = meta.get("vehicle") if isinstance(meta, dict) else None
     cv = veh.get("constraint_violation") if isinstance(veh, dict) else None
     if not isinstance(cv, dict):
         return None
     try:
-        out = max(markov_sample_white_equivalent_sigma(
-            float(cv.get(f"{a}_sigma_m_s", 0.0) or 0.0), float(cv.get(f"{a}_tau_s", 1.0) or 1.0),
-            interval_s) for a in ("lateral", "vertical"))
+        out = tuple(f(float(cv.get(f"{a}_sigma_m_s", 0.0) or 0.0),
+                      float(cv.get(f"{a}_tau_s", 1.0) or 1.0), interval_s)
+                    for a in ("lateral", "vertical"))
     except (TypeError, ValueError):
         raise BadInput("meta vehicle.constraint_violation: sigma and tau must be numbers "
                        f"(got {cv!r})"[:200]) from None
-    return out if out > 0.0 else None
+    return out if max(out) > 0.0 else None
 
 
 def vehicle_constraint_noise(meta, interval_s: float, equivalent: bool = True):
@@ -477,19 +486,8 @@ def vehicle_constraint_noise(meta, interval_s: float, equivalent: bool = True):
     test was calibrated (mean statistic 3.02 over 3 runs, rates 4.2e-2 at 0.05 and 5.6e-4 at
     1e-3) but the rows' correlation over successive intervals (0.54 lateral) made the
     attitude overconfident: final NEES fkf 8.1, ldv-kf 5.6 against a band of 1.37-5.25."""
-    veh = meta.get("vehicle") if isinstance(meta, dict) else None
-    cv = veh.get("constraint_violation") if isinstance(veh, dict) else None
-    if not isinstance(cv, dict):
-        return None
-    f = markov_white_equivalent_sigma if equivalent else markov_mean_sigma
-    try:
-        out = tuple(f(float(cv.get(f"{a}_sigma_m_s", 0.0) or 0.0),
-                      float(cv.get(f"{a}_tau_s", 1.0) or 1.0), interval_s)
-                    for a in ("lateral", "vertical"))
-    except (TypeError, ValueError):
-        raise BadInput("meta vehicle.constraint_violation: sigma and tau must be numbers "
-                       f"(got {cv!r})"[:200]) from None
-    return out if max(out) > 0.0 else None
+    return _constraint_violation_sigmas(
+        meta, markov_white_equivalent_sigma if equivalent else markov_mean_sigma, interval_s)
 
 
 def quantization_end_factor(alpha: float) -> float:
@@ -818,7 +816,7 @@ def config_with_spec(cfg, meta, sensors=(), alphas=None):
     src.update(s_nhc)
     u_z, s_z = fields_not_set(cfg, ("zupt_noise_m_s",),
                              zupt_noise_from_meta(meta) if matched else {},
-                             "meta (simulated, no disturbances: the vehicle stands still)")
+                             ZUPT_ORIGIN)
     upd.update(u_z)
     src.update(s_z)
     for name in sensors:

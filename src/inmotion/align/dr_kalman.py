@@ -107,8 +107,9 @@ from ..core.solution import NavState, Solution
 from ..errors import BadInput
 from ..estimation import error_model as em
 from ..estimation.layout import Layout, position_units
-from ..estimation.velocity_aided import (StopUpdateFields, GROUP_SIZES, GROUPS, VelocityAidedRun, dr_gyro_rows,
-                                         with_dr_gyro, zupt_noise_from_meta)
+from ..estimation.velocity_aided import (GROUP_SIZES, GROUPS, ZUPT_ORIGIN, StopUpdateFields,
+                                         VelocityAidedRun, dr_gyro_rows, with_dr_gyro,
+                                         zupt_noise_from_meta)
 
 __all__ = ["DrKfConfig", "OdVelocityKfConfig", "run_dr_kf", "run_od_velocity_kf",
            "config_with_spec", "sensor_spec_fields", "IMU_SPEC_FIELDS",
@@ -313,7 +314,7 @@ def config_with_spec(cfg, meta, sensor: str) -> tuple:
                             "meta.vehicle.constraint_violation")
     upd.update(u2)
     u3, s3 = fields_not_set(cfg, ("zupt_noise_m_s",), zupt_noise_from_meta(meta) if matched else {},
-                            "meta (simulated, no disturbances: the vehicle stands still)")
+                            ZUPT_ORIGIN)
     upd.update(u3)
     src.update(s3)
     src.update(s1)

@@ -66,19 +66,7 @@ def interpolate_truth(truth: Truth, t: ArrayLike) -> Truth:
 
 
 def error_series(solution: Solution, truth: Truth) -> "pd.DataFrame":
-    """Error time series of ``solution`` against ``truth``, estimate minus truth, as a
-    DataFrame (the columns of :func:`error_columns`, in its order).
-
-    Parameters
-    ----------
-    solution : Solution
-    truth : Truth
-
-    Returns
-    -------
-    pandas.DataFrame
-        The columns of :func:`error_columns`.
-    """
+    """:func:`error_columns` as a ``pandas.DataFrame`` (its columns, in its order)."""
     import pandas as pd
     return pd.DataFrame(error_columns(solution, truth))
 

@@ -173,6 +173,10 @@ def calm_simulation(meta) -> bool:
     return isinstance(dist, dict) and not any(dist.get(k) for k in dist)
 
 
+#: the ``config_source`` origin of :func:`zupt_noise_from_meta`'s value
+ZUPT_ORIGIN = "meta (simulated, no disturbances: the vehicle stands still)"
+
+
 def zupt_noise_from_meta(meta) -> dict:
     """``{"zupt_noise_m_s": value}`` of the matched presets (``dr-kf``, ``od-velocity-kf``,
     ``sins-dr``, the paper 003 filters), or ``{}``: on a calm simulated bundle

@@ -94,8 +94,9 @@ from ..core.solution import NavState, Solution
 from ..errors import BadInput
 from ..estimation import error_model as em
 from ..estimation.layout import Layout, position_units
-from ..estimation.velocity_aided import (StopUpdateFields, GROUP_SIZES, GROUPS, VelocityAidedRun, dr_gyro_rows,
-                                         with_dr_gyro, zupt_noise_from_meta)
+from ..estimation.velocity_aided import (GROUP_SIZES, GROUPS, ZUPT_ORIGIN, StopUpdateFields,
+                                         VelocityAidedRun, dr_gyro_rows, with_dr_gyro,
+                                         zupt_noise_from_meta)
 from .pure import mounting_matrix, velocity_source
 
 __all__ = ["SinsDrConfig", "run_sins_dr", "LAYOUT_SINS_DR", "MODES", "initial_covariance",
@@ -225,7 +226,7 @@ def config_with_spec(cfg: SinsDrConfig, meta, sensor: str) -> tuple:
                             "meta.vehicle.constraint_violation")
     upd.update(u2)
     u3, s3 = fields_not_set(cfg, ("zupt_noise_m_s",), zupt_noise_from_meta(meta) if matched else {},
-                            "meta (simulated, no disturbances: the vehicle stands still)")
+                            ZUPT_ORIGIN)
     upd.update(u3)
     src.update(s1)
     src.update(s2)
