@@ -205,13 +205,21 @@ class _ImuChecks:
         j = np.searchsorted(tt, tt + 1.0)
         done = int(np.searchsorted(j, len(tt)))          # j is non-decreasing
         if done:
-            i = np.arange(done)
-            rate = np.linalg.norm(c[j[i]] - c[i], axis=1) / (tt[j[i]] - tt[i])
-            over = rate > B.LIMITS["sustained_rate_rad_s"]
+            jd = j[:done]
+            dc, dt = c[jd] - c[:done], tt[jd] - tt[:done]
+            limit = B.LIMITS["sustained_rate_rad_s"]
+            # rows that may exceed the limit, found without a square root or a division
+            # (|dc|^2 against (0.99 limit dt)^2: a margin far above rounding), then the rate of
+            # those alone as _check_sustained_rate computes it: the same rows fail, with the
+            # same value
+            near = np.flatnonzero(np.einsum("ij,ij->i", dc, dc) > (0.99 * limit * dt) ** 2)
+            rate = np.linalg.norm(dc[near], axis=1) / dt[near]
+            over = rate > limit
             if over.any():
-                k = int(np.argmax(over))
+                m = int(np.argmax(over))
+                k = int(near[m])
                 # _check_sustained_rate's row and time: t row min(k, n - 1) = tt row k + 1
-                raise B.sustained_rate_error(float(rate[k]), self.path, self.g0 + k + 1,
+                raise B.sustained_rate_error(float(rate[m]), self.path, self.g0 + k + 1,
                                              float(tt[k + 1]))
             self.tt, self.c = tt[done:], c[done:]
             self.g0 += done
