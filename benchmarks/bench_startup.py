@@ -26,11 +26,24 @@ Best of ``--repeat`` wall times of each, and best CPU time (user + system of the
 shared machine the wall time waits for a core, the CPU time hardly moves), after one warm-up
 (file caches, numba's cache).
 
+Then what the command is made of: whether the package's modules have byte-code (``.pyc``;
+without it, as under ``PYTHONDONTWRITEBYTECODE=1`` before ``python -m inmotion.warmup`` wrote
+it, every command compiles their source: 0.10 s CPU measured), and the CPU time of each part
+of one ``navigate --method sins-dr`` run inside the process (timers around the command line's
+own steps: imports, configuration, opening the bundle, the initial state, the filter's
+construction with numba's first call, the IMU rows read and checked, the filter's kernel, the
+truth rows kept for the errors, the result written), with the numba functions loaded from
+numba's cache (``Dispatcher.stats.cache_hits``). ``--parts BUNDLE`` gives the same for a
+bundle of yours (e.g. an hour: ``benchmarks/bench_engine.py``'s workload with ``--set
+mode=velocity-position --set filter_rate_hz=100 --set output_rate_hz=1``).
+
     OPENBLAS_NUM_THREADS=1 .venv/bin/python benchmarks/bench_startup.py [--repeat N]
+        [--parts BUNDLE [--set KEY=VALUE ...]]
 """
 from __future__ import annotations
 
 import argparse
+import json
 import os
 import subprocess
 import sys
@@ -67,6 +80,107 @@ NJIT = textwrap.dedent("""\
     """)
 
 
+#: one command-line run in a child, with CPU timers around its steps (wrappers put around the
+#: package's own functions in that child only); prints one JSON line
+PARTS = textwrap.dedent("""\
+    import json, os, sys, time
+    parts = {}
+    def timed(owner, name, label):
+        f = getattr(owner, name)
+        def w(*a, **k):
+            c = time.process_time()
+            try:
+                return f(*a, **k)
+            finally:
+                parts[label] = parts.get(label, 0.0) + time.process_time() - c
+        setattr(owner, name, w)
+    def timed_gen(owner, name, label):
+        f = getattr(owner, name)
+        def w(*a, **k):
+            g = f(*a, **k)
+            while True:
+                c = time.process_time()
+                try:
+                    x = next(g)
+                except StopIteration:
+                    return
+                finally:
+                    parts[label] = parts.get(label, 0.0) + time.process_time() - c
+                yield x
+        setattr(owner, name, w)
+    c0 = time.process_time()
+    import inmotion.cli.main as M
+    import inmotion.io.result as R
+    import inmotion.io.bundle_stream as S
+    import inmotion.navigate.sins_dr
+    import inmotion.estimation.engine as E
+    parts["imports (interpreter start not counted)"] = time.process_time() - c0
+    timed(M, "build_config", "configuration")
+    timed(M, "_read_bundle", "open the bundle (meta, time columns, sensor tables)")
+    timed(M, "_initial_state", "initial state")
+    timed(E.ErrorStateFilter, "__init__", "filter built (numba's first call, kernel loads)")
+    timed_gen(S._ImuTable, "chunks", "IMU rows read and checked")
+    timed(E.ErrorStateFilter, "add_imu", "filter kernel (add_imu)")
+    timed(M, "run_method", "method run (the three above and the wrapper)")
+    timed(S.TruthStream, "reduced", "truth rows kept for the errors")
+    timed(R, "write_result", "result written (errors against truth)")
+    sys.argv = ["inmotion", "-q"] + sys.argv[1:]
+    try:
+        M.main()
+    except SystemExit as e:
+        if e.code:
+            raise
+    parts["total in the process"] = time.process_time() - c0
+    from numba.core.dispatcher import Dispatcher
+    def dispatchers(m):      # numba functions, also behind measurements.Compiled
+        for v in list(vars(m).values()):
+            d = v if isinstance(v, Dispatcher) else getattr(v, "_dispatcher", None)
+            if isinstance(d, Dispatcher):
+                yield d
+    loaded = sorted({f"{d.py_func.__module__}.{d.py_func.__name__}"
+                     for n, m in list(sys.modules.items()) if n.startswith("inmotion")
+                     for d in dispatchers(m) if sum(d.stats.cache_hits.values())})
+    print("PARTS " + json.dumps({"parts": parts, "loaded": loaded}), flush=True)
+    os._exit(0)
+    """)
+
+
+def parts(bundle, sets, out, env, repeat):
+    """Per-part CPU [s] of one ``navigate --method sins-dr`` (best of ``repeat`` per part)
+    and the numba functions it loaded from the cache."""
+    cmd = [sys.executable, "-c", PARTS, "navigate", str(bundle), "--method", "sins-dr",
+           "--init", "truth", "-o", str(out)] + [a for kv in sets for a in ("--set", kv)]
+    best, loaded = {}, []
+    for i in range(repeat + 1):
+        p = subprocess.run(cmd, env=env, capture_output=True, text=True, check=True)
+        got = json.loads(p.stdout.rsplit("PARTS ", 1)[1])
+        if i:                                               # the first warms the caches
+            for k, v in got["parts"].items():
+                best[k] = min(best.get(k, np.inf), v)
+        loaded = got["loaded"]
+    return best, loaded
+
+
+def print_parts(bundle, sets, out, env, repeat):
+    best, loaded = parts(bundle, sets, out, env, repeat)
+    print(f"parts of navigate --method sins-dr on {Path(bundle).name} (CPU, best of {repeat}):")
+    for k, v in best.items():
+        print(f"  {k}: {v:.3f} s")
+    print(f"  numba functions loaded from the cache ({len(loaded)}): {', '.join(loaded)}")
+
+
+def bytecode_status():
+    """``(modules of the run path, those without up-to-date byte-code)``."""
+    import inmotion.cli.main  # noqa: F401  (the run path's modules)
+    import inmotion.io.bundle_stream  # noqa: F401
+    import inmotion.io.result  # noqa: F401
+    import inmotion.navigate.sins_dr  # noqa: F401
+    from inmotion.warmup import _bytecode_current
+    files = [Path(m.__file__) for n, m in list(sys.modules.items())
+             if n.startswith("inmotion") and getattr(m, "__file__", None)]
+    return len(files), [f for f in files if not _bytecode_current(f)]
+
+
 def _run(cmd, env, cwd):
     """``(wall, cpu)`` [s] of one child: its wall time and its user + system CPU time (the
     latter barely moves when the machine is shared)."""
@@ -89,11 +203,23 @@ def best_wall(cmd, repeat, env, cwd=None):
 def main():
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--repeat", type=int, default=5)
+    ap.add_argument("--parts", metavar="BUNDLE", help="only the parts of a run on BUNDLE")
+    ap.add_argument("--set", dest="sets", action="append", default=[], metavar="KEY=VALUE",
+                    help="configuration of sins-dr for --parts (repeatable)")
     args = ap.parse_args()
     here = str(Path(inmotion.__file__).resolve().parents[1])     # children run in a tmp dir
     env = dict(os.environ, OPENBLAS_NUM_THREADS="1",
                PYTHONPATH=os.pathsep.join(p for p in (here, os.environ.get("PYTHONPATH")) if p))
     py = sys.executable
+    n_mod, stale = bytecode_status()
+    print(f"byte-code: {n_mod - len(stale)} of the run path's {n_mod} modules have up-to-date "
+          f".pyc" + (f" (missing: {', '.join(f.name for f in stale[:5])}"
+                     f"{' ...' if len(stale) > 5 else ''}; python -m inmotion.warmup writes "
+                     "them)" if stale else ""))
+    if args.parts:
+        with tempfile.TemporaryDirectory() as tmp:
+            print_parts(args.parts, args.sets, Path(tmp) / "out", env, args.repeat)
+        return
     with tempfile.TemporaryDirectory() as tmp:
         bundle = Path(tmp) / "tiny"
         write_bundle(simulate(load_scenario(TINY), np.random.default_rng(0)), bundle,
@@ -124,6 +250,7 @@ def main():
         for name, code in floors.items():
             wall, cpu = best_wall([py, "-c", code], args.repeat, env, cwd=tmp)
             print(f"  bare interpreter, {name}: {wall:.3f} s wall, {cpu:.3f} s CPU")
+        print_parts(bundle, (), Path(tmp) / "out-parts", env, args.repeat)
 
 
 if __name__ == "__main__":
