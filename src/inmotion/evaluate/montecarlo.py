@@ -15,7 +15,11 @@ Guarantees
   compacted into the Parquet dataset); an interrupted or killed campaign loses only the runs in
   flight, and ``resume=True`` runs only the missing ones.
 - A run that raises is a result (``status='error'``, its error text, traceback and seed); the
-  campaign goes on.
+  campaign goes on. So is a run that kills its worker (``KilledWorker``, after one re-run).
+- Every run is recorded exactly once, and the campaign cannot wait forever on a task Dask lost
+  (a worker that died, a result lost with its worker): such tasks are submitted again, and a
+  watchdog takes the tasks in flight as lost when nothing finishes and no worker runs anything
+  for ``stall_s`` seconds (:func:`_drive`, :class:`_Watchdog`).
 - At most ``max_in_flight`` Dask tasks are submitted at a time, so the client's memory does not
   grow with the number of runs. Short runs travel several to a Dask task (about 0.25 s of work
   each, :class:`_Chunker`), so the engine's cost per run stays small even for empty runs.
@@ -46,6 +50,22 @@ TABLE = "table.parquet"
 #: seconds of work a Dask task should carry when runs are short (see _Chunker)
 TARGET_TASK_S = 0.25
 MAX_CHUNK = 256
+#: a task whose worker died (``KilledWorker``) or that Dask lost (see :class:`_Watchdog`) is
+#: submitted again; a run alone in its task is recorded as an error once it has been lost this
+#: many times (a run that kills its worker thus takes down two workers, a run whose worker was
+#: killed from outside is run again)
+LOSS_RETRIES = 1
+#: seconds without a finished task while no worker of the cluster runs anything, after which
+#: the tasks in flight are taken as lost by Dask (:class:`_Watchdog`)
+STALL_S = 60.0
+#: with no worker at all, the campaign gives up after this many times ``stall_s``
+NO_WORKER_STALLS = 5
+#: scheduler settings of the clusters :func:`open_client` starts: the engine, not the
+#: scheduler, decides what to re-run after a worker died (allowed-failures 0: the task that was
+#: running when a worker died is reported at once as ``KilledWorker``), and a worker holds only
+#: the task it runs (worker-saturation 1.0: no queued task dies with a crashing neighbour)
+SCHEDULER_CONFIG = {"distributed.scheduler.allowed-failures": 0,
+                    "distributed.scheduler.worker-saturation": 1.0}
 #: environment of local workers: one BLAS thread each, the cores are the workers
 WORKER_ENV = {"OPENBLAS_NUM_THREADS": "1", "MKL_NUM_THREADS": "1", "OMP_NUM_THREADS": "1",
               "NUMBA_NUM_THREADS": "1"}
@@ -178,7 +198,9 @@ def _validate(sweep: Sweep) -> None:
 @contextlib.contextmanager
 def open_client(workers: Optional[int] = None, scheduler: Optional[str] = None, client=None):
     """A ``distributed.Client``: the one given, one connected to ``scheduler``, or one on a new
-    ``LocalCluster`` of ``workers`` single-threaded processes (default: all cores)."""
+    ``LocalCluster`` of ``workers`` single-threaded processes (default: all cores) whose
+    scheduler has :data:`SCHEDULER_CONFIG` (a cluster given or addressed keeps its own
+    settings; the engine's re-submission of lost tasks works on any)."""
     if client is not None:
         yield client
         return
@@ -190,7 +212,8 @@ def open_client(workers: Optional[int] = None, scheduler: Optional[str] = None, 
     n = workers or os.cpu_count() or 1
     if n < 1:
         raise BadInput(f"--workers must be at least 1, got {workers}")
-    with _workers_ignore_sigint():
+    import dask
+    with _workers_ignore_sigint(), dask.config.set(SCHEDULER_CONFIG):
         cluster = LocalCluster(n_workers=n, threads_per_worker=1, processes=True,
                                dashboard_address="127.0.0.1:0", silence_logs=logging.ERROR,
                                env=WORKER_ENV)
@@ -264,7 +287,7 @@ def run_campaign(sweep: Sweep, out_dir, *, workers: Optional[int] = None,
                  scheduler: Optional[str] = None, client=None, resume: bool = False,
                  retry_failed: bool = False, quiet: bool = False,
                  max_in_flight: Optional[int] = None, max_chunk: int = MAX_CHUNK,
-                 validate: bool = True):
+                 validate: bool = True, stall_s: float = STALL_S):
     """Run every (point, run) of ``sweep`` not yet in ``out_dir``; return the full results table.
 
     Parameters
@@ -290,6 +313,10 @@ def run_campaign(sweep: Sweep, out_dir, *, workers: Optional[int] = None,
         Dask tasks submitted at a time (default ``max(4, 3 * workers)``).
     max_chunk : int
         Most runs per Dask task; 1 makes every run its own task (see :class:`_Chunker`).
+    stall_s : float
+        Seconds without a finished task while no worker runs anything, after which the tasks
+        in flight are taken as lost and submitted again (:class:`_Watchdog`); also the longest
+        wait for one chunk's result once Dask reports it done.
 
     Returns
     -------
@@ -298,6 +325,9 @@ def run_campaign(sweep: Sweep, out_dir, *, workers: Optional[int] = None,
     """
     out = Path(out_dir)
     check_size(sweep)
+    if isinstance(stall_s, bool) or not (isinstance(stall_s, (int, float))
+                                         and math.isfinite(stall_s) and stall_s > 0):
+        raise BadInput(f"stall_s must be a positive number of seconds, got {stall_s!r}")
     if scheduler and client is None:
         _check_address(scheduler)
     store = ResultStore(out)
@@ -316,7 +346,7 @@ def run_campaign(sweep: Sweep, out_dir, *, workers: Optional[int] = None,
     if n_todo > 0:
         with open_client(workers, scheduler, client) as c, store:
             _drive(c, iter_tasks(sweep, skip=done), store, total, n_done,
-                   n_todo, quiet, max_in_flight, max_chunk, sweep.name)
+                   n_todo, quiet, max_in_flight, max_chunk, sweep.name, stall_s)
     df = store.table()
     from ..io.safe_write import atomic_write
     atomic_write(out / TABLE, lambda tmp: df.to_parquet(tmp, index=False))
@@ -346,58 +376,215 @@ class _Chunker:
         return int(max(1, min(TARGET_TASK_S / mean, self.max_chunk, share)))
 
 
-def _drive(client, tasks, store, total, initial, n_todo, quiet, max_in_flight, max_chunk, name):
+def _drive(client, tasks, store, total, initial, n_todo, quiet, max_in_flight, max_chunk, name,
+           stall_s=STALL_S):
     """Submit chunks of tasks with a bounded window; record each run as its chunk completes.
 
-    A chunk lost as a whole (its worker died: a run that crashes the process, or a machine
-    going away; Dask reports ``KilledWorker``) is split and its runs are submitted again one
-    per task, so that only the run that takes its worker down is recorded as an error."""
+    Every run is recorded exactly once, as a result or an error, and the loop cannot wait
+    forever on a task Dask has lost:
+
+    - results are fetched here (``Future.result(timeout=...)``), not by
+      ``as_completed(with_results=True)``: that helper's fetch dies silently, and its future is
+      never handed over (the campaign hung), when the task's result is lost with its worker and
+      the re-computation then fails (``distributed.Client._gather`` raises inside
+      ``as_completed._track_future``);
+    - a chunk lost as a whole (its worker died: a run that crashes the process, a machine going
+      away; Dask reports ``KilledWorker``) is split and its runs are submitted again one per
+      task; a run alone in a lost task is submitted again until it has been lost more than
+      :data:`LOSS_RETRIES` times, then recorded as that error (so only the run that takes its
+      worker down is marked);
+    - a task whose future went back to pending or was cancelled, whose result cannot be
+      fetched, or that the :class:`_Watchdog` finds stalled, counts as lost the same way;
+      the superseded future is released and whatever it still delivers is ignored."""
     from distributed import as_completed
     n_workers = max(1, len(client.scheduler_info(n_workers=-1).get("workers", {})))
     window = max_in_flight or max(4, 3 * n_workers)
     chunker = _Chunker(n_workers, max_chunk)
     token = uuid.uuid4().hex[:8]
-    in_flight, remaining = {}, [n_todo]
-
+    in_flight = {}                 # key -> (future, chunk, times lost)
+    serial = [0]
+    remaining = [n_todo]
     tasks = _Peekable(tasks)
+    pending = as_completed()
+    watchdog = _Watchdog(client, stall_s)
 
-    def submit(chunk, pending, tag=""):
+    def submit(chunk, losses=0):
         first = chunk[0]
-        key = f"inmotion-{token}-p{first.point_id}-r{first.run_index}-n{len(chunk)}{tag}"
+        serial[0] += 1
+        key = (f"inmotion-{token}-p{first.point_id}-r{first.run_index}-n{len(chunk)}"
+               f"-s{serial[0]}")
         fut = client.submit(execute_tasks, chunk, pure=False, key=key)
-        in_flight[fut.key] = chunk
+        in_flight[fut.key] = (fut, chunk, losses)
         pending.add(fut)
 
-    def submit_next(pending):
+    def submit_next():
         chunk = _take(tasks, chunker.size(remaining[0]))
         if not chunk:
             return
         while len(chunk) < MAX_CHUNK and _same_drive(chunk[-1], tasks.peek()):
             chunk.append(next(tasks))
         remaining[0] -= len(chunk)
-        submit(chunk, pending)
+        submit(chunk)
 
-    pending = as_completed(with_results=True, raise_errors=False)
-    for _ in range(window):
-        submit_next(pending)
-    n_err = 0
-    with _progress(total, initial, quiet, name) as bar:
-        for fut, result in pending:
-            chunk = in_flight.pop(fut.key)
+    def record(outcomes):
+        for rec, arrays in outcomes:
+            store.write(rec, arrays)
+            counts["errors"] += rec["status"] != "ok"
+        chunker.observe(r for r, _ in outcomes)
+        bar.update(len(outcomes))
+        if counts["errors"]:
+            bar.set_postfix(errors=counts["errors"], refresh=False)
+
+    def lost(chunk, losses, exc):
+        """Submit a lost chunk again (split), or record it once it has been lost too often."""
+        losses += 1
+        if len(chunk) > 1:
+            for task in chunk:                       # find the run that killed the worker
+                submit([task], losses)
+        elif losses <= LOSS_RETRIES:
+            submit(chunk, losses)
+        else:
+            record([(error_record(chunk[0], exc), None)])
+            submit_next()
+
+    def settle(fut):
+        """Record (or re-submit) the chunk of a future that is done or given up on."""
+        entry = in_flight.pop(fut.key, None)
+        if entry is None:                             # superseded: its chunk went again
             fut.release()
-            if len(chunk) > 1 and _chunk_exception(result) is not None:
-                for task in chunk:                   # find the run that killed the worker
-                    submit([task], pending, tag="-split")
-                continue
-            outcomes = _outcomes(result, chunk)
-            for record, arrays in outcomes:
-                store.write(record, arrays)
-                n_err += record["status"] != "ok"
-            chunker.observe(r for r, _ in outcomes)
-            bar.update(len(outcomes))
-            if n_err:
-                bar.set_postfix(errors=n_err, refresh=False)
-            submit_next(pending)
+            return
+        _, chunk, losses = entry
+        result = _collect(fut, stall_s)
+        fut.release()
+        exc = _chunk_exception(result) if result is not _LOST else None
+        if result is _LOST or _is_lost_worker(exc):
+            lost(chunk, losses, exc if exc is not None else TaskLost(len(chunk), stall_s))
+        elif exc is not None and len(chunk) > 1:
+            for task in chunk:                       # the chunk as a whole failed
+                submit([task], losses)
+        else:
+            record(_outcomes(result, chunk))
+            submit_next()
+
+    counts = {"errors": 0}
+    for _ in range(window):
+        submit_next()
+    with _progress(total, initial, quiet, name) as bar:
+        while in_flight:
+            done = _next_done(pending, _Watchdog.POLL_S)
+            if done:
+                watchdog.progress()
+                for fut in done:
+                    settle(fut)
+            elif watchdog.stalled(in_flight):
+                for fut, _, _ in list(in_flight.values()):
+                    settle(fut)
+
+
+class TaskLost(RuntimeError):
+    """A run's Dask task was lost (no result, and no worker ran anything for ``stall_s``)
+    more than :data:`LOSS_RETRIES` times."""
+
+    def __init__(self, n_runs: int, stall_s: float):
+        super().__init__(f"Dask lost the task of this run ({n_runs} run(s)): no result and no "
+                         f"worker running anything for {stall_s:g} s, or its result could not "
+                         "be fetched")
+
+
+#: marker of a future whose result is gone (pending again, cancelled, or not fetched in time)
+_LOST = object()
+
+
+def _collect(fut, timeout_s: float):
+    """The chunk's result list, the exception that ended it, or :data:`_LOST`."""
+    try:
+        if fut.status == "finished":
+            return fut.result(timeout=timeout_s)
+        if fut.status == "error":
+            return fut.exception(timeout=timeout_s)
+    except Exception as exc:   # noqa: BLE001 - any failure to fetch is a lost or failed chunk
+        if fut.status == "error":
+            with contextlib.suppress(Exception):
+                return fut.exception(timeout=timeout_s)
+            return exc
+        return _LOST
+    return _LOST           # cancelled, lost, or pending again
+
+
+def _is_lost_worker(exc) -> bool:
+    """Whether ``exc`` says the task's worker went away (not that a run raised)."""
+    if exc is None:
+        return False
+    from distributed.scheduler import KilledWorker
+    return isinstance(exc, KilledWorker) or type(exc).__name__ == "KilledWorker"
+
+
+def _next_done(pending, timeout_s: float) -> list:
+    """The futures of ``pending`` done so far, waiting at most ``timeout_s`` for one."""
+    deadline = time.monotonic() + timeout_s
+    while not pending.has_ready():
+        left = deadline - time.monotonic()
+        if left <= 0:
+            return []
+        with pending.thread_condition:
+            pending.thread_condition.wait(min(left, 0.1))
+    return pending.next_batch(block=False)
+
+
+class _Watchdog:
+    """Progress watch of :func:`_drive`: the tasks in flight are stalled when no task has
+    finished for ``stall_s`` while no worker of the cluster runs anything (its workers idle,
+    or none there): Dask has lost them, or a worker that died took them along unnoticed. It
+    asks the scheduler at most every ``stall_s / 4`` (``Client.call_stack``, within
+    ``stall_s / 2``), and only when no result comes in. With no worker at all for
+    ``NO_WORKER_STALLS * stall_s`` the campaign stops (``RuntimeError``; resume it later)."""
+
+    POLL_S = 0.5
+
+    def __init__(self, client, stall_s: float):
+        self.client, self.stall_s = client, float(stall_s)
+        self.quiet_since = self.last_check = self.workers_seen = time.monotonic()
+
+    def progress(self) -> None:
+        self.quiet_since = time.monotonic()
+
+    def stalled(self, in_flight) -> bool:
+        now = time.monotonic()
+        if now - self.last_check < self.stall_s / 4:
+            return False
+        self.last_check = now
+        if self.client.status not in ("running", "connecting"):
+            raise RuntimeError(f"the Dask client is {self.client.status}; the runs recorded "
+                               "so far are kept (resume the campaign)")
+        busy, n_workers = self._cluster_state()
+        if n_workers:
+            self.workers_seen = now
+        elif now - self.workers_seen > NO_WORKER_STALLS * self.stall_s:
+            raise RuntimeError(f"the Dask cluster has had no worker for "
+                               f"{now - self.workers_seen:.0f} s; the runs recorded so far "
+                               "are kept (resume the campaign)")
+        if busy or not n_workers:
+            self.quiet_since = now if busy else self.quiet_since
+            return False
+        if now - self.quiet_since < self.stall_s:
+            return False
+        logging.getLogger(__name__).warning(
+            "no Dask task finished for %.0f s and no worker runs any: %d task(s) in flight "
+            "taken as lost and submitted again", now - self.quiet_since, len(in_flight))
+        self.quiet_since = now
+        return True
+
+    def _cluster_state(self):
+        """(whether some worker runs a task, number of workers); unknown counts as idle."""
+        try:
+            ask = self.client.sync
+            stacks = ask(self.client.scheduler.call_stack, keys=None,
+                         callback_timeout=self.stall_s / 2)
+            info = ask(self.client.scheduler.identity, n_workers=-1,
+                       callback_timeout=self.stall_s / 2)
+        except Exception:   # noqa: BLE001 - an unanswered question must not stop the watch
+            return False, 1
+        return any(bool(v) for v in (stacks or {}).values()), len(info.get("workers", {}))
 
 
 def _same_drive(a: Task, b: Optional[Task]) -> bool:
