@@ -120,7 +120,7 @@ def test_a_task_no_worker_runs_is_submitted_again_by_the_watchdog(tmp_path, capl
         wall = time.monotonic() - t0
     assert once_each(df, 16)
     bad = df[df["status"] != "ok"]
-    # run 6 of both points lost twice (LOSS_RETRIES = 1): recorded as TaskLost; run 5 went again
+    # run 6 of both points lost 3 times (LOSS_RETRIES = 2): recorded as TaskLost; run 5 ran
     assert sorted(bad["run_index"].tolist()) == [6, 6]
     assert bad["error"].str.startswith("TaskLost: Dask lost the task").all()
     ok = df[df["status"] == "ok"]
@@ -165,3 +165,14 @@ def test_a_worker_killed_from_outside_costs_no_run(tmp_path):
 def test_a_bad_stall_time_is_refused(tmp_path, value):
     with pytest.raises(BadInput, match="stall_s must be a positive number"):
         run_campaign(load_sweep({"run": SYNTH}), tmp_path / "c", workers=1, stall_s=value)
+
+
+def test_a_killed_worker_counts_the_schedulers_own_attempts():
+    """A ``KilledWorker`` after Dask's default 3 allowed failures stands for 4 dead workers
+    (the engine then records a run alone at once); after allowed-failures 0, for 1."""
+    from distributed.scheduler import KilledWorker
+    from inmotion.evaluate.montecarlo import LOSS_RETRIES, TaskLost, _worker_deaths
+    assert _worker_deaths(KilledWorker("k", None, 3)) == 4 > LOSS_RETRIES
+    assert _worker_deaths(KilledWorker("k", None, 0)) == 1 <= LOSS_RETRIES
+    assert _worker_deaths(TaskLost(1, 60.0)) == 1
+    assert _worker_deaths(RuntimeError("worker lost")) == 1

@@ -15,7 +15,7 @@ Guarantees
   compacted into the Parquet dataset); an interrupted or killed campaign loses only the runs in
   flight, and ``resume=True`` runs only the missing ones.
 - A run that raises is a result (``status='error'``, its error text, traceback and seed); the
-  campaign goes on. So is a run that kills its worker (``KilledWorker``, after one re-run).
+  campaign goes on. So is a run that kills its worker (``KilledWorker``, see :data:`LOSS_RETRIES`).
 - Every run is recorded exactly once, and the campaign cannot wait forever on a task Dask lost
   (a worker that died, a result lost with its worker): such tasks are submitted again, and a
   watchdog takes the tasks in flight as lost when nothing finishes and no worker runs anything
@@ -51,10 +51,14 @@ TABLE = "table.parquet"
 TARGET_TASK_S = 0.25
 MAX_CHUNK = 256
 #: a task whose worker died (``KilledWorker``) or that Dask lost (see :class:`_Watchdog`) is
-#: submitted again; a run alone in its task is recorded as an error once it has been lost this
-#: many times (a run that kills its worker thus takes down two workers, a run whose worker was
-#: killed from outside is run again)
-LOSS_RETRIES = 1
+#: submitted again: a chunk of several runs split into one task per run, a run alone in its
+#: task as it is until the deaths of its workers exceed this count, then it is recorded as that
+#: error. A ``KilledWorker`` counts the scheduler's own attempts (``allowed_failures + 1``).
+#: Dask cannot say which task of a dying worker was running (a task queued on it, or re-run
+#: after its result was lost with the worker, dies too), so an innocent run gets this many
+#: second chances; a crashing run takes down 3 workers on the engine's own cluster (1 more if
+#: it shared a chunk), 4 on a scheduler with Dask's default allowed-failures 3 (8 in a chunk).
+LOSS_RETRIES = 2
 #: seconds without a finished task while no worker of the cluster runs anything, after which
 #: the tasks in flight are taken as lost by Dask (:class:`_Watchdog`)
 STALL_S = 60.0
@@ -390,7 +394,7 @@ def _drive(client, tasks, store, total, initial, n_todo, quiet, max_in_flight, m
       ``as_completed._track_future``);
     - a chunk lost as a whole (its worker died: a run that crashes the process, a machine going
       away; Dask reports ``KilledWorker``) is split and its runs are submitted again one per
-      task; a run alone in a lost task is submitted again until it has been lost more than
+      task; a run alone in a lost task is submitted again until its workers died more than
       :data:`LOSS_RETRIES` times, then recorded as that error (so only the run that takes its
       worker down is marked);
     - a task whose future went back to pending or was cancelled, whose result cannot be
@@ -437,10 +441,10 @@ def _drive(client, tasks, store, total, initial, n_todo, quiet, max_in_flight, m
 
     def lost(chunk, losses, exc):
         """Submit a lost chunk again (split), or record it once it has been lost too often."""
-        losses += 1
+        losses += _worker_deaths(exc)
         if len(chunk) > 1:
             for task in chunk:                       # find the run that killed the worker
-                submit([task], losses)
+                submit([task])
         elif losses <= LOSS_RETRIES:
             submit(chunk, losses)
         else:
@@ -509,6 +513,13 @@ def _collect(fut, timeout_s: float):
             return exc
         return _LOST
     return _LOST           # cancelled, lost, or pending again
+
+
+def _worker_deaths(exc) -> int:
+    """How many lost executions a lost task's exception stands for: a ``KilledWorker`` the
+    scheduler's ``allowed_failures + 1`` (it re-ran the task that many times), else 1."""
+    n = getattr(exc, "allowed_failures", None) if _is_lost_worker(exc) else None
+    return int(n) + 1 if isinstance(n, int) and n >= 0 else 1
 
 
 def _is_lost_worker(exc) -> bool:
