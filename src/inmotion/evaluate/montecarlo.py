@@ -64,12 +64,19 @@ LOSS_RETRIES = 2
 STALL_S = 60.0
 #: with no worker at all, the campaign gives up after this many times ``stall_s``
 NO_WORKER_STALLS = 5
-#: scheduler settings of the clusters :func:`open_client` starts: the engine, not the
+#: Dask settings while a cluster :func:`open_client` started runs: the engine, not the
 #: scheduler, decides what to re-run after a worker died (allowed-failures 0: the task that was
-#: running when a worker died is reported at once as ``KilledWorker``), and a worker holds only
-#: the task it runs (worker-saturation 1.0: no queued task dies with a crashing neighbour)
-SCHEDULER_CONFIG = {"distributed.scheduler.allowed-failures": 0,
-                    "distributed.scheduler.worker-saturation": 1.0}
+#: running when a worker died is reported at once as ``KilledWorker``); a worker holds only the
+#: task it runs (worker-saturation 1.0: no queued task dies with a crashing neighbour); and the
+#: cluster never drops a worker slot whose process is being restarted. Dask's
+#: lost-worker-timeout (15 s) closes a worker's nanny for good when, 15 s after one of its
+#: worker's deaths, no worker of that name is registered. When runs crash one worker after
+#: another, that check eventually falls between a death and the restart. The cluster then had
+#: no worker left and the campaign waited forever (reproduced: 40 runs x 4 points, 2 workers,
+#: load 10).
+CLUSTER_CONFIG = {"distributed.scheduler.allowed-failures": 0,
+                  "distributed.scheduler.worker-saturation": 1.0,
+                  "distributed.deploy.lost-worker-timeout": 10 * 365 * 86400.0}
 #: environment of local workers: one BLAS thread each, the cores are the workers
 WORKER_ENV = {"OPENBLAS_NUM_THREADS": "1", "MKL_NUM_THREADS": "1", "OMP_NUM_THREADS": "1",
               "NUMBA_NUM_THREADS": "1"}
@@ -203,7 +210,7 @@ def _validate(sweep: Sweep) -> None:
 def open_client(workers: Optional[int] = None, scheduler: Optional[str] = None, client=None):
     """A ``distributed.Client``: the one given, one connected to ``scheduler``, or one on a new
     ``LocalCluster`` of ``workers`` single-threaded processes (default: all cores) whose
-    scheduler has :data:`SCHEDULER_CONFIG` (a cluster given or addressed keeps its own
+    Dask settings are :data:`CLUSTER_CONFIG` (a cluster given or addressed keeps its own
     settings; the engine's re-submission of lost tasks works on any)."""
     if client is not None:
         yield client
@@ -217,16 +224,17 @@ def open_client(workers: Optional[int] = None, scheduler: Optional[str] = None, 
     if n < 1:
         raise BadInput(f"--workers must be at least 1, got {workers}")
     import dask
-    with _workers_ignore_sigint(), dask.config.set(SCHEDULER_CONFIG):
-        cluster = LocalCluster(n_workers=n, threads_per_worker=1, processes=True,
-                               dashboard_address="127.0.0.1:0", silence_logs=logging.ERROR,
-                               env=WORKER_ENV)
-    try:
-        with cluster, Client(cluster) as c:
-            yield c
-    except KeyboardInterrupt:
-        _quiet_shutdown()
-        raise
+    with dask.config.set(CLUSTER_CONFIG):       # read while the cluster runs, not only at start
+        with _workers_ignore_sigint():
+            cluster = LocalCluster(n_workers=n, threads_per_worker=1, processes=True,
+                                   dashboard_address="127.0.0.1:0", silence_logs=logging.ERROR,
+                                   env=WORKER_ENV)
+        try:
+            with cluster, Client(cluster) as c:
+                yield c
+        except KeyboardInterrupt:
+            _quiet_shutdown()
+            raise
 
 
 @contextlib.contextmanager
