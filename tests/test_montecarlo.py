@@ -201,7 +201,7 @@ def test_a_run_that_kills_its_worker_is_the_only_error(tmp_path):
     would) is recorded as a ``KilledWorker`` error; the runs that shared its Dask task are
     re-run one per task and recorded as results, and the campaign ends (no hang). On the
     engine's own cluster (allowed-failures 0, worker-saturation 1: a crashing run takes down
-    3 workers, 4 in a chunk; with Dask's defaults it took 8, and the test 55 s)."""
+    2 workers, 3 in a chunk; with Dask's defaults it took 8, and the test 55 s)."""
     sweep = synth_sweep(runs=10, exit_value=2.0)
     with open_client(workers=2) as c:
         df = run_campaign(sweep, tmp_path / "c", client=c, quiet=True, stall_s=20.0)

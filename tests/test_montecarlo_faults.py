@@ -120,7 +120,7 @@ def test_a_task_no_worker_runs_is_submitted_again_by_the_watchdog(tmp_path, capl
         wall = time.monotonic() - t0
     assert once_each(df, 16)
     bad = df[df["status"] != "ok"]
-    # run 6 of both points lost 3 times (LOSS_RETRIES = 2): recorded as TaskLost; run 5 ran
+    # run 6 of both points lost twice (LOSS_RETRIES = 1): recorded as TaskLost; run 5 ran
     assert sorted(bad["run_index"].tolist()) == [6, 6]
     assert bad["error"].str.startswith("TaskLost: Dask lost the task").all()
     ok = df[df["status"] == "ok"]
@@ -176,6 +176,16 @@ def test_a_killed_worker_counts_the_schedulers_own_attempts():
     assert _worker_deaths(KilledWorker("k", None, 0)) == 1 <= LOSS_RETRIES
     assert _worker_deaths(TaskLost(1, 60.0)) == 1
     assert _worker_deaths(RuntimeError("worker lost")) == 1
+
+
+def test_the_dead_worker_of_a_killed_task_is_read_from_its_exception():
+    from types import SimpleNamespace
+    from distributed.scheduler import KilledWorker
+    from inmotion.evaluate.montecarlo import _dead_worker
+    ws = SimpleNamespace(address="tcp://127.0.0.1:4000")   # as WorkerState.clean() has it
+    assert _dead_worker(KilledWorker("k", ws, 0)) == "tcp://127.0.0.1:4000"
+    assert _dead_worker(KilledWorker("k", None, 0)) is None
+    assert _dead_worker(RuntimeError("boom")) is None and _dead_worker(None) is None
 
 
 def _kill_the_worker(client) -> set:

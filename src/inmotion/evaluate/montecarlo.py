@@ -26,6 +26,7 @@ Guarantees
 """
 from __future__ import annotations
 
+import collections
 import contextlib
 import json
 import logging
@@ -52,13 +53,16 @@ TARGET_TASK_S = 0.25
 MAX_CHUNK = 256
 #: a task whose worker died (``KilledWorker``) or that Dask lost (see :class:`_Watchdog`) is
 #: submitted again: a chunk of several runs split into one task per run, a run alone in its
-#: task as it is until the deaths of its workers exceed this count, then it is recorded as that
-#: error. A ``KilledWorker`` counts the scheduler's own attempts (``allowed_failures + 1``).
-#: Dask cannot say which task of a dying worker was running (a task queued on it, or re-run
-#: after its result was lost with the worker, dies too), so an innocent run gets this many
-#: second chances; a crashing run takes down 3 workers on the engine's own cluster (1 more if
-#: it shared a chunk), 4 on a scheduler with Dask's default allowed-failures 3 (8 in a chunk).
-LOSS_RETRIES = 2
+#: task as it is until it has died alone with its workers more than this many times, then it
+#: is recorded as that error. A ``KilledWorker`` counts the scheduler's own attempts
+#: (``allowed_failures + 1``). Dask does not say which task of a dying worker was running (a
+#: task queued on it dies too), so a death shared with another of the campaign's tasks is not
+#: counted against either (up to :data:`MAX_LOSSES` losses in all). A crashing run takes down 2
+#: workers on the engine's own cluster (1 more if it shared a chunk), 4 on a scheduler with
+#: Dask's default allowed-failures 3 (8 if it shared a chunk).
+LOSS_RETRIES = 1
+#: losses of a run alone in its task, counted or not, after which it is recorded in any case
+MAX_LOSSES = 6
 #: seconds without a finished task while no worker of the cluster runs anything, after which
 #: the tasks in flight are taken as lost by Dask (:class:`_Watchdog`)
 STALL_S = 60.0
@@ -402,9 +406,9 @@ def _drive(client, tasks, store, total, initial, n_todo, quiet, max_in_flight, m
       ``as_completed._track_future``);
     - a chunk lost as a whole (its worker died: a run that crashes the process, a machine going
       away; Dask reports ``KilledWorker``) is split and its runs are submitted again one per
-      task; a run alone in a lost task is submitted again until its workers died more than
-      :data:`LOSS_RETRIES` times, then recorded as that error (so only the run that takes its
-      worker down is marked);
+      task; a run alone in a lost task is submitted again until it has died alone with its
+      worker more than :data:`LOSS_RETRIES` times, then recorded as that error (so only the run
+      that takes its worker down is marked);
     - a task whose future went back to pending or was cancelled, whose result cannot be
       fetched, or that the :class:`_Watchdog` finds stalled, counts as lost the same way;
       the superseded future is released and whatever it still delivers is ignored."""
@@ -413,14 +417,15 @@ def _drive(client, tasks, store, total, initial, n_todo, quiet, max_in_flight, m
     window = max_in_flight or max(4, 3 * n_workers)
     chunker = _Chunker(n_workers, max_chunk)
     token = uuid.uuid4().hex[:8]
-    in_flight = {}                 # key -> (future, chunk, times lost)
+    in_flight = {}                 # key -> (future, chunk, (losses counted, all losses))
+    died_on = collections.Counter()   # address of a dead worker -> the tasks that died with it
     serial = [0]
     remaining = [n_todo]
     tasks = _Peekable(tasks)
     pending = as_completed()
     watchdog = _Watchdog(client, stall_s)
 
-    def submit(chunk, losses=0):
+    def submit(chunk, losses=(0, 0)):
         first = chunk[0]
         serial[0] += 1
         key = (f"inmotion-{token}-p{first.point_id}-r{first.run_index}-n{len(chunk)}"
@@ -447,13 +452,27 @@ def _drive(client, tasks, store, total, initial, n_todo, quiet, max_in_flight, m
         if counts["errors"]:
             bar.set_postfix(errors=counts["errors"], refresh=False)
 
-    def lost(chunk, losses, exc):
+    def shared_death(fut, exc) -> bool:
+        """Whether another task of the campaign died with the worker ``exc`` names (then
+        either may only have been queued there)."""
+        address = _dead_worker(exc)
+        if address is None:
+            return False
+        died_on[address] += 1
+        return died_on[address] > 1 or any(
+            other is not fut and other.status == "error"
+            and _dead_worker(_exception_now(other)) == address
+            for other, _, _ in in_flight.values())
+
+    def lost(fut, chunk, losses, exc):
         """Submit a lost chunk again (split), or record it once it has been lost too often."""
-        losses += _worker_deaths(exc)
+        deaths = _worker_deaths(exc)
+        counted = losses[0] + (0 if shared_death(fut, exc) else deaths)
+        losses = (counted, losses[1] + deaths)
         if len(chunk) > 1:
             for task in chunk:                       # find the run that killed the worker
                 submit([task])
-        elif losses <= LOSS_RETRIES:
+        elif counted <= LOSS_RETRIES and losses[1] <= MAX_LOSSES:
             submit(chunk, losses)
         else:
             record([(error_record(chunk[0], exc), None)])
@@ -470,7 +489,7 @@ def _drive(client, tasks, store, total, initial, n_todo, quiet, max_in_flight, m
         fut.release()
         exc = _chunk_exception(result) if result is not _LOST else None
         if result is _LOST or _is_lost_worker(exc):
-            lost(chunk, losses, exc if exc is not None else TaskLost(len(chunk), stall_s))
+            lost(fut, chunk, losses, exc if exc is not None else TaskLost(len(chunk), stall_s))
         elif exc is not None and len(chunk) > 1:
             for task in chunk:                       # the chunk as a whole failed
                 submit([task], losses)
@@ -530,6 +549,21 @@ def _worker_deaths(exc) -> int:
     return int(n) + 1 if isinstance(n, int) and n >= 0 else 1
 
 
+def _dead_worker(exc):
+    """The address of the worker a ``KilledWorker`` died with (None if unknown)."""
+    if not _is_lost_worker(exc):
+        return None
+    return getattr(getattr(exc, "last_worker", None), "address", None)
+
+
+def _exception_now(fut):
+    """The exception of an erred future, without waiting (None if not at hand)."""
+    try:
+        return fut.exception(timeout=0.5)
+    except Exception:   # noqa: BLE001 - only a hint
+        return None
+
+
 def _is_lost_worker(exc) -> bool:
     """Whether ``exc`` says the task's worker went away (not that a run raised)."""
     if exc is None:
@@ -541,12 +575,16 @@ def _is_lost_worker(exc) -> bool:
 def _next_done(pending, timeout_s: float) -> list:
     """The futures of ``pending`` done so far, waiting at most ``timeout_s`` for one."""
     deadline = time.monotonic() + timeout_s
+    ready = getattr(pending, "thread_condition", None)   # notified as a future completes
     while not pending.has_ready():
         left = deadline - time.monotonic()
         if left <= 0:
             return []
-        with pending.thread_condition:
-            pending.thread_condition.wait(min(left, 0.1))
+        if ready is None:
+            time.sleep(min(left, 0.02))
+        else:
+            with ready:
+                ready.wait(min(left, 0.1))
     return pending.next_batch(block=False)
 
 
