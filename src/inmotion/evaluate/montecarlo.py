@@ -409,8 +409,9 @@ def _drive(client, tasks, store, total, initial, n_todo, quiet, max_in_flight, m
       task; a run alone in a lost task is submitted again until it has died alone with its
       worker more than :data:`LOSS_RETRIES` times, then recorded as that error (so only the run
       that takes its worker down is marked);
-    - a task whose future went back to pending or was cancelled, whose result cannot be
-      fetched, or that the :class:`_Watchdog` finds stalled, counts as lost the same way;
+    - a future that went back to pending (its result lost with its worker: Dask computes it
+      again) is waited for again; one cancelled, whose result cannot be fetched, or that the
+      :class:`_Watchdog` finds stalled, counts as lost the same way as a ``KilledWorker``;
       the superseded future is released and whatever it still delivers is ignored."""
     from distributed import as_completed
     n_workers = max(1, len(client.scheduler_info(n_workers=-1).get("workers", {})))
@@ -478,15 +479,21 @@ def _drive(client, tasks, store, total, initial, n_todo, quiet, max_in_flight, m
             record([(error_record(chunk[0], exc), None)])
             submit_next()
 
-    def settle(fut):
-        """Record (or re-submit) the chunk of a future that is done or given up on."""
+    def settle(fut, given_up=False):
+        """Record (or re-submit) the chunk of a future that is done, or given up on by the
+        watchdog."""
         entry = in_flight.pop(fut.key, None)
         if entry is None:                             # superseded: its chunk went again
             fut.release()
             return
         _, chunk, losses = entry
         result = _collect(fut, stall_s)
+        if result is _AGAIN and not given_up:
+            in_flight[fut.key] = entry               # not done after all: wait for it again
+            pending.add(fut)
+            return
         fut.release()
+        result = _LOST if result is _AGAIN else result
         exc = _chunk_exception(result) if result is not _LOST else None
         if result is _LOST or _is_lost_worker(exc):
             lost(fut, chunk, losses, exc if exc is not None else TaskLost(len(chunk), stall_s))
@@ -509,7 +516,7 @@ def _drive(client, tasks, store, total, initial, n_todo, quiet, max_in_flight, m
                     settle(fut)
             elif watchdog.stalled(in_flight):
                 for fut, _, _ in list(in_flight.values()):
-                    settle(fut)
+                    settle(fut, given_up=True)
 
 
 class TaskLost(RuntimeError):
@@ -522,12 +529,15 @@ class TaskLost(RuntimeError):
                          "be fetched")
 
 
-#: marker of a future whose result is gone (pending again, cancelled, or not fetched in time)
-_LOST = object()
+#: markers of a future whose result is gone: cancelled, or not fetched (``_LOST``); lost with
+#: its worker and being computed again (``_AGAIN``)
+_LOST, _AGAIN = object(), object()
 
 
 def _collect(fut, timeout_s: float):
-    """The chunk's result list, the exception that ended it, or :data:`_LOST`."""
+    """The chunk's result list, the exception that ended it, :data:`_AGAIN` (its result was
+    lost with its worker and Dask is computing it again: wait for the future once more), or
+    :data:`_LOST` (cancelled, or finished with a result that cannot be fetched)."""
     try:
         if fut.status == "finished":
             return fut.result(timeout=timeout_s)
@@ -538,8 +548,9 @@ def _collect(fut, timeout_s: float):
             with contextlib.suppress(Exception):
                 return fut.exception(timeout=timeout_s)
             return exc
-        return _LOST
-    return _LOST           # cancelled, lost, or pending again
+    if fut.status in ("pending", "lost"):
+        return _AGAIN
+    return _LOST
 
 
 def _worker_deaths(exc) -> int:
