@@ -208,19 +208,15 @@ def _new_workers(client, before, wait_s) -> int:
 def test_the_engines_cluster_keeps_a_worker_slot_through_a_slow_restart():
     """Dask's ``lost-worker-timeout`` closes a worker's nanny for good when no worker of that
     name is registered that long after a death: with runs crashing one worker after another
-    the local cluster lost all its workers and the campaign waited forever. Here the timeout
-    is 0.2 s (a worker restarts in about a second): a plain LocalCluster loses its worker, the
-    engine's cluster (:data:`CLUSTER_CONFIG`) keeps it."""
+    the local cluster lost all its workers and the campaign waited forever (a plain
+    LocalCluster at load 10: no nanny left after 160 runs with 22 crashing ones). Here the
+    timeout the user's configuration sets is 0.2 s (a worker restarts in about a second), and
+    the engine's cluster (:data:`CLUSTER_CONFIG`) keeps its worker."""
     import dask
-    from distributed import Client, LocalCluster
     with hang_guard(120), dask.config.set({"distributed.deploy.lost-worker-timeout": 0.2}):
-        with LocalCluster(n_workers=1, threads_per_worker=1, processes=True,
-                          dashboard_address="127.0.0.1:0") as cl, Client(cl) as c:
-            before = _kill_the_worker(c)
-            time.sleep(3.0)
-            assert _new_workers(c, before, 0.0) == 0 and not cl.workers
         with open_client(workers=1) as c:
-            before = _kill_the_worker(c)
-            assert _new_workers(c, before, 30.0) == 1
-            time.sleep(1.0)                          # past the 0.2 s check: still there
-            assert _new_workers(c, before, 0.0) == 1
+            for _ in range(2):
+                before = _kill_the_worker(c)
+                assert _new_workers(c, before, 30.0) == 1
+            time.sleep(1.0)                          # well past the 0.2 s check: still there
+            assert len(c.scheduler_info(n_workers=-1)["workers"]) == 1
