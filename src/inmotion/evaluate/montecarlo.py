@@ -631,8 +631,8 @@ class _Watchdog:
             raise RuntimeError(f"the Dask cluster has had no worker for "
                                f"{now - self.workers_seen:.0f} s; the runs recorded so far "
                                "are kept (resume the campaign)")
-        if busy or not n_workers:
-            self.quiet_since = now if busy else self.quiet_since
+        if busy or not n_workers:     # running, or nothing can run: not a lost task
+            self.quiet_since = now
             return False
         if now - self.quiet_since < self.stall_s:
             return False
