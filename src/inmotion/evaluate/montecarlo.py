@@ -15,13 +15,18 @@ Guarantees
   compacted into the Parquet dataset); an interrupted or killed campaign loses only the runs in
   flight, and ``resume=True`` runs only the missing ones.
 - A run that raises is a result (``status='error'``, its error text, traceback and seed); the
-  campaign goes on.
+  campaign goes on. So is a run that kills its worker (``KilledWorker``, see :data:`LOSS_RETRIES`).
+- Every run is recorded exactly once, and the campaign cannot wait forever on a task Dask lost
+  (a worker that died, a result lost with its worker): such tasks are submitted again, and a
+  watchdog takes the tasks in flight as lost when nothing finishes and no worker runs anything
+  for ``stall_s`` seconds (:func:`_drive`, :class:`_Watchdog`).
 - At most ``max_in_flight`` Dask tasks are submitted at a time, so the client's memory does not
   grow with the number of runs. Short runs travel several to a Dask task (about 0.25 s of work
   each, :class:`_Chunker`), so the engine's cost per run stays small even for empty runs.
 """
 from __future__ import annotations
 
+import collections
 import contextlib
 import json
 import logging
@@ -46,6 +51,36 @@ TABLE = "table.parquet"
 #: seconds of work a Dask task should carry when runs are short (see _Chunker)
 TARGET_TASK_S = 0.25
 MAX_CHUNK = 256
+#: a task whose worker died (``KilledWorker``) or that Dask lost (see :class:`_Watchdog`) is
+#: submitted again: a chunk of several runs split into one task per run, a run alone in its
+#: task as it is until it has died alone with its workers more than this many times, then it
+#: is recorded as that error. A ``KilledWorker`` counts the scheduler's own attempts
+#: (``allowed_failures + 1``). Dask does not say which task of a dying worker was running (a
+#: task queued on it dies too), so a death shared with another of the campaign's tasks is not
+#: counted against either (up to :data:`MAX_LOSSES` losses in all). A crashing run takes down 2
+#: workers on the engine's own cluster (1 more if it shared a chunk), 4 on a scheduler with
+#: Dask's default allowed-failures 3 (8 if it shared a chunk).
+LOSS_RETRIES = 1
+#: losses of a run alone in its task, counted or not, after which it is recorded in any case
+MAX_LOSSES = 6
+#: seconds without a finished task while no worker of the cluster runs anything, after which
+#: the tasks in flight are taken as lost by Dask (:class:`_Watchdog`)
+STALL_S = 60.0
+#: with no worker at all, the campaign gives up after this many times ``stall_s``
+NO_WORKER_STALLS = 5
+#: Dask settings while a cluster :func:`open_client` started runs: the engine, not the
+#: scheduler, decides what to re-run after a worker died (allowed-failures 0: the task that was
+#: running when a worker died is reported at once as ``KilledWorker``); a worker holds only the
+#: task it runs (worker-saturation 1.0: no queued task dies with a crashing neighbour); and the
+#: cluster never drops a worker slot whose process is being restarted. Dask's
+#: lost-worker-timeout (15 s) closes a worker's nanny for good when, 15 s after one of its
+#: worker's deaths, no worker of that name is registered. When runs crash one worker after
+#: another, that check eventually falls between a death and the restart. The cluster then had
+#: no worker left and the campaign waited forever (reproduced: 40 runs x 4 points, 2 workers,
+#: load 10).
+CLUSTER_CONFIG = {"distributed.scheduler.allowed-failures": 0,
+                  "distributed.scheduler.worker-saturation": 1.0,
+                  "distributed.deploy.lost-worker-timeout": 10 * 365 * 86400.0}
 #: environment of local workers: one BLAS thread each, the cores are the workers
 WORKER_ENV = {"OPENBLAS_NUM_THREADS": "1", "MKL_NUM_THREADS": "1", "OMP_NUM_THREADS": "1",
               "NUMBA_NUM_THREADS": "1"}
@@ -178,7 +213,9 @@ def _validate(sweep: Sweep) -> None:
 @contextlib.contextmanager
 def open_client(workers: Optional[int] = None, scheduler: Optional[str] = None, client=None):
     """A ``distributed.Client``: the one given, one connected to ``scheduler``, or one on a new
-    ``LocalCluster`` of ``workers`` single-threaded processes (default: all cores)."""
+    ``LocalCluster`` of ``workers`` single-threaded processes (default: all cores) whose
+    Dask settings are :data:`CLUSTER_CONFIG` (a cluster given or addressed keeps its own
+    settings; the engine's re-submission of lost tasks works on any)."""
     if client is not None:
         yield client
         return
@@ -190,16 +227,18 @@ def open_client(workers: Optional[int] = None, scheduler: Optional[str] = None, 
     n = workers or os.cpu_count() or 1
     if n < 1:
         raise BadInput(f"--workers must be at least 1, got {workers}")
-    with _workers_ignore_sigint():
-        cluster = LocalCluster(n_workers=n, threads_per_worker=1, processes=True,
-                               dashboard_address="127.0.0.1:0", silence_logs=logging.ERROR,
-                               env=WORKER_ENV)
-    try:
-        with cluster, Client(cluster) as c:
-            yield c
-    except KeyboardInterrupt:
-        _quiet_shutdown()
-        raise
+    import dask
+    with dask.config.set(CLUSTER_CONFIG):       # read while the cluster runs, not only at start
+        with _workers_ignore_sigint():
+            cluster = LocalCluster(n_workers=n, threads_per_worker=1, processes=True,
+                                   dashboard_address="127.0.0.1:0", silence_logs=logging.ERROR,
+                                   env=WORKER_ENV)
+        try:
+            with cluster, Client(cluster) as c:
+                yield c
+        except KeyboardInterrupt:
+            _quiet_shutdown()
+            raise
 
 
 @contextlib.contextmanager
@@ -264,7 +303,7 @@ def run_campaign(sweep: Sweep, out_dir, *, workers: Optional[int] = None,
                  scheduler: Optional[str] = None, client=None, resume: bool = False,
                  retry_failed: bool = False, quiet: bool = False,
                  max_in_flight: Optional[int] = None, max_chunk: int = MAX_CHUNK,
-                 validate: bool = True):
+                 validate: bool = True, stall_s: float = STALL_S):
     """Run every (point, run) of ``sweep`` not yet in ``out_dir``; return the full results table.
 
     Parameters
@@ -290,6 +329,10 @@ def run_campaign(sweep: Sweep, out_dir, *, workers: Optional[int] = None,
         Dask tasks submitted at a time (default ``max(4, 3 * workers)``).
     max_chunk : int
         Most runs per Dask task; 1 makes every run its own task (see :class:`_Chunker`).
+    stall_s : float
+        Seconds without a finished task while no worker runs anything, after which the tasks
+        in flight are taken as lost and submitted again (:class:`_Watchdog`); also the longest
+        wait for one chunk's result once Dask reports it done.
 
     Returns
     -------
@@ -298,6 +341,9 @@ def run_campaign(sweep: Sweep, out_dir, *, workers: Optional[int] = None,
     """
     out = Path(out_dir)
     check_size(sweep)
+    if isinstance(stall_s, bool) or not (isinstance(stall_s, (int, float))
+                                         and math.isfinite(stall_s) and stall_s > 0):
+        raise BadInput(f"stall_s must be a positive number of seconds, got {stall_s!r}")
     if scheduler and client is None:
         _check_address(scheduler)
     store = ResultStore(out)
@@ -316,7 +362,7 @@ def run_campaign(sweep: Sweep, out_dir, *, workers: Optional[int] = None,
     if n_todo > 0:
         with open_client(workers, scheduler, client) as c, store:
             _drive(c, iter_tasks(sweep, skip=done), store, total, n_done,
-                   n_todo, quiet, max_in_flight, max_chunk, sweep.name)
+                   n_todo, quiet, max_in_flight, max_chunk, sweep.name, stall_s)
     df = store.table()
     from ..io.safe_write import atomic_write
     atomic_write(out / TABLE, lambda tmp: df.to_parquet(tmp, index=False))
@@ -346,58 +392,267 @@ class _Chunker:
         return int(max(1, min(TARGET_TASK_S / mean, self.max_chunk, share)))
 
 
-def _drive(client, tasks, store, total, initial, n_todo, quiet, max_in_flight, max_chunk, name):
+def _drive(client, tasks, store, total, initial, n_todo, quiet, max_in_flight, max_chunk, name,
+           stall_s=STALL_S):
     """Submit chunks of tasks with a bounded window; record each run as its chunk completes.
 
-    A chunk lost as a whole (its worker died: a run that crashes the process, or a machine
-    going away; Dask reports ``KilledWorker``) is split and its runs are submitted again one
-    per task, so that only the run that takes its worker down is recorded as an error."""
+    Every run is recorded exactly once, as a result or an error, and the loop cannot wait
+    forever on a task Dask has lost:
+
+    - results are fetched here (``Future.result(timeout=...)``), not by
+      ``as_completed(with_results=True)``: that helper's fetch dies silently, and its future is
+      never handed over (the campaign hung), when the task's result is lost with its worker and
+      the re-computation then fails (``distributed.Client._gather`` raises inside
+      ``as_completed._track_future``);
+    - a chunk lost as a whole (its worker died: a run that crashes the process, a machine going
+      away; Dask reports ``KilledWorker``) is split and its runs are submitted again one per
+      task; a run alone in a lost task is submitted again until it has died alone with its
+      worker more than :data:`LOSS_RETRIES` times, then recorded as that error (so only the run
+      that takes its worker down is marked);
+    - a future that went back to pending (its result lost with its worker: Dask computes it
+      again) is waited for again; one cancelled, whose result cannot be fetched, or that the
+      :class:`_Watchdog` finds stalled, counts as lost the same way as a ``KilledWorker``;
+      the superseded future is released and whatever it still delivers is ignored."""
     from distributed import as_completed
     n_workers = max(1, len(client.scheduler_info(n_workers=-1).get("workers", {})))
     window = max_in_flight or max(4, 3 * n_workers)
     chunker = _Chunker(n_workers, max_chunk)
     token = uuid.uuid4().hex[:8]
-    in_flight, remaining = {}, [n_todo]
-
+    in_flight = {}                 # key -> (future, chunk, (losses counted, all losses))
+    died_on = collections.Counter()   # address of a dead worker -> the tasks that died with it
+    serial = [0]
+    remaining = [n_todo]
     tasks = _Peekable(tasks)
+    pending = as_completed()
+    watchdog = _Watchdog(client, stall_s)
 
-    def submit(chunk, pending, tag=""):
+    def submit(chunk, losses=(0, 0)):
         first = chunk[0]
-        key = f"inmotion-{token}-p{first.point_id}-r{first.run_index}-n{len(chunk)}{tag}"
+        serial[0] += 1
+        key = (f"inmotion-{token}-p{first.point_id}-r{first.run_index}-n{len(chunk)}"
+               f"-s{serial[0]}")
         fut = client.submit(execute_tasks, chunk, pure=False, key=key)
-        in_flight[fut.key] = chunk
+        in_flight[fut.key] = (fut, chunk, losses)
         pending.add(fut)
 
-    def submit_next(pending):
+    def submit_next():
         chunk = _take(tasks, chunker.size(remaining[0]))
         if not chunk:
             return
         while len(chunk) < MAX_CHUNK and _same_drive(chunk[-1], tasks.peek()):
             chunk.append(next(tasks))
         remaining[0] -= len(chunk)
-        submit(chunk, pending)
+        submit(chunk)
 
-    pending = as_completed(with_results=True, raise_errors=False)
-    for _ in range(window):
-        submit_next(pending)
-    n_err = 0
-    with _progress(total, initial, quiet, name) as bar:
-        for fut, result in pending:
-            chunk = in_flight.pop(fut.key)
+    def record(outcomes):
+        for rec, arrays in outcomes:
+            store.write(rec, arrays)
+            counts["errors"] += rec["status"] != "ok"
+        chunker.observe(r for r, _ in outcomes)
+        bar.update(len(outcomes))
+        if counts["errors"]:
+            bar.set_postfix(errors=counts["errors"], refresh=False)
+
+    def shared_death(fut, exc) -> bool:
+        """Whether another task of the campaign died with the worker ``exc`` names (then
+        either may only have been queued there)."""
+        address = _dead_worker(exc)
+        if address is None:
+            return False
+        died_on[address] += 1
+        return died_on[address] > 1 or any(
+            other is not fut and other.status == "error"
+            and _dead_worker(_exception_now(other)) == address
+            for other, _, _ in in_flight.values())
+
+    def lost(fut, chunk, losses, exc):
+        """Submit a lost chunk again (split), or record it once it has been lost too often."""
+        deaths = _worker_deaths(exc)
+        counted = losses[0] + (0 if shared_death(fut, exc) else deaths)
+        losses = (counted, losses[1] + deaths)
+        if len(chunk) > 1:
+            for task in chunk:                       # find the run that killed the worker
+                submit([task])
+        elif counted <= LOSS_RETRIES and losses[1] <= MAX_LOSSES:
+            submit(chunk, losses)
+        else:
+            record([(error_record(chunk[0], exc), None)])
+            submit_next()
+
+    def settle(fut, given_up=False):
+        """Record (or re-submit) the chunk of a future that is done, or given up on by the
+        watchdog."""
+        entry = in_flight.pop(fut.key, None)
+        if entry is None:                             # superseded: its chunk went again
             fut.release()
-            if len(chunk) > 1 and _chunk_exception(result) is not None:
-                for task in chunk:                   # find the run that killed the worker
-                    submit([task], pending, tag="-split")
-                continue
-            outcomes = _outcomes(result, chunk)
-            for record, arrays in outcomes:
-                store.write(record, arrays)
-                n_err += record["status"] != "ok"
-            chunker.observe(r for r, _ in outcomes)
-            bar.update(len(outcomes))
-            if n_err:
-                bar.set_postfix(errors=n_err, refresh=False)
-            submit_next(pending)
+            return
+        _, chunk, losses = entry
+        result = _collect(fut, stall_s)
+        if result is _AGAIN and not given_up:
+            in_flight[fut.key] = entry               # not done after all: wait for it again
+            pending.add(fut)
+            return
+        fut.release()
+        result = _LOST if result is _AGAIN else result
+        exc = _chunk_exception(result) if result is not _LOST else None
+        if result is _LOST or _is_lost_worker(exc):
+            lost(fut, chunk, losses, exc if exc is not None else TaskLost(len(chunk), stall_s))
+        elif exc is not None and len(chunk) > 1:
+            for task in chunk:                       # the chunk as a whole failed
+                submit([task], losses)
+        else:
+            record(_outcomes(result, chunk))
+            submit_next()
+
+    counts = {"errors": 0}
+    for _ in range(window):
+        submit_next()
+    with _progress(total, initial, quiet, name) as bar:
+        while in_flight:
+            done = _next_done(pending, _Watchdog.POLL_S)
+            if done:
+                watchdog.progress()
+                for fut in done:
+                    settle(fut)
+            elif watchdog.stalled(in_flight):
+                for fut, _, _ in list(in_flight.values()):
+                    settle(fut, given_up=True)
+
+
+class TaskLost(RuntimeError):
+    """A run's Dask task was lost (no result, and no worker ran anything for ``stall_s``)
+    more than :data:`LOSS_RETRIES` times."""
+
+    def __init__(self, n_runs: int, stall_s: float):
+        super().__init__(f"Dask lost the task of this run ({n_runs} run(s)): no result and no "
+                         f"worker running anything for {stall_s:g} s, or its result could not "
+                         "be fetched")
+
+
+#: markers of a future whose result is gone: cancelled, or not fetched (``_LOST``); lost with
+#: its worker and being computed again (``_AGAIN``)
+_LOST, _AGAIN = object(), object()
+
+
+def _collect(fut, timeout_s: float):
+    """The chunk's result list, the exception that ended it, :data:`_AGAIN` (its result was
+    lost with its worker and Dask is computing it again: wait for the future once more), or
+    :data:`_LOST` (cancelled, or finished with a result that cannot be fetched)."""
+    try:
+        if fut.status == "finished":
+            return fut.result(timeout=timeout_s)
+        if fut.status == "error":
+            return fut.exception(timeout=timeout_s)
+    except Exception as exc:   # noqa: BLE001 - any failure to fetch is a lost or failed chunk
+        if fut.status == "error":
+            with contextlib.suppress(Exception):
+                return fut.exception(timeout=timeout_s)
+            return exc
+    if fut.status in ("pending", "lost"):
+        return _AGAIN
+    return _LOST
+
+
+def _worker_deaths(exc) -> int:
+    """How many lost executions a lost task's exception stands for: a ``KilledWorker`` the
+    scheduler's ``allowed_failures + 1`` (it re-ran the task that many times), else 1."""
+    n = getattr(exc, "allowed_failures", None) if _is_lost_worker(exc) else None
+    return int(n) + 1 if isinstance(n, int) and n >= 0 else 1
+
+
+def _dead_worker(exc):
+    """The address of the worker a ``KilledWorker`` died with (None if unknown)."""
+    if not _is_lost_worker(exc):
+        return None
+    return getattr(getattr(exc, "last_worker", None), "address", None)
+
+
+def _exception_now(fut):
+    """The exception of an erred future, without waiting (None if not at hand)."""
+    try:
+        return fut.exception(timeout=0.5)
+    except Exception:   # noqa: BLE001 - only a hint
+        return None
+
+
+def _is_lost_worker(exc) -> bool:
+    """Whether ``exc`` says the task's worker went away (not that a run raised)."""
+    if exc is None:
+        return False
+    from distributed.scheduler import KilledWorker
+    return isinstance(exc, KilledWorker) or type(exc).__name__ == "KilledWorker"
+
+
+def _next_done(pending, timeout_s: float) -> list:
+    """The futures of ``pending`` done so far, waiting at most ``timeout_s`` for one."""
+    deadline = time.monotonic() + timeout_s
+    ready = getattr(pending, "thread_condition", None)   # notified as a future completes
+    while not pending.has_ready():
+        left = deadline - time.monotonic()
+        if left <= 0:
+            return []
+        if ready is None:
+            time.sleep(min(left, 0.02))
+        else:
+            with ready:
+                ready.wait(min(left, 0.1))
+    return pending.next_batch(block=False)
+
+
+class _Watchdog:
+    """Progress watch of :func:`_drive`: the tasks in flight are stalled when no task has
+    finished for ``stall_s`` while no worker of the cluster runs anything (its workers idle,
+    or none there): Dask has lost them, or a worker that died took them along unnoticed. It
+    asks the scheduler at most every ``stall_s / 4`` (``Client.call_stack``, within
+    ``stall_s / 2``), and only when no result comes in. With no worker at all for
+    ``NO_WORKER_STALLS * stall_s`` the campaign stops (``RuntimeError``; resume it later)."""
+
+    POLL_S = 0.5
+
+    def __init__(self, client, stall_s: float):
+        self.client, self.stall_s = client, float(stall_s)
+        self.quiet_since = self.last_check = self.workers_seen = time.monotonic()
+
+    def progress(self) -> None:
+        self.quiet_since = time.monotonic()
+
+    def stalled(self, in_flight) -> bool:
+        now = time.monotonic()
+        if now - self.last_check < self.stall_s / 4:
+            return False
+        self.last_check = now
+        if self.client.status not in ("running", "connecting"):
+            raise RuntimeError(f"the Dask client is {self.client.status}; the runs recorded "
+                               "so far are kept (resume the campaign)")
+        busy, n_workers = self._cluster_state()
+        if n_workers:
+            self.workers_seen = now
+        elif now - self.workers_seen > NO_WORKER_STALLS * self.stall_s:
+            raise RuntimeError(f"the Dask cluster has had no worker for "
+                               f"{now - self.workers_seen:.0f} s; the runs recorded so far "
+                               "are kept (resume the campaign)")
+        if busy or not n_workers:     # running, or nothing can run: not a lost task
+            self.quiet_since = now
+            return False
+        if now - self.quiet_since < self.stall_s:
+            return False
+        logging.getLogger(__name__).warning(
+            "no Dask task finished for %.0f s and no worker runs any: %d task(s) in flight "
+            "taken as lost and submitted again", now - self.quiet_since, len(in_flight))
+        self.quiet_since = now
+        return True
+
+    def _cluster_state(self):
+        """(whether some worker runs a task, number of workers); unknown counts as idle."""
+        try:
+            ask = self.client.sync
+            stacks = ask(self.client.scheduler.call_stack, keys=None,
+                         callback_timeout=self.stall_s / 2)
+            info = ask(self.client.scheduler.identity, n_workers=-1,
+                       callback_timeout=self.stall_s / 2)
+        except Exception:   # noqa: BLE001 - an unanswered question must not stop the watch
+            return False, 1
+        return any(bool(v) for v in (stacks or {}).values()), len(info.get("workers", {}))
 
 
 def _same_drive(a: Task, b: Optional[Task]) -> bool:
