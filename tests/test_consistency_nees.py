@@ -66,7 +66,7 @@ def test_od_kf_with_a_fine_odometer_stays_consistent():
     displacement rows' own error (``d c^2 / 2`` for the unresolved heading ``c``), which the
     coarse odometer's quantization hides, is the forward row's noise floor
     (:func:`inmotion.align.aided_kf.linearization_floor_per_m`). Without it the mean NEES
-    over these 6 runs was 73.6 (per run 13.3, 4.7, 5.6, 11.6, 12.3, 393: heading sigma 1-2
+    over these 6 runs was 74.2 (one run at 393; heading sigma 1-2
     arcmin at errors of 5-18 arcmin); with it 4.50 (band 1.37-5.25; over seeds 100-109
     4.44, band 1.68-4.70)."""
     m, (lo, hi), per_run = final_nees("od-kf", PRIOR, fine_odometer_drive(), RUNS,

@@ -717,21 +717,24 @@ def linearization_floor_per_m(cfg) -> float:
     interval (:class:`~inmotion.estimation.measurements.DisplacementIncrement`'s
     ``model_floor_per_m``; the velocity form has none).
 
-    Derivation. The rows ``z = C_n^b (Delta P - Delta D)`` (paper 003 ref. 38) are first
-    order in the angle ``c`` between the SINS's displacement and the sensor's (the heading
-    error against the mounting, a fraction of a degree at the start of a fine alignment): the
-    exact rows differ from them by ``d (1 - cos c) = d c^2 / 2`` along the motion (and ``d (c
-    - sin c)`` across it, third order). With ``c ~ N(0, s^2)`` the term ``d c^2 / 2`` has the
-    mean square ``d^2 E[c^4] / 4 = 3 d^2 s^4 / 4``, so its RMS is ``d s^2 sqrt(3) / 2`` (0.5
-    deg at 14 m/s over 0.5 s: 4.6e-4 m, i.e. 9.2e-4 m/s), taken as white noise (the filter
-    cannot estimate it). :func:`_length_fill` takes the part of that term that the lateral
-    and vertical rows' residual shows out of the along row; what is left is the model error
-    of the angle the filter has not resolved, which its rows cannot show. A choice written
-    down: the heading prior stands for ``s`` over the whole run (the mounting's own prior and
-    the heading's convergence are left out: the floor then errs on the honest side late in a
-    run). With a coarse odometer (200 pulses/m, forward row 4.1e-3 m/s) or an LDV (1.4e-3
-    m/s) it is below the sensor's own noise and changes little; with a fine one (20,000
-    pulses/m, 4.1e-5 m/s) it is what the forward row's noise is.
+    Derivation. A heading error ``psi`` the filter has not resolved (od-kf's heading sigma
+    stays near its prior over a short drive: the rows see the heading only against the
+    mounting, ``psi - gamma``) rotates every velocity change the SINS integrates, so its
+    velocity error is exactly ``(R(psi) - I) (v - v0)`` (``v0`` the velocity when the error
+    arose). The error model keeps the first order, ``psi x (v - v0)``; the second order,
+    ``-psi^2 / 2 (v - v0)`` in the horizontal plane, is left in the rows (the along row
+    after :func:`_length_fill` too, since it is a velocity error, not an angle between the two
+    displacements). With ``psi ~ N(0, s^2)`` its mean square is ``|v - v0|^2 E[psi^4] / 4 =
+    3 |v - v0|^2 s^4 / 4``, RMS ``|v - v0| s^2 sqrt(3) / 2``, taken as white noise (the filter
+    cannot estimate it). The rows do not know ``v - v0``; the interval's speed ``d / T``
+    stands for it (the same for a 60 deg turn at constant speed; a drive that slows
+    down after a turn is under-covered, one that starts and ends at the same velocity
+    over-covered). For 0.5 deg at 14 m/s: 9.2e-4 m/s (4.6e-4 m over 0.5 s). The heading
+    prior stands for ``s`` over the whole run (its convergence is left out: the floor then
+    errs on the honest side late in a run). With a coarse odometer (200 pulses/m, forward
+    row 4.1e-3 m/s) it changes little; with an LDV (1.4e-3 m/s) the forward row grows by
+    up to 20 % at 14 m/s; with a fine odometer (20,000 pulses/m, 4.1e-5 m/s) it is what the
+    forward row's noise is.
 
     Measured (issue 15; ``benchmarks/nees_methods.py``'s drive with the odometer at 20,000
     pulses/m and ``tests/test_consistency_nees.py``'s 0.1 / 0.1 / 0.5 deg start, seeds
@@ -743,6 +746,13 @@ def linearization_floor_per_m(cfg) -> float:
     20 times smaller the NEES was 1.41 without the vehicle's constraint violation, 21 with it
     (heading +4 to +6 arcmin on every seed; lateral slip alone 22, bounce alone 0.46): at
     such a start this floor is negligible and that part is not modelled here (issue 15, open).
+    With the floor (``benchmarks/nees_fine_odometer.py 20``, ``benchmarks/nees_methods.py
+    20``; band for 20 runs 2.02-4.16, for 40 runs 2.29-3.80): od-kf at 20,000 pulses/m 4.11
+    (seeds 100-119; 120-139: 2.12; the 40 runs 3.12), at 200 pulses/m 2.87 -> 2.86; with the
+    two-part gyro bias (``gyro_markov_deg_h`` 0.003, ``gyro_markov_tau_s`` 300) at 20,000
+    pulses/m 4.43 (10 runs, band 1.68-4.70); the no-violation case above 2260 -> 2.79 (10
+    runs); ldv-kf 3.33 -> 2.75 and fkf 3.30 -> 2.75 (the LDV's forward row up to 20 %
+    larger), nhc-kf unchanged (3.57).
     """
     s = np.deg2rad(cfg.init_heading_sigma_deg)
     return float(np.sqrt(3.0) / 2.0 * s * s)
