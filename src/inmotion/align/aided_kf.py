@@ -763,7 +763,12 @@ def linearization_floor_per_m(cfg) -> float:
     two-part gyro bias (``gyro_markov_deg_h`` 0.003, ``gyro_markov_tau_s`` 300) at 20,000
     pulses/m 4.43 (10 runs, band 1.68-4.70); the no-violation case above 2260 -> 2.79 (10
     runs); ldv-kf 3.33 -> 2.75 and fkf 3.30 -> 2.75 (the LDV's forward row up to 20 %
-    larger), nhc-kf unchanged (3.57).
+    larger), nhc-kf unchanged (3.57). The price of the prior standing for ``s``: in
+    ``inmotion process`` on ``tests/test_process.py``'s 6.6 min odometer-only drive (od-kf
+    handed the coarse stage's heading sigma) the final heading error went from 0.96-1.60 to
+    1.68-2.46 arcmin (seeds 1-3) and its sigma from 1.33 to 2.28 arcmin (both cover the
+    error), the horizontal error from 1.5-2.0 to 1.9-2.6 m over 4.2 km. The floor from the
+    filter's current heading variance (the fill functions do not see ``P``) is not done.
     """
     s = np.deg2rad(cfg.init_heading_sigma_deg)
     return float(np.sqrt(3.0) / 2.0 * s * s)
