@@ -767,8 +767,11 @@ def linearization_floor_per_m(cfg) -> float:
     ``inmotion process`` on ``tests/test_process.py``'s 6.6 min odometer-only drive (od-kf
     handed the coarse stage's heading sigma) the final heading error went from 0.96-1.60 to
     1.68-2.46 arcmin (seeds 1-3) and its sigma from 1.33 to 2.28 arcmin (both cover the
-    error), the horizontal error from 1.5-2.0 to 1.9-2.6 m over 4.2 km. The floor from the
-    filter's current heading variance (the fill functions do not see ``P``) is not done.
+    error), the horizontal error from 1.5-2.0 to 1.9-2.6 m over 4.2 km. Tried and dropped:
+    ``s`` from the filter's own heading variance, set again every 10 s of rows: the process
+    drive back to 0.85-1.60 arcmin (sigma 1.34), but the fine odometer's NEES 51.2 (10 runs;
+    heading sigma 2-6 arcmin at errors of 10-38): the floor shrinks with the very sigma it is
+    there to keep honest.
     """
     s = np.deg2rad(cfg.init_heading_sigma_deg)
     return float(np.sqrt(3.0) / 2.0 * s * s)
