@@ -756,7 +756,10 @@ def linearization_floor_per_m(cfg) -> float:
     simulator's errors off one at a time (detection off): with an error-free IMU and a start
     20 times smaller the NEES was 1.41 without the vehicle's constraint violation, 21 with it
     (heading +4 to +6 arcmin on every seed; lateral slip alone 22, bounce alone 0.46): at
-    such a start this floor is negligible and that part is not modelled here (issue 15, open).
+    such a start this floor is negligible and that part is not modelled here (issue 15, open;
+    the same +4 to +5 arcmin with the drive started heading 240 deg or at 39.9 deg S, so not
+    the Earth rate's geometry, and with the forward row's ``-T^2 / 2 [f_b x]`` attitude
+    columns removed, so not the slip's lateral specific force in them).
     With the floor (``benchmarks/nees_fine_odometer.py 20``, ``benchmarks/nees_methods.py
     20``; band for 20 runs 2.02-4.16, for 40 runs 2.29-3.80): od-kf at 20,000 pulses/m 4.11
     (seeds 100-119; 120-139: 2.12; the 40 runs 3.12), at 200 pulses/m 2.87 -> 2.86; with the
