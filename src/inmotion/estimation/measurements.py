@@ -81,7 +81,7 @@ ACC_SIZE = 17
 #: sensor distance"
 ACC_T, ACC_DP, ACC_TH, ACC_D, ACC_W, ACC_BAD, ACC_FN = 0, 1, 4, 7, 10, 13, 14
 #: parameter slots of paper 003's sensor channels: row sigmas, lever arm, C_v^b0's y column
-P_SIG, P_LEVER, P_FWD = 0, 3, 6
+P_SIG, P_LEVER, P_FWD, P_FLOOR = 0, 3, 6, 9
 
 
 class Compiled:
@@ -771,12 +771,15 @@ def _fill_displacement(xs, xd, aux, acc, data, p, offs, z, H, r):
     f0, f1, f2 = p[P_FWD], p[P_FWD + 1], p[P_FWD + 2]
     tf = (th[1] * f2 - th[2] * f1, th[2] * f0 - th[0] * f2, th[0] * f1 - th[1] * f0)
     var_fwd = (p[P_SIG + 1] * T) ** 2
+    # the rows' own model error, (floor * d)^2 with d the sensor's distance over the interval
+    # (aided_kf.linearization_floor_per_m: the first-order rows' d c^2 / 2, issue 15)
+    var_model = p[P_FLOOR] * p[P_FLOOR] * (dD[0] * dD[0] + dD[1] * dD[1] + dD[2] * dD[2])
     for i in range(3):
         zz = 0.0
         for j in range(3):
             zz += C_bn[i, j] * (acc[ACC_DP + j] - dD[j])
         z[i] = zz
-        r[i] = (p[P_SIG + i] * T) ** 2 + 0.5 * var_fwd * tf[i] * tf[i]
+        r[i] = (p[P_SIG + i] * T) ** 2 + 0.5 * var_fwd * tf[i] * tf[i] + var_model
     _displacement_rows(H, (offs[PHI], offs[DV], offs[DK], offs[MOUNT], offs[LEVER]), C_bn, T,
                        C_bn @ dD, C_bn @ acc[ACC_W:ACC_W + 3].copy(),
                        acc[ACC_TH:ACC_TH + 3].copy(), p[P_FWD:P_FWD + 3].copy())
@@ -815,6 +818,9 @@ class _SensorChannel(Measurement):
     sigma_m_s : (3,) 1-sigma per row [m/s] (right, forward, up; displacement: times ``T``)
     lever_arm_m : (3,) nominal lever arm in b [m];  vehicle_mounting : (3, 3) nominal
         ``C_v^b0``;  local : the local filter it updates;  isolate, return_tests : FDI
+    model_floor_per_m : the displacement rows' model error per metre of the interval's
+        distance (each row's variance gets ``(model_floor_per_m * d)^2``; 0: none; the
+        velocity form ignores it), :func:`inmotion.align.aided_kf.linearization_floor_per_m`
     """
 
     dof, row_data_size = 3, 1
@@ -822,16 +828,20 @@ class _SensorChannel(Measurement):
     needs_body_rate = True
 
     def __init__(self, sigma_m_s, *, lever_arm_m=None, vehicle_mounting=None, local=0,
-                 isolate=False, return_tests=1, **kw):
+                 isolate=False, return_tests=1, model_floor_per_m=0.0, **kw):
         super().__init__(local=local, **kw)
         self.sigma_m_s = _noise3(sigma_m_s, f"{self.name} sigma_m_s")
+        self.model_floor_per_m = float(model_floor_per_m)
+        if not (np.isfinite(self.model_floor_per_m) and self.model_floor_per_m >= 0.0):
+            raise ValueError(f"{self.name} model_floor_per_m must be finite and >= 0, "
+                             f"got {model_floor_per_m!r}")
         self.lever = np.zeros(3) if lever_arm_m is None else np.asarray(lever_arm_m, float)
         self.C_vb0 = _mounting(vehicle_mounting)
         self.isolate = bool(isolate)
         self.return_tests = int(return_tests)
 
     def params(self):
-        return np.r_[self.sigma_m_s, self.lever, self.C_vb0[:, 1]]
+        return np.r_[self.sigma_m_s, self.lever, self.C_vb0[:, 1], self.model_floor_per_m]
 
     def check(self, layout):
         _need(layout, self, "phi", "dv", "dk", "mount", "lever")

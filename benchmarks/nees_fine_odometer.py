@@ -1,0 +1,27 @@
+"""od-kf's final-attitude NEES with a fine and a coarse odometer (issue 15): the drive and
+start of ``tests/test_consistency_nees.py`` (paper 003's drive cut to 85 s, 0.1 / 0.1 / 0.5
+deg start, seeds 100 ..) with the odometer at each ``pulses_per_m``, mean, 95 % band and per
+run. Usage (from the repository root)::
+
+    PYTHONPATH=src:tests OPENBLAS_NUM_THREADS=1 nice -n 10 python benchmarks/nees_fine_odometer.py [RUNS] [PULSES_PER_M,...] [CONFIG_JSON]
+
+Defaults: 10 runs, 20000,200 pulses/m; ``CONFIG_JSON`` adds to the test's prior, e.g.
+``'{"fdi": false}'`` (the channel alone) or ``'{"gyro_markov_deg_h": 0.003,
+"gyro_markov_tau_s": 300}'`` (the two-part gyro bias). About 3 s a run on one core.
+"""
+import json
+import sys
+
+import numpy as np
+
+sys.path.insert(0, "tests")
+from consistency_mc import final_nees  # noqa: E402
+from test_consistency_nees import PRIOR, START_SIGMA_DEG, fine_odometer_drive  # noqa: E402
+
+runs = int(sys.argv[1]) if len(sys.argv) > 1 else 10
+ppms = [float(x) for x in sys.argv[2].split(",")] if len(sys.argv) > 2 else [20000.0, 200.0]
+cfg = dict(PRIOR, **(json.loads(sys.argv[3]) if len(sys.argv) > 3 else {}))
+for ppm in ppms:
+    mean, (lo, hi), v = final_nees("od-kf", cfg, fine_odometer_drive(ppm), runs, START_SIGMA_DEG)
+    print(f"od-kf {ppm:.0f} pulses/m {cfg} runs {runs} mean NEES {mean:.2f} band "
+          f"[{lo:.2f}, {hi:.2f}] runs {np.round(v, 1).tolist()}", flush=True)
