@@ -216,7 +216,7 @@ def heading_observability(bundle: Bundle, lat: float, t0: float, parked_until: O
     drift, origin = _spec_drift_deg_h(bundle.meta)
     measured = None
     if drift is None and parked_until is not None and parked_until - t0 >= min_parked_s:
-        imu = bundle.imu
+        imu = _imu_span(bundle, t0, parked_until)
         m = (imu.t > t0) & (imu.t <= parked_until)
         dt = np.diff(imu.t, prepend=imu.t[0] - imu.dt)[m]
         dth, dv = imu.dtheta[m], imu.dvel[m]
@@ -258,6 +258,24 @@ def heading_observability(bundle: Bundle, lat: float, t0: float, parked_until: O
 
 def _speed_sensors(bundle):
     return [s for s in registry.SPEED_SENSORS if getattr(bundle, s) is not None]
+
+
+def _imu_span(bundle, ta: float, tb: float):
+    """The IMU rows from the last one at or before ``ta`` [s] (so the rows after ``ta`` keep
+    the interval from the row before them) to ``tb``, in memory: only these rows are read
+    from a bundle read in chunks (:meth:`Bundle.load_window`)."""
+    t = bundle.imu.t
+    k = max(int(np.searchsorted(t, ta, side="right")) - 1, 0)
+    ta = float(t[k])
+    del t
+    return bundle.load_window(ta, tb).imu
+
+
+def _with_imu_window(bundle, t0: float, t1: float) -> Bundle:
+    """``bundle`` with the IMU rows of ``[t0, t1]`` in memory and the sensors whole (a coarse
+    stage cuts its own window and reads the speeds around its ends)."""
+    return Bundle(bundle.load_window(t0, t1).imu, dict(bundle.meta), bundle.radar, bundle.ldv,
+                  bundle.odometer, bundle.baro, None)
 
 
 def _cfg(cls, base: dict, cfg: ProcessConfig, name: str, own: dict):
@@ -378,7 +396,7 @@ def still_start(bundle: Bundle, t0: float, accel_m_s2: float = 0.15, gyro_deg_s:
 
 
 def _imu_still(bundle: Bundle, ta: float, tb: float, accel_m_s2: float, gyro_deg_s: float,
-               block_s: float = 0.25, min_s: float = 0.0):
+               block_s: float = 0.25, min_s: float = 0.0, dt: Optional[float] = None):
     """The part of ``[ta, tb]`` in which the IMU agrees that the vehicle stands still, as
     ``(start, end)``, or None: the longest run of ``block_s`` blocks whose mean specific force
     and rate lie within ``accel_m_s2`` / ``gyro_deg_s`` of the window's median block (the test
@@ -386,15 +404,16 @@ def _imu_still(bundle: Bundle, ta: float, tb: float, accel_m_s2: float, gyro_deg
     zero but the vehicle still brakes or pulls away), at least ``min_s`` long, with its mean
     rate within ``gyro_deg_s`` of zero (the Earth rate and a MEMS bias are far below it, a
     turn is not). Straight driving at constant speed cannot be told from standing by an
-    IMU."""
-    imu = bundle.imu
+    IMU. ``dt``: the log's median IMU period [s] (None: read here); only the window's rows
+    are read."""
+    dt = bundle.imu.dt if dt is None else float(dt)
+    imu = bundle.load_window(ta, tb).imu
     k = np.flatnonzero((imu.t > ta) & (imu.t <= tb))
-    n = max(1, int(round(block_s / imu.dt)))
+    n = max(1, int(round(block_s / dt)))
     nb = len(k) // n
     if nb < 1:
         return None
     k = k[:nb * n]
-    dt = imu.dt
     f = imu.dvel[k].reshape(nb, n, 3).sum(1) / (n * dt)
     w = imu.dtheta[k].reshape(nb, n, 3).sum(1) / (n * dt)
     ok = ((np.abs(f - np.median(f, 0)).max(1) <= accel_m_s2)
@@ -427,12 +446,13 @@ def stop_windows(bundle: Bundle, cfg: ProcessConfig, t_from: float) -> tuple[lis
     thr = chi2.threshold(cfg.false_alarm_rate, dof)
     d = np.diff(np.r_[0, (lam <= thr).astype(np.int8), 0])
     out, refused = [], 0
+    dt = bundle.imu.dt
     for a, b in zip(np.flatnonzero(d == 1), np.flatnonzero(d == -1) - 1):
         ta, tb = float(t[a]) + cfg.stop_margin_s, float(t[b]) - cfg.stop_margin_s
         if tb - ta < cfg.min_stop_s:
             continue
         core = _imu_still(bundle, ta, tb, cfg.still_accel_m_s2, cfg.still_gyro_deg_s,
-                          min_s=cfg.min_stop_s)
+                          min_s=cfg.min_stop_s, dt=dt)
         if core is not None:
             out.append([round(core[0], 3), round(core[1], 3)])
         else:
@@ -501,6 +521,11 @@ def run_process(bundle: Bundle, config: ProcessConfig | dict | None = None,
     ii = init_info if isinstance(init_info, InitInfo) else InitInfo(**(init_info or {}))
     w0 = time.perf_counter()
     speed = _speed_sensors(bundle)
+    if not speed and not isinstance(bundle, Bundle):
+        # no velocity sensor: the still-start test reads the IMU from the start until the
+        # vehicle moves and the still stage rewrites the gyro rows; both take the IMU in
+        # memory (the nhc-kf that follows streams either way)
+        bundle = bundle.load_window()
     t_start = float(bundle.imu.t[0]) if init is None else max(float(init.t),
                                                              float(bundle.imu.t[0]))
     t0 = first_covered(bundle, t_start) if speed else t_start
@@ -589,7 +614,7 @@ def run_process(bundle: Bundle, config: ProcessConfig | dict | None = None,
         from .align.parked_kf import ParkedKfConfig, run_parked_kf
         t1 = t0 + cfg.parked_coarse_s
         ccfg = _cfg(CoarseInertialConfig, {"mode": "parked"}, cfg, "coarse-inertial", {})
-        coarse = run_coarse_inertial(bundle.window(t0, t1), ccfg,
+        coarse = run_coarse_inertial(bundle.load_window(t0, t1), ccfg,
                                      NavState(t0, lat, lon, h, np.zeros(3), [1.0, 0, 0, 0]))
         a = coarse.info["attitude_start_deg"]
         C0 = rotations.dcm_from_euler(np.radians([a["pitch"], a["roll"], a["yaw"]]))
@@ -606,8 +631,8 @@ def run_process(bundle: Bundle, config: ProcessConfig | dict | None = None,
             pbase["init_heading_sigma_deg"] = head_sig
         pcfg = _cfg(ParkedKfConfig, pbase, cfg, "parked-kf", own)
         start = NavState(t0, lat, lon, h, np.zeros(3), rotations.quat_from_dcm(C0))
-        parked = run_parked_kf(bundle, pcfg, start, progress=progress_part(0.0, 0.3),
-                               end_s=t_park_end)
+        parked = run_parked_kf(bundle.load_window(None, t_park_end), pcfg, start,
+                               progress=progress_part(0.0, 0.3), end_s=t_park_end)
         parts.append(parked)
         log("parked fine", "parked-kf", t0, t_park_end,
             "zero-velocity fine alignment while parked (paper 003 eq. 11-13)", parked,
@@ -754,7 +779,7 @@ def _coarse_moving(bundle, cfg, init, t0, t1, speed):
         # IMU bridge: the sensor itself is used then
         mux = MuxConfig(coarse_window_s=t1 - t0,
                         coarse=dict(cfg.methods.get("coarse-inertial") or {}))
-        sol, C0 = coarse_fault_tolerant(bundle, mux, init, t0, t1)
+        sol, C0 = coarse_fault_tolerant(_with_imu_window(bundle, t0, t1), mux, init, t0, t1)
         used = [s for s in ("odometer", "ldv") if s in speed]
         return C0, {"attitude_start_deg": sol.info["attitude_start_deg"],
                     "speed_sensor": "fault-tolerant " + " / ".join(used + ["imu"])}, \
@@ -764,7 +789,7 @@ def _coarse_moving(bundle, cfg, init, t0, t1, speed):
                 "coarse-inertial", {})
     # the IMU cut to the window, the sensor whole (a real log's speed may stop just short of
     # a window's ends)
-    win = Bundle(bundle.imu.window(t0, t1), bundle.meta,
+    win = Bundle(bundle.load_window(t0, t1).imu, bundle.meta,
                  **{name: getattr(bundle, name)})
     sol = run_coarse_inertial(win, ccfg, init)
     a = sol.info["attitude_start_deg"]

@@ -1007,19 +1007,20 @@ def _process_text(summary: dict, output) -> str:
 
 
 def _process_bundle(ctx, bundle_path, allow_imu_gaps, init):
-    """The bundle for ``process``: loaded whole (its stages take arrays) but for the truth,
-    opened for reading in chunks (``read_bundle(truth_in_chunks=True)``): the run reads the
-    truth for its errors only (``run_process_to``), so memory does not grow with it. Where
-    the run would take its start position from the truth (no ``--init`` and no position in
-    ``meta.yaml``: :func:`inmotion.align.attitude_determination.initial_position`), the
-    truth is loaded as before."""
-    import dataclasses
+    """The bundle for ``process``: opened for reading in chunks
+    (:func:`inmotion.io.bundle_stream.open_bundle`): its stages read the IMU rows of their
+    windows or stream them (``Bundle.load_window``, ``Bundle.imu_rows_after``) and the truth
+    is read for the errors only (``run_process_to``), so memory does not grow with the log.
+    Where the run would take its start position from the truth (no ``--init`` and no
+    position in ``meta.yaml``: :func:`inmotion.align.attitude_determination.initial_position`),
+    the bundle is loaded whole as before."""
+    from types import SimpleNamespace
 
     from ..align.attitude_determination import initial_position
-    bundle = _read_bundle(ctx, bundle_path, allow_imu_gaps, truth_in_chunks=True)
+    bundle = _read_bundle(ctx, bundle_path, allow_imu_gaps, chunked=True)
     if init is None and bundle.truth is not None:
         try:
-            initial_position(dataclasses.replace(bundle, truth=None), None)
+            initial_position(SimpleNamespace(meta=bundle.meta, truth=None), None)
         except BadInput:                     # the position comes from the truth's first row
             bundle = _read_bundle(ctx, bundle_path, allow_imu_gaps)
     return bundle
