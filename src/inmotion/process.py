@@ -339,6 +339,68 @@ def _head(sol: Solution, t1: float) -> Solution:
                     sigma={k: v[m] for k, v in sol.sigma.items()})
 
 
+class _OutputRows:
+    """Which rows of a stage :func:`inmotion.io.result.thin` at ``rate_hz`` can keep from the
+    concatenated result (the ``select`` of :meth:`VelocityAidedRun.run_stream`), so a stage
+    holds its output rate's rows, not its filter's, and the written result is unchanged.
+
+    ``thin`` keeps the first row, the last, and every row whose period index ``floor((t -
+    t_first) rate + 1e-6)`` differs from the row before it. A row dropped here has the index
+    of a row kept before it (the first row of each index is kept), so thinning the kept rows
+    keeps exactly the rows thinning all of them keeps, provided the result's last row is kept:
+    every chunk's last row is kept (a few extra rows, dropped by ``thin``). ``t_first`` [s]:
+    the result's first time; ``t_prev`` [s]: the time of the row before the stage's first in
+    the result (None: the stage starts the result)."""
+
+    def __init__(self, t_first: float, rate_hz: float, t_prev: Optional[float]):
+        self.t_first, self.rate = np.float64(t_first), float(rate_hz)
+        self.k_prev = np.nan if t_prev is None else self._index(np.array([t_prev]))[0]
+
+    def _index(self, t):
+        return np.floor((t - self.t_first) * self.rate + 1e-6)     # as thin()
+
+    def __call__(self, t, sigma=None):
+        k = self._index(np.asarray(t, dtype=float))
+        if not len(k):
+            return np.zeros(0, dtype=bool), False
+        mask = k != np.r_[self.k_prev, k[:-1]]          # (NaN: the first row of the result)
+        mask[-1] = True
+        self.k_prev = k[-1]
+        return mask, False
+
+
+class _UntilHandover(_OutputRows):
+    """:class:`_OutputRows` of the radar fine stage (``dr-kf``), which also stops the run at
+    the handover row (:func:`_navigate`: the first row at least ``fine_s`` after the start
+    whose heading sigma is at most ``handover_heading_sigma_arcmin``, 30 s before the end at
+    the latest), kept; the filter is causal, so the rows up to it are those of a run to the
+    end."""
+
+    def __init__(self, t_first, rate_hz, t_prev, t_from: float, t_to: float, sig_arcmin: float):
+        super().__init__(t_first, rate_hz, t_prev)
+        self.t_from, self.t_to, self.sig = t_from, t_to, sig_arcmin
+
+    def __call__(self, t, sigma=None):
+        mask, _ = super().__call__(t)
+        sig_u = np.degrees(sigma["phi_U"]) * 60.0
+        ok = np.flatnonzero((t >= self.t_from) & (sig_u <= self.sig) & (t <= self.t_to))
+        if not len(ok):
+            return mask, False
+        mask[ok[0]] = True
+        mask[ok[0] + 1:] = False
+        return mask, True
+
+
+def _rows_for(parts, rate_hz, t_start, cls=_OutputRows, **kw):
+    """The ``select`` of a stage starting at ``t_start`` [s] after ``parts`` (None: no output
+    rate given, every row kept)."""
+    if rate_hz is None:
+        return None
+    prev = [float(p.t[p.t < t_start][-1]) for p in parts if len(p.t) and p.t[0] < t_start]
+    t_first = float(parts[0].t[0]) if parts and len(parts[0].t) else float(t_start)
+    return cls(t_first, rate_hz, prev[-1] if prev else None, **kw)
+
+
 def _concat(parts):
     from .align.strategy import _concat as cat
     parts = [p for p in parts if p is not None and len(p.t)]
@@ -508,12 +570,25 @@ def plan(bundle: Bundle, cfg: ProcessConfig, t0: float) -> dict:
 
 def run_process(bundle: Bundle, config: ProcessConfig | dict | None = None,
                 init: Optional[NavState] = None, init_info: InitInfo | dict | None = None,
-                progress: Optional[Callable] = None) -> Solution:
+                progress: Optional[Callable] = None,
+                output_rate_hz: Optional[float] = None) -> Solution:
     """The whole drive in one call (module docstring). ``init``: position (and velocity, and,
     where the IMU cannot find it, the heading) at its time ``init.t``, which is where the run
     starts (None: the start of the log, position from ``meta.yaml``). Returns one Solution
     whose ``info`` holds ``stages`` (the log), ``heading`` (the rule's verdict), ``motion``
-    and the sensors used."""
+    and the sensors used.
+
+    ``output_rate_hz`` (None: every row of every stage): the rate the result will be thinned
+    to (:func:`inmotion.io.result.thin`, the command line's ``--output-rate``); the radar
+    stages then keep only the rows that thinning can keep (:class:`_OutputRows`) and the fine
+    stage stops at its handover, so the result in memory grows with the output rate, not the
+    filter's; ``thin`` of it equals ``thin`` of the full result, row for row.
+
+    The bundle may be in memory or read in chunks
+    (:class:`inmotion.io.bundle_stream.BundleStream`): every stage reads only its window's
+    IMU rows (:meth:`Bundle.load_window`) or streams them (:meth:`Bundle.imu_rows_after`);
+    a drive with no velocity sensor takes the IMU in memory (the still-start test and the
+    still stage's gyro bias removal)."""
     from .align.attitude_determination import initial_position
     from .align.multiplex import first_covered
     from .align.parked_kf import spec_from_meta
@@ -704,7 +779,8 @@ def run_process(bundle: Bundle, config: ProcessConfig | dict | None = None,
     # ---- 5: fine alignment and navigation to the end
     if handover is not None:
         parts += _navigate(bundle, cfg, handover, tilt_sig, h_sig, own, log,
-                           progress_part(0.3 if parts else 0.0, 1.0), stages)
+                           progress_part(0.3 if parts else 0.0, 1.0), stages,
+                           parts, output_rate_hz)
     sol = _concat(parts)
     sol.info.update({
         "method": "process", "config": cfg.model_dump(), "stages": stages,
@@ -797,8 +873,11 @@ def _coarse_moving(bundle, cfg, init, t0, t1, speed):
     return C0, {"attitude_start_deg": a, "speed_sensor": name}, "coarse-inertial"
 
 
-def _navigate(bundle, cfg, state, tilt_sig, head_sig, own, log, progress, stages):
-    """Fine alignment and navigation from ``state`` to the end (module docstring, rule 5)."""
+def _navigate(bundle, cfg, state, tilt_sig, head_sig, own, log, progress, stages, before=(),
+              rate_hz=None):
+    """Fine alignment and navigation from ``state`` to the end (module docstring, rule 5);
+    ``before``: the stages' results so far, ``rate_hz``: :func:`run_process`'s
+    ``output_rate_hz``."""
     speed = _speed_sensors(bundle)
     t_end = float(bundle.imu.t[-1])
     t0 = float(state.t)
@@ -811,7 +890,10 @@ def _navigate(bundle, cfg, state, tilt_sig, head_sig, own, log, progress, stages
         dbase = {**prior, "velocity_sensor": "radar", "stops_s": stops}
         dcfg = _cfg(DrKfConfig, dbase, cfg, "dr-kf", own)
         fine = run_dr_kf(bundle, dcfg, state,
-                         progress=None if progress is None else lambda f: progress(0.5 * f))
+                         progress=None if progress is None else lambda f: progress(0.5 * f),
+                         select=_rows_for(before, rate_hz, t0, _UntilHandover,
+                                          t_from=t0 + cfg.fine_s, t_to=t_end - 30.0,
+                                          sig_arcmin=cfg.handover_heading_sigma_arcmin))
         sig_u = np.degrees(fine.sigma["phi_U"]) * 60.0
         ok = np.flatnonzero((fine.t >= t0 + cfg.fine_s) & (sig_u <= cfg.handover_heading_sigma_arcmin)
                             & (fine.t <= t_end - 30.0))
@@ -827,7 +909,7 @@ def _navigate(bundle, cfg, state, tilt_sig, head_sig, own, log, progress, stages
                    f"{cfg.fine_s:g} s, so it runs to the end")
         if cfg.smooth:       # the handover is decided forward; each stage is then smoothed
             fine = run_dr_kf(bundle.window(None, t1), dcfg.model_copy(update={"smooth": True}),
-                             state)
+                             state, select=_rows_for(before, rate_hz, t0))
             why += "; smoothed forward-backward (RTS) over the stage"
         if stops:
             why += f"; zero-velocity updates at the stops ({len(stops)} in the drive)"
@@ -849,7 +931,8 @@ def _navigate(bundle, cfg, state, tilt_sig, head_sig, own, log, progress, stages
             ncfg = _cfg(SinsDrConfig, base, cfg, "sins-dr", own)
             nav = run_sins_dr(bundle, ncfg, st,
                               progress=None if progress is None else
-                              lambda f: progress(0.5 + 0.5 * f))
+                              lambda f: progress(0.5 + 0.5 * f),
+                              select=_rows_for([*before, fine], rate_hz, st.t))
             log("navigate", "sins-dr", st.t, t_end, "SINS / radar-DR integrated navigation "
                 "(paper 002) to the end, chi-square gate "
                 f"{cfg.gate_probability:g}" + (", barometer" if bundle.baro is not None

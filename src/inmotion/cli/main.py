@@ -950,7 +950,7 @@ def run_process_to(ctx, bundle, output, cfg, init=None, fmt="csv", output_rate=N
     rate = parse_output_rate(output_rate) if output_rate is not None else 1.0
     t0 = time.perf_counter()
     with _progress(ctx, "process") as progress:
-        sol = run_process(bundle, cfg, state, ii, progress=progress)
+        sol = run_process(bundle, cfg, state, ii, progress=progress, output_rate_hz=rate)
     wall = time.perf_counter() - t0
     sol.info["timing"] = {"wall_s": wall}
     if rate is not None:
