@@ -180,8 +180,9 @@ def _progress(ctx, desc: str):
 
 
 #: methods whose run takes its IMU rows in pieces (``Bundle.imu_rows_after``): the command
-#: line opens the bundle for reading in chunks for them (:mod:`inmotion.io.bundle_stream`), so
-#: a run's memory does not grow with the log's length
+#: line hands them the bundle opened for reading in chunks (:mod:`inmotion.io.bundle_stream`),
+#: so a run's memory does not grow with the log's length; every other method gets its
+#: ``--start`` / ``--end`` window in memory, only that window's rows read (``run_method``)
 STREAMED = ("sins", "dr", "sins-dr", "dr-kf", "od-velocity-kf")
 
 
@@ -604,9 +605,14 @@ def _spec(method, kind=None):
 
 
 def run_method(ctx, bundle, spec, config, init_state, window):
-    """Run ``spec`` on ``bundle`` cut to ``window`` = (start, end); return the Solution."""
+    """Run ``spec`` on ``bundle`` cut to ``window`` = (start, end); return the Solution.
+    A method that streams its IMU rows (:data:`STREAMED`) takes the bundle as it is (read in
+    chunks or in memory); any other takes the window in memory (:meth:`Bundle.load_window`:
+    from a bundle read in chunks only the window's rows are read, so ``--start`` / ``--end``
+    bound its memory)."""
     start, end = window
-    b = bundle.window(start, end)
+    b = (bundle.window(start, end) if spec.name in STREAMED
+         else bundle.load_window(start, end, truth=True))
     if len(b.imu.t) < 2:
         t0, t1 = float(bundle.imu.t[0]), float(bundle.imu.t[-1])
         lo = f"{start:g} s" if start is not None else "the start"
@@ -689,7 +695,7 @@ def _run_command(ctx, kind, bundle_path, method, config_file, output, init, init
     rate = parse_output_rate(output_rate) if explicit else DEFAULT_OUTPUT_RATE.get(kind)
     err = parse_init_error(init_error) if init_error else None
     check_output_path(output, kind="result")
-    bundle = _read_bundle(ctx, bundle_path, allow_imu_gaps, chunked=spec.name in STREAMED)
+    bundle = _read_bundle(ctx, bundle_path, allow_imu_gaps, chunked=True)
     if init is None:
         init = "truth" if bundle.truth is not None else "meta"
     state, init_desc = _initial_state(ctx, bundle, init, start, spec.needs_attitude)

@@ -357,6 +357,22 @@ class TruthStream(_Times):
         if n >= 3:
             B.check_truth_distances(from_pos, from_vel, self.path)
 
+    def load(self) -> Truth:
+        """The (windowed) rows in memory as a :class:`Truth`, read from the chunks that hold
+        them and checked per row as :func:`read_bundle` checks them (the positions-against-
+        velocities check of the whole table is not made: it needs every row)."""
+        times, w0 = self._span()
+        n = len(times)
+        del times
+        parts = [B.truth_rows(c, self.path, off)
+                 for off, c in self._table.chunks(B.TRUTH_COLUMNS, rows=(w0, w0 + n))]
+        if not parts:
+            z = np.zeros(0)
+            return Truth(z, z, z, z, np.zeros((0, 3)), np.zeros((0, 3)))
+        return parts[0] if len(parts) == 1 else Truth(
+            *(np.concatenate([getattr(p, f) for p in parts])
+              for f in ("t", "lat", "lon", "h", "vel_n", "euler")))
+
     def at(self, t: float) -> dict:
         """The row at or after ``t`` [s] (:meth:`Truth.at`), read up to there."""
         times = self.t
@@ -498,20 +514,22 @@ class BundleStream:
                             cut(self.baro), cut(self.truth), _intersect(self._window,
                                                                         (start, end)))
 
-    def load_window(self, start=None, end=None) -> Bundle:
+    def load_window(self, start=None, end=None, truth: bool = False) -> Bundle:
         """The drive cut to ``start <= t <= end`` [s] (and the stream's own window) as a
         :class:`Bundle` in memory, as :meth:`Bundle.load_window`: only the IMU rows inside
         are read (a time-filtered read, :meth:`_ImuTable.rows`: memory of the window, not of
         the log); the sensors and the barometer are the stream's, cut; the truth stays a
-        :class:`TruthStream` (cut), read when asked."""
+        :class:`TruthStream` (cut), read when asked, or with ``truth`` its window's rows are
+        read into memory too (:meth:`TruthStream.load`)."""
         lo, hi = _intersect(self._window, (start, end))
         t = self._imu._table.times()
         a = 0 if lo is None else int(np.searchsorted(t, lo, side="left"))
         b = len(t) if hi is None else int(np.searchsorted(t, hi, side="right"))
         del t
         cut = self.window(start, end)
+        tr = cut.truth.load() if truth and cut.truth is not None else cut.truth
         return Bundle(self._imu.rows(a, b), dict(self.meta),
-                      *(getattr(cut, s) for s in VELOCITY_SENSORS), cut.baro, cut.truth)
+                      *(getattr(cut, s) for s in VELOCITY_SENSORS), cut.baro, tr)
 
     def imu_rows_after(self, t0: float, min_rows: int = 2):
         """``(n_rows, period_s, pieces, first_row)`` as :meth:`Bundle.imu_rows_after`, the
