@@ -33,13 +33,17 @@ SENSORS = {"odometer": {"rate_hz": 10.0, "pulses_per_m": 200.0,
            "baro": {"rate_hz": 10.0, "noise_m": 0.5}}
 
 
-def _drive(sensors, seed):
+MEMS = {"rate_hz": 100.0, "gyro": {"drift_deg_h": 100.0, "arw_deg_sqrt_h": 0.3},
+        "accel": {"bias_ug": 2000.0, "vrw_ug_sqrt_hz": 100.0}}
+
+
+def _drive(sensors, seed, parked_s=62.0, imu=IMU):
     """Parked 62 s (parked coarse + parked-kf), a drive with a 20 s stop and turns (~4 min)."""
     return simulate(load_scenario({
         "name": "stream", "start": {"lat_deg": 39.9, "lon_deg": 116.4, "h_m": 50.0,
                                     "heading_deg": 60.0},
         "vehicle_mounting_arcmin": [10.0, 0.0, 15.0],
-        "segments": [{"kind": "rest", "duration_s": 62.0},
+        "segments": [{"kind": "rest", "duration_s": parked_s},
                      {"kind": "accelerate", "to_speed_m_s": 10.0, "accel_m_s2": 1.0},
                      {"kind": "cruise", "duration_s": 40.0},
                      {"kind": "turn", "angle_deg": 90, "rate_deg_s": 5},
@@ -47,7 +51,7 @@ def _drive(sensors, seed):
                      {"kind": "accelerate", "to_speed_m_s": 12.0, "accel_m_s2": 1.0},
                      {"kind": "turn", "angle_deg": -60, "rate_deg_s": 4},
                      {"kind": "cruise", "duration_s": 40.0}],
-        "imu": IMU, "sensors": {k: SENSORS[k] for k in sensors}}), np.random.default_rng(seed))
+        "imu": imu, "sensors": {k: SENSORS[k] for k in sensors}}), np.random.default_rng(seed))
 
 
 def _same(a, b):
@@ -64,17 +68,23 @@ def _stages(sol):
 
 
 #: radar: the fine stage (dr-kf) hands over to sins-dr after 60 s (its heading sigma is below
-#: 60 arcmin by then), so the early stop and the output-row selection of both stages are used
-CASES = {"radar": (["radar", "baro"], {"fine_s": 60.0, "handover_heading_sigma_arcmin": 60.0}),
-         "odometer+ldv": (["odometer", "ldv", "baro"], {})}
+#: 60 arcmin by then), so the early stop and the output-row selection of both stages are used;
+#: no velocity sensor: a MEMS still for 8 s (the still-start test, the still stage's gyro bias
+#: taken off the rows as they are read), then nhc-kf
+CASES = {"radar": (["radar", "baro"], {"fine_s": 60.0, "handover_heading_sigma_arcmin": 60.0},
+                   {}, ["chi-square", "coarse-inertial", "parked-kf", "dr-kf", "sins-dr"]),
+         "odometer+ldv": (["odometer", "ldv", "baro"], {}, {},
+                          ["chi-square", "coarse-inertial", "parked-kf", "fkf"]),
+         "none": (["baro"], {}, {"parked_s": 8.0, "imu": MEMS},
+                  ["imu stillness", "imu", "nhc-kf"])}
 
 
 @pytest.mark.parametrize("smooth", [False, True])
 @pytest.mark.parametrize("case", list(CASES))
 def test_process_streamed_equals_in_memory(case, smooth, tmp_path):
-    sensors, cfg = CASES[case]
+    sensors, cfg, drive, methods = CASES[case]
     folder = tmp_path / "b"
-    write_bundle(_drive(sensors, 4), folder, fmt="parquet")
+    write_bundle(_drive(sensors, 4, **drive), folder, fmt="parquet")
     cfg = {**cfg, "smooth": smooth}
     whole = read_bundle(folder)
     init = NavState.from_truth(whole.truth)
@@ -83,10 +93,11 @@ def test_process_streamed_equals_in_memory(case, smooth, tmp_path):
     ref = run_process(whole, cfg, init, ii)
     got = run_process(open_bundle(folder, chunk_rows=997), cfg, init, ii, output_rate_hz=1.0)
     names = [s["method"] for s in ref.info["stages"]]
-    assert names[:3] == ["chi-square", "coarse-inertial", "parked-kf"], names
+    assert names[:len(methods)] == methods, names          # (radar: the handover happened)
     if case == "radar":
-        assert "sins-dr" in names, names                    # the handover happened
         assert len(got.t) < len(ref.t) / 5                  # 10 Hz stages kept at ~1 Hz
+    if case == "none":
+        assert "gyro_bias_deg_h" in ref.info["stages"][1], ref.info["stages"][1]
     _same(thin(got, 1.0), thin(ref, 1.0))
     assert _stages(got) == _stages(ref)
 
@@ -157,3 +168,25 @@ def test_load_window_checks_its_rows_only(radar_drive, tmp_path, fmt):
         read_bundle(folder)
     assert str(e.value) == str(e_whole.value)
     assert f"row {row}, t=" in str(e.value)
+
+
+def test_gyro_bias_removed_as_rows_are_read_is_the_whole_tables(radar_drive, tmp_path):
+    """The still stage's correction applied to rows as they are read (pieces of 997 rows, a
+    window) equals the former whole-table ``dtheta - outer(dt, b)``, bit for bit."""
+    from inmotion.process import _GyroBiasRemoved
+    folder = tmp_path / "b"
+    write_bundle(radar_drive, folder, fmt="parquet")
+    whole = read_bundle(folder)
+    imu, b = whole.imu, np.array([1e-4, -2e-4, 3e-5])
+    want = imu.dtheta - np.outer(np.diff(imu.t, prepend=imu.t[0] - imu.dt), b)
+    for src in (whole, open_bundle(folder, chunk_rows=997)):
+        fixed = _GyroBiasRemoved(src, b)
+        n, _, pieces, k0 = fixed.imu_rows_after(10.0)
+        got = np.concatenate([p[1] for p in pieces])
+        assert len(got) == n
+        np.testing.assert_array_equal(got, want[k0:])
+        w = fixed.load_window(50.0, 80.0).imu
+        m = (imu.t >= 50.0) & (imu.t <= 80.0)
+        np.testing.assert_array_equal(w.dtheta, want[m])
+        np.testing.assert_array_equal(w.dvel, imu.dvel[m])
+        assert not hasattr(fixed.imu, "dtheta")

@@ -423,6 +423,10 @@ def _initial_speed(bundle, t0):
 
 # --------------------------------------------------------------------------- the plan
 
+#: IMU rows :func:`still_start` reads at a time
+STILL_READ_ROWS = 65536
+
+
 def still_start(bundle: Bundle, t0: float, accel_m_s2: float = 0.15, gyro_deg_s: float = 0.25,
                 block_s: float = 0.25) -> Optional[float]:
     """End [s] of the still period at the start of a drive with no velocity sensor, or None.
@@ -431,26 +435,39 @@ def still_start(bundle: Bundle, t0: float, accel_m_s2: float = 0.15, gyro_deg_s:
     with the mean of the blocks before them; the vehicle is still while every block stays
     within ``accel_m_s2`` and ``gyro_deg_s`` of it (driving off shows at once in the forward
     specific force, a turn in the rate; block means average the engine's vibration away).
+
+    The IMU rows are read a block of :data:`STILL_READ_ROWS` at a time (a bundle read in
+    chunks: :meth:`Bundle.load_window`) until a block departs, not the whole log.
     """
     imu = bundle.imu
-    k0 = int(np.searchsorted(imu.t, t0 + 1e-9))
-    t = imu.t[k0:]
+    t_all = imu.t
+    k0 = int(np.searchsorted(t_all, t0 + 1e-9))
+    t = t_all[k0:]
     if len(t) < 4:
         return None
-    dt = np.diff(imu.t[k0 - 1:] if k0 > 0 else np.r_[t[0] - imu.dt, t])
+    dt = np.diff(t_all[k0 - 1:] if k0 > 0 else np.r_[t[0] - imu.dt, t])
+    del t_all
     n = max(1, int(round(block_s / float(np.median(dt)))))
     nb = len(t) // n
     if nb < 3:
         return None
     T = dt[:nb * n].reshape(nb, n).sum(1)
-    f = imu.dvel[k0:k0 + nb * n].reshape(nb, n, 3).sum(1) / T[:, None]
-    w = imu.dtheta[k0:k0 + nb * n].reshape(nb, n, 3).sum(1) / T[:, None]
-    end = None
-    for j in range(1, nb):
-        fm, wm = f[:j].mean(0), w[:j].mean(0)
-        if (np.abs(f[j] - fm).max() > accel_m_s2
-                or np.degrees(np.abs(w[j] - wm).max()) > gyro_deg_s):
-            end = j
+    f, w = np.empty((nb, 3)), np.empty((nb, 3))
+    per = max(1, STILL_READ_ROWS // n)                # blocks read at a time
+    end, j = None, 1
+    for a in range(0, nb, per):
+        b = min(a + per, nb)
+        rows = bundle.load_window(float(t[a * n]), float(t[b * n - 1])).imu
+        f[a:b] = rows.dvel.reshape(b - a, n, 3).sum(1) / T[a:b, None]
+        w[a:b] = rows.dtheta.reshape(b - a, n, 3).sum(1) / T[a:b, None]
+        while j < b:
+            fm, wm = f[:j].mean(0), w[:j].mean(0)
+            if (np.abs(f[j] - fm).max() > accel_m_s2
+                    or np.degrees(np.abs(w[j] - wm).max()) > gyro_deg_s):
+                end = j
+                break
+            j += 1
+        if end is not None:
             break
     if end is None:
         return float(t[nb * n - 1])
@@ -587,8 +604,8 @@ def run_process(bundle: Bundle, config: ProcessConfig | dict | None = None,
     The bundle may be in memory or read in chunks
     (:class:`inmotion.io.bundle_stream.BundleStream`): every stage reads only its window's
     IMU rows (:meth:`Bundle.load_window`) or streams them (:meth:`Bundle.imu_rows_after`);
-    a drive with no velocity sensor takes the IMU in memory (the still-start test and the
-    still stage's gyro bias removal)."""
+    the still stage's gyro bias is taken off the rows as they are read
+    (:class:`_GyroBiasRemoved`)."""
     from .align.attitude_determination import initial_position
     from .align.multiplex import first_covered
     from .align.parked_kf import spec_from_meta
@@ -596,11 +613,6 @@ def run_process(bundle: Bundle, config: ProcessConfig | dict | None = None,
     ii = init_info if isinstance(init_info, InitInfo) else InitInfo(**(init_info or {}))
     w0 = time.perf_counter()
     speed = _speed_sensors(bundle)
-    if not speed and not isinstance(bundle, Bundle):
-        # no velocity sensor: the still-start test reads the IMU from the start until the
-        # vehicle moves and the still stage rewrites the gyro rows; both take the IMU in
-        # memory (the nhc-kf that follows streams either way)
-        bundle = bundle.load_window()
     t_start = float(bundle.imu.t[0]) if init is None else max(float(init.t),
                                                              float(bundle.imu.t[0]))
     t0 = first_covered(bundle, t_start) if speed else t_start
@@ -813,9 +825,8 @@ def _still_stage(bundle, cfg, init, ii, t0, t1, pos, yaw0, head_sig, spec, from_
     """The short still start of a drive with no velocity sensor (see :func:`run_process`):
     ``(bundle (gyro bias removed if so), state at t1, tilt sigma, heading sigma, spec,
     bias deg/h or None)``."""
-    from .core.bundle import ImuData
     lat, lon, h = pos
-    imu = bundle.imu
+    imu = _imu_span(bundle, t0, t1)             # the still rows (and the row before)
     m = (imu.t > t0) & (imu.t <= t1)
     dt = np.diff(imu.t, prepend=imu.t[0] - imu.dt)
     f = imu.dvel[m].sum(0) / dt[m].sum()
@@ -836,13 +847,63 @@ def _still_stage(bundle, cfg, init, ii, t0, t1, pos, yaw0, head_sig, spec, from_
         w = imu.dtheta[m].sum(0) / still_s
         w_e = C.T @ (earth.OMEGA_IE * np.array([0.0, math.cos(lat), math.sin(lat)]))
         b = w - w_e
-        dth = imu.dtheta - np.outer(dt, b)
-        bundle = Bundle(ImuData(imu.t, dth, imu.dvel), bundle.meta, bundle.radar, bundle.ldv,
-                        bundle.odometer, bundle.baro, bundle.truth)
+        bundle = _GyroBiasRemoved(bundle, b)
         spec = {**spec, "gyro_drift_deg_h": min(float(spec.get("gyro_drift_deg_h", 1e9)),
                                                 cfg.residual_gyro_drift_deg_h)}
         bias = (np.degrees(b) * 3600.0).tolist()
     return bundle, state, tilt_sig, head_sig, spec, bias
+
+
+class _GyroBiasRemoved:
+    """``bundle`` with a constant gyro bias ``b`` [rad/s] taken off every IMU row as its rows
+    are read: ``dtheta - dt b``, ``dt`` the row's interval (row 0: the median period), the
+    arithmetic of the whole table's ``dtheta - outer(dt, b)``. It answers what the stages
+    after the still stage ask (``imu.t`` / ``imu.dt``, :meth:`imu_rows_after`,
+    :meth:`load_window`, :meth:`window`, the sensors, ``meta``); its ``imu`` has no
+    ``dtheta`` (a raw read would miss the correction)."""
+
+    def __init__(self, bundle, bias):
+        self._b, self._bias = bundle, np.asarray(bias, dtype=float)
+
+    def __getattr__(self, name):
+        return getattr(self._b, name)
+
+    @property
+    def imu(self):
+        from .io.bundle_stream import _TimesOf
+        return _TimesOf(self._b.imu.t)
+
+    def _t_before(self, t_first: float) -> float:
+        t = self._b.imu.t
+        k = int(np.searchsorted(t, t_first, side="left"))
+        return float(t[k - 1]) if k > 0 else float(t[0]) - float(np.median(np.diff(t)))
+
+    def _fixed(self, t, dtheta, t_prev):
+        return dtheta - np.outer(np.diff(t, prepend=t_prev), self._bias)
+
+    def imu_rows_after(self, t0: float, min_rows: int = 2):
+        n, period, pieces, k0 = self._b.imu_rows_after(t0, min_rows)
+
+        def fixed():
+            t_prev = None
+            for t, dth, dvl, *rest in pieces:
+                if t_prev is None:
+                    t_prev = self._t_before(float(t[0]))
+                yield (t, self._fixed(t, dth, t_prev), dvl, *rest)
+                t_prev = float(t[-1])
+        return n, period, fixed(), k0
+
+    def load_window(self, start=None, end=None, truth: bool = False) -> Bundle:
+        from .core.bundle import ImuData
+        w = self._b.load_window(start, end, truth)
+        if len(w.imu.t):
+            w.imu = ImuData(w.imu.t, self._fixed(w.imu.t, w.imu.dtheta,
+                                                 self._t_before(float(w.imu.t[0]))),
+                            w.imu.dvel)
+        return w
+
+    def window(self, start=None, end=None):
+        return _GyroBiasRemoved(self.load_window(start, end), self._bias)
 
 
 def _coarse_moving(bundle, cfg, init, t0, t1, speed):

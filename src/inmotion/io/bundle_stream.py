@@ -202,6 +202,16 @@ class _Times:
         return t[w0:max(w0, w1)], w0
 
 
+class _TimesOf(_Times):
+    """``.t`` / ``.dt`` of a time base given as an array (a wrapper's IMU, no rows)."""
+
+    def __init__(self, t):
+        self._t_all = t
+
+    def _span(self):
+        return self._t_all, 0
+
+
 class _ImuChecks:
     """:func:`inmotion.io.bundle.check_imu`'s per-row checks made chunk by chunk: angular
     rate and specific force limits, the turn rate over every second (a window of one second
