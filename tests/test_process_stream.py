@@ -190,3 +190,18 @@ def test_gyro_bias_removed_as_rows_are_read_is_the_whole_tables(radar_drive, tmp
         np.testing.assert_array_equal(w.dtheta, want[m])
         np.testing.assert_array_equal(w.dvel, imu.dvel[m])
         assert not hasattr(fixed.imu, "dtheta")
+
+
+@pytest.mark.parametrize("method", ["fine-mux", "adaptive"])
+def test_fine_mux_and_adaptive_streamed_equal_in_memory(method, tmp_path):
+    """Their coarse and parked stages read their windows' rows, their fine stage (fkf)
+    streams: the same solution as on the bundle in memory, bit for bit."""
+    from inmotion.align.multiplex import run_fine_mux
+    from inmotion.align.strategy import run_adaptive
+    run = {"fine-mux": run_fine_mux, "adaptive": run_adaptive}[method]
+    folder = tmp_path / "b"
+    write_bundle(_drive(["odometer", "ldv"], 2, parked_s=62.0 if method == "adaptive" else 5.0),
+                 folder, fmt="parquet")
+    whole = read_bundle(folder)
+    init = NavState.from_truth(whole.truth)
+    _same(run(open_bundle(folder, chunk_rows=997), {}, init), run(whole, {}, init))

@@ -271,13 +271,6 @@ def _imu_span(bundle, ta: float, tb: float):
     return bundle.load_window(ta, tb).imu
 
 
-def _with_imu_window(bundle, t0: float, t1: float) -> Bundle:
-    """``bundle`` with the IMU rows of ``[t0, t1]`` in memory and the sensors whole (a coarse
-    stage cuts its own window and reads the speeds around its ends)."""
-    return Bundle(bundle.load_window(t0, t1).imu, dict(bundle.meta), bundle.radar, bundle.ldv,
-                  bundle.odometer, bundle.baro, None)
-
-
 def _cfg(cls, base: dict, cfg: ProcessConfig, name: str, own: dict):
     """Configuration ``cls`` of method ``name``: process's own settings ``own`` (``{field:
     (value, why)}``, module docstring), then the stage's ``base``, then the user's
@@ -916,7 +909,7 @@ def _coarse_moving(bundle, cfg, init, t0, t1, speed):
         # IMU bridge: the sensor itself is used then
         mux = MuxConfig(coarse_window_s=t1 - t0,
                         coarse=dict(cfg.methods.get("coarse-inertial") or {}))
-        sol, C0 = coarse_fault_tolerant(_with_imu_window(bundle, t0, t1), mux, init, t0, t1)
+        sol, C0 = coarse_fault_tolerant(bundle, mux, init, t0, t1)
         used = [s for s in ("odometer", "ldv") if s in speed]
         return C0, {"attitude_start_deg": sol.info["attitude_start_deg"],
                     "speed_sensor": "fault-tolerant " + " / ".join(used + ["imu"])}, \

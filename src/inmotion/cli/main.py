@@ -183,7 +183,7 @@ def _progress(ctx, desc: str):
 #: line hands them the bundle opened for reading in chunks (:mod:`inmotion.io.bundle_stream`),
 #: so a run's memory does not grow with the log's length; every other method gets its
 #: ``--start`` / ``--end`` window in memory, only that window's rows read (``run_method``)
-STREAMED = ("sins", "dr", "sins-dr", "dr-kf", "od-velocity-kf")
+STREAMED = ("sins", "dr", "sins-dr", "dr-kf", "od-velocity-kf", "fine-mux", "adaptive")
 
 
 def _read_bundle(ctx, path, allow_imu_gaps=False, chunked=False, **kw):
