@@ -31,6 +31,9 @@ STAGES = ("inmotion.cli.main:_process_bundle", "inmotion.process:run_process",
           "inmotion.align.multiplex:coarse_fault_tolerant",
           "inmotion.align.parked_kf:run_parked_kf", "inmotion.align.dr_kalman:run_dr_kf",
           "inmotion.navigate.sins_dr:run_sins_dr", "inmotion.align.aided_kf:run_aided",
+          "inmotion.align.aided_kf:_smooth_bank", "inmotion.align.aided_kf:_feed",
+          "inmotion.estimation.smoother:smooth_at_outputs",
+          "inmotion.estimation.smoother:smooth_record",
           "inmotion.io.result:thin", "inmotion.io.result:write_result")
 
 _PAGE = os.sysconf("SC_PAGE_SIZE")
