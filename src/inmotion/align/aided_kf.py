@@ -1388,7 +1388,6 @@ def _feed(f, bundle, k0, sensors, meas_every, use_nhc, use_baro, progress, rec=N
     n, _, pieces, first = bundle.imu_rows_after(f.t)    # whole, or read in chunks
     if first != k0:
         raise RuntimeError(f"the filter starts at IMU row {first}, not {k0}")
-    t = bundle.imu.t[k0:] if accept is not None else None
     step = f.step
     chunk = max(1, CHUNK_ROWS // step) * step
     blocks = regroup(pieces, chunk)
@@ -1396,7 +1395,8 @@ def _feed(f, bundle, k0, sensors, meas_every, use_nhc, use_baro, progress, rec=N
     if accept is not None:        # the sample rows of the whole run (epochs end every step)
         ep = np.arange(1, -(-n // step) + 1)
         s_rows = np.minimum(ep[ep % meas_every == 0] * step, n) - 1
-        s_ok = {k: np.r_[fn(t[s_rows]), True] for k, fn in accept.items()}
+        t_s = bundle.imu.t[k0:][s_rows]     # the sample times (not the whole column kept)
+        s_ok = {k: np.r_[fn(t_s), True] for k, fn in accept.items()}
     for a in range(0, n, chunk):
         b = min(a + chunk, n)
         tc, dth, dvl = next(blocks)[:3]
