@@ -18,10 +18,13 @@ design; everything else should not.
 
 The same for the main job, ``inmotion -q process BUNDLE --no-report -o OUT`` and with
 ``--smooth`` (the Rauch-Tung-Striebel pass stores its forward record, O(N) by nature: in
-files beyond a memory budget, :class:`inmotion.estimation.smoother.ForwardRecord`); ``process``
-loads the IMU and sensor tables whole (its stages take arrays; the truth is read in chunks),
-so its figure is measured, not yet a pass.
-``--no-process`` leaves them out.
+files beyond a memory budget, :class:`inmotion.estimation.smoother.ForwardRecord`): the
+bundle is read in chunks, each stage reads its window's IMU rows or streams them, and the
+radar stages keep only the rows of the 1 Hz output (``run_process(output_rate_hz=)``). And
+one windowed alignment, ``inmotion -q align BUNDLE --method imada-vb --start 70 --end 300
+-o OUT`` (the bundle's parked minute skipped): only the window's rows are read
+(``BundleStream.load_window``), so its peak should not depend on the log's length at all.
+``--no-process`` leaves process and align out.
 
     OPENBLAS_NUM_THREADS=1 .venv/bin/python benchmarks/bench_memory.py [--repeat N] [--no-process]
 """
@@ -56,7 +59,9 @@ def scenario(hours: int) -> dict:
 #: the runs measured: label -> the command's arguments before the bundle, and after it
 RUNS = {"sins-dr": (["navigate"], OPTIONS),
         "process": (["process"], ["--no-report"]),
-        "process --smooth": (["process"], ["--no-report", "--smooth"])}
+        "process --smooth": (["process"], ["--no-report", "--smooth"]),
+        "align imada-vb 70-300 s": (["align"], ["--method", "imada-vb", "--start", "70",
+                                                "--end", "300"])}
 
 
 def child_run(bundle: Path, out: Path, run: str = "sins-dr") -> tuple[float, float, float]:
@@ -95,7 +100,8 @@ def main():
             rows = pq.ParquetFile(path / "imu.parquet").metadata.num_rows
             print(f"{hours} h drive: {rows} IMU rows, Parquet bundle {size:.1f} MiB")
         runs_measured = ["sins-dr"] + ([] if args.no_process else
-                                       ["process", "process --smooth"])
+                                       ["process", "process --smooth",
+                                        "align imada-vb 70-300 s"])
         for run in runs_measured:
             child_run(Path(tmp) / "h1", Path(tmp) / "warm", run)    # warm-up: numba's cache
             peaks = {}

@@ -216,7 +216,7 @@ def heading_observability(bundle: Bundle, lat: float, t0: float, parked_until: O
     drift, origin = _spec_drift_deg_h(bundle.meta)
     measured = None
     if drift is None and parked_until is not None and parked_until - t0 >= min_parked_s:
-        imu = bundle.imu
+        imu = _imu_span(bundle, t0, parked_until)
         m = (imu.t > t0) & (imu.t <= parked_until)
         dt = np.diff(imu.t, prepend=imu.t[0] - imu.dt)[m]
         dth, dv = imu.dtheta[m], imu.dvel[m]
@@ -258,6 +258,17 @@ def heading_observability(bundle: Bundle, lat: float, t0: float, parked_until: O
 
 def _speed_sensors(bundle):
     return [s for s in registry.SPEED_SENSORS if getattr(bundle, s) is not None]
+
+
+def _imu_span(bundle, ta: float, tb: float):
+    """The IMU rows from the last one at or before ``ta`` [s] (so the rows after ``ta`` keep
+    the interval from the row before them) to ``tb``, in memory: only these rows are read
+    from a bundle read in chunks (:meth:`Bundle.load_window`)."""
+    t = bundle.imu.t
+    k = max(int(np.searchsorted(t, ta, side="right")) - 1, 0)
+    ta = float(t[k])
+    del t
+    return bundle.load_window(ta, tb).imu
 
 
 def _cfg(cls, base: dict, cfg: ProcessConfig, name: str, own: dict):
@@ -321,6 +332,68 @@ def _head(sol: Solution, t1: float) -> Solution:
                     sigma={k: v[m] for k, v in sol.sigma.items()})
 
 
+class _OutputRows:
+    """Which rows of a stage :func:`inmotion.io.result.thin` at ``rate_hz`` can keep from the
+    concatenated result (the ``select`` of :meth:`VelocityAidedRun.run_stream`), so a stage
+    holds its output rate's rows, not its filter's, and the written result is unchanged.
+
+    ``thin`` keeps the first row, the last, and every row whose period index ``floor((t -
+    t_first) rate + 1e-6)`` differs from the row before it. A row dropped here has the index
+    of a row kept before it (the first row of each index is kept), so thinning the kept rows
+    keeps exactly the rows thinning all of them keeps, provided the result's last row is kept:
+    every chunk's last row is kept (a few extra rows, dropped by ``thin``). ``t_first`` [s]:
+    the result's first time; ``t_prev`` [s]: the time of the row before the stage's first in
+    the result (None: the stage starts the result)."""
+
+    def __init__(self, t_first: float, rate_hz: float, t_prev: Optional[float]):
+        self.t_first, self.rate = np.float64(t_first), float(rate_hz)
+        self.k_prev = np.nan if t_prev is None else self._index(np.array([t_prev]))[0]
+
+    def _index(self, t):
+        return np.floor((t - self.t_first) * self.rate + 1e-6)     # as thin()
+
+    def __call__(self, t, sigma=None):
+        k = self._index(np.asarray(t, dtype=float))
+        if not len(k):
+            return np.zeros(0, dtype=bool), False
+        mask = k != np.r_[self.k_prev, k[:-1]]          # (NaN: the first row of the result)
+        mask[-1] = True
+        self.k_prev = k[-1]
+        return mask, False
+
+
+class _UntilHandover(_OutputRows):
+    """:class:`_OutputRows` of the radar fine stage (``dr-kf``), which also stops the run at
+    the handover row (:func:`_navigate`: the first row at least ``fine_s`` after the start
+    whose heading sigma is at most ``handover_heading_sigma_arcmin``, 30 s before the end at
+    the latest), kept; the filter is causal, so the rows up to it are those of a run to the
+    end."""
+
+    def __init__(self, t_first, rate_hz, t_prev, t_from: float, t_to: float, sig_arcmin: float):
+        super().__init__(t_first, rate_hz, t_prev)
+        self.t_from, self.t_to, self.sig = t_from, t_to, sig_arcmin
+
+    def __call__(self, t, sigma=None):
+        mask, _ = super().__call__(t)
+        sig_u = np.degrees(sigma["phi_U"]) * 60.0
+        ok = np.flatnonzero((t >= self.t_from) & (sig_u <= self.sig) & (t <= self.t_to))
+        if not len(ok):
+            return mask, False
+        mask[ok[0]] = True
+        mask[ok[0] + 1:] = False
+        return mask, True
+
+
+def _rows_for(parts, rate_hz, t_start, cls=_OutputRows, **kw):
+    """The ``select`` of a stage starting at ``t_start`` [s] after ``parts`` (None: no output
+    rate given, every row kept)."""
+    if rate_hz is None:
+        return None
+    prev = [float(p.t[p.t < t_start][-1]) for p in parts if len(p.t) and p.t[0] < t_start]
+    t_first = float(parts[0].t[0]) if parts and len(parts[0].t) else float(t_start)
+    return cls(t_first, rate_hz, prev[-1] if prev else None, **kw)
+
+
 def _concat(parts):
     from .align.strategy import _concat as cat
     parts = [p for p in parts if p is not None and len(p.t)]
@@ -343,6 +416,10 @@ def _initial_speed(bundle, t0):
 
 # --------------------------------------------------------------------------- the plan
 
+#: IMU rows :func:`still_start` reads at a time
+STILL_READ_ROWS = 65536
+
+
 def still_start(bundle: Bundle, t0: float, accel_m_s2: float = 0.15, gyro_deg_s: float = 0.25,
                 block_s: float = 0.25) -> Optional[float]:
     """End [s] of the still period at the start of a drive with no velocity sensor, or None.
@@ -351,26 +428,39 @@ def still_start(bundle: Bundle, t0: float, accel_m_s2: float = 0.15, gyro_deg_s:
     with the mean of the blocks before them; the vehicle is still while every block stays
     within ``accel_m_s2`` and ``gyro_deg_s`` of it (driving off shows at once in the forward
     specific force, a turn in the rate; block means average the engine's vibration away).
+
+    The IMU rows are read a block of :data:`STILL_READ_ROWS` at a time (a bundle read in
+    chunks: :meth:`Bundle.load_window`) until a block departs, not the whole log.
     """
     imu = bundle.imu
-    k0 = int(np.searchsorted(imu.t, t0 + 1e-9))
-    t = imu.t[k0:]
+    t_all = imu.t
+    k0 = int(np.searchsorted(t_all, t0 + 1e-9))
+    t = t_all[k0:]
     if len(t) < 4:
         return None
-    dt = np.diff(imu.t[k0 - 1:] if k0 > 0 else np.r_[t[0] - imu.dt, t])
+    dt = np.diff(t_all[k0 - 1:] if k0 > 0 else np.r_[t[0] - imu.dt, t])
+    del t_all
     n = max(1, int(round(block_s / float(np.median(dt)))))
     nb = len(t) // n
     if nb < 3:
         return None
     T = dt[:nb * n].reshape(nb, n).sum(1)
-    f = imu.dvel[k0:k0 + nb * n].reshape(nb, n, 3).sum(1) / T[:, None]
-    w = imu.dtheta[k0:k0 + nb * n].reshape(nb, n, 3).sum(1) / T[:, None]
-    end = None
-    for j in range(1, nb):
-        fm, wm = f[:j].mean(0), w[:j].mean(0)
-        if (np.abs(f[j] - fm).max() > accel_m_s2
-                or np.degrees(np.abs(w[j] - wm).max()) > gyro_deg_s):
-            end = j
+    f, w = np.empty((nb, 3)), np.empty((nb, 3))
+    per = max(1, STILL_READ_ROWS // n)                # blocks read at a time
+    end, j = None, 1
+    for a in range(0, nb, per):
+        b = min(a + per, nb)
+        rows = bundle.load_window(float(t[a * n]), float(t[b * n - 1])).imu
+        f[a:b] = rows.dvel.reshape(b - a, n, 3).sum(1) / T[a:b, None]
+        w[a:b] = rows.dtheta.reshape(b - a, n, 3).sum(1) / T[a:b, None]
+        while j < b:
+            fm, wm = f[:j].mean(0), w[:j].mean(0)
+            if (np.abs(f[j] - fm).max() > accel_m_s2
+                    or np.degrees(np.abs(w[j] - wm).max()) > gyro_deg_s):
+                end = j
+                break
+            j += 1
+        if end is not None:
             break
     if end is None:
         return float(t[nb * n - 1])
@@ -378,7 +468,7 @@ def still_start(bundle: Bundle, t0: float, accel_m_s2: float = 0.15, gyro_deg_s:
 
 
 def _imu_still(bundle: Bundle, ta: float, tb: float, accel_m_s2: float, gyro_deg_s: float,
-               block_s: float = 0.25, min_s: float = 0.0):
+               block_s: float = 0.25, min_s: float = 0.0, dt: Optional[float] = None):
     """The part of ``[ta, tb]`` in which the IMU agrees that the vehicle stands still, as
     ``(start, end)``, or None: the longest run of ``block_s`` blocks whose mean specific force
     and rate lie within ``accel_m_s2`` / ``gyro_deg_s`` of the window's median block (the test
@@ -386,15 +476,16 @@ def _imu_still(bundle: Bundle, ta: float, tb: float, accel_m_s2: float, gyro_deg
     zero but the vehicle still brakes or pulls away), at least ``min_s`` long, with its mean
     rate within ``gyro_deg_s`` of zero (the Earth rate and a MEMS bias are far below it, a
     turn is not). Straight driving at constant speed cannot be told from standing by an
-    IMU."""
-    imu = bundle.imu
+    IMU. ``dt``: the log's median IMU period [s] (None: read here); only the window's rows
+    are read."""
+    dt = bundle.imu.dt if dt is None else float(dt)
+    imu = bundle.load_window(ta, tb).imu
     k = np.flatnonzero((imu.t > ta) & (imu.t <= tb))
-    n = max(1, int(round(block_s / imu.dt)))
+    n = max(1, int(round(block_s / dt)))
     nb = len(k) // n
     if nb < 1:
         return None
     k = k[:nb * n]
-    dt = imu.dt
     f = imu.dvel[k].reshape(nb, n, 3).sum(1) / (n * dt)
     w = imu.dtheta[k].reshape(nb, n, 3).sum(1) / (n * dt)
     ok = ((np.abs(f - np.median(f, 0)).max(1) <= accel_m_s2)
@@ -427,12 +518,13 @@ def stop_windows(bundle: Bundle, cfg: ProcessConfig, t_from: float) -> tuple[lis
     thr = chi2.threshold(cfg.false_alarm_rate, dof)
     d = np.diff(np.r_[0, (lam <= thr).astype(np.int8), 0])
     out, refused = [], 0
+    dt = bundle.imu.dt
     for a, b in zip(np.flatnonzero(d == 1), np.flatnonzero(d == -1) - 1):
         ta, tb = float(t[a]) + cfg.stop_margin_s, float(t[b]) - cfg.stop_margin_s
         if tb - ta < cfg.min_stop_s:
             continue
         core = _imu_still(bundle, ta, tb, cfg.still_accel_m_s2, cfg.still_gyro_deg_s,
-                          min_s=cfg.min_stop_s)
+                          min_s=cfg.min_stop_s, dt=dt)
         if core is not None:
             out.append([round(core[0], 3), round(core[1], 3)])
         else:
@@ -488,12 +580,25 @@ def plan(bundle: Bundle, cfg: ProcessConfig, t0: float) -> dict:
 
 def run_process(bundle: Bundle, config: ProcessConfig | dict | None = None,
                 init: Optional[NavState] = None, init_info: InitInfo | dict | None = None,
-                progress: Optional[Callable] = None) -> Solution:
+                progress: Optional[Callable] = None,
+                output_rate_hz: Optional[float] = None) -> Solution:
     """The whole drive in one call (module docstring). ``init``: position (and velocity, and,
     where the IMU cannot find it, the heading) at its time ``init.t``, which is where the run
     starts (None: the start of the log, position from ``meta.yaml``). Returns one Solution
     whose ``info`` holds ``stages`` (the log), ``heading`` (the rule's verdict), ``motion``
-    and the sensors used."""
+    and the sensors used.
+
+    ``output_rate_hz`` (None: every row of every stage): the rate the result will be thinned
+    to (:func:`inmotion.io.result.thin`, the command line's ``--output-rate``); the radar
+    stages then keep only the rows that thinning can keep (:class:`_OutputRows`) and the fine
+    stage stops at its handover, so the result in memory grows with the output rate, not the
+    filter's; ``thin`` of it equals ``thin`` of the full result, row for row.
+
+    The bundle may be in memory or read in chunks
+    (:class:`inmotion.io.bundle_stream.BundleStream`): every stage reads only its window's
+    IMU rows (:meth:`Bundle.load_window`) or streams them (:meth:`Bundle.imu_rows_after`);
+    the still stage's gyro bias is taken off the rows as they are read
+    (:class:`_GyroBiasRemoved`)."""
     from .align.attitude_determination import initial_position
     from .align.multiplex import first_covered
     from .align.parked_kf import spec_from_meta
@@ -589,7 +694,7 @@ def run_process(bundle: Bundle, config: ProcessConfig | dict | None = None,
         from .align.parked_kf import ParkedKfConfig, run_parked_kf
         t1 = t0 + cfg.parked_coarse_s
         ccfg = _cfg(CoarseInertialConfig, {"mode": "parked"}, cfg, "coarse-inertial", {})
-        coarse = run_coarse_inertial(bundle.window(t0, t1), ccfg,
+        coarse = run_coarse_inertial(bundle.load_window(t0, t1), ccfg,
                                      NavState(t0, lat, lon, h, np.zeros(3), [1.0, 0, 0, 0]))
         a = coarse.info["attitude_start_deg"]
         C0 = rotations.dcm_from_euler(np.radians([a["pitch"], a["roll"], a["yaw"]]))
@@ -606,8 +711,8 @@ def run_process(bundle: Bundle, config: ProcessConfig | dict | None = None,
             pbase["init_heading_sigma_deg"] = head_sig
         pcfg = _cfg(ParkedKfConfig, pbase, cfg, "parked-kf", own)
         start = NavState(t0, lat, lon, h, np.zeros(3), rotations.quat_from_dcm(C0))
-        parked = run_parked_kf(bundle, pcfg, start, progress=progress_part(0.0, 0.3),
-                               end_s=t_park_end)
+        parked = run_parked_kf(bundle.load_window(None, t_park_end), pcfg, start,
+                               progress=progress_part(0.0, 0.3), end_s=t_park_end)
         parts.append(parked)
         log("parked fine", "parked-kf", t0, t_park_end,
             "zero-velocity fine alignment while parked (paper 003 eq. 11-13)", parked,
@@ -679,7 +784,8 @@ def run_process(bundle: Bundle, config: ProcessConfig | dict | None = None,
     # ---- 5: fine alignment and navigation to the end
     if handover is not None:
         parts += _navigate(bundle, cfg, handover, tilt_sig, h_sig, own, log,
-                           progress_part(0.3 if parts else 0.0, 1.0), stages)
+                           progress_part(0.3 if parts else 0.0, 1.0), stages,
+                           parts, output_rate_hz)
     sol = _concat(parts)
     sol.info.update({
         "method": "process", "config": cfg.model_dump(), "stages": stages,
@@ -712,9 +818,8 @@ def _still_stage(bundle, cfg, init, ii, t0, t1, pos, yaw0, head_sig, spec, from_
     """The short still start of a drive with no velocity sensor (see :func:`run_process`):
     ``(bundle (gyro bias removed if so), state at t1, tilt sigma, heading sigma, spec,
     bias deg/h or None)``."""
-    from .core.bundle import ImuData
     lat, lon, h = pos
-    imu = bundle.imu
+    imu = _imu_span(bundle, t0, t1)             # the still rows (and the row before)
     m = (imu.t > t0) & (imu.t <= t1)
     dt = np.diff(imu.t, prepend=imu.t[0] - imu.dt)
     f = imu.dvel[m].sum(0) / dt[m].sum()
@@ -735,13 +840,63 @@ def _still_stage(bundle, cfg, init, ii, t0, t1, pos, yaw0, head_sig, spec, from_
         w = imu.dtheta[m].sum(0) / still_s
         w_e = C.T @ (earth.OMEGA_IE * np.array([0.0, math.cos(lat), math.sin(lat)]))
         b = w - w_e
-        dth = imu.dtheta - np.outer(dt, b)
-        bundle = Bundle(ImuData(imu.t, dth, imu.dvel), bundle.meta, bundle.radar, bundle.ldv,
-                        bundle.odometer, bundle.baro, bundle.truth)
+        bundle = _GyroBiasRemoved(bundle, b)
         spec = {**spec, "gyro_drift_deg_h": min(float(spec.get("gyro_drift_deg_h", 1e9)),
                                                 cfg.residual_gyro_drift_deg_h)}
         bias = (np.degrees(b) * 3600.0).tolist()
     return bundle, state, tilt_sig, head_sig, spec, bias
+
+
+class _GyroBiasRemoved:
+    """``bundle`` with a constant gyro bias ``b`` [rad/s] taken off every IMU row as its rows
+    are read: ``dtheta - dt b``, ``dt`` the row's interval (row 0: the median period), the
+    arithmetic of the whole table's ``dtheta - outer(dt, b)``. It answers what the stages
+    after the still stage ask (``imu.t`` / ``imu.dt``, :meth:`imu_rows_after`,
+    :meth:`load_window`, :meth:`window`, the sensors, ``meta``); its ``imu`` has no
+    ``dtheta`` (a raw read would miss the correction)."""
+
+    def __init__(self, bundle, bias):
+        self._b, self._bias = bundle, np.asarray(bias, dtype=float)
+
+    def __getattr__(self, name):
+        return getattr(self._b, name)
+
+    @property
+    def imu(self):
+        from .io.bundle_stream import _TimesOf
+        return _TimesOf(self._b.imu.t)
+
+    def _t_before(self, t_first: float) -> float:
+        t = self._b.imu.t
+        k = int(np.searchsorted(t, t_first, side="left"))
+        return float(t[k - 1]) if k > 0 else float(t[0]) - float(np.median(np.diff(t)))
+
+    def _fixed(self, t, dtheta, t_prev):
+        return dtheta - np.outer(np.diff(t, prepend=t_prev), self._bias)
+
+    def imu_rows_after(self, t0: float, min_rows: int = 2):
+        n, period, pieces, k0 = self._b.imu_rows_after(t0, min_rows)
+
+        def fixed():
+            t_prev = None
+            for t, dth, dvl, *rest in pieces:
+                if t_prev is None:
+                    t_prev = self._t_before(float(t[0]))
+                yield (t, self._fixed(t, dth, t_prev), dvl, *rest)
+                t_prev = float(t[-1])
+        return n, period, fixed(), k0
+
+    def load_window(self, start=None, end=None, truth: bool = False) -> Bundle:
+        from .core.bundle import ImuData
+        w = self._b.load_window(start, end, truth)
+        if len(w.imu.t):
+            w.imu = ImuData(w.imu.t, self._fixed(w.imu.t, w.imu.dtheta,
+                                                 self._t_before(float(w.imu.t[0]))),
+                            w.imu.dvel)
+        return w
+
+    def window(self, start=None, end=None):
+        return _GyroBiasRemoved(self.load_window(start, end), self._bias)
 
 
 def _coarse_moving(bundle, cfg, init, t0, t1, speed):
@@ -764,7 +919,7 @@ def _coarse_moving(bundle, cfg, init, t0, t1, speed):
                 "coarse-inertial", {})
     # the IMU cut to the window, the sensor whole (a real log's speed may stop just short of
     # a window's ends)
-    win = Bundle(bundle.imu.window(t0, t1), bundle.meta,
+    win = Bundle(bundle.load_window(t0, t1).imu, bundle.meta,
                  **{name: getattr(bundle, name)})
     sol = run_coarse_inertial(win, ccfg, init)
     a = sol.info["attitude_start_deg"]
@@ -772,8 +927,11 @@ def _coarse_moving(bundle, cfg, init, t0, t1, speed):
     return C0, {"attitude_start_deg": a, "speed_sensor": name}, "coarse-inertial"
 
 
-def _navigate(bundle, cfg, state, tilt_sig, head_sig, own, log, progress, stages):
-    """Fine alignment and navigation from ``state`` to the end (module docstring, rule 5)."""
+def _navigate(bundle, cfg, state, tilt_sig, head_sig, own, log, progress, stages, before=(),
+              rate_hz=None):
+    """Fine alignment and navigation from ``state`` to the end (module docstring, rule 5);
+    ``before``: the stages' results so far, ``rate_hz``: :func:`run_process`'s
+    ``output_rate_hz``."""
     speed = _speed_sensors(bundle)
     t_end = float(bundle.imu.t[-1])
     t0 = float(state.t)
@@ -786,7 +944,10 @@ def _navigate(bundle, cfg, state, tilt_sig, head_sig, own, log, progress, stages
         dbase = {**prior, "velocity_sensor": "radar", "stops_s": stops}
         dcfg = _cfg(DrKfConfig, dbase, cfg, "dr-kf", own)
         fine = run_dr_kf(bundle, dcfg, state,
-                         progress=None if progress is None else lambda f: progress(0.5 * f))
+                         progress=None if progress is None else lambda f: progress(0.5 * f),
+                         select=_rows_for(before, rate_hz, t0, _UntilHandover,
+                                          t_from=t0 + cfg.fine_s, t_to=t_end - 30.0,
+                                          sig_arcmin=cfg.handover_heading_sigma_arcmin))
         sig_u = np.degrees(fine.sigma["phi_U"]) * 60.0
         ok = np.flatnonzero((fine.t >= t0 + cfg.fine_s) & (sig_u <= cfg.handover_heading_sigma_arcmin)
                             & (fine.t <= t_end - 30.0))
@@ -802,7 +963,7 @@ def _navigate(bundle, cfg, state, tilt_sig, head_sig, own, log, progress, stages
                    f"{cfg.fine_s:g} s, so it runs to the end")
         if cfg.smooth:       # the handover is decided forward; each stage is then smoothed
             fine = run_dr_kf(bundle.window(None, t1), dcfg.model_copy(update={"smooth": True}),
-                             state)
+                             state, select=_rows_for(before, rate_hz, t0))
             why += "; smoothed forward-backward (RTS) over the stage"
         if stops:
             why += f"; zero-velocity updates at the stops ({len(stops)} in the drive)"
@@ -824,7 +985,8 @@ def _navigate(bundle, cfg, state, tilt_sig, head_sig, own, log, progress, stages
             ncfg = _cfg(SinsDrConfig, base, cfg, "sins-dr", own)
             nav = run_sins_dr(bundle, ncfg, st,
                               progress=None if progress is None else
-                              lambda f: progress(0.5 + 0.5 * f))
+                              lambda f: progress(0.5 + 0.5 * f),
+                              select=_rows_for([*before, fine], rate_hz, st.t))
             log("navigate", "sins-dr", st.t, t_end, "SINS / radar-DR integrated navigation "
                 "(paper 002) to the end, chi-square gate "
                 f"{cfg.gate_probability:g}" + (", barometer" if bundle.baro is not None

@@ -218,7 +218,7 @@ from pydantic import ConfigDict, Field, ValidationError
 from .. import config_fields as cf
 from ..core import earth, rotations
 from ..core import _kernels as K
-from ..core.bundle import Bundle
+from ..core.bundle import Bundle, regroup
 from ..core.deadreckoning import speed_on_epochs
 from ..core.mechanization import _baro_on_imu, start_row
 from ..core.solution import NavState, Solution, StateUnit
@@ -1455,18 +1455,21 @@ def _feed(f, bundle, k0, sensors, meas_every, use_nhc, use_baro, progress, rec=N
     samples it accepts are fed (a sensor's rejected sample is NaN over its whole interval).
     ``stops`` (S, 2): the zero-velocity and zero-rate samples at the sample epochs inside
     them."""
-    imu = bundle.imu
-    t, n = imu.t[k0:], len(imu.t) - k0
+    n, _, pieces, first = bundle.imu_rows_after(f.t)    # whole, or read in chunks
+    if first != k0:
+        raise RuntimeError(f"the filter starts at IMU row {first}, not {k0}")
     step = f.step
     chunk = max(1, CHUNK_ROWS // step) * step
+    blocks = regroup(pieces, chunk)
     outs = []
     if accept is not None:        # the sample rows of the whole run (epochs end every step)
         ep = np.arange(1, -(-n // step) + 1)
         s_rows = np.minimum(ep[ep % meas_every == 0] * step, n) - 1
-        s_ok = {k: np.r_[fn(t[s_rows]), True] for k, fn in accept.items()}
+        t_s = bundle.imu.t[k0:][s_rows]     # the sample times (not the whole column kept)
+        s_ok = {k: np.r_[fn(t_s), True] for k, fn in accept.items()}
     for a in range(0, n, chunk):
         b = min(a + chunk, n)
-        tc = t[a:b]
+        tc, dth, dvl = next(blocks)[:3]
         edges = np.concatenate([[f.t], tc])
         ends = np.arange(step, b - a + step, step)
         ends[-1] = b - a
@@ -1495,8 +1498,7 @@ def _feed(f, bundle, k0, sensors, meas_every, use_nhc, use_baro, progress, rec=N
             t_zv = t_meas[_in_any(t_meas, stops)]
             f.add_measurement("zero_velocity", t_zv)
             f.add_measurement("zero_rate", t_zv)
-        outs.append(f.add_imu(tc, imu.dtheta[k0 + a:k0 + b], imu.dvel[k0 + a:k0 + b],
-                              row_data=row_data, flush=b == n))
+        outs.append(f.add_imu(tc, dth, dvl, row_data=row_data, flush=b == n))
         if rec is not None:
             rec.append(outs[-1].pop("record"))
         if progress is not None:

@@ -520,7 +520,7 @@ def _config(config, cls):
     return cfg
 
 
-def _run(bundle, config, init, progress, cls, with_dr, method, dtheta_dr=None):
+def _run(bundle, config, init, progress, cls, with_dr, method, dtheta_dr=None, select=None):
     cfg = _config(config, cls)
     t0 = time.perf_counter()
     filt, (n_rows, pieces, k0), (sensor, speed), (cfg, cfg_source) = _engine_filter(
@@ -530,7 +530,7 @@ def _run(bundle, config, init, progress, cls, with_dr, method, dtheta_dr=None):
         pieces = with_dr_gyro(pieces, dr_gyro_rows(bundle.imu, dtheta_dr,
                                                    slice(k0, k0 + n_rows)))
     out = filt.run_stream(pieces, n_rows, speed, h_baro=h_baro, sensor=sensor,
-                          progress=progress)
+                          progress=progress, select=select)
     sol = _engine_solution(filt, out, cfg, method, sensor, time.perf_counter() - t0)
     sol.info["config_source"] = cfg_source
     return sol
@@ -538,7 +538,7 @@ def _run(bundle, config, init, progress, cls, with_dr, method, dtheta_dr=None):
 
 def run_dr_kf(bundle: Bundle, config: DrKfConfig | dict | None = None,
               init: NavState | None = None, progress: Optional[Callable] = None, *,
-              dtheta_dr=None) -> Solution:
+              dtheta_dr=None, select=None) -> Solution:
     """``dr-kf``: paper 000's SINS / radar-DR alignment filter (see the module docstring).
 
     ``dtheta_dr`` (N, 3) [rad], one row per IMU row, or None: the gyro increments the dead
@@ -553,8 +553,12 @@ def run_dr_kf(bundle: Bundle, config: DrKfConfig | dict | None = None,
     gate rejections, mean NIS per degree of freedom and, with ``keep_covariance=True``, the
     (N, 3, 3) misalignment covariance history ``cov_phi`` [rad^2] (for NEES; off by default
     because ``summary.json`` would carry it).
+
+    ``select``: which output rows to keep and where to stop
+    (:meth:`inmotion.estimation.velocity_aided.VelocityAidedRun.run_stream`; None: all, to
+    the end; ``inmotion process`` keeps its output rate's rows and stops at the handover).
     """
-    return _run(bundle, config, init, progress, DrKfConfig, True, "dr-kf", dtheta_dr)
+    return _run(bundle, config, init, progress, DrKfConfig, True, "dr-kf", dtheta_dr, select)
 
 
 def run_od_velocity_kf(bundle: Bundle, config: OdVelocityKfConfig | dict | None = None,

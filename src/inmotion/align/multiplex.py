@@ -221,14 +221,15 @@ def coarse_fault_tolerant(bundle: Bundle, cfg: MuxConfig, init: Optional[NavStat
     Returns ``(solution, C_nb0)``: the coarse solution and the attitude at ``t0``.
     """
     t0 = first_covered(bundle, t0)
-    win = bundle.window(t0, t1)
+    win = bundle.load_window(t0, t1)          # the window's IMU rows only (read in chunks)
     events = []
     ccfg = CoarseInertialConfig(**{"mode": "moving", **cfg.coarse})
     if cfg.fault_tolerant_coarse:
         # the speeds from the whole log: a window cut at t0, t1 may lose the samples either
         # side of its ends (a real log's irregular CAN speed)
-        v, _, events = fault_tolerant_speed(bundle, win.imu.t, cfg.speed_tolerance_m_s,
-                                            cfg.pitch_time_constant_s)
+        v, _, events = fault_tolerant_speed(
+            Bundle(win.imu, win.meta, bundle.radar, bundle.ldv, bundle.odometer),
+            win.imu.t, cfg.speed_tolerance_m_s, cfg.pitch_time_constant_s)
         win = Bundle(win.imu, win.meta, None, SpeedData(win.imu.t, v=v), None, win.baro, win.truth)
         ccfg = ccfg.model_copy(update={"velocity_sensor": "ldv"})
     else:

@@ -180,9 +180,10 @@ def _progress(ctx, desc: str):
 
 
 #: methods whose run takes its IMU rows in pieces (``Bundle.imu_rows_after``): the command
-#: line opens the bundle for reading in chunks for them (:mod:`inmotion.io.bundle_stream`), so
-#: a run's memory does not grow with the log's length
-STREAMED = ("sins", "dr", "sins-dr", "dr-kf", "od-velocity-kf")
+#: line hands them the bundle opened for reading in chunks (:mod:`inmotion.io.bundle_stream`),
+#: so a run's memory does not grow with the log's length; every other method gets its
+#: ``--start`` / ``--end`` window in memory, only that window's rows read (``run_method``)
+STREAMED = ("sins", "dr", "sins-dr", "dr-kf", "od-velocity-kf", "fine-mux", "adaptive")
 
 
 def _read_bundle(ctx, path, allow_imu_gaps=False, chunked=False, **kw):
@@ -604,9 +605,14 @@ def _spec(method, kind=None):
 
 
 def run_method(ctx, bundle, spec, config, init_state, window):
-    """Run ``spec`` on ``bundle`` cut to ``window`` = (start, end); return the Solution."""
+    """Run ``spec`` on ``bundle`` cut to ``window`` = (start, end); return the Solution.
+    A method that streams its IMU rows (:data:`STREAMED`) takes the bundle as it is (read in
+    chunks or in memory); any other takes the window in memory (:meth:`Bundle.load_window`:
+    from a bundle read in chunks only the window's rows are read, so ``--start`` / ``--end``
+    bound its memory)."""
     start, end = window
-    b = bundle.window(start, end)
+    b = (bundle.window(start, end) if spec.name in STREAMED
+         else bundle.load_window(start, end, truth=True))
     if len(b.imu.t) < 2:
         t0, t1 = float(bundle.imu.t[0]), float(bundle.imu.t[-1])
         lo = f"{start:g} s" if start is not None else "the start"
@@ -689,7 +695,7 @@ def _run_command(ctx, kind, bundle_path, method, config_file, output, init, init
     rate = parse_output_rate(output_rate) if explicit else DEFAULT_OUTPUT_RATE.get(kind)
     err = parse_init_error(init_error) if init_error else None
     check_output_path(output, kind="result")
-    bundle = _read_bundle(ctx, bundle_path, allow_imu_gaps, chunked=spec.name in STREAMED)
+    bundle = _read_bundle(ctx, bundle_path, allow_imu_gaps, chunked=True)
     if init is None:
         init = "truth" if bundle.truth is not None else "meta"
     state, init_desc = _initial_state(ctx, bundle, init, start, spec.needs_attitude)
@@ -950,7 +956,7 @@ def run_process_to(ctx, bundle, output, cfg, init=None, fmt="csv", output_rate=N
     rate = parse_output_rate(output_rate) if output_rate is not None else 1.0
     t0 = time.perf_counter()
     with _progress(ctx, "process") as progress:
-        sol = run_process(bundle, cfg, state, ii, progress=progress)
+        sol = run_process(bundle, cfg, state, ii, progress=progress, output_rate_hz=rate)
     wall = time.perf_counter() - t0
     sol.info["timing"] = {"wall_s": wall}
     if rate is not None:
@@ -1007,19 +1013,20 @@ def _process_text(summary: dict, output) -> str:
 
 
 def _process_bundle(ctx, bundle_path, allow_imu_gaps, init):
-    """The bundle for ``process``: loaded whole (its stages take arrays) but for the truth,
-    opened for reading in chunks (``read_bundle(truth_in_chunks=True)``): the run reads the
-    truth for its errors only (``run_process_to``), so memory does not grow with it. Where
-    the run would take its start position from the truth (no ``--init`` and no position in
-    ``meta.yaml``: :func:`inmotion.align.attitude_determination.initial_position`), the
-    truth is loaded as before."""
-    import dataclasses
+    """The bundle for ``process``: opened for reading in chunks
+    (:func:`inmotion.io.bundle_stream.open_bundle`): its stages read the IMU rows of their
+    windows or stream them (``Bundle.load_window``, ``Bundle.imu_rows_after``) and the truth
+    is read for the errors only (``run_process_to``), so memory does not grow with the log.
+    Where the run would take its start position from the truth (no ``--init`` and no
+    position in ``meta.yaml``: :func:`inmotion.align.attitude_determination.initial_position`),
+    the bundle is loaded whole as before."""
+    from types import SimpleNamespace
 
     from ..align.attitude_determination import initial_position
-    bundle = _read_bundle(ctx, bundle_path, allow_imu_gaps, truth_in_chunks=True)
+    bundle = _read_bundle(ctx, bundle_path, allow_imu_gaps, chunked=True)
     if init is None and bundle.truth is not None:
         try:
-            initial_position(dataclasses.replace(bundle, truth=None), None)
+            initial_position(SimpleNamespace(meta=bundle.meta, truth=None), None)
         except BadInput:                     # the position comes from the truth's first row
             bundle = _read_bundle(ctx, bundle_path, allow_imu_gaps)
     return bundle

@@ -191,6 +191,15 @@ class Bundle:
         return (len(imu.t) - k0, float(np.median(np.diff(imu.t))),
                 [(imu.t[k0:], imu.dtheta[k0:], imu.dvel[k0:])], k0)
 
+    def load_window(self, start: Optional[float] = None, end: Optional[float] = None,
+                    truth: bool = False) -> "Bundle":
+        """The drive cut to ``start <= t <= end`` [s] with its IMU rows in memory: here
+        :meth:`window` (``truth``: ignored, in memory already); a bundle read in chunks
+        (:meth:`inmotion.io.bundle_stream.BundleStream.load_window`) reads only the rows of
+        the window (the truth's too with ``truth``). A method that needs a window's IMU rows
+        as arrays takes them from it."""
+        return self.window(start, end)
+
     def window(self, start: Optional[float] = None, end: Optional[float] = None) -> "Bundle":
         """The same drive cut to ``start <= t <= end`` [s] (None: open)."""
         def cut(x):

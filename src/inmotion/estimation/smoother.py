@@ -352,14 +352,19 @@ def smooth_record(record: ForwardRecord, layout, rows=None) -> dict:
     return out
 
 
-def smooth_at_outputs(record: ForwardRecord, filt, with_last: bool = True) -> dict:
+def smooth_at_outputs(record: ForwardRecord, filt, with_last: bool = True,
+                      times=None) -> dict:
     """The backward pass over ``record`` (closed afterwards), returned at the epochs of the
     engine filter's output grid (every ``filt.out_every``-th, the start included) and, with
-    ``with_last``, at the last epoch (where a run writes its last row even off the grid)."""
+    ``with_last``, at the last epoch (where a run writes its last row even off the grid);
+    ``times`` [s] (None: all of them): only those of these epochs at these times (the forward
+    rows a run kept, :meth:`VelocityAidedRun.run_stream`'s ``select``)."""
     ep = np.asarray(record["epoch"])
     keep = ep % filt.out_every == 0
     if with_last:
         keep |= ep == ep[-1]
+    if times is not None:
+        keep &= np.isin(np.asarray(record["t"]), np.asarray(times))
     try:
         return smooth_record(record, filt.layout, np.flatnonzero(keep))
     finally:

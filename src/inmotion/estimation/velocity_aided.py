@@ -310,7 +310,7 @@ class VelocityAidedRun:
                                progress=progress)
 
     def run_stream(self, pieces, n_rows: int, speed: SpeedData, h_baro=None, sensor="speed",
-                   progress=None) -> dict:
+                   progress=None, select=None) -> dict:
         """:meth:`run` on rows that arrive in pieces (a log read in chunks).
 
         ``pieces`` yields consecutive blocks ``(t, dtheta, dvel)`` (or with ``dtheta_dr`` as a
@@ -318,12 +318,28 @@ class VelocityAidedRun:
         engine chunks as one whole block would be (:data:`CHUNK_ROWS` rounded to whole filter
         epochs), so the outputs do not depend on where the pieces are cut. A source that
         yields other than ``n_rows`` rows is an error.
+
+        ``select`` (None: every output row is kept): a callable ``select(t, sigma) -> (mask,
+        stop)`` called on each chunk's output rows as they come (``t`` (m,) [s], ``sigma``
+        ``{state: (m,)}`` the forward filter's 1-sigma); only the rows of ``mask`` are kept
+        (so the outputs need not grow with the log: ``inmotion process`` keeps the rows its
+        output rate writes), and ``stop`` ends the run after this chunk (the rows kept are
+        those of the whole run: the filter is causal). With ``smooth`` the smoothed rows are
+        returned at the rows kept.
         """
+        def take(o):
+            if select is None:
+                return o, False
+            mask, stop = select(o["t"], self.layout.as_dict(o["sigma"]))
+            mask = np.asarray(mask, dtype=bool)
+            return {k: v[mask] for k, v in o.items()}, bool(stop)
+
         if n_rows <= 0:
             raise ValueError("VelocityAidedRun.run needs at least one IMU row")
         f = self.filter
-        outs = [f.output_now()]
+        outs = [take(f.output_now())[0]]
         rec = ForwardRecord.for_filter(f, -(-n_rows // self.step)) if self.smooth else None
+        stopped = False
         chunk = max(1, CHUNK_ROWS // self.step) * self.step
         max_gap = 5.0 * float(np.median(np.diff(speed.t[:GAP_SAMPLES])))
         groups = [g for g in GROUPS if self.use[g]]
@@ -357,20 +373,23 @@ class VelocityAidedRun:
                         if g == "sensor_velocity" else hb if g == "height" else None)
                 f.add_measurement(g, t_meas, data)
             d_dr = block[3] if len(block) > 3 else None
-            outs.append(f.add_imu(tc, dth, dvl, ds=ds, speed=v, dtheta_dr=d_dr,
-                                  flush=b == n_rows))
+            o = f.add_imu(tc, dth, dvl, ds=ds, speed=v, dtheta_dr=d_dr, flush=b == n_rows)
             if rec is not None:
-                rec.append(outs[-1].pop("record"))
+                rec.append(o.pop("record"))
+            o, stopped = take(o)
+            outs.append(o)
             if progress is not None:
                 progress(b / n_rows)
             a = b
-        if a != n_rows:
+            if stopped:
+                break
+        if a != n_rows and not stopped:
             raise RuntimeError(f"the IMU source yielded {a} rows, not the {n_rows} announced")
-        if f.epochs % self.out_every:   # the last epoch is written even off the output grid
-            outs.append(f.output_now())
+        if f.epochs % self.out_every and not stopped:   # the last epoch, even off the grid
+            outs.append(take(f.output_now())[0])
         res = {k: np.concatenate([o[k] for o in outs]) for k in outs[0]}
         if rec is not None:             # the smoothed rows at the forward output's epochs
-            sm = smooth_at_outputs(rec, f)
+            sm = smooth_at_outputs(rec, f, times=None if select is None else res["t"])
             if not np.array_equal(sm["t"], res["t"]):
                 raise RuntimeError("smoothed rows do not fall on the forward output rows")
             res.update(sm)

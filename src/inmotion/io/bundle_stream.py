@@ -40,7 +40,7 @@ from typing import Optional
 import numpy as np
 
 from ..core import rotations
-from ..core.bundle import VELOCITY_SENSORS, Bundle, Truth, row_at_or_after
+from ..core.bundle import VELOCITY_SENSORS, Bundle, ImuData, Truth, row_at_or_after
 from ..core.earth import radii
 from ..errors import BadInput
 from . import bundle as B
@@ -80,44 +80,75 @@ class _Table:
         if n == 0:
             raise BadInput("table has no data rows", file=path)
 
-    def _frames(self, names):
-        """Raw chunks ``{name: column}`` (pyarrow arrays or pandas Series)."""
+    def _frames(self, names, first_row: int = 0):
+        """Raw chunks ``(offset, {name: column})`` (pyarrow arrays or pandas Series);
+        ``first_row``: a Parquet file skips the row groups that end before it (the first
+        chunk yielded may still start before it)."""
         try:
             if self.parquet:
+                md = self._pf.metadata
+                groups, offset, start = [], 0, None
+                for g in range(md.num_row_groups):
+                    n = md.row_group(g).num_rows
+                    if offset + n > first_row:
+                        groups.append(g)
+                        start = offset if start is None else start
+                    offset += n
+                if not groups:
+                    return
+                offset = start
                 for batch in self._pf.iter_batches(batch_size=self.chunk_rows,
+                                                   row_groups=groups,
                                                    columns=[self.raw[c] for c in names],
                                                    use_threads=False):
-                    yield {c: batch.column(i) for i, c in enumerate(names)}
+                    yield offset, {c: batch.column(i) for i, c in enumerate(names)}
+                    offset += batch.num_rows
             else:
                 import pandas as pd
+                offset = 0
                 for df in pd.read_csv(self.path, skipinitialspace=True,
                                       chunksize=self.chunk_rows):
                     df.columns = [str(c).strip() for c in df.columns]
-                    yield {c: df[c] for c in names}
+                    yield offset, {c: df[c] for c in names}
+                    offset += len(df)
         except BadInput:
             raise
         except Exception as e:
             raise B.cannot_read(e, self.path) from None
 
-    def chunks(self, names):
+    def chunks(self, names, rows=None):
         """Yield ``(offset, {name: float64 array})``: the named columns (``t`` first) of
-        consecutive chunks, ``offset`` rows before each; BadInput at the first bad row."""
+        consecutive chunks, ``offset`` rows before each; BadInput at the first bad row.
+        ``rows = (a, b)``: only the table's rows ``a <= row < b`` (a time-filtered read:
+        the chunks that hold them are read and checked, Parquet row groups before ``a``
+        skipped, reading stops after ``b``)."""
         names = ("t",) + tuple(c for c in names if c != "t")
         B.missing_columns(self.columns, names, self.path)
         self._t = None          # reading rows: the time column is not kept meanwhile
-        offset, t_prev = 0, None
-        for frame in self._frames(names):
-            if len(frame["t"]) == 0:
+        a, b = (0, None) if rows is None else (int(rows[0]), int(rows[1]))
+        seen, t_prev = 0, None
+        for offset, frame in self._frames(names, a):
+            n = len(frame["t"])
+            if n == 0:
                 continue
+            if b is not None and offset >= b:
+                break
+            if offset + n <= a:
+                continue
+            if rows is not None:            # the part of the chunk inside the rows asked for
+                lo, hi = max(a - offset, 0), n if b is None else min(b - offset, n)
+                frame = {c: (v.iloc[lo:hi] if hasattr(v, "iloc") else v[lo:hi])
+                         for c, v in frame.items()}
+                offset += lo
             t = B._numeric(frame, "t", self.path, None, offset)
             out = {"t": t}
             for c in names[1:]:
                 out[c] = B._numeric(frame, c, self.path, t, offset)
             B._check_increasing(t, self.path, offset, t_prev)
             yield offset, out
-            offset += len(t)
+            seen += len(t)
             t_prev = t[-1]
-        if offset == 0:
+        if seen == 0 and rows is None:
             raise BadInput("table has no data rows", file=self.path)
 
     def read(self, names) -> dict:
@@ -156,6 +187,11 @@ class _Times:
     def t(self) -> np.ndarray:
         return self._span()[0]
 
+    @property
+    def dt(self) -> float:
+        """Median sample period [s] of the (windowed) times, as :attr:`ImuData.dt`."""
+        return float(np.median(np.diff(self.t)))
+
     def _span(self):
         """``(t, w0)``: the windowed times (a view of the whole column) and the index of the
         first of them in the whole table (``_mask`` of an increasing column is one run)."""
@@ -164,6 +200,16 @@ class _Times:
         w0 = 0 if lo is None else int(np.searchsorted(t, lo, side="left"))
         w1 = len(t) if hi is None else int(np.searchsorted(t, hi, side="right"))
         return t[w0:max(w0, w1)], w0
+
+
+class _TimesOf(_Times):
+    """``.t`` / ``.dt`` of a time base given as an array (a wrapper's IMU, no rows)."""
+
+    def __init__(self, t):
+        self._t_all = t
+
+    def _span(self):
+        return self._t_all, 0
 
 
 class _ImuChecks:
@@ -262,6 +308,34 @@ class _ImuTable(_Times):
             yield c["t"], dtheta, dvel
         chk.finish()
 
+    def rows(self, a: int, b: int) -> ImuData:
+        """The table's rows ``a <= row < b`` in memory, read from the chunks that hold them
+        (:meth:`_Table.chunks` with ``rows``) and checked as :meth:`chunks` checks them: the
+        rate and specific-force limits per row (the first row's interval from the row
+        before it), the turn rate over every second inside the rows, the mean specific force
+        over them. Rows outside are neither read nor checked."""
+        t_all = self._table.times()
+        n = len(t_all)
+        a, b = max(0, int(a)), min(n, int(b))
+        if b - a < 1:
+            return ImuData(np.zeros(0), np.zeros((0, 3)), np.zeros((0, 3)))
+        first = (float(t_all[a]), float(t_all[min(a + 1, n - 1)]), float(t_all[b - 1]))
+        t_before = float(t_all[a - 1]) if a > 0 else None
+        del t_all
+        chk = _ImuChecks(self.path, self.period, *first)
+        chk.t_prev, chk.g0 = t_before, a
+        t = np.empty(b - a)
+        dtheta, dvel = np.empty((b - a, 3)), np.empty((b - a, 3))
+        for offset, c in self._table.chunks(self.COLUMNS, rows=(a, b)):
+            i, j = offset - a, offset - a + len(c["t"])
+            t[i:j] = c["t"]
+            for k, ax in enumerate("xyz"):
+                dtheta[i:j, k] = c[f"dtheta_{ax}"]
+                dvel[i:j, k] = c[f"dvel_{ax}"]
+            chk.add(offset, t[i:j], dtheta[i:j], dvel[i:j])
+        chk.finish()
+        return ImuData(t, dtheta, dvel)
+
 
 # --------------------------------------------------------------------------- the truth
 
@@ -300,6 +374,22 @@ class TruthStream(_Times):
             yield offset, tr
         if n >= 3:
             B.check_truth_distances(from_pos, from_vel, self.path)
+
+    def load(self) -> Truth:
+        """The (windowed) rows in memory as a :class:`Truth`, read from the chunks that hold
+        them and checked per row as :func:`read_bundle` checks them (the positions-against-
+        velocities check of the whole table is not made: it needs every row)."""
+        times, w0 = self._span()
+        n = len(times)
+        del times
+        parts = [B.truth_rows(c, self.path, off)
+                 for off, c in self._table.chunks(B.TRUTH_COLUMNS, rows=(w0, w0 + n))]
+        if not parts:
+            z = np.zeros(0)
+            return Truth(z, z, z, z, np.zeros((0, 3)), np.zeros((0, 3)))
+        return parts[0] if len(parts) == 1 else Truth(
+            *(np.concatenate([getattr(p, f) for p in parts])
+              for f in ("t", "lat", "lon", "h", "vel_n", "euler")))
 
     def at(self, t: float) -> dict:
         """The row at or after ``t`` [s] (:meth:`Truth.at`), read up to there."""
@@ -441,6 +531,23 @@ class BundleStream:
                             {s: cut(getattr(self, s)) for s in VELOCITY_SENSORS},
                             cut(self.baro), cut(self.truth), _intersect(self._window,
                                                                         (start, end)))
+
+    def load_window(self, start=None, end=None, truth: bool = False) -> Bundle:
+        """The drive cut to ``start <= t <= end`` [s] (and the stream's own window) as a
+        :class:`Bundle` in memory, as :meth:`Bundle.load_window`: only the IMU rows inside
+        are read (a time-filtered read, :meth:`_ImuTable.rows`: memory of the window, not of
+        the log); the sensors and the barometer are the stream's, cut; the truth stays a
+        :class:`TruthStream` (cut), read when asked, or with ``truth`` its window's rows are
+        read into memory too (:meth:`TruthStream.load`)."""
+        lo, hi = _intersect(self._window, (start, end))
+        t = self._imu._table.times()
+        a = 0 if lo is None else int(np.searchsorted(t, lo, side="left"))
+        b = len(t) if hi is None else int(np.searchsorted(t, hi, side="right"))
+        del t
+        cut = self.window(start, end)
+        tr = cut.truth.load() if truth and cut.truth is not None else cut.truth
+        return Bundle(self._imu.rows(a, b), dict(self.meta),
+                      *(getattr(cut, s) for s in VELOCITY_SENSORS), cut.baro, tr)
 
     def imu_rows_after(self, t0: float, min_rows: int = 2):
         """``(n_rows, period_s, pieces, first_row)`` as :meth:`Bundle.imu_rows_after`, the

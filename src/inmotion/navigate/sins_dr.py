@@ -369,8 +369,11 @@ def _solution(filt: VelocityAidedRun, out: dict, cfg: SinsDrConfig, sensor: str,
 def run_sins_dr(bundle: Bundle, config: SinsDrConfig | dict | None = None,
                 init: NavState | None = None,
                 progress: Optional[Callable[[float], None]] = None, *,
-                dtheta_dr=None) -> Solution:
+                dtheta_dr=None, select=None) -> Solution:
     """``sins-dr``: SINS / dead-reckoning integrated position and orientation (paper 002).
+
+    ``select``: which output rows to keep (:meth:`inmotion.estimation.velocity_aided.
+    VelocityAidedRun.run_stream`; None: all; ``inmotion process`` keeps its output rate's).
 
     ``dtheta_dr`` (N, 3) [rad], one row per IMU row, or None: the gyro increments the dead
     reckoner integrates when it has its own gyro (as ``run_dr_kf``'s; with
@@ -421,7 +424,7 @@ def run_sins_dr(bundle: Bundle, config: SinsDrConfig | dict | None = None,
         pieces = with_dr_gyro(pieces, dr_gyro_rows(bundle.imu, dtheta_dr,
                                                    slice(k0, k0 + n_rows)))
     out = filt.run_stream(pieces, n_rows, speed, h_baro=_baro_source(bundle, cfg), sensor=name,
-                          progress=progress)
+                          progress=progress, select=select)
     sol = _solution(filt, out, cfg, name, time.perf_counter() - t0)
     sol.info["config_source"] = cfg_source
     return sol

@@ -1,0 +1,207 @@
+"""``inmotion process`` on a bundle read in chunks gives what it gives on the bundle in memory.
+
+The reference is the old path: :func:`read_bundle` loads the tables whole, :func:`run_process`
+keeps every row of every stage and the result is thinned to the output rate afterwards
+(:func:`inmotion.io.result.thin`). The streamed path (:func:`open_bundle` with small chunks,
+``output_rate_hz`` given, so the radar stages keep only the rows thinning can keep and the fine
+stage stops at its handover) must give the same thinned result bit for bit, and the same
+stage log. :meth:`BundleStream.load_window` (the time-filtered read the coarse and parked
+stages use) must give :meth:`Bundle.window`'s rows and read no row outside the window.
+"""
+from __future__ import annotations
+
+import numpy as np
+import pandas as pd
+import pytest
+
+from inmotion.core.solution import NavState
+from inmotion.errors import BadInput
+from inmotion.io.bundle import read_bundle, write_bundle
+from inmotion.io.bundle_stream import open_bundle
+from inmotion.io.result import thin
+from inmotion.process import _OutputRows, run_process
+from inmotion.sim import simulate
+from inmotion.sim.scenario import load_scenario
+
+IMU = {"rate_hz": 100.0, "gyro": {"drift_deg_h": 0.005, "arw_deg_sqrt_h": 0.0005},
+       "accel": {"bias_ug": 50.0, "vrw_ug_sqrt_hz": 5.0}}
+SENSORS = {"odometer": {"rate_hz": 10.0, "pulses_per_m": 200.0,
+                        "scale_factor_sigma_ppm": 2000.0, "lever_arm_m": [-0.8, -1.5, -0.9]},
+           "ldv": {"rate_hz": 100.0, "output": "distance", "scale_factor_sigma_ppm": 500.0,
+                   "noise_m_s": 0.01, "lever_arm_m": [0.3, 1.2, -0.6]},
+           "radar": {"rate_hz": 10.0, "noise_m_s": 0.05, "scale_factor_sigma_ppm": 1000.0},
+           "baro": {"rate_hz": 10.0, "noise_m": 0.5}}
+
+
+MEMS = {"rate_hz": 100.0, "gyro": {"drift_deg_h": 100.0, "arw_deg_sqrt_h": 0.3},
+        "accel": {"bias_ug": 2000.0, "vrw_ug_sqrt_hz": 100.0}}
+
+
+def _drive(sensors, seed, parked_s=62.0, imu=IMU):
+    """Parked 62 s (parked coarse + parked-kf), a drive with a 20 s stop and turns (~4 min)."""
+    return simulate(load_scenario({
+        "name": "stream", "start": {"lat_deg": 39.9, "lon_deg": 116.4, "h_m": 50.0,
+                                    "heading_deg": 60.0},
+        "vehicle_mounting_arcmin": [10.0, 0.0, 15.0],
+        "segments": [{"kind": "rest", "duration_s": parked_s},
+                     {"kind": "accelerate", "to_speed_m_s": 10.0, "accel_m_s2": 1.0},
+                     {"kind": "cruise", "duration_s": 40.0},
+                     {"kind": "turn", "angle_deg": 90, "rate_deg_s": 5},
+                     {"kind": "stop", "decel_m_s2": 1.0}, {"kind": "wait", "duration_s": 20},
+                     {"kind": "accelerate", "to_speed_m_s": 12.0, "accel_m_s2": 1.0},
+                     {"kind": "turn", "angle_deg": -60, "rate_deg_s": 4},
+                     {"kind": "cruise", "duration_s": 40.0}],
+        "imu": imu, "sensors": {k: SENSORS[k] for k in sensors}}), np.random.default_rng(seed))
+
+
+def _same(a, b):
+    for k in ("t", "lat", "lon", "h", "vel_n", "euler"):
+        np.testing.assert_array_equal(getattr(a, k), getattr(b, k), err_msg=k)
+    assert a.sigma.keys() == b.sigma.keys() and a.states.keys() == b.states.keys()
+    for d1, d2 in ((a.sigma, b.sigma), (a.states, b.states)):
+        for k in d1:
+            np.testing.assert_array_equal(d1[k], d2[k], err_msg=k)
+
+
+def _stages(sol):
+    return [{k: v for k, v in s.items() if k != "config_source"} for s in sol.info["stages"]]
+
+
+#: radar: the fine stage (dr-kf) hands over to sins-dr after 60 s (its heading sigma is below
+#: 60 arcmin by then), so the early stop and the output-row selection of both stages are used;
+#: no velocity sensor: a MEMS still for 8 s (the still-start test, the still stage's gyro bias
+#: taken off the rows as they are read), then nhc-kf
+CASES = {"radar": (["radar", "baro"], {"fine_s": 60.0, "handover_heading_sigma_arcmin": 60.0},
+                   {}, ["chi-square", "coarse-inertial", "parked-kf", "dr-kf", "sins-dr"]),
+         "odometer+ldv": (["odometer", "ldv", "baro"], {}, {},
+                          ["chi-square", "coarse-inertial", "parked-kf", "fkf"]),
+         "none": (["baro"], {}, {"parked_s": 8.0, "imu": MEMS},
+                  ["imu stillness", "imu", "nhc-kf"])}
+
+
+@pytest.mark.parametrize("smooth", [False, True])
+@pytest.mark.parametrize("case", list(CASES))
+def test_process_streamed_equals_in_memory(case, smooth, tmp_path):
+    sensors, cfg, drive, methods = CASES[case]
+    folder = tmp_path / "b"
+    write_bundle(_drive(sensors, 4, **drive), folder, fmt="parquet")
+    cfg = {**cfg, "smooth": smooth}
+    whole = read_bundle(folder)
+    init = NavState.from_truth(whole.truth)
+    ii = {"source": "truth", "has_attitude": True, "heading_sigma_deg": 0.1,
+          "tilt_sigma_deg": 0.05}
+    ref = run_process(whole, cfg, init, ii)
+    got = run_process(open_bundle(folder, chunk_rows=997), cfg, init, ii, output_rate_hz=1.0)
+    names = [s["method"] for s in ref.info["stages"]]
+    assert names[:len(methods)] == methods, names          # (radar: the handover happened)
+    if case == "radar":
+        assert len(got.t) < len(ref.t) / 5                  # 10 Hz stages kept at ~1 Hz
+    if case == "none":
+        assert "gyro_bias_deg_h" in ref.info["stages"][1], ref.info["stages"][1]
+    _same(thin(got, 1.0), thin(ref, 1.0))
+    assert _stages(got) == _stages(ref)
+
+
+def test_output_rows_keep_what_thin_keeps():
+    """Random stage cuts and chunkings of an irregular time base: thinning the rows kept
+    stage by stage gives the rows thinning all of them gives."""
+    rng = np.random.default_rng(0)
+    t = np.cumsum(rng.uniform(0.01, 0.4, 3000))
+    for _ in range(20):
+        cuts = np.sort(rng.choice(np.arange(1, len(t) - 1), 3, replace=False))
+        kept, prev = [], None
+        for part in np.split(np.arange(len(t)), cuts):
+            sel = _OutputRows(t[0], 2.0, prev)
+            for chunk in np.array_split(part, rng.integers(1, 6)):
+                m, stop = sel(t[chunk])
+                assert not stop
+                kept.append(chunk[m])
+            prev = t[part[-1]]
+        kept = np.concatenate(kept)
+        k = np.floor((t - t[0]) * 2.0 + 1e-6)            # thin()'s rule on all rows
+        want = np.flatnonzero(np.r_[True, k[1:] != k[:-1]] | (np.arange(len(t)) == len(t) - 1))
+        k2 = k[kept]
+        again = kept[np.r_[True, k2[1:] != k2[:-1]] | (np.arange(len(kept)) == len(kept) - 1)]
+        np.testing.assert_array_equal(again, want)
+
+
+@pytest.fixture(scope="module")
+def radar_drive():
+    return _drive(["radar", "baro"], 1)
+
+
+@pytest.mark.parametrize("fmt", ["parquet", "csv"])
+def test_load_window_reads_the_windows_rows(radar_drive, tmp_path, fmt):
+    folder = tmp_path / "b"
+    write_bundle(radar_drive, folder, fmt=fmt)
+    whole = read_bundle(folder)
+    stream = open_bundle(folder, chunk_rows=1000)
+    for w in ((None, 62.0), (100.0, 220.005), (230.0, None), (55.555, 55.575),
+              (None, None)):
+        a, b = stream.load_window(*w), whole.window(*w)
+        for k in ("t", "dtheta", "dvel"):
+            np.testing.assert_array_equal(getattr(a.imu, k), getattr(b.imu, k), err_msg=k)
+        np.testing.assert_array_equal(a.radar.v, b.radar.v)
+        np.testing.assert_array_equal(a.baro.h, b.baro.h)
+    # a window of the window
+    a = stream.window(50.0, 150.0).load_window(100.0, None)
+    np.testing.assert_array_equal(a.imu.t, whole.window(100.0, 150.0).imu.t)
+
+
+@pytest.mark.parametrize("fmt", ["parquet", "csv"])
+def test_load_window_checks_its_rows_only(radar_drive, tmp_path, fmt):
+    """A NaN at row 15001 (t = 150 s): a window before it is read without error (the row is
+    not read), one holding it names the row counted over the whole table, as read_bundle."""
+    folder = tmp_path / "b"
+    write_bundle(radar_drive, folder, fmt=fmt)
+    p = folder / f"imu.{fmt}"
+    df = pd.read_parquet(p) if fmt == "parquet" else pd.read_csv(p)
+    row = 15001
+    df.loc[row - 1, "dtheta_y"] = np.nan
+    df.to_parquet(p, index=False, row_group_size=8192) if fmt == "parquet" else \
+        df.to_csv(p, index=False)
+    stream = open_bundle(folder, chunk_rows=1000)
+    assert len(stream.load_window(0.0, 120.0).imu.t) == 12001
+    with pytest.raises(BadInput) as e:
+        stream.load_window(140.0, 160.0)
+    with pytest.raises(BadInput) as e_whole:
+        read_bundle(folder)
+    assert str(e.value) == str(e_whole.value)
+    assert f"row {row}, t=" in str(e.value)
+
+
+def test_gyro_bias_removed_as_rows_are_read_is_the_whole_tables(radar_drive, tmp_path):
+    """The still stage's correction applied to rows as they are read (pieces of 997 rows, a
+    window) equals the former whole-table ``dtheta - outer(dt, b)``, bit for bit."""
+    from inmotion.process import _GyroBiasRemoved
+    folder = tmp_path / "b"
+    write_bundle(radar_drive, folder, fmt="parquet")
+    whole = read_bundle(folder)
+    imu, b = whole.imu, np.array([1e-4, -2e-4, 3e-5])
+    want = imu.dtheta - np.outer(np.diff(imu.t, prepend=imu.t[0] - imu.dt), b)
+    for src in (whole, open_bundle(folder, chunk_rows=997)):
+        fixed = _GyroBiasRemoved(src, b)
+        n, _, pieces, k0 = fixed.imu_rows_after(10.0)
+        got = np.concatenate([p[1] for p in pieces])
+        assert len(got) == n
+        np.testing.assert_array_equal(got, want[k0:])
+        w = fixed.load_window(50.0, 80.0).imu
+        m = (imu.t >= 50.0) & (imu.t <= 80.0)
+        np.testing.assert_array_equal(w.dtheta, want[m])
+        np.testing.assert_array_equal(w.dvel, imu.dvel[m])
+        assert not hasattr(fixed.imu, "dtheta")
+
+
+@pytest.mark.parametrize("method", ["fine-mux", "adaptive"])
+def test_fine_mux_and_adaptive_streamed_equal_in_memory(method, tmp_path):
+    """Their coarse and parked stages read their windows' rows, their fine stage (fkf)
+    streams: the same solution as on the bundle in memory, bit for bit."""
+    from inmotion.align.multiplex import run_fine_mux
+    from inmotion.align.strategy import run_adaptive
+    run = {"fine-mux": run_fine_mux, "adaptive": run_adaptive}[method]
+    folder = tmp_path / "b"
+    write_bundle(_drive(["odometer", "ldv"], 2, parked_s=62.0 if method == "adaptive" else 5.0),
+                 folder, fmt="parquet")
+    whole = read_bundle(folder)
+    init = NavState.from_truth(whole.truth)
+    _same(run(open_bundle(folder, chunk_rows=997), {}, init), run(whole, {}, init))
