@@ -68,7 +68,9 @@ def test_od_kf_with_a_fine_odometer_stays_consistent():
     (:func:`inmotion.align.aided_kf.linearization_floor_per_m`). Without it the mean NEES
     over these 6 runs was 74.2 (one run at 393; heading sigma 1-2
     arcmin at errors of 5-18 arcmin); with it 4.50 (band 1.37-5.25; over seeds 100-109
-    4.44, band 1.68-4.70)."""
-    m, (lo, hi), per_run = final_nees("od-kf", PRIOR, fine_odometer_drive(), RUNS,
-                                      START_SIGMA_DEG)
+    4.44, band 1.68-4.70). The floor is a named setting, ``linearization_floor``, off by
+    default (its cost where the heading prior is large: the function's docstring), so
+    under the default this case stays overconfident (issue 15, open)."""
+    m, (lo, hi), per_run = final_nees("od-kf", dict(PRIOR, linearization_floor=True),
+                                      fine_odometer_drive(), RUNS, START_SIGMA_DEG)
     assert lo <= m <= hi, (m, (lo, hi), per_run)
