@@ -464,13 +464,13 @@ def _advance(S, C, fills, accs, t, dtheta, dvel, dt, ds, v, dth_dr, rows, qt, qj
     dmax = 1
     for j in range(C.dofs.shape[0]):
         dmax = max(dmax, C.dofs[j])
-    z = np.zeros(dmax)
-    H = np.zeros((dmax, n))
-    r = np.zeros(dmax)
-    xw = np.empty(n)
-    Pw = np.empty((n, n))
-    x_g = np.zeros(n)
-    P_g = np.zeros((n, n))
+    z_own = np.zeros(dmax)
+    H_own = np.zeros((dmax, n))
+    r_own = np.zeros(dmax)
+    xw_own = np.empty(n)
+    Pw_own = np.empty((n, n))
+    xg_own = np.zeros(n)
+    Pg_own = np.zeros((n, n))
     th_nb = np.zeros(3)
     v_old = np.zeros(3)
     C_own = np.empty((3, 3))
@@ -502,9 +502,18 @@ def _advance(S, C, fills, accs, t, dtheta, dvel, dt, ds, v, dth_dr, rows, qt, qj
         raise ValueError("_advance: the predict workspace's n is not the filter's")
     itau_g, itau_a = C.inv_tau_b[0], C.inv_tau_b[1]
     grav_grad, with_dr, o_dpD, q_dr_m2_s = C.grav_grad, C.with_dr, C.offs[DP_D], C.q_dr_m2_s
-    offs, params, dofs, local, gates, has_acc = C.offs, C.params, C.dofs, C.local, C.gates, \
-        C.has_acc
+    offs, params, dofs, local, gates, has_acc = borrowed(C.offs), borrowed(C.params), C.dofs, \
+        C.local, C.gates, C.has_acc
+    # the sample path's arrays, borrowed too (~107 atomic operations an update epoch before:
+    # the fills' and the scalar update's arguments)
+    z, H, r, xw, Pw = (borrowed(z_own), borrowed(H_own), borrowed(r_own), borrowed(xw_own),
+                       borrowed(Pw_own))
+    aux_own = aux
+    aux, macc, qd, rows = borrowed(aux_own), borrowed(macc), borrowed(qd), borrowed(rows)
     isolate, log_nis, fb_mask, fb_states = C.isolate, C.log_nis, C.fb_mask, C.fb_states
+    x_g, P_g, fed_back, fb_mask, fb_states = (borrowed(xg_own), borrowed(Pg_own),
+                                              borrowed(fed_back), borrowed(fb_mask),
+                                              borrowed(fb_states))
     feedback_every, out_every, step, need_nb = C.feedback_every, C.out_every, C.step, C.need_nb
     C_bm, l_b = C.C_bm, C.l_b
     any_isolate = False               # without FDI the global estimate's source is fixed
@@ -514,6 +523,9 @@ def _advance(S, C, fills, accs, t, dtheta, dvel, dt, ds, v, dth_dr, rows, qt, qj
     phc, ppred = S.phc, S.ppred
     n_q = qt.shape[0]
     M = t.shape[0]
+    # the next output epoch (every out_every-th): a comparison per epoch, not an integer
+    # division (~40-90 cycles)
+    next_out = (ints[_I_EPOCHS] // out_every + 1) * out_every
     for k in range(M + 1):
         if k < M:
             dtk = dt[k]
@@ -581,12 +593,15 @@ def _advance(S, C, fills, accs, t, dtheta, dvel, dt, ds, v, dth_dr, rows, qt, qj
             else:
                 predict_kernel_call(k_addr, X[l], P[l], F, Qc[l], sum_dt, k_buf)
         ints[_I_EPOCHS] += 1
+        out_now = ints[_I_EPOCHS] == next_out          # ints[_I_EPOCHS] % out_every == 0
+        if out_now:
+            next_out += out_every
         t_end[0] = t_now
         if record:                     # the forward pass of a smoother: Phi, P_k|k-1
             _record_predict(phc, ws.act, ws.PhiT)
             # P_k|k-1 is read only at the epochs that record (_epoch_outputs: samples due,
             # the last epoch, an output epoch)
-            if (qi < n_q and qt[qi] <= t_now) or last or ints[_I_EPOCHS] % out_every == 0:
+            if (qi < n_q and qt[qi] <= t_now) or last or out_now:
                 P0 = P[0]
                 for i in range(n):
                     for c in range(n):
@@ -643,11 +658,13 @@ def _advance(S, C, fills, accs, t, dtheta, dvel, dt, ds, v, dth_dr, rows, qt, qj
                     _global(S, C, mode, x_g, P_g)
                 _feed_back_arrays(xs, ms, xd, md, bias_g, bias_a, fed_back, X, offs, fb_mask,
                                   fb_states, with_dr, x_g)
-        if record or ints[_I_EPOCHS] % out_every == 0:
+        if record or out_now:
             _epoch_outputs(S, C, O, t_now, x_g, P_g, applied, last)
         for i in range(_A_SIZE):
             acc[i] = 0.0
-    _keep_alive(F_own, Q_own, C_own, fn_own, vel_own)   # the borrowed views' memory
+    # the borrowed views' memory
+    _keep_alive(F_own, Q_own, C_own, fn_own, vel_own, z_own, H_own, r_own, xw_own, Pw_own,
+                aux_own, xg_own, Pg_own)
     return qi
 
 
