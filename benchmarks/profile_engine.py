@@ -8,7 +8,9 @@ Times, each the minimum over ``--repeat`` runs of this process's CPU time
 (b) the mechanization alone (``_kernels.sins_run`` over the hour's IMU rows);
 (c) ``error_model._fill_F`` alone (at the same state);
 (d) the whole filter (``bench_engine.engine_run``: ``_advance`` over the hour, chunked);
-(e) the same without the 10 Hz samples (mechanization, ``_fill_F``, predict, the loop).
+(e) the same without the 10 Hz samples (mechanization, ``_fill_F``, predict, the loop);
+(f) a bare loop of (b), (c) and (a) per row (mechanization, ``C_b^n``, ``_fill_F``, predict)
+    with nothing else: what (e) would cost if the engine's loop added nothing.
 
     OPENBLAS_NUM_THREADS=1 python benchmarks/profile_engine.py [--repeat 5]
 
@@ -50,6 +52,24 @@ def _loop_fill(calls, F, offs, lat, h, v, C, f_n, itau, dr_eps, gg, itg, ita):
         em._fill_F(F, offs, lat, h, v, C, f_n, itau, dr_eps, gg, itg, ita)
 
 
+@numba.njit(cache=True)
+def _loop_bare(xs, mem, dtheta, dvel, dt, x, P, F, Qc, ws, offs9, itau, dr_eps, gg, itg, ita):
+    C_S = np.empty((3, 3))
+    f_n = np.empty(3)
+    vel = np.empty(3)
+    for k in range(dt.shape[0]):
+        dth = (dtheta[k, 0], dtheta[k, 1], dtheta[k, 2])
+        dvl = (dvel[k, 0], dvel[k, 1], dvel[k, 2])
+        K.sins_step(xs, mem, dth, dvl, dt[k], np.nan, 0.0, 0.0)
+        K.dcm_from_quat_into((xs[K.Q0], xs[K.Q0 + 1], xs[K.Q0 + 2], xs[K.Q3]), C_S)
+        for i in range(3):
+            vel[i] = xs[K.VE + i]
+        for i in range(3):
+            f_n[i] = (C_S[i, 0] * dvl[0] + C_S[i, 1] * dvl[1] + C_S[i, 2] * dvl[2]) / dt[k]
+        em._fill_F(F, offs9, xs[K.LAT], xs[K.H], vel, C_S, f_n, itau, dr_eps, gg, itg, ita)
+        predict_sparse(x, P, F, Qc, dt[k], ws)
+
+
 def best(fn, repeat):
     fn()
     out = np.inf
@@ -63,7 +83,7 @@ def best(fn, repeat):
 def main(argv=None):
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--repeat", type=int, default=5)
-    ap.add_argument("--parts", default="abcde")
+    ap.add_argument("--parts", default="abcdef")
     args = ap.parse_args(argv)
     print(f"load average before {os.getloadavg()}")
     bundle = simulate(load_scenario(find_scenario("paper002_hour")), np.random.default_rng(0))
@@ -105,6 +125,13 @@ def main(argv=None):
     if "e" in args.parts:
         res["e filter without samples"] = best(lambda: engine_run(bundle, init, False),
                                                args.repeat)
+    if "f" in args.parts:
+        def bare():
+            x0 = np.asarray(_state(init))
+            _loop_bare(x0, np.zeros(K.NMEM), imu.dtheta[1:], imu.dvel[1:], np.diff(imu.t),
+                       x.copy(), P.copy(), np.zeros((n, n)), C.Qc[0], C.ws, C.offs9,
+                       C.inv_tau_dk, C.dr_eps, C.grav_grad, C.inv_tau_b[0], C.inv_tau_b[1])
+        res["f bare loop b+c+a"] = best(bare, args.repeat)
     for k, v in res.items():
         print(f"{k:32s} {v:.4f} s per hour ({v / ROWS * 1e6:.3f} us a row)")
     print(f"load average after {os.getloadavg()}")
