@@ -464,6 +464,10 @@ def _advance(S, C, fills, accs, t, dtheta, dvel, dt, ds, v, dth_dr, rows, qt, qj
     each of their ~50 arrays, 0.5 us, and so does a function inlined with them); only the
     rare paths (FDI, shared measurements, the fused estimate, records, output rows) pass
     ``S``, ``C``."""
+    # S, C, O as borrowed tuples: the rare paths that take them (FDI, the fused estimate,
+    # records, output rows) pass ~50 arrays each, an atomic increment and decrement each
+    # (~390 an output epoch) when they own references
+    S, C, O = borrowed(S), borrowed(C), borrowed(O)
     n = S.X.shape[1]
     F_own = np.zeros((n, n))
     Q_own = np.zeros((n, n))
