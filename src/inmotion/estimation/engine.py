@@ -111,6 +111,29 @@ loop, Python, dispatch) ~0.057 s. A second predict kernel call per epoch (on a c
 0.12-0.15 s per hour (load ~1.5-2.5), i.e. 0.34-0.41 us a call, as much as the kernel alone
 in a tight loop (0.36 us): the predict's cost in the loop is its arithmetic (~950 4-wide
 and ~550 scalar FMAs and their loads, ~3,600 instructions), not a cold cache.
+Then (issue 13, reference counting): perf showed a third of the JIT time in two
+one-instruction functions, numba's ``NRT_incref`` / ``NRT_decref`` (a ``lock inc`` /
+``lock dec`` each); counted with gdb at them, the per-row path made 33 atomic operations
+a row (20 around the predict call: the views ``X[l]``, ``P[l]``, ``Qc[l]``, ``F`` and the
+workspace's six arrays bound by the inlined ``predict_sparse``; 6 in the mechanization, 6
+in ``_fill_F``), an update epoch ~107 more (the fills' and the scalar updates' arguments),
+an output epoch ~390 (the calls with ``S``, ``C``, ``O``). :func:`_advance` now binds
+every array it uses, and ``S``, ``C``, ``O`` themselves, as borrowed views
+(:func:`inmotion.estimation.predict.borrowed`: NULL meminfo, so each of those calls is a
+test of NULL; the owners are alive for the call: ``S``, ``C``, ``O`` held by the caller,
+the scratch arrays by a final :func:`_keep_alive`) and calls the predict kernel through its
+address and buffer bound once (:func:`~inmotion.estimation.predict.predict_kernel_call`,
+sizes checked once per call of :func:`_advance`); the feedback passes 3-tuples (no
+``np.zeros(3)`` per feedback), the output epoch is a running counter (no integer modulo
+per epoch). Atomic operations per row 37 -> 0.09 (gdb, 2,000 rows with samples);
+results bit-identical (the equal-workload hour's ``x``, ``P``, SINS state equal).
+Side by side (``benchmarks/profile_engine.py``, min of 5, alternating, load 10-15): the
+whole filter 0.352-0.384 -> 0.304-0.320 s per hour, without the samples 0.296-0.314 ->
+0.256-0.263. Parts at load ~13 (``profile_engine.py``): the predict kernel alone 0.12-0.13 s
+per hour (at the arithmetic of its algorithm: ~950 4-wide and ~320 scalar FMAs, ~1000
+cycles), mechanization 0.05, ``_fill_F`` 0.026, a bare loop of the three 0.19-0.21, the
+filter without samples 0.24-0.26, with them 0.28-0.30 (the five scalar updates of an
+update epoch 1.0 us, 0.037 s per hour, measured alone).
 Numba's disk cache of :func:`_advance` is keyed on this file's contents only: a change to a
 function it calls in another module (``sequential_joseph``, ``_fill_F``, the fills' helpers)
 is not seen by a cached ``_advance``, which may have that function's old code inlined; clear
@@ -1005,8 +1028,11 @@ class ErrorStateFilter:
 
     def _rows(self, row_data, m):
         J = len(self.measurements)
-        rows = np.full((MAX_MEASUREMENTS if J else 0, m, self._row_size), np.nan)
         need = [j for j, ms_ in enumerate(self.measurements) if ms_.accumulate is not None]
+        # read only for measurements with an accumulator: without one, no rows (was 1 MB of
+        # NaN written per 16,384-row chunk)
+        rows = np.full((MAX_MEASUREMENTS if J else 0, m if need else 0, self._row_size),
+                       np.nan)
         row_data = row_data or {}
         for name in row_data:
             if name not in self._index:

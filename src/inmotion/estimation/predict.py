@@ -76,6 +76,12 @@ Usage (engine)::
     ...                                                   # every epoch, in numba code:
     em._fill_F(F, offs, lat, h, vel_n, C, f_n, inv_tau_dk, dr_eps, grav_grad)
     predict_sparse(x, P, F, Qc, dt, ws)                   # x, P in place
+
+The engine (:func:`inmotion.estimation.engine._advance`) checks the sizes once per call and
+then calls :func:`predict_kernel_call` with the workspace's ``kernel`` and ``buf`` bound once
+and its arrays as :func:`borrowed` views: the inlined :func:`predict_sparse` bound ``x``,
+``P``, ``Qc`` views and the workspace's six arrays on every call, 20 atomic reference-count
+operations a row (issue 13; ``borrowed``'s docstring).
 """
 from __future__ import annotations
 
