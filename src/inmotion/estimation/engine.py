@@ -133,7 +133,9 @@ whole filter 0.352-0.384 -> 0.304-0.320 s per hour, without the samples 0.296-0.
 per hour (at the arithmetic of its algorithm: ~950 4-wide and ~320 scalar FMAs, ~1000
 cycles), mechanization 0.05, ``_fill_F`` 0.026, a bare loop of the three 0.19-0.21, the
 filter without samples 0.24-0.26, with them 0.28-0.30 (the five scalar updates of an
-update epoch 1.0 us, 0.037 s per hour, measured alone).
+update epoch 1.0 us, 0.037 s per hour, measured alone). ``bench_engine.py --repeat 3
+--no-cli``, before and after alternating at load 3.6-4.7: equal workload 0.360, 0.389 ->
+0.312, 0.308 s per hour; ``sins-dr`` at 100 Hz 0.776, 0.772 -> 0.678, 0.663 s.
 Numba's disk cache of :func:`_advance` is keyed on this file's contents only: a change to a
 function it calls in another module (``sequential_joseph``, ``_fill_F``, the fills' helpers)
 is not seen by a cached ``_advance``, which may have that function's old code inlined; clear
