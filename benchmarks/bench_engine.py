@@ -48,8 +48,10 @@ LAYOUT = Layout(["phi", "dv", "dp", "eps", "nabla", "mount", "dk", "lever"])
 ARCMIN = np.pi / 180 / 60
 
 
-def engine_run(bundle, init):
-    """The equal-workload filter over the whole hour; returns the final state."""
+def engine_run(bundle, init, measurements=True):
+    """The equal-workload filter over the whole hour; returns the filter. ``measurements``
+    False: the same without the 10 Hz samples (mechanization and predict only, for
+    ``profile_engine.py``)."""
     lay = LAYOUT
     model = em.ErrorModel(lay, em.ProcessNoise(gyro_arw=1e-6, accel_vrw=1e-4))
     d = np.r_[[ARCMIN * 10] * 2, [ARCMIN * 30], [0.1] * 3, [1e-7, 1e-7, 3.0], [2e-7] * 3,
@@ -63,8 +65,9 @@ def engine_run(bundle, init):
     for a in range(0, len(t), chunk):
         b = min(a + chunk, len(t))
         tm = radar.t[(radar.t > (t[a - 1] if a else init.t)) & (radar.t <= t[b - 1])]
-        f.add_measurement("sensor_velocity", tm, np.interp(tm, radar.t, radar.v))
-        f.add_measurement("nhc", tm)
+        if measurements:
+            f.add_measurement("sensor_velocity", tm, np.interp(tm, radar.t, radar.v))
+            f.add_measurement("nhc", tm)
         f.add_imu(t[a:b], imu.dtheta[1 + a:1 + b], imu.dvel[1 + a:1 + b], flush=b == len(t))
     return f
 

@@ -10,6 +10,8 @@
   Gauss-Markov gyro bias (``-1/tau`` on the ``eps`` diagonal), at random states, random F on
   the same patterns, random SPD ``P``, dt from 0.005 to 1 s; ``P`` comes out exactly symmetric;
 * the same over 200 chained steps inside a numba loop (the engine's use);
+* ``borrowed`` views share the data and hold no reference; ``predict_kernel_call`` (the
+  engine's call) gives ``predict_sparse``'s results bit for bit;
 * the generated kernel is cached on disk and loaded, not compiled, by a second process; a
   pickled workspace is rebuilt in the process that unpickles it.
 """
@@ -17,11 +19,16 @@ import os
 import pickle
 import subprocess
 import sys
+from collections import namedtuple
 from pathlib import Path
 
 import numba
 import numpy as np
 import pytest
+from llvmlite import ir as llvm_ir
+from numba import types
+from numba.core import cgutils
+from numba.extending import intrinsic
 
 from inmotion.align.dr_kalman import LAYOUT_DR_KF, LAYOUT_OD_KF
 from inmotion.align.parked_kf import ENGINE_LAYOUT as PARKED_LAYOUT
@@ -30,7 +37,8 @@ from inmotion.estimation import error_model as em
 from inmotion.estimation.aiding_rows import NHC_LAYOUT, SUB_LAYOUT
 from inmotion.estimation.kalman import _predict_kernel
 from inmotion.estimation.layout import Layout
-from inmotion.estimation.predict import kernel_source, make_workspace, predict_sparse
+from inmotion.estimation.predict import (borrowed, kernel_source, make_workspace,
+                                         predict_kernel_call, predict_sparse)
 from inmotion.navigate.sins_dr import LAYOUT_SINS_DR
 
 LAYOUTS = {
@@ -374,3 +382,76 @@ def test_generated_kernel_is_cached_across_processes(tmp_path):
             for _ in range(2)]
     assert hits == ["0", "1"]
     assert len(list(tmp_path.glob("predict_*.py"))) == 1
+
+
+# ------------------------------------------------------------ borrowed views (issue 13)
+@intrinsic
+def _refcount_and_null(typingctx, arr):
+    """(meminfo's reference count or -1 when NULL, meminfo is NULL) of an array."""
+    sig = types.UniTuple(types.int64, 2)(arr)
+
+    def codegen(context, builder, signature, args):
+        a = context.make_array(arr)(context, builder, args[0])
+        mi = a.meminfo
+        is_null = cgutils.is_null(builder, mi)
+        i64 = llvm_ir.IntType(64)
+        cnt = cgutils.alloca_once_value(builder, i64(-1))
+        with builder.if_then(builder.not_(is_null)):
+            builder.store(builder.load(builder.bitcast(mi, i64.as_pointer())), cnt)
+        return context.make_tuple(builder, signature.return_type,
+                                  [builder.load(cnt), builder.zext(is_null, i64)])
+
+    return sig, codegen
+
+
+_Pair = namedtuple("_Pair", "a b k inner")
+
+
+@numba.njit
+def _borrow_probe():
+    a = np.arange(5.0)
+    before = _refcount_and_null(a)[0]
+    v = borrowed(a)
+    w = v[1:4]                       # a view of the borrowed view
+    w[0] = 10.0                      # writes reach the owner's memory
+    during = _refcount_and_null(a)[0]
+    t = borrowed(_Pair(a, np.ones((2, 2)), 3, (a, 2.5)))
+    return (before, during, _refcount_and_null(v)[1], _refcount_and_null(w)[1],
+            _refcount_and_null(t.inner[0])[1], a[1], t.a[1], t.k, t.inner[1], t.b.sum())
+
+
+def test_borrowed_views_share_the_data_and_hold_no_reference():
+    """``borrowed`` (the engine's per-row arrays): same data (a write through a view of it
+    reaches the owner), a NULL meminfo (so numba's reference counting of it is a test of
+    NULL, not an atomic operation), the owner's count untouched; in a (named)tuple every
+    array, also nested, is borrowed and the other members are the same."""
+    before, during, v_null, w_null, t_null, a1, ta1, k, inner1, bsum = _borrow_probe()
+    assert before >= 1 and during == before
+    assert v_null == 1 and w_null == 1 and t_null == 1
+    assert a1 == 10.0 and ta1 == 10.0
+    assert k == 3 and inner1 == 2.5 and bsum == 4.0
+
+
+@numba.njit
+def _predict_both(x, P, F, Qc, dt, ws, x2, P2):
+    predict_sparse(x, P, F, Qc, dt, ws)
+    predict_kernel_call(ws.kernel, x2, P2, F, Qc, dt, ws.buf)
+
+
+def test_predict_kernel_call_is_predict_sparse_without_the_check():
+    """The engine's call (kernel address and buffer bound once, sizes checked once) runs the
+    same kernel as ``predict_sparse``: the same results bit for bit."""
+    lay = LAYOUTS["sins-dr"]
+    n, offs = lay.n, em._offsets(lay)
+    rng = np.random.default_rng(11)
+    Qc = _model_Qc(lay, rng)
+    ws = make_workspace(em.F_pattern(n, offs, 1.0 / 300.0, True), Qc)
+    lat, h, v, C, f_n = _state(rng)
+    F = np.zeros((n, n))
+    em._fill_F(F, offs, lat, h, v, C, f_n, 1.0 / 300.0, True, True)
+    P = _spd(rng, n, 1.0)
+    x = rng.standard_normal(n)
+    x2, P2, P_in = x.copy(), P.copy(), P.copy()
+    _predict_both(x, P, F, Qc, 0.01, ws, x2, P2)
+    assert np.array_equal(x, x2) and np.array_equal(P, P2)
+    assert not np.array_equal(P, P_in)                                    # it did predict

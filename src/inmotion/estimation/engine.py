@@ -111,6 +111,31 @@ loop, Python, dispatch) ~0.057 s. A second predict kernel call per epoch (on a c
 0.12-0.15 s per hour (load ~1.5-2.5), i.e. 0.34-0.41 us a call, as much as the kernel alone
 in a tight loop (0.36 us): the predict's cost in the loop is its arithmetic (~950 4-wide
 and ~550 scalar FMAs and their loads, ~3,600 instructions), not a cold cache.
+Then (issue 13, reference counting): perf showed a third of the JIT time in two
+one-instruction functions, numba's ``NRT_incref`` / ``NRT_decref`` (a ``lock inc`` /
+``lock dec`` each); counted with gdb at them, the per-row path made 33 atomic operations
+a row (20 around the predict call: the views ``X[l]``, ``P[l]``, ``Qc[l]``, ``F`` and the
+workspace's six arrays bound by the inlined ``predict_sparse``; 6 in the mechanization, 6
+in ``_fill_F``), an update epoch ~107 more (the fills' and the scalar updates' arguments),
+an output epoch ~390 (the calls with ``S``, ``C``, ``O``). :func:`_advance` now binds
+every array it uses, and ``S``, ``C``, ``O`` themselves, as borrowed views
+(:func:`inmotion.estimation.predict.borrowed`: NULL meminfo, so each of those calls is a
+test of NULL; the owners are alive for the call: ``S``, ``C``, ``O`` held by the caller,
+the scratch arrays by a final :func:`_keep_alive`) and calls the predict kernel through its
+address and buffer bound once (:func:`~inmotion.estimation.predict.predict_kernel_call`,
+sizes checked once per call of :func:`_advance`); the feedback passes 3-tuples (no
+``np.zeros(3)`` per feedback), the output epoch is a running counter (no integer modulo
+per epoch). Atomic operations per row 37 -> 0.09 (gdb, 2,000 rows with samples);
+results bit-identical (the equal-workload hour's ``x``, ``P``, SINS state equal).
+Side by side (``benchmarks/profile_engine.py``, min of 5, alternating, load 10-15): the
+whole filter 0.352-0.384 -> 0.304-0.320 s per hour, without the samples 0.296-0.314 ->
+0.256-0.263. Parts at load ~13 (``profile_engine.py``): the predict kernel alone 0.12-0.13 s
+per hour (at the arithmetic of its algorithm: ~950 4-wide and ~320 scalar FMAs, ~1000
+cycles), mechanization 0.05, ``_fill_F`` 0.026, a bare loop of the three 0.19-0.21, the
+filter without samples 0.24-0.26, with them 0.28-0.30 (the five scalar updates of an
+update epoch 1.0 us, 0.037 s per hour, measured alone). ``bench_engine.py --repeat 3
+--no-cli``, before and after alternating at load 3.6-4.7: equal workload 0.360, 0.389 ->
+0.312, 0.308 s per hour; ``sins-dr`` at 100 Hz 0.776, 0.772 -> 0.678, 0.663 s.
 Numba's disk cache of :func:`_advance` is keyed on this file's contents only: a change to a
 function it calls in another module (``sequential_joseph``, ``_fill_F``, the fills' helpers)
 is not seen by a cached ``_advance``, which may have that function's old code inlined; clear
@@ -134,7 +159,7 @@ from .layout import DP, DP_D, DV, EPS, NABLA, PHI, PHI_D, Layout
 from .measurements import (ACC_SIZE, AUX_FB, AUX_SIZE, AUX_T, AUX_WIB, AUX_WNB, Measurement,
                            accumulator_function, dispatcher, fill_function)
 from .nav_ops import compensated_row, correct_nav, dcm_of_q
-from .predict import make_workspace, predict_sparse
+from .predict import borrowed, make_workspace, predict_kernel_call
 
 __all__ = ["ErrorStateFilter", "LocalFilter", "FEEDBACK_BLOCKS", "MAX_MEASUREMENTS",
            "EVENT_DETECTED", "EVENT_RETURNED", "EVENT_MODE", "MODE_FUSED", "MODE_NONE"]
@@ -248,21 +273,28 @@ def _global(S, C, mode, x_g, P_g):
             P_g[i, i] = np.nan
 
 
+@numba.njit(cache=True, inline="always")
+def _block3(x, o, on):
+    """``x[o:o + 3]`` as a 3-tuple if ``on``, else zeros."""
+    if on:
+        return (x[o], x[o + 1], x[o + 2])
+    return (0.0, 0.0, 0.0)
+
+
 @numba.njit(cache=True)
 def _feed_back_arrays(xs, ms, xd, md, bias_g, bias_a, fed_back, X, offs, m, fb_states,
                       with_dr, x_g):
     """Apply the global estimate's fed-back blocks (the policy ``m``) to the navigation
     system and the IMU compensation, accumulate them, subtract them from every local filter
     (arrays only: a call with the namedtuples ``S``, ``C`` costs their reference counting)."""
-    zero3 = np.zeros(3)
-    phi = x_g[offs[PHI]:offs[PHI] + 3] if m[PHI] else zero3
-    dv = x_g[offs[DV]:offs[DV] + 3] if m[DV] else zero3
-    dp = x_g[offs[DP]:offs[DP] + 3] if m[DP] else zero3
+    # the blocks as 3-tuples (no allocation, no reference counting, 10 Hz)
+    phi = _block3(x_g, offs[PHI], m[PHI])
+    dv = _block3(x_g, offs[DV], m[DV])
+    dp = _block3(x_g, offs[DP], m[DP])
     correct_nav(xs, ms, phi, dv, dp, True)
     if with_dr and (m[PHI_D] or m[DP_D]):
-        o_phiD, o_dpD = offs[PHI_D], offs[DP_D]
-        phiD = x_g[o_phiD:o_phiD + 3] if m[PHI_D] else zero3
-        dpD = x_g[o_dpD:o_dpD + 3] if m[DP_D] else zero3
+        phiD = _block3(x_g, offs[PHI_D], m[PHI_D])
+        dpD = _block3(x_g, offs[DP_D], m[DP_D])
         correct_nav(xd, md, phiD, dv, dpD, False)
     for i in range(3):
         if m[EPS] and offs[EPS] >= 0:
@@ -436,6 +468,12 @@ def _epoch_outputs(S, C, O, t_now, x_g, P_g, applied, last):
 
 
 @numba.njit(cache=True)
+def _keep_alive(*arrays):
+    """Nothing: a use that keeps the arrays (owners of borrowed views) alive up to here."""
+    return len(arrays)
+
+
+@numba.njit(cache=True)
 def _advance(S, C, fills, accs, t, dtheta, dvel, dt, ds, v, dth_dr, rows, qt, qj, qd, O,
              flush, t_last):
     """Run IMU rows ``t`` (M,) through the filter (module docstring); ``ds``, ``v`` (M,) the
@@ -451,40 +489,67 @@ def _advance(S, C, fills, accs, t, dtheta, dvel, dt, ds, v, dth_dr, rows, qt, qj
     each of their ~50 arrays, 0.5 us, and so does a function inlined with them); only the
     rare paths (FDI, shared measurements, the fused estimate, records, output rows) pass
     ``S``, ``C``."""
+    # S, C, O as borrowed tuples: the rare paths that take them (FDI, the fused estimate,
+    # records, output rows) pass ~50 arrays each, an atomic increment and decrement each
+    # (~390 an output epoch) when they own references
+    S, C, O = borrowed(S), borrowed(C), borrowed(O)
     n = S.X.shape[1]
-    F = np.zeros((n, n))
-    Q = np.zeros((n, n))
+    F_own = np.zeros((n, n))
+    Q_own = np.zeros((n, n))
     aux = np.zeros(AUX_SIZE)
     dmax = 1
     for j in range(C.dofs.shape[0]):
         dmax = max(dmax, C.dofs[j])
-    z = np.zeros(dmax)
-    H = np.zeros((dmax, n))
-    r = np.zeros(dmax)
-    xw = np.empty(n)
-    Pw = np.empty((n, n))
-    x_g = np.zeros(n)
-    P_g = np.zeros((n, n))
+    z_own = np.zeros(dmax)
+    H_own = np.zeros((dmax, n))
+    r_own = np.zeros(dmax)
+    xw_own = np.empty(n)
+    Pw_own = np.empty((n, n))
+    xg_own = np.zeros(n)
+    Pg_own = np.zeros((n, n))
     th_nb = np.zeros(3)
     v_old = np.zeros(3)
-    C_S = np.empty((3, 3))
+    C_own = np.empty((3, 3))
     f_b = np.empty(3)
-    f_n = np.empty(3)
-    vel = np.empty(3)
+    fn_own = np.empty(3)
+    vel_own = np.empty(3)
     nan = np.nan
     own_dr_gyro = dth_dr.shape[0] > 0
     qi = 0
-    # the arrays and constants, bound once (no S, C in the per-row and per-sample paths)
-    xs, ms, xd, md, acc, X, P, ints, t_end = S.xs, S.ms, S.xd, S.md, S.acc, S.X, S.P, S.ints, \
-        S.t_end
-    bias_g, bias_a, fed_back, macc = S.bias_g, S.bias_a, S.fed_back, S.macc
+    # the arrays and constants, bound once (no S, C in the per-row and per-sample paths);
+    # those of the per-row path as borrowed views (no reference counting: an atomic
+    # increment and decrement each time one is bound, indexed or passed, 33 a row before,
+    # ~0.09 s per hour): S, C and the *_own arrays keep their memory alive for the call
+    xs, ms, xd, md, acc, X, P, ints, t_end = (borrowed(S.xs), borrowed(S.ms), borrowed(S.xd),
+                                              borrowed(S.md), borrowed(S.acc), borrowed(S.X),
+                                              borrowed(S.P), S.ints, S.t_end)
+    bias_g, bias_a, fed_back, macc = borrowed(S.bias_g), borrowed(S.bias_a), S.fed_back, S.macc
     used, rejected, nis_sum, dof_sum = S.used, S.rejected, S.nis_sum, S.dof_sum
-    Qc, ws, offs9, inv_tau_dk, dr_eps = C.Qc, C.ws, C.offs9, C.inv_tau_dk, C.dr_eps
+    F, Q, C_S, f_n, vel = (borrowed(F_own), borrowed(Q_own), borrowed(C_own), borrowed(fn_own),
+                           borrowed(vel_own))
+    dtheta, dvel = borrowed(dtheta), borrowed(dvel)
+    Qc, ws, offs9, inv_tau_dk, dr_eps = borrowed(C.Qc), C.ws, C.offs9, C.inv_tau_dk, \
+        C.dr_eps
+    # the predict kernel's address and buffer, bound once; the sizes checked once here (the
+    # kernel reads and writes n and n x n entries through raw pointers)
+    k_addr, k_buf = ws.kernel, borrowed(ws.buf)
+    if (ws.act.shape[0] + ws.inact.shape[0] != n or P.shape[1] != n or P.shape[2] != n
+            or Qc.shape[1] != n or Qc.shape[2] != n):
+        raise ValueError("_advance: the predict workspace's n is not the filter's")
     itau_g, itau_a = C.inv_tau_b[0], C.inv_tau_b[1]
     grav_grad, with_dr, o_dpD, q_dr_m2_s = C.grav_grad, C.with_dr, C.offs[DP_D], C.q_dr_m2_s
-    offs, params, dofs, local, gates, has_acc = C.offs, C.params, C.dofs, C.local, C.gates, \
-        C.has_acc
+    offs, params, dofs, local, gates, has_acc = borrowed(C.offs), borrowed(C.params), C.dofs, \
+        C.local, C.gates, C.has_acc
+    # the sample path's arrays, borrowed too (~107 atomic operations an update epoch before:
+    # the fills' and the scalar update's arguments)
+    z, H, r, xw, Pw = (borrowed(z_own), borrowed(H_own), borrowed(r_own), borrowed(xw_own),
+                       borrowed(Pw_own))
+    aux_own = aux
+    aux, macc, qd, rows = borrowed(aux_own), borrowed(macc), borrowed(qd), borrowed(rows)
     isolate, log_nis, fb_mask, fb_states = C.isolate, C.log_nis, C.fb_mask, C.fb_states
+    x_g, P_g, fed_back, fb_mask, fb_states = (borrowed(xg_own), borrowed(Pg_own),
+                                              borrowed(fed_back), borrowed(fb_mask),
+                                              borrowed(fb_states))
     feedback_every, out_every, step, need_nb = C.feedback_every, C.out_every, C.step, C.need_nb
     C_bm, l_b = C.C_bm, C.l_b
     any_isolate = False               # without FDI the global estimate's source is fixed
@@ -494,6 +559,9 @@ def _advance(S, C, fills, accs, t, dtheta, dvel, dt, ds, v, dth_dr, rows, qt, qj
     phc, ppred = S.phc, S.ppred
     n_q = qt.shape[0]
     M = t.shape[0]
+    # the next output epoch (every out_every-th): a comparison per epoch, not an integer
+    # division (~40-90 cycles)
+    next_out = (ints[_I_EPOCHS] // out_every + 1) * out_every
     for k in range(M + 1):
         if k < M:
             dtk = dt[k]
@@ -557,16 +625,19 @@ def _advance(S, C, fills, accs, t, dtheta, dvel, dt, ds, v, dth_dr, rows, qt, qj
         for l in range(X.shape[0]):
             if with_dr:
                 _dr_position_noise(Q, Qc[l], o_dpD, xs[K.LAT], xs[K.H], q_dr_m2_s)
-                predict_sparse(X[l], P[l], F, Q, sum_dt, ws)
+                predict_kernel_call(k_addr, X[l], P[l], F, Q, sum_dt, k_buf)
             else:
-                predict_sparse(X[l], P[l], F, Qc[l], sum_dt, ws)
+                predict_kernel_call(k_addr, X[l], P[l], F, Qc[l], sum_dt, k_buf)
         ints[_I_EPOCHS] += 1
+        out_now = ints[_I_EPOCHS] == next_out          # ints[_I_EPOCHS] % out_every == 0
+        if out_now:
+            next_out += out_every
         t_end[0] = t_now
         if record:                     # the forward pass of a smoother: Phi, P_k|k-1
             _record_predict(phc, ws.act, ws.PhiT)
             # P_k|k-1 is read only at the epochs that record (_epoch_outputs: samples due,
             # the last epoch, an output epoch)
-            if (qi < n_q and qt[qi] <= t_now) or last or ints[_I_EPOCHS] % out_every == 0:
+            if (qi < n_q and qt[qi] <= t_now) or last or out_now:
                 P0 = P[0]
                 for i in range(n):
                     for c in range(n):
@@ -623,10 +694,13 @@ def _advance(S, C, fills, accs, t, dtheta, dvel, dt, ds, v, dth_dr, rows, qt, qj
                     _global(S, C, mode, x_g, P_g)
                 _feed_back_arrays(xs, ms, xd, md, bias_g, bias_a, fed_back, X, offs, fb_mask,
                                   fb_states, with_dr, x_g)
-        if record or ints[_I_EPOCHS] % out_every == 0:
+        if record or out_now:
             _epoch_outputs(S, C, O, t_now, x_g, P_g, applied, last)
         for i in range(_A_SIZE):
             acc[i] = 0.0
+    # the borrowed views' memory
+    _keep_alive(F_own, Q_own, C_own, fn_own, vel_own, z_own, H_own, r_own, xw_own, Pw_own,
+                aux_own, xg_own, Pg_own)
     return qi
 
 
@@ -956,8 +1030,11 @@ class ErrorStateFilter:
 
     def _rows(self, row_data, m):
         J = len(self.measurements)
-        rows = np.full((MAX_MEASUREMENTS if J else 0, m, self._row_size), np.nan)
         need = [j for j, ms_ in enumerate(self.measurements) if ms_.accumulate is not None]
+        # read only for measurements with an accumulator: without one, no rows (was 1 MB of
+        # NaN written per 16,384-row chunk)
+        rows = np.full((MAX_MEASUREMENTS if J else 0, m if need else 0, self._row_size),
+                       np.nan)
         row_data = row_data or {}
         for name in row_data:
             if name not in self._index:

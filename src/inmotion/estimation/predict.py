@@ -76,6 +76,12 @@ Usage (engine)::
     ...                                                   # every epoch, in numba code:
     em._fill_F(F, offs, lat, h, vel_n, C, f_n, inv_tau_dk, dr_eps, grav_grad)
     predict_sparse(x, P, F, Qc, dt, ws)                   # x, P in place
+
+The engine (:func:`inmotion.estimation.engine._advance`) checks the sizes once per call and
+then calls :func:`predict_kernel_call` with the workspace's ``kernel`` and ``buf`` bound once
+and its arrays as :func:`borrowed` views: the inlined :func:`predict_sparse` bound ``x``,
+``P``, ``Qc`` views and the workspace's six arrays on every call, 20 atomic reference-count
+operations a row (issue 13; ``borrowed``'s docstring).
 """
 from __future__ import annotations
 
@@ -94,7 +100,8 @@ from numba import types
 from numba.core import errors as nb_errors
 from numba.extending import intrinsic
 
-__all__ = ["PredictWorkspace", "make_workspace", "predict_sparse", "kernel_source"]
+__all__ = ["PredictWorkspace", "make_workspace", "predict_sparse", "kernel_source", "borrowed",
+           "predict_kernel_call"]
 
 #: bump when the generated code changes meaning (the source's hash keys the cache anyway)
 _GENERATOR = "predict-kernel 2"
@@ -372,6 +379,60 @@ def _call_kernel(typingctx, addr, x, P, F, Qc, dt, buf):
         return context.get_dummy_value()
 
     return sig, codegen
+
+
+def _borrow_value(context, builder, ty, val):
+    """``val`` of type ``ty`` with every array in it (also inside tuples) made a borrowed
+    view (NULL meminfo); other members are passed on with a reference of their own."""
+    from numba.np.arrayobj import populate_array
+    if isinstance(ty, types.Array):
+        src = context.make_array(ty)(context, builder, val)
+        out = context.make_array(ty)(context, builder)
+        populate_array(out, data=src.data, shape=src.shape, strides=src.strides,
+                       itemsize=src.itemsize, meminfo=None)
+        return out._getvalue()
+    if isinstance(ty, types.BaseTuple):
+        vals = [_borrow_value(context, builder, t, builder.extract_value(val, i))
+                for i, t in enumerate(ty.types)]
+        return context.make_tuple(builder, ty, vals)
+    context.nrt.incref(builder, ty, val)
+    return val
+
+
+@intrinsic
+def borrowed(typingctx, arr):
+    """A view of ``arr`` (same type, data, shape and strides) that does not own a reference:
+    its meminfo is NULL, so numba's reference counting of it (an ``NRT_incref`` /
+    ``NRT_decref`` call wherever the view is bound, sliced, indexed to a sub-array or passed
+    to a function that binds it) skips the atomic increment: a test of NULL instead of a
+    ``lock inc``. A tuple (or namedtuple) gives the same tuple with each of its arrays
+    borrowed (recursively); other members are passed on as they are.
+
+    Issue 13: the engine's per-row path made 33 such atomic operations per IMU row (counted
+    with gdb at ``NRT_incref`` / ``NRT_decref``: 20 around the predict call, for ``X[l]``,
+    ``P[l]``, ``Qc[l]``, ``F`` and the workspace's six arrays, 6 in the mechanization, 6 in
+    ``_fill_F``), ~0.09 s of the 0.35 s per hour (perf), an update epoch ~107 more and an
+    output epoch (a call with the namedtuples of ~50 arrays each) ~390. Valid only while
+    ``arr`` is alive: for a compiled function's own arrays (e.g. a state namedtuple's
+    fields, alive for the call) bound at its top; never returned to Python or stored past
+    the call.
+    """
+    if not isinstance(arr, (types.Array, types.BaseTuple)):
+        raise nb_errors.TypingError(f"borrowed: expected an array or a tuple, got {arr}")
+
+    def codegen(context, builder, signature, args):
+        return _borrow_value(context, builder, arr, args[0])
+
+    return arr(arr), codegen
+
+
+@numba.njit(cache=True, inline="always")
+def predict_kernel_call(addr, x, P, F, Qc, dt, buf):
+    """The kernel at ``addr`` (a :class:`PredictWorkspace`'s ``kernel``) on ``x``, ``P``, ``F``,
+    ``Qc`` and the workspace's ``buf``, with no size check: the caller has checked once that
+    the arrays are C-contiguous float64 of the workspace's ``n`` (:func:`predict_sparse`
+    checks on every call). For a compiled loop that binds the workspace's fields once."""
+    _call_kernel(addr, x, P, F, Qc, dt, buf)
 
 
 @numba.njit(cache=True, inline="always")
