@@ -287,6 +287,61 @@ def detection(runs: int, preset: str, biases, start_s: float, within_s: float,
     return out, base
 
 
+def detection_on(runs: int, seed: int = 0):
+    """Paper 003's fault experiment with the detection on (its reproduction's ``_faults``,
+    window 0 of the faulted drive ``paper003_faults`` and of the fault-free drive, both FDI
+    rates, paper 003's fkf settings, the reproduction's seeding: run ``r``'s drives from
+    ``SeedSequence(seed).spawn(runs)[r]``): per rate, the isolations of a healthy channel per
+    test on the fault-free drive beside the exceedances per test of the same drive with the
+    detection off (the calibrated false-alarm rate; an isolation cascade shows as the first
+    well above the second), and each fault's detections and delays."""
+    from inmotion.reproductions import paper003 as P
+    from inmotion.sim import simulate as sim
+    recs = []
+    for r, ss in enumerate(np.random.SeedSequence(seed).spawn(runs)):
+        rngs = [np.random.default_rng(s_) for s_ in ss.spawn(4)]
+        drive = sim(P._scenario("paper003_drive", extend=True), rngs[0])
+        faulty = sim(P._scenario("paper003_faults"), rngs[1])
+        out, _ = P._faults(faulty, False, clean_drive=drive)
+        recs.append(out["fdi"])
+        print(f"  run {r}: " + "; ".join(
+            f"{a:g}: isolations {out['fdi'][f'fault-free {a:g}']['false_isolations']} "
+            f"delays {out['fdi'][f'{a:g}']['detection_delay_s']}" for a in P.FDI_RATES),
+            flush=True)
+    res = {"runs": runs, "seed": seed}
+    chans = ("odometer", "ldv")
+    for a in P.FDI_RATES:
+        k = f"{a:g}"
+        ff = [x[f"fault-free {k}"] for x in recs]
+        st = [x["fault-free statistic"] for x in recs]
+        row = {}
+        for c, ch in enumerate(chans):
+            tests = sum(f["tests"][c] for f in ff)
+            iso = sum(f["false_isolations"][c] for f in ff)
+            exc_on = sum(f["exceedances"][c] for f in ff)
+            cal = sum(s_[f"exceedances {k}"][c] for s_ in st)
+            cal_n = sum(s_["tests"][c] for s_ in st)
+            row[ch] = {"tests": tests, "isolations": iso, "isolations_per_test": iso / tests,
+                       "exceedances_per_test_detection_on": exc_on / tests,
+                       "calibrated_rate_detection_off": cal / cal_n,
+                       "per_run_isolations": [f["false_isolations"][c] for f in ff]}
+        faults = []
+        for i, (ch, start, _, label) in enumerate(P.FAULTS):
+            d = [x[k]["detection_delay_s"][i] for x in recs]
+            hit = [v for v in d if v is not None]
+            faults.append({"fault": label, "channel": ch, "start_s": start,
+                           "detected": len(hit), "runs": runs,
+                           "mean_delay_s": float(np.mean(hit)) if hit else None,
+                           "max_delay_s": float(np.max(hit)) if hit else None})
+        fr = [x[k] for x in recs]
+        row["faults"] = faults
+        row["fault_runs_clean_isolations_per_test"] = {
+            ch: sum(f["false_isolations"][c] for f in fr) / sum(f["tests"][c] for f in fr)
+            for c, ch in enumerate(chans)}
+        res[k] = row
+    return res
+
+
 def main(argv=None):
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--runs", type=int, default=40)
@@ -303,6 +358,9 @@ def main(argv=None):
                     "(npz: per run t and lambda, channels) of the last preset")
     ap.add_argument("--config", default="{}", help="extra fkf configuration (JSON), e.g. "
                     "'{\"measurement_period_s\": 2.0}'")
+    ap.add_argument("--detection-on-runs", type=int, default=0,
+                    help="runs of paper 003's fault experiment with the detection on "
+                    "(:func:`detection_on`; its reproduction's drives and seeding); 0: none")
     args = ap.parse_args(argv)
     EXTRA.clear()
     EXTRA.update(json.loads(args.config))
@@ -310,7 +368,25 @@ def main(argv=None):
     res = {"scenario": "paper003_drive", "start_error_deg": EULER_ERR_DEG, "config": EXTRA,
            "presets": {}}
     t0 = time.perf_counter()
-    for preset in args.presets.split(","):
+    if args.detection_on_runs > 0:
+        don = detection_on(args.detection_on_runs)
+        res["detection_on"] = don
+        print(f"paper 003's fault experiment, detection on, {don['runs']} runs:")
+        for a in ("0.001", "0.05"):
+            r = don[a]
+            print(f"  at {a}:")
+            for ch in ("odometer", "ldv"):
+                x = r[ch]
+                print(f"    fault-free {ch}: {x['isolations']} isolations / {x['tests']} tests "
+                      f"= {x['isolations_per_test']:.2e} per test (calibrated rate, detection "
+                      f"off: {x['calibrated_rate_detection_off']:.2e}); exceedances per test "
+                      f"with the detection on {x['exceedances_per_test_detection_on']:.2e}")
+            print("    fault runs, clean stretches: isolations per test " + ", ".join(
+                f"{c} {v:.2e}" for c, v in r["fault_runs_clean_isolations_per_test"].items()))
+            for f in r["faults"]:
+                print(f"    {f['fault']} at {f['start_s']:g} s: detected {f['detected']}/"
+                      f"{f['runs']}, mean delay {f['mean_delay_s']} s, max {f['max_delay_s']} s")
+    for preset in (args.presets.split(",") if args.runs > 0 else ()):
         fa = false_alarms(args.runs, preset)
         res["presets"][preset] = {"false_alarms": fa}
         print(f"[{preset}] {fa['runs']} fault-free runs, {fa['tests']} tests, mean statistic "
