@@ -104,7 +104,7 @@ __all__ = ["PredictWorkspace", "make_workspace", "predict_sparse", "kernel_sourc
            "predict_kernel_call"]
 
 #: bump when the generated code changes meaning (the source's hash keys the cache anyway)
-_GENERATOR = "predict-kernel 3"
+_GENERATOR = "predict-kernel 2"
 
 _Fields = namedtuple("_Fields", [
     "act",        # (na,) int64: active indices (rows where F may be nonzero), ascending
@@ -159,26 +159,6 @@ def _runs(idx):
 
 def _sum(terms):
     return " + ".join(terms) if terms else "0.0"
-
-
-def _chunk_cols(rows, cb):
-    """The columns of Phi_a's rows ``cb .. cb + 3`` (those that exist): the only ``c`` whose
-    ``Phi_a^T[c, cb:cb + 4]`` is not all zero (issue 13: a sum over the union of all the
-    active rows' columns added ``u_c * 0.0`` for the others, e.g. the DR rows' columns in the
-    SINS rows' products; dropping an exact zero product changes no bit of a sum of finite
-    terms)."""
-    return sorted(set().union(*[set(rows[b][1]) for b in range(cb, min(cb + 4, len(rows)))]))
-
-
-def _zsum(term, full, cols):
-    """The sum of ``term(c)`` over ``cols``, a subset of ``full`` whose
-    other terms are exact zeros: written so that it rounds as the sum over ``full`` did.
-    Under FMA contraction the first two products of a sum may fuse either way; when the
-    first of ``full`` is dropped, the sum starts with ``0.0 +`` (as ``0 + t`` it was: the
-    first kept product rounded alone, every later one fused), which LLVM may not fold
-    without ``nsz``."""
-    s = _sum([term(c) for c in cols])
-    return "0.0 + " + s if cols and full and cols[0] != full[0] else s
 
 
 def _pad(na):
@@ -240,14 +220,11 @@ def kernel_source(F_pattern, Qc_pattern) -> str:
                                  + ")")
                 L.append(f"    p{a}_{c} = {_sum(parts)}")
                 L.append(f"    W[{c * nap + a}] = p{a}_{c}")
-        L.append("    # x <- Phi x (4-wide over the active rows, each 4 over its own columns)")
+        L.append("    # x <- Phi x (4-wide over the active rows)")
         for c in S:
             L.append(f"    x{c} = x[{c}]")
-        for cb in range(0, nap, 4):
-            L.append(f"    for b in range({cb}, {cb + 4}):")
-            L.append(f"        W[{xoff} + b] = "
-                     + _zsum(lambda c: f"x{c} * W[{c * nap} + b]", S,
-                             _chunk_cols(rows, cb)))
+        L.append(f"    for b in range({nap}):")
+        L.append(f"        W[{xoff} + b] = " + _sum([f"x{c} * W[{c * nap} + b]" for c in S]))
         for a, (i, _) in enumerate(rows):
             L.append(f"    x[{i}] = W[{xoff + a}]")
     L.append("    # Pt = P + dt/2 Qc")
@@ -258,18 +235,15 @@ def kernel_source(F_pattern, Qc_pattern) -> str:
             L.append(f"    for k in range({kt}):")
             L.append(f"        W[{aoff + a * npad} + k] = "
                      + _sum([f"p{a}_{c} * P[{c * n} + k]" for c in cols]))
-        L.append("    # R = A Phi_a^T, R[a, b] for b >= a rounded down to a multiple of 4, 4 b at a")
-        L.append("    # time over the columns of those 4 rows of Phi_a only")
+        L.append("    # R = A Phi_a^T, R[a, b] for b >= a rounded down to a multiple of 4")
         for a, (i, _) in enumerate(rows):
             b0 = a - a % 4
             need = sorted(set().union(*[set(rows[b][1]) for b in range(b0, na)]))
             for c in need:
                 L.append(f"    u{c} = W[{aoff + a * npad + c}]")
-            for cb in range(b0, nap, 4):
-                L.append(f"    for b in range({cb}, {cb + 4}):")
-                L.append(f"        W[{roff + a * nap} + b] = "
-                         + _zsum(lambda c: f"u{c} * W[{c * nap} + b]", need,
-                                 _chunk_cols(rows, cb)))
+            L.append(f"    for b in range({b0}, {nap}):")
+            L.append(f"        W[{roff + a * nap} + b] = "
+                     + _sum([f"u{c} * W[{c * nap} + b]" for c in need]))
         L.append("    # P' = R on the active block (upper triangle mirrored), A mirrored on the")
         L.append("    # active-inactive one")
         # (row by row, so that the stores of each row are contiguous: the mirrored entries
