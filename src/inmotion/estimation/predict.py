@@ -104,7 +104,7 @@ __all__ = ["PredictWorkspace", "make_workspace", "predict_sparse", "kernel_sourc
            "predict_kernel_call"]
 
 #: bump when the generated code changes meaning (the source's hash keys the cache anyway)
-_GENERATOR = "predict-kernel 2"
+_GENERATOR = "predict-kernel 3"
 
 _Fields = namedtuple("_Fields", [
     "act",        # (na,) int64: active indices (rows where F may be nonzero), ascending
@@ -159,6 +159,53 @@ def _runs(idx):
 
 def _sum(terms):
     return " + ".join(terms) if terms else "0.0"
+
+
+#: the shortest loop over active rows the R pass splits off (a 4-trip loop is unrolled by LLVM
+#: before its loop vectorizer runs, and its SLP vectorizer leaves the unrolled sums scalar:
+#: measured 0.37 -> 0.42 us a call for the engine workload's kernel)
+_MIN_SEGMENT = 8
+
+
+def _cols_of(rows, lo, hi):
+    """The columns of Phi_a's rows ``lo .. hi - 1`` (those that exist): the only ``c`` whose
+    ``Phi_a^T[c, lo:hi]`` is not all zero."""
+    return sorted(set().union(*[set(rows[b][1]) for b in range(lo, min(hi, len(rows)))]))
+
+
+def _segments(rows, lo, hi):
+    """Split ``lo .. hi`` (multiples of 4) into loops of >= ``_MIN_SEGMENT`` rows (or one loop)
+    minimizing the products: a loop over rows ``b`` sums over the union of its rows' columns,
+    adding exact zeros ``u_c * 0.0`` for the columns of other rows (issue 13: in ``sins-dr``'s
+    layout one loop per R row summed the DR rows' columns into the SINS rows' entries and back,
+    3,264 products for 1,247 needed; dropping an exact zero product changes no bit of a sum of
+    finite terms)."""
+    best = {hi: (0, [])}
+    for p in range(hi - 4, lo - 1, -4):
+        cands = []
+        for q in range(p + 4, hi + 1, 4):
+            if q - p < _MIN_SEGMENT and not (p == lo and q == hi):
+                continue
+            if q not in best:
+                continue
+            c, segs = best[q]
+            cands.append((c + (q - p) * len(_cols_of(rows, p, q)), len(segs) + 1,
+                          [(p, q)] + segs))
+        if cands:
+            c, _, segs = min(cands, key=lambda t: (t[0], t[1]))
+            best[p] = (c, segs)
+    return best[lo][1]
+
+
+def _zsum(term, full, cols):
+    """The sum of ``term(c)`` over ``cols``, a subset of ``full`` whose
+    other terms are exact zeros: written so that it rounds as the sum over ``full`` did.
+    Under FMA contraction the first two products of a sum may fuse either way; when the
+    first of ``full`` is dropped, the sum starts with ``0.0 +`` (as ``0 + t`` it was: the
+    first kept product rounded alone, every later one fused), which LLVM may not fold
+    without ``nsz``."""
+    s = _sum([term(c) for c in cols])
+    return "0.0 + " + s if cols and full and cols[0] != full[0] else s
 
 
 def _pad(na):
@@ -220,11 +267,13 @@ def kernel_source(F_pattern, Qc_pattern) -> str:
                                  + ")")
                 L.append(f"    p{a}_{c} = {_sum(parts)}")
                 L.append(f"    W[{c * nap + a}] = p{a}_{c}")
-        L.append("    # x <- Phi x (4-wide over the active rows)")
+        L.append("    # x <- Phi x (4-wide over the active rows, in loops over their own columns)")
         for c in S:
             L.append(f"    x{c} = x[{c}]")
-        L.append(f"    for b in range({nap}):")
-        L.append(f"        W[{xoff} + b] = " + _sum([f"x{c} * W[{c * nap} + b]" for c in S]))
+        for lo, hi in _segments(rows, 0, nap):
+            L.append(f"    for b in range({lo}, {hi}):")
+            L.append(f"        W[{xoff} + b] = "
+                     + _zsum(lambda c: f"x{c} * W[{c * nap} + b]", S, _cols_of(rows, lo, hi)))
         for a, (i, _) in enumerate(rows):
             L.append(f"    x[{i}] = W[{xoff + a}]")
     L.append("    # Pt = P + dt/2 Qc")
@@ -235,15 +284,18 @@ def kernel_source(F_pattern, Qc_pattern) -> str:
             L.append(f"    for k in range({kt}):")
             L.append(f"        W[{aoff + a * npad} + k] = "
                      + _sum([f"p{a}_{c} * P[{c * n} + k]" for c in cols]))
-        L.append("    # R = A Phi_a^T, R[a, b] for b >= a rounded down to a multiple of 4")
+        L.append("    # R = A Phi_a^T, R[a, b] for b >= a rounded down to a multiple of 4, in loops")
+        L.append("    # over b, each over the columns of its rows of Phi_a only")
         for a, (i, _) in enumerate(rows):
             b0 = a - a % 4
             need = sorted(set().union(*[set(rows[b][1]) for b in range(b0, na)]))
             for c in need:
                 L.append(f"    u{c} = W[{aoff + a * npad + c}]")
-            L.append(f"    for b in range({b0}, {nap}):")
-            L.append(f"        W[{roff + a * nap} + b] = "
-                     + _sum([f"u{c} * W[{c * nap} + b]" for c in need]))
+            for lo, hi in _segments(rows, b0, nap):
+                L.append(f"    for b in range({lo}, {hi}):")
+                L.append(f"        W[{roff + a * nap} + b] = "
+                         + _zsum(lambda c: f"u{c} * W[{c * nap} + b]", need,
+                                 _cols_of(rows, lo, hi)))
         L.append("    # P' = R on the active block (upper triangle mirrored), A mirrored on the")
         L.append("    # active-inactive one")
         # (row by row, so that the stores of each row are contiguous: the mirrored entries
