@@ -311,15 +311,16 @@ def _feed_back_arrays(xs, ms, xd, md, bias_g, bias_a, fed_back, X, offs, m, fb_s
 
 @numba.njit(cache=True)
 def _dr_position_noise(Q, Qc, o_dpD, lat, h, q_m2_s):
-    """``Q = Qc`` plus the DR position random walk ``q_m2_s`` [m^2/s] on ``dp_D`` (rad, rad,
-    m); ``Qc`` alone without a DR block (``o_dpD < 0``)."""
-    Q[:, :] = Qc
+    """``Q``'s ``dp_D`` diagonal (rad, rad, m) set to ``Qc``'s plus the DR position random walk
+    ``q_m2_s`` [m^2/s]; ``Q``'s other entries are left alone: the caller copies ``Qc`` into
+    ``Q`` once (issue 13: a copy of all ``n^2`` entries every row cost more than the three
+    entries that change with the latitude). Nothing without a DR block (``o_dpD < 0``)."""
     if o_dpD < 0:
         return
     r_m, r_n = K.radii(lat)
-    Q[o_dpD, o_dpD] += q_m2_s / (r_m + h) ** 2
-    Q[o_dpD + 1, o_dpD + 1] += q_m2_s / ((r_n + h) * math.cos(lat)) ** 2
-    Q[o_dpD + 2, o_dpD + 2] += q_m2_s
+    Q[o_dpD, o_dpD] = Qc[o_dpD, o_dpD] + q_m2_s / (r_m + h) ** 2
+    Q[o_dpD + 1, o_dpD + 1] = Qc[o_dpD + 1, o_dpD + 1] + q_m2_s / ((r_n + h) * math.cos(lat)) ** 2
+    Q[o_dpD + 2, o_dpD + 2] = Qc[o_dpD + 2, o_dpD + 2] + q_m2_s
 
 
 @numba.njit(cache=True)
@@ -495,7 +496,11 @@ def _advance(S, C, fills, accs, t, dtheta, dvel, dt, ds, v, dth_dr, rows, qt, qj
     S, C, O = borrowed(S), borrowed(C), borrowed(O)
     n = S.X.shape[1]
     F_own = np.zeros((n, n))
-    Q_own = np.zeros((n, n))
+    # each local filter's Qc with the DR's position noise: copied once, the dp_D diagonal
+    # set every row (_dr_position_noise)
+    Q_own = np.empty((S.X.shape[0] if C.with_dr else 0, n, n))
+    for l in range(Q_own.shape[0]):
+        Q_own[l] = C.Qc[l]
     aux = np.zeros(AUX_SIZE)
     dmax = 1
     for j in range(C.dofs.shape[0]):
@@ -624,8 +629,8 @@ def _advance(S, C, fills, accs, t, dtheta, dvel, dt, ds, v, dth_dr, rows, qt, qj
                    grav_grad, itau_g, itau_a)
         for l in range(X.shape[0]):
             if with_dr:
-                _dr_position_noise(Q, Qc[l], o_dpD, xs[K.LAT], xs[K.H], q_dr_m2_s)
-                predict_kernel_call(k_addr, X[l], P[l], F, Q, sum_dt, k_buf)
+                _dr_position_noise(Q[l], Qc[l], o_dpD, xs[K.LAT], xs[K.H], q_dr_m2_s)
+                predict_kernel_call(k_addr, X[l], P[l], F, Q[l], sum_dt, k_buf)
             else:
                 predict_kernel_call(k_addr, X[l], P[l], F, Qc[l], sum_dt, k_buf)
         ints[_I_EPOCHS] += 1
