@@ -22,7 +22,9 @@ random-constant states (``eps, nabla, mount, lever``) have zero rows, i.e. ident
   row a sum of ``Phi_a[a, c] Pt[c, :]`` over whole 4-wide vectors, no scalar remainder; the
   padding columns read past the end of ``Pt``'s row and are never used);
 * ``P' = (Phi Pt) Phi^T``: between two active indices ``R = A Phi_a^T`` (its upper triangle,
-  mirrored: ``P`` symmetric by construction); between an active ``i`` and an inactive ``j``
+  mirrored: ``P`` symmetric by construction; each row of ``R`` in loops over ``b``, 4-wide,
+  split where the columns of ``Phi_a``'s rows change, each loop summing over its own rows'
+  columns only: :func:`_segments`); between an active ``i`` and an inactive ``j``
   it is ``A[i, j]`` (copied into row ``i`` and column ``i``); between two inactive
   indices ``Pt`` (+ dt/2 Qc). ``P'`` is written row by row (contiguous stores; the mirrored
   entries are read strided from the buffers instead, which costs less than strided stores).
@@ -63,6 +65,20 @@ machine code of the engine workload's kernel has ~430 4-wide and ~370 scalar FMA
 na = 9) to 3-7 s (na = 16) on this loaded machine, once per pattern (the numba front end's
 typing and lowering of ~650-1,200 statements is most of it; raw pointer indexing with
 literal offsets halved it); loading it from the cache costs ~10 ms.
+
+Why ``sins-dr``'s kernel costs ~2x the engine workload's for 6 more active rows (issue 13,
+counted in the generated source): ``Phi_a`` has 171 entries against 115, the ``A`` pass
+3,762 products against 2,760 (16 rows of ~11 columns against 9 of ~13, over 22 columns
+each), and the ``R`` pass, quadratic in ``na``, 3,264 against 1,240, of which 1,247 were
+needed: one loop per row of ``R`` summed over the union of all later rows' columns, so
+the SINS rows' entries summed the DR rows' columns (and back) times exact zeros. Split
+into loops of >= 8 rows (4-trip loops are unrolled by LLVM before its loop vectorizer and
+left scalar: 0.37 -> 0.42 us for the engine workload's kernel) the ``R`` pass has 2,976;
+machine code 1,589 -> 1,499 4-wide FMAs, the kernel 0.67-0.72 -> 0.61-0.64 us a call
+(``dr-kf``'s 0.81-0.83 -> 0.75-0.79; the engine workload's code is unchanged: one segment),
+side by side, minimum of 7 batches of 20,000 calls, load ~7; bit-identical to before (the
+dropped terms are exact zeros; :func:`_zsum` keeps the FMA rounding of a sum whose first
+term is dropped; checked on four layouts over 200 chained steps).
 
 Rows of ``F`` outside the pattern, and entries of ``Qc`` outside its pattern, are ignored
 (taken as zero); ``Qc``'s diagonal is always in its pattern. ``x``, ``P``, ``F``, ``Qc`` must
