@@ -139,7 +139,7 @@ update epoch 1.0 us, 0.037 s per hour, measured alone). ``bench_engine.py --repe
 Then (issue 13, the dead reckoner's cost inside the loop: ``sins-dr`` at 100 Hz cost ~0.28 s
 per hour more than the equal workload): of it, the copy of all of ``Qc`` into ``Q`` every
 row before adding the DR's position noise (``Q[:, :] = Qc``, 22 x 22: 0.058 s per hour
-alone, load ~9), the larger predict kernel (0.67-0.72 against 0.33-0.37 us a call, ~0.12 s;
+alone, load ~9), the larger predict kernel (0.65-0.72 against 0.33-0.37 us a call, ~0.12 s;
 why: :mod:`~inmotion.estimation.predict`'s docstring), the DR's step
 (:func:`inmotion.core._kernels.dr_step`, ~10 transcendental calls: 0.053 s per hour alone,
 the SINS step 0.047) and the DR's rows of ``_fill_F`` and its position noise. ``Q`` is now
@@ -147,8 +147,8 @@ copied from ``Qc`` once per call of :func:`_advance` (one per local filter) and
 :func:`_dr_position_noise` sets its three ``dp_D`` diagonal entries; the predict kernel no
 longer sums the DR rows' columns into the SINS rows' entries (exact zeros). Results
 bit-identical (the ``sins-dr`` hour's solution equal; the CLI's outputs equal byte for
-byte). Side by side, alternating, min of 5 (load 5.6-6.7): ``sins-dr`` 1 h at 100 Hz
-in-process 0.590, 0.624 -> 0.553, 0.543 s; through the CLI (Parquet in, 1 Hz out, CPU time
+byte). Side by side, alternating, min of 5 (load 5.4-6.7): ``sins-dr`` 1 h at 100 Hz
+in-process 0.590, 0.624, 0.599, 0.610 -> 0.553, 0.543, 0.554, 0.496 s (-9 to -19 %); through the CLI (Parquet in, 1 Hz out, CPU time
 of the command, min of 3, load 7.4-7.8) 1.86, 1.89 -> 1.77, 1.81 s.
 Numba's disk cache of :func:`_advance` is keyed on this file's contents only: a change to a
 function it calls in another module (``sequential_joseph``, ``_fill_F``, the fills' helpers)

@@ -74,9 +74,10 @@ needed: one loop per row of ``R`` summed over the union of all later rows' colum
 the SINS rows' entries summed the DR rows' columns (and back) times exact zeros. Split
 into loops of >= 8 rows (4-trip loops are unrolled by LLVM before its loop vectorizer and
 left scalar: 0.37 -> 0.42 us for the engine workload's kernel) the ``R`` pass has 2,976;
-machine code 1,589 -> 1,499 4-wide FMAs, the kernel 0.67-0.72 -> 0.61-0.64 us a call
-(``dr-kf``'s 0.81-0.83 -> 0.75-0.79; the engine workload's code is unchanged: one segment),
-side by side, minimum of 7 batches of 20,000 calls, load ~7; bit-identical to before (the
+machine code 1,589 -> 1,499 4-wide FMAs, the kernel 0.66-0.72 -> 0.61-0.67 us a call
+(``dr-kf``'s 0.80-0.83 -> 0.75-0.80; the engine workload's code is unchanged: one segment),
+side by side, five alternating rounds of the minimum of 7 batches of 20,000 calls, load
+5.4-8.4: a small gain, 0-10 % a round; bit-identical to before (the
 dropped terms are exact zeros; :func:`_zsum` keeps the FMA rounding of a sum whose first
 term is dropped; checked on four layouts over 200 chained steps).
 
