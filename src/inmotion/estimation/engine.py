@@ -197,6 +197,20 @@ filter without samples 0.24-0.26, with them 0.28-0.30 (the five scalar updates o
 update epoch 1.0 us, 0.037 s per hour, measured alone). ``bench_engine.py --repeat 3
 --no-cli``, before and after alternating at load 3.6-4.7: equal workload 0.360, 0.389 ->
 0.312, 0.308 s per hour; ``sins-dr`` at 100 Hz 0.776, 0.772 -> 0.678, 0.663 s.
+Then (issue 13, the dead reckoner's cost inside the loop: ``sins-dr`` at 100 Hz cost ~0.28 s
+per hour more than the equal workload): of it, the copy of all of ``Qc`` into ``Q`` every
+row before adding the DR's position noise (``Q[:, :] = Qc``, 22 x 22: 0.058 s per hour
+alone, load ~9), the larger predict kernel (0.65-0.72 against 0.33-0.37 us a call, ~0.12 s;
+why: :mod:`~inmotion.estimation.predict`'s docstring), the DR's step
+(:func:`inmotion.core._kernels.dr_step`, ~10 transcendental calls: 0.053 s per hour alone,
+the SINS step 0.047) and the DR's rows of ``_fill_F`` and its position noise. ``Q`` is now
+copied from ``Qc`` once per call of :func:`_advance` (one per local filter) and
+:func:`_dr_position_noise` sets its three ``dp_D`` diagonal entries; the predict kernel no
+longer sums the DR rows' columns into the SINS rows' entries (exact zeros). Results
+bit-identical (the ``sins-dr`` hour's solution equal; the CLI's outputs equal byte for
+byte). Side by side, alternating, min of 5 (load 5.4-6.7): ``sins-dr`` 1 h at 100 Hz
+in-process 0.590, 0.624, 0.599, 0.610 -> 0.553, 0.543, 0.554, 0.496 s (-9 to -19 %); through the CLI (Parquet in, 1 Hz out, CPU time
+of the command, min of 3, load 7.4-7.8) 1.86, 1.89 -> 1.77, 1.81 s.
 Numba's disk cache of :func:`_advance` is keyed on this file's contents only: a change to a
 function it calls in another module (``sequential_joseph``, ``_fill_F``, the fills' helpers)
 is not seen by a cached ``_advance``, which may have that function's old code inlined; clear
@@ -379,15 +393,16 @@ def _feed_back_arrays(xs, ms, xd, md, bias_g, bias_a, fed_back, X, offs, m, fb_s
 
 @numba.njit(cache=True)
 def _dr_position_noise(Q, Qc, o_dpD, lat, h, q_m2_s):
-    """``Q = Qc`` plus the DR position random walk ``q_m2_s`` [m^2/s] on ``dp_D`` (rad, rad,
-    m); ``Qc`` alone without a DR block (``o_dpD < 0``)."""
-    Q[:, :] = Qc
+    """``Q``'s ``dp_D`` diagonal (rad, rad, m) set to ``Qc``'s plus the DR position random walk
+    ``q_m2_s`` [m^2/s]; ``Q``'s other entries are left alone: the caller copies ``Qc`` into
+    ``Q`` once (issue 13: a copy of all ``n^2`` entries every row cost more than the three
+    entries that change with the latitude). Nothing without a DR block (``o_dpD < 0``)."""
     if o_dpD < 0:
         return
     r_m, r_n = K.radii(lat)
-    Q[o_dpD, o_dpD] += q_m2_s / (r_m + h) ** 2
-    Q[o_dpD + 1, o_dpD + 1] += q_m2_s / ((r_n + h) * math.cos(lat)) ** 2
-    Q[o_dpD + 2, o_dpD + 2] += q_m2_s
+    Q[o_dpD, o_dpD] = Qc[o_dpD, o_dpD] + q_m2_s / (r_m + h) ** 2
+    Q[o_dpD + 1, o_dpD + 1] = Qc[o_dpD + 1, o_dpD + 1] + q_m2_s / ((r_n + h) * math.cos(lat)) ** 2
+    Q[o_dpD + 2, o_dpD + 2] = Qc[o_dpD + 2, o_dpD + 2] + q_m2_s
 
 
 @numba.njit(cache=True)
@@ -563,7 +578,11 @@ def _advance(S, C, fills, accs, t, dtheta, dvel, dt, ds, v, dth_dr, rows, qt, qj
     S, C, O = borrowed(S), borrowed(C), borrowed(O)
     n = S.X.shape[1]
     F_own = np.zeros((n, n))
-    Q_own = np.zeros((n, n))
+    # each local filter's Qc with the DR's position noise: copied once, the dp_D diagonal
+    # set every row (_dr_position_noise)
+    Q_own = np.empty((S.X.shape[0] if C.with_dr else 0, n, n))
+    for l in range(Q_own.shape[0]):
+        Q_own[l] = C.Qc[l]
     aux = np.zeros(AUX_SIZE)
     dmax = 1
     for j in range(C.dofs.shape[0]):
@@ -692,8 +711,8 @@ def _advance(S, C, fills, accs, t, dtheta, dvel, dt, ds, v, dth_dr, rows, qt, qj
                    grav_grad, itau_g, itau_a)
         for l in range(X.shape[0]):
             if with_dr:
-                _dr_position_noise(Q, Qc[l], o_dpD, xs[K.LAT], xs[K.H], q_dr_m2_s)
-                predict_kernel_call(k_addr, X[l], P[l], F, Q, sum_dt, k_buf)
+                _dr_position_noise(Q[l], Qc[l], o_dpD, xs[K.LAT], xs[K.H], q_dr_m2_s)
+                predict_kernel_call(k_addr, X[l], P[l], F, Q[l], sum_dt, k_buf)
             else:
                 predict_kernel_call(k_addr, X[l], P[l], F, Qc[l], sum_dt, k_buf)
         ints[_I_EPOCHS] += 1

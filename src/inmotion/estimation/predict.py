@@ -22,7 +22,9 @@ random-constant states (``eps, nabla, mount, lever``) have zero rows, i.e. ident
   row a sum of ``Phi_a[a, c] Pt[c, :]`` over whole 4-wide vectors, no scalar remainder; the
   padding columns read past the end of ``Pt``'s row and are never used);
 * ``P' = (Phi Pt) Phi^T``: between two active indices ``R = A Phi_a^T`` (its upper triangle,
-  mirrored: ``P`` symmetric by construction); between an active ``i`` and an inactive ``j``
+  mirrored: ``P`` symmetric by construction; each row of ``R`` in loops over ``b``, 4-wide,
+  split where the columns of ``Phi_a``'s rows change, each loop summing over its own rows'
+  columns only: :func:`_segments`); between an active ``i`` and an inactive ``j``
   it is ``A[i, j]`` (copied into row ``i`` and column ``i``); between two inactive
   indices ``Pt`` (+ dt/2 Qc). ``P'`` is written row by row (contiguous stores; the mirrored
   entries are read strided from the buffers instead, which costs less than strided stores).
@@ -64,6 +66,21 @@ na = 9) to 3-7 s (na = 16) on this loaded machine, once per pattern (the numba f
 typing and lowering of ~650-1,200 statements is most of it; raw pointer indexing with
 literal offsets halved it); loading it from the cache costs ~10 ms.
 
+Why ``sins-dr``'s kernel costs ~2x the engine workload's for 6 more active rows (issue 13,
+counted in the generated source): ``Phi_a`` has 171 entries against 115, the ``A`` pass
+3,762 products against 2,760 (16 rows of ~11 columns against 9 of ~13, over 22 columns
+each), and the ``R`` pass, quadratic in ``na``, 3,264 against 1,240, of which 1,247 were
+needed: one loop per row of ``R`` summed over the union of all later rows' columns, so
+the SINS rows' entries summed the DR rows' columns (and back) times exact zeros. Split
+into loops of >= 8 rows (4-trip loops are unrolled by LLVM before its loop vectorizer and
+left scalar: 0.37 -> 0.42 us for the engine workload's kernel) the ``R`` pass has 2,976;
+machine code 1,589 -> 1,499 4-wide FMAs, the kernel 0.66-0.72 -> 0.61-0.67 us a call
+(``dr-kf``'s 0.80-0.83 -> 0.75-0.80; the engine workload's code is unchanged: one segment),
+side by side, five alternating rounds of the minimum of 7 batches of 20,000 calls, load
+5.4-8.4: a small gain, 0-10 % a round; bit-identical to before (the
+dropped terms are exact zeros; :func:`_zsum` keeps the FMA rounding of a sum whose first
+term is dropped; checked on four layouts over 200 chained steps).
+
 Rows of ``F`` outside the pattern, and entries of ``Qc`` outside its pattern, are ignored
 (taken as zero); ``Qc``'s diagonal is always in its pattern. ``x``, ``P``, ``F``, ``Qc`` must
 be C-contiguous float64 of the workspace's ``n`` (checked on every call: the kernel reads and
@@ -104,7 +121,7 @@ __all__ = ["PredictWorkspace", "make_workspace", "predict_sparse", "kernel_sourc
            "predict_kernel_call"]
 
 #: bump when the generated code changes meaning (the source's hash keys the cache anyway)
-_GENERATOR = "predict-kernel 2"
+_GENERATOR = "predict-kernel 3"
 
 _Fields = namedtuple("_Fields", [
     "act",        # (na,) int64: active indices (rows where F may be nonzero), ascending
@@ -159,6 +176,53 @@ def _runs(idx):
 
 def _sum(terms):
     return " + ".join(terms) if terms else "0.0"
+
+
+#: the shortest loop over active rows the R pass splits off (a 4-trip loop is unrolled by LLVM
+#: before its loop vectorizer runs, and its SLP vectorizer leaves the unrolled sums scalar:
+#: measured 0.37 -> 0.42 us a call for the engine workload's kernel)
+_MIN_SEGMENT = 8
+
+
+def _cols_of(rows, lo, hi):
+    """The columns of Phi_a's rows ``lo .. hi - 1`` (those that exist): the only ``c`` whose
+    ``Phi_a^T[c, lo:hi]`` is not all zero."""
+    return sorted(set().union(*[set(rows[b][1]) for b in range(lo, min(hi, len(rows)))]))
+
+
+def _segments(rows, lo, hi):
+    """Split ``lo .. hi`` (multiples of 4) into loops of >= ``_MIN_SEGMENT`` rows (or one loop)
+    minimizing the products: a loop over rows ``b`` sums over the union of its rows' columns,
+    adding exact zeros ``u_c * 0.0`` for the columns of other rows (issue 13: in ``sins-dr``'s
+    layout one loop per R row summed the DR rows' columns into the SINS rows' entries and back,
+    3,264 products for 1,247 needed; dropping an exact zero product changes no bit of a sum of
+    finite terms)."""
+    best = {hi: (0, [])}
+    for p in range(hi - 4, lo - 1, -4):
+        cands = []
+        for q in range(p + 4, hi + 1, 4):
+            if q - p < _MIN_SEGMENT and not (p == lo and q == hi):
+                continue
+            if q not in best:
+                continue
+            c, segs = best[q]
+            cands.append((c + (q - p) * len(_cols_of(rows, p, q)), len(segs) + 1,
+                          [(p, q)] + segs))
+        if cands:
+            c, _, segs = min(cands, key=lambda t: (t[0], t[1]))
+            best[p] = (c, segs)
+    return best[lo][1]
+
+
+def _zsum(term, full, cols):
+    """The sum of ``term(c)`` over ``cols``, a subset of ``full`` whose
+    other terms are exact zeros: written so that it rounds as the sum over ``full`` did.
+    Under FMA contraction the first two products of a sum may fuse either way; when the
+    first of ``full`` is dropped, the sum starts with ``0.0 +`` (as ``0 + t`` it was: the
+    first kept product rounded alone, every later one fused), which LLVM may not fold
+    without ``nsz``."""
+    s = _sum([term(c) for c in cols])
+    return "0.0 + " + s if cols and full and cols[0] != full[0] else s
 
 
 def _pad(na):
@@ -220,11 +284,13 @@ def kernel_source(F_pattern, Qc_pattern) -> str:
                                  + ")")
                 L.append(f"    p{a}_{c} = {_sum(parts)}")
                 L.append(f"    W[{c * nap + a}] = p{a}_{c}")
-        L.append("    # x <- Phi x (4-wide over the active rows)")
+        L.append("    # x <- Phi x (4-wide over the active rows, in loops over their own columns)")
         for c in S:
             L.append(f"    x{c} = x[{c}]")
-        L.append(f"    for b in range({nap}):")
-        L.append(f"        W[{xoff} + b] = " + _sum([f"x{c} * W[{c * nap} + b]" for c in S]))
+        for lo, hi in _segments(rows, 0, nap):
+            L.append(f"    for b in range({lo}, {hi}):")
+            L.append(f"        W[{xoff} + b] = "
+                     + _zsum(lambda c: f"x{c} * W[{c * nap} + b]", S, _cols_of(rows, lo, hi)))
         for a, (i, _) in enumerate(rows):
             L.append(f"    x[{i}] = W[{xoff + a}]")
     L.append("    # Pt = P + dt/2 Qc")
@@ -235,15 +301,18 @@ def kernel_source(F_pattern, Qc_pattern) -> str:
             L.append(f"    for k in range({kt}):")
             L.append(f"        W[{aoff + a * npad} + k] = "
                      + _sum([f"p{a}_{c} * P[{c * n} + k]" for c in cols]))
-        L.append("    # R = A Phi_a^T, R[a, b] for b >= a rounded down to a multiple of 4")
+        L.append("    # R = A Phi_a^T, R[a, b] for b >= a rounded down to a multiple of 4, in loops")
+        L.append("    # over b, each over the columns of its rows of Phi_a only")
         for a, (i, _) in enumerate(rows):
             b0 = a - a % 4
             need = sorted(set().union(*[set(rows[b][1]) for b in range(b0, na)]))
             for c in need:
                 L.append(f"    u{c} = W[{aoff + a * npad + c}]")
-            L.append(f"    for b in range({b0}, {nap}):")
-            L.append(f"        W[{roff + a * nap} + b] = "
-                     + _sum([f"u{c} * W[{c * nap} + b]" for c in need]))
+            for lo, hi in _segments(rows, b0, nap):
+                L.append(f"    for b in range({lo}, {hi}):")
+                L.append(f"        W[{roff + a * nap} + b] = "
+                         + _zsum(lambda c: f"u{c} * W[{c * nap} + b]", need,
+                                 _cols_of(rows, lo, hi)))
         L.append("    # P' = R on the active block (upper triangle mirrored), A mirrored on the")
         L.append("    # active-inactive one")
         # (row by row, so that the stores of each row are contiguous: the mirrored entries
