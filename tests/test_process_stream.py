@@ -91,7 +91,11 @@ def test_process_streamed_equals_in_memory(case, smooth, tmp_path):
     ii = {"source": "truth", "has_attitude": True, "heading_sigma_deg": 0.1,
           "tilt_sigma_deg": 0.05}
     ref = run_process(whole, cfg, init, ii)
-    got = run_process(open_bundle(folder, chunk_rows=997), cfg, init, ii, output_rate_hz=1.0)
+    stream = open_bundle(folder, chunk_rows=997)
+    if "ldv" in sensors:        # the 100 Hz LDV stays on disk, read chunk by chunk
+        from inmotion.io.bundle_stream import SpeedStream
+        assert isinstance(stream.ldv, SpeedStream)
+    got = run_process(stream, cfg, init, ii, output_rate_hz=1.0)
     names = [s["method"] for s in ref.info["stages"]]
     assert names[:len(methods)] == methods, names          # (radar: the handover happened)
     if case == "radar":
@@ -205,3 +209,70 @@ def test_fine_mux_and_adaptive_streamed_equal_in_memory(method, tmp_path):
     whole = read_bundle(folder)
     init = NavState.from_truth(whole.truth)
     _same(run(open_bundle(folder, chunk_rows=997), {}, init), run(whole, {}, init))
+
+
+@pytest.fixture(scope="module")
+def ldv_bundle(tmp_path_factory):
+    folder = tmp_path_factory.mktemp("ldv") / "b"
+    write_bundle(_drive(["odometer", "ldv"], 3, parked_s=5.0), folder, fmt="parquet")
+    return folder
+
+
+def test_long_fast_sensor_stays_on_disk(ldv_bundle):
+    """The 100 Hz LDV (more rows than a chunk) is a SpeedStream, the 10 Hz odometer is read
+    whole; the stream answers t / ds / v / window / load as the table read whole does."""
+    from inmotion.io.bundle_stream import SpeedStream
+    whole = read_bundle(ldv_bundle)
+    s = open_bundle(ldv_bundle, chunk_rows=997)
+    assert isinstance(s.ldv, SpeedStream) and not isinstance(s.odometer, SpeedStream)
+    assert s.ldv.v is None
+    np.testing.assert_array_equal(s.ldv.t, whole.ldv.t)
+    np.testing.assert_array_equal(s.ldv.ds, whole.ldv.ds)
+    np.testing.assert_array_equal(s.ldv.speed(), whole.ldv.speed())
+    w, ww = s.ldv.window(50.0, 123.456), whole.ldv.window(50.0, 123.456)
+    np.testing.assert_array_equal(w.t, ww.t)
+    np.testing.assert_array_equal(w.load().ds, ww.ds)
+    np.testing.assert_array_equal(s.load_window(60.0, 70.0).ldv.ds, whole.window(60.0, 70.0).ldv.ds)
+
+
+def test_resampler_chunked_equals_whole_and_speed_on_epochs(ldv_bundle):
+    """speed_resampler fed a drive's IMU epochs in chunks: from the stream (a chunk of rows
+    in memory) the same bits as from the table in memory; against speed_on_epochs on each
+    chunk (the cumulative distance summed again from the first sample) equal up to rounding
+    (1e-9 m: the cumulative distance is a sum of per-chunk sums); the distance over the drive
+    is the odometer-independent truth's path length within the LDV's scale error."""
+    from inmotion.core.deadreckoning import speed_on_epochs, speed_resampler
+    whole = read_bundle(ldv_bundle)
+    s = open_bundle(ldv_bundle, chunk_rows=997)
+    t = whole.imu.t
+    r_mem, r_str = speed_resampler(whole.ldv, what="ldv"), speed_resampler(s.ldv, what="ldv")
+    total = 0.0
+    for a in range(0, len(t) - 1, 4321):
+        edges = t[a:a + 4322]
+        got_m, got_s = r_mem(edges), r_str(edges)
+        ref = speed_on_epochs(whole.ldv, edges, what="ldv")
+        for x, y, z in zip(got_m, got_s, ref):
+            np.testing.assert_array_equal(x, y)
+            np.testing.assert_allclose(x, z, rtol=0, atol=1e-9)
+        total += got_m[0].sum()
+    from inmotion.core.metrics import _path_length
+    truth_m = _path_length(whole.truth, t[[0, -1]])[-1]
+    assert abs(total / truth_m - 1.0) < 5 * 500e-6, (total, truth_m)
+
+
+def test_long_sensor_bad_row_named_as_read_bundle(ldv_bundle, tmp_path):
+    """An impossible ds in the third chunk of a streamed LDV: open_bundle refuses the bundle
+    with read_bundle's message (file, row over the whole table, time)."""
+    import shutil
+    folder = tmp_path / "b"
+    shutil.copytree(ldv_bundle, folder)
+    p = folder / "ldv.parquet"
+    df = pd.read_parquet(p)
+    df.loc[2500, "ds"] = 50.0
+    df.to_parquet(p, index=False)
+    with pytest.raises(BadInput) as e_stream:
+        open_bundle(folder, chunk_rows=997)
+    with pytest.raises(BadInput) as e_whole:
+        read_bundle(folder)
+    assert str(e_stream.value) == str(e_whole.value)
+    assert "row 2501, t=" in str(e_stream.value)
