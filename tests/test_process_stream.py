@@ -276,3 +276,25 @@ def test_long_sensor_bad_row_named_as_read_bundle(ldv_bundle, tmp_path):
         read_bundle(folder)
     assert str(e_stream.value) == str(e_whole.value)
     assert "row 2501, t=" in str(e_stream.value)
+
+
+@pytest.mark.parametrize("fmt", ["parquet", "csv"])
+def test_parked_kf_streams_its_window(radar_drive, tmp_path, fmt):
+    """parked-kf on a window of a bundle read in chunks: the rows are fed as they are read,
+    none after the window's end (a NaN at t = 150 s is never read), and the solution is that
+    of the window in memory, bit for bit."""
+    from inmotion.align.parked_kf import run_parked_kf
+    folder = tmp_path / "b"
+    write_bundle(radar_drive, folder, fmt=fmt)
+    whole = read_bundle(folder)
+    init = NavState.from_truth(whole.truth)
+    ref = run_parked_kf(whole.load_window(None, 60.0), {}, init, end_s=60.0)
+    p = folder / f"imu.{fmt}"
+    df = pd.read_parquet(p) if fmt == "parquet" else pd.read_csv(p)
+    df.loc[15000, "dtheta_y"] = np.nan
+    df.to_parquet(p, index=False, row_group_size=8192) if fmt == "parquet" else \
+        df.to_csv(p, index=False)
+    stream = open_bundle(folder, chunk_rows=997)
+    got = run_parked_kf(stream.window(None, 60.0), {}, init, end_s=60.0)
+    _same(got, ref)
+    assert len(ref.t) > 50
