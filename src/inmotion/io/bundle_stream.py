@@ -12,7 +12,12 @@ the log:
   filter) and, for the truth, when the errors are written (:meth:`TruthStream.reduced`: only
   the rows the errors at the output epochs need);
 * velocity-sensor and barometer tables (10 Hz, two columns: under a megabyte per hour) are
-  read whole, as :func:`read_bundle` reads them, but chunk by chunk with no pandas.
+  read whole, as :func:`read_bundle` reads them, but chunk by chunk with no pandas; a
+  velocity sensor faster than :data:`STREAM_SENSOR_RATE_HZ` with more rows than a chunk (an
+  LDV at 100 Hz: 5.5 MiB per hour) is checked chunk by chunk when the bundle is opened and
+  stays on disk (:class:`SpeedStream`): the aided filters and ``dead_reckon_rows`` resample
+  it chunk by chunk (:func:`inmotion.core.deadreckoning.speed_resampler`), other readers get
+  its columns read whole when they ask (not kept).
 
 Parquet is read with ``pyarrow`` (``ParquetFile.iter_batches``), CSV with pandas in chunks.
 
