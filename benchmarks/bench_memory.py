@@ -26,7 +26,15 @@ one windowed alignment, ``inmotion -q align BUNDLE --method imada-vb --start 70 
 (``BundleStream.load_window``), so its peak should not depend on the log's length at all.
 ``--no-process`` leaves process and align out.
 
+And ``process --smooth`` on an odometer + LDV drive (issue 13): the same segment lists with
+the radar replaced by an odometer at 10 Hz and an LDV at 100 Hz giving distance
+(:data:`ODOMETER_LDV`; ``process`` runs ``fkf``, a bank of local filters, smoothed through a
+central filter): the LDV's table is long and fast, so it stays on disk
+(:class:`inmotion.io.bundle_stream.SpeedStream`) and is resampled chunk by chunk.
+``--no-odometer-ldv`` leaves it out.
+
     OPENBLAS_NUM_THREADS=1 .venv/bin/python benchmarks/bench_memory.py [--repeat N] [--no-process]
+        [--no-odometer-ldv]
 """
 from __future__ import annotations
 
@@ -48,11 +56,22 @@ OPTIONS = ["--method", "sins-dr", "--init", "truth", "--set", "mode=velocity-pos
            "--set", "output_rate_hz=1"]
 
 
-def scenario(hours: int) -> dict:
-    """``paper002_hour`` with its segment list driven ``hours`` times."""
+#: the odometer + LDV drive's sensors (those of paper 003's drive in tests/test_process_stream)
+ODOMETER_LDV = {"odometer": {"rate_hz": 10.0, "pulses_per_m": 200.0,
+                             "scale_factor_sigma_ppm": 2000.0, "lever_arm_m": [-0.8, -1.5, -0.9]},
+                "ldv": {"rate_hz": 100.0, "output": "distance", "scale_factor_sigma_ppm": 500.0,
+                        "noise_m_s": 0.01, "lever_arm_m": [0.3, 1.2, -0.6]}}
+
+
+def scenario(hours: int, odometer_ldv: bool = False) -> dict:
+    """``paper002_hour`` with its segment list driven ``hours`` times (with
+    ``odometer_ldv``: the radar replaced by :data:`ODOMETER_LDV`, the barometer kept)."""
     sc = yaml.safe_load(Path(find_scenario("paper002_hour")).read_text())
     sc["segments"] = sc["segments"] * hours
     sc["name"] = f"paper002_{hours}h"
+    if odometer_ldv:
+        sc["name"] += "_odometer_ldv"
+        sc["sensors"] = {**ODOMETER_LDV, "baro": sc["sensors"]["baro"]}
     return sc
 
 
@@ -61,7 +80,10 @@ RUNS = {"sins-dr": (["navigate"], OPTIONS),
         "process": (["process"], ["--no-report"]),
         "process --smooth": (["process"], ["--no-report", "--smooth"]),
         "align imada-vb 70-300 s": (["align"], ["--method", "imada-vb", "--start", "70",
-                                                "--end", "300"])}
+                                                "--end", "300"]),
+        "process --smooth (odometer+LDV)": (["process"], ["--no-report", "--smooth"])}
+#: the runs on the odometer + LDV drive (bundles ``o1``, ``o4``; the others on ``h1``, ``h4``)
+ODOMETER_LDV_RUNS = ("process --smooth (odometer+LDV)",)
 
 
 def child_run(bundle: Path, out: Path, run: str = "sins-dr") -> tuple[float, float, float]:
@@ -85,28 +107,35 @@ def main():
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--repeat", type=int, default=2)
     ap.add_argument("--no-process", action="store_true", help="measure navigate only")
+    ap.add_argument("--no-odometer-ldv", action="store_true",
+                    help="leave out the odometer + LDV drive")
     args = ap.parse_args()
     env = dict(os.environ, OPENBLAS_NUM_THREADS="1")
+    odometer_ldv = not (args.no_process or args.no_odometer_ldv)
     with tempfile.TemporaryDirectory() as tmp:
-        for hours in (1, 4):
-            # simulated by a child too: a child's ru_maxrss starts from its parent's resident
-            # set at the fork, so this process must stay smaller than the runs it measures
-            sc, path = Path(tmp) / f"h{hours}.yaml", Path(tmp) / f"h{hours}"
-            sc.write_text(yaml.safe_dump(scenario(hours), sort_keys=False))
-            subprocess.run([sys.executable, "-m", "inmotion.cli.main", "-q", "simulate", str(sc),
-                            "-o", str(path), "--seed", "0", "--format", "parquet"],
-                           check=True, env=env, stdout=subprocess.DEVNULL)
-            size = sum(f.stat().st_size for f in path.iterdir()) / 2 ** 20
-            rows = pq.ParquetFile(path / "imu.parquet").metadata.num_rows
-            print(f"{hours} h drive: {rows} IMU rows, Parquet bundle {size:.1f} MiB")
+        for prefix, odl in (("h", False),) + ((("o", True),) if odometer_ldv else ()):
+            for hours in (1, 4):
+                # simulated by a child too: a child's ru_maxrss starts from its parent's
+                # resident set at the fork, so this process must stay smaller than the runs
+                sc, path = Path(tmp) / f"{prefix}{hours}.yaml", Path(tmp) / f"{prefix}{hours}"
+                sc.write_text(yaml.safe_dump(scenario(hours, odl), sort_keys=False))
+                subprocess.run([sys.executable, "-m", "inmotion.cli.main", "-q", "simulate",
+                                str(sc), "-o", str(path), "--seed", "0", "--format", "parquet"],
+                               check=True, env=env, stdout=subprocess.DEVNULL)
+                size = sum(f.stat().st_size for f in path.iterdir()) / 2 ** 20
+                rows = pq.ParquetFile(path / "imu.parquet").metadata.num_rows
+                print(f"{hours} h drive{' (odometer+LDV)' if odl else ''}: {rows} IMU rows, "
+                      f"Parquet bundle {size:.1f} MiB")
         runs_measured = ["sins-dr"] + ([] if args.no_process else
                                        ["process", "process --smooth",
-                                        "align imada-vb 70-300 s"])
+                                        "align imada-vb 70-300 s"]) \
+            + (list(ODOMETER_LDV_RUNS) if odometer_ldv else [])
         for run in runs_measured:
-            child_run(Path(tmp) / "h1", Path(tmp) / "warm", run)    # warm-up: numba's cache
+            prefix = "o" if run in ODOMETER_LDV_RUNS else "h"
+            child_run(Path(tmp) / f"{prefix}1", Path(tmp) / "warm", run)    # warm-up: numba
             peaks = {}
             for hours in (1, 4):
-                runs = [child_run(Path(tmp) / f"h{hours}", Path(tmp) / f"out{hours}", run)
+                runs = [child_run(Path(tmp) / f"{prefix}{hours}", Path(tmp) / f"out{hours}", run)
                         for _ in range(max(1, args.repeat))]
                 peak, wall, cpu = (min(r[i] for r in runs) for i in range(3))
                 peaks[hours] = peak

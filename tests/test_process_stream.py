@@ -91,7 +91,11 @@ def test_process_streamed_equals_in_memory(case, smooth, tmp_path):
     ii = {"source": "truth", "has_attitude": True, "heading_sigma_deg": 0.1,
           "tilt_sigma_deg": 0.05}
     ref = run_process(whole, cfg, init, ii)
-    got = run_process(open_bundle(folder, chunk_rows=997), cfg, init, ii, output_rate_hz=1.0)
+    stream = open_bundle(folder, chunk_rows=997)
+    if "ldv" in sensors:        # the 100 Hz LDV stays on disk, read chunk by chunk
+        from inmotion.io.bundle_stream import SpeedStream
+        assert isinstance(stream.ldv, SpeedStream)
+    got = run_process(stream, cfg, init, ii, output_rate_hz=1.0)
     names = [s["method"] for s in ref.info["stages"]]
     assert names[:len(methods)] == methods, names          # (radar: the handover happened)
     if case == "radar":
@@ -205,3 +209,128 @@ def test_fine_mux_and_adaptive_streamed_equal_in_memory(method, tmp_path):
     whole = read_bundle(folder)
     init = NavState.from_truth(whole.truth)
     _same(run(open_bundle(folder, chunk_rows=997), {}, init), run(whole, {}, init))
+
+
+@pytest.fixture(scope="module")
+def ldv_bundle(tmp_path_factory):
+    folder = tmp_path_factory.mktemp("ldv") / "b"
+    write_bundle(_drive(["odometer", "ldv"], 3, parked_s=5.0), folder, fmt="parquet")
+    return folder
+
+
+def test_long_fast_sensor_stays_on_disk(ldv_bundle):
+    """The 100 Hz LDV (more rows than a chunk) is a SpeedStream, the 10 Hz odometer is read
+    whole; the stream answers t / ds / v / window / load as the table read whole does."""
+    from inmotion.io.bundle_stream import SpeedStream
+    whole = read_bundle(ldv_bundle)
+    s = open_bundle(ldv_bundle, chunk_rows=997)
+    assert isinstance(s.ldv, SpeedStream) and not isinstance(s.odometer, SpeedStream)
+    assert s.ldv.v is None
+    np.testing.assert_array_equal(s.ldv.t, whole.ldv.t)
+    np.testing.assert_array_equal(s.ldv.ds, whole.ldv.ds)
+    np.testing.assert_array_equal(s.ldv.speed(), whole.ldv.speed())
+    w, ww = s.ldv.window(50.0, 123.456), whole.ldv.window(50.0, 123.456)
+    np.testing.assert_array_equal(w.t, ww.t)
+    np.testing.assert_array_equal(w.load().ds, ww.ds)
+    np.testing.assert_array_equal(s.load_window(60.0, 70.0).ldv.ds, whole.window(60.0, 70.0).ldv.ds)
+
+
+def test_resampler_chunked_equals_whole_and_speed_on_epochs(ldv_bundle):
+    """speed_resampler fed a drive's IMU epochs in chunks: from the stream (a chunk of rows
+    in memory) the same bits as from the table in memory; against speed_on_epochs on each
+    chunk (the cumulative distance summed again from the first sample) equal up to rounding
+    (1e-9 m: the cumulative distance is a sum of per-chunk sums); the distance over the drive
+    is the odometer-independent truth's path length within the LDV's scale error."""
+    from inmotion.core.deadreckoning import speed_on_epochs, speed_resampler
+    whole = read_bundle(ldv_bundle)
+    s = open_bundle(ldv_bundle, chunk_rows=997)
+    t = whole.imu.t
+    r_mem, r_str = speed_resampler(whole.ldv, what="ldv"), speed_resampler(s.ldv, what="ldv")
+    total = 0.0
+    for a in range(0, len(t) - 1, 4321):
+        edges = t[a:a + 4322]
+        got_m, got_s = r_mem(edges), r_str(edges)
+        ref = speed_on_epochs(whole.ldv, edges, what="ldv")
+        for x, y, z in zip(got_m, got_s, ref):
+            np.testing.assert_array_equal(x, y)
+            np.testing.assert_allclose(x, z, rtol=0, atol=1e-9)
+        total += got_m[0].sum()
+    from inmotion.core.metrics import _path_length
+    truth_m = _path_length(whole.truth, t[[0, -1]])[-1]
+    assert abs(total / truth_m - 1.0) < 5 * 500e-6, (total, truth_m)
+
+
+def test_long_sensor_bad_row_named_as_read_bundle(ldv_bundle, tmp_path):
+    """An impossible ds in the third chunk of a streamed LDV: open_bundle refuses the bundle
+    with read_bundle's message (file, row over the whole table, time)."""
+    import shutil
+    folder = tmp_path / "b"
+    shutil.copytree(ldv_bundle, folder)
+    p = folder / "ldv.parquet"
+    df = pd.read_parquet(p)
+    df.loc[2500, "ds"] = 50.0
+    df.to_parquet(p, index=False)
+    with pytest.raises(BadInput) as e_stream:
+        open_bundle(folder, chunk_rows=997)
+    with pytest.raises(BadInput) as e_whole:
+        read_bundle(folder)
+    assert str(e_stream.value) == str(e_whole.value)
+    assert "row 2501, t=" in str(e_stream.value)
+
+
+@pytest.mark.parametrize("fmt", ["parquet", "csv"])
+def test_parked_kf_streams_its_window(radar_drive, tmp_path, fmt):
+    """parked-kf on a window of a bundle read in chunks: the rows are fed as they are read,
+    none after the window's end (a NaN at t = 150 s is never read), and the solution is that
+    of the window in memory, bit for bit."""
+    from inmotion.align.parked_kf import run_parked_kf
+    folder = tmp_path / "b"
+    write_bundle(radar_drive, folder, fmt=fmt)
+    whole = read_bundle(folder)
+    init = NavState.from_truth(whole.truth)
+    ref = run_parked_kf(whole.load_window(None, 60.0), {}, init, end_s=60.0)
+    p = folder / f"imu.{fmt}"
+    df = pd.read_parquet(p) if fmt == "parquet" else pd.read_csv(p)
+    df.loc[15000, "dtheta_y"] = np.nan
+    df.to_parquet(p, index=False, row_group_size=8192) if fmt == "parquet" else \
+        df.to_csv(p, index=False)
+    stream = open_bundle(folder, chunk_rows=997)
+    got = run_parked_kf(stream.window(None, 60.0), {}, init, end_s=60.0)
+    _same(got, ref)
+    assert len(ref.t) > 50
+
+
+def test_smooth_record_from_files_with_reused_buffers_equals_memory(tmp_path):
+    """The backward pass over a record on disk (block buffers reused, a budget of a few
+    records: many blocks) returns every output of the pass over the same record in memory
+    bit for bit, the forward sigma of the records where blocks meet included."""
+    from inmotion.estimation.layout import Layout
+    from inmotion.estimation.smoother import ForwardRecord, smooth_record
+    lay = Layout(["phi", "dv", "dp"])
+    n, N = lay.n, 60
+    rng = np.random.default_rng(3)
+    recs = {k: [] for k in ("t", "phi", "p_pred", "x", "p", "fb", "fed", "xs", "epoch")}
+    P = np.eye(n) * 1e-2
+    for k in range(N):
+        Phi = np.eye(n) + 0.01 * rng.standard_normal((n, n))
+        Pp = Phi @ P @ Phi.T + np.eye(n) * 1e-4
+        H = rng.standard_normal((2, n))
+        K = Pp @ H.T @ np.linalg.inv(H @ Pp @ H.T + np.eye(2) * 1e-3)
+        P = (np.eye(n) - K @ H) @ Pp
+        P = 0.5 * (P + P.T)
+        xs = np.r_[0.7, 2.0, 50.0, 1.0, 2.0, 0.0, 1.0, 0.0, 0.0, 0.0]
+        for key, v in (("t", k * 0.1), ("phi", Phi), ("p_pred", Pp), ("x", 1e-3 * rng.standard_normal(n)),
+                       ("p", P), ("fb", np.zeros(n)), ("fed", np.zeros(n)), ("xs", xs), ("epoch", k)):
+            recs[key].append(v)
+    chunk = {k: np.asarray(v, dtype=float) for k, v in recs.items()}
+    mem = ForwardRecord(n, N)
+    disk = ForwardRecord(n, N, memory_budget_bytes=7 * 8 * (3 * n * n + 3 * n + 13), folder=tmp_path)
+    for r in (mem, disk):
+        r.append({k: v[:20] for k, v in chunk.items()})
+        r.append({k: v[20:] for k, v in chunk.items()})
+    assert disk.on_disk and not mem.on_disk
+    rows = np.arange(0, N, 3)
+    a, b = smooth_record(mem, lay, rows), smooth_record(disk, lay, rows)
+    for k in a:
+        np.testing.assert_array_equal(a[k], b[k], err_msg=k)
+    disk.close()

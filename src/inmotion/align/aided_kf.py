@@ -228,7 +228,7 @@ from .. import config_fields as cf
 from ..core import earth, rotations
 from ..core import _kernels as K
 from ..core.bundle import Bundle, regroup
-from ..core.deadreckoning import speed_on_epochs
+from ..core.deadreckoning import speed_resampler
 from ..core.mechanization import _baro_on_imu, start_row
 from ..core.solution import NavState, Solution, StateUnit
 from ..errors import BadInput
@@ -1284,7 +1284,7 @@ def run_aided(bundle: Bundle, cfg, init: NavState, sensors: tuple, *, method: st
     res = _feed(f, bundle, k0, sensors, meas_every, use_nhc, use_baro,
                 None if smooth and bank else progress,
                 ForwardRecord.for_filter(f, n_ep) if smooth and not bank else None,
-                stops=stops)
+                stops=stops, keep=("t", "mode") if smooth and bank else None)
     extra = None
     if smooth and bank:
         res, extra = _smooth_bank(f, res, bundle, cfg, init, k0, sensors, use_nhc, use_baro,
@@ -1482,8 +1482,12 @@ def _smooth_bank(f, res_fwd, bundle, cfg, init, k0, sensors, use_nhc, use_baro, 
     return res, info
 
 
+#: the outputs of the engine's ``add_imu`` (a bank adds ``local_x``, ``local_sigma``)
+_OUTPUT_KEYS = ("t", "x_sins", "sigma", "states", "cov_phi", "mode", "local_x", "local_sigma")
+
+
 def _feed(f, bundle, k0, sensors, meas_every, use_nhc, use_baro, progress, rec=None,
-          accept=None, stops=None):
+          accept=None, stops=None, keep=None):
     """The bundle through the engine chunk by chunk: per chunk each sensor resampled to the
     IMU rows (distance per row for the accumulators, NaN where not covered or in a gap), and
     at every ``meas_every``-th epoch end a sample of each sensor, the NHC and the height.
@@ -1492,8 +1496,18 @@ def _feed(f, bundle, k0, sensors, meas_every, use_nhc, use_baro, progress, rec=N
     (``{sensor or "nhc": f(sample times) -> bool mask}``, :func:`_smooth_bank`): only the
     samples it accepts are fed (a sensor's rejected sample is NaN over its whole interval).
     ``stops`` (S, 2): the zero-velocity and zero-rate samples at the sample epochs inside
-    them."""
+    them. ``keep`` (None: all): the only outputs kept (the forward bank that
+    :func:`_smooth_bank` smooths needs its ``t`` and ``mode`` only); with ``rec`` the forward
+    rows of the outputs the smoothed ones replace are not kept either, so each output is
+    held once."""
     n, _, pieces, first = bundle.imu_rows_after(f.t)    # whole, or read in chunks
+    replaced = ("x_sins", "sigma", "states", "cov_phi")
+    drop = None if rec is None else set(replaced)
+    if keep is not None:
+        drop = (drop or set()) | (set(_OUTPUT_KEYS) - set(keep))
+    # each sensor resampled chunk by chunk, its distance carried (linear time; a long table
+    # read in chunks, io.bundle_stream.SpeedStream)
+    resample = {s_: speed_resampler(getattr(bundle, s_), what=s_) for s_ in sensors}
     if first != k0:
         raise RuntimeError(f"the filter starts at IMU row {first}, not {k0}")
     step = f.step
@@ -1519,7 +1533,7 @@ def _feed(f, bundle, k0, sensors, meas_every, use_nhc, use_baro, progress, rec=N
             own = np.searchsorted(s_rows, np.arange(a, b))
             at = np.searchsorted(s_rows, a + rows)
         for s_ in sensors:
-            ds, v, unc, gap = speed_on_epochs(getattr(bundle, s_), edges, what=s_)
+            ds, v, unc, gap = resample[s_](edges)
             ds[unc | gap] = np.nan               # no measurement over these rows
             v[unc | gap] = np.nan
             if accept is not None:
@@ -1536,9 +1550,10 @@ def _feed(f, bundle, k0, sensors, meas_every, use_nhc, use_baro, progress, rec=N
             t_zv = t_meas[_in_any(t_meas, stops)]
             f.add_measurement("zero_velocity", t_zv)
             f.add_measurement("zero_rate", t_zv)
-        outs.append(f.add_imu(tc, dth, dvl, row_data=row_data, flush=b == n))
+        o = f.add_imu(tc, dth, dvl, row_data=row_data, flush=b == n)
         if rec is not None:
-            rec.append(outs[-1].pop("record"))
+            rec.append(o.pop("record"))
+        outs.append(o if drop is None else {k: v for k, v in o.items() if k not in drop})
         if progress is not None:
             progress(b / n)
     res = {k: np.concatenate([o[k] for o in outs]) for k in outs[0]}
@@ -1546,7 +1561,7 @@ def _feed(f, bundle, k0, sensors, meas_every, use_nhc, use_baro, progress, rec=N
         sm = smooth_at_outputs(rec, f, with_last=False)   # no off-grid last row here
         if not np.array_equal(sm["t"][1:], res["t"]):
             raise RuntimeError("smoothed rows do not fall on the forward output rows")
-        for k in ("x_sins", "sigma", "states", "cov_phi"):
+        for k in replaced:
             res[k] = sm[k][1:]
         res["first"] = (sm["x_sins"][0], sm["sigma"][0])
     return res

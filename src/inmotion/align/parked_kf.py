@@ -69,7 +69,7 @@ from pydantic import BaseModel, ConfigDict, Field
 
 from .. import config_fields as cf
 from ..core import earth
-from ..core.bundle import Bundle
+from ..core.bundle import Bundle, regroup
 from ..core.mechanization import _first_row
 from ..core.solution import NavState, Solution
 from ..errors import BadInput
@@ -214,6 +214,19 @@ def fields_not_set(cfg, fields, values: dict, origin: str) -> tuple:
     return upd, src
 
 
+def _first_rows(pieces, n: int):
+    """The first ``n`` rows of IMU ``pieces`` (tuples of arrays), then stop: the rows after
+    ``end_s`` are not read."""
+    if n <= 0:
+        return
+    for piece in pieces:
+        m = len(piece[0])
+        yield piece if m <= n else tuple(x[:n] for x in piece)
+        n -= m
+        if n <= 0:          # (before asking the source for another piece)
+            return
+
+
 def run_parked_kf(bundle: Bundle, config: ParkedKfConfig | dict | None = None,
                   init: NavState | None = None, progress: Optional[Callable] = None,
                   end_s: float | None = None) -> Solution:
@@ -228,29 +241,38 @@ def run_parked_kf(bundle: Bundle, config: ParkedKfConfig | dict | None = None,
         raise BadInput("parked-kf needs an initial attitude (--init truth, a coarse alignment "
                        "result, or meta.yaml)")
     t_wall = time.perf_counter()
-    imu = bundle.imu
-    k0 = _first_row(imu.t, init.t)
-    k1 = len(imu.t) if end_s is None else int(np.searchsorted(imu.t, end_s, side="right"))
+    imu = bundle.imu                    # its times (a bundle read in chunks: no rows held)
+    t_all = imu.t
+    k0 = _first_row(t_all, init.t)
+    k1 = len(t_all) if end_s is None else int(np.searchsorted(t_all, end_s, side="right"))
     if k1 - k0 < 2:
         raise BadInput(f"no IMU rows after the start t={init.t:.6g} s", file="imu")
+    t = t_all[k0:k1]
+    dt_imu = imu.dt
+    del t_all
     lay = ENGINE_LAYOUT
     still = NavState(init.t, init.lat, init.lon, init.h, np.zeros(3), init.q_nb)
-    step = max(1, int(round(1.0 / (cfg.filter_rate_hz * imu.dt))))
-    out_every = max(1, int(round(cfg.output_interval_s / (step * imu.dt))))
+    step = max(1, int(round(1.0 / (cfg.filter_rate_hz * dt_imu))))
+    out_every = max(1, int(round(cfg.output_interval_s / (step * dt_imu))))
     meas = [ms.ZeroVelocity(cfg.zero_velocity_noise_m_s)]
     f = ErrorStateFilter(still, lay, em.ErrorModel(lay, _noise(cfg)),
                          _prior(cfg), meas, step_rows=step,
                          out_every=out_every)
-    t = imu.t[k0:k1]
     ends = np.r_[np.arange(step - 1, len(t), step), len(t) - 1]
     t_meas = np.unique(t[ends])
     f.add_measurement("zero_velocity", t_meas)
     outs = [f.output_now()]
     chunk = step * max(1, 16384 // step)
+    # the rows streamed (a bundle read in chunks reads them as they are fed), regrouped into
+    # the chunks the filter always took, up to the end row
+    _, _, pieces, first = bundle.imu_rows_after(init.t)
+    if first != k0:
+        raise RuntimeError(f"parked-kf starts at IMU row {first}, not {k0}")
+    blocks = regroup(_first_rows(pieces, len(t)), chunk)
     for a in range(0, len(t), chunk):
         b = min(a + chunk, len(t))
-        outs.append(f.add_imu(t[a:b], imu.dtheta[k0 + a:k0 + b], imu.dvel[k0 + a:k0 + b],
-                              flush=b == len(t)))
+        tc, dth, dvl = next(blocks)[:3]
+        outs.append(f.add_imu(tc, dth, dvl, flush=b == len(t)))
         if progress is not None:
             progress(b / len(t))
     if f.epochs % out_every:                    # the last epoch is written even off the grid

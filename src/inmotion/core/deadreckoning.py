@@ -50,7 +50,7 @@ from .mechanization import (CHUNK_ROWS, _check_finite, _check_time, _correct, _f
 from .solution import NavState, Solution
 from ..errors import BadInput
 
-__all__ = ["dead_reckon", "DeadReckoner", "speed_on_epochs"]
+__all__ = ["dead_reckon", "DeadReckoner", "speed_on_epochs", "speed_resampler"]
 
 
 def _check_mounting(C_bm, lever_arm_b, scale):
@@ -83,55 +83,86 @@ def _check_speed(speed: SpeedData, what: str):
                                row=k + 1, time=float(speed.t[k]))
 
 
+class _WholeSamples:
+    """A sensor's samples in memory, as :class:`_SpeedOnEpochs` reads them: ``n``, the first
+    and last times, ``locate`` (the samples around a stretch of time) and ``seg`` (the
+    samples ``lo .. hi - 1``: views). A sensor read in chunks gives the same from a buffer
+    (:meth:`inmotion.io.bundle_stream.SpeedStream.samples`)."""
+
+    def __init__(self, speed: SpeedData):
+        self.speed = speed
+        self.n = len(speed.t)
+        self.t_first, self.t_last = speed.t[0], speed.t[-1]
+
+    def typical_period(self) -> float:
+        return typical_period(self.speed.t)
+
+    def locate(self, t0, t1):
+        """``(lo, hi)``: one sample before the last sample <= ``t0`` and one after the first
+        sample >= ``t1`` (at least two samples)."""
+        ts, n = self.speed.t, self.n
+        lo = int(np.clip(np.searchsorted(ts, t0, side="right") - 2, 0, n - 2))
+        hi = int(np.clip(np.searchsorted(ts, t1, side="left") + 2, lo + 2, n))
+        return lo, hi
+
+    def seg(self, lo, hi):
+        sp = self.speed
+        return (sp.t[lo:hi], None if sp.v is None else sp.v[lo:hi],
+                None if sp.ds is None else sp.ds[lo:hi])
+
+
 class _SpeedOnEpochs:
     """A velocity sensor resampled to IMU epochs, one chunk of epochs per call
     (see :func:`speed_on_epochs`).
 
     Calls normally come in time order; the sensor's cumulative distance is then carried from
     call to call, so every temporary is the size of the chunk's stretch of sensor data, never
-    of the whole log (a call going back in time sums again from the first sample).
+    of the whole log (a call going back in time sums again from the first sample; a sensor
+    read in chunks, ``speed`` with a ``samples()`` method, only goes forward).
     """
 
     def __init__(self, speed: SpeedData, max_gap: float | None = None, what: str = "speed"):
-        _check_speed(speed, what)
-        self.speed = speed
-        self.max_gap = 5.0 * typical_period(speed.t) if max_gap is None else float(max_gap)
+        if hasattr(speed, "samples"):       # read in chunks: the rows were checked on reading
+            self.src = speed.samples()
+        else:
+            _check_speed(speed, what)
+            self.src = _WholeSamples(speed)
+        self.max_gap = (5.0 * self.src.typical_period() if max_gap is None
+                        else float(max_gap))
         self._j = 0             # the sensor sample whose cumulative distance is carried
         self._dist = 0.0        # cumulative distance [m] at sample _j (0 at sample 0)
 
-    def _increments(self, lo, hi):
-        """Distance [m] of the sensor intervals ending at samples ``lo+1 .. hi-1``."""
-        sp = self.speed
-        if sp.ds is not None:
-            return sp.ds[lo + 1:hi]
-        return 0.5 * (sp.v[lo + 1:hi] + sp.v[lo:hi - 1]) * np.diff(sp.t[lo:hi])
+    @staticmethod
+    def _increments(tl, vl, dsl):
+        """Distance [m] of the sensor intervals ending at the samples ``1 ..`` of a segment."""
+        if dsl is not None:
+            return dsl[1:]
+        return 0.5 * (vl[1:] + vl[:-1]) * np.diff(tl)
 
     def _distance_at(self, j):
         """Cumulative distance [m] at sensor sample ``j``."""
         if j < self._j:
             self._j, self._dist = 0, 0.0
-        self._dist += float(np.sum(self._increments(self._j, j + 1)))
+        self._dist += float(np.sum(self._increments(*self.src.seg(self._j, j + 1))))
         self._j = j
         return self._dist
 
     def __call__(self, t):
-        sp = self.speed
-        ts = sp.t
-        n = len(ts)
+        src = self.src
         # the sensor samples around the chunk: one before the last sample <= t[0] and one after
         # the first sample >= t[-1] (the speed of a ds sensor is interpolated between midpoints)
-        lo = int(np.clip(np.searchsorted(ts, t[0], side="right") - 2, 0, n - 2))
-        hi = int(np.clip(np.searchsorted(ts, t[-1], side="left") + 2, lo + 2, n))
-        tl = ts[lo:hi]
+        lo, hi = src.locate(t[0], t[-1])
+        d0 = self._distance_at(lo)
+        tl, vl, dsl = src.seg(lo, hi)
         dist = np.empty(hi - lo)
-        dist[0] = self._distance_at(lo)
-        dist[1:] = dist[0] + np.cumsum(self._increments(lo, hi))
+        dist[0] = d0
+        dist[1:] = dist[0] + np.cumsum(self._increments(tl, vl, dsl))
         ds = np.diff(np.interp(t, tl, dist))
-        if sp.v is not None:
-            v = np.interp(t[1:], tl, sp.v[lo:hi])
+        if vl is not None:
+            v = np.interp(t[1:], tl, vl)
         else:   # interval mean speeds, placed at the interval midpoints, interpolated
-            v = np.interp(t[1:], 0.5 * (tl[1:] + tl[:-1]), sp.ds[lo + 1:hi] / np.diff(tl))
-        uncovered = (t[:-1] < ts[0] - 1e-9) | (t[1:] > ts[-1] + 1e-9)
+            v = np.interp(t[1:], 0.5 * (tl[1:] + tl[:-1]), dsl[1:] / np.diff(tl))
+        uncovered = (t[:-1] < src.t_first - 1e-9) | (t[1:] > src.t_last + 1e-9)
         ds[uncovered] = 0.0
         v[uncovered] = 0.0
         # gaps_upto[j]: how many of the intervals (tl[i-1], tl[i]], i = 1..j, are gaps;
@@ -170,6 +201,19 @@ def speed_on_epochs(speed: SpeedData, t: np.ndarray, max_gap: float | None = Non
     in_gap : (M,) bool, intervals that overlap a sensor gap (distance interpolated across it)
     """
     return _SpeedOnEpochs(speed, max_gap, what)(np.asarray(t, dtype=float))
+
+
+def speed_resampler(speed, max_gap: float | None = None, what: str = "speed"):
+    """:func:`speed_on_epochs` for consecutive chunks of epochs: ``r = speed_resampler(...)``,
+    then ``r(t)`` per chunk (``t`` (M + 1,) [s] as :func:`speed_on_epochs`' ``t``, the chunks
+    in time order, each starting where the last ended) returns what :func:`speed_on_epochs`
+    returns, with the sensor's cumulative distance carried from chunk to chunk (not summed
+    again from the first sample: linear time in the log's length) and, for a sensor read in
+    chunks (:class:`inmotion.io.bundle_stream.SpeedStream`), only a chunk's rows in memory.
+    The distances differ from :func:`speed_on_epochs` on each chunk by rounding only (the
+    cumulative distance is a sum of per-chunk sums). ``max_gap`` [s]: as
+    :func:`speed_on_epochs` (default 5 median sensor periods)."""
+    return _SpeedOnEpochs(speed, max_gap, what)
 
 
 class DeadReckoner(_KernelStream):

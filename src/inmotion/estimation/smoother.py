@@ -228,8 +228,10 @@ class ForwardRecord:
                 self._files[name].write(part[name].tobytes())
         self._parts = []
 
-    def block(self, a: int, b: int, fields=RECORD_FIELDS) -> dict:
-        """The records ``a .. b - 1`` of ``fields``: views of memory, or read from the files."""
+    def block(self, a: int, b: int, fields=RECORD_FIELDS, out: dict | None = None) -> dict:
+        """The records ``a .. b - 1`` of ``fields``: views of memory, or read from the files
+        (into ``out[field][:b - a]`` when given: buffers reused from block to block, so the
+        backward pass over many blocks does not leave the allocator's heap fragmented)."""
         a, b = max(0, int(a)), min(self.size, int(b))
         if self._files is None:
             if len(self._parts) > 1:               # one array per field from here on
@@ -238,15 +240,21 @@ class ForwardRecord:
             if not self._parts:
                 return {k: np.empty((0,) + self.shapes[k]) for k in fields}
             return {k: self._parts[0][k][a:b] for k in fields}
-        out = {}
+        res = {}
         for k in fields:
             f = self._files[k]
             f.flush()
             width = int(np.prod(self.shapes[k]))
             f.seek(8 * width * a)
-            out[k] = np.fromfile(f, dtype=np.float64, count=width * (b - a)).reshape(
+            if out is not None:
+                dst = out[k][:b - a]
+                if f.readinto(memoryview(dst).cast("B")) != dst.nbytes:
+                    raise RuntimeError(f"smoother record {k}: short read")
+                res[k] = dst
+                continue
+            res[k] = np.fromfile(f, dtype=np.float64, count=width * (b - a)).reshape(
                 (b - a,) + self.shapes[k])
-        return out
+        return res
 
     def __getitem__(self, name):
         return self.block(0, self.size, (name,))[name]
@@ -323,15 +331,25 @@ def smooth_record(record: ForwardRecord, layout, rows=None) -> dict:
               ) if record.on_disk else N
     b = N                                   # this block: records a .. b - 1
     x_next = P_next = None                  # the smoothed x, P of record b - 1
+    # on disk: one set of block buffers, read into and written over block after block
+    bufs = ({k: np.empty((min(per, N),) + record.shapes[k]) for k in RECORD_FIELDS}
+            if record.on_disk else None)
+    xs_buf, Ps_buf = np.empty((min(per, N), n)), np.empty((min(per, N), n, n))
     while b > 0:
         a = max(0, b - per)
-        blk = record.block(a, b)
+        blk = record.block(a, b, out=bufs)
         x, P = blk["x"], blk["p"]
+        p_last = None
         if x_next is not None:
-            x, P = x.copy(), P.copy()
+            if bufs is None:                # (views of the record in memory: not written)
+                x, P = x.copy(), P.copy()
+            else:                           # the forward P of the last record, for its sigma
+                p_last = P[-1].copy()
             x[-1], P[-1] = x_next, P_next
-        xs_out, Ps_out = np.empty((b - a, n)), np.empty((b - a, n, n))
+        xs_out, Ps_out = xs_buf[:b - a], Ps_buf[:b - a]
         rts_backward(x, P, blk["phi"], blk["p_pred"], blk["fb"], xs_out, Ps_out)
+        if p_last is not None:
+            P[-1] = p_last
         sel = np.flatnonzero((rows >= a) & (rows < b))
         r = rows[sel] - a
         x_k, P_k = xs_out[r], Ps_out[r]

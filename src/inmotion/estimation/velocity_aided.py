@@ -336,6 +336,8 @@ class VelocityAidedRun:
 
         if n_rows <= 0:
             raise ValueError("VelocityAidedRun.run needs at least one IMU row")
+        if hasattr(speed, "load"):      # a long sensor table left on disk: its rows in memory,
+            speed = speed.load()        # as before (_speed_on_chunk windows them per chunk)
         f = self.filter
         outs = [take(f.output_now())[0]]
         rec = ForwardRecord.for_filter(f, -(-n_rows // self.step)) if self.smooth else None

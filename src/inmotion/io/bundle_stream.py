@@ -12,7 +12,12 @@ the log:
   filter) and, for the truth, when the errors are written (:meth:`TruthStream.reduced`: only
   the rows the errors at the output epochs need);
 * velocity-sensor and barometer tables (10 Hz, two columns: under a megabyte per hour) are
-  read whole, as :func:`read_bundle` reads them, but chunk by chunk with no pandas.
+  read whole, as :func:`read_bundle` reads them, but chunk by chunk with no pandas; a
+  velocity sensor faster than :data:`STREAM_SENSOR_RATE_HZ` with more rows than a chunk (an
+  LDV at 100 Hz: 5.5 MiB per hour) is checked chunk by chunk when the bundle is opened and
+  stays on disk (:class:`SpeedStream`): the aided filters and ``dead_reckon_rows`` resample
+  it chunk by chunk (:func:`inmotion.core.deadreckoning.speed_resampler`), other readers get
+  its columns read whole when they ask (not kept).
 
 Parquet is read with ``pyarrow`` (``ParquetFile.iter_batches``), CSV with pandas in chunks.
 
@@ -40,12 +45,14 @@ from typing import Optional
 import numpy as np
 
 from ..core import rotations
-from ..core.bundle import VELOCITY_SENSORS, Bundle, ImuData, Truth, row_at_or_after
+from ..core.bundle import (VELOCITY_SENSORS, Bundle, ImuData, SpeedData, Truth,
+                           row_at_or_after)
 from ..core.earth import radii
 from ..errors import BadInput
 from . import bundle as B
 
-__all__ = ["open_bundle", "BundleStream", "TruthStream", "CHUNK_ROWS"]
+__all__ = ["open_bundle", "BundleStream", "TruthStream", "SpeedStream", "CHUNK_ROWS",
+           "STREAM_SENSOR_RATE_HZ"]
 
 #: rows per chunk read from the IMU and truth tables
 CHUNK_ROWS = 65536
@@ -337,6 +344,146 @@ class _ImuTable(_Times):
         return ImuData(t, dtheta, dvel)
 
 
+# --------------------------------------------------------------------------- a long sensor
+
+#: a velocity sensor sampled faster than this [Hz] with more rows than a chunk (:data:`CHUNK_ROWS`)
+#: stays on disk (:class:`SpeedStream`); slower ones (radar, odometer at 10 Hz: under a
+#: megabyte per hour) are read whole
+STREAM_SENSOR_RATE_HZ = 20.0
+
+
+class SpeedStream:
+    """A long velocity-sensor table (an LDV at 100 Hz: 5.5 MiB per hour) on disk, with what
+    methods ask of a :class:`~inmotion.core.bundle.SpeedData`: ``t`` (the time column, kept
+    as :meth:`_Table.times` keeps it), ``v`` and ``ds`` (read whole when asked, not kept:
+    ``None`` for a column the table does not have), ``speed()``, ``window()``, ``load()``
+    (the rows as a :class:`SpeedData` in memory) and ``samples()``, the chunked source
+    :class:`inmotion.core.deadreckoning._SpeedOnEpochs` resamples from (the aided filters'
+    feed, :func:`inmotion.align.aided_kf._feed`, and ``dead_reckon_rows``), which holds a
+    chunk of rows at a time. Every row was checked when the bundle was opened
+    (:func:`open_bundle`), as :func:`read_bundle` checks them."""
+
+    def __init__(self, table: _Table, cols: tuple, window=(None, None)):
+        self._table, self._cols, self._window = table, tuple(cols), window
+
+    def _rows(self):
+        """``(a, b)``: the table's rows inside the window."""
+        t = self._table.times()
+        lo, hi = self._window
+        a = 0 if lo is None else int(np.searchsorted(t, lo, side="left"))
+        b = len(t) if hi is None else int(np.searchsorted(t, hi, side="right"))
+        return a, max(a, b)
+
+    @property
+    def t(self) -> np.ndarray:
+        a, b = self._rows()
+        return self._table.times()[a:b]
+
+    def _column(self, name):
+        if name not in self._cols:
+            return None
+        a, b = self._rows()
+        out = np.empty(b - a)
+        for offset, c in self._table.chunks((name,), rows=(a, b)):
+            out[offset - a:offset - a + len(c[name])] = c[name]
+        return out
+
+    @property
+    def v(self):
+        return self._column("v")
+
+    @property
+    def ds(self):
+        return self._column("ds")
+
+    def load(self) -> SpeedData:
+        """The (windowed) rows in memory."""
+        a, b = self._rows()
+        cols = {k: np.empty(b - a) for k in self._cols}
+        for offset, c in self._table.chunks(self._cols, rows=(a, b)):
+            for k in self._cols:
+                cols[k][offset - a:offset - a + len(c[k])] = c[k]
+        return SpeedData(cols["t"], v=cols.get("v"), ds=cols.get("ds"))
+
+    def speed(self) -> np.ndarray:
+        return self.load().speed()
+
+    def window(self, start=None, end=None) -> "SpeedStream":
+        return SpeedStream(self._table, self._cols, _intersect(self._window, (start, end)))
+
+    def samples(self) -> "_SpeedSamples":
+        return _SpeedSamples(self)
+
+
+class _SpeedSamples:
+    """The samples of a :class:`SpeedStream` as :class:`inmotion.core.deadreckoning.
+    _WholeSamples` gives them from memory (same indices, same values), from a buffer of the
+    rows read so far and not yet passed: ``locate`` reads forward as far as it needs, and
+    forgets the rows before the ``lo`` it returns (the caller asks only forward in time)."""
+
+    def __init__(self, stream: SpeedStream):
+        t = stream._table.times()
+        self._a, b = stream._rows()
+        self.n = b - self._a
+        if self.n < 2:
+            raise BadInput(f"need at least 2 samples, got {self.n}", file=stream._table.path)
+        ts = t[self._a:b]
+        self.t_first, self.t_last = ts[0], ts[-1]
+        from ..core.mechanization import typical_period
+        self._period = typical_period(ts)
+        del t, ts
+        self._cols = stream._cols
+        self._it = stream._table.chunks(self._cols, rows=(self._a, b))
+        self._base = 0                      # the sample index of the buffer's first row
+        self._keep = 0                      # rows before it may be forgotten
+        self._buf = {k: np.zeros(0) for k in self._cols}
+
+    def typical_period(self) -> float:
+        return self._period
+
+    def _read(self):
+        """One more chunk into the buffer; False at the end of the rows."""
+        try:
+            _, c = next(self._it)
+        except StopIteration:
+            return False
+        self._buf = {k: np.concatenate([self._buf[k], c[k]]) for k in self._cols}
+        return True
+
+    def locate(self, t0, t1):
+        n = self.n
+        if self._keep > self._base:         # forget the rows before the last call's lo
+            cut = self._keep - self._base
+            self._buf = {k_: v[cut:] for k_, v in self._buf.items()}
+            self._base = self._keep
+        while True:                         # the rows up to two past the first >= t1
+            tb = self._buf["t"]
+            k = int(np.searchsorted(tb, t1, side="left"))
+            if self._base + len(tb) >= n or len(tb) >= k + 2 or not self._read():
+                break
+        if self._base > 0 and len(tb) and tb[0] > t0:
+            raise RuntimeError("sensor samples asked for before those already passed")
+        lo = int(np.clip(self._base + np.searchsorted(tb, t0, side="right") - 2, 0, n - 2))
+        hi = int(np.clip(self._base + k + 2, lo + 2, n))
+        while self._base + len(self._buf["t"]) < hi and self._read():
+            pass
+        self._keep = lo     # (the caller still sums the distance from its last lo to this)
+        return lo, hi
+
+    def seg(self, lo, hi):
+        if lo < self._base:
+            raise RuntimeError("sensor samples asked for before those already passed")
+        i, j = lo - self._base, hi - self._base
+        b = self._buf
+        return b["t"][i:j], b["v"][i:j] if "v" in b else None, b["ds"][i:j] if "ds" in b \
+            else None
+
+
+def _in_memory(x):
+    """A sensor as a :class:`SpeedData` (a :class:`SpeedStream`'s rows read)."""
+    return x.load() if isinstance(x, SpeedStream) else x
+
+
 # --------------------------------------------------------------------------- the truth
 
 class TruthStream(_Times):
@@ -547,7 +694,7 @@ class BundleStream:
         cut = self.window(start, end)
         tr = cut.truth.load() if truth and cut.truth is not None else cut.truth
         return Bundle(self._imu.rows(a, b), dict(self.meta),
-                      *(getattr(cut, s) for s in VELOCITY_SENSORS), cut.baro, tr)
+                      *(_in_memory(getattr(cut, s)) for s in VELOCITY_SENSORS), cut.baro, tr)
 
     def imu_rows_after(self, t0: float, min_rows: int = 2):
         """``(n_rows, period_s, pieces, first_row)`` as :meth:`Bundle.imu_rows_after`, the
@@ -568,6 +715,32 @@ class BundleStream:
                 if a < b:
                     yield t[a:b], dtheta[a:b], dvel[a:b]
         return n, period, pieces(), w0 + k0
+
+
+def _speed_table(tb: _Table, cols):
+    """A velocity sensor's table checked as :func:`inmotion.io.bundle.speed_data` checks it:
+    read whole (a :class:`SpeedData`), or, when it is long and fast (more than
+    rows than a chunk at more than :data:`STREAM_SENSOR_RATE_HZ`), checked chunk by
+    chunk and kept on disk (a :class:`SpeedStream`)."""
+    t = tb.times()
+    n = len(t)
+    d_med = float(np.median(np.diff(t))) if n > 1 else 1.0
+    if n <= tb.chunk_rows or not d_med * STREAM_SENSOR_RATE_HZ < 1.0:
+        del t
+        return B.speed_data(tb.read(cols), tb.path)
+    del t
+    t_prev = None
+    for offset, c in tb.chunks(cols):       # speed_data's limits, row by row
+        d = (np.concatenate([[d_med], np.diff(c["t"])]) if t_prev is None
+             else np.diff(c["t"], prepend=t_prev))
+        if "v" in c:
+            B._check_limit(c["v"], B.LIMITS["speed_m_s"], "speed v =", "m/s", tb.path,
+                           c["t"], offset)
+        if "ds" in c:
+            B._check_limit(c["ds"] / d, B.LIMITS["speed_m_s"], "speed ds/dt =", "m/s",
+                           tb.path, c["t"], offset)
+        t_prev = c["t"][-1]
+    return SpeedStream(tb, cols)
 
 
 def open_bundle(path, *, max_gap_periods: float = B.MAX_GAP_PERIODS,
@@ -605,7 +778,7 @@ def open_bundle(path, *, max_gap_periods: float = B.MAX_GAP_PERIODS,
         if name in files:
             tb = _Table(files[name], chunk_rows)
             cols = B.speed_columns(tb.columns, tb.path, need_v=(name == "radar"))
-            speeds[name] = B.speed_data(tb.read(cols), tb.path)
+            speeds[name] = _speed_table(tb, cols)
             B._check_gaps(name, speeds[name].t, tb.path, max_gap_periods, error=False)
     baro = truth = None
     if "baro" in files:
