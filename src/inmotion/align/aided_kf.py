@@ -859,12 +859,12 @@ def _rows_to_displacement_frame(z, H, e, d, fwd):
     Measured (issue 15): od-kf at 20,000 pulses/m, an error-free IMU, no mounting, lever arm
     or scale error, a start 20 times smaller (0.005 / 0.005 / 0.025 deg), lateral slip only,
     detection off, the lateral rows' noise set to 0.1 m/s (so the heading comes from the
-    forward row alone): the heading moved +4 to +10 arcmin in the 60 deg turn on every seed
-    (+2 to +3 with half the slip, +14 to +30 with twice: quadratic in the slip, and of the
-    turn's sign: -6 to -14 with the turn mirrored), the same with the slip only inside the
-    turn; with these rows the turn moves it by less than 0.5 arcmin; final-attitude NEES
-    (3 runs, seeds 100-102) 43.6 -> 1.72 with the slip only in the turn, 49.6 -> 10.7 (6
-    runs) with it throughout. ``benchmarks/nees_methods.py 20`` (band 2.02-4.16): fkf 3.30
+    forward row alone), seeds 100-102, the slip only inside the turn: the heading moved +4 to
+    +10 arcmin over the 60 deg turn on each seed (+1 to +3 with half the slip, +14 to +30 with
+    twice: quadratic in the slip; -4 to -12 with the turn mirrored and the slip throughout);
+    with these rows the turn moves it by less than 0.5 arcmin, and the final-attitude NEES of
+    those 3 runs goes from 43.6 to 1.72. With the slip throughout: 49.6 (3 runs) before, 10.7
+    (6 runs) after (what is left is not the turn). ``benchmarks/nees_methods.py 20`` (band 2.02-4.16): fkf 3.30
     -> 3.13, ldv-kf 3.33 -> 3.26, od-kf 2.87 -> 2.87, nhc-kf 3.57 (unchanged: no displacement
     rows); ``benchmarks/nees_fine_odometer.py 10 200``: 3.02 -> 3.01 (per run within 0.1),
     final heading error RMS 22.72 -> 22.69 arcmin. Not the whole of issue 15's fine-odometer
