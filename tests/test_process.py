@@ -371,8 +371,12 @@ def test_process_zero_velocity_updates_at_stops(smooth):
         # monotone (seed 1 passes 0.3 m at 150 s), so its largest error (reached before the
         # first stop on seed 1, where both runs are the same) is no reference. Measured at the
         # end, forward / smoothed: seed 0 6.1 / 18.4 and 6.1 / 18.6 m, seed 1 3.1 / 9.0 and
-        # 3.1 / 9.2 m (ratios 0.33-0.35); before these changes 0.11-0.2
-        assert hor[-1] < 0.4 * hor0[-1], (seed, hor[-1], hor0[-1])
+        # 3.1 / 9.2 m (ratios 0.33-0.35); before these changes 0.11-0.2. With the displacement
+        # rows in the frame of the sensor's displacement (aided_kf._rows_to_displacement_frame,
+        # issue 15) the runs with stops are unchanged (seed 0 6.10 / 6.10 m, seed 1 3.14 /
+        # 3.11 m) and seed 1's run without them drifts less again (5.42 / 5.63 m against 8.98
+        # / 9.17; seed 0 18.50 / 18.65): ratios 0.33 and 0.55-0.58
+        assert hor[-1] < 0.65 * hor0[-1], (seed, hor[-1], hor0[-1])
         assert (np.abs(dv[stopped]).max() < np.abs(dv0[stopped]).max()
                 and np.abs(dv[stopped]).max() < 0.03)
         assert np.all(np.abs(dv[1:]) <= 4 * sv[1:]) and np.all(np.abs(dp) <= 4 * sp), seed
