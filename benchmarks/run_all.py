@@ -166,6 +166,11 @@ BENCHES = {
                rf"CLI process --smooth 1 h, .*peak RSS {_NUM} MiB", "MiB"),
         Figure("peak RSS 4 h / 1 h, process --smooth",
                rf"peak RSS 4 h / 1 h \(process --smooth\): {_NUM}", "", 1.15),
+        Figure("peak RSS 4 h / 1 h, process --smooth, odometer + LDV",
+               rf"peak RSS 4 h / 1 h \(process --smooth \(odometer\+LDV\)\): {_NUM}", "",
+               1.15),
+        Figure("peak RSS 4 h / 1 h, align imada-vb 70-300 s",
+               rf"peak RSS 4 h / 1 h \(align imada-vb 70-300 s\): {_NUM}", "", 1.15),
     ), "issue 13: memory flat in log length, inputs read in chunks"),
     "bench_startup.py": Bench(("--repeat", "5"), 300, (
         Figure("CLI fixed cost (navigate sins-dr, 7 s bundle)",
