@@ -194,6 +194,12 @@ def test_gyro_bias_removed_as_rows_are_read_is_the_whole_tables(radar_drive, tmp
         np.testing.assert_array_equal(w.dtheta, want[m])
         np.testing.assert_array_equal(w.dvel, imu.dvel[m])
         assert not hasattr(fixed.imu, "dtheta")
+        # a window of the corrected bundle is corrected once, however its rows are read
+        win = fixed.window(50.0, 80.0)
+        np.testing.assert_array_equal(win.load_window().imu.dtheta, want[m])
+        _, _, pieces, k0 = win.imu_rows_after(60.0)
+        got = np.concatenate([p[1] for p in pieces])
+        np.testing.assert_array_equal(got, want[m][k0:])
 
 
 @pytest.mark.parametrize("method", ["fine-mux", "adaptive"])

@@ -900,7 +900,9 @@ class _GyroBiasRemoved:
         return w
 
     def window(self, start=None, end=None):
-        return _GyroBiasRemoved(self.load_window(start, end), self._bias)
+        """The window's rows in memory, corrected once (:meth:`load_window`): wrapping them
+        again would take the bias off twice."""
+        return self.load_window(start, end)
 
 
 def _coarse_moving(bundle, cfg, init, t0, t1, speed):
