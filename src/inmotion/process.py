@@ -711,12 +711,11 @@ def run_process(bundle: Bundle, config: ProcessConfig | dict | None = None,
             pbase["init_heading_sigma_deg"] = head_sig
         pcfg = _cfg(ParkedKfConfig, pbase, cfg, "parked-kf", own)
         start = NavState(t0, lat, lon, h, np.zeros(3), rotations.quat_from_dcm(C0))
-        from .io.bundle_stream import BundleStream
         # parked-kf streams its rows (imu_rows_after): a bundle read in chunks is passed as a
-        # window, not loaded (a log parked from start to end would be its whole IMU)
-        parked = run_parked_kf(bundle.window(None, t_park_end) if isinstance(
-                                   bundle, BundleStream) else bundle.load_window(None, t_park_end),
-                               pcfg, start, progress=progress_part(0.0, 0.3), end_s=t_park_end)
+        # window, not loaded (a log parked from start to end would be its whole IMU); a
+        # bundle in memory, or the gyro-bias-corrected one, gives its window in memory
+        parked = run_parked_kf(bundle.window(None, t_park_end), pcfg, start,
+                               progress=progress_part(0.0, 0.3), end_s=t_park_end)
         parts.append(parked)
         log("parked fine", "parked-kf", t0, t_park_end,
             "zero-velocity fine alignment while parked (paper 003 eq. 11-13)", parked,

@@ -203,10 +203,8 @@ class _Times:
         """``(t, w0)``: the windowed times (a view of the whole column) and the index of the
         first of them in the whole table (``_mask`` of an increasing column is one run)."""
         t = self._table.times()
-        lo, hi = self._window
-        w0 = 0 if lo is None else int(np.searchsorted(t, lo, side="left"))
-        w1 = len(t) if hi is None else int(np.searchsorted(t, hi, side="right"))
-        return t[w0:max(w0, w1)], w0
+        w0, w1 = _window_rows(t, self._window)
+        return t[w0:w1], w0
 
 
 class _TimesOf(_Times):
@@ -368,25 +366,24 @@ class SpeedStream:
 
     def _rows(self):
         """``(a, b)``: the table's rows inside the window."""
-        t = self._table.times()
-        lo, hi = self._window
-        a = 0 if lo is None else int(np.searchsorted(t, lo, side="left"))
-        b = len(t) if hi is None else int(np.searchsorted(t, hi, side="right"))
-        return a, max(a, b)
+        return _window_rows(self._table.times(), self._window)
 
     @property
     def t(self) -> np.ndarray:
         a, b = self._rows()
         return self._table.times()[a:b]
 
-    def _column(self, name):
-        if name not in self._cols:
-            return None
+    def _read(self, names) -> dict:
+        """The columns ``names`` of the (windowed) rows, read chunk by chunk into arrays."""
         a, b = self._rows()
-        out = np.empty(b - a)
-        for offset, c in self._table.chunks((name,), rows=(a, b)):
-            out[offset - a:offset - a + len(c[name])] = c[name]
+        out = {k: np.empty(b - a) for k in names}
+        for offset, c in self._table.chunks(names, rows=(a, b)):
+            for k in names:
+                out[k][offset - a:offset - a + len(c[k])] = c[k]
         return out
+
+    def _column(self, name):
+        return self._read((name,))[name] if name in self._cols else None
 
     @property
     def v(self):
@@ -398,11 +395,7 @@ class SpeedStream:
 
     def load(self) -> SpeedData:
         """The (windowed) rows in memory."""
-        a, b = self._rows()
-        cols = {k: np.empty(b - a) for k in self._cols}
-        for offset, c in self._table.chunks(self._cols, rows=(a, b)):
-            for k in self._cols:
-                cols[k][offset - a:offset - a + len(c[k])] = c[k]
+        cols = self._read(self._cols)
         return SpeedData(cols["t"], v=cols.get("v"), ds=cols.get("ds"))
 
     def speed(self) -> np.ndarray:
@@ -640,6 +633,15 @@ def _path_carry(tr: Truth, prev: Optional[Truth], carry: float):
     return s, float(cum[-1])
 
 
+def _window_rows(t, window) -> tuple:
+    """``(a, b)``: the rows ``a <= row < b`` of the increasing time column ``t`` [s] inside
+    ``window = (start, end)`` (None: open; both ends included)."""
+    lo, hi = window
+    a = 0 if lo is None else int(np.searchsorted(t, lo, side="left"))
+    b = len(t) if hi is None else int(np.searchsorted(t, hi, side="right"))
+    return a, max(a, b)
+
+
 def _intersect(w, v):
     lo = [x for x in (w[0], v[0]) if x is not None]
     hi = [x for x in (w[1], v[1]) if x is not None]
@@ -686,11 +688,7 @@ class BundleStream:
         the log); the sensors and the barometer are the stream's, cut; the truth stays a
         :class:`TruthStream` (cut), read when asked, or with ``truth`` its window's rows are
         read into memory too (:meth:`TruthStream.load`)."""
-        lo, hi = _intersect(self._window, (start, end))
-        t = self._imu._table.times()
-        a = 0 if lo is None else int(np.searchsorted(t, lo, side="left"))
-        b = len(t) if hi is None else int(np.searchsorted(t, hi, side="right"))
-        del t
+        a, b = _window_rows(self._imu._table.times(), _intersect(self._window, (start, end)))
         cut = self.window(start, end)
         tr = cut.truth.load() if truth and cut.truth is not None else cut.truth
         return Bundle(self._imu.rows(a, b), dict(self.meta),
