@@ -81,9 +81,15 @@ RUNS = {"sins-dr": (["navigate"], OPTIONS),
         "process --smooth": (["process"], ["--no-report", "--smooth"]),
         "align imada-vb 70-300 s": (["align"], ["--method", "imada-vb", "--start", "70",
                                                 "--end", "300"]),
+        "align imada-vb 70 s-end": (["align"], ["--method", "imada-vb", "--start", "70"]),
+        "align mimada 70 s-end": (["align"], ["--method", "mimada", "--start", "70"]),
+        "align coarse-inertial": (["align"], ["--method", "coarse-inertial"]),
         "process --smooth (odometer+LDV)": (["process"], ["--no-report", "--smooth"])}
 #: the runs on the odometer + LDV drive (bundles ``o1``, ``o4``; the others on ``h1``, ``h4``)
 ODOMETER_LDV_RUNS = ("process --smooth (odometer+LDV)",)
+#: the batch alignments run to the log's end (issue 13: they read their window in chunks,
+#: :func:`inmotion.align.attitude_determination.prepare`)
+WHOLE_ALIGN = ("align imada-vb 70 s-end", "align mimada 70 s-end", "align coarse-inertial")
 
 
 def child_run(bundle: Path, out: Path, run: str = "sins-dr") -> tuple[float, float, float]:
@@ -109,9 +115,12 @@ def main():
     ap.add_argument("--no-process", action="store_true", help="measure navigate only")
     ap.add_argument("--no-odometer-ldv", action="store_true",
                     help="leave out the odometer + LDV drive")
+    ap.add_argument("--only", action="append", choices=list(RUNS), metavar="RUN",
+                    help="measure only this run (repeatable; one of: " + ", ".join(RUNS) + ")")
     args = ap.parse_args()
     env = dict(os.environ, OPENBLAS_NUM_THREADS="1")
-    odometer_ldv = not (args.no_process or args.no_odometer_ldv)
+    odometer_ldv = not (args.no_process or args.no_odometer_ldv) and (
+        not args.only or any(r in ODOMETER_LDV_RUNS for r in args.only))
     with tempfile.TemporaryDirectory() as tmp:
         for prefix, odl in (("h", False),) + ((("o", True),) if odometer_ldv else ()):
             for hours in (1, 4):
@@ -128,8 +137,10 @@ def main():
                       f"Parquet bundle {size:.1f} MiB")
         runs_measured = ["sins-dr"] + ([] if args.no_process else
                                        ["process", "process --smooth",
-                                        "align imada-vb 70-300 s"]) \
+                                        "align imada-vb 70-300 s", *WHOLE_ALIGN]) \
             + (list(ODOMETER_LDV_RUNS) if odometer_ldv else [])
+        if args.only:
+            runs_measured = [r for r in RUNS if r in args.only]
         for run in runs_measured:
             prefix = "o" if run in ODOMETER_LDV_RUNS else "h"
             child_run(Path(tmp) / f"{prefix}1", Path(tmp) / "warm", run)    # warm-up: numba

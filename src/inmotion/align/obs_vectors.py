@@ -58,6 +58,7 @@ vibration in ``alpha``, paper 003 sec. 2.1). This module is the engine; the meth
 """
 from __future__ import annotations
 
+import itertools
 import math
 from dataclasses import dataclass
 
@@ -66,6 +67,7 @@ import numpy as np
 
 from ..core import _kernels as kn
 from ..core import earth
+from ..core.bundle import regroup
 from ..estimation.qmethod import k_centered, k_increment
 
 __all__ = ["MODEL_VB", "MODEL_VB_EARTH", "MODEL_DUAL", "MODEL_VN", "NAV_INTEGRATED",
@@ -159,23 +161,71 @@ def integrate_vectors(t, dtheta, dvel, speed_fwd, speed0, lat0, lon0, h0, *, mod
         its start-up transient on vibration is not a constant offset, so the centred problem
         would see it as a slowly decaying error).
     """
-    n = len(t)
-    n_steps = n // 2                      # rows 1..n-1 taken two at a time
-    n_out = (n_steps + out_every - 1) // out_every + 1
+    return integrate_vector_blocks([(t, dtheta, dvel, speed_fwd)], speed0, lat0, lon0, h0,
+                                   model=model, nav=nav, C_fixed=C_fixed,
+                                   update_every=update_every, out_every=out_every,
+                                   fading=fading, lowpass_a=lowpass_a, centered=centered,
+                                   skip=skip)
+
+
+#: IMU rows per block fed to the kernel by :func:`integrate_vector_blocks` (even: whole
+#: two-row intervals)
+BLOCK_ROWS = 16384
+
+
+def integrate_vector_blocks(blocks, speed0, lat0, lon0, h0, *, model, nav=NAV_INTEGRATED,
+                            C_fixed=None, update_every=5, out_every=50, fading=1.0,
+                            lowpass_a=0.0, centered=False, skip=0,
+                            block_rows=None) -> VectorRun:
+    """:func:`integrate_vectors` over rows given in consecutive blocks ``(t, dtheta, dvel,
+    speed_fwd)`` of any sizes (an iterable: a bundle read in chunks yields them as it reads,
+    :func:`inmotion.align.attitude_determination.prepare`), holding one block of
+    ``block_rows`` rows at a time (default :data:`BLOCK_ROWS`): memory of the output epochs,
+    not of the rows.
+
+    The kernel's state (``K``, the sums, the integrals, the attitudes, the position, the
+    low-pass, the step count) is carried from block to block and every interval is computed
+    by the same floating-point operations as over the rows in one array, so the result is
+    bit for bit that of :func:`integrate_vectors` on the rows joined, whatever the blocks.
+    """
+    update_every, out_every = int(max(update_every, 1)), int(max(out_every, 1))
+    block_rows = max(2, 2 * (int(BLOCK_ROWS if block_rows is None else block_rows) // 2))
     running = C_fixed is None
-    C_use = np.eye(3) if running else np.ascontiguousarray(C_fixed, dtype=float)
-    out, count = _integrate(np.ascontiguousarray(t, dtype=float),
-                            np.ascontiguousarray(dtheta, dtype=float),
-                            np.ascontiguousarray(dvel, dtype=float),
-                            np.ascontiguousarray(speed_fwd, dtype=float), float(speed0),
-                            float(lat0), float(lon0), float(h0), int(model), int(nav),
-                            running, C_use, int(max(update_every, 1)), int(max(out_every, 1)),
-                            float(fading), float(lowpass_a), bool(centered), int(skip), n_out)
-    out = out[:count]
+    C_hat = np.eye(3) if running else np.array(C_fixed, dtype=float)    # (a copy: written)
+    it = iter(blocks)
+    first = None
+    for first in it:                      # the first non-empty block
+        if len(first[0]):
+            break
+    if first is None or not len(first[0]):
+        raise ValueError("integrate_vector_blocks: no rows")
+    st = np.zeros(N_STATE)
+    K, C_n0n = np.zeros((4, 4)), np.eye(3)
+    row0 = tuple(np.ascontiguousarray(x[:1], dtype=float) for x in first)
+    outs = [_start(row0[0][0], float(speed0), float(lat0), float(lon0), float(h0), C_hat, st,
+                   K)]
+    rest = itertools.chain([tuple(x[1:] for x in first)], it)
+    prev, steps = row0, 0
+    for blk in regroup(rest, block_rows):
+        # the row before the block leads it (row ``i1 - 1`` of its first interval)
+        rows = [np.ascontiguousarray(np.concatenate([p, np.asarray(x, dtype=float)]))
+                for p, x in zip(prev, blk)]
+        n_steps = len(rows[0]) // 2       # as over one array: rows 1.. two at a time
+        out, count = _integrate(rows[0], rows[1], rows[2], rows[3], float(speed0),
+                                float(lat0), float(lon0), int(model), int(nav), running,
+                                C_hat, C_n0n, K, st, steps, update_every, out_every,
+                                float(fading), float(lowpass_a), bool(centered), int(skip),
+                                n_steps // out_every + 1)
+        outs.append(out[:count])
+        steps += n_steps
+        prev = tuple(r[-1:] for r in rows)
+    if steps % out_every:                 # the last interval, recorded off the grid
+        outs.append(_record_last(prev[0][0], K, st))
+    out = np.concatenate(outs)
     return VectorRun(out[:, OUT_T], out[:, OUT_LAT], out[:, OUT_LON], out[:, OUT_H],
                      out[:, OUT_VN], out[:, OUT_QB], out[:, OUT_QN],
                      out[:, OUT_K].reshape(-1, 4, 4), out[:, OUT_SA], out[:, OUT_SB],
-                     out[:, OUT_W], out[:, OUT_ALPHA], out[:, OUT_BETA], int(n_steps))
+                     out[:, OUT_W], out[:, OUT_ALPHA], out[:, OUT_BETA], int(steps))
 
 
 # ------------------------------------------------------------------ small numba helpers
@@ -287,39 +337,90 @@ def _nav_increments(q_n0n, w_ie, w_in, g_n, vn_a, vn_b, T):
     return kn.qrotate(q_n0n, gi), kn.qrotate(q_n0n, inc)
 
 
+#: the kernel's state carried from block to block (:func:`integrate_vector_blocks`), by name
+S_T0 = 0                      #: t0 [s]
+S_POS = slice(1, 11)          #: the kernels' x layout: lat, lon, h, v (unused), q (unused)
+S_VN = slice(11, 14)
+S_QB = slice(14, 18)
+S_QN = slice(18, 22)
+S_IF, S_IG, S_IWVN, S_IWVB = slice(22, 25), slice(25, 28), slice(28, 31), slice(31, 34)
+S_AF, S_BF, S_SA, S_SB = slice(34, 37), slice(37, 40), slice(40, 43), slice(43, 46)
+S_W = 46
+S_ALPHA, S_BETA = slice(47, 50), slice(50, 53)        #: the last pair (before the low-pass)
+N_STATE = 53
+
+
 @numba.njit(cache=True)
-def _integrate(t, dtheta, dvel, speed, speed0, lat0, lon0, h0, model, nav, running, C_hat,
-               update_every, out_every, fading, lowpass_a, centered, skip, n_out):
-    n = len(t)
-    n_steps = n // 2
-    out = np.zeros((n_out, N_OUT))
-    K = np.zeros((4, 4))
-    C_n0n = np.eye(3)                 # closed form only
-    q_b0b = (1.0, 0.0, 0.0, 0.0)
-    q_n0n = (1.0, 0.0, 0.0, 0.0)
-    # C_e^{n0}: ENU at the start, for the closed form
-    sl, cl, so, co = math.sin(lat0), math.cos(lat0), math.sin(lon0), math.cos(lon0)
-    C_e_n0 = np.array([[-so, co, 0.0], [-sl * co, -sl * so, cl], [cl * co, cl * so, sl]])
+def _v3(st, i):
+    return (st[i], st[i + 1], st[i + 2])
+
+
+@numba.njit(cache=True)
+def _put(st, i, v):
+    for k in range(len(v)):
+        st[i + k] = v[k]
+
+
+@numba.njit(cache=True)
+def _start(t0, speed0, lat0, lon0, h0, C_hat, st, K):
+    """The state at ``t0`` into ``st`` and its output row: ``v^n(t0) = C_hat v^b(0)``,
+    identities, zero sums."""
     pos = np.array([lat0, lon0, h0, 0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0])   # kernels' x layout
     vb0 = (0.0, speed0, 0.0)
     vn = _matvec(C_hat, vb0)                       # v^n(t0) = C_hat v^b(0)
-    I_f = (0.0, 0.0, 0.0)
-    I_g = (0.0, 0.0, 0.0)
-    I_wvn = (0.0, 0.0, 0.0)
-    I_wvb = (0.0, 0.0, 0.0)
-    a_f = (0.0, 0.0, 0.0)
-    b_f = (0.0, 0.0, 0.0)
-    S_a = (0.0, 0.0, 0.0)
-    S_b = (0.0, 0.0, 0.0)
-    W = 0.0
+    st[:] = 0.0
+    st[0] = t0
+    st[1:11] = pos
+    _put(st, 11, vn)
+    _put(st, 14, (1.0, 0.0, 0.0, 0.0))
+    _put(st, 18, (1.0, 0.0, 0.0, 0.0))
+    out = np.zeros((1, N_OUT))
+    zero = (0.0, 0.0, 0.0)
+    _record(out, 0, t0, pos, vn, (1.0, 0.0, 0.0, 0.0), (1.0, 0.0, 0.0, 0.0), K, zero, zero,
+            0.0, zero, zero)
+    return out
+
+
+@numba.njit(cache=True)
+def _record_last(t, K, st):
+    """The output row of the state ``st`` (the last interval's, at its end ``t``)."""
+    out = np.zeros((1, N_OUT))
+    _record(out, 0, t, st[1:11], _v3(st, 11), (st[14], st[15], st[16], st[17]),
+            (st[18], st[19], st[20], st[21]), K, _v3(st, 40), _v3(st, 43), st[46],
+            _v3(st, 47), _v3(st, 50))
+    return out
+
+
+@numba.njit(cache=True)
+def _integrate(t, dtheta, dvel, speed, speed0, lat0, lon0, model, nav, running, C_hat, C_n0n,
+               K, st, s0, update_every, out_every, fading, lowpass_a, centered, skip, n_out):
+    """The intervals of one block of rows, from the state ``st``, ``K``, ``C_hat``,
+    ``C_n0n`` (updated in place) after ``s0`` intervals: row 0 is the row before the block
+    (its time only is used), rows ``1 + 2 j, 2 + 2 j`` make the block's interval ``j``
+    (global ``s0 + j``); an odd row at the end (the last block only) is a one-row interval.
+    Returns the output rows recorded on the grid (every ``out_every`` intervals)."""
+    n = len(t)
+    n_steps = n // 2
+    out = np.zeros((n_out, N_OUT))
+    t0 = st[0]
+    q_b0b = (st[14], st[15], st[16], st[17])
+    q_n0n = (st[18], st[19], st[20], st[21])
+    # C_e^{n0}: ENU at the start, for the closed form
+    sl, cl, so, co = math.sin(lat0), math.cos(lat0), math.sin(lon0), math.cos(lon0)
+    C_e_n0 = np.array([[-so, co, 0.0], [-sl * co, -sl * so, cl], [cl * co, cl * so, sl]])
+    pos = st[1:11]                                 # a view: updated in place
+    vb0 = (0.0, speed0, 0.0)
+    vn = _v3(st, 11)
+    I_f, I_g, I_wvn, I_wvb = _v3(st, 22), _v3(st, 25), _v3(st, 28), _v3(st, 31)
+    a_f, b_f, S_a, S_b = _v3(st, 34), _v3(st, 37), _v3(st, 40), _v3(st, 43)
+    W = st[46]
+    alpha_raw, beta_raw = _v3(st, 47), _v3(st, 50)
     gain = 1.0 - lowpass_a
     C_tmp = np.empty((3, 3))
     count = 0
-    zero = (0.0, 0.0, 0.0)
-    _record(out, count, t[0], pos, vn, q_b0b, q_n0n, K, S_a, S_b, W, zero, zero)
-    count += 1
-    for s in range(n_steps):
-        i1 = 1 + 2 * s
+    for m in range(n_steps):
+        s = s0 + m
+        i1 = 1 + 2 * m
         two = i1 + 1 < n
         i_end = i1 + 1 if two else i1
         T = t[i_end] - t[i1 - 1]
@@ -348,7 +449,7 @@ def _integrate(t, dtheta, dvel, speed, speed0, lat0, lon0, h0, model, nav, runni
         else:
             pos_pred = pos.copy()
             kn.position_update(pos_pred, vn, vn, T)
-            _C_n_i0(pos_pred[0], pos_pred[1], t[i_end] - t[0], C_e_n0, C_n0n)
+            _C_n_i0(pos_pred[0], pos_pred[1], t[i_end] - t0, C_e_n0, C_n0n)
             q_n0n = kn.qnormalize(_q_of_dcm(C_n0n))
         # velocity at the end with the attitude in use, trapezoidal position
         vb = (0.0, speed[i_end], 0.0)
@@ -356,7 +457,7 @@ def _integrate(t, dtheta, dvel, speed, speed0, lat0, lon0, h0, model, nav, runni
         vn_end = kn.qrotate_inv(q_n0n, _matvec(C_hat, vb_b0))
         kn.position_update(pos, vn, vn_end, T)
         if nav == NAV_CLOSED:
-            _C_n_i0(pos[0], pos[1], t[i_end] - t[0], C_e_n0, C_n0n)
+            _C_n_i0(pos[0], pos[1], t[i_end] - t0, C_e_n0, C_n0n)
             q_n0n = kn.qnormalize(_q_of_dcm(C_n0n))
         dIg, dIwv = _nav_increments(q_n0n_start, w_ie, w_in, g_n, vn, vn_end, T)
         I_g = _add(I_g, dIg)
@@ -398,10 +499,24 @@ def _integrate(t, dtheta, dvel, speed, speed0, lat0, lon0, h0, model, nav, runni
         if running and s >= skip and (s + 1) % update_every == 0:
             _solve_running(K, S_a, S_b, W, centered, C_tmp)
             C_hat[:, :] = C_tmp
-        if (s + 1) % out_every == 0 or s == n_steps - 1:
+        if (s + 1) % out_every == 0:
             _record(out, count, t[i_end], pos, vn, q_b0b, q_n0n, K, S_a, S_b, W,
                     alpha_raw, beta_raw)
             count += 1
+    _put(st, 11, vn)
+    _put(st, 14, q_b0b)
+    _put(st, 18, q_n0n)
+    _put(st, 22, I_f)
+    _put(st, 25, I_g)
+    _put(st, 28, I_wvn)
+    _put(st, 31, I_wvb)
+    _put(st, 34, a_f)
+    _put(st, 37, b_f)
+    _put(st, 40, S_a)
+    _put(st, 43, S_b)
+    _put(st, 47, alpha_raw)
+    _put(st, 50, beta_raw)
+    st[46] = W
     return out, count
 
 
