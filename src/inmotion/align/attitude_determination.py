@@ -12,7 +12,7 @@ level, the previous level's constant for higher levels), started from the initia
 from __future__ import annotations
 
 from dataclasses import dataclass
-from typing import Optional
+from typing import Callable, Iterable, Optional
 
 import numpy as np
 
@@ -29,21 +29,34 @@ __all__ = ["Inputs", "prepare", "Level", "run_level", "to_solution", "euler_deg_
 
 @dataclass
 class Inputs:
-    """Arrays of the alignment window, SI, on the IMU time base."""
+    """The alignment window, SI, on the IMU time base: its rows as arrays (a bundle in
+    memory) or read block by block when asked (a bundle read in chunks,
+    :class:`inmotion.io.bundle_stream.BundleStream`: ``t``, ``dtheta``, ``dvel``, ``speed``
+    are None and :meth:`blocks` reads the rows again for every level)."""
 
-    t: np.ndarray
-    dtheta: np.ndarray
-    dvel: np.ndarray
-    speed: np.ndarray         #: forward speed at the IMU times [m/s]
+    t: Optional[np.ndarray]
+    dtheta: Optional[np.ndarray]
+    dvel: Optional[np.ndarray]
+    speed: Optional[np.ndarray]   #: forward speed at the IMU times [m/s]
     speed0: float             #: v^b(0) [m/s]
     lat0: float
     lon0: float
     h0: float
     sensor: Optional[str]     #: the velocity sensor's name, None when parked
+    t0: float = float("nan")  #: the window's first IMU time [s]
+    dt_s: float = float("nan")    #: median IMU period [s] of the window
+    rows: Optional[Callable[[], Iterable]] = None   #: the blocks of a window read in chunks
 
     @property
     def dt(self) -> float:
-        return float(np.median(np.diff(self.t)))
+        return self.dt_s if self.t is None else float(np.median(np.diff(self.t)))
+
+    def blocks(self) -> Iterable:
+        """The window's rows as consecutive blocks ``(t, dtheta, dvel, speed)``: the arrays
+        as one block, or (a bundle read in chunks) read from the file as they are taken."""
+        if self.rows is None:
+            return [(self.t, self.dtheta, self.dvel, self.speed)]
+        return self.rows()
 
 
 def initial_position(bundle: Bundle, init: Optional[NavState]) -> tuple[float, float, float]:
@@ -58,36 +71,74 @@ def initial_position(bundle: Bundle, init: Optional[NavState]) -> tuple[float, f
             return np.radians(float(d["lat_deg"])), np.radians(float(d["lon_deg"])), \
                 float(d.get("h_m", 0.0))
     if bundle.truth is not None:
-        return float(bundle.truth.lat[0]), float(bundle.truth.lon[0]), float(bundle.truth.h[0])
+        tr = bundle.truth
+        if not hasattr(tr, "lat"):          # a truth read in chunks: its first row, read
+            r = tr.at(float(tr.t[0]))
+            return float(r["lat"]), float(r["lon"]), float(r["h"])
+        return float(tr.lat[0]), float(tr.lon[0]), float(tr.h[0])
     raise BadInput("no initial position: give --init, or lat_deg/lon_deg in meta.yaml",
                    file="meta.yaml")
 
 
 def prepare(bundle: Bundle, init: Optional[NavState], *, sensor: Optional[str],
             moving: bool, min_window_s: float, v0_fit_s: float) -> Inputs:
-    """Check the window and gather the arrays (``BadInput`` on a short window or no sensor)."""
+    """Check the window and gather the arrays (``BadInput`` on a short window or no sensor).
+
+    A bundle read in chunks (:class:`inmotion.io.bundle_stream.BundleStream`, the command
+    line's, cut to ``--start`` / ``--end``) is not loaded: its window's rows are read block by
+    block each time a level integrates them (:meth:`Inputs.blocks`, from
+    :meth:`~inmotion.core.bundle.Bundle.imu_rows_after`), the forward speed interpolated to
+    each block's times (:func:`numpy.interp`, elementwise: the values of the whole window's),
+    so a run's memory does not grow with the window's length; the result is bit for bit that
+    of the window in memory (:func:`inmotion.align.obs_vectors.integrate_vector_blocks`)."""
     imu = bundle.imu
-    if len(imu.t) < 3:
-        raise BadInput(f"the alignment window holds {len(imu.t)} IMU rows; need at least "
+    t = imu.t                   # (a bundle read in chunks: the window's times, not kept)
+    if len(t) < 3:
+        raise BadInput(f"the alignment window holds {len(t)} IMU rows; need at least "
                        f"{min_window_s:g} s", file="imu")
-    duration = float(imu.t[-1] - imu.t[0])
+    duration = float(t[-1] - t[0])
     if duration < min_window_s:
         raise BadInput(f"the alignment window is {duration:.3g} s long; this method needs at "
                        f"least {min_window_s:g} s (min_window_s)", file="imu",
-                       time=float(imu.t[-1]))
-    bad = ~(np.isfinite(imu.dtheta).all(axis=1) & np.isfinite(imu.dvel).all(axis=1))
-    if bad.any():
-        i = int(np.argmax(bad))
-        raise BadInput("IMU increment is not a finite number", file="imu", row=i + 1,
-                       time=float(imu.t[i]))
+                       time=float(t[-1]))
+    streamed = not hasattr(imu, "dtheta")
+    if not streamed:
+        _check_finite(t, imu.dtheta, imu.dvel, 0)
     lat0, lon0, h0 = initial_position(bundle, init)
+    t0, t1 = float(t[0]), float(t[-1])
     if moving:
         name, data = vs.pick_sensor(bundle, sensor)
-        speed = vs.speed_on_imu_times(name, data, imu.t)
-        speed0 = vs.initial_speed(name, data, float(imu.t[0]), v0_fit_s)
+        ts, vv = vs.covering_samples(name, data, t0, t1)
+        speed0 = vs.initial_speed(name, data, t0, v0_fit_s)
     else:
-        name, speed, speed0 = None, np.zeros(len(imu.t)), 0.0
-    return Inputs(imu.t, imu.dtheta, imu.dvel, speed, speed0, lat0, lon0, h0, name)
+        name, ts, vv, speed0 = None, None, None, 0.0
+    dt = float(np.median(np.diff(t)))
+    if not streamed:
+        speed = np.interp(t, ts, vv) if moving else np.zeros(len(t))
+        return Inputs(t, imu.dtheta, imu.dvel, speed, speed0, lat0, lon0, h0, name, t0, dt)
+    del t
+
+    def rows():
+        """Row 0 (its time only is used: the interval before it is not the window's), then
+        the rows after it as the bundle reads them, with the speed at their times."""
+        yield np.array([t0]), np.zeros((1, 3)), np.zeros((1, 3)), np.zeros(1)
+        _, _, pieces, _ = bundle.imu_rows_after(t0)
+        row = 1
+        for tp, dth, dvl in pieces:
+            _check_finite(tp, dth, dvl, row)
+            row += len(tp)
+            yield tp, dth, dvl, (np.interp(tp, ts, vv) if moving else np.zeros(len(tp)))
+    return Inputs(None, None, None, None, speed0, lat0, lon0, h0, name, t0, dt, rows)
+
+
+def _check_finite(t, dtheta, dvel, row0: int):
+    """``BadInput`` at the first row (window row ``row0`` + its index) with an increment that
+    is not a finite number."""
+    bad = ~(np.isfinite(dtheta).all(axis=1) & np.isfinite(dvel).all(axis=1))
+    if bad.any():
+        i = int(np.argmax(bad))
+        raise BadInput("IMU increment is not a finite number", file="imu", row=row0 + i + 1,
+                       time=float(t[i]))
 
 
 @dataclass
@@ -112,7 +163,7 @@ def run_level(inp: Inputs, model: int, *, C_fixed=None, nav=ov.NAV_INTEGRATED,
     T = 2.0 * inp.dt                                  # two IMU rows per interval
     fading = 1.0 if not fading_time_constant_s else float(np.exp(-T / fading_time_constant_s))
     lp = 0.0 if not lowpass_time_constant_s else float(np.exp(-T / lowpass_time_constant_s))
-    run = ov.integrate_vectors(inp.t, inp.dtheta, inp.dvel, inp.speed, inp.speed0,
+    run = ov.integrate_vector_blocks(inp.blocks(), inp.speed0,
                                inp.lat0, inp.lon0, inp.h0, model=model, nav=nav, C_fixed=C_fixed,
                                update_every=max(1, round(update_interval_s / T)),
                                out_every=max(1, round(output_interval_s / T)),
@@ -199,7 +250,7 @@ def to_solution(inp: Inputs, level: Level, *, method: str, config, levels_info: 
     info = {
         "method": method,
         "config": config.model_dump(),
-        "t_start_s": float(inp.t[0]),
+        "t_start_s": inp.t0,
         "t_end_s": float(run.t[-1]),
         "attitude_start_deg": euler_deg_dict(level.C0),
         "attitude_end_deg": euler_deg_dict(level.C_nb[-1]),
@@ -210,7 +261,7 @@ def to_solution(inp: Inputs, level: Level, *, method: str, config, levels_info: 
         "initial_speed_m_s": inp.speed0,
         "levels": levels_info,
     }
-    env = envelope_from_meta(meta, inp.lat0, float(run.t[-1] - inp.t[0]))
+    env = envelope_from_meta(meta, inp.lat0, float(run.t[-1] - inp.t0))
     if env is not None:
         info["envelope"] = env
         warning = envelope_warning(env, inp.lat0)

@@ -132,12 +132,15 @@ def _parked_stage(bundle, cfg, init, t0, t_sw):
     lat, lon, h = initial_position(bundle, init)
     t1 = t0 + cfg.parked_coarse_s
     ccfg = CoarseInertialConfig(**{"mode": "parked", **cfg.coarse})
-    coarse = run_coarse_inertial(bundle.load_window(t0, t1), ccfg,
+    # both stream their rows (coarse-inertial integrates its vectors block by block,
+    # parked-kf feeds its filter from imu_rows_after): a bundle read in chunks is passed as a
+    # window, not loaded (a log parked from start to end would be its whole IMU)
+    coarse = run_coarse_inertial(bundle.window(t0, t1), ccfg,
                                  NavState(t0, lat, lon, h, np.zeros(3), [1.0, 0, 0, 0]))
     a = coarse.info["attitude_start_deg"]
     C0 = rotations.dcm_from_euler(np.radians([a["pitch"], a["roll"], a["yaw"]]))
     start = NavState(t0, lat, lon, h, np.zeros(3), rotations.quat_from_dcm(C0))
-    parked = run_parked_kf(bundle.load_window(None, t_sw), ParkedKfConfig(**cfg.parked), start,
+    parked = run_parked_kf(bundle.window(None, t_sw), ParkedKfConfig(**cfg.parked), start,
                            end_s=t_sw)
     return coarse, parked
 

@@ -22,7 +22,7 @@ import numpy as np
 from ..core.bundle import Bundle, SpeedData
 from ..errors import BadInput
 
-__all__ = ["speed_on_imu_times", "initial_speed", "pick_sensor"]
+__all__ = ["speed_on_imu_times", "covering_samples", "initial_speed", "pick_sensor"]
 
 
 def pick_sensor(bundle: Bundle, which: str | None) -> tuple[str, SpeedData]:
@@ -54,14 +54,24 @@ def _samples(name: str, sensor: SpeedData) -> tuple[np.ndarray, np.ndarray]:
 def speed_on_imu_times(name: str, sensor: SpeedData, t_imu: np.ndarray) -> np.ndarray:
     """Forward speed [m/s] at the IMU times, linear interpolation; ``BadInput`` if the sensor
     does not cover ``[t_imu[0], t_imu[-1]]`` (one sensor period of slack at each end)."""
+    t, v = covering_samples(name, sensor, float(t_imu[0]), float(t_imu[-1]))
+    return np.interp(t_imu, t, v)
+
+
+def covering_samples(name: str, sensor: SpeedData, t_first: float,
+                     t_last: float) -> tuple[np.ndarray, np.ndarray]:
+    """The sensor's sample times [s] and speeds [m/s] (``ds``: mid-interval mean speeds)
+    that :func:`speed_on_imu_times` interpolates; ``BadInput`` if they do not cover
+    ``[t_first, t_last]`` [s] (one sensor period of slack at each end). ``np.interp`` of them
+    at any of the window's times gives :func:`speed_on_imu_times`'s value there."""
     t, v = _samples(name, sensor)
     if len(t) == 0:
         raise BadInput("has no samples", file=name)
     slack = 1.0001 * (float(np.median(np.diff(t))) if len(t) > 1 else 0.0)
-    if t[0] > t_imu[0] + slack or t[-1] < t_imu[-1] - slack:
+    if t[0] > t_first + slack or t[-1] < t_last - slack:
         raise BadInput(f"covers {t[0]:.3f}..{t[-1]:.3f} s but the alignment window is "
-                       f"{t_imu[0]:.3f}..{t_imu[-1]:.3f} s", file=name)
-    return np.interp(t_imu, t, v)
+                       f"{t_first:.3f}..{t_last:.3f} s", file=name)
+    return t, v
 
 
 def initial_speed(name: str, sensor: SpeedData, t0: float, fit_s: float) -> float:

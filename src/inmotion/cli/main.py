@@ -182,8 +182,12 @@ def _progress(ctx, desc: str):
 #: methods whose run takes its IMU rows in pieces (``Bundle.imu_rows_after``): the command
 #: line hands them the bundle opened for reading in chunks (:mod:`inmotion.io.bundle_stream`),
 #: so a run's memory does not grow with the log's length; every other method gets its
-#: ``--start`` / ``--end`` window in memory, only that window's rows read (``run_method``)
-STREAMED = ("sins", "dr", "sins-dr", "dr-kf", "od-velocity-kf", "fine-mux", "adaptive")
+#: ``--start`` / ``--end`` window in memory, only that window's rows read (``run_method``).
+#: The coarse alignments integrate their vectors block by block
+#: (:func:`inmotion.align.attitude_determination.prepare`)
+STREAMED = ("sins", "dr", "sins-dr", "dr-kf", "od-velocity-kf", "fine-mux", "adaptive",
+            "coarse-inertial", "imada-vb", "imada-vn", "imada-dual", "mimada", "mimada-dual",
+            "oba")
 
 
 def _read_bundle(ctx, path, allow_imu_gaps=False, chunked=False, **kw):

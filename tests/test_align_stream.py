@@ -1,0 +1,144 @@
+"""The batch alignments on a bundle read in chunks give what they give on the bundle in memory.
+
+Issue 13: the coarse alignments (``coarse-inertial``, the IMADA family, ``oba``) integrate
+their observation vectors block by block over their window
+(:func:`inmotion.align.obs_vectors.integrate_vector_blocks`, the rows read from the file as
+they are taken: :func:`inmotion.align.attitude_determination.prepare`), and ``adaptive``'s
+parked stage passes its windows to ``coarse-inertial`` and ``parked-kf`` unloaded. The
+reference is the other reader: :func:`read_bundle` loads the tables whole and the kernel takes
+the window as one block. The streamed run, with chunks of a few dozen rows and kernel blocks
+of 10 rows (every interval's two rows cut apart somewhere), must give the same solution and
+the same summary bit for bit, and must not load its window (``load_window`` is made to fail).
+"""
+from __future__ import annotations
+
+import numpy as np
+import pytest
+from click.testing import CliRunner
+
+from inmotion.align import coarse_inertial as ci
+from inmotion.align import imada
+from inmotion.align import obs_vectors as ov
+from inmotion.cli.main import cli
+from inmotion.core.solution import NavState
+from inmotion.io import bundle_stream
+from inmotion.io.bundle import read_bundle, write_bundle
+from inmotion.io.bundle_stream import BundleStream, open_bundle
+from inmotion.sim import simulate
+from inmotion.sim.scenario import load_scenario
+
+#: parked 40 s (the adaptive strategy's parked stage), then a drive with a turn (~100 s)
+DRIVE = {
+    "name": "park_then_drive",
+    "start": {"lat_deg": 39.9, "lon_deg": 116.4, "h_m": 50.0, "heading_deg": 60.0},
+    "segments": [{"kind": "rest", "duration_s": 40.0},
+                 {"kind": "accelerate", "to_speed_m_s": 10.0, "accel_m_s2": 1.0},
+                 {"kind": "cruise", "duration_s": 25.0},
+                 {"kind": "turn", "angle_deg": 90, "rate_deg_s": 5},
+                 {"kind": "cruise", "duration_s": 17.0}],
+    "imu": {"rate_hz": 100.0, "gyro": {"drift_deg_h": 0.01, "arw_deg_sqrt_h": 0.002},
+            "accel": {"bias_ug": 50.0, "vrw_ug_sqrt_hz": 5.0}},
+    "sensors": {"radar": {"rate_hz": 10.0, "noise_m_s": 0.05},
+                "odometer": {"rate_hz": 10.0, "pulses_per_m": 200.0,
+                             "scale_factor_sigma_ppm": 2000.0}}}
+
+
+@pytest.fixture(scope="module")
+def folder(tmp_path_factory):
+    p = tmp_path_factory.mktemp("align_stream") / "bundle"
+    write_bundle(simulate(load_scenario(DRIVE), np.random.default_rng(5)), p, fmt="parquet")
+    return p
+
+
+@pytest.fixture
+def no_load(monkeypatch):
+    """Small kernel blocks, and a bundle read in chunks that refuses to load a window."""
+    monkeypatch.setattr(ov, "BLOCK_ROWS", 10)
+
+    def refuse(self, *a, **k):
+        raise AssertionError("the window was loaded into memory")
+    monkeypatch.setattr(BundleStream, "load_window", refuse)
+
+
+def _same(a, b):
+    for k in ("t", "lat", "lon", "h", "vel_n", "euler"):
+        np.testing.assert_array_equal(getattr(a, k), getattr(b, k), err_msg=k)
+    assert a.sigma.keys() == b.sigma.keys() and a.states.keys() == b.states.keys()
+    for d1, d2 in ((a.sigma, b.sigma), (a.states, b.states)):
+        for k in d1:
+            np.testing.assert_array_equal(d1[k], d2[k], err_msg=k)
+    keys = [k for k in a.info if k not in ("wall_time_s", "events")]
+    assert {k: a.info[k] for k in keys} == {k: b.info.get(k) for k in keys}
+
+
+#: method -> (run, config, window): windows of an odd and an even number of rows (the last
+#: interval one row or two), the radar's speed samples and the odometer's distance increments
+CASES = {
+    "imada-vb": (imada.run_imada_vb, imada.ImadaConfig(), (45.0, 109.995)),
+    "imada-vn fading": (imada.run_imada_vn,
+                        imada.ImadaConfig(fading_time_constant_s=20.0, output_interval_s=0.37,
+                                          velocity_sensor="odometer"), (45.0, None)),
+    "imada-dual": (imada.run_imada_dual, imada.ImadaConfig(center_vectors=False),
+                   (41.3, 120.0)),
+    "oba": (imada.run_oba, imada.ImadaConfig(update_interval_s=0.5), (45.0, None)),
+    "mimada": (imada.run_mimada, imada.MimadaConfig(), (45.0, None)),
+    "mimada-dual": (imada.run_mimada_dual, imada.MimadaConfig(levels=3), (45.0, 113.995)),
+    "coarse-inertial moving": (ci.run_coarse_inertial, ci.CoarseInertialConfig(),
+                               (None, None)),
+    "coarse-inertial parked": (ci.run_coarse_inertial,
+                               ci.CoarseInertialConfig(mode="parked",
+                                                       lowpass_time_constant_s=None),
+                               (0.5, 38.995)),
+}
+
+
+@pytest.mark.parametrize("case", list(CASES))
+def test_batch_alignment_in_chunks_equals_whole(folder, no_load, case):
+    run, cfg, window = CASES[case]
+    whole = read_bundle(folder).window(*window)
+    stream = open_bundle(folder, chunk_rows=37).window(*window)
+    n = len(whole.imu.t)
+    assert n == len(stream.imu.t) and n > 1000
+    a, b = run(whole, cfg), run(stream, cfg)
+    _same(a, b)
+    # and every row of the window was integrated: the last epoch is the window's last row
+    assert a.t[-1] == whole.imu.t[-1] and a.info["quality"]["n_vector_pairs"] == n // 2
+
+
+def test_row_counts_of_the_windows_differ_in_parity(folder):
+    """The cases above end on a two-row interval and on a one-row interval."""
+    b = read_bundle(folder)
+    parities = {len(b.window(*w).imu.t) % 2 for _, _, w in CASES.values()}
+    assert parities == {0, 1}
+
+
+def test_adaptive_parked_stage_streams(folder, no_load):
+    """``adaptive`` on a drive parked 40 s (Strategy 1: parked coarse + parked-kf, then the
+    in-motion fine filter): the parked stage reads its windows in chunks, and the result is
+    the in-memory one."""
+    from inmotion.align.strategy import run_adaptive
+    cfg = {"parked_coarse_s": 20.0}
+    whole, stream = read_bundle(folder), open_bundle(folder, chunk_rows=37)
+    init = NavState.from_truth(whole.truth)
+    a, b = run_adaptive(whole, cfg, init), run_adaptive(stream, cfg, init)
+    assert a.info["strategy"].startswith("1:") and a.info["switch_time_s"] is not None
+    _same(a, b)
+
+
+@pytest.mark.parametrize("args", [["-m", "imada-vb", "--start", "45"],
+                                  ["-m", "coarse-inertial", "--output-rate", "2"]])
+def test_cli_align_to_the_end_in_chunks(folder, tmp_path, monkeypatch, args):
+    """``inmotion align`` with no ``--end`` writes, reading the bundle in chunks, the files it
+    writes reading it whole."""
+    import inmotion.cli.main as cli_main
+    monkeypatch.setattr(bundle_stream, "CHUNK_ROWS", 777)
+    assert "imada-vb" in cli_main.STREAMED and "coarse-inertial" in cli_main.STREAMED
+    for out, streamed in (("r", cli_main.STREAMED), ("w", ())):
+        monkeypatch.setattr(cli_main, "STREAMED", streamed)
+        r = CliRunner().invoke(cli, ["-q", "align", str(folder), *args, "-o",
+                                     str(tmp_path / out)])
+        assert r.exit_code == 0, r.output
+    for f in ("solution.csv", "states.csv", "errors.csv"):
+        assert (tmp_path / "r" / f).exists() == (tmp_path / "w" / f).exists(), f
+        if (tmp_path / "w" / f).exists():
+            assert (tmp_path / "r" / f).read_bytes() == (tmp_path / "w" / f).read_bytes(), f
