@@ -187,7 +187,7 @@ def _progress(ctx, desc: str):
 #: (:func:`inmotion.align.attitude_determination.prepare`)
 STREAMED = ("sins", "dr", "sins-dr", "dr-kf", "od-velocity-kf", "fine-mux", "adaptive",
             "coarse-inertial", "imada-vb", "imada-vn", "imada-dual", "mimada", "mimada-dual",
-            "oba")
+            "oba", "parked-kf")
 
 
 def _read_bundle(ctx, path, allow_imu_gaps=False, chunked=False, **kw):
