@@ -122,7 +122,9 @@ def prepare(bundle: Bundle, init: Optional[NavState], *, sensor: Optional[str],
         """Row 0 (its time only is used: the interval before it is not the window's), then
         the rows after it as the bundle reads them, with the speed at their times."""
         yield np.array([t0]), np.zeros((1, 3)), np.zeros((1, 3)), np.zeros(1)
-        _, _, pieces, _ = bundle.imu_rows_after(t0)
+        # only the window's rows (a bundle read in chunks), as load_window would read them
+        after = getattr(bundle, "imu_rows_in_window", bundle.imu_rows_after)
+        _, _, pieces, _ = after(t0)
         row = 1
         for tp, dth, dvl in pieces:
             _check_finite(tp, dth, dvl, row)

@@ -315,31 +315,43 @@ class _ImuTable(_Times):
 
     def rows(self, a: int, b: int) -> ImuData:
         """The table's rows ``a <= row < b`` in memory, read from the chunks that hold them
-        (:meth:`_Table.chunks` with ``rows``) and checked as :meth:`chunks` checks them: the
-        rate and specific-force limits per row (the first row's interval from the row
-        before it), the turn rate over every second inside the rows, the mean specific force
-        over them. Rows outside are neither read nor checked."""
+        (:meth:`pieces`) and checked as :meth:`chunks` checks them: the rate and
+        specific-force limits per row (the first row's interval from the row before it), the
+        turn rate over every second inside the rows, the mean specific force over them. Rows
+        outside are neither read nor checked."""
+        n = len(self._table.times())
+        a, b = max(0, int(a)), min(n, int(b))
+        if b - a < 1:
+            return ImuData(np.zeros(0), np.zeros((0, 3)), np.zeros((0, 3)))
+        t = np.empty(b - a)
+        dtheta, dvel = np.empty((b - a, 3)), np.empty((b - a, 3))
+        i = 0
+        for tc, dth, dvl in self.pieces(a, b):
+            j = i + len(tc)
+            t[i:j], dtheta[i:j], dvel[i:j] = tc, dth, dvl
+            i = j
+        return ImuData(t, dtheta, dvel)
+
+    def pieces(self, a: int, b: int):
+        """Yield the table's rows ``a <= row < b`` as ``(t, dtheta, dvel)`` pieces, a chunk at
+        a time (a time-filtered read, :meth:`_Table.chunks` with ``rows``), checked as
+        :meth:`rows` says, the checks that need all of them made after the last piece."""
         t_all = self._table.times()
         n = len(t_all)
         a, b = max(0, int(a)), min(n, int(b))
         if b - a < 1:
-            return ImuData(np.zeros(0), np.zeros((0, 3)), np.zeros((0, 3)))
+            return
         first = (float(t_all[a]), float(t_all[min(a + 1, n - 1)]), float(t_all[b - 1]))
         t_before = float(t_all[a - 1]) if a > 0 else None
         del t_all
         chk = _ImuChecks(self.path, self.period, *first)
         chk.t_prev, chk.g0 = t_before, a
-        t = np.empty(b - a)
-        dtheta, dvel = np.empty((b - a, 3)), np.empty((b - a, 3))
         for offset, c in self._table.chunks(self.COLUMNS, rows=(a, b)):
-            i, j = offset - a, offset - a + len(c["t"])
-            t[i:j] = c["t"]
-            for k, ax in enumerate("xyz"):
-                dtheta[i:j, k] = c[f"dtheta_{ax}"]
-                dvel[i:j, k] = c[f"dvel_{ax}"]
-            chk.add(offset, t[i:j], dtheta[i:j], dvel[i:j])
+            dtheta = np.column_stack([c["dtheta_x"], c["dtheta_y"], c["dtheta_z"]])
+            dvel = np.column_stack([c["dvel_x"], c["dvel_y"], c["dvel_z"]])
+            chk.add(offset, c["t"], dtheta, dvel)
+            yield c["t"], dtheta, dvel
         chk.finish()
-        return ImuData(t, dtheta, dvel)
 
 
 # --------------------------------------------------------------------------- a long sensor
@@ -693,6 +705,20 @@ class BundleStream:
         tr = cut.truth.load() if truth and cut.truth is not None else cut.truth
         return Bundle(self._imu.rows(a, b), dict(self.meta),
                       *(_in_memory(getattr(cut, s)) for s in VELOCITY_SENSORS), cut.baro, tr)
+
+    def imu_rows_in_window(self, t0: float, min_rows: int = 2):
+        """:meth:`imu_rows_after` reading only the window's rows, as :meth:`load_window`
+        reads them (:meth:`_ImuTable.pieces`: rows outside the window neither read nor
+        checked), a chunk at a time: for a method given a window (the coarse alignments,
+        :func:`inmotion.align.attitude_determination.prepare`) that, in memory, was given
+        :meth:`load_window`'s rows."""
+        from ..core.mechanization import start_row
+        t, w0 = _Times(self._imu._table, self._window)._span()
+        k0 = start_row(t, t0, min_rows)
+        period = float(np.median(np.diff(t)))
+        n = len(t)
+        del t
+        return n - k0, period, self._imu.pieces(w0 + k0, w0 + n), w0 + k0
 
     def imu_rows_after(self, t0: float, min_rows: int = 2):
         """``(n_rows, period_s, pieces, first_row)`` as :meth:`Bundle.imu_rows_after`, the
