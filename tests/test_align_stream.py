@@ -67,7 +67,7 @@ def _same(a, b):
     for d1, d2 in ((a.sigma, b.sigma), (a.states, b.states)):
         for k in d1:
             np.testing.assert_array_equal(d1[k], d2[k], err_msg=k)
-    keys = [k for k in a.info if k not in ("wall_time_s", "events")]
+    keys = [k for k in a.info if k not in ("wall_time_s", "timing_s")]
     assert {k: a.info[k] for k in keys} == {k: b.info.get(k) for k in keys}
 
 
@@ -169,3 +169,44 @@ def test_window_rows_only_are_read_and_checked(folder, tmp_path):
     with pytest.raises(BadInput) as e_whole:
         read_bundle(bad)
     assert str(e.value) == str(e_whole.value) and f"row {row}, t=" in str(e.value)
+
+
+@pytest.fixture
+def small_usque_blocks(monkeypatch):
+    from inmotion.align import usque
+    monkeypatch.setattr(usque, "BLOCK_ROWS", 7)     # strides of 1 and 3 rows cut anywhere
+
+
+@pytest.mark.parametrize("cfg", [{}, {"noise_preset": "paper", "update_rate_hz": 30.0},
+                                 {"output_interval_s": 0.35}])
+@pytest.mark.parametrize("method", ["usque", "ausquhe"])
+def test_usque_in_chunks_equals_whole(folder, no_load, small_usque_blocks, method, cfg):
+    """The USQUE filters take their rows block by block (the filter carried across blocks of
+    7 rows, the bundle read in chunks of 37): the solution of the bundle in memory."""
+    from inmotion.registry import get
+    run, Cfg = get(method).load()
+    window = (45.0, 100.0)
+    whole = read_bundle(folder).window(*window)
+    stream = open_bundle(folder, chunk_rows=37).window(*window)
+    _same(run(whole, Cfg(**cfg)), run(stream, Cfg(**cfg)))
+
+
+@pytest.mark.parametrize("stride_hz, interval", [(100.0, 0.35), (30.0, 1.0), (100.0, 0.01)])
+def test_usque_output_interval_keeps_the_rows_of_every_epoch(folder, stride_hz, interval):
+    """``output_interval_s``: the rows of the run that keeps every update epoch, every k-th
+    (k = round(interval / update interval)) and the last, nothing else changed."""
+    from inmotion.align import usque
+    b = read_bundle(folder).window(45.0, 100.0)
+    every = usque.run(b, usque.UsqueConfig(update_rate_hz=stride_hz))
+    some = usque.run(b, usque.UsqueConfig(update_rate_hz=stride_hz, output_interval_s=interval))
+    n = len(every.t) - 1                       # update epochs (row 0 is the start)
+    k = max(1, round(interval / float(np.median(np.diff(every.t)))))
+    keep = np.r_[0, np.arange(k, n + 1, k)]
+    if keep[-1] != n:
+        keep = np.r_[keep, n]
+    assert len(some.t) == len(keep) and (k == 1 or len(keep) < len(every.t) / (k - 1) + 2)
+    for f in ("t", "lat", "lon", "h", "vel_n", "euler"):
+        np.testing.assert_array_equal(getattr(some, f), getattr(every, f)[keep], err_msg=f)
+    for d1, d2 in ((some.sigma, every.sigma), (some.states, every.states)):
+        for key in d2:
+            np.testing.assert_array_equal(d1[key], d2[key][keep], err_msg=key)

@@ -265,6 +265,15 @@ class UsqueConfig(BaseModel):
         ``rho > 1``: H-infinity steps only with ``gamma >= rho gamma_a`` (see ``_covariance``).
     v0_fit_s : float
         ``vectors="obs_vectors"`` only: line-fit window for ``v^b(0)`` [s] (0: raw sample).
+    output_interval_s : float or None
+        Spacing of the output rows [s]: every ``k``-th update epoch, ``k = max(1,
+        round(output_interval_s / update interval))``, and the last; the rows are those of the
+        run with every epoch kept, thinned (the filter is the same). None (default): every
+        update epoch, as the paper's figures need; the result then holds a covariance per
+        epoch (at 100 Hz about 0.5 GB per hour of log with the matched states), so a long
+        log wants an interval: with it, and the IMU rows read a block at a time from a
+        bundle read in chunks (the command line's), a run's memory does not grow with the log
+        beyond its output (issue 13).
     """
 
     model_config = ConfigDict(extra="forbid")
@@ -361,6 +370,11 @@ class UsqueConfig(BaseModel):
     v0_fit_s: float = Field(
         1.0, ge=0,
         description="vectors = obs_vectors only: line-fit window for v^b(0) [s] (0: raw sample)")
+    output_interval_s: Optional[float] = Field(
+        None, gt=0,
+        description="spacing of the output rows [s]: every k-th update epoch, k the nearest "
+                    "integer (and the last); None: every update epoch (a covariance per "
+                    "epoch: memory grows with the log)")
 
 
 class AusqueConfig(UsqueConfig):
@@ -397,26 +411,38 @@ def _initial_position(bundle: Bundle, init: Optional[NavState]):
     if isinstance(pos, dict) and all(k in pos for k in ("lat_deg", "lon_deg", "h_m")):
         return (float(pos["lat_deg"]) * _DEG, float(pos["lon_deg"]) * _DEG, float(pos["h_m"]))
     if bundle.truth is not None:
-        return float(bundle.truth.lat[0]), float(bundle.truth.lon[0]), float(bundle.truth.h[0])
+        tr = bundle.truth
+        if not hasattr(tr, "lat"):          # a truth read in chunks: its first row, read
+            r = tr.at(float(tr.t[0]))
+            return float(r["lat"]), float(r["lon"]), float(r["h"])
+        return float(tr.lat[0]), float(tr.lon[0]), float(tr.h[0])
     raise BadInput(f"bundle {bundle.name!r}: no initial position (give --init, or "
                    "initial_position in meta.yaml)")
 
 
 def _speed_at_imu(bundle: Bundle, sensor: str):
     """The sensor's speed interpolated to the IMU times (held at the ends, never beyond)."""
+    t_imu = bundle.imu.t
+    return np.interp(t_imu, *_speed_samples(bundle, sensor, float(t_imu[0]),
+                                            float(t_imu[-1])))
+
+
+def _speed_samples(bundle: Bundle, sensor: str, t_first: float, t_last: float):
+    """``(t, v)``: the sensor's times [s] and speeds [m/s] that :func:`_speed_at_imu`
+    interpolates, checked to cover the IMU's ``t_first .. t_last`` [s] and to be finite."""
     try:
         _, sp = bundle.velocity_sensor(sensor)
     except ValueError as exc:
         raise BadInput(str(exc)) from None
-    t_imu = bundle.imu.t
-    if sp.t[0] > t_imu[0] + 1.0 or sp.t[-1] < t_imu[-1] - 1.0:
-        raise BadInput(f"{sensor} covers t = {sp.t[0]:.3f} .. {sp.t[-1]:.3f} s but the IMU "
-                       f"runs {t_imu[0]:.3f} .. {t_imu[-1]:.3f} s", file=sensor)
+    ts = sp.t
+    if ts[0] > t_first + 1.0 or ts[-1] < t_last - 1.0:
+        raise BadInput(f"{sensor} covers t = {ts[0]:.3f} .. {ts[-1]:.3f} s but the IMU "
+                       f"runs {t_first:.3f} .. {t_last:.3f} s", file=sensor)
     v = sp.speed()
     if not np.all(np.isfinite(v)):
         i = int(np.flatnonzero(~np.isfinite(v))[0])
-        raise BadInput(f"{sensor} speed is not finite", file=sensor, row=i + 1, time=sp.t[i])
-    return np.interp(t_imu, sp.t, v)
+        raise BadInput(f"{sensor} speed is not finite", file=sensor, row=i + 1, time=ts[i])
+    return ts, v
 
 
 # ----------------------------------------------------------------------------- noise presets
@@ -697,25 +723,43 @@ def run(bundle: Bundle, config: UsqueConfig, init: Optional[NavState] = None,
     """
     t_start = time.perf_counter()
     config, auto = _resolve_sensor(config, bundle)
+    if config.vectors == "obs_vectors" or engine == "numpy":
+        # the window in memory (a bundle read in chunks: load_window reads only its rows)
+        bundle = bundle.load_window()
     if config.vectors == "obs_vectors":
         return _run_obs_vectors(bundle, config, init, method, t_start)
     imu = bundle.imu
-    if len(imu.t) < 3:
-        raise BadInput(f"bundle {bundle.name!r}: too few IMU rows ({len(imu.t)}) to align")
-    speed = _speed_at_imu(bundle, config.sensor)
+    t_imu = imu.t               # (a bundle read in chunks: read from the file, not kept)
+    n_rows = len(t_imu)
+    if n_rows < 3:
+        raise BadInput(f"bundle {bundle.name!r}: too few IMU rows ({n_rows}) to align")
+    t_first = float(t_imu[0])
+    sp_t, sp_v = _speed_samples(bundle, config.sensor, t_first, float(t_imu[-1]))
+    dt = float(np.median(np.diff(t_imu)))
+    del t_imu
+    speed_first = float(np.interp(t_first, sp_t, sp_v))
     lat, lon, h = _initial_position(bundle, init)
-    stride = max(1, int(round(1.0 / (config.update_rate_hz * imu.dt))))
-    config, cfg_source = resolve_noise(config, bundle.meta, stride * imu.dt)
+    stride = max(1, int(round(1.0 / (config.update_rate_hz * dt))))
+    config, cfg_source = resolve_noise(config, bundle.meta, stride * dt)
     flt = _Filter(config)
-    flt.dt_update_s = stride * imu.dt
-    acc = model.new_accumulator(lat, lon, h, speed[0])
-    epochs = np.arange(stride, len(imu.t), stride)
-    out = _Outputs(len(epochs) + 1, flt.layout)
+    flt.dt_update_s = stride * dt
+    acc = model.new_accumulator(lat, lon, h, speed_first)
+    n_epochs = (n_rows - 1) // stride        # updates at rows stride, 2 stride, ...
+    out_every = (1 if config.output_interval_s is None
+                 else max(1, int(round(config.output_interval_s / (stride * dt)))))
+    rows_out = _output_rows(n_epochs, out_every)
+    out = _Outputs(len(rows_out) + 1, flt.layout)
     out.record(0, flt, model.observation(acc), acc)
+    t_out, speed_out = np.empty(len(rows_out) + 1), np.empty(len(rows_out) + 1)
+    t_out[0], speed_out[0] = t_first, speed_first
     if engine == "numba":
-        flt.floor_hits = _run_compiled(flt, acc, imu, speed, epochs, out)
+        flt.floor_hits = _run_compiled(flt, acc, bundle, t_first, (sp_t, sp_v), stride,
+                                       n_epochs, out_every, out, t_out, speed_out, progress)
     elif engine == "numpy":
-        _run_reference(flt, acc, imu, speed, epochs, out, progress)
+        speed = np.interp(imu.t, sp_t, sp_v)
+        epochs = np.arange(stride, n_rows, stride)
+        _run_reference(flt, acc, imu, speed, epochs, out, progress, out_every)
+        t_out[1:], speed_out[1:] = imu.t[epochs[rows_out - 1]], speed[epochs[rows_out - 1]]
     else:
         raise ValueError(f"engine must be 'numba' or 'numpy', got {engine!r}")
     if progress is not None:
@@ -725,8 +769,25 @@ def run(bundle: Bundle, config: UsqueConfig, init: Optional[NavState] = None,
             "final_R_m_s": out.R[-1].tolist(), "hinf_floor_hits": int(flt.floor_hits),
             "start_attitude": "q = [1 0 0 0] (C_b^n = I), the paper's start",
             "noise_preset": config.noise_preset, "config_source": cfg_source}
-    return out.solution(imu.t[np.concatenate([[0], epochs])], speed[np.concatenate([[0], epochs])],
-                        flt, info)
+    return out.solution(t_out, speed_out, flt, info)
+
+
+def _output_rows(n_epochs: int, out_every: int) -> np.ndarray:
+    """The update epochs (1-based) written out: every ``out_every``-th and the last."""
+    e = np.arange(out_every, n_epochs + 1, out_every)
+    if n_epochs and (len(e) == 0 or e[-1] != n_epochs):
+        e = np.append(e, n_epochs)
+    return e
+
+
+def _slots(first: int, n: int, n_epochs: int, out_every: int) -> np.ndarray:
+    """Output row of the epochs ``first + 1 .. first + n`` (1-based; -1: not written):
+    epoch ``J`` on the grid goes to row ``J // out_every``, the last epoch to the last row."""
+    J = np.arange(first + 1, first + n + 1)
+    slot = np.where(J % out_every == 0, J // out_every, -1)
+    if n and J[-1] == n_epochs and n_epochs % out_every:
+        slot[-1] = n_epochs // out_every + 1
+    return slot.astype(np.int64)
 
 
 def _run_obs_vectors(bundle, config, init, method, t_start):
@@ -776,8 +837,9 @@ def _run_obs_vectors(bundle, config, init, method, t_start):
     return out.solution(vr.t, speed[i_speed], flt, info)
 
 
-def _run_reference(flt, acc, imu, speed, epochs, out, progress):
+def _run_reference(flt, acc, imu, speed, epochs, out, progress, out_every=1):
     """The filter cycle in readable numpy (module docstring steps 1-5)."""
+    slot = _slots(0, len(epochs), len(epochs), out_every)
     dt_rows = np.diff(imu.t)
     q_n0n_prev = model.observation(acc)["q_n0n"]
     k_prev = 0
@@ -788,27 +850,69 @@ def _run_reference(flt, acc, imu, speed, epochs, out, progress):
         obs = model.observation(acc)
         flt.predict(model.nav_increment(q_n0n_prev, obs["q_n0n"]), flt.process_noise(acc))
         flt.update(obs)
-        out.record(j, flt, obs, acc)
+        if slot[j - 1] >= 0:
+            out.record(slot[j - 1], flt, obs, acc)
         q_n0n_prev = obs["q_n0n"]
         k_prev = k
         if progress is not None and j % 1000 == 0:
             progress(j / len(epochs))
 
 
-def _run_compiled(flt, acc, imu, speed, epochs, out):
-    """The same cycle in :func:`inmotion.align.usque_kernel.run_epochs`."""
+#: IMU rows per block the compiled cycle takes at a time (rounded to whole update strides)
+BLOCK_ROWS = 16384
+
+
+def _run_compiled(flt, acc, bundle, t_first, samples, stride, n_epochs, out_every, out,
+                  t_out, speed_out, progress):
+    """The same cycle in :func:`inmotion.align.usque_kernel.run_epochs`, block by block: the
+    IMU rows after the first (a bundle read in chunks: only the window's, read as they are
+    taken, :meth:`~inmotion.io.bundle_stream.BundleStream.imu_rows_in_window`) regrouped into
+    blocks of whole update strides, each led by the row of the previous block's last epoch,
+    the filter carried from block to block; the speed interpolated to each block's times
+    (elementwise: the whole window's values). Writes the output rows of ``out``, ``t_out``,
+    ``speed_out``; returns the H-infinity floor hits."""
+    from ..core.bundle import regroup
     from . import usque_kernel as kernel
     cfg = flt.cfg
     mode = {"none": kernel.HINF_NONE, "fixed": kernel.HINF_FIXED,
             "adaptive": kernel.HINF_ADAPTIVE}[cfg.hinf]
-    return kernel.run_epochs(
-        acc, imu.dtheta, imu.dvel, np.diff(imu.t), speed, epochs, flt.x.copy(), flt.P.copy(),
-        flt.q.copy(), flt.Q, flt.scheme.Wm, flt.scheme.Wc, flt.scheme.n + flt.scheme.lam,
-        flt.a, flt.f, flt.R.copy(), flt.eta, cfg.adaptive_r, cfg.fading_factor, flt.R_min,
-        flt.R_max, mode, flt.gamma_fixed(), cfg.k0, cfg.gamma_min_deg * _DEG,
-        cfg.gamma_max_deg * _DEG, cfg.hinf_margin, flt.hinf_weights,
-        "dk" in flt.extra, "nabla" in flt.extra, "eps" in flt.extra, "dv0" in flt.extra,
-        "w" in flt.extra, flt.arw2 * flt.dt_update_s, flt.vrw2 * flt.dt_update_s, out.q_in, out.q_ib, out.lla, out.P, out.R, out.gamma, out.x)
+    after = getattr(bundle, "imu_rows_in_window", None)
+    if after is None:
+        imu = bundle.imu
+        pieces = [(imu.t[1:], imu.dtheta[1:], imu.dvel[1:])]
+    else:
+        _, _, pieces, _ = after(t_first)
+    size = stride * max(1, BLOCK_ROWS // stride)
+    x, P, q, R, eta = flt.x.copy(), flt.P.copy(), flt.q.copy(), flt.R.copy(), flt.eta
+    prev = (np.array([t_first]), np.zeros((1, 3)), np.zeros((1, 3)))
+    hits, done = 0, 0
+    for blk in regroup(pieces, size):
+        m = len(blk[0]) // stride                 # the block's epochs (a last partial
+        if m == 0:                                # stride after the last epoch: unused)
+            break
+        t, dth, dvl = (np.concatenate([p, b[:m * stride]]) for p, b in zip(prev, blk))
+        speed = np.interp(t, *samples)
+        epochs = np.arange(stride, m * stride + 1, stride)
+        slot = _slots(done, m, n_epochs, out_every)
+        h, x, P, q, R, eta = kernel.run_epochs(
+            acc, dth, dvl, np.diff(t), speed, epochs, slot, x, P, q, flt.Q, flt.scheme.Wm,
+            flt.scheme.Wc, flt.scheme.n + flt.scheme.lam, flt.a, flt.f, R, eta,
+            cfg.adaptive_r, cfg.fading_factor, flt.R_min, flt.R_max, mode, flt.gamma_fixed(),
+            cfg.k0, cfg.gamma_min_deg * _DEG, cfg.gamma_max_deg * _DEG, cfg.hinf_margin,
+            flt.hinf_weights, "dk" in flt.extra, "nabla" in flt.extra, "eps" in flt.extra,
+            "dv0" in flt.extra, "w" in flt.extra, flt.arw2 * flt.dt_update_s,
+            flt.vrw2 * flt.dt_update_s, out.q_in, out.q_ib, out.lla, out.P, out.R, out.gamma,
+            out.x)
+        hits += h
+        w = slot >= 0
+        t_out[slot[w]], speed_out[slot[w]] = t[epochs[w]], speed[epochs[w]]
+        done += m
+        prev = (t[-1:], dth[-1:], dvl[-1:])
+        if progress is not None:
+            progress(done / max(n_epochs, 1))
+        if done >= n_epochs:
+            break
+    return hits
 
 
 def _positive_definite(P):

@@ -218,18 +218,20 @@ def _update(x, P, q, obs_y, beta_n, wie_n, D_i, S, Wm, Wc, scale, a, f, R, eta,
 
 
 @numba.njit(cache=True)
-def run_epochs(acc, dtheta, dvel, dt_rows, speed, epochs, x, P, q, Q, Wm, Wc, scale, a, f,
-               R, eta, adaptive_r, c_fade, R_min, R_max, hinf_mode, gamma_fixed, k0,
+def run_epochs(acc, dtheta, dvel, dt_rows, speed, epochs, slot, x, P, q, Q, Wm, Wc, scale, a,
+               f, R, eta, adaptive_r, c_fade, R_min, R_max, hinf_mode, gamma_fixed, k0,
                gamma_min, gamma_max, margin, hinf_w, has_dk, has_nabla, has_eps, has_dv0,
                has_w, arw2_dt, vrw2_dt, out_q_in, out_q_ib, out_lla, out_P, out_R, out_gamma,
                out_x):
-    """All filter epochs. ``epochs[j]`` is the IMU row of update ``j``; row 0 is the start.
-
-    Outputs (preallocated, row ``j + 1`` for epoch ``j``; row 0 is filled by the caller):
+    """The filter epochs of one block of IMU rows. ``epochs[j]`` is the row (in the block)
+    of update ``j``; row 0 is the block's start (the run's start, or the previous block's last
+    epoch: ``acc`` holds the accumulator there, updated in place). Epoch ``j`` is written to
+    output row ``slot[j]`` (none when negative; row 0 of the run is filled by the caller):
     quaternions of ``C_n^i`` and ``C_b^i``, DR position, covariance, sqrt(R), gamma, state.
     With ``has_w`` the integrated-noise state ``w`` is the last block and each update's
     process noise is :func:`inmotion.align.usque_model.add_integrated_noise` of ``Q``.
-    Returns the number of H-infinity floor hits.
+    Returns ``(floor hits, x, P, q, R, eta)``: the hits and the filter after the last epoch,
+    from which the next block goes on (the same operations as one block of all rows).
     """
     k_prev = 0
     i_w = x.shape[0] - 3
@@ -249,18 +251,20 @@ def run_epochs(acc, dtheta, dvel, dt_rows, speed, epochs, x, P, q, Q, Wm, Wc, sc
             x, P, q, y, beta_n, wie_n, D_i, S, Wm, Wc, scale, a, f, R, eta, adaptive_r,
             c_fade, R_min, R_max, hinf_mode, gamma_fixed, k0, gamma_min, gamma_max, margin, hinf_w)
         hits += hit
-        out_q_in[j + 1] = q
-        out_q_ib[j + 1] = q_ib
-        out_lla[j + 1, 0] = acc[model.LAT]
-        out_lla[j + 1, 1] = acc[model.LON]
-        out_lla[j + 1, 2] = acc[model.H]
-        out_P[j + 1] = P
-        out_R[j + 1] = np.sqrt(R)
-        out_gamma[j + 1] = gamma
-        out_x[j + 1] = x
+        r = slot[j]
+        if r >= 0:
+            out_q_in[r] = q
+            out_q_ib[r] = q_ib
+            out_lla[r, 0] = acc[model.LAT]
+            out_lla[r, 1] = acc[model.LON]
+            out_lla[r, 2] = acc[model.H]
+            out_P[r] = P
+            out_R[r] = np.sqrt(R)
+            out_gamma[r] = gamma
+            out_x[r] = x
         q_n0n_prev = q_n0n
         k_prev = k
-    return hits
+    return hits, x, P, q, R, eta
 
 
 @numba.njit(cache=True)

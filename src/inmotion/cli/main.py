@@ -184,10 +184,11 @@ def _progress(ctx, desc: str):
 #: so a run's memory does not grow with the log's length; every other method gets its
 #: ``--start`` / ``--end`` window in memory, only that window's rows read (``run_method``).
 #: The coarse alignments integrate their vectors block by block
-#: (:func:`inmotion.align.attitude_determination.prepare`)
+#: (:func:`inmotion.align.attitude_determination.prepare`), the USQUE filters take their rows
+#: block by block (``usque.run``; ``vectors: obs_vectors`` loads its window)
 STREAMED = ("sins", "dr", "sins-dr", "dr-kf", "od-velocity-kf", "fine-mux", "adaptive",
             "coarse-inertial", "imada-vb", "imada-vn", "imada-dual", "mimada", "mimada-dual",
-            "oba", "parked-kf")
+            "oba", "parked-kf", "usque", "ausque", "usque-hinf", "ausquhe")
 
 
 def _read_bundle(ctx, path, allow_imu_gaps=False, chunked=False, **kw):
