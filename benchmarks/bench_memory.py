@@ -24,7 +24,14 @@ radar stages keep only the rows of the 1 Hz output (``run_process(output_rate_hz
 one windowed alignment, ``inmotion -q align BUNDLE --method imada-vb --start 70 --end 300
 -o OUT`` (the bundle's parked minute skipped): only the window's rows are read
 (``BundleStream.load_window``), so its peak should not depend on the log's length at all.
-``--no-process`` leaves process and align out.
+And the batch alignments run to the log's end (:data:`WHOLE_ALIGN`, issue 13: ``align
+--method imada-vb --start 70``, ``mimada``, ``coarse-inertial`` over the whole log, and
+``usque`` from 70 s with 1 Hz updates, and with 10 Hz updates and ``output_interval_s=1``):
+they read their window's rows a block at a time
+(:func:`inmotion.align.attitude_determination.prepare`, ``usque._run_compiled``), so what
+grows is their output and the time columns the chunked reader keeps (8 bytes per IMU and per
+truth row). ``--no-process`` leaves process and align out; ``--only RUN`` (repeatable)
+measures only the runs named.
 
 And ``process --smooth`` on an odometer + LDV drive (issue 13): the same segment lists with
 the radar replaced by an odometer at 10 Hz and an LDV at 100 Hz giving distance
@@ -84,12 +91,19 @@ RUNS = {"sins-dr": (["navigate"], OPTIONS),
         "align imada-vb 70 s-end": (["align"], ["--method", "imada-vb", "--start", "70"]),
         "align mimada 70 s-end": (["align"], ["--method", "mimada", "--start", "70"]),
         "align coarse-inertial": (["align"], ["--method", "coarse-inertial"]),
+        "align usque 70 s-end, 1 Hz updates": (["align"], ["--method", "usque", "--start", "70",
+                                                           "--set", "update_rate_hz=1"]),
+        "align usque 70 s-end, 10 Hz updates, 1 s out": (
+            ["align"], ["--method", "usque", "--start", "70", "--set", "update_rate_hz=10",
+                        "--set", "output_interval_s=1"]),
         "process --smooth (odometer+LDV)": (["process"], ["--no-report", "--smooth"])}
 #: the runs on the odometer + LDV drive (bundles ``o1``, ``o4``; the others on ``h1``, ``h4``)
 ODOMETER_LDV_RUNS = ("process --smooth (odometer+LDV)",)
 #: the batch alignments run to the log's end (issue 13: they read their window in chunks,
 #: :func:`inmotion.align.attitude_determination.prepare`)
-WHOLE_ALIGN = ("align imada-vb 70 s-end", "align mimada 70 s-end", "align coarse-inertial")
+WHOLE_ALIGN = ("align imada-vb 70 s-end", "align mimada 70 s-end", "align coarse-inertial",
+               "align usque 70 s-end, 1 Hz updates",
+               "align usque 70 s-end, 10 Hz updates, 1 s out")
 
 
 def child_run(bundle: Path, out: Path, run: str = "sins-dr") -> tuple[float, float, float]:

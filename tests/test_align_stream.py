@@ -178,7 +178,10 @@ def small_usque_blocks(monkeypatch):
 
 
 @pytest.mark.parametrize("cfg", [{}, {"noise_preset": "paper", "update_rate_hz": 30.0},
-                                 {"output_interval_s": 0.35}])
+                                 {"output_interval_s": 0.35},
+                                 {"noise_preset": "paper", "vectors": "obs_vectors"},
+                                 {"noise_preset": "paper", "vectors": "obs_vectors",
+                                  "output_interval_s": 0.5}])
 @pytest.mark.parametrize("method", ["usque", "ausquhe"])
 def test_usque_in_chunks_equals_whole(folder, no_load, small_usque_blocks, method, cfg):
     """The USQUE filters take their rows block by block (the filter carried across blocks of
@@ -191,14 +194,20 @@ def test_usque_in_chunks_equals_whole(folder, no_load, small_usque_blocks, metho
     _same(run(whole, Cfg(**cfg)), run(stream, Cfg(**cfg)))
 
 
-@pytest.mark.parametrize("stride_hz, interval", [(100.0, 0.35), (30.0, 1.0), (100.0, 0.01)])
-def test_usque_output_interval_keeps_the_rows_of_every_epoch(folder, stride_hz, interval):
+@pytest.mark.parametrize("stride_hz, interval, vectors",
+                         [(100.0, 0.35, "own"), (30.0, 1.0, "own"), (100.0, 0.01, "own"),
+                          (100.0, 0.3, "obs_vectors")])
+def test_usque_output_interval_keeps_the_rows_of_every_epoch(folder, stride_hz, interval,
+                                                             vectors):
     """``output_interval_s``: the rows of the run that keeps every update epoch, every k-th
     (k = round(interval / update interval)) and the last, nothing else changed."""
     from inmotion.align import usque
     b = read_bundle(folder).window(45.0, 100.0)
-    every = usque.run(b, usque.UsqueConfig(update_rate_hz=stride_hz))
-    some = usque.run(b, usque.UsqueConfig(update_rate_hz=stride_hz, output_interval_s=interval))
+    base = {"update_rate_hz": stride_hz, "vectors": vectors}
+    if vectors == "obs_vectors":
+        base["noise_preset"] = "paper"              # (its attitude-only state)
+    every = usque.run(b, usque.UsqueConfig(**base))
+    some = usque.run(b, usque.UsqueConfig(**base, output_interval_s=interval))
     n = len(every.t) - 1                       # update epochs (row 0 is the start)
     k = max(1, round(interval / float(np.median(np.diff(every.t)))))
     keep = np.r_[0, np.arange(k, n + 1, k)]

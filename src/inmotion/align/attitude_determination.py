@@ -24,7 +24,8 @@ from ..estimation import qmethod
 from . import obs_vectors as ov
 from . import velocity_source as vs
 
-__all__ = ["Inputs", "prepare", "Level", "run_level", "to_solution", "euler_deg_dict"]
+__all__ = ["Inputs", "prepare", "window_blocks", "Level", "run_level", "to_solution",
+           "euler_deg_dict"]
 
 
 @dataclass
@@ -117,20 +118,26 @@ def prepare(bundle: Bundle, init: Optional[NavState], *, sensor: Optional[str],
         speed = np.interp(t, ts, vv) if moving else np.zeros(len(t))
         return Inputs(t, imu.dtheta, imu.dvel, speed, speed0, lat0, lon0, h0, name, t0, dt)
     del t
+    return Inputs(None, None, None, None, speed0, lat0, lon0, h0, name, t0, dt,
+                  lambda: window_blocks(bundle, t0, None if not moving else (ts, vv)))
 
-    def rows():
-        """Row 0 (its time only is used: the interval before it is not the window's), then
-        the rows after it as the bundle reads them, with the speed at their times."""
-        yield np.array([t0]), np.zeros((1, 3)), np.zeros((1, 3)), np.zeros(1)
-        # only the window's rows (a bundle read in chunks), as load_window would read them
-        after = getattr(bundle, "imu_rows_in_window", bundle.imu_rows_after)
-        _, _, pieces, _ = after(t0)
-        row = 1
-        for tp, dth, dvl in pieces:
-            _check_finite(tp, dth, dvl, row)
-            row += len(tp)
-            yield tp, dth, dvl, (np.interp(tp, ts, vv) if moving else np.zeros(len(tp)))
-    return Inputs(None, None, None, None, speed0, lat0, lon0, h0, name, t0, dt, rows)
+
+def window_blocks(bundle, t0: float, samples=None):
+    """The rows of ``bundle``'s window from its first row ``t0`` [s] as consecutive blocks
+    ``(t, dtheta, dvel, speed)`` (:func:`inmotion.align.obs_vectors.integrate_vector_blocks`'s
+    input): row 0 (its time only is used: the interval before it is not the window's), then
+    the rows after it as the bundle reads them (a bundle read in chunks: only the window's,
+    :meth:`~inmotion.io.bundle_stream.BundleStream.imu_rows_in_window`, as ``load_window``
+    reads them; in memory: :meth:`~inmotion.core.bundle.Bundle.imu_rows_after`), the speed
+    :func:`numpy.interp` of ``samples = (t, v)`` at their times (None: zero, parked)."""
+    yield np.array([t0]), np.zeros((1, 3)), np.zeros((1, 3)), np.zeros(1)
+    after = getattr(bundle, "imu_rows_in_window", bundle.imu_rows_after)
+    _, _, pieces, _ = after(t0)
+    row = 1
+    for tp, dth, dvl in pieces:
+        _check_finite(tp, dth, dvl, row)
+        row += len(tp)
+        yield tp, dth, dvl, (np.zeros(len(tp)) if samples is None else np.interp(tp, *samples))
 
 
 def _check_finite(t, dtheta, dvel, row0: int):

@@ -71,7 +71,8 @@ from ..core.bundle import regroup
 from ..estimation.qmethod import k_centered, k_increment
 
 __all__ = ["MODEL_VB", "MODEL_VB_EARTH", "MODEL_DUAL", "MODEL_VN", "NAV_INTEGRATED",
-           "NAV_CLOSED", "VectorRun", "integrate_vectors"]
+           "NAV_CLOSED", "VectorRun", "integrate_vectors", "integrate_vector_blocks",
+           "vector_rows"]
 
 MODEL_VB = 0        #: paper 004 eq. 9 (omega_ie^b x V^b dropped)
 MODEL_VB_EARTH = 1  #: paper 001 eq. 13 / paper 003 eq. 7 (Earth-rate term kept, on alpha)
@@ -188,6 +189,27 @@ def integrate_vector_blocks(blocks, speed0, lat0, lon0, h0, *, model, nav=NAV_IN
     by the same floating-point operations as over the rows in one array, so the result is
     bit for bit that of :func:`integrate_vectors` on the rows joined, whatever the blocks.
     """
+    outs, steps = [], 0
+    for out, steps in vector_rows(blocks, speed0, lat0, lon0, h0, model=model, nav=nav,
+                                  C_fixed=C_fixed, update_every=update_every,
+                                  out_every=out_every, fading=fading, lowpass_a=lowpass_a,
+                                  centered=centered, skip=skip, block_rows=block_rows):
+        outs.append(out)
+    out = np.concatenate(outs)
+    return VectorRun(out[:, OUT_T], out[:, OUT_LAT], out[:, OUT_LON], out[:, OUT_H],
+                     out[:, OUT_VN], out[:, OUT_QB], out[:, OUT_QN],
+                     out[:, OUT_K].reshape(-1, 4, 4), out[:, OUT_SA], out[:, OUT_SB],
+                     out[:, OUT_W], out[:, OUT_ALPHA], out[:, OUT_BETA], int(steps))
+
+
+def vector_rows(blocks, speed0, lat0, lon0, h0, *, model, nav=NAV_INTEGRATED, C_fixed=None,
+                update_every=5, out_every=50, fading=1.0, lowpass_a=0.0, centered=False,
+                skip=0, block_rows=None):
+    """:func:`integrate_vector_blocks`'s output rows as they are made: yields ``(rows,
+    steps)``, the record rows (``N_OUT`` columns, :data:`OUT_T` ...) of each block of
+    ``block_rows`` rows (the first: the start's row; the last: the last interval's row when it
+    is off the grid) and the number of intervals integrated so far. For a consumer that keeps
+    only what it needs of every row (the USQUE filter on these vectors, ``out_every=1``)."""
     update_every, out_every = int(max(update_every, 1)), int(max(out_every, 1))
     block_rows = max(2, 2 * (int(BLOCK_ROWS if block_rows is None else block_rows) // 2))
     running = C_fixed is None
@@ -202,8 +224,8 @@ def integrate_vector_blocks(blocks, speed0, lat0, lon0, h0, *, model, nav=NAV_IN
     st = np.zeros(N_STATE)
     K, C_n0n = np.zeros((4, 4)), np.eye(3)
     row0 = tuple(np.ascontiguousarray(x[:1], dtype=float) for x in first)
-    outs = [_start(row0[0][0], float(speed0), float(lat0), float(lon0), float(h0), C_hat, st,
-                   K)]
+    yield _start(row0[0][0], float(speed0), float(lat0), float(lon0), float(h0), C_hat, st,
+                 K), 0
     rest = itertools.chain([tuple(x[1:] for x in first)], it)
     prev, steps = row0, 0
     for blk in regroup(rest, block_rows):
@@ -216,16 +238,11 @@ def integrate_vector_blocks(blocks, speed0, lat0, lon0, h0, *, model, nav=NAV_IN
                                 C_hat, C_n0n, K, st, steps, update_every, out_every,
                                 float(fading), float(lowpass_a), bool(centered), int(skip),
                                 n_steps // out_every + 1)
-        outs.append(out[:count])
         steps += n_steps
         prev = tuple(r[-1:] for r in rows)
+        yield out[:count], steps
     if steps % out_every:                 # the last interval, recorded off the grid
-        outs.append(_record_last(prev[0][0], K, st))
-    out = np.concatenate(outs)
-    return VectorRun(out[:, OUT_T], out[:, OUT_LAT], out[:, OUT_LON], out[:, OUT_H],
-                     out[:, OUT_VN], out[:, OUT_QB], out[:, OUT_QN],
-                     out[:, OUT_K].reshape(-1, 4, 4), out[:, OUT_SA], out[:, OUT_SB],
-                     out[:, OUT_W], out[:, OUT_ALPHA], out[:, OUT_BETA], int(steps))
+        yield _record_last(prev[0][0], K, st), steps
 
 
 # ------------------------------------------------------------------ small numba helpers

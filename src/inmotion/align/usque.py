@@ -723,11 +723,11 @@ def run(bundle: Bundle, config: UsqueConfig, init: Optional[NavState] = None,
     """
     t_start = time.perf_counter()
     config, auto = _resolve_sensor(config, bundle)
-    if config.vectors == "obs_vectors" or engine == "numpy":
-        # the window in memory (a bundle read in chunks: load_window reads only its rows)
-        bundle = bundle.load_window()
     if config.vectors == "obs_vectors":
         return _run_obs_vectors(bundle, config, init, method, t_start)
+    if engine == "numpy":
+        # the window in memory (a bundle read in chunks: load_window reads only its rows)
+        bundle = bundle.load_window()
     imu = bundle.imu
     t_imu = imu.t               # (a bundle read in chunks: read from the file, not kept)
     n_rows = len(t_imu)
@@ -791,50 +791,80 @@ def _slots(first: int, n: int, n_epochs: int, out_every: int) -> np.ndarray:
 
 
 def _run_obs_vectors(bundle, config, init, method, t_start):
-    """The filter on the coarse-alignment module's vectors (``config.vectors="obs_vectors"``)."""
+    """The filter on the coarse-alignment module's vectors (``config.vectors="obs_vectors"``),
+    block by block: :func:`inmotion.align.obs_vectors.vector_rows` yields each block's vector
+    rows (every interval's), the filter takes them and is carried to the next block, and only
+    the output rows are kept (``output_interval_s``); a bundle read in chunks gives the
+    window's rows as it reads them (:func:`inmotion.align.attitude_determination.
+    window_blocks`). The same operations as over all rows at once."""
+    from ..align.attitude_determination import window_blocks
     from . import obs_vectors as ov
     from . import usque_kernel as kernel
     from . import velocity_source as vs
-    config, cfg_source = resolve_noise(config, bundle.meta, 2.0 * bundle.imu.dt)
+    t_imu = bundle.imu.t        # (a bundle read in chunks: read from the file, not kept)
+    dt = float(np.median(np.diff(t_imu)))
+    config, cfg_source = resolve_noise(config, bundle.meta, 2.0 * dt)
     flt = _Filter(config)
-    flt.dt_update_s = 2.0 * bundle.imu.dt           # two-sample intervals
+    flt.dt_update_s = 2.0 * dt                      # two-sample intervals
     if flt.extra:
         raise BadInput("vectors=obs_vectors supports the attitude state only; "
                        f"drop {', '.join(flt.extra)} or use vectors=own")
-    imu = bundle.imu
-    if len(imu.t) < 3:
-        raise BadInput(f"bundle {bundle.name!r}: too few IMU rows ({len(imu.t)}) to align")
-    speed = _speed_at_imu(bundle, config.sensor)
+    n_rows = len(t_imu)
+    if n_rows < 3:
+        raise BadInput(f"bundle {bundle.name!r}: too few IMU rows ({n_rows}) to align")
+    t_first = float(t_imu[0])
+    samples = _speed_samples(bundle, config.sensor, t_first, float(t_imu[-1]))
+    del t_imu
     lat, lon, h = _initial_position(bundle, init)
     _, data = bundle.velocity_sensor(config.sensor)
-    speed0 = vs.initial_speed(config.sensor, data, float(imu.t[0]), config.v0_fit_s)
-    vr = ov.integrate_vectors(imu.t, imu.dtheta, imu.dvel, speed, speed0, lat, lon, h,
-                              model=ov.MODEL_VB_EARTH, out_every=1)
-    # paper 001: alpha = C_{n(t)}^i beta_001 with beta_001 = C_{n(0)}^{n(t)} beta
-    beta_n = np.einsum("kji,kj->ki", rotations.dcm_from_quat(vr.q_n0n), vr.beta)
-    out = _Outputs(len(vr.t), flt.layout)
+    speed0 = vs.initial_speed(config.sensor, data, t_first, config.v0_fit_s)
+    n_epochs = n_rows // 2                          # rows 1.. two at a time
+    out_every = (1 if config.output_interval_s is None
+                 else max(1, int(round(config.output_interval_s / flt.dt_update_s))))
+    out = _Outputs(len(_output_rows(n_epochs, out_every)) + 1, flt.layout)
+    t_out = np.empty(len(out.gamma))
     out.q_in[0], out.P[0], out.R[0], out.gamma[0], out.x[0] = (flt.q, flt.P, np.sqrt(flt.R),
                                                              np.inf, flt.x)
     mode = {"none": kernel.HINF_NONE, "fixed": kernel.HINF_FIXED,
             "adaptive": kernel.HINF_ADAPTIVE}[config.hinf]
-    hits = kernel.run_vector_epochs(
-        np.ascontiguousarray(vr.alpha), np.ascontiguousarray(beta_n),
-        np.ascontiguousarray(vr.q_n0n), flt.x.copy(), flt.P.copy(), flt.q.copy(), flt.Q,
-        flt.scheme.Wm, flt.scheme.Wc, flt.scheme.n + flt.scheme.lam, flt.a, flt.f,
-        flt.R.copy(), flt.eta, config.adaptive_r, config.fading_factor, flt.R_min, flt.R_max,
-        mode, flt.gamma_fixed(), config.k0, config.gamma_min_deg * _DEG,
-        config.gamma_max_deg * _DEG, config.hinf_margin, flt.hinf_weights, out.q_in, out.P, out.R, out.gamma,
-        out.x)
-    out.q_ib[:] = vr.q_b0b
-    out.lla[:] = np.stack([vr.lat, vr.lon, vr.h], -1)
-    i_speed = np.searchsorted(imu.t, vr.t).clip(0, len(imu.t) - 1)
+    x, P, q, R, eta = flt.x.copy(), flt.P.copy(), flt.q.copy(), flt.R.copy(), flt.eta
+    hits, done, prev = 0, 0, None
+    lla = [ov.OUT_LAT, ov.OUT_LON, ov.OUT_H]
+    for rows, _ in ov.vector_rows(window_blocks(bundle, t_first, samples), speed0, lat, lon, h,
+                                  model=ov.MODEL_VB_EARTH, out_every=1):
+        if prev is None:                            # the start
+            out.q_ib[0], out.lla[0], t_out[0] = rows[0, ov.OUT_QB], rows[0, lla], rows[0, 0]
+            prev = rows[-1:]
+            continue
+        if not len(rows):
+            continue
+        both = np.concatenate([prev, rows])         # the previous epoch leads the block
+        # paper 001: alpha = C_{n(t)}^i beta_001 with beta_001 = C_{n(0)}^{n(t)} beta
+        q_n0n = np.ascontiguousarray(both[:, ov.OUT_QN])
+        beta_n = np.einsum("kji,kj->ki", rotations.dcm_from_quat(q_n0n), both[:, ov.OUT_BETA])
+        slot = _slots(done, len(rows), n_epochs, out_every)
+        h_b, x, P, q, R, eta = kernel.run_vector_epochs(
+            np.ascontiguousarray(both[:, ov.OUT_ALPHA]), np.ascontiguousarray(beta_n), q_n0n,
+            slot, x, P, q, flt.Q, flt.scheme.Wm, flt.scheme.Wc, flt.scheme.n + flt.scheme.lam,
+            flt.a, flt.f, R, eta, config.adaptive_r, config.fading_factor, flt.R_min,
+            flt.R_max, mode, flt.gamma_fixed(), config.k0, config.gamma_min_deg * _DEG,
+            config.gamma_max_deg * _DEG, config.hinf_margin, flt.hinf_weights, out.q_in,
+            out.P, out.R, out.gamma, out.x)
+        hits += h_b
+        w = slot >= 0
+        out.q_ib[slot[w]] = rows[w][:, ov.OUT_QB]
+        out.lla[slot[w]] = rows[w][:, lla]
+        t_out[slot[w]] = rows[w][:, ov.OUT_T]
+        done += len(rows)
+        prev = rows[-1:]
     info = {"method": method, "config": config.model_dump(), "sensor": config.sensor,
             "timing_s": time.perf_counter() - t_start, "update_stride_rows": 2,
             "final_R_m_s": out.R[-1].tolist(), "hinf_floor_hits": int(hits),
             "vectors": "inmotion.align.obs_vectors (MODEL_VB_EARTH)",
             "start_attitude": "q = [1 0 0 0] (C_b^n = I), the paper's start",
             "noise_preset": config.noise_preset, "config_source": cfg_source}
-    return out.solution(vr.t, speed[i_speed], flt, info)
+    # the speed at the vectors' times (IMU times: the values interpolated at the IMU rows)
+    return out.solution(t_out, np.interp(t_out, *samples), flt, info)
 
 
 def _run_reference(flt, acc, imu, speed, epochs, out, progress, out_every=1):

@@ -268,12 +268,15 @@ def run_epochs(acc, dtheta, dvel, dt_rows, speed, epochs, slot, x, P, q, Q, Wm, 
 
 
 @numba.njit(cache=True)
-def run_vector_epochs(y, beta_n, q_n0n, x, P, q, Q, Wm, Wc, scale, a, f, R, eta, adaptive_r,
-                      c_fade, R_min, R_max, hinf_mode, gamma_fixed, k0, gamma_min, gamma_max,
-                      margin, hinf_w, out_q_in, out_P, out_R, out_gamma, out_x):
+def run_vector_epochs(y, beta_n, q_n0n, slot, x, P, q, Q, Wm, Wc, scale, a, f, R, eta,
+                      adaptive_r, c_fade, R_min, R_max, hinf_mode, gamma_fixed, k0, gamma_min,
+                      gamma_max, margin, hinf_w, out_q_in, out_P, out_R, out_gamma, out_x):
     """The filter cycle over precomputed per-epoch vectors (``y``, ``beta_n``: (M, 3), and
-    ``q_n0n``: (M, 4), epoch 0 the start), attitude state only: the Earth-rate term is already
-    in ``y`` (``inmotion.align.obs_vectors``, model ``MODEL_VB_EARTH``). Returns floor hits."""
+    ``q_n0n``: (M, 4), row 0 the start or the previous block's last epoch), attitude state
+    only: the Earth-rate term is already in ``y`` (``inmotion.align.obs_vectors``, model
+    ``MODEL_VB_EARTH``). Epoch ``j`` (row ``j >= 1``) is written to output row
+    ``slot[j - 1]`` (none when negative). Returns ``(floor hits, x, P, q, R, eta)``: the
+    filter after the last epoch, from which the next block goes on."""
     zero3 = np.zeros(3)
     S = np.zeros((3, 0))
     hits = 0
@@ -284,9 +287,11 @@ def run_vector_epochs(y, beta_n, q_n0n, x, P, q, Q, Wm, Wc, scale, a, f, R, eta,
             x, P, q, y[j], beta_n[j], zero3, zero3, S, Wm, Wc, scale, a, f, R, eta, adaptive_r,
             c_fade, R_min, R_max, hinf_mode, gamma_fixed, k0, gamma_min, gamma_max, margin, hinf_w)
         hits += hit
-        out_q_in[j] = q
-        out_P[j] = P
-        out_R[j] = np.sqrt(R)
-        out_gamma[j] = gamma
-        out_x[j] = x
-    return hits
+        r = slot[j - 1]
+        if r >= 0:
+            out_q_in[r] = q
+            out_P[r] = P
+            out_R[r] = np.sqrt(R)
+            out_gamma[r] = gamma
+            out_x[r] = x
+    return hits, x, P, q, R, eta
