@@ -171,6 +171,11 @@ BENCHES = {
                1.15),
         Figure("peak RSS 4 h / 1 h, align imada-vb 70-300 s",
                rf"peak RSS 4 h / 1 h \(align imada-vb 70-300 s\): {_NUM}", "", 1.15),
+        *(Figure(f"peak RSS 4 h / 1 h, {run}",
+                 rf"peak RSS 4 h / 1 h \({re.escape(run)}\): {_NUM}", "", 1.15)
+          for run in ("align imada-vb 70 s-end", "align mimada 70 s-end",
+                      "align coarse-inertial", "align usque 70 s-end, 1 Hz updates",
+                      "align usque 70 s-end, 10 Hz updates, 1 s out")),
     ), "issue 13: memory flat in log length, inputs read in chunks"),
     "bench_startup.py": Bench(("--repeat", "5"), 300, (
         Figure("CLI fixed cost (navigate sins-dr, 7 s bundle)",
