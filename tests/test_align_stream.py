@@ -145,10 +145,13 @@ def test_cli_align_to_the_end_in_chunks(folder, tmp_path, monkeypatch, args):
             assert (tmp_path / "r" / f).read_bytes() == (tmp_path / "w" / f).read_bytes(), f
 
 
-def test_window_rows_only_are_read_and_checked(folder, tmp_path):
-    """A NaN at row 9001 (t = 90 s): ``imada-vb`` over a window that ends before it runs
+@pytest.mark.parametrize("method", ["imada-vb", "usque"])
+def test_window_rows_only_are_read_and_checked(folder, tmp_path, method):
+    """A NaN at row 9001 (t = 90 s): the method over a window that ends before it runs
     (the row is neither read nor checked, as ``load_window`` reads a window), one holding it
     stops with read_bundle's message, the row counted over the whole table."""
+    from inmotion.registry import get
+    run, Cfg = get(method).load()
     import pandas as pd
     from inmotion.errors import BadInput
     bad = tmp_path / "bad"
@@ -161,11 +164,11 @@ def test_window_rows_only_are_read_and_checked(folder, tmp_path):
     df.loc[row - 1, "dtheta_y"] = np.nan
     df.to_parquet(p, index=False, row_group_size=2048)
     stream = open_bundle(bad, chunk_rows=500)
-    ok = imada.run_imada_vb(stream.window(45.0, 85.0), imada.ImadaConfig())
-    ref = imada.run_imada_vb(read_bundle(folder).window(45.0, 85.0), imada.ImadaConfig())
+    ok = run(stream.window(45.0, 85.0), Cfg())
+    ref = run(read_bundle(folder).window(45.0, 85.0), Cfg())
     _same(ok, ref)
     with pytest.raises(BadInput) as e:
-        imada.run_imada_vb(stream.window(45.0, 95.0), imada.ImadaConfig())
+        run(stream.window(45.0, 95.0), Cfg())
     with pytest.raises(BadInput) as e_whole:
         read_bundle(bad)
     assert str(e.value) == str(e_whole.value) and f"row {row}, t=" in str(e.value)

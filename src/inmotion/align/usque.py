@@ -918,8 +918,8 @@ def _run_compiled(flt, acc, bundle, t_first, samples, stride, n_epochs, out_ever
     hits, done = 0, 0
     for blk in regroup(pieces, size):
         m = len(blk[0]) // stride                 # the block's epochs (a last partial
-        if m == 0:                                # stride after the last epoch: unused)
-            break
+        if m == 0:                                # stride after the last epoch: unused,
+            continue                              # but read: the reader's checks end there)
         t, dth, dvl = (np.concatenate([p, b[:m * stride]]) for p, b in zip(prev, blk))
         speed = np.interp(t, *samples)
         epochs = np.arange(stride, m * stride + 1, stride)
@@ -940,8 +940,6 @@ def _run_compiled(flt, acc, bundle, t_first, samples, stride, n_epochs, out_ever
         prev = (t[-1:], dth[-1:], dvl[-1:])
         if progress is not None:
             progress(done / max(n_epochs, 1))
-        if done >= n_epochs:
-            break
     return hits
 
 
