@@ -60,14 +60,14 @@ def no_load(monkeypatch):
     monkeypatch.setattr(BundleStream, "load_window", refuse)
 
 
-def _same(a, b):
+def _same(a, b, skip=()):
     for k in ("t", "lat", "lon", "h", "vel_n", "euler"):
         np.testing.assert_array_equal(getattr(a, k), getattr(b, k), err_msg=k)
     assert a.sigma.keys() == b.sigma.keys() and a.states.keys() == b.states.keys()
     for d1, d2 in ((a.sigma, b.sigma), (a.states, b.states)):
         for k in d1:
             np.testing.assert_array_equal(d1[k], d2[k], err_msg=k)
-    keys = [k for k in a.info if k not in ("wall_time_s", "timing_s")]
+    keys = [k for k in a.info if k not in ("wall_time_s", "timing_s", *skip)]
     assert {k: a.info[k] for k in keys} == {k: b.info.get(k) for k in keys}
 
 
@@ -222,3 +222,22 @@ def test_usque_output_interval_keeps_the_rows_of_every_epoch(folder, stride_hz, 
     for d1, d2 in ((some.sigma, every.sigma), (some.states, every.states)):
         for key in d2:
             np.testing.assert_array_equal(d1[key], d2[key][keep], err_msg=key)
+
+
+@pytest.mark.parametrize("rate_hz", [2.0, 0.5])
+def test_usque_output_interval_is_the_thinned_every_epoch_run(folder, rate_hz):
+    """``--output-rate`` sets a USQUE filter's ``output_interval_s`` (it writes every update
+    epoch unless told): its rows are those :func:`inmotion.io.result.thin` keeps of the
+    every-epoch run, so the command line's result is unchanged, without the other rows held."""
+    from inmotion.align import usque
+    from inmotion.cli.main import apply_output_rate
+    from inmotion.io.result import thin
+    b = read_bundle(folder).window(45.0, 100.0)
+    cfg, thin_rate = apply_output_rate(usque.AusquheConfig(), b, rate_hz, True)
+    assert cfg.output_interval_s == 1.0 / rate_hz and thin_rate == rate_hz
+    some, every = usque.run(b, cfg), usque.run(b, usque.AusquheConfig())
+    assert len(some.t) < len(every.t) / 40
+    _same(thin(some, thin_rate), thin(every, rate_hz), skip=("config",))
+    # a method with an output interval of its own (imada: 1 s) keeps it
+    from inmotion.align.imada import ImadaConfig
+    assert apply_output_rate(ImadaConfig(), b, rate_hz, True)[0].output_interval_s == 1.0

@@ -681,6 +681,11 @@ def apply_output_rate(config, bundle, rate_hz: float | None, explicit: bool):
     elif "output_rate_hz" in own and "output_rate_hz" not in user_set:
         top = getattr(config, "filter_rate_hz", rate_hz)
         config = config.model_copy(update={"output_rate_hz": min(rate_hz, top)})
+    elif ("output_interval_s" in own and "output_interval_s" not in user_set
+          and fields["output_interval_s"].default is None):
+        # a method that writes every epoch unless told (the USQUE filters) keeps only the
+        # rows of the rate: the rows thinning would keep of them, without holding the others
+        config = config.model_copy(update={"output_interval_s": 1.0 / rate_hz})
     return config, rate_hz
 
 
