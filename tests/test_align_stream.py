@@ -224,8 +224,8 @@ def test_usque_output_interval_keeps_the_rows_of_every_epoch(folder, stride_hz, 
             np.testing.assert_array_equal(d1[key], d2[key][keep], err_msg=key)
 
 
-@pytest.mark.parametrize("rate_hz", [2.0, 0.5])
-def test_usque_output_interval_is_the_thinned_every_epoch_run(folder, rate_hz):
+@pytest.mark.parametrize("rate_hz, update_hz", [(2.0, 100.0), (0.5, 100.0), (2.0, 30.0)])
+def test_usque_output_interval_is_the_thinned_every_epoch_run(folder, rate_hz, update_hz):
     """``--output-rate`` sets a USQUE filter's ``output_interval_s`` (it writes every update
     epoch unless told): its rows are those :func:`inmotion.io.result.thin` keeps of the
     every-epoch run, so the command line's result is unchanged, without the other rows held."""
@@ -233,10 +233,14 @@ def test_usque_output_interval_is_the_thinned_every_epoch_run(folder, rate_hz):
     from inmotion.cli.main import apply_output_rate
     from inmotion.io.result import thin
     b = read_bundle(folder).window(45.0, 100.0)
-    cfg, thin_rate = apply_output_rate(usque.AusquheConfig(), b, rate_hz, True)
-    assert cfg.output_interval_s == 1.0 / rate_hz and thin_rate == rate_hz
-    some, every = usque.run(b, cfg), usque.run(b, usque.AusquheConfig())
-    assert len(some.t) < len(every.t) / 40
+    base = usque.AusquheConfig(update_rate_hz=update_hz)
+    cfg, thin_rate = apply_output_rate(base, b, rate_hz, True)
+    assert thin_rate == rate_hz
+    # on the rate's grid (100 Hz updates) the interval is set; off it (30 Hz updates, a
+    # 0.5 s step is 16.7 updates) every epoch is kept and thinned as before
+    assert cfg.output_interval_s == (1.0 / rate_hz if update_hz == 100.0 else None)
+    some, every = usque.run(b, cfg), usque.run(b, base)
+    assert len(some.t) < len(every.t) / 40 or update_hz != 100.0
     _same(thin(some, thin_rate), thin(every, rate_hz), skip=("config",))
     # a method with an output interval of its own (imada: 1 s) keeps it
     from inmotion.align.imada import ImadaConfig

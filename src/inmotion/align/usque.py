@@ -376,6 +376,15 @@ class UsqueConfig(BaseModel):
                     "integer (and the last); None: every update epoch (a covariance per "
                     "epoch: memory grows with the log)")
 
+    def output_interval_for_rate(self, dt_imu: float, rate_hz: float) -> Optional[float]:
+        """The ``output_interval_s`` whose rows are those :func:`inmotion.io.result.thin` at
+        ``rate_hz`` keeps of the every-epoch run (``1 / rate_hz`` when it is a whole number of
+        update intervals of an IMU of period ``dt_imu`` [s]), else None (every epoch)."""
+        stride = (2 if self.vectors == "obs_vectors"
+                  else max(1, int(round(1.0 / (self.update_rate_hz * dt_imu)))))
+        k = 1.0 / (rate_hz * stride * dt_imu)
+        return 1.0 / rate_hz if round(k) >= 1 and abs(k - round(k)) < 1e-6 else None
+
 
 class AusqueConfig(UsqueConfig):
     """``ausque``: USQUE with the adaptive measurement noise (eq. 38-45)."""

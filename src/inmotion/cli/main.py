@@ -682,10 +682,14 @@ def apply_output_rate(config, bundle, rate_hz: float | None, explicit: bool):
         top = getattr(config, "filter_rate_hz", rate_hz)
         config = config.model_copy(update={"output_rate_hz": min(rate_hz, top)})
     elif ("output_interval_s" in own and "output_interval_s" not in user_set
-          and fields["output_interval_s"].default is None):
+          and hasattr(config, "output_interval_for_rate") and len(bundle.imu.t) > 1):
         # a method that writes every epoch unless told (the USQUE filters) keeps only the
-        # rows of the rate: the rows thinning would keep of them, without holding the others
-        config = config.model_copy(update={"output_interval_s": 1.0 / rate_hz})
+        # rows thinning would keep of them, without holding the others (where its epochs
+        # fall on the rate's grid)
+        interval = config.output_interval_for_rate(float(np.median(np.diff(bundle.imu.t))),
+                                                   rate_hz)
+        if interval is not None:
+            config = config.model_copy(update={"output_interval_s": interval})
     return config, rate_hz
 
 
