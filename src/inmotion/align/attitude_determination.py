@@ -87,8 +87,9 @@ def prepare(bundle: Bundle, init: Optional[NavState], *, sensor: Optional[str],
 
     A bundle read in chunks (:class:`inmotion.io.bundle_stream.BundleStream`, the command
     line's, cut to ``--start`` / ``--end``) is not loaded: its window's rows are read block by
-    block each time a level integrates them (:meth:`Inputs.blocks`, from
-    :meth:`~inmotion.core.bundle.Bundle.imu_rows_after`), the forward speed interpolated to
+    block each time a level integrates them (:meth:`Inputs.blocks`, :func:`window_blocks`:
+    only the window's rows read and checked, as ``load_window`` reads them), the forward
+    speed interpolated to
     each block's times (:func:`numpy.interp`, elementwise: the values of the whole window's),
     so a run's memory does not grow with the window's length; the result is bit for bit that
     of the window in memory (:func:`inmotion.align.obs_vectors.integrate_vector_blocks`)."""

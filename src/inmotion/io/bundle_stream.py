@@ -718,7 +718,16 @@ class BundleStream:
         period = float(np.median(np.diff(t)))
         n = len(t)
         del t
-        return n - k0, period, self._imu.pieces(w0 + k0, w0 + n), w0 + k0
+
+        def pieces():               # every row of the window read and checked, from row 0
+            skip = k0
+            for piece in self._imu.pieces(w0, w0 + n):
+                if skip >= len(piece[0]):
+                    skip -= len(piece[0])
+                    continue
+                yield tuple(x[skip:] for x in piece)
+                skip = 0
+        return n - k0, period, pieces(), w0 + k0
 
     def imu_rows_after(self, t0: float, min_rows: int = 2):
         """``(n_rows, period_s, pieces, first_row)`` as :meth:`Bundle.imu_rows_after`, the
