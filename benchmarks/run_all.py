@@ -152,7 +152,7 @@ BENCHES = {
                "s", 1.0),
         Figure("CLI start-up only (inmotion --help; the fixed cost of a run is bench_startup)", rf"CLI start-up only.*: {_NUM} s wall", "s"),
     ), "issue 13: 14x KF-GINS at equal work (KF-GINS: 3.5 s CPU per hour of 100 Hz)"),
-    "bench_memory.py": Bench(("--repeat", "2"), 800, (
+    "bench_memory.py": Bench(("--repeat", "2"), 1300, (
         Figure("CLI sins-dr 1 h, Parquet in, 1 Hz out, peak RSS",
                rf"CLI sins-dr 1 h, .*peak RSS {_NUM} MiB", "MiB"),
         Figure("CLI sins-dr 4 h, Parquet in, 1 Hz out, peak RSS",
