@@ -137,6 +137,18 @@ def test_unwrap_carried_across_chunks_is_numpys():
         out.append(u)
         prev = p[b - 1]
     np.testing.assert_array_equal(np.concatenate(out), ref)
+    # a slow turn whose wraps fall on chunk boundaries: the chunks have no inner step of pi and
+    # take the shortcut, the step at their first row is found all the same
+    slow = np.mod(np.linspace(0.0, 40.0, 6000) + np.pi, 2 * np.pi) - np.pi
+    wraps = np.flatnonzero(np.abs(np.diff(slow)) >= np.pi) + 1
+    cuts = np.unique(np.r_[wraps, wraps[1::2] + 300, 1, 5999])
+    out, carry, prev = [], 0.0, None
+    for a, b in zip(np.r_[0, cuts], np.r_[cuts, 6000]):
+        u, carry = _unwrap_carry(slow[a:b], prev, carry)
+        out.append(u)
+        prev = slow[b - 1]
+    assert len(wraps) >= 5
+    np.testing.assert_array_equal(np.concatenate(out), np.unwrap(slow))
 
 
 def test_regroup_gives_the_whole_tables_blocks():

@@ -766,20 +766,22 @@ def _check_initial_position(meta, path):
 
 # --------------------------------------------------------------------------- gaps
 
-def find_gaps(table: str, t, max_gap_periods: float = MAX_GAP_PERIODS) -> list[Gap]:
-    """Steps of ``t`` [s] longer than ``max_gap_periods`` median periods, as :class:`Gap`."""
+def find_gaps(table: str, t, max_gap_periods: float = MAX_GAP_PERIODS,
+              period: float | None = None) -> list[Gap]:
+    """Steps of ``t`` [s] longer than ``max_gap_periods`` median periods, as :class:`Gap`
+    (``period``: the median step when the caller has it)."""
     t = np.asarray(t, dtype=float)
     if len(t) < 3:
         return []
     d = np.diff(t)
-    period = float(np.median(d))
+    period = float(np.median(d)) if period is None else float(period)
     idx = np.flatnonzero(d > max_gap_periods * period)
     return [Gap(table, int(i) + 2, float(t[i]), float(t[i + 1]), float(d[i] / period))
             for i in idx]
 
 
-def _check_gaps(table, t, path, max_gap_periods, error):
-    gaps = find_gaps(table, t, max_gap_periods)
+def _check_gaps(table, t, path, max_gap_periods, error, period=None):
+    gaps = find_gaps(table, t, max_gap_periods, period)
     if not gaps:
         return
     g = gaps[0]

@@ -328,7 +328,8 @@ class _ImuTable(_Times):
             raise BadInput(f"IMU rate {1.0 / self.period:.4g} Hz (median step "
                            f"{self.period:.4g}) is outside {lo:g} .. {hi:g} Hz: is t in "
                            "seconds?", file=path)
-        B._check_gaps("imu", t, path, max_gap_periods, error=not allow_imu_gaps)
+        B._check_gaps("imu", t, path, max_gap_periods, error=not allow_imu_gaps,
+                      period=self.period)
         self.t_ends = (float(t[0]), float(t[1]), float(t[-1]))    # first, second, last
         self.path = path
 
@@ -635,15 +636,15 @@ def _unwrap_carry(p, p_prev, carry):
     corrections; returns the unwrapped chunk and the new carry. numpy's own steps (NumPy 2
     ``unwrap``), so the result is bit for bit that of the whole series."""
     p = np.asarray(p, dtype=float)
-    q = p if p_prev is None else np.concatenate([np.asarray(p_prev, dtype=float)[None], p])
-    dd = np.diff(q, axis=0)
-    if not (np.abs(dd) >= np.pi).any():     # every correction is 0: the sums stay ``carry``
+    if not _has_jump(p, p_prev):            # every correction is 0: the sums stay ``carry``
         carry = np.asarray(carry, dtype=float) + 0.0     # (+0.0: as numpy's sum of zeros)
         if p_prev is None:
             out = p.copy()
             out[1:] = p[1:] + carry
             return out, carry
         return p + carry, carry
+    q = p if p_prev is None else np.concatenate([np.asarray(p_prev, dtype=float)[None], p])
+    dd = np.diff(q, axis=0)
     ddmod = np.mod(dd + np.pi, 2 * np.pi) - np.pi
     np.copyto(ddmod, np.pi, where=(ddmod == -np.pi) & (dd > 0))
     ph = ddmod - dd
@@ -655,6 +656,19 @@ def _unwrap_carry(p, p_prev, carry):
         return out, cum[-1]
     cum = np.cumsum(np.concatenate([np.asarray(carry, dtype=float)[None], ph]), axis=0)[1:]
     return p + cum, cum[-1]
+
+
+def _has_jump(p, p_prev) -> bool:
+    """Whether a step of the series (``p_prev``, then ``p``, finite) is at least pi in size:
+    ``(np.abs(np.diff(...)) >= pi).any()`` by two reductions, without copying the chunk."""
+    if len(p) == 0:
+        return False
+    if p_prev is not None and (np.abs(p[0] - np.asarray(p_prev, dtype=float)) >= np.pi).any():
+        return True
+    if len(p) < 2:
+        return False
+    dd = np.diff(p, axis=0)
+    return bool(dd.max() >= np.pi or dd.min() <= -np.pi)
 
 
 def _path_carry(dh, north, dlon, rn_h, cos_lat, first: bool, carry: float):
