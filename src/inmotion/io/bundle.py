@@ -689,9 +689,11 @@ def _check_truth_consistency(truth: Truth, path):
 def truth_steps(truth) -> tuple:
     """``(north, dlon, r_n + h, cos lat)`` of each step between consecutive truth rows
     (``truth``: anything with ``lat``, ``lon``, ``h``; values at the step's first row):
-    ``north = dlat (R_M + h)`` [m], ``dlon`` [rad] unwrapped. The terms
-    :func:`truth_distances` and the path length (:func:`inmotion.core.metrics._path_length`,
-    :meth:`inmotion.io.bundle_stream.TruthStream.reduced`) share, computed once."""
+    ``north = dlat (R_M + h)`` [m], ``dlon`` [rad] not wrapped: the terms
+    :func:`truth_distances` and the path length share (the path length as
+    :func:`inmotion.core.metrics._path_length` computes it, which
+    :meth:`inmotion.io.bundle_stream.TruthStream.reduced` carries chunk by chunk from these),
+    computed once per chunk there."""
     lat0, h0 = truth.lat[:-1], truth.h[:-1]
     r_m, r_n = radii(lat0)
     return np.diff(truth.lat) * (r_m + h0), np.diff(truth.lon), r_n + h0, np.cos(lat0)
