@@ -137,6 +137,18 @@ def test_unwrap_carried_across_chunks_is_numpys():
         out.append(u)
         prev = p[b - 1]
     np.testing.assert_array_equal(np.concatenate(out), ref)
+    # a slow turn whose wraps fall on chunk boundaries: the chunks have no inner step of pi and
+    # take the shortcut, the step at their first row is found all the same
+    slow = np.mod(np.linspace(0.0, 40.0, 6000) + np.pi, 2 * np.pi) - np.pi
+    wraps = np.flatnonzero(np.abs(np.diff(slow)) >= np.pi) + 1
+    cuts = np.unique(np.r_[wraps, wraps[1::2] + 300, 1, 5999])
+    out, carry, prev = [], 0.0, None
+    for a, b in zip(np.r_[0, cuts], np.r_[cuts, 6000]):
+        u, carry = _unwrap_carry(slow[a:b], prev, carry)
+        out.append(u)
+        prev = slow[b - 1]
+    assert len(wraps) >= 5
+    np.testing.assert_array_equal(np.concatenate(out), np.unwrap(slow))
 
 
 def test_regroup_gives_the_whole_tables_blocks():
@@ -262,3 +274,56 @@ def test_cli_chunked_result_equals_whole(drive, tmp_path, monkeypatch, args):
     for f in ("solution.csv", "states.csv", "errors.csv"):
         if (tmp_path / "w" / f).exists():
             assert (tmp_path / "r" / f).read_bytes() == (tmp_path / "w" / f).read_bytes(), f
+
+
+@pytest.mark.parametrize("first", [2950, 5930])
+def test_a_sustained_turn_across_chunks_is_named(drive, tmp_path, first):
+    """A turn at 3.5 rad/s for 1.2 s (over the 3 rad/s limit for a whole second, each row far
+    under the 50 rad/s row limit) across a chunk boundary: the chunked reader computes the
+    window rates there (its shortcut, no row turning faster than 0.99 of the limit, does not
+    hold) and gives read_bundle's message, row and time."""
+    folder = tmp_path / "b"
+    write_bundle(drive, folder, fmt="parquet")
+
+    def edit(df):
+        df.loc[first:first + 119, "dtheta_z"] = 3.5 * 0.01
+        return df
+    _spoil(folder, "imu", "parquet", edit)
+    expected = _message(lambda: read_bundle(folder))
+    assert "turn rate over one second" in expected
+    assert _message(lambda: _stream_run(folder)) == expected
+
+
+def test_row_spikes_under_the_row_limit_are_no_sustained_turn(drive, tmp_path):
+    """Single rows at 5 rad/s (vibration: above the sustained limit, under the row limit)
+    every 40 rows: no second averages 3 rad/s, and neither reader refuses the bundle (the
+    chunked reader computes the window rates of those chunks)."""
+    folder = tmp_path / "b"
+    write_bundle(drive, folder, fmt="parquet")
+
+    def edit(df):
+        df.loc[1000:4000:40, "dtheta_x"] = 5.0 * 0.01
+        return df
+    _spoil(folder, "imu", "parquet", edit)
+    read_bundle(folder)
+    _stream_run(folder)
+
+
+def test_row_norm_is_numpys_norm_bit_for_bit():
+    from inmotion.io.bundle import row_norm
+    rng = np.random.default_rng(4)
+    x = rng.standard_normal((200000, 3)) * 10.0 ** rng.integers(-8, 8, (200000, 3))
+    ref = np.linalg.norm(x, axis=1)
+    np.testing.assert_array_equal(row_norm(x), ref)
+    np.testing.assert_array_equal(row_norm(*(np.ascontiguousarray(c) for c in x.T)), ref)
+    # the three squares summed in another order differ: the test can tell
+    s = x * x
+    assert not np.array_equal(np.sqrt(s[:, 0] + (s[:, 1] + s[:, 2])), ref)
+
+
+def test_wrap_pi_shortcut_is_rotations_wrap_pi():
+    from inmotion.core.rotations import wrap_pi
+    rng = np.random.default_rng(5)
+    for x in (rng.normal(0, 1e-4, 100000), rng.uniform(-np.pi, np.pi, 100000),
+              rng.uniform(-20, 20, 100000), np.array([-np.pi, np.pi, 0.0, -0.0, 1e-300])):
+        np.testing.assert_array_equal(bundle_stream._wrap_pi(x), wrap_pi(x))

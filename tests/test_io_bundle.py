@@ -79,6 +79,11 @@ def test_round_trip_parquet_exact(tmp_path, rng):
     np.testing.assert_array_equal(b.imu.dtheta, a.imu.dtheta)
     np.testing.assert_array_equal(b.imu.t, a.imu.t)
     assert_bundles_close(a, b, rtol=1e-15)
+    # written plain-encoded and LZ4-compressed (io.bundle._write_table: faster to read)
+    import pyarrow.parquet as pq
+    md = pq.ParquetFile(tmp_path / "b" / "imu.parquet").metadata
+    col = md.row_group(0).column(1)
+    assert col.compression.startswith("LZ4") and not col.has_dictionary_page
 
 
 def test_rewrite_in_other_format_leaves_one_table(tmp_path, rng):

@@ -134,84 +134,8 @@ def _noise(cfg):
                            accel_vrw=cfg.accel_vrw_ug_sqrt_hz * UG)
 
 
-SPEC_FIELDS = ("gyro_drift_deg_h", "gyro_arw_deg_sqrt_h", "accel_bias_ug", "accel_vrw_ug_sqrt_hz")
-
-
-def _magnitude(v):
-    """A spec value as one non-negative number: a per-axis list by its largest magnitude."""
-    if v is None:
-        return None
-    a = np.abs(np.atleast_1d(np.asarray(v, dtype=float)))
-    return float(a.max()) if a.size and np.isfinite(a).all() else None
-
-
-def spec_from_meta(meta, markov=False) -> tuple[dict, str]:
-    """``({field: value}, origin)``: the IMU specification in ``meta['imu']`` as
-    :class:`ParkedKfConfig` fields (module docstring), and where it came from.
-
-    ``markov=False``: a Gauss-Markov part (``drift_markov_deg_h``, ``bias_markov_ug``) is
-    folded into the constant's 1-sigma (root sum of squares), for a filter whose biases are
-    random constants. ``markov=True`` (a filter with the Gauss-Markov option,
-    :class:`inmotion.align.aided_kf.NhcKfConfig`): the constant alone, and the Gauss-Markov
-    parts as ``gyro_markov_deg_h``, ``gyro_markov_tau_s``, ``accel_markov_ug``,
-    ``accel_markov_tau_s`` (the simulator's and importers' ``drift_markov_tau_s``,
-    ``bias_markov_tau_s``), given only where the spec states a correlation time."""
-    imu = (meta or {}).get("imu") if isinstance(meta, dict) else None
-    if not isinstance(imu, dict):
-        return {}, ""
-    gyro = imu.get("gyro") if isinstance(imu.get("gyro"), dict) else {}
-    acc = imu.get("accel") if isinstance(imu.get("accel"), dict) else {}
-    out = {}
-    drift, mk = _magnitude(gyro.get("drift_deg_h")), _magnitude(gyro.get("drift_markov_deg_h"))
-    bias, bmk = _magnitude(acc.get("bias_ug")), _magnitude(acc.get("bias_markov_ug"))
-    if markov:
-        for (sig, tau, f_sig, f_tau) in ((mk, _magnitude(gyro.get("drift_markov_tau_s")),
-                                          "gyro_markov_deg_h", "gyro_markov_tau_s"),
-                                         (bmk, _magnitude(acc.get("bias_markov_tau_s")),
-                                          "accel_markov_ug", "accel_markov_tau_s")):
-            if sig and tau:
-                out[f_sig], out[f_tau] = float(sig), float(tau)
-        mk = bmk = None                        # not folded into the constants
-    if drift is not None:
-        out["gyro_drift_deg_h"] = float(np.hypot(drift, mk or 0.0))
-    if _magnitude(gyro.get("arw_deg_sqrt_h")) is not None:
-        out["gyro_arw_deg_sqrt_h"] = _magnitude(gyro.get("arw_deg_sqrt_h"))
-    if bias is not None:
-        out["accel_bias_ug"] = float(np.hypot(bias, bmk or 0.0))
-    vrw = _magnitude(acc.get("vrw_ug_sqrt_hz"))
-    if vrw is None and _magnitude(acc.get("vrw_m_s_sqrt_h")) is not None:
-        vrw = _magnitude(acc.get("vrw_m_s_sqrt_h")) / 60.0 / UG      # m/s/sqrt(h) -> ug/sqrt(Hz)
-    if vrw is not None:
-        out["accel_vrw_ug_sqrt_hz"] = vrw
-    said = imu.get("source")
-    origin = (f"meta.imu ({said})" if isinstance(said, str) and said
-              else "meta.imu (simulated)" if meta.get("simulated") else "meta.imu")
-    return out, origin
-
-
-def config_with_spec(cfg, meta, fields=SPEC_FIELDS, markov=False) -> tuple:
-    """``cfg`` (a pydantic configuration) with the ``fields`` it does not set taken from
-    ``meta['imu']`` (:func:`spec_from_meta`), and ``{field: origin}`` for each of them
-    (``config``, ``meta.imu (documented)`` ..., ``default``)."""
-    spec, origin = spec_from_meta(meta, markov=markov)
-    upd, src = fields_not_set(cfg, fields, spec, origin)
-    return (cfg.model_copy(update=upd) if upd else cfg), src
-
-
-def fields_not_set(cfg, fields, values: dict, origin: str) -> tuple:
-    """``(update, source)`` for the ``fields`` of configuration ``cfg``: a field the user set
-    keeps its value (source ``config``); one they did not set takes ``values[field]`` where
-    there is one (source ``origin``, e.g. ``meta.imu (documented)``), else keeps its default
-    (``default``). ``update`` holds only the fields taken from ``values``."""
-    src, upd = {}, {}
-    for f in fields:
-        if f in cfg.model_fields_set:
-            src[f] = "config"
-        elif f in values:
-            upd[f], src[f] = values[f], origin
-        else:
-            src[f] = "default"
-    return upd, src
+from .meta_spec import (SPEC_FIELDS, _magnitude, config_with_spec,  # noqa: F401
+                        fields_not_set, spec_from_meta)
 
 
 def _first_rows(pieces, n: int):

@@ -165,9 +165,12 @@ class _SpeedOnEpochs:
         uncovered = (t[:-1] < src.t_first - 1e-9) | (t[1:] > src.t_last + 1e-9)
         ds[uncovered] = 0.0
         v[uncovered] = 0.0
+        gap = np.diff(tl) > self.max_gap
+        if not gap.any():           # no gap among these samples (the rule: half the cost)
+            return ds, v, uncovered, np.zeros(len(t) - 1, dtype=bool)
         # gaps_upto[j]: how many of the intervals (tl[i-1], tl[i]], i = 1..j, are gaps;
         # the IMU interval (ta, tb] overlaps the sensor intervals j_a..j_b
-        gaps_upto = np.concatenate([[0], np.cumsum(np.diff(tl) > self.max_gap)])
+        gaps_upto = np.concatenate([[0], np.cumsum(gap)])
         last = len(tl) - 1
         j_a = np.clip(np.searchsorted(tl, t[:-1], side="right"), 1, last)
         j_b = np.clip(np.searchsorted(tl, t[1:], side="left"), 1, last)

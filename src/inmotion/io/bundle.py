@@ -114,6 +114,9 @@ LIMITS = {
 
 #: rows per Parquet row group written (:func:`write_bundle`)
 PARQUET_ROW_GROUP = 65536
+#: compression of the Parquet tables written (:func:`write_bundle`; plain encoding, no
+#: dictionary)
+PARQUET_COMPRESSION = "lz4"
 
 #: a step longer than this many median sample periods is a gap
 MAX_GAP_PERIODS = 5.0
@@ -473,6 +476,17 @@ def _row_dt(t):
     return np.concatenate([[np.median(d)], d])
 
 
+def row_norm(x, y=None, z=None) -> np.ndarray:
+    """Euclidean norm of each row of an (N, 3) array ``x``, or of the rows of the columns
+    ``x, y, z``: ``np.linalg.norm(x, axis=1)`` bit for bit (numpy sums a row's three squares
+    left to right; ``tests/test_bundle_stream.py`` holds it to that), at a sixth of its cost
+    (numpy's reduction over a length-3 axis is slow)."""
+    if y is None:
+        s = x * x
+        return np.sqrt(s[:, 0] + s[:, 1] + s[:, 2])
+    return np.sqrt(x * x + y * y + z * z)
+
+
 def _check_limit(values, limit, what, unit, path, t, offset: int = 0):
     over = ~(np.abs(values) <= limit)
     if over.any():
@@ -502,12 +516,12 @@ def check_imu(t, dtheta, dvel, path) -> None:
         raise BadInput(f"IMU rate {1.0 / period:.4g} Hz (median step {period:.4g}) is outside "
                        f"{lo:g} .. {hi:g} Hz: is t in seconds?", file=path)
     dt = _row_dt(t)
-    _check_limit(np.linalg.norm(dtheta, axis=1) / dt, LIMITS["gyro_rate_rad_s"],
+    _check_limit(row_norm(dtheta) / dt, LIMITS["gyro_rate_rad_s"],
                  "angular rate |dtheta|/dt =", "rad/s", path, t)
-    _check_limit(np.linalg.norm(dvel, axis=1) / dt, LIMITS["specific_force_m_s2"],
+    _check_limit(row_norm(dvel) / dt, LIMITS["specific_force_m_s2"],
                  "specific force |dvel|/dt =", "m/s^2", path, t)
     _check_sustained_rate(t, dtheta, path)
-    _check_gravity(np.linalg.norm(dvel, axis=1) / dt, path)
+    _check_gravity(row_norm(dvel) / dt, path)
 
 
 def _check_sustained_rate(t, dtheta, path) -> None:
@@ -613,7 +627,7 @@ def truth_rows(c: dict, path, offset: int = 0) -> Truth:
     _check_limit(c["lat"], 90.0, "latitude", "deg", path, t, offset)
     _check_limit(c["pitch"], 90.0, "pitch", "deg", path, t, offset)
     vel_n = np.column_stack([c["vE"], c["vN"], c["vU"]])
-    _check_limit(np.linalg.norm(vel_n, axis=1), LIMITS["speed_m_s"], "speed |v| =", "m/s",
+    _check_limit(row_norm(c["vE"], c["vN"], c["vU"]), LIMITS["speed_m_s"], "speed |v| =", "m/s",
                  path, t, offset)
     euler = np.radians(np.column_stack([c["pitch"], c["roll"], c["yaw"]]))
     return Truth(t, np.radians(c["lat"]), np.radians(c["lon"]), c["h"], vel_n, euler)
@@ -672,13 +686,26 @@ def _check_truth_consistency(truth: Truth, path):
     check_truth_distances(*truth_distances(truth), path)
 
 
-def truth_distances(truth: Truth) -> tuple[float, float]:
+def truth_steps(truth) -> tuple:
+    """``(north, dlon, r_n + h, cos lat)`` of each step between consecutive truth rows
+    (``truth``: anything with ``lat``, ``lon``, ``h``; values at the step's first row):
+    ``north = dlat (R_M + h)`` [m], ``dlon`` [rad] not wrapped: the terms
+    :func:`truth_distances` and the path length share (the path length as
+    :func:`inmotion.core.metrics._path_length` computes it, which
+    :meth:`inmotion.io.bundle_stream.TruthStream.reduced` carries chunk by chunk from these),
+    computed once per chunk there."""
+    lat0, h0 = truth.lat[:-1], truth.h[:-1]
+    r_m, r_n = radii(lat0)
+    return np.diff(truth.lat) * (r_m + h0), np.diff(truth.lon), r_n + h0, np.cos(lat0)
+
+
+def truth_distances(truth, steps=None) -> tuple[float, float]:
     """``(from_pos, from_vel)`` [m]: the horizontal path length of the truth's positions and
     the trapezoid integral of its horizontal speed (:func:`_check_truth_consistency`; a table
-    read in chunks adds them up chunk by chunk, each chunk with the row before it)."""
-    r_m, r_n = radii(truth.lat[:-1])
-    step = np.hypot(np.diff(truth.lat) * (r_m + truth.h[:-1]),
-                    np.diff(truth.lon) * (r_n + truth.h[:-1]) * np.cos(truth.lat[:-1]))
+    read in chunks adds them up chunk by chunk, each chunk with the row before it).
+    ``steps``: :func:`truth_steps` of ``truth`` when the caller has them."""
+    north, dlon, rn_h, cos_lat = truth_steps(truth) if steps is None else steps
+    step = np.hypot(north, dlon * rn_h * cos_lat)
     speed = np.hypot(truth.vel_n[:, 0], truth.vel_n[:, 1])
     return (float(np.sum(step)),
             float(np.sum(0.5 * (speed[1:] + speed[:-1]) * np.diff(truth.t))))
@@ -741,20 +768,22 @@ def _check_initial_position(meta, path):
 
 # --------------------------------------------------------------------------- gaps
 
-def find_gaps(table: str, t, max_gap_periods: float = MAX_GAP_PERIODS) -> list[Gap]:
-    """Steps of ``t`` [s] longer than ``max_gap_periods`` median periods, as :class:`Gap`."""
+def find_gaps(table: str, t, max_gap_periods: float = MAX_GAP_PERIODS,
+              period: float | None = None) -> list[Gap]:
+    """Steps of ``t`` [s] longer than ``max_gap_periods`` median periods, as :class:`Gap`
+    (``period``: the median step when the caller has it)."""
     t = np.asarray(t, dtype=float)
     if len(t) < 3:
         return []
     d = np.diff(t)
-    period = float(np.median(d))
+    period = float(np.median(d)) if period is None else float(period)
     idx = np.flatnonzero(d > max_gap_periods * period)
     return [Gap(table, int(i) + 2, float(t[i]), float(t[i + 1]), float(d[i] / period))
             for i in idx]
 
 
-def _check_gaps(table, t, path, max_gap_periods, error):
-    gaps = find_gaps(table, t, max_gap_periods)
+def _check_gaps(table, t, path, max_gap_periods, error, period=None):
+    gaps = find_gaps(table, t, max_gap_periods, period)
     if not gaps:
         return
     g = gaps[0]
@@ -850,8 +879,14 @@ def _write_table(df, p, fmt):
         write_csv(df, p)
     else:
         # row groups of PARQUET_ROW_GROUP rows: a reader in chunks holds one group of the
-        # columns it reads (pyarrow's default, a million rows, is 56 MB of IMU columns)
-        df.to_parquet(p, index=False, engine="pyarrow", row_group_size=PARQUET_ROW_GROUP)
+        # columns it reads (pyarrow's default, a million rows, is 56 MB of IMU columns).
+        # Plain-encoded, LZ4: a column of measured floats has hardly a repeated value, so
+        # pyarrow's default dictionary encoding (tried, then given up page by page) and Snappy
+        # only add work; measured on the 1 h drive of benchmarks/bench_engine.py (issue 13):
+        # IMU 23.6 -> 18.8 MB and its rows read in 0.026 -> 0.012 s of CPU, truth 8.6 -> 7.4
+        # MB and 0.025 -> 0.017 s, a time column 0.007 -> 0.002 s
+        df.to_parquet(p, index=False, engine="pyarrow", row_group_size=PARQUET_ROW_GROUP,
+                      compression=PARQUET_COMPRESSION, use_dictionary=False)
 
 
 def write_csv(df: "pd.DataFrame | Mapping[str, np.ndarray]", path) -> None:

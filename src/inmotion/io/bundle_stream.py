@@ -39,15 +39,14 @@ their input (``sins-dr``, ``dr-kf``, ``od-velocity-kf``) take their rows from
 """
 from __future__ import annotations
 
+from collections import namedtuple
 from pathlib import Path
 from typing import Optional
 
 import numpy as np
 
-from ..core import rotations
 from ..core.bundle import (VELOCITY_SENSORS, Bundle, ImuData, SpeedData, Truth,
                            row_at_or_after)
-from ..core.earth import radii
 from ..errors import BadInput
 from . import bundle as B
 
@@ -60,6 +59,22 @@ CHUNK_ROWS = 65536
 
 # --------------------------------------------------------------------------- one table
 
+def _parquet_reader(path, **options):
+    """An open ``pyarrow._parquet.ParquetReader`` of the file ``path`` (``options``: those of
+    its ``open``, e.g. ``buffer_size``, ``pre_buffer``): the reader ``pyarrow.parquet.
+    ParquetFile`` wraps, made without importing ``pyarrow.parquet``, whose import of Arrow's
+    file systems (S3, GCS, Azure, TLS) costs 0.02 s of CPU in every command-line run; through
+    ``ParquetFile`` if this pyarrow has no such reader."""
+    try:
+        from pyarrow._parquet import ParquetReader
+        reader = ParquetReader()
+    except (ImportError, AttributeError, TypeError):
+        import pyarrow.parquet as pq
+        return pq.ParquetFile(path, **options).reader
+    reader.open(str(path), **options)
+    return reader
+
+
 class _Table:
     """One table file, read in chunks of rows; every chunk checked as :func:`read_bundle`
     checks the whole table (numeric, finite, time strictly increasing)."""
@@ -70,9 +85,8 @@ class _Table:
         self.parquet = B.SUFFIXES.get(path.suffix) == "parquet"
         try:
             if self.parquet:
-                import pyarrow.parquet as pq
                 # a buffered stream of the column chunks, not each chunk whole in memory
-                self._pf = pq.ParquetFile(path, buffer_size=1 << 20, pre_buffer=False)
+                self._pf = _parquet_reader(path, buffer_size=1 << 20, pre_buffer=False)
                 raw = [str(c) for c in self._pf.schema_arrow.names]
                 n = self._pf.metadata.num_rows
             else:
@@ -104,10 +118,9 @@ class _Table:
                 if not groups:
                     return
                 offset = start
-                for batch in self._pf.iter_batches(batch_size=self.chunk_rows,
-                                                   row_groups=groups,
-                                                   columns=[self.raw[c] for c in names],
-                                                   use_threads=False):
+                cols = [self._pf.column_name_idx(self.raw[c]) for c in names]
+                for batch in self._pf.iter_batches(self.chunk_rows, groups,
+                                                   column_indices=cols, use_threads=False):
                     yield offset, {c: batch.column(i) for i, c in enumerate(names)}
                     offset += batch.num_rows
             else:
@@ -230,6 +243,7 @@ class _ImuChecks:
         self.sustained = t_last - t0 >= 1.0          # as _check_sustained_rate
         self.tt = np.array([t0 - (t1 - t0)])         # its time and cumulative-angle rows,
         self.c = np.zeros((1, 3))                    # from the first not yet checked
+        self.r = np.zeros(1)                         # and each row's |dtheta| / its step
         self.g0 = 0                                  # its index in the whole table's
 
     def add(self, offset, t, dtheta, dvel):
@@ -237,28 +251,42 @@ class _ImuChecks:
             d = np.concatenate([[self.period], np.diff(t)])
         else:
             d = np.diff(t, prepend=self.t_prev)
-        B._check_limit(np.linalg.norm(dtheta, axis=1) / d, B.LIMITS["gyro_rate_rad_s"],
+        norm = B.row_norm(dtheta)
+        B._check_limit(norm / d, B.LIMITS["gyro_rate_rad_s"],
                        "angular rate |dtheta|/dt =", "rad/s", self.path, t, offset)
-        f = np.linalg.norm(dvel, axis=1) / d
+        f = B.row_norm(dvel) / d
         B._check_limit(f, B.LIMITS["specific_force_m_s2"], "specific force |dvel|/dt =",
                        "m/s^2", self.path, t, offset)
         self.f_sum += float(np.sum(f))
         self.rows += len(t)
         self.t_prev = t[-1]
         if self.sustained:
-            self._sustained(t, dtheta)
+            self._sustained(t, dtheta, norm)
 
-    def _sustained(self, t, dtheta):
+    def _sustained(self, t, dtheta, norm):
+        """The windows of one second that end in the rows ``t`` (``norm``: ``|dtheta|`` of each
+        row). Over a window the angle turned is at most the sum of its rows' ``|dtheta|``, so
+        when no row of the carried and new rows turns faster than 0.99 of the limit over its
+        own step (the windows' steps: ``tt``'s), no window can exceed it and the window rates
+        are not computed (rounding of the cumulative sums is far below the 1 % margin);
+        otherwise every window's rate is, as :func:`inmotion.io.bundle._check_sustained_rate`
+        computes it."""
         c_new = np.cumsum(np.vstack([self.c[-1:], dtheta]), axis=0)[1:]
+        r_new = norm / np.diff(t, prepend=self.tt[-1])
         self.tt = np.concatenate([self.tt, t])
         self.c = np.vstack([self.c, c_new])
+        self.r = np.concatenate([self.r, r_new])
         tt, c = self.tt, self.c
-        j = np.searchsorted(tt, tt + 1.0)
-        done = int(np.searchsorted(j, len(tt)))          # j is non-decreasing
-        if done:
+        limit = B.LIMITS["sustained_rate_rad_s"]
+        if np.max(self.r[1:]) < 0.99 * limit:            # no window can exceed the limit
+            done = int(np.searchsorted(tt + 1.0, tt[-1], side="right"))
+            j = None
+        else:
+            j = np.searchsorted(tt, tt + 1.0)
+            done = int(np.searchsorted(j, len(tt)))      # j is non-decreasing
+        if done and j is not None:
             jd = j[:done]
             dc, dt = c[jd] - c[:done], tt[jd] - tt[:done]
-            limit = B.LIMITS["sustained_rate_rad_s"]
             # rows that may exceed the limit, found without a square root or a division
             # (|dc|^2 against (0.99 limit dt)^2: a margin far above rounding), then the rate of
             # those alone as _check_sustained_rate computes it: the same rows fail, with the
@@ -272,7 +300,8 @@ class _ImuChecks:
                 # _check_sustained_rate's row and time: t row min(k, n - 1) = tt row k + 1
                 raise B.sustained_rate_error(float(rate[m]), self.path, self.g0 + k + 1,
                                              float(tt[k + 1]))
-            self.tt, self.c = tt[done:], c[done:]
+        if done:
+            self.tt, self.c, self.r = tt[done:], c[done:], self.r[done:]
             self.g0 += done
 
     def finish(self):
@@ -299,7 +328,8 @@ class _ImuTable(_Times):
             raise BadInput(f"IMU rate {1.0 / self.period:.4g} Hz (median step "
                            f"{self.period:.4g}) is outside {lo:g} .. {hi:g} Hz: is t in "
                            "seconds?", file=path)
-        B._check_gaps("imu", t, path, max_gap_periods, error=not allow_imu_gaps)
+        B._check_gaps("imu", t, path, max_gap_periods, error=not allow_imu_gaps,
+                      period=self.period)
         self.t_ends = (float(t[0]), float(t[1]), float(t[-1]))    # first, second, last
         self.path = path
 
@@ -510,20 +540,26 @@ class TruthStream(_Times):
         return new
 
     def _rows(self):
-        """Yield ``(offset, Truth)`` chunks of the whole table, every row checked; at the end
-        the check of positions against velocities over the whole table."""
+        """Yield ``(offset, Truth, dh, steps)`` chunks of the whole table, every row checked;
+        ``steps`` (:func:`inmotion.io.bundle.truth_steps`) and ``dh`` (the height steps) are
+        those from the row before the chunk (none before the first) through the chunk, so that
+        step ``i - 1 + (offset > 0)`` ends at the chunk's row ``i``; at the end the check of
+        positions against velocities over the whole table."""
         from_pos = from_vel = 0.0
         prev = None
         n = 0
         for offset, c in self._table.chunks(B.TRUTH_COLUMNS):
             tr = B.truth_rows(c, self.path, offset)
-            both = tr if prev is None else _cat(prev, tr)
+            both = tr if prev is None else _Steps(*(np.concatenate([getattr(prev, f),
+                                                                     getattr(tr, f)])
+                                                    for f in _Steps._fields))
+            steps = B.truth_steps(both)
             if len(both.t) > 1:
-                p, v = B.truth_distances(both)
+                p, v = B.truth_distances(both, steps)
                 from_pos, from_vel = from_pos + p, from_vel + v
-            prev = _take(tr, slice(-1, None))
+            prev = _Steps(*(getattr(tr, f)[-1:] for f in _Steps._fields))
             n += len(tr.t)
-            yield offset, tr
+            yield offset, tr, np.diff(both.h), steps
         if n >= 3:
             B.check_truth_distances(from_pos, from_vel, self.path)
 
@@ -577,16 +613,20 @@ class TruthStream(_Times):
         del times, j
         parts = []
         prev, carry_e, carry_l, carry_s = None, np.zeros(3), 0.0, 0.0
-        for offset, tr in self._rows():
+        for offset, tr, dh, steps in self._rows():
             a, b = max(w0, offset), min(w1, offset + len(tr.t))
             if a >= b:
                 continue
-            tr = _take(tr, slice(a - offset, b - offset))
+            i0, i1 = a - offset, b - offset
+            tr = _take(tr, slice(i0, i1))
             euler, carry_e = _unwrap_carry(tr.euler, None if prev is None else prev.euler[-1],
                                            carry_e)
             lon, carry_l = _unwrap_carry(tr.lon, None if prev is None else prev.lon[-1],
                                          carry_l)
-            s, carry_s = _path_carry(tr, prev, carry_s)
+            # the steps ending at the rows i0 (unless the window starts there) .. i1 - 1
+            j = (offset > 0) - 1
+            s, carry_s = _path_carry(*(x[i0 + j + (prev is None):i1 + j]
+                                       for x in (dh, *steps)), prev is None, carry_s)
             k = keep[(keep >= a) & (keep < b)] - a
             parts.append(Truth(tr.t[k], tr.lat[k], lon[k], tr.h[k], tr.vel_n[k], euler[k], s[k]))
             prev = _take(tr, slice(-1, None))
@@ -594,13 +634,12 @@ class TruthStream(_Times):
                        for f in ("t", "lat", "lon", "h", "vel_n", "euler", "path_length_m")))
 
 
+#: the truth columns :func:`inmotion.io.bundle.truth_distances` and the path length need
+_Steps = namedtuple("_Steps", "t lat lon h vel_n")
+
+
 def _take(tr: Truth, s) -> Truth:
     return Truth(tr.t[s], tr.lat[s], tr.lon[s], tr.h[s], tr.vel_n[s], tr.euler[s])
-
-
-def _cat(a: Truth, b: Truth) -> Truth:
-    return Truth(*(np.concatenate([getattr(a, f), getattr(b, f)])
-                   for f in ("t", "lat", "lon", "h", "vel_n", "euler")))
 
 
 def _unwrap_carry(p, p_prev, carry):
@@ -609,15 +648,15 @@ def _unwrap_carry(p, p_prev, carry):
     corrections; returns the unwrapped chunk and the new carry. numpy's own steps (NumPy 2
     ``unwrap``), so the result is bit for bit that of the whole series."""
     p = np.asarray(p, dtype=float)
-    q = p if p_prev is None else np.concatenate([np.asarray(p_prev, dtype=float)[None], p])
-    dd = np.diff(q, axis=0)
-    if not (np.abs(dd) >= np.pi).any():     # every correction is 0: the sums stay ``carry``
+    if not _has_jump(p, p_prev):            # every correction is 0: the sums stay ``carry``
         carry = np.asarray(carry, dtype=float) + 0.0     # (+0.0: as numpy's sum of zeros)
         if p_prev is None:
             out = p.copy()
             out[1:] = p[1:] + carry
             return out, carry
         return p + carry, carry
+    q = p if p_prev is None else np.concatenate([np.asarray(p_prev, dtype=float)[None], p])
+    dd = np.diff(q, axis=0)
     ddmod = np.mod(dd + np.pi, 2 * np.pi) - np.pi
     np.copyto(ddmod, np.pi, where=(ddmod == -np.pi) & (dd > 0))
     ph = ddmod - dd
@@ -631,18 +670,39 @@ def _unwrap_carry(p, p_prev, carry):
     return p + cum, cum[-1]
 
 
-def _path_carry(tr: Truth, prev: Optional[Truth], carry: float):
-    """:func:`inmotion.core.metrics._path_length`'s cumulative length at every row of a chunk
-    (``prev``: the row before it, None at the start), carried across chunks."""
-    both = tr if prev is None else _cat(prev, tr)
-    r_m, r_n = radii(both.lat[:-1])
-    step = np.sqrt((np.diff(both.lat) * (r_m + both.h[:-1])) ** 2
-                   + (rotations.wrap_pi(np.diff(both.lon)) * (r_n + both.h[:-1])
-                      * np.cos(both.lat[:-1])) ** 2
-                   + np.diff(both.h) ** 2)
+def _has_jump(p, p_prev) -> bool:
+    """Whether a step of the series (``p_prev``, then ``p``, finite) is at least pi in size:
+    ``(np.abs(np.diff(...)) >= pi).any()`` by two reductions, without copying the chunk."""
+    if len(p) == 0:
+        return False
+    if p_prev is not None and (np.abs(p[0] - np.asarray(p_prev, dtype=float)) >= np.pi).any():
+        return True
+    if len(p) < 2:
+        return False
+    dd = np.diff(p, axis=0)
+    return bool(dd.max() >= np.pi or dd.min() <= -np.pi)
+
+
+def _path_carry(dh, north, dlon, rn_h, cos_lat, first: bool, carry: float):
+    """:func:`inmotion.core.metrics._path_length`'s cumulative length at every row of a chunk,
+    carried across chunks, from the chunk's steps (:func:`inmotion.io.bundle.truth_steps`, the
+    height steps ``dh``): those ending at each of its rows, or with ``first`` (the series
+    starts at the chunk's first row) at each row but the first. The same operations on the
+    same values as ``_path_length``, so the same lengths bit for bit."""
+    step = np.sqrt(north ** 2 + (_wrap_pi(dlon) * rn_h * cos_lat) ** 2 + dh ** 2)
     cum = np.cumsum(np.concatenate([[carry], step]))
-    s = cum if prev is None else cum[1:]
+    s = cum if first else cum[1:]
     return s, float(cum[-1])
+
+
+def _wrap_pi(x):
+    """:func:`inmotion.core.rotations.wrap_pi` bit for bit, without its floating-point modulo
+    when every ``x + pi`` lies in ``(0, 2 pi)`` (steps of longitude between rows): numpy's
+    ``%`` returns such a value unchanged."""
+    w = x + np.pi
+    if np.all(w > 0.0) and np.all(w < 2 * np.pi):
+        return w - np.pi
+    return w % (2 * np.pi) - np.pi
 
 
 def _window_rows(t, window) -> tuple:

@@ -205,10 +205,9 @@ def config_with_spec(cfg: SinsDrConfig, meta, sensor: str) -> tuple:
     field as configured.
     ``{field: origin}`` says where each value came from (``config``, ``meta.imu (simulated)``,
     ``meta.sensors ...``, ``default``)."""
-    from ..align.aided_kf import vehicle_constraint_noise
-    from ..align.dr_kalman import IMU_SPEC_FIELDS, _imu_spec_meta, sensor_spec_fields
-    from ..align.parked_kf import config_with_spec as imu_with_spec
-    from ..align.parked_kf import fields_not_set
+    from ..align.meta_spec import (IMU_SPEC_FIELDS, _imu_spec_meta, fields_not_set,
+                                   sensor_spec_fields, vehicle_constraint_noise)
+    from ..align.meta_spec import config_with_spec as imu_with_spec
     matched = cfg.noise_preset == "matched"
     cfg, src = imu_with_spec(cfg, _imu_spec_meta(meta) if matched else {}, IMU_SPEC_FIELDS)
     spec, origin = sensor_spec_fields(meta, sensor) if matched else ({}, "")
