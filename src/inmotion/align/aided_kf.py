@@ -841,6 +841,16 @@ def linearization_floor_per_m(cfg) -> float:
     return float(np.sqrt(3.0) / 2.0 * s * s)
 
 
+#: the length row's SINS-side columns (velocity, attitude, accelerometer bias) taken along the
+#: SINS's own displacement ``Delta P_b / |Delta P_b|`` (``d|Delta P| = u_P . d Delta P``), its
+#: sensor-side columns (scale, mounting, lever arm) along the sensor's (``d|Delta D| = e .
+#: d Delta D``); with the attitude columns from the SINS's displacement
+#: (:data:`inmotion.estimation.measurements.ATTITUDE_COLUMNS_FROM_SINS`) the length row then
+#: has no attitude column but the in-interval drift's, as a length has none (issue 15,
+#: :func:`_length_fill`). False: every column along the sensor's displacement (before)
+LENGTH_ROW_ALONG_SINS = True
+
+
 #: the displacement rows taken in the frame of the sensor's displacement over the interval
 #: (along it, and the body's right and up axes turned with it) rather than in the body axes at
 #: the interval's end (issue 15; :func:`_rows_to_displacement_frame`); False: the body axes
@@ -942,6 +952,8 @@ def _length_fill(fill):
     o_d = ms.ACC_D
     o_f = ms.P_FWD
     rotate = ROWS_IN_DISPLACEMENT_FRAME
+    sins_along = LENGTH_ROW_ALONG_SINS and ROWS_IN_DISPLACEMENT_FRAME
+    i_dk, i_mount, i_lever = ms.DK, ms.MOUNT, ms.LEVER
 
     def length(xs, xd, aux, acc, data, p, offs, z, H, r):
         m = inner(xs, xd, aux, acc, data, p, offs, z, H, r)
@@ -964,10 +976,24 @@ def _length_fill(fill):
         if zz - along * along > (LENGTH_MAX_ANGLE * d) ** 2:
             return m              # slow or stopped: no small angle, the first-order rows stay
         dl = np.sqrt(q) - d - along
+        lp = np.sqrt(q)
+        u0, u1, u2 = (e[0] + z[0]) / lp, (e[1] + z[1]) / lp, (e[2] + z[2]) / lp
         for i in range(3):
             z[i] += dl * e[i] / d
         if rotate:
+            if sins_along:
+                # the length's SINS side along the SINS's displacement (issue 15)
+                hs = np.empty(H.shape[1])
+                for c in range(H.shape[1]):
+                    hs[c] = u0 * H[0, c] + u1 * H[1, c] + u2 * H[2, c]
             _rows_to_displacement_frame(z, H, e, d, p[o_f:o_f + 3])
+            if sins_along:
+                od, om, ol = offs[i_dk], offs[i_mount], offs[i_lever]
+                for c in range(H.shape[1]):
+                    sensor = ((od >= 0 and c == od) or (om >= 0 and om <= c < om + 2)
+                              or (ol >= 0 and ol <= c < ol + 3))
+                    if not sensor:
+                        H[1, c] = hs[c]
         return m
 
     return ms.fill_function(length)

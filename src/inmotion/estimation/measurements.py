@@ -754,6 +754,15 @@ def _fill_sensor_velocity_n(xs, xd, aux, acc, data, p, offs, z, H, r):
     return 3
 
 
+#: the displacement rows' attitude columns from the SINS's displacement over the interval
+#: (``-[Delta P_b x] C_n^b``, the exact first-order derivative of ``z = C_n^b Delta P_n -
+#: Delta D_b``) rather than the sensor's (``-[Delta D_b x] C_n^b``, which differs by
+#: ``-[z x] C_n^b``: a product of the attitude error with the residual, whose mounting, scale
+#: and lever parts are not small against a fine sensor's noise). Issue 15, measured in
+#: :func:`inmotion.align.aided_kf.heading_symmetry_note`. False: the sensor's (before)
+ATTITUDE_COLUMNS_FROM_SINS = True
+
+
 @fill_function
 def _fill_displacement(xs, xd, aux, acc, data, p, offs, z, H, r):
     # paper 003 ref. 38 (aiding_rows): z = C_n^b (Delta P - Delta D) over the interval, b frame
@@ -780,8 +789,13 @@ def _fill_displacement(xs, xd, aux, acc, data, p, offs, z, H, r):
             zz += C_bn[i, j] * (acc[ACC_DP + j] - dD[j])
         z[i] = zz
         r[i] = (p[P_SIG + i] * T) ** 2 + 0.5 * var_fwd * tf[i] * tf[i] + var_model
+    # the attitude columns: z = C_n^b Delta P_n - Delta D_b (Delta D_n was summed with the
+    # attitude at each row, so C_n^b(end) Delta D_n is the gyros' relative rotation times the
+    # sensor's readings, free of the attitude error), so dz/dphi = -[Delta P_b x] C_n^b, the
+    # SINS's displacement, not the sensor's (issue 15, :data:`ATTITUDE_COLUMNS_FROM_SINS`)
+    dA = acc[ACC_DP:ACC_DP + 3].copy() if ATTITUDE_COLUMNS_FROM_SINS else dD
     _displacement_rows(H, (offs[PHI], offs[DV], offs[DK], offs[MOUNT], offs[LEVER]), C_bn, T,
-                       C_bn @ dD, C_bn @ acc[ACC_W:ACC_W + 3].copy(),
+                       C_bn @ dA, C_bn @ acc[ACC_W:ACC_W + 3].copy(),
                        acc[ACC_TH:ACC_TH + 3].copy(), p[P_FWD:P_FWD + 3].copy())
     # the velocity error drifts within the interval, dv(t) = dv_k - (t_k - t) ([f_n x] phi +
     # C_b^n nabla), so int dv dt = T dv_k - T^2 / 2 ([f_n x] phi + C_b^n nabla): in b,
