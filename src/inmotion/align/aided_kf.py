@@ -952,7 +952,7 @@ def _length_fill(fill):
     o_d = ms.ACC_D
     o_f = ms.P_FWD
     rotate = ROWS_IN_DISPLACEMENT_FRAME
-    sins_along = LENGTH_ROW_ALONG_SINS and ROWS_IN_DISPLACEMENT_FRAME
+    sins_along = LENGTH_ROW_ALONG_SINS
     i_dk, i_mount, i_lever = ms.DK, ms.MOUNT, ms.LEVER
 
     def length(xs, xd, aux, acc, data, p, offs, z, H, r):
@@ -980,20 +980,19 @@ def _length_fill(fill):
         u0, u1, u2 = (e[0] + z[0]) / lp, (e[1] + z[1]) / lp, (e[2] + z[2]) / lp
         for i in range(3):
             z[i] += dl * e[i] / d
+        # the length's SINS side along the SINS's displacement (issue 15)
+        hs = np.empty(H.shape[1])
+        for c in range(H.shape[1]):
+            hs[c] = u0 * H[0, c] + u1 * H[1, c] + u2 * H[2, c]
         if rotate:
-            if sins_along:
-                # the length's SINS side along the SINS's displacement (issue 15)
-                hs = np.empty(H.shape[1])
-                for c in range(H.shape[1]):
-                    hs[c] = u0 * H[0, c] + u1 * H[1, c] + u2 * H[2, c]
             _rows_to_displacement_frame(z, H, e, d, p[o_f:o_f + 3])
-            if sins_along:
-                od, om, ol = offs[i_dk], offs[i_mount], offs[i_lever]
-                for c in range(H.shape[1]):
-                    sensor = ((od >= 0 and c == od) or (om >= 0 and om <= c < om + 2)
-                              or (ol >= 0 and ol <= c < ol + 3))
-                    if not sensor:
-                        H[1, c] = hs[c]
+        if sins_along:
+            od, om, ol = offs[i_dk], offs[i_mount], offs[i_lever]
+            for c in range(H.shape[1]):
+                sensor = ((od >= 0 and c == od) or (om >= 0 and om <= c < om + 2)
+                          or (ol >= 0 and ol <= c < ol + 3))
+                if not sensor:
+                    H[1, c] = hs[c]
         return m
 
     return ms.fill_function(length)
