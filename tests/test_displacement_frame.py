@@ -38,14 +38,12 @@ def test_slip_stays_out_of_the_along_row(r_deg_s, slip_m):
     np.testing.assert_allclose(z[1], exact, atol=1e-12)
     np.testing.assert_allclose(z[0], slip_m, rtol=1e-6)
     np.testing.assert_allclose(z[2], 0.0, atol=1e-12)
-    # the body's axes (rotation off, and the along row's columns along the sensor's
-    # displacement, as before issue 15's ``LENGTH_ROW_ALONG_SINS``): the forward row is off
-    # by the slip's part along it
-    ak.ROWS_IN_DISPLACEMENT_FRAME = ak.LENGTH_ROW_ALONG_SINS = False
+    # the body's axes (rotation off): the forward row is off by the slip's part along it
+    ak.ROWS_IN_DISPLACEMENT_FRAME = False
     try:
         _, zb, Hb, _ = _rows(ak._length_fill.__wrapped__(ms.DisplacementIncrement.fill), dD, dP)
     finally:
-        ak.ROWS_IN_DISPLACEMENT_FRAME = ak.LENGTH_ROW_ALONG_SINS = True
+        ak.ROWS_IN_DISPLACEMENT_FRAME = True
     assert abs(zb[1] - exact) > 0.9 * abs(slip_m * np.sin(a))
     assert abs(slip_m * np.sin(a)) > 4 * 2.04e-5
     # a length has no attitude column; the body's forward row has the yaw one, d sin a
