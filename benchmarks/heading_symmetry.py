@@ -92,8 +92,21 @@ paper 003's extra ``-[z x] psi`` then carries ``-psi psi_0 d`` along it, the ord
 true second-order heading term (``-psi^2 d / 2``) the first-order rows leave out: the wrong
 columns act as a crude second-order correction while the heading error is large, and read
 the sensor's mounting and scale as heading once it is not, or when the sensor's own errors
-dominate ``z`` (the fine odometer's divergence above). A consistent filter for a fine sensor
-needs the exact columns and the second-order heading term modelled (the velocity error's
+dominate ``z`` (the fine odometer's divergence above). Another nonlinearity found
+(``/tmp`` experiment, code not kept): the length row ``|Delta P_b| - |Delta D_b|`` is second
+order in the cross-track displacement error (``T^2 dv_perp^2 / (2 d)``: 1e-3 m at 0.2 m/s
+across, 50 times a fine odometer's noise), so its velocity columns depend on the point of
+linearization: along the SINS's displacement (the exact columns) they read the cross-track
+velocity with a weight of the SINS's own cross-track angle (a 67' heading error with the
+true start velocity: 0.02), which with the lateral row pins the heading (od-kf, error-free
+IMU, no violation, seed 103: heading sigma 28' -> 5.6' at 2 s, the estimate still 67' off,
+correlated +0.71 with the scale state); along the sensor's (paper 003's) they read none but
+break the rotation symmetry by the mounting. Adding ``(|z_perp|^2 / (2 d))^2`` to the length
+row's variance: with the exact columns ``nees_fine_odometer`` 59.5 -> 35.0 (10 runs,
+detection on), ldv-kf 4.68 (10 runs); in paper 003's form 50.6 -> 104.8, ldv-kf 4.31, fkf
+4.04 (10 runs, band 1.68-4.70). A consistent filter for a fine sensor needs the exact
+columns, the length row's second order (an iterated update, or its variance from the
+filter's cross-track velocity variance), and the second-order heading term modelled (the velocity error's
 ``(R(psi) - I - [psi x]) f_n``, a horizontal specific-force scale error of ``-psi^2 / 2`` with
 mean ``-P_psi,psi / 2``), not a white floor.
 """
