@@ -93,7 +93,7 @@ true second-order heading term (``-psi^2 d / 2``) the first-order rows leave out
 columns act as a crude second-order correction while the heading error is large, and read
 the sensor's mounting and scale as heading once it is not, or when the sensor's own errors
 dominate ``z`` (the fine odometer's divergence above). Another nonlinearity found
-(``/tmp`` experiment, code not kept): the length row ``|Delta P_b| - |Delta D_b|`` is second
+(measured with a variant not kept in the code): the length row ``|Delta P_b| - |Delta D_b|`` is second
 order in the cross-track displacement error (``T^2 dv_perp^2 / (2 d)``: 1e-3 m at 0.2 m/s
 across, 50 times a fine odometer's noise), so its velocity columns depend on the point of
 linearization: along the SINS's displacement (the exact columns) they read the cross-track
