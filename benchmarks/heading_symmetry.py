@@ -52,7 +52,7 @@ true}'``:
 ==================================================  ===================  ================
 case                                                paper 003's form     exact columns
 ==================================================  ===================  ================
-default                                             5.5e6 (4 of 6 runs   176 (none
+default                                             5.5e6 (3 of 6 runs   176 (none
                                                     above 1e4)           above 600)
 no-violation                                        2252                 334
 clean-imu+no-violation (IMU figures in the config)  2700                 280
