@@ -849,11 +849,12 @@ def linearization_floor_per_m(cfg) -> float:
     form) are not the derivative of ``z``; the difference ``-[z x] C_n^b`` reads a heading,
     which a SINS turned as a whole about the vertical cannot show, from the sensor's mounting
     and scale residual (a 15' mounting is 1000 times a 20,000 pulses/m odometer's noise over
-    an interval): with the detection off od-kf diverged on 3 of 6 runs (NEES 3e4-3e7); with the exact columns
-    (``exact_attitude_columns: true``) no run diverges (mean 176). It is off by default: on
-    paper 003's drive the exact columns are less consistent (fkf 3.13 -> 6.23 over 20 runs),
-    read there as the wrong columns standing in for the second-order heading term this floor
-    covers as noise.
+    an interval): with the detection off od-kf diverged on 3 of 6 runs (NEES 3e4-3e7); with
+    the exact columns (``exact_attitude_columns: true``) no run diverges (mean 176). It is off
+    by default: on paper 003's drive the exact columns are less consistent (fkf 3.13 -> 6.23
+    over 20 runs); two second-order terms are left that the wrong columns partly stood in
+    for, this floor's heading term and the length row's own second order in the cross-track
+    error (the benchmark's docstring).
     """
     if not cfg.linearization_floor:
         return 0.0
