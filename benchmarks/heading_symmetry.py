@@ -9,8 +9,8 @@ off, so every run is the filter's own). Usage (from the repository root)::
 ``KIND``: ``default`` (``tests/test_consistency_nees.py``'s drive, 20,000 pulses/m) or a
 ``+``-joined set of ``clean-imu`` (no IMU noise or bias in the simulator), ``no-violation``
 (the vehicle's constraint holds), ``no-slip``, ``no-bounce``, ``micro-pulses`` (the odometer at
-1e6 pulses/m: no quantization to speak of), ``small-start`` (the start error 5 times smaller). ``CONFIG_JSON`` adds to the
-test's prior and ``fdi: false``; with ``clean-imu`` pass the IMU's figures
+1e6 pulses/m: no quantization to speak of), ``small-start`` (the start error 5 times
+smaller). ``CONFIG_JSON`` adds to the test's prior and ``fdi: false``; with ``clean-imu`` pass the IMU's figures
 (``consistency_mc.IMU_003``, e.g. ``'{"gyro_drift_deg_h": 0.005, "gyro_arw_deg_sqrt_h":
 0.0005, "accel_bias_ug": 50, "accel_vrw_ug_sqrt_hz": 5}'``), else the filter takes the
 simulator's zeros from ``meta`` and has no process noise. ``trace`` prints, at a few times,
@@ -29,8 +29,7 @@ seconds?). Measured (10 runs, band 0.96-3.42): ``drop 10 ldv-kf 32`` (in the tur
 sensor is not overconfident in velocity, so the cascade of ``fkf``'s isolations at 0.05
 (``benchmarks/fdi_calibration.py --runs 0 --detection-on-runs 10``: exceedances per test
 with the detection on, odometer / LDV, 0.149 / 0.148 in paper 003's form, 0.154 / 0.146 with
-the exact columns) is not this. With the
-fine odometer (``drop 10 od-kf 32 20000``) the NEES is already 1.4e7 at the drop (the
+the exact columns) is not this. With the fine odometer (``drop 10 od-kf 32 20000``) the NEES is already 1.4e7 at the drop (the
 diverged runs of paper 003's form; 125 with ``'{"exact_attitude_columns": true}'``): the
 overconfidence is there before the sensor goes, in the heading (the velocity's cross-track
 error is ``v psi``).
@@ -72,10 +71,13 @@ overconfident), but the size of the start error: a start 5 times smaller (its se
 sigma of 1.0' -> 6.9' at 1.9'; with ``'{"gyro_drift_deg_h": 1.0, "nhc_fallback": false,
 "use_baro": false, "init_velocity_sigma_m_s": 3.0}'`` added (no gyrocompassing, no velocity
 prior) the heading sigma still falls from 30' to 6.7' in the first 4 s of straight cruise
-with either form, so the heading is read from something else too (left: the Coriolis term
-of the turned velocity, ``2 Omega sin L v psi`` along the track, 1.3e-5 m/s^2 at 30' and 10
-m/s, is the model's one physical source; whatever the drive leaves unmodelled near 1e-6
-m/s^2 is then read as heading).
+with the exact columns, more than the model's physical sources (the Earth rate, and the
+Coriolis term of the turned velocity, ``2 Omega sin L v psi`` along the track, 1.3e-5 m/s^2
+at 30' and 10 m/s) can give in 4 s: it is the length row's linearization (below). The same
+with the start velocity turned with the start attitude (the true system then blind to the
+heading but for the Earth rate; ``clean-imu+no-violation``, 6 runs): NEES 351 with the exact
+columns, 293 in paper 003's form, the heading error at the end 20-35 % smaller than at the
+start at a sigma of 1.5-2.3'.
 
 Why it is not the default (measured): under the detection (the benchmarks' default)
 ``benchmarks/nees_fine_odometer.py 10 20000`` goes 50.55 -> 59.51 (per run 17.3, 4.9, 5.6,
@@ -93,8 +95,8 @@ true second-order heading term (``-psi^2 d / 2``) the first-order rows leave out
 columns act as a crude second-order correction while the heading error is large, and read
 the sensor's mounting and scale as heading once it is not, or when the sensor's own errors
 dominate ``z`` (the fine odometer's divergence above). Another nonlinearity found
-(measured with a variant not kept in the code): the length row ``|Delta P_b| - |Delta D_b|`` is second
-order in the cross-track displacement error (``T^2 dv_perp^2 / (2 d)``: 1e-3 m at 0.2 m/s
+(measured with a variant not kept in the code): the length row ``|Delta P_b| -
+|Delta D_b|`` is second order in the cross-track displacement error (``T^2 dv_perp^2 / (2 d)``: 1e-3 m at 0.2 m/s
 across, 50 times a fine odometer's noise), so its velocity columns depend on the point of
 linearization: along the SINS's displacement (the exact columns) they read the cross-track
 velocity with a weight of the SINS's own cross-track angle (a 67' heading error with the
@@ -106,8 +108,8 @@ row's variance: with the exact columns ``nees_fine_odometer`` 59.5 -> 35.0 (10 r
 detection on), ldv-kf 4.68 (10 runs); in paper 003's form 50.6 -> 104.8, ldv-kf 4.31, fkf
 4.04 (10 runs, band 1.68-4.70). A consistent filter for a fine sensor needs the exact
 columns, the length row's second order (an iterated update, or its variance from the
-filter's cross-track velocity variance), and the second-order heading term modelled (the velocity error's
-``(R(psi) - I - [psi x]) f_n``, a horizontal specific-force scale error of ``-psi^2 / 2`` with
+filter's cross-track velocity variance), and the second-order heading term modelled (the
+velocity error's ``(R(psi) - I - [psi x]) f_n``, a horizontal specific-force scale error of ``-psi^2 / 2`` with
 mean ``-P_psi,psi / 2``), not a white floor.
 """
 import json
