@@ -80,8 +80,10 @@ ACC_SIZE = 17
 #: SINS displacement, body rotation, sensor displacement, its distance part, "a row had no
 #: sensor distance"
 ACC_T, ACC_DP, ACC_TH, ACC_D, ACC_W, ACC_BAD, ACC_FN = 0, 1, 4, 7, 10, 13, 14
-#: parameter slots of paper 003's sensor channels: row sigmas, lever arm, C_v^b0's y column
-P_SIG, P_LEVER, P_FWD, P_FLOOR = 0, 3, 6, 9
+#: parameter slots of paper 003's sensor channels: row sigmas, lever arm, C_v^b0's y column,
+#: the rows' model floor per metre, and 1.0 for the displacement rows' exact attitude columns
+#: (:func:`_fill_displacement`; 0.0: the sensor's displacement, as before issue 15's finding)
+P_SIG, P_LEVER, P_FWD, P_FLOOR, P_EXACT = 0, 3, 6, 9, 10
 
 
 class Compiled:
@@ -780,8 +782,17 @@ def _fill_displacement(xs, xd, aux, acc, data, p, offs, z, H, r):
             zz += C_bn[i, j] * (acc[ACC_DP + j] - dD[j])
         z[i] = zz
         r[i] = (p[P_SIG + i] * T) ** 2 + 0.5 * var_fwd * tf[i] * tf[i] + var_model
+    # the attitude columns (issue 15): z = C_n^b Delta P_n - Delta D_b (Delta D_n was summed
+    # with the attitude at each row, so C_n^b(end) Delta D_n is the gyros' relative rotation
+    # times the sensor's readings, free of the attitude error), so dz/dphi = -[Delta P_b x]
+    # C_n^b, the SINS's displacement (p[P_EXACT] = 1); the sensor's (0, paper 003's form)
+    # differs by -[z x] C_n^b, a product of the attitude error with the residual, whose
+    # mounting and scale parts (2 cm over 7 m) are no longer small against a fine sensor's
+    # noise: the rows then "see" a heading that a SINS turned about the vertical as a whole
+    # (attitude and velocity) does not change (benchmarks/heading_symmetry.py)
+    dA = acc[ACC_DP:ACC_DP + 3].copy() if p[P_EXACT] != 0.0 else dD
     _displacement_rows(H, (offs[PHI], offs[DV], offs[DK], offs[MOUNT], offs[LEVER]), C_bn, T,
-                       C_bn @ dD, C_bn @ acc[ACC_W:ACC_W + 3].copy(),
+                       C_bn @ dA, C_bn @ acc[ACC_W:ACC_W + 3].copy(),
                        acc[ACC_TH:ACC_TH + 3].copy(), p[P_FWD:P_FWD + 3].copy())
     # the velocity error drifts within the interval, dv(t) = dv_k - (t_k - t) ([f_n x] phi +
     # C_b^n nabla), so int dv dt = T dv_k - T^2 / 2 ([f_n x] phi + C_b^n nabla): in b,
@@ -821,6 +832,9 @@ class _SensorChannel(Measurement):
     model_floor_per_m : the displacement rows' model error per metre of the interval's
         distance (each row's variance gets ``(model_floor_per_m * d)^2``; 0: none; the
         velocity form ignores it), :func:`inmotion.align.aided_kf.linearization_floor_per_m`
+    exact_attitude_columns : the displacement rows' attitude columns from the SINS's
+        displacement, the exact derivative (issue 15; the velocity form ignores it); False:
+        from the sensor's, paper 003's form
     """
 
     dof, row_data_size = 3, 1
@@ -828,8 +842,10 @@ class _SensorChannel(Measurement):
     needs_body_rate = True
 
     def __init__(self, sigma_m_s, *, lever_arm_m=None, vehicle_mounting=None, local=0,
-                 isolate=False, return_tests=1, model_floor_per_m=0.0, **kw):
+                 isolate=False, return_tests=1, model_floor_per_m=0.0,
+                 exact_attitude_columns=False, **kw):
         super().__init__(local=local, **kw)
+        self.exact_attitude_columns = bool(exact_attitude_columns)
         self.sigma_m_s = _noise3(sigma_m_s, f"{self.name} sigma_m_s")
         self.model_floor_per_m = float(model_floor_per_m)
         if not (np.isfinite(self.model_floor_per_m) and self.model_floor_per_m >= 0.0):
@@ -841,7 +857,8 @@ class _SensorChannel(Measurement):
         self.return_tests = int(return_tests)
 
     def params(self):
-        return np.r_[self.sigma_m_s, self.lever, self.C_vb0[:, 1], self.model_floor_per_m]
+        return np.r_[self.sigma_m_s, self.lever, self.C_vb0[:, 1], self.model_floor_per_m,
+                     float(self.exact_attitude_columns)]
 
     def check(self, layout):
         _need(layout, self, "phi", "dv", "dk", "mount", "lever")
