@@ -218,12 +218,14 @@ is not seen by a cached ``_advance``, which may have that function's old code in
 """
 from __future__ import annotations
 
+import functools
 import math
 from collections import namedtuple
 
 import numba
 import numpy as np
 
+from .. import _aot
 from ..core import _kernels as K
 from ..core.mechanization import _state_vector
 from ..core.solution import NavState
@@ -792,6 +794,12 @@ def _advance(S, C, fills, accs, t, dtheta, dvel, dt, ds, v, dth_dr, rows, qt, qj
 
 
 # ----------------------------------------------------------------------------- the filter
+def _aot_name(f) -> str:
+    """``module.qualname`` of a fill or accumulator (how :mod:`inmotion._aot` names it)."""
+    py = getattr(f, "py_func", f)
+    return f"{py.__module__}.{py.__qualname__}"
+
+
 def _feedback_mask(feedback, layout):
     if feedback == "closed":
         blocks = FEEDBACK_BLOCKS
@@ -979,11 +987,12 @@ class ErrorStateFilter:
             has_acc=has_acc, log_nis=per_meas(lambda m: m.isolate or m.log_nis, False,
                                                 np.bool_), ws=ws, record=bool(record),
             fuse_isolated=bool(fuse_isolated))
-        self._fills = tuple([dispatcher(m.fill) for m in measurements]
-                            + [dispatcher(_noop_fill)] * (M - len(measurements)))
-        self._accs = tuple([dispatcher(m.accumulate if m.accumulate is not None else _noop_acc)
-                            for m in measurements]
-                           + [dispatcher(_noop_acc)] * (M - len(measurements)))
+        # the fill and accumulator functions (numba functions, compiled or loaded at first use
+        # by the JIT path: _fills, _accs)
+        self._fill_objs = tuple([m.fill for m in measurements]
+                                + [_noop_fill] * (M - len(measurements)))
+        self._acc_objs = tuple([m.accumulate if m.accumulate is not None else _noop_acc
+                                for m in measurements] + [_noop_acc] * (M - len(measurements)))
         self._S = _State(
             xs=x0.copy(), ms=K.new_memory(), xd=x0.copy(), md=K.new_memory(),
             X=np.zeros((L, n)), P=np.stack([lf.P0 for lf in locals_]), fed_back=np.zeros(n),
@@ -997,7 +1006,11 @@ class ErrorStateFilter:
             ev=np.zeros((int(max_events), 4)), nis_log=np.zeros((int(max_nis), 3)),
             phc=np.eye(n) if record else np.zeros((0, 0)),
             ppred=np.zeros((n, n) if record else (0, 0)))
-        self._S.ints[_I_MODE] = _mode(self._S, self._C)
+        # the loop compiled ahead of time for this filter's functions and types, if any
+        # (inmotion._aot: no numba on the run path); else numba's JIT
+        self._aot = _aot.case([_aot_name(f) for f in self._fill_objs],
+                              [_aot_name(f) for f in self._acc_objs], self._S, self._C)
+        self._S.ints[_I_MODE] = (self._aot.mode if self._aot else _mode)(self._S, self._C)
         self.t = float(init.t)           #: time of the last IMU row processed [s]
         self.rows = 0                    #: IMU rows processed
         self._qt = np.zeros(0)
@@ -1100,6 +1113,17 @@ class ErrorStateFilter:
             self.rows += m
         return self._result(O)
 
+    @functools.cached_property
+    def _fills(self):
+        """The fill functions as numba functions (compiled or loaded from numba's cache at
+        the first use, by the JIT path)."""
+        return tuple(dispatcher(f) for f in self._fill_objs)
+
+    @functools.cached_property
+    def _accs(self):
+        """The accumulator functions as numba functions."""
+        return tuple(dispatcher(f) for f in self._acc_objs)
+
     def _call_advance(self, *args):
         """:func:`_advance` on this filter's state with ``args``, through the compiled
         overload's entry point when one matches the arguments' types.
@@ -1110,6 +1134,9 @@ class ErrorStateFilter:
         chunks); their types are fixed for the filter's life (:meth:`restore` copies into
         the same arrays), so they are typed once and only the other arguments per call.
         """
+        if self._aot is not None and self._aot.args_spec == tuple(_aot.type_spec(a)
+                                                                  for a in args):
+            return self._aot.advance(self._S, self._C, *args)
         head = (self._S, self._C, self._fills, self._accs)
         cache = getattr(self, "_advance_types", None)
         if cache is None or any(a is not b for a, b in zip(cache[0], head)):
@@ -1182,7 +1209,9 @@ class ErrorStateFilter:
         """One output row of the current state (the same fields as :meth:`add_imu`'s)."""
         O = self._out(1)
         n = self.layout.n
-        _write_output(self._S, self._C, O, self.t, np.zeros(n), np.zeros((n, n)))
+        write = (self._aot.write_output if self._aot is not None
+                 and self._aot.out_spec == _aot.type_spec(O) else _write_output)
+        write(self._S, self._C, O, self.t, np.zeros(n), np.zeros((n, n)))
         res = self._result(O)
         res.pop("record", None)
         return res

@@ -91,6 +91,7 @@ from llvmlite import ir as llvm_ir
 from numba.core import types
 from numba.extending import intrinsic
 
+from .. import _aot
 from ..core import _kernels as K
 
 __all__ = ["LinPoint", "ProcessNoise", "ErrorModel", "transport_jacobians", "F_pattern",
@@ -439,7 +440,7 @@ def F_pattern(n, offs, inv_tau_dk=0.0, dr_eps=True, inv_tau_gyro=0.0, inv_tau_ac
     (:attr:`ProcessNoise.inv_tau_bias`).
     """
     F = np.full((n, n), np.nan)
-    _fill_F(F, tuple(int(o) for o in offs), 0.7, 100.0, np.array([3.0, -4.0, 0.5]),
+    _aot.call("fill_F", _fill_F, F, tuple(int(o) for o in offs), 0.7, 100.0, np.array([3.0, -4.0, 0.5]),
             np.array([[0.6, -0.8, 0.0], [0.8, 0.6, 0.0], [0.0, 0.0, 1.0]]),
             np.array([0.1, -0.2, 9.8]), float(inv_tau_dk), bool(dr_eps), True,
             float(inv_tau_gyro), float(inv_tau_accel))

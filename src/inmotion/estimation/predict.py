@@ -117,8 +117,10 @@ from numba import types
 from numba.core import errors as nb_errors
 from numba.extending import intrinsic
 
-__all__ = ["PredictWorkspace", "make_workspace", "predict_sparse", "kernel_source", "borrowed",
-           "predict_kernel_call"]
+from .. import _aot
+
+__all__ = ["PredictWorkspace", "make_workspace", "predict_sparse", "kernel_source", "kernel_key",
+           "borrowed", "predict_kernel_call"]
 
 #: bump when the generated code changes meaning (the source's hash keys the cache anyway)
 _GENERATOR = "predict-kernel 3"
@@ -368,8 +370,14 @@ def _write_source(src: str, key: str) -> Path:
     raise OSError("no writable directory for the predict kernels; set INMOTION_KERNEL_DIR")
 
 
+def kernel_key(src: str) -> str:
+    """The key of a kernel source (its file name, and the ahead-of-time extension's index:
+    :mod:`inmotion._aot`)."""
+    return hashlib.sha256(src.encode()).hexdigest()[:24]
+
+
 def _kernel(src: str):
-    key = hashlib.sha256(src.encode()).hexdigest()[:24]
+    key = kernel_key(src)
     fn = _KERNELS.get(key)
     if fn is None:
         path = _write_source(src, key)
@@ -413,11 +421,13 @@ def make_workspace(F_pattern, Qc_pattern=None) -> PredictWorkspace:
     act = np.flatnonzero(rows).astype(np.int64)
     inact = np.flatnonzero(~rows).astype(np.int64)
     na = len(act)
-    fn = _kernel(kernel_source(Fm, Qm))
+    src = kernel_source(Fm, Qm)
+    addr = _aot.kernel_address(kernel_key(src))      # compiled ahead of time (no numba)
+    if addr is None:
+        addr = _kernel(src).address
     nap = _pad(na)
     buf = np.zeros(n * nap + na * nap + nap + na * _pad(n))
-    return PredictWorkspace(act, inact, buf[:n * nap].reshape(n, nap), buf, int(fn.address),
-                            Fm, Qm)
+    return PredictWorkspace(act, inact, buf[:n * nap].reshape(n, nap), buf, int(addr), Fm, Qm)
 
 
 # ------------------------------------------------------------------ the call
