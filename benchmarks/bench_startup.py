@@ -118,7 +118,8 @@ PARTS = textwrap.dedent("""\
     timed(M, "build_config", "configuration")
     timed(M, "_read_bundle", "open the bundle (meta, time columns, sensor tables)")
     timed(M, "_initial_state", "initial state")
-    timed(E.ErrorStateFilter, "__init__", "filter built (numba's first call, kernel loads)")
+    timed(E.ErrorStateFilter, "__init__", "filter built (numba's first call, kernel loads; "
+          "or the ahead-of-time extension's load)")
     timed_gen(S._ImuTable, "chunks", "IMU rows read and checked")
     timed(E.ErrorStateFilter, "add_imu", "filter kernel (add_imu)")
     timed(M, "run_method", "method run (the three above and the wrapper)")
@@ -131,6 +132,8 @@ PARTS = textwrap.dedent("""\
         if e.code:
             raise
     parts["total in the process"] = time.process_time() - c0
+    numba_used = "numba" in sys.modules
+    aot_used = [m for m in sys.modules if m.startswith("inmotion_aot_")]
     from numba.core.dispatcher import Dispatcher
     def dispatchers(m):      # numba functions, also behind measurements.Compiled
         for v in list(vars(m).values()):
@@ -140,7 +143,8 @@ PARTS = textwrap.dedent("""\
     loaded = sorted({f"{d.py_func.__module__}.{d.py_func.__name__}"
                      for n, m in list(sys.modules.items()) if n.startswith("inmotion")
                      for d in dispatchers(m) if sum(d.stats.cache_hits.values())})
-    print("PARTS " + json.dumps({"parts": parts, "loaded": loaded}), flush=True)
+    print("PARTS " + json.dumps({"parts": parts, "loaded": loaded, "numba": numba_used,
+                                 "aot": aot_used}), flush=True)
     os._exit(0)
     """)
 
@@ -150,7 +154,7 @@ def parts(bundle, sets, out, env, repeat):
     and the numba functions it loaded from the cache."""
     cmd = [sys.executable, "-c", PARTS, "navigate", str(bundle), "--method", "sins-dr",
            "--init", "truth", "-o", str(out)] + [a for kv in sets for a in ("--set", kv)]
-    best, loaded = {}, []
+    best, loaded, got = {}, [], {}
     for i in range(repeat + 1):
         p = subprocess.run(cmd, env=env, capture_output=True, text=True, check=True)
         got = json.loads(p.stdout.rsplit("PARTS ", 1)[1])
@@ -158,12 +162,19 @@ def parts(bundle, sets, out, env, repeat):
             for k, v in got["parts"].items():
                 best[k] = min(best.get(k, np.inf), v)
         loaded = got["loaded"]
-    return best, loaded
+    return best, loaded, got
+
+
+def _paths(got):
+    """How the run's kernels ran: numba imported or not, the ahead-of-time extension."""
+    return (f"numba imported: {'yes' if got.get('numba') else 'no'}; ahead-of-time extension "
+            f"(inmotion._aot): {', '.join(got.get('aot') or []) or 'not used'}")
 
 
 def print_parts(bundle, sets, out, env, repeat):
-    best, loaded = parts(bundle, sets, out, env, repeat)
+    best, loaded, got = parts(bundle, sets, out, env, repeat)
     print(f"parts of navigate --method sins-dr on {Path(bundle).name} (CPU, best of {repeat}):")
+    print(f"  {_paths(got)}")
     for k, v in best.items():
         print(f"  {k}: {v:.3f} s")
     print(f"  numba functions loaded from the cache ({len(loaded)}): {', '.join(loaded)}")

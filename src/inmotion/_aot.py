@@ -135,6 +135,7 @@ def module():
                         spec = importlib.util.spec_from_file_location(name, path)
                         mod = importlib.util.module_from_spec(spec)
                         spec.loader.exec_module(mod)
+                        sys.modules[name] = mod
                     except (OSError, ImportError, ValueError):
                         continue
                     found = (mod, man)

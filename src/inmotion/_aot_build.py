@@ -219,8 +219,8 @@ def build(out_dir=None, verbose: bool = False) -> Path:
     from .estimation import measurements as MS
     from .estimation import predict as PR
 
+    key = _aot.source_key()         # before anything is compiled: an edit meanwhile -> stale
     cases, calls = _record()
-    key = _aot.source_key()
     name = _aot.EXT_PREFIX + key
     typeof = E._advance.typeof_pyval
     man = {"format": _aot.FORMAT, "key": key, "cases": {}, "kernels": {}, "common": {}}

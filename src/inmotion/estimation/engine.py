@@ -222,10 +222,10 @@ import functools
 import math
 from collections import namedtuple
 
-import numba
 import numpy as np
 
 from .. import _aot
+from .._jit import njit
 from ..core import _kernels as K
 from ..core.mechanization import _state_vector
 from ..core.solution import NavState
@@ -282,7 +282,7 @@ def _noop_acc(a, xs, v_old, th_nb, dt, rd, p):
 
 
 # ----------------------------------------------------------------------------- the loop
-@numba.njit(cache=True)
+@njit(cache=True)
 def _local_ok(healthy, isolate, local, l):
     """Local filter ``l`` has no isolated measurement (arrays of ``S`` and ``C``)."""
     for j in range(isolate.shape[0]):
@@ -291,12 +291,12 @@ def _local_ok(healthy, isolate, local, l):
     return True
 
 
-@numba.njit(cache=True)
+@njit(cache=True)
 def _local_healthy(S, C, l):
     return _local_ok(S.healthy, C.isolate, C.local, l)
 
 
-@numba.njit(cache=True)
+@njit(cache=True)
 def _mode_of(healthy, isolate, local, primary, fallback):
     """:func:`_mode` on the arrays it reads (a call with the namedtuples ``S``, ``C`` costs
     an incref and a decref of each of their ~50 arrays, 0.5 us)."""
@@ -316,14 +316,14 @@ def _mode_of(healthy, isolate, local, primary, fallback):
     return MODE_NONE
 
 
-@numba.njit(cache=True)
+@njit(cache=True)
 def _mode(S, C):
     """Source of the global estimate (paper 003 Table 1): MODE_FUSED over two or more
     healthy primaries, one healthy primary's index, else the fallback's, else MODE_NONE."""
     return _mode_of(S.healthy, C.isolate, C.local, C.primary, C.fallback)
 
 
-@numba.njit(cache=True)
+@njit(cache=True)
 def _global(S, C, mode, x_g, P_g):
     """The global estimate ``x_g`` (n,) and its covariance ``P_g`` (n, n) (NaN outside the
     fused leading block when fused; zero with MODE_NONE). With ``C.fuse_isolated`` the
@@ -357,7 +357,7 @@ def _global(S, C, mode, x_g, P_g):
             P_g[i, i] = np.nan
 
 
-@numba.njit(cache=True, inline="always")
+@njit(cache=True, inline="always")
 def _block3(x, o, on):
     """``x[o:o + 3]`` as a 3-tuple if ``on``, else zeros."""
     if on:
@@ -365,7 +365,7 @@ def _block3(x, o, on):
     return (0.0, 0.0, 0.0)
 
 
-@numba.njit(cache=True)
+@njit(cache=True)
 def _feed_back_arrays(xs, ms, xd, md, bias_g, bias_a, fed_back, X, offs, m, fb_states,
                       with_dr, x_g):
     """Apply the global estimate's fed-back blocks (the policy ``m``) to the navigation
@@ -393,7 +393,7 @@ def _feed_back_arrays(xs, ms, xd, md, bias_g, bias_a, fed_back, X, offs, m, fb_s
                 X[l, p] -= d
 
 
-@numba.njit(cache=True)
+@njit(cache=True)
 def _dr_position_noise(Q, Qc, o_dpD, lat, h, q_m2_s):
     """``Q``'s ``dp_D`` diagonal (rad, rad, m) set to ``Qc``'s plus the DR position random walk
     ``q_m2_s`` [m^2/s]; ``Q``'s other entries are left alone: the caller copies ``Qc`` into
@@ -407,7 +407,7 @@ def _dr_position_noise(Q, Qc, o_dpD, lat, h, q_m2_s):
     Q[o_dpD + 2, o_dpD + 2] = Qc[o_dpD + 2, o_dpD + 2] + q_m2_s
 
 
-@numba.njit(cache=True)
+@njit(cache=True)
 def _log_event(S, t, j, kind, value):
     i = S.ints[_I_EV]
     if i < S.ev.shape[0]:
@@ -418,7 +418,7 @@ def _log_event(S, t, j, kind, value):
     S.ints[_I_EV] = i + 1
 
 
-@numba.njit(cache=True)
+@njit(cache=True)
 def _log_nis(S, t, j, nis):
     i = S.ints[_I_NIS]
     if i < S.nis_log.shape[0]:
@@ -428,7 +428,7 @@ def _log_nis(S, t, j, nis):
     S.ints[_I_NIS] = i + 1
 
 
-@numba.njit(cache=True)
+@njit(cache=True)
 def _write_output(S, C, O, t_now, x_g, P_g):
     i = O.n[0]
     if i >= O.t.shape[0]:
@@ -463,7 +463,7 @@ def _write_output(S, C, O, t_now, x_g, P_g):
     O.n[0] = i + 1
 
 
-@numba.njit(cache=True)
+@njit(cache=True)
 def _apply(S, C, fills, j, l, z, H, r, m, xw, Pw, t_now, first):
     """Apply the filled rows of measurement ``j`` to local filter ``l`` (gate, FDI)."""
     rl = r[:m] * (C.r_scale[l] if C.local[j] < 0 else 1.0)
@@ -500,7 +500,7 @@ def _apply(S, C, fills, j, l, z, H, r, m, xw, Pw, t_now, first):
             S.rejected[j] += 1
 
 
-@numba.njit(cache=True)
+@njit(cache=True)
 def _record_predict(phc, act, PhiT):
     """Compose the epoch's transition into ``phc`` (``Phi_k Phi_c``; ``Phi_k`` is the
     identity but on the predict's active rows ``act``, whose transposed rows are ``PhiT``'s
@@ -520,7 +520,7 @@ def _record_predict(phc, act, PhiT):
                 phc[act[a], c] = tmp[a, c]
 
 
-@numba.njit(cache=True)
+@njit(cache=True)
 def _record_epoch(S, O, t_now):
     """One smoother record (module :mod:`~inmotion.estimation.smoother`): the transition
     since the last record, ``P`` predicted at this epoch, ``x``, ``P`` after its updates and
@@ -541,7 +541,7 @@ def _record_epoch(S, O, t_now):
             S.phc[p, c] = 1.0 if p == c else 0.0
 
 
-@numba.njit(cache=True)
+@njit(cache=True)
 def _epoch_outputs(S, C, O, t_now, x_g, P_g, applied, last):
     """The rare end-of-epoch work, after the predict and the samples: the smoother's record
     and the output row (a call with the namedtuples ``S``, ``C``: 0.5 us of reference
@@ -552,13 +552,13 @@ def _epoch_outputs(S, C, O, t_now, x_g, P_g, applied, last):
         _write_output(S, C, O, t_now, x_g, P_g)
 
 
-@numba.njit(cache=True)
+@njit(cache=True)
 def _keep_alive(*arrays):
     """Nothing: a use that keeps the arrays (owners of borrowed views) alive up to here."""
     return len(arrays)
 
 
-@numba.njit(cache=True)
+@njit(cache=True)
 def _advance(S, C, fills, accs, t, dtheta, dvel, dt, ds, v, dth_dr, rows, qt, qj, qd, O,
              flush, t_last):
     """Run IMU rows ``t`` (M,) through the filter (module docstring); ``ds``, ``v`` (M,) the
