@@ -12,9 +12,10 @@ kernel, finds numba functions as the globals it calls); decorations after that a
 at once. Nothing changes for the JIT path but when numba is imported: the same decorators
 with the same options on the same functions.
 
-A stand-in kept elsewhere than in a module's namespace (a tuple, a class attribute) stays a
-stand-in; calling it still works (it forwards to the numba function), but numba cannot
-compile code that reaches a function through it: keep kernels module-level names.
+A stand-in kept elsewhere than in the package's namespaces (a test module that imported a
+kernel before numba was, a tuple, a class attribute) stays a stand-in: calling it forwards to
+the numba object, and numba types it as that object (``_numba_type_``), so numba code can
+call it too.
 """
 from __future__ import annotations
 
@@ -71,6 +72,14 @@ class _StandIn:
             raise AttributeError(name)
         numba_module()
         return getattr(self._real, name)
+
+    @property
+    def _numba_type_(self):
+        """numba's type of the real object (how numba types a stand-in that code outside
+        the package's namespaces, e.g. a test module, imported before numba was)."""
+        numba_module()
+        from numba.core.registry import cpu_target
+        return cpu_target.typing_context.resolve_value_type(self._real)
 
     def __repr__(self):
         return f"<numba function {self.__qualname__} (not yet compiled)>"
