@@ -1133,6 +1133,10 @@ class ErrorStateFilter:
         the ~1.6 ms a call (issue 13: 22 calls, 0.035 s, of an hour fed in 16,384-row
         chunks); their types are fixed for the filter's life (:meth:`restore` copies into
         the same arrays), so they are typed once and only the other arguments per call.
+
+        When the ahead-of-time extension has this filter's case (:mod:`inmotion._aot`: the
+        same fills, the same argument types) the call goes there instead, and numba is not
+        imported: the same compiled loop, bit-identical results (``tests/test_aot.py``).
         """
         if self._aot is not None and self._aot.args_spec == tuple(_aot.type_spec(a)
                                                                   for a in args):
