@@ -39,6 +39,32 @@ mode=velocity-position --set filter_rate_hz=100 --set output_rate_hz=1``).
 
     OPENBLAS_NUM_THREADS=1 .venv/bin/python benchmarks/bench_startup.py [--repeat N]
         [--parts BUNDLE [--set KEY=VALUE ...]]
+
+Ahead-of-time kernels (issue 13, branch h13aot). With numba on the run path 0.4 s was out
+of reach (``import numba`` ~0.24 s, its first cached call ~0.15 s). ``numba.pycc`` (numba
+0.68.1, deprecated but shipped) compiles the run path of ``navigate --method sins`` and
+``sins-dr`` into one C extension (:mod:`inmotion._aot_build`, built by ``python -m
+inmotion.warmup``): the engine loop ``_advance`` with the case's fill functions bound as
+constant first-class function values (an intrinsic builds the ``FunctionType`` struct from
+the compiled functions' addresses; the JIT path unboxes the same two addresses), ``_mode``,
+``_write_output``, ``_fill_F``, ``sins_run``, ``time_steps``, the input checks, and the
+predict kernel. What did not work at first: the predict kernel linked from numba's JIT module
+(already optimized) was optimized again in the extension and some sums' first two products
+fused into an FMA the other way (last-bit differences, e.g. 5e-21 on a state of 380);
+lowered into the extension from its source (optimized once, as the JIT does) it is
+bit-identical. The kernels' modules now import numba at first use (:mod:`inmotion._jit`), so
+the run never imports it (``--parts`` says which path ran).
+
+Measured (this file and an A/B script alternating 7 rounds on the 7 s bundle, CPU best of 7;
+machine load 4.3-6: every figure inflated alike): ``navigate sins-dr`` main (7fb9668) 1.065 s
+CPU, this branch with ``INMOTION_AOT=0`` (JIT) 1.064 s, ahead of time 0.367 s; ``sins``
+0.796 / 0.836 / 0.342 s. This file, ahead of time, load 4.3-5.6: sins-dr 0.591 s wall, 0.382 s
+CPU; sins 0.547 s wall, 0.364 s CPU; parts: imports 0.246 s (numpy, pyarrow, pydantic, click:
+no numba), open the bundle 0.052 s, filter built 0.006 s (was 0.240 s at load ~1 with
+numba), kernel 0.001 s, result 0.010 s, total in the process 0.344 s. The loop itself
+(``benchmarks/bench_aot.py``, 16,380 rows, load ~4.4): JIT entry point 14.96 ms a call,
+extension 13.79 ms (the difference is about the JIT's unboxing of its 16 first-class
+functions, ~0.85 ms), outputs bit-identical.
 """
 from __future__ import annotations
 
