@@ -147,3 +147,19 @@ def test_extension_is_named_by_the_source_key(built):
     d, _ = built
     names = [p.name for p in Path(d).glob(_aot.EXT_PREFIX + "*.json")]
     assert names == [f"{_aot.EXT_PREFIX}{_aot.source_key()}.json"]
+
+
+def test_kernel_modules_import_no_numba():
+    # inmotion._jit: the kernels' modules decorate at first use, so the run path's imports
+    # leave numba alone; the first call imports it and the kernels then work as before
+    code = ("import sys\nimport numpy as np\n"
+            "import inmotion.cli.main, inmotion.navigate.sins_dr, inmotion.navigate.pure\n"
+            "import inmotion.estimation.engine, inmotion.align.aided_kf\n"
+            "from inmotion.core import _kernels as K\n"
+            "before = 'numba' in sys.modules\n"
+            "k = K.first_not_increasing(np.array([0.0, 1.0, 1.0]))\n"
+            "print(before, 'numba' in sys.modules, k, type(K.first_not_increasing).__name__)")
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True,
+                         env=_env(INMOTION_AOT="0"))
+    assert out.returncode == 0, out.stderr[-2000:]
+    assert out.stdout.split() == ["False", "True", "2", "CPUDispatcher"]
