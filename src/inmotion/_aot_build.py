@@ -219,6 +219,8 @@ def build(out_dir=None, verbose: bool = False) -> Path:
     from .estimation import measurements as MS
     from .estimation import predict as PR
 
+    if not any(shutil.which(c) for c in (os.environ.get("CC", "cc"), "cc", "gcc")):
+        raise RuntimeError("no C compiler (cc, gcc) on the PATH")
     key = _aot.source_key()         # before anything is compiled: an edit meanwhile -> stale
     cases, calls = _record()
     name = _aot.EXT_PREFIX + key
