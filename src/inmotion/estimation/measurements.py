@@ -64,7 +64,6 @@ __all__ = ["ACC_SIZE", "accumulator_function", "Compiled", "dispatcher",
 warnings.filterwarnings("ignore", message="First-class function type feature is experimental")
 
 
-
 def _signatures():
     """``(FILL_SIG, ACC_SIG)`` (numba types: imported at first use, :mod:`inmotion._jit`)."""
     from numba import types
