@@ -313,21 +313,21 @@ def build(out_dir=None, verbose: bool = False) -> Path:
 def _check(path: Path, name: str, cases, man):
     """Run each case's first ``_advance`` call through the extension on copies of its inputs;
     raise unless every output equals the JIT path's bit for bit."""
+    from .estimation import predict as PR
     spec = importlib.util.spec_from_file_location(name, path)
     mod = importlib.util.module_from_spec(spec)
     spec.loader.exec_module(mod)
+    addr = {k: int(getattr(mod, v)()) for k, v in man["kernels"].items()}
     for c in cases:
         f = c["filter"]
-        addr = {k: int(getattr(mod, v)()) for k, v in man["kernels"].items()}
-        from .estimation import predict as PR
         kk = PR.kernel_key(PR.kernel_source(f._C.ws.F_pattern, f._C.ws.Qc_pattern))
-        C = f._C._replace(ws=f._C.ws._replace(kernel=addr[kk]))
+        C = f._C._replace(ws=f._C.ws._replace(kernel=addr[kk]))     # the extension's kernel
         S, args = copy.deepcopy(c["before"])
         r = getattr(mod, f"advance_{c['index']}")(S, C, *args)
         S2, args2 = c["after"]
-        if not (r == c["r"] and _equal(S, S2) and _equal(_outputs(args[11]), _outputs(args2[11]))):
-            raise RuntimeError(f"the ahead-of-time {c['filter'].layout!r} filter differs from "
-                               "the JIT's")
+        if not (r == c["r"] and _equal(S, S2)
+                and _equal(_outputs(args[11]), _outputs(args2[11]))):
+            raise RuntimeError(f"the ahead-of-time {f.layout!r} filter differs from the JIT's")
 
 
 def _install(built: Path, man: dict, name: str, out_dir) -> Path:
