@@ -39,6 +39,32 @@ mode=velocity-position --set filter_rate_hz=100 --set output_rate_hz=1``).
 
     OPENBLAS_NUM_THREADS=1 .venv/bin/python benchmarks/bench_startup.py [--repeat N]
         [--parts BUNDLE [--set KEY=VALUE ...]]
+
+Ahead-of-time kernels (issue 13, branch h13aot). With numba on the run path 0.4 s was out
+of reach (``import numba`` ~0.24 s, its first cached call ~0.15 s). ``numba.pycc`` (numba
+0.68.1, deprecated but shipped) compiles the run path of ``navigate --method sins`` and
+``sins-dr`` into one C extension (:mod:`inmotion._aot_build`, built by ``python -m
+inmotion.warmup``): the engine loop ``_advance`` with the case's fill functions bound as
+constant first-class function values (an intrinsic builds the ``FunctionType`` struct from
+the compiled functions' addresses; the JIT path unboxes the same two addresses), ``_mode``,
+``_write_output``, ``_fill_F``, ``sins_run``, ``time_steps``, the input checks, and the
+predict kernel. What did not work at first: the predict kernel linked from numba's JIT module
+(already optimized) was optimized again in the extension and some sums' first two products
+fused into an FMA the other way (last-bit differences, e.g. 5e-21 on a state of 380);
+lowered into the extension from its source (optimized once, as the JIT does) it is
+bit-identical. The kernels' modules now import numba at first use (:mod:`inmotion._jit`), so
+the run never imports it (``--parts`` says which path ran).
+
+Measured (this file and an A/B script alternating 7 rounds on the 7 s bundle, CPU best of 7;
+machine load 4.3-6: every figure inflated alike): ``navigate sins-dr`` main (7fb9668) 1.065 s
+CPU, this branch with ``INMOTION_AOT=0`` (JIT) 1.064 s, ahead of time 0.367 s; ``sins``
+0.796 / 0.836 / 0.342 s. This file, ahead of time, load 4.3-5.6: sins-dr 0.591 s wall, 0.382 s
+CPU; sins 0.547 s wall, 0.364 s CPU; parts: imports 0.246 s (numpy, pyarrow, pydantic, click:
+no numba), open the bundle 0.052 s, filter built 0.006 s (was 0.240 s at load ~1 with
+numba), kernel 0.001 s, result 0.010 s, total in the process 0.344 s. The loop itself
+(``benchmarks/bench_aot.py``, 16,380 rows, load ~4.4): JIT entry point 14.96 ms a call,
+extension 13.79 ms (the difference is about the JIT's unboxing of its 16 first-class
+functions, ~0.85 ms), outputs bit-identical.
 """
 from __future__ import annotations
 
@@ -118,7 +144,8 @@ PARTS = textwrap.dedent("""\
     timed(M, "build_config", "configuration")
     timed(M, "_read_bundle", "open the bundle (meta, time columns, sensor tables)")
     timed(M, "_initial_state", "initial state")
-    timed(E.ErrorStateFilter, "__init__", "filter built (numba's first call, kernel loads)")
+    timed(E.ErrorStateFilter, "__init__", "filter built (numba's first call, kernel loads; "
+          "or the ahead-of-time extension's load)")
     timed_gen(S._ImuTable, "chunks", "IMU rows read and checked")
     timed(E.ErrorStateFilter, "add_imu", "filter kernel (add_imu)")
     timed(M, "run_method", "method run (the three above and the wrapper)")
@@ -131,6 +158,8 @@ PARTS = textwrap.dedent("""\
         if e.code:
             raise
     parts["total in the process"] = time.process_time() - c0
+    numba_used = "numba" in sys.modules
+    aot_used = [m for m in sys.modules if m.startswith("inmotion_aot_")]
     from numba.core.dispatcher import Dispatcher
     def dispatchers(m):      # numba functions, also behind measurements.Compiled
         for v in list(vars(m).values()):
@@ -140,7 +169,8 @@ PARTS = textwrap.dedent("""\
     loaded = sorted({f"{d.py_func.__module__}.{d.py_func.__name__}"
                      for n, m in list(sys.modules.items()) if n.startswith("inmotion")
                      for d in dispatchers(m) if sum(d.stats.cache_hits.values())})
-    print("PARTS " + json.dumps({"parts": parts, "loaded": loaded}), flush=True)
+    print("PARTS " + json.dumps({"parts": parts, "loaded": loaded, "numba": numba_used,
+                                 "aot": aot_used}), flush=True)
     os._exit(0)
     """)
 
@@ -150,7 +180,7 @@ def parts(bundle, sets, out, env, repeat):
     and the numba functions it loaded from the cache."""
     cmd = [sys.executable, "-c", PARTS, "navigate", str(bundle), "--method", "sins-dr",
            "--init", "truth", "-o", str(out)] + [a for kv in sets for a in ("--set", kv)]
-    best, loaded = {}, []
+    best, loaded, got = {}, [], {}
     for i in range(repeat + 1):
         p = subprocess.run(cmd, env=env, capture_output=True, text=True, check=True)
         got = json.loads(p.stdout.rsplit("PARTS ", 1)[1])
@@ -158,12 +188,19 @@ def parts(bundle, sets, out, env, repeat):
             for k, v in got["parts"].items():
                 best[k] = min(best.get(k, np.inf), v)
         loaded = got["loaded"]
-    return best, loaded
+    return best, loaded, got
+
+
+def _paths(got):
+    """How the run's kernels ran: numba imported or not, the ahead-of-time extension."""
+    return (f"numba imported: {'yes' if got.get('numba') else 'no'}; ahead-of-time extension "
+            f"(inmotion._aot): {', '.join(got.get('aot') or []) or 'not used'}")
 
 
 def print_parts(bundle, sets, out, env, repeat):
-    best, loaded = parts(bundle, sets, out, env, repeat)
+    best, loaded, got = parts(bundle, sets, out, env, repeat)
     print(f"parts of navigate --method sins-dr on {Path(bundle).name} (CPU, best of {repeat}):")
+    print(f"  {_paths(got)}")
     for k, v in best.items():
         print(f"  {k}: {v:.3f} s")
     print(f"  numba functions loaded from the cache ({len(loaded)}): {', '.join(loaded)}")

@@ -14,6 +14,10 @@ compiled for the same argument types the demo uses, so the demo then only loads 
 It prints one line (what it compiled, how long it took) and exits 0 even if a method fails
 (numba then compiles that method's kernels at its first use instead).
 
+Then it builds the ahead-of-time extension that ``navigate --method sins / sins-dr`` run
+without numba (:mod:`inmotion._aot`, :mod:`inmotion._aot_build`; ``--no-aot`` skips it;
+without a C compiler it fails, one note says so, and those runs use the JIT as before).
+
 It also writes the byte-code (``.pyc``) of the package's modules and of the predict kernels
 the engine generated during the warm-up (:func:`compile_bytecode`). Python writes byte-code at
 a module's first import by itself, but not where it may not (``PYTHONDONTWRITEBYTECODE=1``, a
@@ -67,7 +71,7 @@ def _bytecode_current(src: Path) -> bool:
             and int.from_bytes(head[12:16], "little") == st.st_size & 0xFFFFFFFF)
 
 
-def warm_up(seconds: float = 30.0, verbose: bool = False) -> dict:
+def warm_up(seconds: float = 30.0, verbose: bool = False, aot: bool = True) -> dict:
     """Run the demo's code path on ``seconds`` [s] of moving drive per stage.
 
     Parameters
@@ -76,6 +80,10 @@ def warm_up(seconds: float = 30.0, verbose: bool = False) -> dict:
         Length [s] of each method's window (the drive starts moving at 30 s).
     verbose : bool
         Print each step's time on stderr.
+    aot : bool
+        Also build the ahead-of-time extension of ``navigate --method sins / sins-dr``
+        (:mod:`inmotion._aot_build`; needs a C compiler: without one, or if it fails, the
+        step is listed as failed and those runs use numba's JIT as before).
 
     Returns
     -------
@@ -131,6 +139,9 @@ def warm_up(seconds: float = 30.0, verbose: bool = False) -> dict:
                                root / "process", ProcessConfig(), init="truth", report=False)
         step("process", process)
     step("byte-code", compile_bytecode)
+    if aot:
+        from . import _aot_build
+        step("ahead-of-time kernels", _aot_build.build)
     return {"steps": steps, "failed": failed, "total_s": time.perf_counter() - t_all}
 
 
@@ -141,10 +152,16 @@ def main(argv=None) -> int:
     p.add_argument("--seconds", type=float, default=30.0,
                    help="window of each method [s] (default 30)")
     p.add_argument("--verbose", action="store_true", help="time each step on stderr")
+    p.add_argument("--no-aot", action="store_true",
+                   help="do not build the ahead-of-time extension (inmotion._aot)")
     a = p.parse_args(argv)
     print("inmotion: compiling the numba kernels (once; cached on disk) ...", flush=True)
-    res = warm_up(a.seconds, a.verbose)
-    note = f"; not warmed: {', '.join(res['failed'])}" if res["failed"] else ""
+    res = warm_up(a.seconds, a.verbose, aot=not a.no_aot)
+    failed = [f for f in res["failed"] if f != "ahead-of-time kernels"]
+    note = f"; not warmed: {', '.join(failed)}" if failed else ""
+    if "ahead-of-time kernels" in res["failed"]:
+        note += ("; ahead-of-time kernels not built (no C compiler?): navigate sins / sins-dr "
+                 "use numba's JIT")
     print(f"inmotion: kernels ready in {res['total_s']:.0f} s ({len(res['steps'])} steps{note})")
     return 0
 

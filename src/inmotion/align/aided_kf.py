@@ -221,11 +221,11 @@ import functools
 import time
 from typing import Callable, Literal, Optional
 
-import numba
 import numpy as np
 from pydantic import ConfigDict, Field, ValidationError
 
 from .. import config_fields as cf
+from .._jit import njit
 from ..core import earth, rotations
 from ..core import _kernels as K
 from ..core.bundle import Bundle, regroup
@@ -654,7 +654,7 @@ def linearization_floor_per_m(cfg) -> float:
 ROWS_IN_DISPLACEMENT_FRAME = True
 
 
-@numba.njit(cache=True)
+@njit(cache=True)
 def _rows_to_displacement_frame(z, H, e, d, fwd):
     """Turn the displacement rows ``z``, ``H`` (right, forward, up of the body at the
     interval's end) in place into the frame whose forward axis is the sensor's displacement

@@ -30,9 +30,9 @@ from __future__ import annotations
 
 import math
 
-import numba
 import numpy as np
 
+from .._jit import njit
 from . import earth
 
 # ---------------------------------------------------------------- state layout (by name)
@@ -55,12 +55,12 @@ NMEM = 20
 OMEGA_IE = earth.OMEGA_IE
 
 # one Earth model: compile the formulas of inmotion.core.earth, do not re-type them
-radii = numba.njit(cache=True)(earth.radii)
-gravity = numba.njit(cache=True)(earth.gravity)
+radii = njit(cache=True)(earth.radii)
+gravity = njit(cache=True)(earth.gravity)
 
 
 # ---------------------------------------------------------------- 3-vectors and quaternions
-@numba.njit(cache=True)
+@njit(cache=True)
 def cross(a, b):
     """``a x b`` of two 3-tuples."""
     return (a[1] * b[2] - a[2] * b[1],
@@ -68,14 +68,14 @@ def cross(a, b):
             a[0] * b[1] - a[1] * b[0])
 
 
-@numba.njit(cache=True)
+@njit(cache=True)
 def skew(v):
     """``[v x]`` (3, 3) array of one 3-vector: the numba twin of
     :func:`inmotion.core.rotations.skew` (``skew(v) @ w = v x w``)."""
     return np.array([[0.0, -v[2], v[1]], [v[2], 0.0, -v[0]], [-v[1], v[0], 0.0]])
 
 
-@numba.njit(cache=True)
+@njit(cache=True)
 def qmul(p, q):
     """Hamilton product ``p (x) q`` of scalar-first quaternion 4-tuples."""
     return (p[0] * q[0] - p[1] * q[1] - p[2] * q[2] - p[3] * q[3],
@@ -84,14 +84,14 @@ def qmul(p, q):
             p[0] * q[3] + p[1] * q[2] - p[2] * q[1] + p[3] * q[0])
 
 
-@numba.njit(cache=True)
+@njit(cache=True)
 def qnormalize(q):
     """Unit quaternion (sign kept)."""
     n = math.sqrt(q[0] * q[0] + q[1] * q[1] + q[2] * q[2] + q[3] * q[3])
     return (q[0] / n, q[1] / n, q[2] / n, q[3] / n)
 
 
-@numba.njit(cache=True)
+@njit(cache=True)
 def qrotate(q, v):
     """``q (x) v (x) q*`` = ``C(q) v`` for a unit quaternion 4-tuple and a 3-tuple."""
     u = (q[1], q[2], q[3])
@@ -101,13 +101,13 @@ def qrotate(q, v):
     return (v[0] + q[0] * t[0] + s[0], v[1] + q[0] * t[1] + s[1], v[2] + q[0] * t[2] + s[2])
 
 
-@numba.njit(cache=True)
+@njit(cache=True)
 def qrotate_inv(q, v):
     """``C(q)^T v``: rotation by the conjugate quaternion."""
     return qrotate((q[0], -q[1], -q[2], -q[3]), v)
 
 
-@numba.njit(cache=True)
+@njit(cache=True)
 def quat_from_rotvec(r):
     """Quaternion of the rotation vector ``r`` [rad] (3-tuple); series below 0.01 rad.
 
@@ -127,7 +127,7 @@ def quat_from_rotvec(r):
     return (c, k * r[0], k * r[1], k * r[2])
 
 
-@numba.njit(cache=True)
+@njit(cache=True)
 def dcm_from_quat_into(q, C):
     """Write ``C(q)`` (= ``C_b^n`` of ``q_nb``) into the (3, 3) array ``C``; ``q`` not normalized.
 
@@ -146,7 +146,7 @@ def dcm_from_quat_into(q, C):
     C[2, 2] = q0 * q0 - q1 * q1 - q2 * q2 + q3 * q3
 
 
-@numba.njit(cache=True)
+@njit(cache=True)
 def dcm_from_quat(q):
     """New (3, 3) array ``C(q)``: :func:`dcm_from_quat_into` into a fresh array."""
     C = np.empty((3, 3))
@@ -154,12 +154,12 @@ def dcm_from_quat(q):
     return C
 
 
-@numba.njit(cache=True)
+@njit(cache=True)
 def get_q(x):
     return (x[Q0], x[Q1], x[Q2], x[Q3])
 
 
-@numba.njit(cache=True)
+@njit(cache=True)
 def set_q(x, q):
     x[Q0] = q[0]
     x[Q1] = q[1]
@@ -168,13 +168,13 @@ def set_q(x, q):
 
 
 # ---------------------------------------------------------------- Earth rates
-@numba.njit(cache=True)
+@njit(cache=True)
 def omega_ie_n(lat):
     """Earth rate in n (ENU) [rad/s]."""
     return (0.0, OMEGA_IE * math.cos(lat), OMEGA_IE * math.sin(lat))
 
 
-@numba.njit(cache=True)
+@njit(cache=True)
 def omega_en_n(lat, h, v):
     """Transport rate in n (ENU) [rad/s] for velocity 3-tuple ``v``."""
     r_m, r_n = radii(lat)
@@ -182,7 +182,7 @@ def omega_en_n(lat, h, v):
 
 
 # ---------------------------------------------------------------- shared attitude update
-@numba.njit(cache=True)
+@njit(cache=True)
 def coning_rotvec(dth, dth_prev):
     """Body rotation vector over the interval, two-sample (previous-interval) coning correction.
 
@@ -194,7 +194,7 @@ def coning_rotvec(dth, dth_prev):
     return (dth[0] + c[0] / 12.0, dth[1] + c[1] / 12.0, dth[2] + c[2] / 12.0)
 
 
-@numba.njit(cache=True)
+@njit(cache=True)
 def attitude_update(q_nb, phi_b, zeta_n):
     """``q_nb(k) = q(-zeta_n) (x) q_nb(k-1) (x) q(phi_b)``, normalized.
 
@@ -208,7 +208,7 @@ def attitude_update(q_nb, phi_b, zeta_n):
     return qnormalize(q)
 
 
-@numba.njit(cache=True)
+@njit(cache=True)
 def midpoint(x, mem):
     """Latitude, height and ENU velocity extrapolated to the middle of the coming interval.
 
@@ -226,7 +226,7 @@ def midpoint(x, mem):
     return lat, h, v
 
 
-@numba.njit(cache=True)
+@njit(cache=True)
 def remember_old(x, mem):
     """Keep latitude, height and velocity of epoch k-1 for the next midpoint extrapolation."""
     mem[M_LAT_OLD] = x[LAT]
@@ -237,7 +237,7 @@ def remember_old(x, mem):
     mem[M_HAS_OLD] = 1.0
 
 
-@numba.njit(cache=True)
+@njit(cache=True)
 def position_update(x, v_old, v_new, dt):
     """Trapezoidal position update from the ENU velocities at both ends of the interval.
 
@@ -255,7 +255,7 @@ def position_update(x, v_old, v_new, dt):
     x[LON] += 0.5 * (v_old[0] + v_new[0]) * dt / ((r_n + h_mid) * math.cos(lat_mid))
 
 
-@numba.njit(cache=True)
+@njit(cache=True)
 def displacement_update(x, ds_n):
     """Position update from an ENU displacement ``ds_n`` [m] (dead reckoning, paper 002).
 
@@ -272,7 +272,7 @@ def displacement_update(x, ds_n):
     x[LON] += ds_n[0] / ((r_n + h_mid) * math.cos(lat_mid))
 
 
-@numba.njit(cache=True)
+@njit(cache=True)
 def store_increments(mem, dth, dv, dt):
     """Previous increments for coning/sculling and the mean rates for filters."""
     for i in range(3):
@@ -284,7 +284,7 @@ def store_increments(mem, dth, dv, dt):
 
 
 # ---------------------------------------------------------------- one SINS step
-@numba.njit(cache=True)
+@njit(cache=True)
 def sins_step(x, mem, dth, dv, dt, h_ref, k_h, k_v):
     """Advance the nav state ``x`` over one interval of length ``dt`` [s].
 
@@ -365,7 +365,7 @@ def sins_step(x, mem, dth, dv, dt, h_ref, k_h, k_v):
     store_increments(mem, dth, dv, dt)
 
 
-@numba.njit(cache=True)
+@njit(cache=True)
 def sins_run(x, mem, dtheta, dvel, dt, h_ref, k_h, k_v, out_stride, out_rows, out_x):
     """Run :func:`sins_step` over a chunk of M rows.
 
@@ -386,7 +386,7 @@ def sins_run(x, mem, dtheta, dvel, dt, h_ref, k_h, k_v, out_stride, out_rows, ou
 
 
 # ---------------------------------------------------------------- one DR step
-@numba.njit(cache=True)
+@njit(cache=True)
 def dr_step(x, mem, dth, ds, v, dt, C_bm, l_b):
     """Advance the dead-reckoning state ``x`` over one interval (paper 002).
 
@@ -445,7 +445,7 @@ def dr_step(x, mem, dth, ds, v, dt, C_bm, l_b):
     store_increments(mem, dth, (0.0, 0.0, 0.0), dt)
 
 
-@numba.njit(cache=True)
+@njit(cache=True)
 def dr_run(x, mem, dtheta, ds, v, dt, C_bm, l_b, out_stride, out_rows, out_x):
     """Run :func:`dr_step` over a chunk of M rows; output as in :func:`sins_run`."""
     n_out = 0
@@ -461,7 +461,7 @@ def dr_run(x, mem, dtheta, ds, v, dt, C_bm, l_b, out_stride, out_rows, out_x):
 
 
 # ---------------------------------------------------------------- input checks (cheap per chunk)
-@numba.njit(cache=True)
+@njit(cache=True)
 def time_steps(t, t_prev, dt_out):
     """``dt_out[k] = t[k] - t[k-1]`` with ``t[-1] = t_prev``; returns the first row whose step
     is not a finite positive number, or -1."""
@@ -475,7 +475,7 @@ def time_steps(t, t_prev, dt_out):
     return -1
 
 
-@numba.njit(cache=True)
+@njit(cache=True)
 def first_not_increasing(t):
     """First index ``k`` with ``t[k]`` not finite or not after ``t[k-1]``, or -1."""
     for k in range(t.shape[0]):
@@ -484,7 +484,7 @@ def first_not_increasing(t):
     return -1
 
 
-@numba.njit(cache=True)
+@njit(cache=True)
 def first_nonfinite_row(a):
     """First row of the 2-D array ``a`` holding NaN or inf, or -1."""
     for k in range(a.shape[0]):

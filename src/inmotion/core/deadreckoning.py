@@ -42,6 +42,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from .. import _aot
 from . import _kernels as K
 from .bundle import ImuData, SpeedData, regroup
 from .mechanization import (CHUNK_ROWS, _check_finite, _check_time, _correct, _first_row,
@@ -77,7 +78,7 @@ def _check_speed(speed: SpeedData, what: str):
     for name in ("v", "ds"):
         val = getattr(speed, name)
         if val is not None:
-            k = K.first_nonfinite_row(val.reshape(-1, 1))
+            k = _aot.first_nonfinite_row(val.reshape(-1, 1))
             if k >= 0:
                 raise BadInput(f"{name} is not a finite number ({val[k]})", file=what,
                                row=k + 1, time=float(speed.t[k]))

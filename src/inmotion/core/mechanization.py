@@ -37,6 +37,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from .. import _aot
 from . import _kernels as K
 from . import earth
 from .bundle import BaroData, ImuData, regroup
@@ -84,7 +85,7 @@ def _check_rows(dtheta, dvel, t):
 
 def _check_finite(arr, t, name, what, row0=0):
     """BadInput naming the first row of ``arr`` (rows = samples) that holds NaN or inf."""
-    k = K.first_nonfinite_row(arr if arr.ndim == 2 else arr.reshape(-1, 1))
+    k = _aot.first_nonfinite_row(arr if arr.ndim == 2 else arr.reshape(-1, 1))
     if k >= 0:
         raise BadInput(f"{name} is not finite ({arr[k]})", file=what, row=row0 + k + 1,
                        time=float(t[k]))
@@ -100,7 +101,7 @@ def _check_baro(baro: BaroData):
 
 def _check_time(t, what):
     """BadInput at the first sample time that is not finite or not after the one before."""
-    k = K.first_not_increasing(t)
+    k = _aot.first_not_increasing(t)
     if k >= 0:
         if not np.isfinite(t[k]):
             raise BadInput(f"t is not finite ({t[k]})", file=what, row=k + 1)
@@ -117,7 +118,7 @@ def _intervals(t, t_prev, what, row0=0):
     """Interval lengths ``t[k] - t[k-1]`` [s] with ``t[-1] = t_prev``; must be > 0 and finite.
     ``row0`` rows came before ``t`` (for the row number in the message)."""
     dt = np.empty(len(t))
-    k = K.time_steps(t, float(t_prev), dt)
+    k = _aot.call("time_steps", K.time_steps, t, float(t_prev), dt)
     if k >= 0:
         before = t_prev if k == 0 else t[k - 1]
         raise BadInput(f"time not strictly increasing (previous t={before:.6g} s)",
@@ -221,7 +222,7 @@ class Strapdown(_KernelStream):
             if len(h_ref) != len(t):
                 raise BadInput(f"h_baro has {len(h_ref)} rows, the imu chunk {len(t)}")
         out_rows, out_x = _out_buffers(len(t), out_stride)
-        n = K.sins_run(self._x, self._mem, dtheta, dvel, dt, h_ref, self.k_h, self.k_v,
+        n = _aot.call("sins_run", K.sins_run, self._x, self._mem, dtheta, dvel, dt, h_ref, self.k_h, self.k_v,
                        int(out_stride), out_rows, out_x)
         return self._finish_chunk(t, n, out_rows, out_x, out_stride)
 

@@ -52,9 +52,9 @@ vehicle when ``C_v^b0 = I``).
 """
 from __future__ import annotations
 
-import numba
 import numpy as np
 
+from .._jit import njit
 from .error_model import skew
 from .layout import Block, Layout, BLOCKS
 
@@ -75,7 +75,7 @@ def sub_offsets(layout=SUB_LAYOUT):
                  for b in ("phi", "dv", "dk", "mount", "lever"))
 
 
-@numba.njit(cache=True)
+@njit(cache=True)
 def _velocity_rows(H, offs, C_nb, w_b, u_b, omega_nb_b, fwd):
     o_phi, o_dv, o_dk, o_mount, o_lever = offs
     v_s = C_nb @ u_b
@@ -96,7 +96,7 @@ def _velocity_rows(H, offs, C_nb, w_b, u_b, omega_nb_b, fwd):
             H[i, o_mount + 1] = -Mw[i, 2]
 
 
-@numba.njit(cache=True)
+@njit(cache=True)
 def _displacement_rows(H, offs, C_bn, T, dD_b, dW_b, dth_nb, fwd):
     o_phi, o_dv, o_dk, o_mount, o_lever = offs
     A = -skew(dD_b) @ C_bn

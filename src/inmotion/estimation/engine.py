@@ -218,12 +218,14 @@ is not seen by a cached ``_advance``, which may have that function's old code in
 """
 from __future__ import annotations
 
+import functools
 import math
 from collections import namedtuple
 
-import numba
 import numpy as np
 
+from .. import _aot
+from .._jit import njit
 from ..core import _kernels as K
 from ..core.mechanization import _state_vector
 from ..core.solution import NavState
@@ -280,7 +282,7 @@ def _noop_acc(a, xs, v_old, th_nb, dt, rd, p):
 
 
 # ----------------------------------------------------------------------------- the loop
-@numba.njit(cache=True)
+@njit(cache=True)
 def _local_ok(healthy, isolate, local, l):
     """Local filter ``l`` has no isolated measurement (arrays of ``S`` and ``C``)."""
     for j in range(isolate.shape[0]):
@@ -289,12 +291,12 @@ def _local_ok(healthy, isolate, local, l):
     return True
 
 
-@numba.njit(cache=True)
+@njit(cache=True)
 def _local_healthy(S, C, l):
     return _local_ok(S.healthy, C.isolate, C.local, l)
 
 
-@numba.njit(cache=True)
+@njit(cache=True)
 def _mode_of(healthy, isolate, local, primary, fallback):
     """:func:`_mode` on the arrays it reads (a call with the namedtuples ``S``, ``C`` costs
     an incref and a decref of each of their ~50 arrays, 0.5 us)."""
@@ -314,14 +316,14 @@ def _mode_of(healthy, isolate, local, primary, fallback):
     return MODE_NONE
 
 
-@numba.njit(cache=True)
+@njit(cache=True)
 def _mode(S, C):
     """Source of the global estimate (paper 003 Table 1): MODE_FUSED over two or more
     healthy primaries, one healthy primary's index, else the fallback's, else MODE_NONE."""
     return _mode_of(S.healthy, C.isolate, C.local, C.primary, C.fallback)
 
 
-@numba.njit(cache=True)
+@njit(cache=True)
 def _global(S, C, mode, x_g, P_g):
     """The global estimate ``x_g`` (n,) and its covariance ``P_g`` (n, n) (NaN outside the
     fused leading block when fused; zero with MODE_NONE). With ``C.fuse_isolated`` the
@@ -355,7 +357,7 @@ def _global(S, C, mode, x_g, P_g):
             P_g[i, i] = np.nan
 
 
-@numba.njit(cache=True, inline="always")
+@njit(cache=True, inline="always")
 def _block3(x, o, on):
     """``x[o:o + 3]`` as a 3-tuple if ``on``, else zeros."""
     if on:
@@ -363,7 +365,7 @@ def _block3(x, o, on):
     return (0.0, 0.0, 0.0)
 
 
-@numba.njit(cache=True)
+@njit(cache=True)
 def _feed_back_arrays(xs, ms, xd, md, bias_g, bias_a, fed_back, X, offs, m, fb_states,
                       with_dr, x_g):
     """Apply the global estimate's fed-back blocks (the policy ``m``) to the navigation
@@ -391,7 +393,7 @@ def _feed_back_arrays(xs, ms, xd, md, bias_g, bias_a, fed_back, X, offs, m, fb_s
                 X[l, p] -= d
 
 
-@numba.njit(cache=True)
+@njit(cache=True)
 def _dr_position_noise(Q, Qc, o_dpD, lat, h, q_m2_s):
     """``Q``'s ``dp_D`` diagonal (rad, rad, m) set to ``Qc``'s plus the DR position random walk
     ``q_m2_s`` [m^2/s]; ``Q``'s other entries are left alone: the caller copies ``Qc`` into
@@ -405,7 +407,7 @@ def _dr_position_noise(Q, Qc, o_dpD, lat, h, q_m2_s):
     Q[o_dpD + 2, o_dpD + 2] = Qc[o_dpD + 2, o_dpD + 2] + q_m2_s
 
 
-@numba.njit(cache=True)
+@njit(cache=True)
 def _log_event(S, t, j, kind, value):
     i = S.ints[_I_EV]
     if i < S.ev.shape[0]:
@@ -416,7 +418,7 @@ def _log_event(S, t, j, kind, value):
     S.ints[_I_EV] = i + 1
 
 
-@numba.njit(cache=True)
+@njit(cache=True)
 def _log_nis(S, t, j, nis):
     i = S.ints[_I_NIS]
     if i < S.nis_log.shape[0]:
@@ -426,7 +428,7 @@ def _log_nis(S, t, j, nis):
     S.ints[_I_NIS] = i + 1
 
 
-@numba.njit(cache=True)
+@njit(cache=True)
 def _write_output(S, C, O, t_now, x_g, P_g):
     i = O.n[0]
     if i >= O.t.shape[0]:
@@ -461,7 +463,7 @@ def _write_output(S, C, O, t_now, x_g, P_g):
     O.n[0] = i + 1
 
 
-@numba.njit(cache=True)
+@njit(cache=True)
 def _apply(S, C, fills, j, l, z, H, r, m, xw, Pw, t_now, first):
     """Apply the filled rows of measurement ``j`` to local filter ``l`` (gate, FDI)."""
     rl = r[:m] * (C.r_scale[l] if C.local[j] < 0 else 1.0)
@@ -498,7 +500,7 @@ def _apply(S, C, fills, j, l, z, H, r, m, xw, Pw, t_now, first):
             S.rejected[j] += 1
 
 
-@numba.njit(cache=True)
+@njit(cache=True)
 def _record_predict(phc, act, PhiT):
     """Compose the epoch's transition into ``phc`` (``Phi_k Phi_c``; ``Phi_k`` is the
     identity but on the predict's active rows ``act``, whose transposed rows are ``PhiT``'s
@@ -518,7 +520,7 @@ def _record_predict(phc, act, PhiT):
                 phc[act[a], c] = tmp[a, c]
 
 
-@numba.njit(cache=True)
+@njit(cache=True)
 def _record_epoch(S, O, t_now):
     """One smoother record (module :mod:`~inmotion.estimation.smoother`): the transition
     since the last record, ``P`` predicted at this epoch, ``x``, ``P`` after its updates and
@@ -539,7 +541,7 @@ def _record_epoch(S, O, t_now):
             S.phc[p, c] = 1.0 if p == c else 0.0
 
 
-@numba.njit(cache=True)
+@njit(cache=True)
 def _epoch_outputs(S, C, O, t_now, x_g, P_g, applied, last):
     """The rare end-of-epoch work, after the predict and the samples: the smoother's record
     and the output row (a call with the namedtuples ``S``, ``C``: 0.5 us of reference
@@ -550,13 +552,13 @@ def _epoch_outputs(S, C, O, t_now, x_g, P_g, applied, last):
         _write_output(S, C, O, t_now, x_g, P_g)
 
 
-@numba.njit(cache=True)
+@njit(cache=True)
 def _keep_alive(*arrays):
     """Nothing: a use that keeps the arrays (owners of borrowed views) alive up to here."""
     return len(arrays)
 
 
-@numba.njit(cache=True)
+@njit(cache=True)
 def _advance(S, C, fills, accs, t, dtheta, dvel, dt, ds, v, dth_dr, rows, qt, qj, qd, O,
              flush, t_last):
     """Run IMU rows ``t`` (M,) through the filter (module docstring); ``ds``, ``v`` (M,) the
@@ -792,6 +794,12 @@ def _advance(S, C, fills, accs, t, dtheta, dvel, dt, ds, v, dth_dr, rows, qt, qj
 
 
 # ----------------------------------------------------------------------------- the filter
+def _aot_name(f) -> str:
+    """``module.qualname`` of a fill or accumulator (how :mod:`inmotion._aot` names it)."""
+    py = getattr(f, "py_func", f)
+    return f"{py.__module__}.{py.__qualname__}"
+
+
 def _feedback_mask(feedback, layout):
     if feedback == "closed":
         blocks = FEEDBACK_BLOCKS
@@ -979,11 +987,12 @@ class ErrorStateFilter:
             has_acc=has_acc, log_nis=per_meas(lambda m: m.isolate or m.log_nis, False,
                                                 np.bool_), ws=ws, record=bool(record),
             fuse_isolated=bool(fuse_isolated))
-        self._fills = tuple([dispatcher(m.fill) for m in measurements]
-                            + [dispatcher(_noop_fill)] * (M - len(measurements)))
-        self._accs = tuple([dispatcher(m.accumulate if m.accumulate is not None else _noop_acc)
-                            for m in measurements]
-                           + [dispatcher(_noop_acc)] * (M - len(measurements)))
+        # the fill and accumulator functions (numba functions, compiled or loaded at first use
+        # by the JIT path: _fills, _accs)
+        self._fill_objs = tuple([m.fill for m in measurements]
+                                + [_noop_fill] * (M - len(measurements)))
+        self._acc_objs = tuple([m.accumulate if m.accumulate is not None else _noop_acc
+                                for m in measurements] + [_noop_acc] * (M - len(measurements)))
         self._S = _State(
             xs=x0.copy(), ms=K.new_memory(), xd=x0.copy(), md=K.new_memory(),
             X=np.zeros((L, n)), P=np.stack([lf.P0 for lf in locals_]), fed_back=np.zeros(n),
@@ -997,7 +1006,11 @@ class ErrorStateFilter:
             ev=np.zeros((int(max_events), 4)), nis_log=np.zeros((int(max_nis), 3)),
             phc=np.eye(n) if record else np.zeros((0, 0)),
             ppred=np.zeros((n, n) if record else (0, 0)))
-        self._S.ints[_I_MODE] = _mode(self._S, self._C)
+        # the loop compiled ahead of time for this filter's functions and types, if any
+        # (inmotion._aot: no numba on the run path); else numba's JIT
+        self._aot = _aot.case([_aot_name(f) for f in self._fill_objs],
+                              [_aot_name(f) for f in self._acc_objs], self._S, self._C)
+        self._S.ints[_I_MODE] = (self._aot.mode if self._aot else _mode)(self._S, self._C)
         self.t = float(init.t)           #: time of the last IMU row processed [s]
         self.rows = 0                    #: IMU rows processed
         self._qt = np.zeros(0)
@@ -1100,6 +1113,17 @@ class ErrorStateFilter:
             self.rows += m
         return self._result(O)
 
+    @functools.cached_property
+    def _fills(self):
+        """The fill functions as numba functions (compiled or loaded from numba's cache at
+        the first use, by the JIT path)."""
+        return tuple(dispatcher(f) for f in self._fill_objs)
+
+    @functools.cached_property
+    def _accs(self):
+        """The accumulator functions as numba functions."""
+        return tuple(dispatcher(f) for f in self._acc_objs)
+
     def _call_advance(self, *args):
         """:func:`_advance` on this filter's state with ``args``, through the compiled
         overload's entry point when one matches the arguments' types.
@@ -1109,7 +1133,14 @@ class ErrorStateFilter:
         the ~1.6 ms a call (issue 13: 22 calls, 0.035 s, of an hour fed in 16,384-row
         chunks); their types are fixed for the filter's life (:meth:`restore` copies into
         the same arrays), so they are typed once and only the other arguments per call.
+
+        When the ahead-of-time extension has this filter's case (:mod:`inmotion._aot`: the
+        same fills, the same argument types) the call goes there instead, and numba is not
+        imported: the same compiled loop, bit-identical results (``tests/test_aot.py``).
         """
+        if self._aot is not None and self._aot.args_spec == tuple(_aot.type_spec(a)
+                                                                  for a in args):
+            return self._aot.advance(self._S, self._C, *args)
         head = (self._S, self._C, self._fills, self._accs)
         cache = getattr(self, "_advance_types", None)
         if cache is None or any(a is not b for a, b in zip(cache[0], head)):
@@ -1182,7 +1213,9 @@ class ErrorStateFilter:
         """One output row of the current state (the same fields as :meth:`add_imu`'s)."""
         O = self._out(1)
         n = self.layout.n
-        _write_output(self._S, self._C, O, self.t, np.zeros(n), np.zeros((n, n)))
+        write = (self._aot.write_output if self._aot is not None
+                 and self._aot.out_spec == _aot.type_spec(O) else _write_output)
+        write(self._S, self._C, O, self.t, np.zeros(n), np.zeros((n, n)))
         res = self._result(O)
         res.pop("record", None)
         return res

@@ -85,12 +85,10 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
-import numba
 import numpy as np
-from llvmlite import ir as llvm_ir
-from numba.core import types
-from numba.extending import intrinsic
 
+from .. import _aot
+from .._jit import intrinsic, njit
 from ..core import _kernels as K
 
 __all__ = ["LinPoint", "ProcessNoise", "ErrorModel", "transport_jacobians", "F_pattern",
@@ -174,7 +172,7 @@ class ProcessNoise:
 skew = K.skew
 
 
-@numba.njit(cache=True)
+@njit(cache=True)
 def _transport_scalars(lat, h, ve, vn):
     """The formulas of :func:`transport_jacobians`, as scalars (no arrays)::
 
@@ -198,7 +196,7 @@ def _transport_scalars(lat, h, ve, vn):
             ve * t * sec / rn, -ve * sec / rn ** 2, r_m, r_n)
 
 
-@numba.njit(cache=True)
+@njit(cache=True)
 def transport_jacobians(lat, h, vel_n):
     """Rates and their Jacobians for the error equations.
 
@@ -235,7 +233,7 @@ def _offsets(layout):
     return tuple(layout[b].start if b in layout else -1 for b in _KERNEL_BLOCKS)
 
 
-@numba.njit(cache=True)
+@njit(cache=True)
 def _put(M, r, c, B):
     """``M[r:r+3, c:c+3] = B`` (3x3)."""
     for i in range(3):
@@ -243,7 +241,7 @@ def _put(M, r, c, B):
             M[r + i, c + j] = B[i, j]
 
 
-@numba.njit(cache=True)
+@njit(cache=True)
 def _dr_velocity_kernel(D, o_phiD, o_mount, o_dk, vel_n, C):
     V = skew(vel_n)
     if o_phiD >= 0:
@@ -265,6 +263,8 @@ def _mad(typingctx, a, b, c):
     rounding of the BLAS products of the former array form of :func:`_fill_F`, so that F did
     not change by a bit when it became scalar code (checked on 36,000 random states over six
     layouts; on CPUs without FMA, LLVM calls libm's ``fma``: slower, same values)."""
+    from llvmlite import ir as llvm_ir
+    from numba.core import types
     f8 = types.float64
     sig = f8(f8, f8, f8)
 
@@ -277,7 +277,7 @@ def _mad(typingctx, a, b, c):
     return sig, codegen
 
 
-@numba.njit(cache=True)
+@njit(cache=True)
 def _fill_F(F, offs, lat, h, vel_n, C, f_n, inv_tau_dk, dr_eps, grav_grad, inv_tau_gyro=0.0,
             inv_tau_accel=0.0):
     """The F of the module docstring on the blocks whose offsets ``offs`` are >= 0.
@@ -439,7 +439,7 @@ def F_pattern(n, offs, inv_tau_dk=0.0, dr_eps=True, inv_tau_gyro=0.0, inv_tau_ac
     (:attr:`ProcessNoise.inv_tau_bias`).
     """
     F = np.full((n, n), np.nan)
-    _fill_F(F, tuple(int(o) for o in offs), 0.7, 100.0, np.array([3.0, -4.0, 0.5]),
+    _aot.call("fill_F", _fill_F, F, tuple(int(o) for o in offs), 0.7, 100.0, np.array([3.0, -4.0, 0.5]),
             np.array([[0.6, -0.8, 0.0], [0.8, 0.6, 0.0], [0.0, 0.0, 1.0]]),
             np.array([0.1, -0.2, 9.8]), float(inv_tau_dk), bool(dr_eps), True,
             float(inv_tau_gyro), float(inv_tau_accel))
@@ -547,7 +547,7 @@ class ErrorModel:
 
 # -- measurement rows ---------------------------------------------------------------------
 
-@numba.njit(cache=True)
+@njit(cache=True)
 def euler_rows(C_nb):
     """(3, 3) ``d[yaw, pitch, roll] / d phi`` for ``C_computed = (I - [phi x]) C_true``.
 

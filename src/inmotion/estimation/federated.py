@@ -36,8 +36,9 @@ states private to one local filter (a sensor's scale factor, mounting, lever arm
 """
 from __future__ import annotations
 
-import numba
 import numpy as np
+
+from .._jit import njit
 
 __all__ = ["fuse", "fuse_kernel", "share"]
 
@@ -66,7 +67,7 @@ def share(P, beta: float):
     return np.asarray(P, dtype=float) / beta
 
 
-@numba.njit(cache=True)
+@njit(cache=True)
 def fuse_kernel(X, P, use, n, x_g, P_g):
     """Eq. 36 over the leading ``n`` states of the local filters ``i`` with ``use[i]``.
 

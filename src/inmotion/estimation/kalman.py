@@ -29,8 +29,9 @@ NIS (and running sums for the chi-square consistency tests).
 """
 from __future__ import annotations
 
-import numba
 import numpy as np
+
+from .._jit import njit
 
 __all__ = ["discretize", "discretize_van_loan", "predict", "joseph_update",
            "standard_update", "sequential_update", "symmetrize", "KalmanFilter"]
@@ -137,7 +138,7 @@ def sequential_update(x, P, z, H, r):
     return x, symmetrize(P), nu, s
 
 
-@numba.njit(cache=True)
+@njit(cache=True)
 def _symmetrize_inplace(P):
     n = P.shape[0]
     for i in range(n):
@@ -149,7 +150,7 @@ def _symmetrize_inplace(P):
             P[j, i] = a
 
 
-@numba.njit(cache=True)
+@njit(cache=True)
 def _predict_kernel(x, P, F, Qc, dt):
     """In place: :func:`discretize` then :func:`predict`."""
     n = x.shape[0]
@@ -161,7 +162,7 @@ def _predict_kernel(x, P, F, Qc, dt):
     _symmetrize_inplace(P)
 
 
-@numba.njit(cache=True)
+@njit(cache=True)
 def _update_rows_kernel(x, P, z, H, r, a, b, threshold):
     """In place: gate then sequential scalar Joseph updates with the rows ``a:b``.
 
@@ -189,7 +190,7 @@ def _update_rows_kernel(x, P, z, H, r, a, b, threshold):
     return True, nis
 
 
-@numba.njit(cache=True)
+@njit(cache=True)
 def _update_groups_kernel(x, P, z, H, r, starts, thresholds, accepted, nis):
     """:func:`_update_rows_kernel` for each group ``starts[g]:starts[g+1]`` in turn."""
     for g in range(len(starts) - 1):
@@ -292,7 +293,7 @@ class KalmanFilter:
             self.x[s] = 0.0
 
 
-@numba.njit(cache=True)
+@njit(cache=True)
 def sequential_joseph(x, P, z, H, r, a, b, threshold, xw, Pw):
     """Gated sequential scalar Kalman updates with the rows ``a:b`` (in place, no allocation
     without a gate).

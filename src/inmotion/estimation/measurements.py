@@ -47,30 +47,41 @@ from __future__ import annotations
 import math
 import warnings
 
-import numba
 import numpy as np
-from numba import types
 
+from .._jit import njit, numba_module, real
 from ..core import _kernels as K
 from . import error_model as em
 from .aiding_rows import _displacement_rows, _velocity_rows
 from .layout import DK, DP, DP_D, DV, EPS, LEVER, MOUNT, NABLA, PHI, PHI_D, Layout
 from .nav_ops import dcm_columns, dcm_of_q, euler_ypr, wrap_pi
 
-__all__ = ["FILL_SIG", "ACC_SIG", "ACC_SIZE", "accumulator_function", "Compiled", "dispatcher",
+__all__ = ["ACC_SIZE", "accumulator_function", "Compiled", "dispatcher",
            "Measurement", "SinsDrAttitude", "SinsDrVelocity", "SinsDrPosition",
            "ForwardVelocity", "Nhc", "Height", "Position", "ZeroVelocity", "ZeroAngularRate",
            "fill_function", "AUX_SIZE"]
 
 warnings.filterwarnings("ignore", message="First-class function type feature is experimental")
 
-_f8 = types.float64[::1]
-#: the one signature of every fill function:
-#: (xs, xd, aux, acc, data, p, offs, z, H, r) -> rows
-FILL_SIG = types.int64(_f8, _f8, _f8, _f8, _f8, _f8, types.int64[::1], _f8,
-                       types.float64[:, ::1], _f8)
-#: the one signature of every accumulator: (acc, xs, v_old, th_nb, dt, rd, p) -> 0
-ACC_SIG = types.int64(_f8, _f8, _f8, _f8, types.float64, _f8, _f8)
+
+def _signatures():
+    """``(FILL_SIG, ACC_SIG)`` (numba types: imported at first use, :mod:`inmotion._jit`)."""
+    from numba import types
+    f8 = types.float64[::1]
+    return (types.int64(f8, f8, f8, f8, f8, f8, types.int64[::1], f8, types.float64[:, ::1],
+                        f8),
+            types.int64(f8, f8, f8, f8, types.float64, f8, f8))
+
+
+def __getattr__(name):
+    """:data:`FILL_SIG`, the one signature of every fill function, ``(xs, xd, aux, acc, data,
+    p, offs, z, H, r) -> rows``, and :data:`ACC_SIG`, of every accumulator, ``(acc, xs,
+    v_old, th_nb, dt, rd, p) -> 0``, made at first use (they are numba types)."""
+    if name in ("FILL_SIG", "ACC_SIG"):
+        return _signatures()[name == "ACC_SIG"]
+    raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
+
+
 #: ``aux = [t, omega_ib_b x, y, z, f_b x, y, z, omega_nb_b x, y, z]``: its named slots
 AUX_T, AUX_WIB, AUX_FB, AUX_WNB = 0, 1, 4, 7
 AUX_SIZE = 10
@@ -107,7 +118,8 @@ class Compiled:
     @property
     def dispatcher(self):
         if self._dispatcher is None:
-            self._dispatcher = numba.njit(self.sig, cache=True)(self.py_func)
+            sig = _signatures()[self.sig == "acc"]
+            self._dispatcher = numba_module().njit(sig, cache=True)(self.py_func)
         return self._dispatcher
 
     def __call__(self, *args):
@@ -116,17 +128,17 @@ class Compiled:
 
 def fill_function(func) -> Compiled:
     """``func`` as a fill function with :data:`FILL_SIG` (compiled on first use, cached)."""
-    return Compiled(func, FILL_SIG)
+    return Compiled(func, "fill")
 
 
 def accumulator_function(func) -> Compiled:
     """``func`` as an accumulator with :data:`ACC_SIG` (compiled on first use, cached)."""
-    return Compiled(func, ACC_SIG)
+    return Compiled(func, "acc")
 
 
 def dispatcher(f):
     """The numba function of a fill or accumulator (:class:`Compiled` or already compiled)."""
-    return f.dispatcher if isinstance(f, Compiled) else f
+    return f.dispatcher if isinstance(f, Compiled) else real(f)
 
 
 class Measurement:
@@ -245,7 +257,7 @@ def _noise1(value, what):
 
 
 # ----------------------------------------------------------------------------- shared rows
-@numba.njit(cache=True)
+@njit(cache=True)
 def body_velocity_rows(z, H, r, m, C_bn, dv_n, r_vel, o_dv, o_att, V, o_dk, dk_vec, o_mount,
                        VM):
     """Fill rows ``m .. m+2``: a velocity difference ``dv_n`` (n frame) resolved in body axes.
@@ -388,7 +400,7 @@ class SinsDrPosition(Measurement):
 
 
 # ----------------------------------------------------------------------------- SINS alone
-@numba.njit(cache=True)
+@njit(cache=True)
 def _body_velocity_row(z, H, r, i, row, dv_n, r_i, o_dv, o_att, v, o_dk, dk_vec, o_mount,
                        vm0, vm1, vm2):
     """Row ``i`` of :func:`body_velocity_rows` with ``C_bn``'s row ``row``, ``V = [v x]`` and
@@ -464,7 +476,7 @@ class ForwardVelocity(Measurement):
         _need(layout, self, "phi", "dv")
 
 
-@numba.njit(cache=True)
+@njit(cache=True)
 def _cvn_row(p, k, c0, c1, c2):
     """Row ``k`` of ``C_vn = C_v^b0^T C_n^b`` (``C_v^b0`` row by row in ``p[2:11]``, C_n^b's
     rows ``c0, c1, c2``) as a 3-tuple."""
@@ -473,7 +485,7 @@ def _cvn_row(p, k, c0, c1, c2):
             a0 * c0[2] + a1 * c1[2] + a2 * c2[2])
 
 
-@numba.njit(cache=True)
+@njit(cache=True)
 def _nhc_row(z, H, r, i, cv, v, vb_row, p0, o_dv, o_phi, o_mount, with_mount):
     """Row ``i`` of the NHC: ``C_vn``'s row ``cv``, ``[v_b x]``'s row ``vb_row``."""
     z[i] = cv[0] * v[0] + cv[1] * v[1] + cv[2] * v[2]

@@ -11,16 +11,16 @@ from __future__ import annotations
 
 import math
 
-import numba
 import numpy as np
 
+from .._jit import njit
 from ..core import _kernels as K
 
 __all__ = ["dcm_of_q", "dcm_columns", "compensated_row", "euler_ypr", "wrap_pi", "correct_nav",
            "corrected_sins"]
 
 
-@numba.njit(cache=True)
+@njit(cache=True)
 def dcm_of_q(q):
     """``C_b^n`` (3, 3) of a unit quaternion ``q_nb`` (array of 4): its columns are the body
     axes in n, ``C[:, j] = q (x) e_j (x) q*`` (:func:`inmotion.core._kernels.qrotate`)."""
@@ -33,7 +33,7 @@ def dcm_of_q(q):
     return C
 
 
-@numba.njit(cache=True)
+@njit(cache=True)
 def dcm_columns(x):
     """The columns of ``C_b^n`` of the kernel state ``x``'s attitude as three 3-tuples (the
     body axes in n; :func:`dcm_of_q`'s values, with no array allocated). ``C_n^b``'s rows
@@ -43,7 +43,7 @@ def dcm_columns(x):
             K.qrotate(qt, (0.0, 0.0, 1.0)))
 
 
-@numba.njit(cache=True)
+@njit(cache=True)
 def compensated_row(dtheta, dvel, k, dt, bias_g, bias_a):
     """IMU row ``k`` less the accumulated gyro drift and accelerometer bias estimates over its
     interval ``dt`` [s]: ``(dtheta_k - eps dt, dvel_k - nabla dt)`` as two 3-tuples."""
@@ -54,7 +54,7 @@ def compensated_row(dtheta, dvel, k, dt, bias_g, bias_a):
     return dth, dvl
 
 
-@numba.njit(cache=True)
+@njit(cache=True)
 def euler_ypr(C):
     """``[yaw, pitch, roll]`` [rad] of ``C_b^n`` in the DESIGN convention (``yaw =
     atan2(C12, C22)``, ``pitch = asin(C32)``, ``roll = atan2(-C31, C33)``), in the row order
@@ -63,12 +63,12 @@ def euler_ypr(C):
                      math.atan2(-C[2, 0], C[2, 2])])
 
 
-@numba.njit(cache=True)
+@njit(cache=True)
 def wrap_pi(a):
     return (a + math.pi) % (2.0 * math.pi) - math.pi
 
 
-@numba.njit(cache=True)
+@njit(cache=True)
 def correct_nav(x, mem, phi, dv, dp, with_velocity):
     """Closed-loop feedback into a kernel nav state, as ``Strapdown.correct`` does.
 
@@ -89,7 +89,7 @@ def correct_nav(x, mem, phi, dv, dp, with_velocity):
     mem[K.M_H_OLD] -= dp[2]
 
 
-@numba.njit(cache=True)
+@njit(cache=True)
 def corrected_sins(out, xs, x, offs):
     """``out`` = the SINS state ``xs`` corrected by the estimate ``x`` not yet fed back (the
     open-loop output; a plain copy when the nav errors are zero, as right after feedback):

@@ -110,15 +110,13 @@ import tempfile
 from collections import namedtuple
 from pathlib import Path
 
-import numba
 import numpy as np
-from llvmlite import ir as llvm_ir
-from numba import types
-from numba.core import errors as nb_errors
-from numba.extending import intrinsic
 
-__all__ = ["PredictWorkspace", "make_workspace", "predict_sparse", "kernel_source", "borrowed",
-           "predict_kernel_call"]
+from .. import _aot
+from .._jit import intrinsic, njit
+
+__all__ = ["PredictWorkspace", "make_workspace", "predict_sparse", "kernel_source", "kernel_key",
+           "borrowed", "predict_kernel_call"]
 
 #: bump when the generated code changes meaning (the source's hash keys the cache anyway)
 _GENERATOR = "predict-kernel 3"
@@ -368,8 +366,14 @@ def _write_source(src: str, key: str) -> Path:
     raise OSError("no writable directory for the predict kernels; set INMOTION_KERNEL_DIR")
 
 
+def kernel_key(src: str) -> str:
+    """The key of a kernel source (its file name, and the ahead-of-time extension's index:
+    :mod:`inmotion._aot`)."""
+    return hashlib.sha256(src.encode()).hexdigest()[:24]
+
+
 def _kernel(src: str):
-    key = hashlib.sha256(src.encode()).hexdigest()[:24]
+    key = kernel_key(src)
     fn = _KERNELS.get(key)
     if fn is None:
         path = _write_source(src, key)
@@ -413,17 +417,22 @@ def make_workspace(F_pattern, Qc_pattern=None) -> PredictWorkspace:
     act = np.flatnonzero(rows).astype(np.int64)
     inact = np.flatnonzero(~rows).astype(np.int64)
     na = len(act)
-    fn = _kernel(kernel_source(Fm, Qm))
+    src = kernel_source(Fm, Qm)
+    addr = _aot.kernel_address(kernel_key(src))      # compiled ahead of time (no numba)
+    if addr is None:
+        addr = _kernel(src).address
     nap = _pad(na)
     buf = np.zeros(n * nap + na * nap + nap + na * _pad(n))
-    return PredictWorkspace(act, inact, buf[:n * nap].reshape(n, nap), buf, int(fn.address),
-                            Fm, Qm)
+    return PredictWorkspace(act, inact, buf[:n * nap].reshape(n, nap), buf, int(addr), Fm, Qm)
 
 
 # ------------------------------------------------------------------ the call
 @intrinsic
 def _call_kernel(typingctx, addr, x, P, F, Qc, dt, buf):
     """Call the kernel at ``addr`` with the arrays' data pointers (C-contiguous float64)."""
+    from llvmlite import ir as llvm_ir
+    from numba import types
+    from numba.core import errors as nb_errors
     for a, nd in ((x, 1), (P, 2), (F, 2), (Qc, 2), (buf, 1)):
         if not (isinstance(a, types.Array) and a.dtype == types.float64 and a.ndim == nd
                 and a.layout == "C"):
@@ -453,6 +462,7 @@ def _call_kernel(typingctx, addr, x, P, F, Qc, dt, buf):
 def _borrow_value(context, builder, ty, val):
     """``val`` of type ``ty`` with every array in it (also inside tuples) made a borrowed
     view (NULL meminfo); other members are passed on with a reference of their own."""
+    from numba import types
     from numba.np.arrayobj import populate_array
     if isinstance(ty, types.Array):
         src = context.make_array(ty)(context, builder, val)
@@ -486,6 +496,8 @@ def borrowed(typingctx, arr):
     fields, alive for the call) bound at its top; never returned to Python or stored past
     the call.
     """
+    from numba import types
+    from numba.core import errors as nb_errors
     if not isinstance(arr, (types.Array, types.BaseTuple)):
         raise nb_errors.TypingError(f"borrowed: expected an array or a tuple, got {arr}")
 
@@ -495,7 +507,7 @@ def borrowed(typingctx, arr):
     return arr(arr), codegen
 
 
-@numba.njit(cache=True, inline="always")
+@njit(cache=True, inline="always")
 def predict_kernel_call(addr, x, P, F, Qc, dt, buf):
     """The kernel at ``addr`` (a :class:`PredictWorkspace`'s ``kernel``) on ``x``, ``P``, ``F``,
     ``Qc`` and the workspace's ``buf``, with no size check: the caller has checked once that
@@ -504,7 +516,7 @@ def predict_kernel_call(addr, x, P, F, Qc, dt, buf):
     _call_kernel(addr, x, P, F, Qc, dt, buf)
 
 
-@numba.njit(cache=True, inline="always")
+@njit(cache=True, inline="always")
 def predict_sparse(x, P, F, Qc, dt, ws):
     """In place, ``x <- Phi x``, ``P <- Phi P Phi^T + dt/2 (Phi Qc Phi^T + Qc)``, symmetric.
 

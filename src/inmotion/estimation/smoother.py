@@ -39,9 +39,9 @@ import os
 import tempfile
 import weakref
 
-import numba
 import numpy as np
 
+from .._jit import njit
 from ..core import _kernels as K
 from .layout import DP, DV, PHI
 from .nav_ops import correct_nav
@@ -59,7 +59,7 @@ RECORD_FIELDS = ("t", "phi", "p_pred", "x", "p", "fb", "fed", "xs", "epoch")
 MEMORY_BUDGET_BYTES = 1e8
 
 
-@numba.njit(cache=True)
+@njit(cache=True)
 def _pinv_times(Pp, B):
     """``Pp^+ B`` for the symmetric positive semi-definite ``Pp``: eigenvalues below
     :data:`PINV_RCOND` of the largest dropped. By ``eigh`` (LAPACK ``dsyevd``); where that
@@ -90,7 +90,7 @@ def _pinv_times(Pp, B):
     return Vt.T @ UtB
 
 
-@numba.njit(cache=True)
+@njit(cache=True)
 def rts_backward(x, P, Phi, P_pred, fb, xs_out, Ps_out):
     """The backward pass of the module docstring over epochs ``0 .. N-1``.
 
@@ -286,7 +286,7 @@ def _remove_files(files: dict, tmp):
             pass
 
 
-@numba.njit(cache=True)
+@njit(cache=True)
 def _smoothed_nav(xs, x, o_phi, o_dv, o_dp, out):
     """Each forward (corrected) state ``xs[k]`` with the smoothed error ``x[k]`` applied as
     feedback would apply it (:func:`inmotion.estimation.nav_ops.correct_nav`)."""
