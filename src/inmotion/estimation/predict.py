@@ -268,12 +268,17 @@ def kernel_source(F_pattern, Qc_pattern) -> str:
          "    hdt2 = 0.5 * dt * dt"]
     q = [(int(i), int(j)) for i, j in zip(*np.nonzero(Qm))]
     qadd = [f"    P[{i * n + j}] += hdt * Qc[{i * n + j}]" for i, j in q]
+    L.append("    # Pt = P + dt/2 Qc")
+    L.extend(qadd)
     if na:
         S = sorted(set().union(*[set(cols) for _, cols in rows]))
-        L.append("    # F's entries, Phi_a = I_a + dt F_a + dt^2/2 F_aa F_a over its pattern")
+        L.append("    # F's entries")
         for i in act:
             for c in np.flatnonzero(Fm[i]):
                 L.append(f"    f{i}_{c} = F[{i * n + c}]")
+        L.append("    # per active row: its entries of Phi_a = I_a + dt F_a + dt^2/2 F_aa F_a (over")
+        L.append("    # its pattern, into the buffer's Phi_a^T), then its row of A = Phi_a Pt along")
+        L.append("    # whole 4-wide vectors")
         for a, (i, cols) in enumerate(rows):
             for c, (lin, prods) in cols.items():
                 parts = ["1.0"] if c == i else []
@@ -284,6 +289,9 @@ def kernel_source(F_pattern, Qc_pattern) -> str:
                                  + ")")
                 L.append(f"    p{a}_{c} = {_sum(parts)}")
                 L.append(f"    W[{c * nap + a}] = p{a}_{c}")
+            L.append(f"    for k in range({kt}):")
+            L.append(f"        W[{aoff + a * npad} + k] = "
+                     + _sum([f"p{a}_{c} * P[{c * n} + k]" for c in cols]))
         L.append("    # x <- Phi x (4-wide over the active rows, in loops over their own columns)")
         for c in S:
             L.append(f"    x{c} = x[{c}]")
@@ -293,14 +301,6 @@ def kernel_source(F_pattern, Qc_pattern) -> str:
                      + _zsum(lambda c: f"x{c} * W[{c * nap} + b]", S, _cols_of(rows, lo, hi)))
         for a, (i, _) in enumerate(rows):
             L.append(f"    x[{i}] = W[{xoff + a}]")
-    L.append("    # Pt = P + dt/2 Qc")
-    L.extend(qadd)
-    if na:
-        L.append("    # A = Phi_a Pt, row by row along whole 4-wide vectors, into the buffer")
-        for a, (i, cols) in enumerate(rows):
-            L.append(f"    for k in range({kt}):")
-            L.append(f"        W[{aoff + a * npad} + k] = "
-                     + _sum([f"p{a}_{c} * P[{c * n} + k]" for c in cols]))
         L.append("    # R = A Phi_a^T, R[a, b] for b >= a rounded down to a multiple of 4, in loops")
         L.append("    # over b, each over the columns of its rows of Phi_a only")
         for a, (i, _) in enumerate(rows):
