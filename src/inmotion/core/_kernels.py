@@ -284,7 +284,7 @@ def store_increments(mem, dth, dv, dt):
 
 
 # ---------------------------------------------------------------- one SINS step
-@numba.njit(cache=True)
+@numba.njit(cache=True, inline="always")
 def sins_step(x, mem, dth, dv, dt, h_ref, k_h, k_v):
     """Advance the nav state ``x`` over one interval of length ``dt`` [s].
 
