@@ -21,6 +21,18 @@ random-constant states (``eps, nabla, mount, lever``) have zero rows, i.e. ident
   formed row by row into a buffer whose rows are ``n`` rounded up to a multiple of 4 (each
   row a sum of ``Phi_a[a, c] Pt[c, :]`` over whole 4-wide vectors, no scalar remainder; the
   padding columns read past the end of ``Pt``'s row and are never used);
+  each row of ``Phi_a`` is formed right before its row of ``A`` (``Pt`` first): formed all
+  at once, its ~115 entries (the engine workload's) were all live until the ``A`` pass and
+  the compiled kernel spilled most of them to the stack (perf, issue 13: forming ``Phi_a``
+  was 27 % of the kernel's samples, the ``A`` pass 36 %, ``R`` 22 %, the write of ``P'``
+  17 %). The same sums in the same order: bit-identical (5 layouts, 30 chained steps from
+  20 random ``P``); side by side, min of 7 batches of 20,000 calls, load ~5: the engine
+  workload's kernel 0.626 -> 0.564 us a call, with a Gauss-Markov bias (na = 15) 1.08 ->
+  0.90, ``sins-dr``'s 1.37 -> 1.39 and ``dr-kf``'s 1.59 -> 1.65 (about even). Tried and not
+  kept: two or three rows of ``A`` per loop (``sins-dr`` 1.38 -> 1.24-1.27 us but the engine
+  workload 0.56 -> 0.61-0.68); ``F``'s entries read where used instead of bound once (not
+  bit-identical: LLVM fuses other products into FMAs); each row of ``P'`` read into locals
+  before its stores (0.56 -> 0.59);
 * ``P' = (Phi Pt) Phi^T``: between two active indices ``R = A Phi_a^T`` (its upper triangle,
   mirrored: ``P`` symmetric by construction; each row of ``R`` in loops over ``b``, 4-wide,
   split where the columns of ``Phi_a``'s rows change, each loop summing over its own rows'
