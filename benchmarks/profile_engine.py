@@ -33,7 +33,11 @@ stack frame was 2 KB), the ``A`` pass 36 %, ``R`` 22 %, the scalar stores of ``P
   NULL-meminfo reference-count calls for their arrays): 0.453, 0.448, 0.458 -> 0.423, 0.425,
   0.421 s (load ~5);
 * together, the hour about -12 %; results bit-identical (the hour's filter state and
-  ``sins-dr``'s hour, plain and smoothed, ``np.array_equal``).
+  ``sins-dr``'s hour, plain and smoothed, ``np.array_equal``). ``bench_engine.py --repeat 2
+  --no-cli``, before and after alternating at load 1.8-2.9: equal workload 0.479, 0.530 ->
+  0.418, 0.418 s per hour; ``sins-dr`` at 100 Hz 0.889, 0.929 -> 0.891, 0.891 s (even).
+  ``python -m inmotion.warmup`` from empty caches: 102 -> 105 s CPU (load ~3; the inlined
+  code is compiled into each caller).
 
 Tried, not kept: ``attitude_update`` inlined too (0.414, 0.433 -> 0.416, 0.424: noise);
 two or three rows of ``A`` per loop in the kernel (engine workload 0.56 -> 0.61-0.68 us;
