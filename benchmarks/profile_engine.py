@@ -15,6 +15,37 @@ Times, each the minimum over ``--repeat`` runs of this process's CPU time
     OPENBLAS_NUM_THREADS=1 python benchmarks/profile_engine.py [--repeat 5]
 
 The machine may be shared: the load average is printed before and after.
+
+Issue 13, the last few percent (what each change saved; CPU time, best of 5 runs of
+``bench_engine.engine_run`` a process, the two versions run alternately; this 2-core machine
+gives ~1.8x the load-1 figures at load > 2). Where the time went: ``perf record`` of eight
+runs of the hour with a symbol map of the JIT code (``/tmp/perf-PID.map`` written from each
+compiled library's object-code symbols; numba writes none): the predict kernel 56 % of the
+compiled code's samples, the SINS step, its attitude update and libm's sin / cos / tan 20 %,
+the scalar updates 10 %, ``_fill_F`` 5 %, the rest of ``_advance`` 5 %; inside the kernel
+(samples by instruction address against its disassembly): forming ``Phi_a`` 27 % (spills: the
+stack frame was 2 KB), the ``A`` pass 36 %, ``R`` 22 %, the scalar stores of ``P'`` 17 %.
+
+* predict kernel: each row of ``Phi_a`` formed right before its row of ``A`` (no spilled
+  ``Phi_a``): (a) 0.626 -> 0.564 us a call; the hour 0.478, 0.484 -> 0.438, 0.442 s (load
+  3.5-4.7);
+* ``sins_step`` and ``_fill_F`` inlined into ``_advance`` (``inline="always"``; no call, no
+  NULL-meminfo reference-count calls for their arrays): 0.453, 0.448, 0.458 -> 0.423, 0.425,
+  0.421 s (load ~5);
+* together, the hour about -12 %; results bit-identical (the hour's filter state and
+  ``sins-dr``'s hour, plain and smoothed, ``np.array_equal``). ``bench_engine.py --repeat 2
+  --no-cli``, before and after alternating at load 1.8-2.9: equal workload 0.479, 0.530 ->
+  0.418, 0.418 s per hour; ``sins-dr`` at 100 Hz 0.889, 0.929 -> 0.891, 0.891 s (even).
+  ``python -m inmotion.warmup`` from empty caches: 102 -> 105 s CPU (load ~3; the inlined
+  code is compiled into each caller).
+
+Tried, not kept: ``attitude_update`` inlined too (0.414, 0.433 -> 0.416, 0.424: noise);
+two or three rows of ``A`` per loop in the kernel (engine workload 0.56 -> 0.61-0.68 us;
+``sins-dr``'s kernel 1.38 -> 1.24); the stores of ``P'`` after loads into locals (numba runs
+no SLP vectorizer, so straight-line copies stay scalar: no change). After them the kernel's
+samples: ``Phi_a`` and ``A`` 57 %, ``R`` 21 %, the stores of ``P'`` 20 % (~315 scalar
+stores a call: a loop of fewer than 16 trips that needs a run-time alias check is not
+vectorized, and ``P`` and the buffer are raw pointers to LLVM).
 """
 from __future__ import annotations
 

@@ -284,7 +284,9 @@ def store_increments(mem, dth, dv, dt):
 
 
 # ---------------------------------------------------------------- one SINS step
-@njit(cache=True)
+# inline="always": numba inlines it into its callers (the engine's loop calls it every IMU
+# row: no call boundary, no reference counting of x, mem there; issue 13)
+@njit(cache=True, inline="always")
 def sins_step(x, mem, dth, dv, dt, h_ref, k_h, k_v):
     """Advance the nav state ``x`` over one interval of length ``dt`` [s].
 

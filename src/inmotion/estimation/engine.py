@@ -211,9 +211,24 @@ bit-identical (the ``sins-dr`` hour's solution equal; the CLI's outputs equal by
 byte). Side by side, alternating, min of 5 (load 5.4-6.7): ``sins-dr`` 1 h at 100 Hz
 in-process 0.590, 0.624, 0.599, 0.610 -> 0.553, 0.543, 0.554, 0.496 s (-9 to -19 %); through the CLI (Parquet in, 1 Hz out, CPU time
 of the command, min of 3, load 7.4-7.8) 1.86, 1.89 -> 1.77, 1.81 s.
+Then (issue 13, the last few percent; perf with a symbol map of the JIT code, the equal
+workload's hour: the predict kernel 56 % of the compiled code's samples, the SINS step with
+its attitude update and libm's trigonometry 20 %, the scalar updates 10 %, ``_fill_F`` 5 %,
+the rest of :func:`_advance` 5 %): the predict kernel forms each row of ``Phi_a`` right before
+its row of ``Phi_a Pt`` (:mod:`~inmotion.estimation.predict`: forming all of ``Phi_a`` first
+spilled most of its entries; 0.626 -> 0.564 us a call); :func:`inmotion.core._kernels.sins_step`
+and :func:`inmotion.estimation.error_model._fill_F` are ``inline="always"`` (numba inlines
+their code into this loop: no call boundary, so none of the reference-count calls their
+array arguments cost at one). Bit-identical: the equal-workload hour's filter state and
+``sins-dr``'s 1 h solution, plain and smoothed (101 arrays, ``np.array_equal`` against the
+code before). Side by side (``engine_run`` of ``benchmarks/bench_engine.py``, best of 5 a
+process, alternating): before -> kernel 0.478, 0.484 -> 0.438, 0.442 s per hour (load
+3.5-4.7); kernel -> kernel + inlining 0.453, 0.448, 0.458 -> 0.423, 0.425, 0.421 (load ~5);
+this machine's figures at load > 2 are ~1.8x those at load ~1 (two cores shared).
 Numba's disk cache of :func:`_advance` is keyed on this file's contents only: a change to a
-function it calls in another module (``sequential_joseph``, ``_fill_F``, the fills' helpers)
-is not seen by a cached ``_advance``, which may have that function's old code inlined; clear
+function it calls in another module (``sequential_joseph``, ``_fill_F``, ``sins_step``, the
+fills' helpers) is not seen by a cached ``_advance``, which may have that function's old code
+inlined; clear
 ``__pycache__/engine._advance*`` after such a change (a fresh install has no cache).
 """
 from __future__ import annotations

@@ -277,7 +277,8 @@ def _mad(typingctx, a, b, c):
     return sig, codegen
 
 
-@njit(cache=True)
+# inline="always": inlined into the engine's loop (every filter epoch; issue 13)
+@njit(cache=True, inline="always")
 def _fill_F(F, offs, lat, h, vel_n, C, f_n, inv_tau_dk, dr_eps, grav_grad, inv_tau_gyro=0.0,
             inv_tau_accel=0.0):
     """The F of the module docstring on the blocks whose offsets ``offs`` are >= 0.

@@ -21,6 +21,18 @@ random-constant states (``eps, nabla, mount, lever``) have zero rows, i.e. ident
   formed row by row into a buffer whose rows are ``n`` rounded up to a multiple of 4 (each
   row a sum of ``Phi_a[a, c] Pt[c, :]`` over whole 4-wide vectors, no scalar remainder; the
   padding columns read past the end of ``Pt``'s row and are never used);
+  each row of ``Phi_a`` is formed right before its row of ``A`` (``Pt`` first): formed all
+  at once, its ~115 entries (the engine workload's) were all live until the ``A`` pass and
+  the compiled kernel spilled most of them to the stack (perf, issue 13: forming ``Phi_a``
+  was 27 % of the kernel's samples, the ``A`` pass 36 %, ``R`` 22 %, the write of ``P'``
+  17 %). The same sums in the same order: bit-identical (5 layouts, 30 chained steps from
+  20 random ``P``); side by side, min of 7 batches of 20,000 calls, load ~5: the engine
+  workload's kernel 0.626 -> 0.564 us a call, with a Gauss-Markov bias (na = 15) 1.08 ->
+  0.90, ``sins-dr``'s 1.37 -> 1.39 and ``dr-kf``'s 1.59 -> 1.65 (about even). Tried and not
+  kept: two or three rows of ``A`` per loop (``sins-dr`` 1.38 -> 1.24-1.27 us but the engine
+  workload 0.56 -> 0.61-0.68); ``F``'s entries read where used instead of bound once (not
+  bit-identical: LLVM fuses other products into FMAs); each row of ``P'`` read into locals
+  before its stores (0.56 -> 0.59);
 * ``P' = (Phi Pt) Phi^T``: between two active indices ``R = A Phi_a^T`` (its upper triangle,
   mirrored: ``P`` symmetric by construction; each row of ``R`` in loops over ``b``, 4-wide,
   split where the columns of ``Phi_a``'s rows change, each loop summing over its own rows'
@@ -266,12 +278,17 @@ def kernel_source(F_pattern, Qc_pattern) -> str:
          "    hdt2 = 0.5 * dt * dt"]
     q = [(int(i), int(j)) for i, j in zip(*np.nonzero(Qm))]
     qadd = [f"    P[{i * n + j}] += hdt * Qc[{i * n + j}]" for i, j in q]
+    L.append("    # Pt = P + dt/2 Qc")
+    L.extend(qadd)
     if na:
         S = sorted(set().union(*[set(cols) for _, cols in rows]))
-        L.append("    # F's entries, Phi_a = I_a + dt F_a + dt^2/2 F_aa F_a over its pattern")
+        L.append("    # F's entries")
         for i in act:
             for c in np.flatnonzero(Fm[i]):
                 L.append(f"    f{i}_{c} = F[{i * n + c}]")
+        L.append("    # per active row: its entries of Phi_a = I_a + dt F_a + dt^2/2 F_aa F_a (over")
+        L.append("    # its pattern, into the buffer's Phi_a^T), then its row of A = Phi_a Pt along")
+        L.append("    # whole 4-wide vectors")
         for a, (i, cols) in enumerate(rows):
             for c, (lin, prods) in cols.items():
                 parts = ["1.0"] if c == i else []
@@ -282,6 +299,9 @@ def kernel_source(F_pattern, Qc_pattern) -> str:
                                  + ")")
                 L.append(f"    p{a}_{c} = {_sum(parts)}")
                 L.append(f"    W[{c * nap + a}] = p{a}_{c}")
+            L.append(f"    for k in range({kt}):")
+            L.append(f"        W[{aoff + a * npad} + k] = "
+                     + _sum([f"p{a}_{c} * P[{c * n} + k]" for c in cols]))
         L.append("    # x <- Phi x (4-wide over the active rows, in loops over their own columns)")
         for c in S:
             L.append(f"    x{c} = x[{c}]")
@@ -291,14 +311,6 @@ def kernel_source(F_pattern, Qc_pattern) -> str:
                      + _zsum(lambda c: f"x{c} * W[{c * nap} + b]", S, _cols_of(rows, lo, hi)))
         for a, (i, _) in enumerate(rows):
             L.append(f"    x[{i}] = W[{xoff + a}]")
-    L.append("    # Pt = P + dt/2 Qc")
-    L.extend(qadd)
-    if na:
-        L.append("    # A = Phi_a Pt, row by row along whole 4-wide vectors, into the buffer")
-        for a, (i, cols) in enumerate(rows):
-            L.append(f"    for k in range({kt}):")
-            L.append(f"        W[{aoff + a * npad} + k] = "
-                     + _sum([f"p{a}_{c} * P[{c * n} + k]" for c in cols]))
         L.append("    # R = A Phi_a^T, R[a, b] for b >= a rounded down to a multiple of 4, in loops")
         L.append("    # over b, each over the columns of its rows of Phi_a only")
         for a, (i, _) in enumerate(rows):
