@@ -177,6 +177,11 @@ BENCHES = {
                       "align coarse-inertial", "align usque 70 s-end, 1 Hz updates",
                       "align usque 70 s-end, 10 Hz updates, 1 s out")),
     ), "issue 13: memory flat in log length, inputs read in chunks"),
+    "bench_aot.py": Bench((), 300, (
+        Figure("sins-dr loop call, JIT (numba)", rf"jit: {_NUM} ms CPU a call", "ms"),
+        Figure("sins-dr loop call, ahead-of-time extension", rf"aot: {_NUM} ms CPU a call",
+               "ms"),
+    ), "issue 13: the ahead-of-time extension's loop against the JIT's (bit-identity printed)"),
     "bench_startup.py": Bench(("--repeat", "5"), 300, (
         Figure("CLI fixed cost (navigate sins-dr, 7 s bundle)",
                rf"CLI fixed cost \(navigate sins-dr.*: {_NUM} s wall", "s", 0.4),
