@@ -127,7 +127,9 @@ def test_adaptive_parked_stage_streams(folder, no_load):
 
 @pytest.mark.parametrize("args", [["-m", "imada-vb", "--start", "45"],
                                   ["-m", "coarse-inertial", "--output-rate", "2"],
-                                  ["-m", "parked-kf", "--init", "truth", "--end", "38"]])
+                                  ["-m", "parked-kf", "--init", "truth", "--end", "38"],
+                                  ["-m", "parked-kf", "--init", "truth", "--start", "5.005",
+                                   "--end", "38"]])
 def test_cli_align_to_the_end_in_chunks(folder, tmp_path, monkeypatch, args):
     """``inmotion align`` with no ``--end`` writes, reading the bundle in chunks, the files it
     writes reading it whole."""

@@ -1489,6 +1489,8 @@ def _feed(f, bundle, k0, sensors, meas_every, use_nhc, use_baro, progress, rec=N
         outs.append(o if drop is None else {k: v for k, v in o.items() if k not in drop})
         if progress is not None:
             progress(b / n)
+    for _ in blocks:    # none left; a reader in chunks makes its end-of-window checks (the
+        pass            # mean specific force) when asked past the last row
     res = {k: np.concatenate([o[k] for o in outs]) for k in outs[0]}
     if rec is not None:
         sm = smooth_at_outputs(rec, f, with_last=False)   # no off-grid last row here
