@@ -975,7 +975,9 @@ class _Outputs:
     summary's ``P_positive_definite``): the full covariances of a block's rows are written
     to a buffer the size of the block (:meth:`block`) and checked when it is done
     (:meth:`commit`), the same verdict as checking all rows at once (the check is row by row),
-    without holding ``n x n`` numbers per output row (13 MiB per hour at 1 Hz, 15 states)."""
+    without holding ``n x n`` numbers per output row (measured, ``align --method usque
+    --start 70 --set update_rate_hz=1`` on bench_memory's 4 h drive: 12 states, 14332 rows,
+    15.7 MiB no longer held; peak RSS 4 h / 1 h 1.150 -> 1.099)."""
 
     def __init__(self, n, layout):
         self.q_in = np.empty((n, 4))
