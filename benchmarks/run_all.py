@@ -152,7 +152,7 @@ BENCHES = {
                "s", 1.0),
         Figure("CLI start-up only (inmotion --help; the fixed cost of a run is bench_startup)", rf"CLI start-up only.*: {_NUM} s wall", "s"),
     ), "issue 13: 14x KF-GINS at equal work (KF-GINS: 3.5 s CPU per hour of 100 Hz)"),
-    "bench_memory.py": Bench(("--repeat", "2"), 1300, (
+    "bench_memory.py": Bench(("--repeat", "2"), 1500, (
         Figure("CLI sins-dr 1 h, Parquet in, 1 Hz out, peak RSS",
                rf"CLI sins-dr 1 h, .*peak RSS {_NUM} MiB", "MiB"),
         Figure("CLI sins-dr 4 h, Parquet in, 1 Hz out, peak RSS",
@@ -175,7 +175,8 @@ BENCHES = {
                  rf"peak RSS 4 h / 1 h \({re.escape(run)}\): {_NUM}", "", 1.15)
           for run in ("align imada-vb 70 s-end", "align mimada 70 s-end",
                       "align coarse-inertial", "align usque 70 s-end, 1 Hz updates",
-                      "align usque 70 s-end, 10 Hz updates, 1 s out")),
+                      "align usque 70 s-end, 10 Hz updates, 1 s out",
+                      "align od-kf (odometer+LDV)", "align fkf (odometer+LDV)")),
     ), "issue 13: memory flat in log length, inputs read in chunks"),
     "bench_aot.py": Bench((), 300, (
         Figure("sins-dr loop call, JIT (numba)", rf"jit: {_NUM} ms CPU a call", "ms"),

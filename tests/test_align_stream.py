@@ -127,7 +127,9 @@ def test_adaptive_parked_stage_streams(folder, no_load):
 
 @pytest.mark.parametrize("args", [["-m", "imada-vb", "--start", "45"],
                                   ["-m", "coarse-inertial", "--output-rate", "2"],
-                                  ["-m", "parked-kf", "--init", "truth", "--end", "38"]])
+                                  ["-m", "parked-kf", "--init", "truth", "--end", "38"],
+                                  ["-m", "parked-kf", "--init", "truth", "--start", "5.005",
+                                   "--end", "38"]])
 def test_cli_align_to_the_end_in_chunks(folder, tmp_path, monkeypatch, args):
     """``inmotion align`` with no ``--end`` writes, reading the bundle in chunks, the files it
     writes reading it whole."""
@@ -245,3 +247,37 @@ def test_usque_output_interval_is_the_thinned_every_epoch_run(folder, rate_hz, u
     # a method with an output interval of its own (imada: 1 s) keeps it
     from inmotion.align.imada import ImadaConfig
     assert apply_output_rate(ImadaConfig(), b, rate_hz, True)[0].output_interval_s == 1.0
+
+
+@pytest.mark.parametrize("bad_row", [None, 0, 1, 23, 57])
+def test_usque_covariances_checked_block_by_block(bad_row):
+    """The USQUE outputs keep of each row's covariance only its attitude block and check
+    positive definiteness block by block as the kernel writes them (``_Outputs.block`` /
+    ``commit``): the verdict of checking every row at once (:func:`usque._positive_definite`
+    of the whole stack), the attitude blocks those of the stack; one indefinite row (its
+    states 0 and 1 correlated beyond 1) anywhere, in the start row, in a block's first or
+    middle row or the last, makes it False."""
+    from inmotion.align import usque
+    layout = usque._Filter(usque.UsqueConfig(estimate_accel_bias=True)).layout
+    n, rows = layout.n, 58
+    rng = np.random.default_rng(3)
+    A = rng.normal(size=(rows, n, n))
+    units = 10.0 ** rng.uniform(-6, 2, n)                 # states of very different units
+    P = (A @ np.swapaxes(A, 1, 2) + 0.1 * np.eye(n)) * units[:, None] * units[None, :]
+    if bad_row is not None:
+        P[bad_row, 0, 1] = P[bad_row, 1, 0] = 1.5 * np.sqrt(P[bad_row, 0, 0] * P[bad_row, 1, 1])
+    expected = usque._positive_definite(P)
+    assert expected == (bad_row is None)
+    out = usque._Outputs(rows, layout)
+    out.set_P(0, P[0])
+    done = 0
+    for size in (9, 1, 30, 17):                # epochs per block, every 2nd one written
+        slot = usque._slots(done, 2 * size, 2 * (rows - 1), 2)
+        rel, buf, *_ = out.block(slot)
+        w = slot >= 0
+        buf[rel[w]] = P[slot[w]]                # what the kernel writes
+        out.commit()
+        done += 2 * size
+    assert done == 2 * (rows - 1)
+    assert out.pd == expected
+    np.testing.assert_array_equal(out.P_att, P[:, layout["dR"], layout["dR"]])

@@ -855,7 +855,7 @@ class _GyroBiasRemoved:
     are read: ``dtheta - dt b``, ``dt`` the row's interval (row 0: the median period), the
     arithmetic of the whole table's ``dtheta - outer(dt, b)``. It answers what the stages
     after the still stage ask (``imu.t`` / ``imu.dt``, :meth:`imu_rows_after`,
-    :meth:`load_window`, :meth:`window`, the sensors, ``meta``); its ``imu`` has no
+    :meth:`imu_rows_in_window`, :meth:`load_window`, :meth:`window`, the sensors, ``meta``); its ``imu`` has no
     ``dtheta`` (a raw read would miss the correction)."""
 
     def __init__(self, bundle, bias):
@@ -878,7 +878,18 @@ class _GyroBiasRemoved:
         return dtheta - np.outer(np.diff(t, prepend=t_prev), self._bias)
 
     def imu_rows_after(self, t0: float, min_rows: int = 2):
-        n, period, pieces, k0 = self._b.imu_rows_after(t0, min_rows)
+        return self._fixed_rows(self._b.imu_rows_after(t0, min_rows))
+
+    def imu_rows_in_window(self, t0: float, min_rows: int = 2):
+        """:meth:`imu_rows_after` reading only the window's rows where the bundle can
+        (:meth:`inmotion.io.bundle_stream.BundleStream.imu_rows_in_window`), corrected: a
+        method that asks for it (``aided_kf._feed``) must not reach the uncorrected rows
+        through ``__getattr__``."""
+        rows = getattr(self._b, "imu_rows_in_window", self._b.imu_rows_after)
+        return self._fixed_rows(rows(t0, min_rows))
+
+    def _fixed_rows(self, answer):
+        n, period, pieces, k0 = answer
 
         def fixed():
             t_prev = None

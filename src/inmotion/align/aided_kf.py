@@ -1425,7 +1425,16 @@ def _feed(f, bundle, k0, sensors, meas_every, use_nhc, use_baro, progress, rec=N
     :func:`_smooth_bank` smooths needs its ``t`` and ``mode`` only); with ``rec`` the forward
     rows of the outputs the smoothed ones replace are not kept either, so each output is
     held once."""
-    n, _, pieces, first = bundle.imu_rows_after(f.t)    # whole, or read in chunks
+    # the rows after the filter's start: a bundle in memory gives them whole; one read in
+    # chunks reads only its window's rows, a chunk at a time as they are fed
+    # (BundleStream.imu_rows_in_window: rows outside the window neither read nor checked, as
+    # load_window reads a window)
+    t_after = bundle.imu.t[k0:]
+    rows_after = getattr(bundle, "imu_rows_in_window", bundle.imu_rows_after)
+    n, _, pieces, _ = rows_after(f.t)
+    if n != len(t_after):
+        raise RuntimeError(f"the filter takes {n} IMU rows from row {k0}, not "
+                           f"{len(t_after)}")
     replaced = ("x_sins", "sigma", "states", "cov_phi")
     drop = None if rec is None else set(replaced)
     if keep is not None:
@@ -1433,8 +1442,6 @@ def _feed(f, bundle, k0, sensors, meas_every, use_nhc, use_baro, progress, rec=N
     # each sensor resampled chunk by chunk, its distance carried (linear time; a long table
     # read in chunks, io.bundle_stream.SpeedStream)
     resample = {s_: speed_resampler(getattr(bundle, s_), what=s_) for s_ in sensors}
-    if first != k0:
-        raise RuntimeError(f"the filter starts at IMU row {first}, not {k0}")
     step = f.step
     chunk = max(1, CHUNK_ROWS // step) * step
     blocks = regroup(pieces, chunk)
@@ -1442,8 +1449,9 @@ def _feed(f, bundle, k0, sensors, meas_every, use_nhc, use_baro, progress, rec=N
     if accept is not None:        # the sample rows of the whole run (epochs end every step)
         ep = np.arange(1, -(-n // step) + 1)
         s_rows = np.minimum(ep[ep % meas_every == 0] * step, n) - 1
-        t_s = bundle.imu.t[k0:][s_rows]     # the sample times (not the whole column kept)
+        t_s = t_after[s_rows]               # the sample times (not the whole column kept)
         s_ok = {k: np.r_[fn(t_s), True] for k, fn in accept.items()}
+    del t_after         # (a view of the time column: not held while the rows are read)
     for a in range(0, n, chunk):
         b = min(a + chunk, n)
         tc, dth, dvl = next(blocks)[:3]
@@ -1481,6 +1489,8 @@ def _feed(f, bundle, k0, sensors, meas_every, use_nhc, use_baro, progress, rec=N
         outs.append(o if drop is None else {k: v for k, v in o.items() if k not in drop})
         if progress is not None:
             progress(b / n)
+    for _ in blocks:    # none left; a reader in chunks makes its end-of-window checks (the
+        pass            # mean specific force) when asked past the last row
     res = {k: np.concatenate([o[k] for o in outs]) for k in outs[0]}
     if rec is not None:
         sm = smooth_at_outputs(rec, f, with_last=False)   # no off-grid last row here

@@ -172,6 +172,7 @@ def run_parked_kf(bundle: Bundle, config: ParkedKfConfig | dict | None = None,
     if k1 - k0 < 2:
         raise BadInput(f"no IMU rows after the start t={init.t:.6g} s", file="imu")
     t = t_all[k0:k1]
+    n_after, to_the_end = len(t_all) - k0, k1 == len(t_all)
     dt_imu = imu.dt
     del t_all
     lay = ENGINE_LAYOUT
@@ -187,11 +188,13 @@ def run_parked_kf(bundle: Bundle, config: ParkedKfConfig | dict | None = None,
     f.add_measurement("zero_velocity", t_meas)
     outs = [f.output_now()]
     chunk = step * max(1, 16384 // step)
-    # the rows streamed (a bundle read in chunks reads them as they are fed), regrouped into
-    # the chunks the filter always took, up to the end row
-    _, _, pieces, first = bundle.imu_rows_after(init.t)
-    if first != k0:
-        raise RuntimeError(f"parked-kf starts at IMU row {first}, not {k0}")
+    # the rows streamed (a bundle read in chunks reads them as they are fed, only its
+    # window's: BundleStream.imu_rows_in_window), regrouped into the chunks the filter always
+    # took, up to the end row
+    rows_after = getattr(bundle, "imu_rows_in_window", bundle.imu_rows_after)
+    n, _, pieces, _ = rows_after(init.t)
+    if n != n_after:
+        raise RuntimeError(f"parked-kf takes {n} IMU rows from row {k0}, not {n_after}")
     blocks = regroup(_first_rows(pieces, len(t)), chunk)
     for a in range(0, len(t), chunk):
         b = min(a + chunk, len(t))
@@ -199,6 +202,9 @@ def run_parked_kf(bundle: Bundle, config: ParkedKfConfig | dict | None = None,
         outs.append(f.add_imu(tc, dth, dvl, flush=b == len(t)))
         if progress is not None:
             progress(b / len(t))
+    if to_the_end:      # none left; a reader in chunks makes its end-of-window checks (the
+        for _ in pieces:    # mean specific force) when asked past the last row
+            pass
     if f.epochs % out_every:                    # the last epoch is written even off the grid
         outs.append(f.output_now())
     rows = {k: np.concatenate([o[k] for o in outs]) for k in outs[0]}

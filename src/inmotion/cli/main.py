@@ -185,10 +185,13 @@ def _progress(ctx, desc: str):
 #: ``--start`` / ``--end`` window in memory, only that window's rows read (``run_method``).
 #: The coarse alignments integrate their vectors block by block
 #: (:func:`inmotion.align.attitude_determination.prepare`), the USQUE filters take their rows
-#: block by block (``usque.run``; ``vectors: obs_vectors`` loads its window)
+#: block by block (``usque.run``; ``vectors: obs_vectors`` loads its window), the paper 003
+#: fine filters (``od-kf``, ``ldv-kf``, ``nhc-kf``, ``fkf``) feed the engine chunk by chunk
+#: (``aided_kf._feed``: only the window's rows, ``BundleStream.imu_rows_in_window``)
 STREAMED = ("sins", "dr", "sins-dr", "dr-kf", "od-velocity-kf", "fine-mux", "adaptive",
             "coarse-inertial", "imada-vb", "imada-vn", "imada-dual", "mimada", "mimada-dual",
-            "oba", "parked-kf", "usque", "ausque", "usque-hinf", "ausquhe")
+            "oba", "parked-kf", "usque", "ausque", "usque-hinf", "ausquhe", "od-kf", "ldv-kf",
+            "nhc-kf", "fkf")
 
 
 def _read_bundle(ctx, path, allow_imu_gaps=False, chunked=False, **kw):
