@@ -56,6 +56,9 @@ _DRIVE = {
                 "baro": {"rate_hz": 10.0, "noise_m": 0.5}}}
 #: the methods whose run path is compiled ahead of time
 METHODS = ("sins", "sins-dr")
+#: the runs recorded: each method with its defaults, and sins-dr's other mode (its
+#: measurement groups differ, so its filter is another case: paper 002 eq. 52)
+RUNS = (("sins",), ("sins-dr",), ("sins-dr", "--set", "mode=velocity-position"))
 
 
 def _fn_name(f) -> str:
@@ -64,8 +67,8 @@ def _fn_name(f) -> str:
     return f"{py.__module__}.{py.__qualname__}"
 
 
-def _record(methods=METHODS):
-    """Run ``navigate --method M`` for each of ``methods`` on :data:`_DRIVE` with the JIT
+def _record(runs=RUNS):
+    """Run ``navigate --method M [OPTIONS]`` for each of ``runs`` on :data:`_DRIVE` with the JIT
     path and record the filters and the numba functions called through
     :func:`inmotion._aot.call`: ``(cases, calls)``, ``cases`` a list of dicts (filter, its
     first ``_advance`` call's arguments before and after), ``calls`` ``{name: (function,
@@ -99,14 +102,16 @@ def _record(methods=METHODS):
             b = Path(tmp) / "b"
             write_bundle(simulate(load_scenario(_DRIVE), np.random.default_rng(0)), b,
                          fmt="parquet")
-            for m in methods:            # the command line's own code path, as a run takes it
+            for i, (m, *opts) in enumerate(runs):   # the command line's own code path
                 try:
                     with contextlib.redirect_stdout(io.StringIO()):
-                        cli.cli.main(args=["-q", "navigate", str(b), "--method", m, "-o",
-                                           str(Path(tmp) / m)], prog_name="inmotion")
+                        cli.cli.main(args=["-q", "navigate", str(b), "--method", m, *opts,
+                                           "-o", str(Path(tmp) / f"run{i}")],
+                                     prog_name="inmotion")
                 except SystemExit as e:
                     if e.code:
-                        raise RuntimeError(f"navigate --method {m} failed ({e.code})") from e
+                        raise RuntimeError(f"navigate --method {m} {' '.join(opts)} failed "
+                                           f"({e.code})") from e
     finally:
         E.ErrorStateFilter._call_advance, _aot.call = orig_call, orig_common
     return cases, calls
