@@ -23,9 +23,10 @@ from inmotion.core.solution import NavState
 from inmotion.errors import BadInput
 from inmotion.io import bundle_stream
 from inmotion.io.bundle import read_bundle, write_bundle
-from inmotion.io.bundle_stream import BundleStream, SpeedStream, open_bundle
+from inmotion.io.bundle_stream import SpeedStream, open_bundle
 from inmotion.sim import simulate
 from inmotion.sim.scenario import load_scenario
+from stream_checks import assert_same_solution, refuse_window_loads
 
 #: a short drive (~2 min) with turns and a stop, an odometer at 10 Hz and an LDV at 100 Hz
 #: giving distance (its table longer than a chunk: it stays on disk), a barometer
@@ -67,20 +68,9 @@ def no_load(monkeypatch):
     """Engine chunks of 300 rows, and a bundle read in chunks that refuses to load a window."""
     monkeypatch.setattr(ak, "CHUNK_ROWS", 300)
 
-    def refuse(self, *a, **k):
-        raise AssertionError("the window was loaded into memory")
-    monkeypatch.setattr(BundleStream, "load_window", refuse)
+    refuse_window_loads(monkeypatch)
 
 
-def _same(a, b):
-    for k in ("t", "lat", "lon", "h", "vel_n", "euler"):
-        np.testing.assert_array_equal(getattr(a, k), getattr(b, k), err_msg=k)
-    assert a.sigma.keys() == b.sigma.keys() and a.states.keys() == b.states.keys()
-    for d1, d2 in ((a.sigma, b.sigma), (a.states, b.states)):
-        for k in d1:
-            np.testing.assert_array_equal(d1[k], d2[k], err_msg=k)
-    keys = [k for k in a.info if k not in ("wall_time_s", "timing_s", "timing")]
-    assert {k: a.info[k] for k in keys} == {k: b.info.get(k) for k in keys}
 
 
 #: method -> (run, configuration): each of the four, the fkf bank and a single filter with
@@ -108,7 +98,7 @@ def test_fine_filter_in_chunks_equals_whole(folder, no_load, case, window):
     assert n == len(stream.imu.t) and n > 5000
     init = NavState.from_truth(whole.truth, window[0])
     a, b = run(whole, cfg, init), run(stream, cfg, init)
-    _same(a, b)
+    assert_same_solution(a, b)
     # the filter ran to the window's end (its outputs every output_interval_s = 1 s)
     assert whole.imu.t[-1] - 1.0 < a.t[-1] <= whole.imu.t[-1]
 
@@ -131,7 +121,7 @@ def test_only_the_window_is_read_and_checked(folder, tmp_path):
     ref_bundle = read_bundle(folder)
     init = NavState.from_truth(ref_bundle.truth, 20.0)
     ok = ak.run_fkf(stream.window(20.0, 85.0), {}, init)
-    _same(ok, ak.run_fkf(ref_bundle.window(20.0, 85.0), {}, init))
+    assert_same_solution(ok, ak.run_fkf(ref_bundle.window(20.0, 85.0), {}, init))
     with pytest.raises(BadInput) as e:
         ak.run_fkf(stream.window(20.0, 95.0), {}, init)
     with pytest.raises(BadInput) as e_whole:

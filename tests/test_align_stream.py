@@ -23,9 +23,10 @@ from inmotion.cli.main import cli
 from inmotion.core.solution import NavState
 from inmotion.io import bundle_stream
 from inmotion.io.bundle import read_bundle, write_bundle
-from inmotion.io.bundle_stream import BundleStream, open_bundle
+from inmotion.io.bundle_stream import open_bundle
 from inmotion.sim import simulate
 from inmotion.sim.scenario import load_scenario
+from stream_checks import assert_same_solution, refuse_window_loads
 
 #: parked 40 s (the adaptive strategy's parked stage), then a drive with a turn (~100 s)
 DRIVE = {
@@ -55,20 +56,9 @@ def no_load(monkeypatch):
     """Small kernel blocks, and a bundle read in chunks that refuses to load a window."""
     monkeypatch.setattr(ov, "BLOCK_ROWS", 10)
 
-    def refuse(self, *a, **k):
-        raise AssertionError("the window was loaded into memory")
-    monkeypatch.setattr(BundleStream, "load_window", refuse)
+    refuse_window_loads(monkeypatch)
 
 
-def _same(a, b, skip=()):
-    for k in ("t", "lat", "lon", "h", "vel_n", "euler"):
-        np.testing.assert_array_equal(getattr(a, k), getattr(b, k), err_msg=k)
-    assert a.sigma.keys() == b.sigma.keys() and a.states.keys() == b.states.keys()
-    for d1, d2 in ((a.sigma, b.sigma), (a.states, b.states)):
-        for k in d1:
-            np.testing.assert_array_equal(d1[k], d2[k], err_msg=k)
-    keys = [k for k in a.info if k not in ("wall_time_s", "timing_s", *skip)]
-    assert {k: a.info[k] for k in keys} == {k: b.info.get(k) for k in keys}
 
 
 #: method -> (run, config, window): windows of an odd and an even number of rows (the last
@@ -100,7 +90,7 @@ def test_batch_alignment_in_chunks_equals_whole(folder, no_load, case):
     n = len(whole.imu.t)
     assert n == len(stream.imu.t) and n > 1000
     a, b = run(whole, cfg), run(stream, cfg)
-    _same(a, b)
+    assert_same_solution(a, b)
     # and every row of the window was integrated: the last epoch is the window's last row
     assert a.t[-1] == whole.imu.t[-1] and a.info["quality"]["n_vector_pairs"] == n // 2
 
@@ -122,7 +112,7 @@ def test_adaptive_parked_stage_streams(folder, no_load):
     init = NavState.from_truth(whole.truth)
     a, b = run_adaptive(whole, cfg, init), run_adaptive(stream, cfg, init)
     assert a.info["strategy"].startswith("1:") and a.info["switch_time_s"] is not None
-    _same(a, b)
+    assert_same_solution(a, b)
 
 
 @pytest.mark.parametrize("args", [["-m", "imada-vb", "--start", "45"],
@@ -168,7 +158,7 @@ def test_window_rows_only_are_read_and_checked(folder, tmp_path, method):
     stream = open_bundle(bad, chunk_rows=500)
     ok = run(stream.window(45.0, 85.0), Cfg())
     ref = run(read_bundle(folder).window(45.0, 85.0), Cfg())
-    _same(ok, ref)
+    assert_same_solution(ok, ref)
     with pytest.raises(BadInput) as e:
         run(stream.window(45.0, 95.0), Cfg())
     with pytest.raises(BadInput) as e_whole:
@@ -196,7 +186,7 @@ def test_usque_in_chunks_equals_whole(folder, no_load, small_usque_blocks, metho
     window = (45.0, 100.0)
     whole = read_bundle(folder).window(*window)
     stream = open_bundle(folder, chunk_rows=37).window(*window)
-    _same(run(whole, Cfg(**cfg)), run(stream, Cfg(**cfg)))
+    assert_same_solution(run(whole, Cfg(**cfg)), run(stream, Cfg(**cfg)))
 
 
 @pytest.mark.parametrize("stride_hz, interval, vectors",
@@ -243,7 +233,7 @@ def test_usque_output_interval_is_the_thinned_every_epoch_run(folder, rate_hz, u
     assert cfg.output_interval_s == (1.0 / rate_hz if update_hz == 100.0 else None)
     some, every = usque.run(b, cfg), usque.run(b, base)
     assert len(some.t) < len(every.t) / 40 or update_hz != 100.0
-    _same(thin(some, thin_rate), thin(every, rate_hz), skip=("config",))
+    assert_same_solution(thin(some, thin_rate), thin(every, rate_hz), skip=("config",))
     # a method with an output interval of its own (imada: 1 s) keeps it
     from inmotion.align.imada import ImadaConfig
     assert apply_output_rate(ImadaConfig(), b, rate_hz, True)[0].output_interval_s == 1.0
