@@ -71,8 +71,6 @@ def no_load(monkeypatch):
     refuse_window_loads(monkeypatch)
 
 
-
-
 #: method -> (run, configuration): each of the four, the fkf bank and a single filter with
 #: its NHC fallback smoothed (the central filter fed a second time), zero-velocity updates
 CASES = {

@@ -59,8 +59,6 @@ def no_load(monkeypatch):
     refuse_window_loads(monkeypatch)
 
 
-
-
 #: method -> (run, config, window): windows of an odd and an even number of rows (the last
 #: interval one row or two), the radar's speed samples and the odometer's distance increments
 CASES = {

@@ -354,22 +354,28 @@ def _nav_increments(q_n0n, w_ie, w_in, g_n, vn_a, vn_b, T):
     return kn.qrotate(q_n0n, gi), kn.qrotate(q_n0n, inc)
 
 
-#: the kernel's state carried from block to block (:func:`integrate_vector_blocks`), by name
-S_T0 = 0                      #: t0 [s]
-S_POS = slice(1, 11)          #: the kernels' x layout: lat, lon, h, v (unused), q (unused)
-S_VN = slice(11, 14)
-S_QB = slice(14, 18)
-S_QN = slice(18, 22)
-S_IF, S_IG, S_IWVN, S_IWVB = slice(22, 25), slice(25, 28), slice(28, 31), slice(31, 34)
-S_AF, S_BF, S_SA, S_SB = slice(34, 37), slice(37, 40), slice(40, 43), slice(43, 46)
-S_W = 46
-S_ALPHA, S_BETA = slice(47, 50), slice(50, 53)        #: the last pair (before the low-pass)
+#: the kernel's state carried from block to block (:func:`integrate_vector_blocks`): where
+#: each quantity starts in it (3-vectors unless said)
+O_T0 = 0                      #: t0 [s], one value
+O_POS = 1                     #: 10 values, the kernels' x layout: lat, lon, h, v (unused), q (unused)
+O_VN = 11
+O_QB = 14                     #: q_b0b, 4 values
+O_QN = 18                     #: q_n0n, 4 values
+O_IF, O_IG, O_IWVN, O_IWVB = 22, 25, 28, 31
+O_AF, O_BF, O_SA, O_SB = 34, 37, 40, 43
+O_W = 46                      #: one value
+O_ALPHA, O_BETA = 47, 50      #: the last pair (before the low-pass)
 N_STATE = 53
 
 
 @numba.njit(cache=True)
 def _v3(st, i):
     return (st[i], st[i + 1], st[i + 2])
+
+
+@numba.njit(cache=True)
+def _v4(st, i):
+    return (st[i], st[i + 1], st[i + 2], st[i + 3])
 
 
 @numba.njit(cache=True)
@@ -386,11 +392,11 @@ def _start(t0, speed0, lat0, lon0, h0, C_hat, st, K):
     vb0 = (0.0, speed0, 0.0)
     vn = _matvec(C_hat, vb0)                       # v^n(t0) = C_hat v^b(0)
     st[:] = 0.0
-    st[0] = t0
-    st[1:11] = pos
-    _put(st, 11, vn)
-    _put(st, 14, (1.0, 0.0, 0.0, 0.0))
-    _put(st, 18, (1.0, 0.0, 0.0, 0.0))
+    st[O_T0] = t0
+    st[O_POS:O_POS + 10] = pos
+    _put(st, O_VN, vn)
+    _put(st, O_QB, (1.0, 0.0, 0.0, 0.0))
+    _put(st, O_QN, (1.0, 0.0, 0.0, 0.0))
     out = np.zeros((1, N_OUT))
     zero = (0.0, 0.0, 0.0)
     _record(out, 0, t0, pos, vn, (1.0, 0.0, 0.0, 0.0), (1.0, 0.0, 0.0, 0.0), K, zero, zero,
@@ -402,9 +408,8 @@ def _start(t0, speed0, lat0, lon0, h0, C_hat, st, K):
 def _record_last(t, K, st):
     """The output row of the state ``st`` (the last interval's, at its end ``t``)."""
     out = np.zeros((1, N_OUT))
-    _record(out, 0, t, st[1:11], _v3(st, 11), (st[14], st[15], st[16], st[17]),
-            (st[18], st[19], st[20], st[21]), K, _v3(st, 40), _v3(st, 43), st[46],
-            _v3(st, 47), _v3(st, 50))
+    _record(out, 0, t, st[O_POS:O_POS + 10], _v3(st, O_VN), _v4(st, O_QB), _v4(st, O_QN), K,
+            _v3(st, O_SA), _v3(st, O_SB), st[O_W], _v3(st, O_ALPHA), _v3(st, O_BETA))
     return out
 
 
@@ -419,19 +424,20 @@ def _integrate(t, dtheta, dvel, speed, speed0, lat0, lon0, model, nav, running, 
     n = len(t)
     n_steps = n // 2
     out = np.zeros((n_out, N_OUT))
-    t0 = st[0]
-    q_b0b = (st[14], st[15], st[16], st[17])
-    q_n0n = (st[18], st[19], st[20], st[21])
+    t0 = st[O_T0]
+    q_b0b = _v4(st, O_QB)
+    q_n0n = _v4(st, O_QN)
     # C_e^{n0}: ENU at the start, for the closed form
     sl, cl, so, co = math.sin(lat0), math.cos(lat0), math.sin(lon0), math.cos(lon0)
     C_e_n0 = np.array([[-so, co, 0.0], [-sl * co, -sl * so, cl], [cl * co, cl * so, sl]])
-    pos = st[1:11]                                 # a view: updated in place
+    pos = st[O_POS:O_POS + 10]                     # a view: updated in place
     vb0 = (0.0, speed0, 0.0)
-    vn = _v3(st, 11)
-    I_f, I_g, I_wvn, I_wvb = _v3(st, 22), _v3(st, 25), _v3(st, 28), _v3(st, 31)
-    a_f, b_f, S_a, S_b = _v3(st, 34), _v3(st, 37), _v3(st, 40), _v3(st, 43)
-    W = st[46]
-    alpha_raw, beta_raw = _v3(st, 47), _v3(st, 50)
+    vn = _v3(st, O_VN)
+    I_f, I_g = _v3(st, O_IF), _v3(st, O_IG)
+    I_wvn, I_wvb = _v3(st, O_IWVN), _v3(st, O_IWVB)
+    a_f, b_f, S_a, S_b = _v3(st, O_AF), _v3(st, O_BF), _v3(st, O_SA), _v3(st, O_SB)
+    W = st[O_W]
+    alpha_raw, beta_raw = _v3(st, O_ALPHA), _v3(st, O_BETA)
     gain = 1.0 - lowpass_a
     C_tmp = np.empty((3, 3))
     count = 0
@@ -520,20 +526,20 @@ def _integrate(t, dtheta, dvel, speed, speed0, lat0, lon0, model, nav, running, 
             _record(out, count, t[i_end], pos, vn, q_b0b, q_n0n, K, S_a, S_b, W,
                     alpha_raw, beta_raw)
             count += 1
-    _put(st, 11, vn)
-    _put(st, 14, q_b0b)
-    _put(st, 18, q_n0n)
-    _put(st, 22, I_f)
-    _put(st, 25, I_g)
-    _put(st, 28, I_wvn)
-    _put(st, 31, I_wvb)
-    _put(st, 34, a_f)
-    _put(st, 37, b_f)
-    _put(st, 40, S_a)
-    _put(st, 43, S_b)
-    _put(st, 47, alpha_raw)
-    _put(st, 50, beta_raw)
-    st[46] = W
+    _put(st, O_VN, vn)
+    _put(st, O_QB, q_b0b)
+    _put(st, O_QN, q_n0n)
+    _put(st, O_IF, I_f)
+    _put(st, O_IG, I_g)
+    _put(st, O_IWVN, I_wvn)
+    _put(st, O_IWVB, I_wvb)
+    _put(st, O_AF, a_f)
+    _put(st, O_BF, b_f)
+    _put(st, O_SA, S_a)
+    _put(st, O_SB, S_b)
+    _put(st, O_ALPHA, alpha_raw)
+    _put(st, O_BETA, beta_raw)
+    st[O_W] = W
     return out, count
 
 
