@@ -327,3 +327,87 @@ def test_wrap_pi_shortcut_is_rotations_wrap_pi():
     for x in (rng.normal(0, 1e-4, 100000), rng.uniform(-np.pi, np.pi, 100000),
               rng.uniform(-20, 20, 100000), np.array([-np.pi, np.pi, 0.0, -0.0, 1e-300])):
         np.testing.assert_array_equal(bundle_stream._wrap_pi(x), wrap_pi(x))
+
+
+# ------------------------------------------------------------------ the IMU reader thread
+
+def test_read_ahead_gives_the_items_in_order_from_another_thread_bounded():
+    """read_ahead yields what the iterator yields, in order, produced in a reader thread
+    never more than ``depth`` items (plus the one being read) ahead of the consumer, and the
+    thread has ended when the items have (a live thread would cost the command line its fast
+    exit)."""
+    import threading
+    import time
+    produced, threads = [], set()
+
+    def gen():
+        for i in range(20):
+            threads.add(threading.get_ident())
+            produced.append(i)
+            yield i
+
+    r = bundle_stream.read_ahead(gen(), depth=2)
+    got, ahead = [], []
+    for x in r:
+        got.append(x)
+        time.sleep(0.002)                      # the reader fills the queue meanwhile
+        ahead.append(len(produced) - len(got))
+    assert got == list(range(20))
+    assert threads and threading.get_ident() not in threads
+    assert max(ahead) <= 3 and max(ahead) >= 1       # depth 2 queued + 1 being produced
+    assert r._thread is not None and not r._thread.is_alive()
+    assert list(r) == []                       # exhausted stays exhausted
+
+
+def test_read_ahead_raises_the_readers_exception_at_its_place():
+    """Items before the failure arrive first; then the consumer gets the reader's exception
+    itself (the same BadInput: message, file, row, time), and the thread has ended."""
+    def gen():
+        yield 1
+        yield 2
+        raise BadInput("column 'dvel_x': value inf is not a finite number", file="imu.parquet",
+                       row=2500, time=24.99)
+
+    r = bundle_stream.read_ahead(gen())
+    assert next(r) == 1 and next(r) == 2
+    with pytest.raises(BadInput) as e:
+        next(r)
+    assert (e.value.what, e.value.row, e.value.time) == (
+        "column 'dvel_x': value inf is not a finite number", 2500, 24.99)
+    assert str(e.value) == str(BadInput("column 'dvel_x': value inf is not a finite number",
+                                        file="imu.parquet", row=2500, time=24.99))
+    assert not r._thread.is_alive()
+
+
+def test_read_ahead_close_stops_the_reader_and_closes_its_iterator():
+    closed = []
+
+    def gen():
+        try:
+            for i in range(10 ** 6):
+                yield i
+        finally:
+            closed.append(True)
+
+    r = bundle_stream.read_ahead(gen(), depth=1)
+    assert next(r) == 0
+    r.close()
+    assert not r._thread.is_alive() and closed == [True]
+    with pytest.raises(StopIteration):
+        next(r)
+    bundle_stream.read_ahead(gen()).close()     # never started: nothing to stop
+
+
+def test_sins_dr_stopped_early_leaves_no_reader_thread(folder):
+    """A run that ends before its rows do (``select`` says stop) or fails in the filter's
+    thread stops the reader: no thread is left behind."""
+    import threading
+    s = open_bundle(folder, chunk_rows=500)
+    before = threading.active_count()
+    run_sins_dr(s, {"output_rate_hz": 1.0}, NavState.from_truth(s.truth),
+                select=lambda t, sig: (np.ones(len(t), bool), True))
+    assert threading.active_count() == before
+    with pytest.raises(BadInput):
+        run_sins_dr(s, {"output_rate_hz": 1.0}, NavState.from_truth(s.truth),
+                    progress=lambda f: (_ for _ in ()).throw(BadInput("stop here")))
+    assert threading.active_count() == before

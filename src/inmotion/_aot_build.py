@@ -305,7 +305,7 @@ def build(out_dir=None, verbose: bool = False) -> Path:
     man["common"]["first_not_increasing"] = [1]
     exec(compile("".join(code), "<inmotion aot wrappers>", "exec"), g)
 
-    with tempfile.TemporaryDirectory(prefix="inmotion-aot-build-") as tmp:
+    with tempfile.TemporaryDirectory(prefix="inmotion-aot-build-") as tmp, _releasing_gil():
         cc = CC(name)
         cc.target_cpu = "host"            # as numba's JIT: the CPU's FMA, AVX
         cc.output_dir = tmp
@@ -319,6 +319,29 @@ def build(out_dir=None, verbose: bool = False) -> Path:
             built = next(Path(tmp).glob(f"{name}*.so"))
         _check(built, name, cases, man)
         return _install(built, man, name, out_dir)
+
+
+@contextlib.contextmanager
+def _releasing_gil():
+    """While the extension is compiled, its exported functions release the GIL on entry and
+    take it back on return, as ``@njit(nogil=True)`` functions do (``numba.pycc`` has no
+    option for it: its compiler's ``Flags`` are given ``release_gil``). They are nopython
+    code on the arrays they are passed, touching no Python object. The command line reads
+    the next IMU rows in a reader thread (:func:`inmotion.io.bundle_stream.read_ahead`)
+    while the engine's loop runs: with the GIL held that thread could not run meanwhile."""
+    from numba.pycc import compiler as pycc_compiler
+    base = pycc_compiler.Flags
+
+    class Flags(base):
+        def __init__(self, *args, **kwargs):
+            super().__init__(*args, **kwargs)
+            self.release_gil = True
+
+    pycc_compiler.Flags = Flags
+    try:
+        yield
+    finally:
+        pycc_compiler.Flags = base
 
 
 def _check(path: Path, name: str, cases, man):

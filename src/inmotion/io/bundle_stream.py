@@ -39,6 +39,8 @@ their input (``sins-dr``, ``dr-kf``, ``od-velocity-kf``) take their rows from
 """
 from __future__ import annotations
 
+import queue
+import threading
 from collections import namedtuple
 from pathlib import Path
 from typing import Optional
@@ -55,6 +57,103 @@ __all__ = ["open_bundle", "BundleStream", "TruthStream", "SpeedStream", "CHUNK_R
 
 #: rows per chunk read from the IMU and truth tables
 CHUNK_ROWS = 65536
+#: chunks the IMU reader thread may read ahead of the filter (:func:`read_ahead`)
+READ_AHEAD = 1
+
+
+# --------------------------------------------------------------------------- reading ahead
+
+class _ReadAhead:
+    """The items of an iterator, produced in a reader thread up to ``depth`` ahead of the
+    consumer (:func:`read_ahead`). The thread holds only the iterator, the queue and the stop
+    flag (not this object), so dropping this object stops it."""
+
+    def __init__(self, it, depth: int):
+        self._it, self._depth = it, max(1, int(depth))
+        self._q = self._stop = self._thread = None
+        self._done = False
+
+    def __iter__(self):
+        return self
+
+    def _start(self):
+        self._q = queue.Queue(maxsize=self._depth)
+        self._stop = threading.Event()
+        self._thread = threading.Thread(target=_read_ahead_run,
+                                        args=(self._it, self._q, self._stop),
+                                        name="inmotion-reader", daemon=True)
+        self._it = None
+        self._thread.start()
+
+    def __next__(self):
+        if self._done:
+            raise StopIteration
+        if self._thread is None:
+            self._start()
+        kind, item = self._q.get()
+        if kind == "item":
+            return item
+        self._done = True
+        self._thread.join()
+        if kind == "error":
+            # the reader's exception itself (a BadInput keeps its message, file, row, time)
+            raise item
+        raise StopIteration
+
+    def close(self):
+        """Stop the reader (its iterator closed in its thread) and wait for it."""
+        self._done = True
+        if self._thread is not None:
+            self._stop.set()
+            while self._thread.is_alive():        # unblock a reader waiting for room
+                try:
+                    self._q.get(timeout=0.05)
+                except queue.Empty:
+                    pass
+            self._thread.join()
+
+    def __del__(self):
+        if self._stop is not None:
+            self._stop.set()
+
+
+def _read_ahead_run(it, q, stop):
+    """The reader thread: ``("item", x)`` per item of ``it``, then ``("end", None)`` or
+    ``("error", exception)``; returns early (``it`` closed) once ``stop`` is set."""
+    def put(msg):
+        while not stop.is_set():
+            try:
+                q.put(msg, timeout=0.1)
+                return True
+            except queue.Full:
+                continue
+        return False
+
+    try:
+        for x in it:
+            if not put(("item", x)):
+                return
+        put(("end", None))
+    except BaseException as e:                    # noqa: BLE001 (raised in the consumer)
+        put(("error", e))
+    finally:
+        close = getattr(it, "close", None)
+        if close is not None:
+            close()
+
+
+def read_ahead(it, depth: int = READ_AHEAD):
+    """The items of ``it`` in order, read in a reader thread up to ``depth`` items ahead of
+    the consumer: issue 13's command-line run reads and checks the next IMU chunk (pyarrow's
+    decoding, numpy's checks) while the filter's compiled loop runs on the current one, which
+    releases the GIL (the ahead-of-time extension's functions,
+    :func:`inmotion._aot_build._releasing_gil`). Memory stays bounded: at most ``depth``
+    items queued, one being read and one being consumed. The thread starts at the first
+    item asked for; an exception in it is raised in the consumer as it was raised (a
+    :class:`BadInput` gives the same message and exit status) when its place in the
+    sequence is reached. ``close()`` (or dropping the object) stops it. ``it`` must not be
+    read from elsewhere meanwhile."""
+    return _ReadAhead(it, depth)
 
 
 # --------------------------------------------------------------------------- one table
