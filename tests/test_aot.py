@@ -41,7 +41,8 @@ try:
 except SystemExit as e:
     assert not e.code, e.code
 print("NUMBA", "numba" in sys.modules,
-      "AOT", any(m.startswith("inmotion_aot_") for m in sys.modules))
+      "AOT", any(m.startswith("inmotion_aot_") for m in sys.modules),
+      "SCIPY", "scipy" in sys.modules)
 """
 
 
@@ -76,19 +77,25 @@ def _run(args, env_extra, tmp):
                          env=env, cwd=tmp)
     assert out.returncode == 0, out.stderr[-2000:]
     w = out.stdout.rsplit("NUMBA", 1)[1].split()
-    return w[0] == "True", w[2] == "True"
+    return w[0] == "True", w[2] == "True", w[4] == "True"
 
 
-@pytest.mark.parametrize("method", ["sins-dr", "sins"])
-def test_aot_run_is_the_jit_run_without_numba(built, tmp_path, method):
+@pytest.mark.parametrize("method,opts", [
+    ("sins-dr", []), ("sins", []),
+    # the velocity rows (paper 002 eq. 52) and a Markov scale factor (F[dk, dk] = -1 / tau:
+    # the predict kernel of 16 active rows, as on paper 002's hour): also ahead of time, and
+    # no BLAS call (scipy.linalg's import) in the loop
+    ("sins-dr", ["--set", "mode=velocity-position", "--set", "noise_preset=paper"])])
+def test_aot_run_is_the_jit_run_without_numba(built, tmp_path, method, opts):
     d, b = built
     res = {}
     for label, env in (("aot", {"INMOTION_AOT_DIR": str(d)}), ("jit", {"INMOTION_AOT": "0"})):
         o = tmp_path / label
         res[label] = _run(["-q", "navigate", str(b), "--method", method, "--init", "truth",
-                           "-o", str(o)], env, tmp_path)
-    assert res["aot"] == (False, True)          # no numba imported, the extension loaded
-    assert res["jit"] == (True, False)
+                           *opts, "-o", str(o)], env, tmp_path)
+    # no numba imported, the extension loaded, nor scipy (numba's JIT imports it)
+    assert res["aot"] == (False, True, False)
+    assert res["jit"][:2] == (True, False)
     files = sorted(p.name for p in (tmp_path / "jit").iterdir())
     assert "solution.csv" in files and "errors.csv" in files
     for name in files:
@@ -119,6 +126,42 @@ def test_not_used_for_other_sources_or_types(built, monkeypatch):
     assert _aot.first_not_increasing(t) == -1 and _aot.first_not_increasing(t[::-1]) == 1
     assert _aot.first_nonfinite_row(np.array([[1.0], [np.nan]])) == 1
     assert E is not None
+
+
+def test_extension_releases_the_gil(built, monkeypatch):
+    """The extension's functions run without the GIL (the command line reads the next IMU
+    rows in a reader thread meanwhile, :func:`inmotion.io.bundle_stream.read_ahead`): a
+    Python thread keeps counting while one of them runs for a while in the main thread
+    (with the GIL held it could not take a step)."""
+    import threading
+    import time
+    d, _ = built
+    monkeypatch.setenv("INMOTION_AOT_DIR", str(d))
+    monkeypatch.setattr(_aot, "_state", {})
+    mod, _ = _aot.module()
+    t = np.arange(4e7)
+    state = {"stop": False, "n": 0}
+
+    def spin():
+        while not state["stop"]:
+            state["n"] += 1
+
+    # a long switch interval: the main thread, once it holds the GIL, is not made to hand it
+    # over before the call (measured: 0 steps with the GIL held, millions released)
+    interval = sys.getswitchinterval()
+    sys.setswitchinterval(0.2)
+    th = threading.Thread(target=spin)
+    th.start()
+    try:
+        time.sleep(0.02)
+        n0 = state["n"]
+        assert mod.first_not_increasing(t) == -1
+        steps = state["n"] - n0
+    finally:
+        state["stop"] = True
+        th.join()
+        sys.setswitchinterval(interval)
+    assert steps > 1000, steps
 
 
 def test_off_switch(monkeypatch, built):
