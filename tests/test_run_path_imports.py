@@ -158,3 +158,25 @@ def test_fast_exit_falls_back_to_a_normal_exit_when_not_safe(monkeypatch):
     with pytest.raises(SystemExit) as e:
         fast_exit(None)
     assert e.value.code == 0
+
+
+@pytest.mark.parametrize("mode", ["attitude-position", "velocity-position"])
+def test_sins_dr_ahead_of_time_imports_no_numba_no_scipy(tmp_path, mode):
+    """With the ahead-of-time extension built for these sources (``python -m inmotion.warmup``;
+    skipped otherwise: the JIT path imports numba, and numba scipy.linalg), ``navigate
+    --method sins-dr`` in either mode, with a Markov scale factor (no sensor spec in meta:
+    the 300 s default, the 16-active-row predict kernel of paper 002's hour), imports
+    neither: its predict kernel is in the extension and its loop makes no BLAS call (a
+    matrix product there imported scipy.linalg, 0.17 s of the run)."""
+    from inmotion import _aot
+    if _aot.module() is None:
+        pytest.skip("no ahead-of-time extension for these sources (python -m inmotion.warmup)")
+    bundle = tmp_path / "b"
+    write_bundle(_bundle(), bundle, fmt="parquet")
+    out = tmp_path / "out"
+    mods = _modules_after_cli(["-q", "navigate", str(bundle), "--method", "sins-dr", "--init",
+                               "meta", "--set", f"mode={mode}", "-o", str(out)])
+    assert (out / "solution.csv").is_file()
+    assert any(m.startswith("inmotion_aot_") for m in mods)
+    for heavy in ("numba", "scipy", "pandas"):
+        assert heavy not in mods, f"navigate --method sins-dr --set mode={mode} imports {heavy}"
