@@ -710,27 +710,41 @@ class TruthStream(_Times):
                                          np.minimum(j + 1, len(times) - 1)])) + w0
         w1 = w0 + len(times)
         del times, j
-        parts = []
-        prev, carry_e, carry_l, carry_s = None, np.zeros(3), 0.0, 0.0
-        for offset, tr, dh, steps in self._rows():
-            a, b = max(w0, offset), min(w1, offset + len(tr.t))
-            if a >= b:
-                continue
-            i0, i1 = a - offset, b - offset
-            tr = _take(tr, slice(i0, i1))
-            euler, carry_e = _unwrap_carry(tr.euler, None if prev is None else prev.euler[-1],
-                                           carry_e)
-            lon, carry_l = _unwrap_carry(tr.lon, None if prev is None else prev.lon[-1],
-                                         carry_l)
-            # the steps ending at the rows i0 (unless the window starts there) .. i1 - 1
-            j = (offset > 0) - 1
-            s, carry_s = _path_carry(*(x[i0 + j + (prev is None):i1 + j]
-                                       for x in (dh, *steps)), prev is None, carry_s)
-            k = keep[(keep >= a) & (keep < b)] - a
-            parts.append(Truth(tr.t[k], tr.lat[k], lon[k], tr.h[k], tr.vel_n[k], euler[k], s[k]))
-            prev = _take(tr, slice(-1, None))
+        # the chunks read, decoded and checked in a reader thread while this one unwraps and
+        # keeps the rows of the one before (read_ahead)
+        rows = read_ahead(self._rows())
+        try:
+            parts = _kept_rows(rows, keep, w0, w1)
+        finally:
+            rows.close()
         return Truth(*(np.concatenate([getattr(p, f) for p in parts])
                        for f in ("t", "lat", "lon", "h", "vel_n", "euler", "path_length_m")))
+
+
+def _kept_rows(rows, keep, w0, w1):
+    """:meth:`TruthStream.reduced`'s loop over the checked chunks ``rows`` (``(offset, Truth,
+    dh, steps)``, :meth:`TruthStream._rows`): the kept rows ``keep`` of the window rows
+    ``w0 .. w1 - 1``, unwrapped, with the path length, a :class:`Truth` per chunk."""
+    parts = []
+    prev, carry_e, carry_l, carry_s = None, np.zeros(3), 0.0, 0.0
+    for offset, tr, dh, steps in rows:
+        a, b = max(w0, offset), min(w1, offset + len(tr.t))
+        if a >= b:
+            continue
+        i0, i1 = a - offset, b - offset
+        tr = _take(tr, slice(i0, i1))
+        euler, carry_e = _unwrap_carry(tr.euler, None if prev is None else prev.euler[-1],
+                                       carry_e)
+        lon, carry_l = _unwrap_carry(tr.lon, None if prev is None else prev.lon[-1],
+                                     carry_l)
+        # the steps ending at the rows i0 (unless the window starts there) .. i1 - 1
+        j = (offset > 0) - 1
+        s, carry_s = _path_carry(*(x[i0 + j + (prev is None):i1 + j]
+                                   for x in (dh, *steps)), prev is None, carry_s)
+        k = keep[(keep >= a) & (keep < b)] - a
+        parts.append(Truth(tr.t[k], tr.lat[k], lon[k], tr.h[k], tr.vel_n[k], euler[k], s[k]))
+        prev = _take(tr, slice(-1, None))
+    return parts
 
 
 #: the truth columns :func:`inmotion.io.bundle.truth_distances` and the path length need
