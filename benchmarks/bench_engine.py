@@ -22,6 +22,34 @@ thread):
   (the fixed start-up cost).
 
     OPENBLAS_NUM_THREADS=1 .venv/bin/python benchmarks/bench_engine.py [--repeat N] [--no-cli]
+
+What the CLI hour is made of (issue 13, branch h13cli5; AMD EPYC, 2 cores shared with other
+jobs, load 2-4; ``benchmarks/bench_startup.py --parts HOUR --set mode=velocity-position --set
+filter_rate_hz=100 --set measurement_rate_hz=10 --set output_rate_hz=1``, CPU best of 3-5,
+and ``perf record`` of the command). Before (7a9a7cf): 2.04-2.16 s wall, 2.0-2.1 s CPU:
+imports 0.25 s, configuration 0.001, opening the bundle (meta, the IMU's and truth's time
+columns, radar and barometer) 0.067, initial state 0.008, **filter built 0.56** (numba
+imported to load the predict kernel: the hour's radar states a Markov scale factor,
+``F[dk, dk] = -1 / tau``, so its kernel has 16 active rows, and the extension held only the
+15-row kernel of its 7 s drive's constant scale factor), IMU rows read and checked 0.046,
+filter kernel 0.72 (with **scipy.linalg's import, 0.17 s**, at the first BLAS call of the
+loop: ``V @ C_D`` of the velocity rows' mount columns, which sins-dr, having no mount block,
+never read), truth rows for the errors 0.077, result written 0.051; in the process 1.87.
+After: the kernel recorded ahead of time too (``_aot_build.RUNS``), the product formed only
+with a mount block, the IMU's and truth's next chunks read and checked in a reader thread
+(``io.bundle_stream.read_ahead``) while the extension's loop, which now releases the GIL,
+runs: no numba, no scipy; filter built 0.006 s; in the process 1.28 s CPU, of which the
+filter kernel ~0.7 (perf: predict kernel ~0.36 s, the loop with the SINS step 0.10, sequential
+updates 0.045, DR step 0.04, attitude updates 0.025, sin/cos 0.05, DR position noise 0.012),
+imports 0.21-0.25, open 0.064, truth 0.069, result 0.053. Back to back (alternating, 8 runs
+each, load ~3.6): 7a9a7cf 2.09 s wall min, 1.48 s CPU min; h13cli5 1.13 s wall min, 1.13 s
+CPU min; outputs byte-identical (``summary.json`` but for its timing). Still above 1.0 s: the
+filter alone is ~0.7 s CPU and everything else (imports, opening, truth, writing) ~0.45 s, of
+which only reading overlaps. Why sins-dr's filter costs twice the equal workload: its F has
+16 active rows against 9 (the DR's attitude and position errors and the Markov ``dk`` have
+dynamics: paper 002's model), and the predict scales with them (``bench_predict.py``, load
+12: 1.11 us a call against 0.55 us, 0.40 s against 0.20 s an hour), plus a DR step per row
+(its attitude update, midpoint and position noise, ~0.1 s an hour); not overhead.
 """
 from __future__ import annotations
 

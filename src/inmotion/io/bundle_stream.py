@@ -57,30 +57,31 @@ __all__ = ["open_bundle", "BundleStream", "TruthStream", "SpeedStream", "CHUNK_R
 
 #: rows per chunk read from the IMU and truth tables
 CHUNK_ROWS = 65536
-#: chunks the IMU reader thread may read ahead of the filter (:func:`read_ahead`)
+#: items a reader thread may read beyond the one its consumer holds (:func:`read_ahead`)
 READ_AHEAD = 1
 
 
 # --------------------------------------------------------------------------- reading ahead
 
 class _ReadAhead:
-    """The items of an iterator, produced in a reader thread up to ``depth`` ahead of the
-    consumer (:func:`read_ahead`). The thread holds only the iterator, the queue and the stop
-    flag (not this object), so dropping this object stops it."""
+    """The items of an iterator, produced in a reader thread at most ``depth`` beyond the one
+    the consumer holds (:func:`read_ahead`). The thread holds only the iterator, the queue,
+    the slots and the stop flag (not this object), so dropping this object stops it."""
 
     def __init__(self, it, depth: int):
         self._it, self._depth = it, max(1, int(depth))
-        self._q = self._stop = self._thread = None
+        self._q = self._slots = self._stop = self._thread = None
         self._done = False
 
     def __iter__(self):
         return self
 
     def _start(self):
-        self._q = queue.Queue(maxsize=self._depth)
+        self._q = queue.SimpleQueue()                # bounded by the slots
+        self._slots = threading.Semaphore(self._depth)
         self._stop = threading.Event()
         self._thread = threading.Thread(target=_read_ahead_run,
-                                        args=(self._it, self._q, self._stop),
+                                        args=(self._it, self._q, self._slots, self._stop),
                                         name="inmotion-reader", daemon=True)
         self._it = None
         self._thread.start()
@@ -92,6 +93,8 @@ class _ReadAhead:
             self._start()
         kind, item = self._q.get()
         if kind == "item":
+            # the item before this one is done with: the reader may read the next
+            self._slots.release()
             return item
         self._done = True
         self._thread.join()
@@ -105,37 +108,33 @@ class _ReadAhead:
         self._done = True
         if self._thread is not None:
             self._stop.set()
-            while self._thread.is_alive():        # unblock a reader waiting for room
-                try:
-                    self._q.get(timeout=0.05)
-                except queue.Empty:
-                    pass
+            self._slots.release()                    # wake a reader waiting for a slot
             self._thread.join()
 
     def __del__(self):
         if self._stop is not None:
             self._stop.set()
+            self._slots.release()
 
 
-def _read_ahead_run(it, q, stop):
-    """The reader thread: ``("item", x)`` per item of ``it``, then ``("end", None)`` or
-    ``("error", exception)``; returns early (``it`` closed) once ``stop`` is set."""
-    def put(msg):
-        while not stop.is_set():
-            try:
-                q.put(msg, timeout=0.1)
-                return True
-            except queue.Full:
-                continue
-        return False
-
+def _read_ahead_run(it, q, slots, stop):
+    """The reader thread: ``("item", x)`` per item of ``it`` (each read once a slot is free),
+    then ``("end", None)`` or ``("error", exception)``; returns early (``it`` closed) once
+    ``stop`` is set."""
     try:
-        for x in it:
-            if not put(("item", x)):
+        while True:
+            slots.acquire()
+            if stop.is_set():
                 return
-        put(("end", None))
+            try:
+                x = next(it)
+            except StopIteration:
+                q.put(("end", None))
+                return
+            q.put(("item", x))
+            del x
     except BaseException as e:                    # noqa: BLE001 (raised in the consumer)
-        put(("error", e))
+        q.put(("error", e))
     finally:
         close = getattr(it, "close", None)
         if close is not None:
@@ -143,16 +142,17 @@ def _read_ahead_run(it, q, stop):
 
 
 def read_ahead(it, depth: int = READ_AHEAD):
-    """The items of ``it`` in order, read in a reader thread up to ``depth`` items ahead of
-    the consumer: issue 13's command-line run reads and checks the next IMU chunk (pyarrow's
-    decoding, numpy's checks) while the filter's compiled loop runs on the current one, which
-    releases the GIL (the ahead-of-time extension's functions,
-    :func:`inmotion._aot_build._releasing_gil`). Memory stays bounded: at most ``depth``
-    items queued, one being read and one being consumed. The thread starts at the first
-    item asked for; an exception in it is raised in the consumer as it was raised (a
-    :class:`BadInput` gives the same message and exit status) when its place in the
-    sequence is reached. ``close()`` (or dropping the object) stops it. ``it`` must not be
-    read from elsewhere meanwhile."""
+    """The items of ``it`` in order, read in a reader thread at most ``depth`` items beyond
+    the one the consumer holds: issue 13's command-line run reads and checks the next IMU
+    chunk (pyarrow's decoding, numpy's checks) while the filter's compiled loop runs on the
+    current one, which releases the GIL (the ahead-of-time extension's functions,
+    :func:`inmotion._aot_build._releasing_gil`). Memory stays bounded: ``depth`` + 1 items
+    alive (with ``depth = 1``: the one being processed and the next, read meanwhile); the
+    reader waits for the consumer to ask for the next item before it reads another. The
+    thread starts at the first item asked for; an exception in it is raised in the consumer
+    as it was raised (a :class:`BadInput` gives the same message and exit status) when its
+    place in the sequence is reached. ``close()`` (or dropping the object) stops it. ``it``
+    must not be read from elsewhere meanwhile."""
     return _ReadAhead(it, depth)
 
 
@@ -710,13 +710,7 @@ class TruthStream(_Times):
                                          np.minimum(j + 1, len(times) - 1)])) + w0
         w1 = w0 + len(times)
         del times, j
-        # the chunks read, decoded and checked in a reader thread while this one unwraps and
-        # keeps the rows of the one before (read_ahead)
-        rows = read_ahead(self._rows())
-        try:
-            parts = _kept_rows(rows, keep, w0, w1)
-        finally:
-            rows.close()
+        parts = _kept_rows(self._rows(), keep, w0, w1)
         return Truth(*(np.concatenate([getattr(p, f) for p in parts])
                        for f in ("t", "lat", "lon", "h", "vel_n", "euler", "path_length_m")))
 
