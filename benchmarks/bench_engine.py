@@ -36,7 +36,7 @@ filter kernel 0.72 (with **scipy.linalg's import, 0.17 s**, at the first BLAS ca
 loop: ``V @ C_D`` of the velocity rows' mount columns, which sins-dr, having no mount block,
 never read), truth rows for the errors 0.077, result written 0.051; in the process 1.87.
 After: the kernel recorded ahead of time too (``_aot_build.RUNS``), the product formed only
-with a mount block, the IMU's and truth's next chunks read and checked in a reader thread
+with a mount block, the IMU's next chunk read and checked in a reader thread
 (``io.bundle_stream.read_ahead``) while the extension's loop, which now releases the GIL,
 runs: no numba, no scipy; filter built 0.006 s; in the process 1.28 s CPU, of which the
 filter kernel ~0.7 (perf: predict kernel ~0.36 s, the loop with the SINS step 0.10, sequential
