@@ -65,6 +65,22 @@ numba), kernel 0.001 s, result 0.010 s, total in the process 0.344 s. The loop i
 (``benchmarks/bench_aot.py``, 16,380 rows, load ~4.4): JIT entry point 14.96 ms a call,
 extension 13.79 ms (the difference is about the JIT's unboxing of its 16 first-class
 functions, ~0.85 ms), outputs bit-identical.
+
+Branch h13cli5 (issue 13, the CLI hour): ``--parts`` on paper 002's hour showed numba
+imported after all ("filter built" 0.56-0.65 s): the hour's radar states a Markov scale
+factor, whose predict kernel (16 active rows) the extension did not hold (its recorded 7 s
+drive has a constant one: 15 rows); ``_aot_build.RUNS`` now records it (``sins-dr --set
+noise_preset=paper``). And ``mode=velocity-position`` imported scipy.linalg (0.17 s) at the
+loop's first BLAS call (a 3x3 matrix product in the velocity rows, now formed only with a
+mount block). The run path of ``sins-dr`` in either mode, with either scale-factor model,
+imports neither (``tests/test_run_path_imports.py``, ``tests/test_aot.py``). Measured here
+(alternating runs, best of 10, load 5-7, so inflated alike): the 7 s bundle with the hour's
+configuration 0.96 s -> 0.40 s wall; with the defaults ``sins-dr`` 0.38 / 0.45 s and
+``sins`` 0.37 / 0.40 s (unchanged code paths: the spread is the load's); at load 3-4 this file
+gave sins-dr 0.26 s (before) and 0.30 s (after), sins 0.29 / 0.34 s. ``sins-dr``'s own
+imports beyond ``sins``'s (its configuration's pydantic models, the engine, the
+measurements) cost 0.01-0.03 s of CPU; the 0.46 s recorded before was not reproduced at
+any load here.
 """
 from __future__ import annotations
 
