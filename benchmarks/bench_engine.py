@@ -41,9 +41,11 @@ with a mount block, the IMU's next chunk read and checked in a reader thread
 runs: no numba, no scipy; filter built 0.006 s; in the process 1.28 s CPU, of which the
 filter kernel ~0.7 (perf: predict kernel ~0.36 s, the loop with the SINS step 0.10, sequential
 updates 0.045, DR step 0.04, attitude updates 0.025, sin/cos 0.05, DR position noise 0.012),
-imports 0.21-0.25, open 0.064, truth 0.069, result 0.053. Back to back (alternating, 8 runs
-each, load ~3.6): 7a9a7cf 2.09 s wall min, 1.48 s CPU min; h13cli5 1.13 s wall min, 1.13 s
-CPU min; outputs byte-identical (``summary.json`` but for its timing). Still above 1.0 s: the
+imports 0.21-0.25, open 0.064, truth 0.069, result 0.053. Back to back (alternating, 8-10 runs
+each, three series at load 3.6-7): 7a9a7cf 1.72-2.09 s wall min, 1.48-1.70 s CPU min; h13cli5
+1.13-1.26 s wall min, 1.09-1.18 s CPU min (without the reader thread 1.18-1.34 s wall);
+outputs byte-identical (``summary.json`` but for its timing). This file, same load:
+7a9a7cf 2.42 s, h13cli5 1.97 s (best of 3). Still above 1.0 s: the
 filter alone is ~0.7 s CPU and everything else (imports, opening, truth, writing) ~0.45 s, of
 which only reading overlaps. Why sins-dr's filter costs twice the equal workload: its F has
 16 active rows against 9 (the DR's attitude and position errors and the Markov ``dk`` have
