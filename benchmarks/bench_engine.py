@@ -48,17 +48,18 @@ LAYOUT = Layout(["phi", "dv", "dp", "eps", "nabla", "mount", "dk", "lever"])
 ARCMIN = np.pi / 180 / 60
 
 
-def engine_run(bundle, init, measurements=True):
+def engine_run(bundle, init, measurements=True, phi_order=2, outputs=None):
     """The equal-workload filter over the whole hour; returns the filter. ``measurements``
     False: the same without the 10 Hz samples (mechanization and predict only, for
-    ``profile_engine.py``)."""
+    ``profile_engine.py``); ``phi_order`` the filter's (1: KF-GINS's ``Phi = I + F dt``);
+    ``outputs`` a list: each chunk's output rows (``add_imu``'s dicts) are appended to it."""
     lay = LAYOUT
     model = em.ErrorModel(lay, em.ProcessNoise(gyro_arw=1e-6, accel_vrw=1e-4))
     d = np.r_[[ARCMIN * 10] * 2, [ARCMIN * 30], [0.1] * 3, [1e-7, 1e-7, 3.0], [2e-7] * 3,
               [2e-3] * 3, [ARCMIN * 10] * 3, [1e-3], [0.05] * 3]
     f = ErrorStateFilter(init, lay, model, np.diag(d ** 2),
                          [ms.ForwardVelocity([0.05, 0.1, 0.05]), ms.Nhc(0.05)],
-                         step_rows=1, out_every=100)
+                         step_rows=1, out_every=100, phi_order=phi_order)
     imu, radar = bundle.imu, bundle.radar
     t = imu.t[1:]
     chunk = 16384
@@ -68,7 +69,10 @@ def engine_run(bundle, init, measurements=True):
         if measurements:
             f.add_measurement("sensor_velocity", tm, np.interp(tm, radar.t, radar.v))
             f.add_measurement("nhc", tm)
-        f.add_imu(t[a:b], imu.dtheta[1 + a:1 + b], imu.dvel[1 + a:1 + b], flush=b == len(t))
+        out = f.add_imu(t[a:b], imu.dtheta[1 + a:1 + b], imu.dvel[1 + a:1 + b],
+                        flush=b == len(t))
+        if outputs is not None:
+            outputs.append(out)
     return f
 
 

@@ -245,7 +245,7 @@ def build(out_dir=None, verbose: bool = False) -> Path:
             c["index"] = seen[ck]
             continue
         i = seen[ck] = c["index"] = len(seen)
-        src = PR.kernel_source(f._C.ws.F_pattern, f._C.ws.Qc_pattern)
+        src = PR.kernel_source(f._C.ws.F_pattern, f._C.ws.Qc_pattern, f._C.ws.order)
         kk = PR.kernel_key(src)
         if kk not in kernels:
             j = kernels[kk] = len(kernels)
@@ -325,7 +325,7 @@ def _check(path: Path, name: str, cases, man):
     addr = {k: int(getattr(mod, v)()) for k, v in man["kernels"].items()}
     for c in cases:
         f = c["filter"]
-        kk = PR.kernel_key(PR.kernel_source(f._C.ws.F_pattern, f._C.ws.Qc_pattern))
+        kk = PR.kernel_key(PR.kernel_source(f._C.ws.F_pattern, f._C.ws.Qc_pattern, f._C.ws.order))
         C = f._C._replace(ws=f._C.ws._replace(kernel=addr[kk]))     # the extension's kernel
         S, args = copy.deepcopy(c["before"])
         r = getattr(mod, f"advance_{c['index']}")(S, C, *args)

@@ -896,6 +896,11 @@ class ErrorStateFilter:
         (:mod:`inmotion.estimation.smoother`; one local filter only), at every epoch that
         applied samples, every output epoch and the last one, with the transition composed
         over the epochs between: :meth:`add_imu` then returns it under ``"record"``.
+    phi_order : int
+        The transition's order in ``F dt``: 2 (default) ``Phi = I + F dt + (F dt)^2 / 2``,
+        1 ``Phi = I + F dt`` (KF-GINS's discretization, a cheaper predict: module docstring
+        of :mod:`~inmotion.estimation.predict`, "First order"); the trapezoid ``Q_d`` either
+        way.
     """
 
     def __init__(self, init: NavState, layout: Layout, model: em.ErrorModel, P0,
@@ -903,7 +908,9 @@ class ErrorStateFilter:
                  out_every: int = 1, dr_mounting=None, dr_lever_arm_m=None,
                  dr_position_m2_s: float = 0.0, n_common: int | None = None,
                  max_events: int = 100000, max_nis: int = 0, record: bool = False,
-                 fuse_isolated: bool = False):
+                 fuse_isolated: bool = False, phi_order: int = 2):
+        if phi_order not in (1, 2):
+            raise ValueError(f"phi_order must be 1 or 2, got {phi_order!r}")
         for name in ("phi", "dv", "dp"):
             if name not in layout:
                 raise ValueError(f"the filter needs block {name!r} in the layout")
@@ -979,7 +986,7 @@ class ErrorStateFilter:
         q_pattern = (Qc != 0).any(axis=0)
         if with_dr:                     # the DR position random walk (dp_D's diagonal)
             q_pattern[layout["dp_D"], layout["dp_D"]] = True
-        ws = make_workspace(model.F_pattern(), q_pattern)
+        ws = make_workspace(model.F_pattern(), q_pattern, phi_order)
         self._C = _Const(
             offs=offs, offs9=offs9, Qc=Qc,
             q_dr_m2_s=float(dr_position_m2_s), inv_tau_dk=1.0 / model.noise.dk_tau,
