@@ -478,3 +478,42 @@ def test_bad_plugin_and_filter_settings_say_what_is_wrong(short_drive):
         ms.ForwardVelocity([0.1] * 3).rows(f, [1.0, 2.0])
     with pytest.raises(ValueError, match="sample times must be finite"):
         f.add_measurement("nhc", [np.nan])
+
+
+def test_first_order_phi_stays_far_within_sigma_of_the_default(traj1):
+    """``phi_order=1`` (KF-GINS's ``Phi = I + F dt``) against the default second order over
+    the whole drive, a predict every 100 Hz row: the omitted ``(F dt)^2 / 2`` is ~1e-4 of
+    ``F dt`` at 100 Hz, so positions and attitudes differ by far less than their sigma
+    (measured: below 1e-3 sigma here; on ``bench_engine.py``'s simulated hour 1 mm of
+    position, 2.5e-4 sigma, and 1.3e-7 rad of attitude, 1e-4 sigma); the test allows 1e-2
+    sigma."""
+    imu = traj1.imu
+    init = NavState.from_truth(traj1.truth, euler_error=np.radians([0.3, -0.2, 1.0]))
+    t = imu.t[1:]
+    speed = np.interp(t, traj1.radar.t, traj1.radar.v)
+    h = np.interp(t, traj1.truth.t, traj1.truth.h) + 0.5
+    out = {}
+    for order in (2, 1):
+        f = _filter(init, step_rows=1)
+        if order == 1:
+            f = ErrorStateFilter(init, LAY, f.model, f.locals[0].P0, f.measurements,
+                                 step_rows=1, out_every=5, phi_order=1)
+        out[order] = (_feed_batch(f, t, imu.dtheta[1:], imu.dvel[1:], speed, h), f)
+    (a, fa), (b, fb) = out[2], out[1]
+    assert np.array_equal(a["t"], b["t"]) and len(a["t"]) > 100
+    assert fa.counts()["nhc"]["used"] == fb.counts()["nhc"]["used"] > 100
+    R = 6378137.0
+    xa, xb, sig = a["x_sins"], b["x_sins"], a["sigma"]
+    dp = np.column_stack([(xb[:, K.LAT] - xa[:, K.LAT]) * R,
+                          (xb[:, K.LON] - xa[:, K.LON]) * R * np.cos(xa[:, K.LAT]),
+                          xb[:, K.H] - xa[:, K.H]])
+    sp = sig[:, LAY["dp"]] * np.column_stack([np.full(len(xa), R),
+                                              R * np.cos(xa[:, K.LAT]), np.ones(len(xa))])
+    assert np.max(np.abs(dp) / sp) < 1e-2, np.max(np.abs(dp) / sp, axis=0)
+    qa, qb = xa[:, K.Q0:K.Q3 + 1], xb[:, K.Q0:K.Q3 + 1]
+    dang = 2.0 * np.arccos(np.clip(np.abs(np.sum(qa * qb, axis=1)), 0.0, 1.0))
+    s_phi = np.sqrt(np.sum(sig[:, LAY["phi"]] ** 2, axis=1))
+    assert np.max(dang / s_phi) < 1e-2, np.max(dang / s_phi)
+    np.testing.assert_allclose(b["sigma"], a["sigma"], rtol=1e-2)
+    with pytest.raises(ValueError, match="phi_order must be 1 or 2"):
+        ErrorStateFilter(init, LAY, fa.model, fa.locals[0].P0, fa.measurements, phi_order=3)
