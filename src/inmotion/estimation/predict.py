@@ -20,7 +20,8 @@ random-constant states (``eps, nabla, mount, lever``) have zero rows, i.e. ident
 * ``Phi P Phi^T + dt/2 Phi Qc Phi^T = Phi Pt Phi^T``, so ``Qc``'s entries are added to ``P``
   before the products, and once more after them (the trapezoid's ``+ dt/2 Qc``);
 * ``A = Phi_a Pt`` (na x n) are the only rows of ``Phi Pt`` that differ from ``Pt``; they are
-  formed row by row into a buffer whose rows are ``n`` rounded up to a multiple of 4 (each
+  formed row by row into a buffer (on the kernel's stack: below) whose rows are ``n``
+  rounded up to a multiple of 4 (each
   row a sum of ``Phi_a[a, c] Pt[c, :]`` over whole 4-wide vectors, no scalar remainder; the
   padding columns read past the end of ``Pt``'s row and are never used);
   each row of ``Phi_a`` is formed right before its row of ``A`` (``Pt`` first): formed all
@@ -48,6 +49,19 @@ random-constant states (``eps, nabla, mount, lever``) have zero rows, i.e. ident
   0.628 us; the write of ``P'`` 0.085 -> 0.049 us of the former). The longer source costs
   15-25 % more to compile (engine workload 2.6-2.9 -> 3.2-3.3 s CPU, ``sins-dr`` 5.7-5.8
   -> 6.8-7.0 s, once per pattern, at load ~2).
+
+``A``, ``R`` and ``Phi_a x`` live in a buffer of the kernel's own, on its stack (an
+``alloca`` through a numba intrinsic defined in the generated source); only ``Phi_a^T`` is
+written to the workspace's ``buf`` (the smoother reads it). Issue 13: with every buffer behind
+the raw pointer ``W``, LLVM could not rule out that ``W`` aliases ``P`` and guarded each loop
+with a run-time overlap check and a scalar fallback copy of it; on the stack it knows they do
+not: no checks, no fallback loops (machine code 3,009 -> 2,442 instructions for the engine
+workload's kernel), and some copies into ``P'`` vectorized. The same sums in the same order:
+bit-identical (the engine hour's filter state ``np.array_equal``; ``tests/test_predict.py``).
+The kernel alone, in a loop: 0.395 -> 0.397 us a call (even); in the engine's hour, where the
+kernel shares the instruction cache with the rest of the loop (one process, the two kernels
+alternated, min of 7 runs each): 0.451 -> 0.440 s per hour at load 5.6 and 0.449 -> 0.417 s
+at load ~9 (AMD EPYC, 2 cores).
 
 :func:`make_workspace` writes this as straight-line numba code for the one pattern it is given
 (F's nonzeros and ``Phi_a``'s, ``n``, ``act`` and ``Qc``'s pattern are literals: every loop has
@@ -105,10 +119,11 @@ columns either way). The omitted ``(F dt)^2 / 2`` is ~``|F| dt / 2`` of ``F dt``
 100 Hz: on ``bench_engine.py``'s simulated hour positions differ by at most 1.0 mm (2.5e-4
 of their sigma), attitudes by 1.3e-7 rad (1.0e-4 sigma) and sigmas by 2e-4 relative; on the
 600 s drive of ``tests/test_engine.py`` 3.9 mm (9e-4 sigma) and 7e-7 rad (1.3e-4 sigma). The
-default stays second order (the other methods' results are unchanged). Kernel cost, side by
-side in one process (min of 25 batches of 4,000 calls, the minimum over 7-9 alternating
-rounds, load 2.9-4.2 on 2 cores): the engine workload's kernel 0.428 -> 0.376 us a call,
-``sins-dr``'s 0.839 -> 0.683 us.
+default stays second order (the other methods' results are unchanged). Kernel cost, second
+-> first order, side by side in one process (min of 25 batches of 4,000 calls, the minimum
+over 7-9 alternating rounds): the engine workload's kernel 0.428 -> 0.376 us a call,
+``sins-dr``'s 0.839 -> 0.683 us (load 2.9-4.2 on 2 cores, before the stack buffer above);
+with it 0.365 -> 0.324 us and 0.783 -> 0.665 us (load ~8-9).
 
 Tried for the default second order and not kept (issue 13, this AVX-512 AMD EPYC; side by
 side as above, load 2.3-3.4; all bit-identical to the kernel above):
@@ -116,10 +131,6 @@ side as above, load 2.3-3.4; all bit-identical to the kernel above):
 * padding to 8 doubles (this CPU's 512-bit vectors) instead of 4: 0.394 -> 0.427 us. LLVM
   already runs each 12-trip loop as one 512-bit iteration and one masked one (``kmovd``);
   16-wide rows only add work;
-* ``A``, ``R`` and ``Phi_a x`` in a stack buffer of the kernel's own (an ``alloca`` through a
-  numba intrinsic: LLVM then knows they do not alias ``P``, drops the run-time alias checks
-  and the scalar fallback loops, 3,009 -> 2,442 instructions of machine code, and vectorizes
-  some of the copies into ``P'``): 0.395 -> 0.397 us, no gain;
 * ``A = Pt_a + dt F_a Pt + dt^2/2 F_aa (F_a Pt)`` without ``Phi_a`` (counted, not built: 98
   products a column against ``Phi_a``'s 115, plus a pass over ``F_a Pt`` stored and read
   back, ~7 % of the ``A`` pass; ``Phi_a`` is still needed by the ``R`` pass and ``x``, so
