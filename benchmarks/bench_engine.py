@@ -13,8 +13,10 @@ thread):
   (the streaming API, as a batch run does), with the default second-order transition
   ``Phi = I + F dt + (F dt)^2 / 2``, and again with ``phi_order=1``: ``Phi = I + F dt``,
   KF-GINS's own discretization (``insPropagation`` in its ``gi_engine.cpp``: ``Phi = I + F dt``
-  and the same trapezoid ``Q_d``), i.e. exactly its workload (:mod:`inmotion.estimation.predict`, "First order": on this hour the two
-  differ by 1 mm of position, 2.5e-4 sigma, and 1.3e-7 rad of attitude, 1e-4 sigma);
+  and the same trapezoid ``Q_d``), i.e. exactly its workload (module docstring of
+  :mod:`inmotion.estimation.predict`, "First order": on this hour the two differ by 1 mm of
+  position, 2.5e-4 sigma, and 1.3e-7 rad of attitude, 1e-4 sigma). The first line is the
+  default's, the figure of issue 13's target;
 * ``sins-dr 100 Hz``: the method ``sins-dr`` (22 states, SINS and DR) with its filter at
   100 Hz and measurements at 10 Hz, in-process;
 * ``sins-dr 100 Hz smoothed``: the same with ``smooth=True`` (records at the 10 Hz update

@@ -325,7 +325,8 @@ def _check(path: Path, name: str, cases, man):
     addr = {k: int(getattr(mod, v)()) for k, v in man["kernels"].items()}
     for c in cases:
         f = c["filter"]
-        kk = PR.kernel_key(PR.kernel_source(f._C.ws.F_pattern, f._C.ws.Qc_pattern, f._C.ws.order))
+        ws = f._C.ws
+        kk = PR.kernel_key(PR.kernel_source(ws.F_pattern, ws.Qc_pattern, ws.order))
         C = f._C._replace(ws=f._C.ws._replace(kernel=addr[kk]))     # the extension's kernel
         S, args = copy.deepcopy(c["before"])
         r = getattr(mod, f"advance_{c['index']}")(S, C, *args)

@@ -608,8 +608,8 @@ def predict_sparse(x, P, F, Qc, dt, ws):
     The math of :func:`inmotion.estimation.kalman._predict_kernel` (second-order
     ``Phi = I + F dt + (F dt)^2 / 2``, or ``I + F dt`` for a workspace of ``order`` 1;
     trapezoid ``Qd``, ``P`` symmetric, its diagonal floored at 0) by the kernel generated for
-    ``ws``'s pattern (module docstring); no allocation. Also fills ``ws.PhiT`` (Phi's active rows, transposed, in its first ``na``
-    columns).
+    ``ws``'s pattern (module docstring); no allocation. Also fills ``ws.PhiT`` (Phi's active
+    rows, transposed, in its first ``na`` columns).
 
     Parameters
     ----------
