@@ -58,10 +58,11 @@ with a run-time overlap check and a scalar fallback copy of it; on the stack it 
 not: no checks, no fallback loops (machine code 3,009 -> 2,442 instructions for the engine
 workload's kernel), and some copies into ``P'`` vectorized. The same sums in the same order:
 bit-identical (the engine hour's filter state ``np.array_equal``; ``tests/test_predict.py``).
-The kernel alone, in a loop: 0.395 -> 0.397 us a call (even); in the engine's hour, where the
-kernel shares the instruction cache with the rest of the loop (one process, the two kernels
-alternated, min of 7 runs each): 0.451 -> 0.440 s per hour at load 5.6 and 0.449 -> 0.417 s
-at load ~9 (AMD EPYC, 2 cores).
+Speed: the kernel alone, in a loop, 0.395 -> 0.397 us a call (even); the engine's hour (one
+process, the two kernels alternated, min of 7-15 runs each, AMD EPYC, 2 cores at load 5.6-9)
+0.451 -> 0.440, 0.449 -> 0.417, 0.396 -> 0.379 and 0.383 -> 0.402 s per hour: even, within
+this loaded machine's noise (+-10 % between runs), at best a few per cent. Kept for the
+smaller code with no run-time checks, at no cost in results.
 
 :func:`make_workspace` writes this as straight-line numba code for the one pattern it is given
 (F's nonzeros and ``Phi_a``'s, ``n``, ``act`` and ``Qc``'s pattern are literals: every loop has
