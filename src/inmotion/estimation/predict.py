@@ -124,7 +124,10 @@ default stays second order (the other methods' results are unchanged). Kernel co
 -> first order, side by side in one process (min of 25 batches of 4,000 calls, the minimum
 over 7-9 alternating rounds): the engine workload's kernel 0.428 -> 0.376 us a call,
 ``sins-dr``'s 0.839 -> 0.683 us (load 2.9-4.2 on 2 cores, before the stack buffer above);
-with it 0.365 -> 0.324 us and 0.783 -> 0.665 us (load ~8-9).
+with it 0.365 -> 0.324 us and 0.783 -> 0.665 us (load ~8-9). The engine's hour, second ->
+first order (one process, alternated, min of 7-15 runs, load 5.6-9): 0.440 -> 0.398,
+0.417 -> 0.402, 0.379 -> 0.398, 0.402 -> 0.366 s; ``bench_engine.py`` at load ~10: 0.431 ->
+0.369, 0.440 -> 0.413 s: typically 5-10 % less, within a noise of the same size.
 
 Tried for the default second order and not kept (issue 13, this AVX-512 AMD EPYC; side by
 side as above, load 2.3-3.4; all bit-identical to the kernel above):
