@@ -518,3 +518,46 @@ def test_first_order_phi_stays_far_within_sigma_of_the_default(traj1):
     np.testing.assert_allclose(b["sigma"], a["sigma"], rtol=1e-2)
     with pytest.raises(ValueError, match="phi_order must be 1 or 2"):
         ErrorStateFilter(init, LAY, fa.model, fa.locals[0].P0, fa.measurements, phi_order=3)
+
+
+# -- a measurement that reads the filter's own estimate and covariance ---------------------
+
+@ms.fill_function
+def _fill_own_heading(xs, xd, aux, acc, data, p, offs, z, H, r):
+    """A heading fix at the filter's own estimate whose noise is the filter's own heading
+    variance, both read from the block the engine writes at the end of ``p``
+    (``ms.STATE_PARAMS``: ``[phi, dv]`` estimate, then their 6 x 6 covariance)."""
+    s = p.shape[0] - ms.STATE_PARAMS
+    z[0] = p[s + 2]
+    H[0, offs[PHI] + 2] = 1.0
+    r[0] = p[s + 6 + 6 * 2 + 2]
+    return 1
+
+
+class OwnHeading(ms.Measurement):
+    name, dof, data_size = "own_heading", 1, 0
+    wants_state = True
+    fill = staticmethod(_fill_own_heading)
+
+
+def test_a_measurement_can_read_its_filters_own_estimate_and_covariance(short_drive):
+    """Issue 15 (``Measurement.wants_state``): with its noise equal to the prior heading
+    variance ``P`` and no process noise, each update halves the heading variance (``P r / (P
+    + r)`` at ``r = P``): 1/2, 1/4, 1/8 of the start over three updates; the Python form
+    (``rows``), with no filter, sees a zero block."""
+    init, t, dth, dv, _, _ = short_drive
+    lay = Layout(["phi", "dv", "dp", "eps", "nabla"])
+    d = np.r_[[ARCMIN * 30] * 2, [ARCMIN * 60], [0.1] * 3, [1e-7, 1e-7, 3.0], [1e-9] * 3,
+              [1e-6] * 3]
+    f = ErrorStateFilter(init, lay, em.ErrorModel(lay, em.ProcessNoise()), np.diag(d ** 2),
+                         [OwnHeading()], step_rows=1)
+    p0 = d[2] ** 2
+    seen = []
+    for k in range(3):
+        f.add_measurement("own_heading", t[k])
+        f.add_imu(t[k:k + 1], dth[k:k + 1], dv[k:k + 1])
+        seen.append(f.covariance()[2, 2])
+    np.testing.assert_allclose(seen, p0 * np.array([0.5, 0.25, 0.125]), rtol=1e-6)
+    z, H, R = OwnHeading().rows((np.r_[0, 0, 0, 0, 0, 0, 1.0, 0, 0, 0], np.zeros(10),
+                                 np.zeros(10)), None, lay)
+    assert z[0] == 0.0 and R[0, 0] == 0.0 and H[0, lay["phi"].start + 2] == 1.0
