@@ -16,6 +16,16 @@ the body's axes, 50.55 with them in the sensor displacement's frame
 (the rows' exact attitude columns, ``benchmarks/heading_symmetry.py``): 59.51 under the
 detection, 139.3 with ``"fdi": false`` (per run 372.3, 77.0, 63.4, 4.6, 508.0, 30.6, 19.6,
 152.5, 153.1, 12.1: no divergence), with ``"linearization_floor": true`` 4.61.
+
+With ``'{"exact_attitude_columns": true, "second_order_length": true}'`` (the length row's
+second order under the filter's own covariance, ``aided_kf._length_second_order``, issue 15,
+helper h15nees4): 20,000 pulses/m 6.85 (per run 10.4, 0.3, 17.5, 3.3, 4.7, 0.5, 11.4, 5.8,
+8.5, 6.0), 200 pulses/m 2.98 (per run 5.0, 0.6, 0.1, 2.7, 6.7, 0.0, 0.8, 3.2, 3.5, 7.1). The
+variants measured on the way (20,000 pulses/m, exact columns): the mean and variance alone
+42.4; the floor from the filter's own heading variance alone (``E[psi^4] d^2 / 4`` on the
+along row; on the lateral and vertical rows it changes nothing) 36.3; the mean taken as
+noise (its square in the variance) 24.4, with that floor 7.13; ``b_perp`` from the
+velocity's covariance alone (the heading's share left out, wrong) 57.0, with the floor 10.7.
 """
 import json
 import sys

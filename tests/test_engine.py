@@ -478,3 +478,86 @@ def test_bad_plugin_and_filter_settings_say_what_is_wrong(short_drive):
         ms.ForwardVelocity([0.1] * 3).rows(f, [1.0, 2.0])
     with pytest.raises(ValueError, match="sample times must be finite"):
         f.add_measurement("nhc", [np.nan])
+
+
+def test_first_order_phi_stays_far_within_sigma_of_the_default(traj1):
+    """``phi_order=1`` (KF-GINS's ``Phi = I + F dt``) against the default second order over
+    the whole drive, a predict every 100 Hz row: the omitted ``(F dt)^2 / 2`` is ~1e-4 of
+    ``F dt`` at 100 Hz, so positions and attitudes differ by far less than their sigma
+    (measured here: 3.9 mm of position, 9e-4 sigma, 7e-7 rad of attitude, 1.3e-4 sigma,
+    sigmas within 3.4e-4 relative; on ``bench_engine.py``'s simulated hour 1 mm of position,
+    2.5e-4 sigma, and 1.3e-7 rad of attitude, 1e-4 sigma); the test allows 1e-2 sigma and
+    1e-2 relative."""
+    imu = traj1.imu
+    init = NavState.from_truth(traj1.truth, euler_error=np.radians([0.3, -0.2, 1.0]))
+    t = imu.t[1:]
+    speed = np.interp(t, traj1.radar.t, traj1.radar.v)
+    h = np.interp(t, traj1.truth.t, traj1.truth.h) + 0.5
+    out = {}
+    for order in (2, 1):
+        f = _filter(init, step_rows=1)
+        if order == 1:
+            f = ErrorStateFilter(init, LAY, f.model, f.locals[0].P0, f.measurements,
+                                 step_rows=1, out_every=5, phi_order=1)
+        out[order] = (_feed_batch(f, t, imu.dtheta[1:], imu.dvel[1:], speed, h), f)
+    (a, fa), (b, fb) = out[2], out[1]
+    assert np.array_equal(a["t"], b["t"]) and len(a["t"]) > 100
+    assert fa.counts()["nhc"]["used"] == fb.counts()["nhc"]["used"] > 100
+    R = 6378137.0
+    xa, xb, sig = a["x_sins"], b["x_sins"], a["sigma"]
+    dp = np.column_stack([(xb[:, K.LAT] - xa[:, K.LAT]) * R,
+                          (xb[:, K.LON] - xa[:, K.LON]) * R * np.cos(xa[:, K.LAT]),
+                          xb[:, K.H] - xa[:, K.H]])
+    sp = sig[:, LAY["dp"]] * np.column_stack([np.full(len(xa), R),
+                                              R * np.cos(xa[:, K.LAT]), np.ones(len(xa))])
+    assert np.max(np.abs(dp) / sp) < 1e-2, np.max(np.abs(dp) / sp, axis=0)
+    qa, qb = xa[:, K.Q0:K.Q3 + 1], xb[:, K.Q0:K.Q3 + 1]
+    dang = 2.0 * np.arccos(np.clip(np.abs(np.sum(qa * qb, axis=1)), 0.0, 1.0))
+    s_phi = np.sqrt(np.sum(sig[:, LAY["phi"]] ** 2, axis=1))
+    assert np.max(dang / s_phi) < 1e-2, np.max(dang / s_phi)
+    np.testing.assert_allclose(b["sigma"], a["sigma"], rtol=1e-2)
+    with pytest.raises(ValueError, match="phi_order must be 1 or 2"):
+        ErrorStateFilter(init, LAY, fa.model, fa.locals[0].P0, fa.measurements, phi_order=3)
+
+
+# -- a measurement that reads the filter's own estimate and covariance ---------------------
+
+@ms.fill_function
+def _fill_own_heading(xs, xd, aux, acc, data, p, offs, z, H, r):
+    """A heading fix at the filter's own estimate whose noise is the filter's own heading
+    variance, both read from the block the engine writes at the end of ``p``
+    (``ms.STATE_PARAMS``: ``[phi, dv]`` estimate, then their 6 x 6 covariance)."""
+    s = p.shape[0] - ms.STATE_PARAMS
+    z[0] = p[s + 2]
+    H[0, offs[PHI] + 2] = 1.0
+    r[0] = p[s + 6 + 6 * 2 + 2]
+    return 1
+
+
+class OwnHeading(ms.Measurement):
+    name, dof, data_size = "own_heading", 1, 0
+    wants_state = True
+    fill = staticmethod(_fill_own_heading)
+
+
+def test_a_measurement_can_read_its_filters_own_estimate_and_covariance(short_drive):
+    """Issue 15 (``Measurement.wants_state``): with its noise equal to the prior heading
+    variance ``P`` and no process noise, each update halves the heading variance (``P r / (P
+    + r)`` at ``r = P``): 1/2, 1/4, 1/8 of the start over three updates; the Python form
+    (``rows``), with no filter, sees a zero block."""
+    init, t, dth, dv, _, _ = short_drive
+    lay = Layout(["phi", "dv", "dp", "eps", "nabla"])
+    d = np.r_[[ARCMIN * 30] * 2, [ARCMIN * 60], [0.1] * 3, [1e-7, 1e-7, 3.0], [1e-9] * 3,
+              [1e-6] * 3]
+    f = ErrorStateFilter(init, lay, em.ErrorModel(lay, em.ProcessNoise()), np.diag(d ** 2),
+                         [OwnHeading()], step_rows=1)
+    p0 = d[2] ** 2
+    seen = []
+    for k in range(3):
+        f.add_measurement("own_heading", t[k])
+        f.add_imu(t[k:k + 1], dth[k:k + 1], dv[k:k + 1])
+        seen.append(f.covariance()[2, 2])
+    np.testing.assert_allclose(seen, p0 * np.array([0.5, 0.25, 0.125]), rtol=1e-6)
+    z, H, R = OwnHeading().rows((np.r_[0, 0, 0, 0, 0, 0, 1.0, 0, 0, 0], np.zeros(10),
+                                 np.zeros(10)), None, lay)
+    assert z[0] == 0.0 and R[0, 0] == 0.0 and H[0, lay["phi"].start + 2] == 1.0

@@ -135,3 +135,90 @@ def test_rows_are_blind_to_a_rotation_about_the_vertical(a_fwd, gamma_arcmin, k)
     if gamma_arcmin:
         assert abs(z[0]) > 1e-2
         assert np.abs(hx[False]).max() > 0.9 * psi * abs(z[0])
+
+
+def _rot(phi):
+    """``exp(-[phi x])``: the turn that takes a true vector to the SINS's, ``C_b^n`` computed
+    ``= (I - [phi x]) C_b^n`` true to first order."""
+    a = np.linalg.norm(phi)
+    if a == 0.0:
+        return np.eye(3)
+    k = phi / a
+    K_ = np.array([[0.0, -k[2], k[1]], [k[2], 0.0, -k[0]], [-k[1], k[0], 0.0]])
+    return np.eye(3) - np.sin(a) * K_ + (1.0 - np.cos(a)) * K_ @ K_
+
+
+def _second_order_rows(P6, d=7.0, T=0.5):
+    """The length fill with ``second_order_length`` on a straight interval whose SINS and
+    sensor displacements agree (``z = 0``), the filter's ``[phi, dv]`` at zero with
+    covariance ``P6``; and the same without: ``(z, r)`` of each, ``H``."""
+    dD = np.array([0.0, d, 0.0])
+    xs = np.zeros(10)
+    xs[6] = 1.0
+    acc = np.zeros(ms.ACC_SIZE)
+    acc[ms.ACC_T] = T
+    for o in (ms.ACC_D, ms.ACC_W, ms.ACC_DP):
+        acc[o:o + 3] = dD
+    m = ms.DisplacementIncrement(np.array([0.01, 4e-5, 0.02]), exact_attitude_columns=True)
+    p = np.r_[m.params(), np.zeros(6), P6.ravel()]
+    out = []
+    for second in (False, True):
+        z, H, r = np.zeros(3), np.zeros((3, SUB_LAYOUT.n)), np.zeros(3)
+        ak._length_fill(ms.DisplacementIncrement.fill, second)(
+            xs, xs, np.zeros(ms.AUX_SIZE), acc, np.zeros(1), p, SUB_LAYOUT.offsets(), z, H, r)
+        out.append((z, r, H))
+    return out
+
+
+@pytest.mark.parametrize("s_deg", [0.5, 2.0])
+def test_second_order_length_for_a_sins_turned_as_a_whole(s_deg):
+    """Issue 15 (``second_order_length``, ``aided_kf._length_second_order``): a SINS turned
+    as a whole by ``psi`` about the vertical (attitude and velocity: the true velocity is
+    ``R^T v`` of the SINS's ``v``, ``dv = (I - R^T) v``)
+    shows no residual on any row (the same displacement in b), while the first-order
+    length row predicts ``H x = d (1 - cos psi)`` (the velocity turned with the heading,
+    read along the SINS's track). Over ``psi ~ N(0, s^2)`` (Gauss-Hermite, 40 nodes) the
+    fill must move ``z`` by the mean of ``H x`` (``d s^2 / 2`` to second order) and add its
+    variance (``d^2 s^4 / 2``) plus the heading floor ``E[psi^4] d^2 / 4``; the lateral rows
+    must see nothing of that direction to first order."""
+    d, T = 7.0, 0.5
+    s = np.radians(s_deg)
+    v = np.array([0.0, d / T, 0.0])
+    J = np.r_[[0.0, 0.0, 1.0], np.cross(v, [0.0, 0.0, 1.0])]     # d x / d psi at 0
+    (z0, r0, H), (z1, r1, _) = _second_order_rows(s * s * np.outer(J, J), d, T)
+    nodes, w = np.polynomial.hermite_e.hermegauss(40)
+    w = w / w.sum()
+    hx = []
+    for psi in s * nodes:
+        phi = np.array([0.0, 0.0, psi])
+        x = np.zeros(SUB_LAYOUT.n)
+        x[SUB_LAYOUT["phi"]] = phi
+        x[SUB_LAYOUT["dv"]] = (np.eye(3) - _rot(phi).T) @ v     # v_SINS - v_true
+        hx.append(H @ x)
+    hx = np.array(hx)
+    mean, var = w @ hx[:, 1], w @ (hx[:, 1] - w @ hx[:, 1]) ** 2
+    e4 = w @ (s * nodes) ** 4
+    np.testing.assert_allclose(mean, d * (1.0 - np.exp(-s * s / 2)), rtol=1e-9)  # geometry
+    assert np.abs(w @ hx[:, 0]) < 1e-3 * mean            # the lateral row: blind
+    rel = 3.0 * s * s                                    # the expansion's next order
+    np.testing.assert_allclose(z1[1] - z0[1], mean, rtol=rel)
+    np.testing.assert_allclose(r1[1] - r0[1], var + e4 * d * d / 4, rtol=rel)
+    np.testing.assert_array_equal(z1[[0, 2]], z0[[0, 2]])
+    np.testing.assert_array_equal(r1[[0, 2]], r0[[0, 2]])
+
+
+def test_second_order_length_for_a_heading_error_alone():
+    """The heading alone off (the SINS's velocity true): the SINS's displacement is the
+    true one in length, and the lateral row sees ``psi d``, so the length row's model error
+    is 0 (``d psi^2 / 2`` of the turned track less ``|b_perp|^2 / (2 d)``, the same): the
+    fill moves ``z`` by nothing (to 1e-9 of ``d s^2 / 2``). Beyond ``LENGTH_MAX_ANGLE`` of
+    attitude sigma it adds nothing at all."""
+    s = np.radians(0.5)
+    J = np.r_[[0.0, 0.0, 1.0], [0.0, 0.0, 0.0]]
+    (z0, r0, _), (z1, r1, _) = _second_order_rows(s * s * np.outer(J, J))
+    assert abs(z1[1] - z0[1]) < 1e-9 * 7.0 * s * s / 2
+    big = np.radians(10.0)
+    assert big > ak.LENGTH_MAX_ANGLE
+    (z0, r0, _), (z1, r1, _) = _second_order_rows(big * big * np.outer(J, J))
+    np.testing.assert_array_equal(z1, z0)
+    np.testing.assert_array_equal(r1, r0)

@@ -455,3 +455,56 @@ def test_predict_kernel_call_is_predict_sparse_without_the_check():
     _predict_both(x, P, F, Qc, 0.01, ws, x2, P2)
     assert np.array_equal(x, x2) and np.array_equal(P, P2)
     assert not np.array_equal(P, P_in)                                    # it did predict
+
+
+# -- first order (KF-GINS's Phi = I + F dt) ----------------------------------------------------
+
+@pytest.mark.parametrize("name", ["sins-dr", "dr-kf", "bench 22 (lever)",
+                                  "sins15 Markov gyro bias"])
+def test_first_order_predict_equals_the_dense_first_order_predict(name):
+    """``order=1``: ``Phi = I + F dt`` (no ``F F`` term), the trapezoid ``Q_d`` with that
+    ``Phi``; against the dense formula written out here, to 1e-13 of the size of the terms
+    (the sums are in another order), and the workspace's ``Phi_a^T`` is its active rows."""
+    lay, itau, dr_eps, itau_eps = CASES[name]
+    n = lay.n
+    rng = np.random.default_rng(8)
+    Qc = _model_Qc(lay, rng)
+    _, pat = _case_F(lay, itau, dr_eps, itau_eps, _state(rng))
+    ws = make_workspace(pat, Qc, order=1)
+    assert ws.order == 1
+    na = len(ws.act)
+    for trial in range(6):
+        F, _ = _case_F(lay, itau, dr_eps, itau_eps, _state(rng))
+        if trial % 3 == 2:
+            F = np.where(pat, rng.normal(0.0, 0.3, (n, n)), 0.0)
+        P = _spd(rng, n, 1.0 if trial % 2 else 6.0)
+        x = rng.standard_normal(n)
+        for dt in DTS:
+            Phi = np.eye(n) + F * dt
+            x0 = Phi @ x
+            P0 = Phi @ P @ Phi.T + 0.5 * dt * (Phi @ Qc @ Phi.T + Qc)
+            P0 = 0.5 * (P0 + P0.T)
+            x1, P1 = x.copy(), P.copy()
+            predict_sparse(x1, P1, F, Qc, dt, ws)
+            assert np.array_equal(P1, P1.T)
+            A = np.abs(Phi)
+            size_P = A @ (np.abs(P) + dt * np.abs(Qc)) @ A.T + dt * np.abs(Qc)
+            assert np.all(np.abs(P1 - P0) <= 1e-13 * size_P)
+            assert np.all(np.abs(x1 - x0) <= 1e-13 * (A @ np.abs(x)))
+            # (the diagonal's 1 + dt F_ii may be one fused multiply-add)
+            assert np.all(np.abs(ws.PhiT[:, :na] - Phi[ws.act].T) <= 1e-15 * A[ws.act].T)
+            assert not ws.PhiT[:, na:].any()
+
+
+def test_first_order_is_its_own_kernel_and_survives_pickling():
+    lay = LAYOUTS["bench 22 (lever)"]
+    pat = em.F_pattern(lay.n, em._offsets(lay), 0.0, True)
+    q = np.eye(lay.n, dtype=bool)
+    assert kernel_source(pat, q) == kernel_source(pat, q, 2)
+    assert kernel_source(pat, q, 1) != kernel_source(pat, q, 2)
+    ws = pickle.loads(pickle.dumps(make_workspace(pat, order=1)))
+    assert ws.order == 1 and ws.kernel == make_workspace(pat, order=1).kernel
+    assert make_workspace(pat).order == 2
+    for bad in (0, 3):
+        with pytest.raises(ValueError, match="order must be 1 or 2"):
+            make_workspace(pat, order=bad)

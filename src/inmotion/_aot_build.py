@@ -247,7 +247,7 @@ def build(out_dir=None, verbose: bool = False) -> Path:
         fills = [_fn_name(x) for x in f._fill_objs]
         accs = [_fn_name(x) for x in f._acc_objs]
         ck = _aot.case_key(fills, accs, f._S, f._C)
-        src = PR.kernel_source(f._C.ws.F_pattern, f._C.ws.Qc_pattern)
+        src = PR.kernel_source(f._C.ws.F_pattern, f._C.ws.Qc_pattern, f._C.ws.order)
         kk = PR.kernel_key(src)
         if kk not in kernels:              # per run: one case may run on several kernels
             j = kernels[kk] = len(kernels)
@@ -354,7 +354,8 @@ def _check(path: Path, name: str, cases, man):
     addr = {k: int(getattr(mod, v)()) for k, v in man["kernels"].items()}
     for c in cases:
         f = c["filter"]
-        kk = PR.kernel_key(PR.kernel_source(f._C.ws.F_pattern, f._C.ws.Qc_pattern))
+        ws = f._C.ws
+        kk = PR.kernel_key(PR.kernel_source(ws.F_pattern, ws.Qc_pattern, ws.order))
         C = f._C._replace(ws=f._C.ws._replace(kernel=addr[kk]))     # the extension's kernel
         S, args = copy.deepcopy(c["before"])
         r = getattr(mod, f"advance_{c['index']}")(S, C, *args)

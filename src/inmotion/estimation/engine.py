@@ -248,7 +248,7 @@ from . import error_model as em
 from .federated import fuse_kernel
 from .kalman import sequential_joseph
 from .layout import DP, DP_D, DV, EPS, NABLA, PHI, PHI_D, Layout
-from .measurements import (ACC_SIZE, AUX_FB, AUX_SIZE, AUX_T, AUX_WIB, AUX_WNB, Measurement,
+from .measurements import (ACC_SIZE, STATE_PARAMS, AUX_FB, AUX_SIZE, AUX_T, AUX_WIB, AUX_WNB, Measurement,
                            accumulator_function, dispatcher, fill_function)
 from .nav_ops import compensated_row, correct_nav, dcm_of_q
 from .predict import borrowed, make_workspace, predict_kernel_call
@@ -280,7 +280,7 @@ _State = namedtuple("_State", "xs ms xd md X P fed_back bias_g bias_a acc ints u
 _Const = namedtuple("_Const", "offs offs9 Qc q_dr_m2_s inv_tau_dk inv_tau_b dr_eps grav_grad "
                               "with_dr step out_every fb_mask fb_states feedback_every C_bm l_b gates "
                               "params dofs local r_scale isolate return_tests primary fallback "
-                              "n_common need_nb has_acc log_nis ws record fuse_isolated")
+                              "n_common need_nb has_acc log_nis ws record fuse_isolated pstate")
 #: the output buffers of one call
 _Out = namedtuple("_Out", "t xs sigma states cov_phi mode local_x local_sig n rec_t rec_phi "
                           "rec_ppred rec_x rec_p rec_fed rec_xs rec_epoch nrec")
@@ -516,6 +516,24 @@ def _apply(S, C, fills, j, l, z, H, r, m, xw, Pw, t_now, first):
 
 
 @njit(cache=True)
+def _state_to_params(p, s, X, P, l, offs):
+    """Write the local filter ``l``'s (0 for a shared measurement) estimate of ``[phi, dv]``
+    and its 6 x 6 covariance into ``p[s:s + STATE_PARAMS]``, for a measurement whose rows
+    depend on the filter's own uncertainty (:attr:`Measurement.wants_state`: a second-order,
+    Gaussian-filter correction of a row, issue 15); ``s`` is the parameter row's last
+    :data:`~inmotion.estimation.measurements.STATE_PARAMS` values."""
+    if l < 0:
+        l = 0
+    o_a, o_v = offs[PHI], offs[DV]
+    for a in range(6):
+        ia = o_a + a if a < 3 else o_v + a - 3
+        p[s + a] = X[l, ia]
+        for b in range(6):
+            ib = o_a + b if b < 3 else o_v + b - 3
+            p[s + 6 + 6 * a + b] = P[l, ia, ib]
+
+
+@njit(cache=True)
 def _record_predict(phc, act, PhiT):
     """Compose the epoch's transition into ``phc`` (``Phi_k Phi_c``; ``Phi_k`` is the
     identity but on the predict's active rows ``act``, whose transposed rows are ``PhiT``'s
@@ -651,6 +669,7 @@ def _advance(S, C, fills, accs, t, dtheta, dvel, dt, ds, v, dth_dr, rows, qt, qj
     aux_own = aux
     aux, macc, qd, rows = borrowed(aux_own), borrowed(macc), borrowed(qd), borrowed(rows)
     isolate, log_nis, fb_mask, fb_states = C.isolate, C.log_nis, C.fb_mask, C.fb_states
+    pstate = C.pstate
     x_g, P_g, fed_back, fb_mask, fb_states = (borrowed(xg_own), borrowed(Pg_own),
                                               borrowed(fed_back), borrowed(fb_mask),
                                               borrowed(fb_states))
@@ -761,6 +780,8 @@ def _advance(S, C, fills, accs, t, dtheta, dvel, dt, ds, v, dth_dr, rows, qt, qj
                     r[a] = 0.0
                     for b in range(n):
                         H[a, b] = 0.0
+                if pstate[j] >= 0:       # the filter's own phi, dv estimate and covariance
+                    _state_to_params(params[j], pstate[j], X, P, local[j], offs)
                 m = fills[j](xs, xd, aux, macc[j], qd[qi], params[j], offs, z, H, r)
                 applied = True
                 if m > 0:
@@ -896,6 +917,11 @@ class ErrorStateFilter:
         (:mod:`inmotion.estimation.smoother`; one local filter only), at every epoch that
         applied samples, every output epoch and the last one, with the transition composed
         over the epochs between: :meth:`add_imu` then returns it under ``"record"``.
+    phi_order : int
+        The transition's order in ``F dt``: 2 (default) ``Phi = I + F dt + (F dt)^2 / 2``,
+        1 ``Phi = I + F dt`` (KF-GINS's discretization, a cheaper predict: module docstring
+        of :mod:`~inmotion.estimation.predict`, "First order"); the trapezoid ``Q_d`` either
+        way.
     """
 
     def __init__(self, init: NavState, layout: Layout, model: em.ErrorModel, P0,
@@ -903,7 +929,9 @@ class ErrorStateFilter:
                  out_every: int = 1, dr_mounting=None, dr_lever_arm_m=None,
                  dr_position_m2_s: float = 0.0, n_common: int | None = None,
                  max_events: int = 100000, max_nis: int = 0, record: bool = False,
-                 fuse_isolated: bool = False):
+                 fuse_isolated: bool = False, phi_order: int = 2):
+        if phi_order not in (1, 2):
+            raise ValueError(f"phi_order must be 1 or 2, got {phi_order!r}")
         for name in ("phi", "dv", "dp"):
             if name not in layout:
                 raise ValueError(f"the filter needs block {name!r} in the layout")
@@ -959,7 +987,8 @@ class ErrorStateFilter:
         if C_bm.shape != (3, 3) or l_b.shape != (3,):
             raise ValueError("dr_mounting must be (3, 3) and dr_lever_arm_m (3,)")
         M = MAX_MEASUREMENTS
-        n_par = max([len(m.params()) for m in measurements] + [1])
+        n_par = max([len(m.params()) + (STATE_PARAMS if getattr(m, "wants_state", False)
+                                         else 0) for m in measurements] + [1])
         params = np.zeros((M, n_par))
         for j, m in enumerate(measurements):
             p = np.asarray(m.params(), dtype=float)
@@ -979,7 +1008,7 @@ class ErrorStateFilter:
         q_pattern = (Qc != 0).any(axis=0)
         if with_dr:                     # the DR position random walk (dp_D's diagonal)
             q_pattern[layout["dp_D"], layout["dp_D"]] = True
-        ws = make_workspace(model.F_pattern(), q_pattern)
+        ws = make_workspace(model.F_pattern(), q_pattern, phi_order)
         self._C = _Const(
             offs=offs, offs9=offs9, Qc=Qc,
             q_dr_m2_s=float(dr_position_m2_s), inv_tau_dk=1.0 / model.noise.dk_tau,
@@ -1001,7 +1030,9 @@ class ErrorStateFilter:
             need_nb=bool(has_acc.any() or any(m.needs_body_rate for m in measurements)),
             has_acc=has_acc, log_nis=per_meas(lambda m: m.isolate or m.log_nis, False,
                                                 np.bool_), ws=ws, record=bool(record),
-            fuse_isolated=bool(fuse_isolated))
+            fuse_isolated=bool(fuse_isolated),
+            pstate=per_meas(lambda m: n_par - STATE_PARAMS if getattr(m, "wants_state", False)
+                            else -1, -1, np.int64))
         # the fill and accumulator functions (numba functions, compiled or loaded at first use
         # by the JIT path: _fills, _accs)
         self._fill_objs = tuple([m.fill for m in measurements]

@@ -95,6 +95,11 @@ ACC_T, ACC_DP, ACC_TH, ACC_D, ACC_W, ACC_BAD, ACC_FN = 0, 1, 4, 7, 10, 13, 14
 #: the rows' model floor per metre, and 1.0 for the displacement rows' exact attitude columns
 #: (:func:`_fill_displacement`; 0.0: the sensor's displacement, as before issue 15's finding)
 P_SIG, P_LEVER, P_FWD, P_FLOOR, P_EXACT = 0, 3, 6, 9, 10
+#: values the engine writes at the end of the parameter row of a measurement that
+#: :attr:`Measurement.wants_state`, before each fill: the fill's local filter's estimate of
+#: ``[phi, dv]`` (6), then their 6 x 6 covariance row by row (36)
+#: (:func:`inmotion.estimation.engine._state_to_params`)
+STATE_PARAMS = 42
 
 
 class Compiled:
@@ -175,6 +180,9 @@ class Measurement:
     #: keep the NIS series;  fill aux[7:10] (body rate w.r.t. n)
     log_nis = False
     needs_body_rate = False
+    #: the engine writes the local filter's ``[phi, dv]`` estimate and covariance at the end
+    #: of the parameter row before each fill (:data:`STATE_PARAMS`)
+    wants_state = False
 
     def __init__(self, *, gate: float = 0.0, name: str | None = None, local="default"):
         if not (gate >= 0.0 and math.isfinite(gate)):
@@ -217,8 +225,10 @@ class Measurement:
         z = np.zeros(self.dof)
         H = np.zeros((self.dof, layout.n))
         r = np.zeros(self.dof)
-        m = self.fill(xs, xd, aux, acc, d, np.ascontiguousarray(self.params(), dtype=float),
-                      layout.offsets(), z, H, r)
+        p = np.asarray(self.params(), dtype=float)
+        if self.wants_state:             # no filter here: a zero estimate and covariance
+            p = np.r_[p, np.zeros(STATE_PARAMS)]
+        m = self.fill(xs, xd, aux, acc, d, np.ascontiguousarray(p), layout.offsets(), z, H, r)
         return z[:m], H[:m], np.diag(r[:m])
 
     def check(self, layout: Layout):

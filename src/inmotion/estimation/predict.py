@@ -7,6 +7,8 @@ One filter epoch predicts ``x`` and ``P`` over ``dt`` with (:mod:`inmotion.estim
     x  <- Phi x
     P  <- Phi P Phi^T + dt / 2 (Phi Qc Phi^T + Qc)      (symmetric, diagonal floored at 0)
 
+(or ``Phi = I + F dt``: "First order" below).
+
 The error model's ``F`` (:func:`error_model._fill_F`) is sparse and its pattern is fixed for a
 run (:func:`error_model.F_pattern`: 58-115 nonzeros of n^2 = 361-625, all in the rows of the
 dynamic blocks ``phi, dv, dp, phi_D, dp_D`` and of the Markov states, e.g. ``dk``); the
@@ -18,7 +20,8 @@ random-constant states (``eps, nabla, mount, lever``) have zero rows, i.e. ident
 * ``Phi P Phi^T + dt/2 Phi Qc Phi^T = Phi Pt Phi^T``, so ``Qc``'s entries are added to ``P``
   before the products, and once more after them (the trapezoid's ``+ dt/2 Qc``);
 * ``A = Phi_a Pt`` (na x n) are the only rows of ``Phi Pt`` that differ from ``Pt``; they are
-  formed row by row into a buffer whose rows are ``n`` rounded up to a multiple of 4 (each
+  formed row by row into a buffer (on the kernel's stack: below) whose rows are ``n``
+  rounded up to a multiple of 4 (each
   row a sum of ``Phi_a[a, c] Pt[c, :]`` over whole 4-wide vectors, no scalar remainder; the
   padding columns read past the end of ``Pt``'s row and are never used);
   each row of ``Phi_a`` is formed right before its row of ``A`` (``Pt`` first): formed all
@@ -46,6 +49,20 @@ random-constant states (``eps, nabla, mount, lever``) have zero rows, i.e. ident
   0.628 us; the write of ``P'`` 0.085 -> 0.049 us of the former). The longer source costs
   15-25 % more to compile (engine workload 2.6-2.9 -> 3.2-3.3 s CPU, ``sins-dr`` 5.7-5.8
   -> 6.8-7.0 s, once per pattern, at load ~2).
+
+``A``, ``R`` and ``Phi_a x`` live in a buffer of the kernel's own, on its stack (an
+``alloca`` through a numba intrinsic defined in the generated source); only ``Phi_a^T`` is
+written to the workspace's ``buf`` (the smoother reads it). Issue 13: with every buffer behind
+the raw pointer ``W``, LLVM could not rule out that ``W`` aliases ``P`` and guarded each loop
+with a run-time overlap check and a scalar fallback copy of it; on the stack it knows they do
+not: no checks, no fallback loops (machine code 3,009 -> 2,442 instructions for the engine
+workload's kernel), and some copies into ``P'`` vectorized. The same sums in the same order:
+bit-identical (the engine hour's filter state ``np.array_equal``; ``tests/test_predict.py``).
+Speed: the kernel alone, in a loop, 0.395 -> 0.397 us a call (even); the engine's hour (one
+process, the two kernels alternated, min of 7-15 runs each, AMD EPYC, 2 cores at load 5.6-9)
+0.451 -> 0.440, 0.449 -> 0.417, 0.396 -> 0.379 and 0.383 -> 0.402 s per hour: even, within
+this loaded machine's noise (+-10 % between runs), at best a few per cent. Kept for the
+smaller code with no run-time checks, at no cost in results.
 
 :func:`make_workspace` writes this as straight-line numba code for the one pattern it is given
 (F's nonzeros and ``Phi_a``'s, ``n``, ``act`` and ``Qc``'s pattern are literals: every loop has
@@ -93,6 +110,37 @@ side by side, five alternating rounds of the minimum of 7 batches of 20,000 call
 dropped terms are exact zeros; :func:`_zsum` keeps the FMA rounding of a sum whose first
 term is dropped; checked on four layouts over 200 chained steps).
 
+First order (``make_workspace(..., order=1)``, the engine's ``phi_order=1``; issue 13):
+``Phi = I + F dt``, KF-GINS's own discretization (``insPropagation`` in its ``gi_engine.cpp``
+forms ``Phi = I + F dt`` and the same trapezoid ``Q_d``), so the equal-workload benchmark can
+run exactly KF-GINS's predict. ``Phi_a``'s pattern is then ``F_a``'s and the diagonal (67
+entries for the engine workload's 22 states against 115; no ``F_aa F_a`` products), and the
+``A`` pass shrinks with it; the ``R`` pass is unchanged (its loops span the union of the rows'
+columns either way). The omitted ``(F dt)^2 / 2`` is ~``|F| dt / 2`` of ``F dt``, ~1e-4 at
+100 Hz: on ``bench_engine.py``'s simulated hour positions differ by at most 1.0 mm (2.5e-4
+of their sigma), attitudes by 1.3e-7 rad (1.0e-4 sigma) and sigmas by 2e-4 relative; on the
+600 s drive of ``tests/test_engine.py`` 3.9 mm (9e-4 sigma) and 7e-7 rad (1.3e-4 sigma). The
+default stays second order (the other methods' results are unchanged). Kernel cost, second
+-> first order, side by side in one process (min of 25 batches of 4,000 calls, the minimum
+over 7-9 alternating rounds): the engine workload's kernel 0.428 -> 0.376 us a call,
+``sins-dr``'s 0.839 -> 0.683 us (load 2.9-4.2 on 2 cores, before the stack buffer above);
+with it 0.365 -> 0.324 us and 0.783 -> 0.665 us (load ~8-9). The engine's hour, second ->
+first order (one process, alternated, min of 7-15 runs, load 5.6-9): 0.440 -> 0.398,
+0.417 -> 0.402, 0.379 -> 0.398, 0.402 -> 0.366 s; ``bench_engine.py`` at load ~10: 0.431 ->
+0.369, 0.440 -> 0.413 s: typically 5-10 % less, within a noise of the same size.
+
+Tried for the default second order and not kept (issue 13, this AVX-512 AMD EPYC; side by
+side as above, load 2.3-3.4; all bit-identical to the kernel above):
+
+* padding to 8 doubles (this CPU's 512-bit vectors) instead of 4: 0.394 -> 0.427 us. LLVM
+  already runs each 12-trip loop as one 512-bit iteration and one masked one (``kmovd``);
+  16-wide rows only add work;
+* ``A = Pt_a + dt F_a Pt + dt^2/2 F_aa (F_a Pt)`` without ``Phi_a`` (counted, not built: 98
+  products a column against ``Phi_a``'s 115, plus a pass over ``F_a Pt`` stored and read
+  back, ~7 % of the ``A`` pass; ``Phi_a`` is still needed by the ``R`` pass and ``x``, so
+  its formation stays): at most ~3 % of the kernel, below this machine's noise (+-10 %
+  between rounds), and not bit-identical.
+
 Rows of ``F`` outside the pattern, and entries of ``Qc`` outside its pattern, are ignored
 (taken as zero); ``Qc``'s diagonal is always in its pattern. ``x``, ``P``, ``F``, ``Qc`` must
 be C-contiguous float64 of the workspace's ``n`` (checked on every call: the kernel reads and
@@ -131,17 +179,18 @@ __all__ = ["PredictWorkspace", "make_workspace", "predict_sparse", "kernel_sourc
            "borrowed", "predict_kernel_call"]
 
 #: bump when the generated code changes meaning (the source's hash keys the cache anyway)
-_GENERATOR = "predict-kernel 3"
+_GENERATOR = "predict-kernel 4"
 
 _Fields = namedtuple("_Fields", [
     "act",        # (na,) int64: active indices (rows where F may be nonzero), ascending
     "inact",      # (n - na,) int64: the other indices (identity rows of Phi)
     "PhiT",       # (n, nap) float64: Phi's active rows, transposed, in its first na columns
                   # (written by every call; nap = na rounded up to a multiple of 4)
-    "buf",        # (n nap + na nap + nap,) float64: PhiT, R = A Phi_a^T, Phi_a x
+    "buf",        # (n nap,) float64: PhiT's data (R, Phi_a x and A are on the kernel's stack)
     "kernel",     # int: address of the compiled kernel (valid in this process)
     "F_pattern",  # (n, n) bool: the pattern the kernel was generated for
     "Qc_pattern",  # (n, n) bool: Qc's pattern (symmetric, with its diagonal)
+    "order",      # int: Phi's order in F dt (2: I + F dt + (F dt)^2 / 2, 1: I + F dt)
 ])
 
 
@@ -152,13 +201,14 @@ class PredictWorkspace(_Fields):
     __slots__ = ()
 
     def __reduce__(self):
-        return make_workspace, (self.F_pattern, self.Qc_pattern)
+        return make_workspace, (self.F_pattern, self.Qc_pattern, self.order)
 
 
 # ------------------------------------------------------------------ code generation
-def _phi_terms(Fm, act):
-    """Per active row ``i``: ``{c: (in F, [j: F[i, j] F[j, c] terms])}`` over Phi_a's pattern."""
-    actset = set(int(i) for i in act)
+def _phi_terms(Fm, act, order=2):
+    """Per active row ``i``: ``{c: (in F, [j: F[i, j] F[j, c] terms])}`` over Phi_a's pattern
+    (``order`` 1: no ``F F`` terms, Phi_a's pattern is F_a's and the diagonal)."""
+    actset = set(int(i) for i in act) if order == 2 else set()
     n = Fm.shape[0]
     rows = []
     for i in act:
@@ -240,13 +290,18 @@ def _pad(na):
     return -(-na // 4) * 4
 
 
-def kernel_source(F_pattern, Qc_pattern) -> str:
+def kernel_source(F_pattern, Qc_pattern, order=2) -> str:
     """Python source of the predict kernel specialised to ``F_pattern`` and ``Qc_pattern``
     ((n, n) bool; ``Qc_pattern`` symmetric with its diagonal): the module docstring's
     algorithm with every index a literal. The module defines ``kernel``, a ``numba.cfunc``
-    ``void(x*, P*, F*, Qc*, dt, buf*)``; ``buf`` holds ``Phi_a^T`` (n x nap), ``R``
-    (na x nap) and ``Phi_a x`` (nap), ``nap`` = na rounded up to a multiple of 4 (the pad
-    columns stay zero) so that the loops over active indices are whole 4-wide vectors."""
+    ``void(x*, P*, F*, Qc*, dt, buf*)``; ``buf`` holds ``Phi_a^T`` (n x nap), ``nap`` = na
+    rounded up to a multiple of 4 (the pad columns stay zero) so that the loops over active
+    indices are whole 4-wide vectors; ``R`` (na x nap), ``Phi_a x`` (nap) and ``A`` (na rows
+    of n rounded up to a multiple of 4) are in a buffer on the kernel's stack.
+    ``order`` 1: ``Phi = I + F dt`` (no ``F F`` terms), else the module docstring's second
+    order."""
+    if order not in (1, 2):
+        raise ValueError(f"order must be 1 or 2, got {order!r}")
     Fm = np.asarray(F_pattern, dtype=bool)
     Qm = np.asarray(Qc_pattern, dtype=bool)
     n = Fm.shape[0]
@@ -254,28 +309,45 @@ def kernel_source(F_pattern, Qc_pattern) -> str:
     inact = np.flatnonzero(~Fm.any(axis=1))
     na = len(act)
     nap = _pad(na)
-    roff = n * nap                                # R's offset in the buffer
-    xoff = roff + na * nap                        # Phi_a x's
-    rows = _phi_terms(Fm, act)
+    rows = _phi_terms(Fm, act, order)
     npad = _pad(n)                                # A's row length (whole 4-wide vectors)
-    aoff = xoff + nap                             # A = Phi_a Pt's
+    # R, Phi_a x and A = Phi_a Pt in the kernel's own stack buffer T (not the workspace's:
+    # LLVM then knows that they alias none of the arguments; module docstring)
+    roff, xoff = 0, na * nap
+    aoff = xoff + nap
+    tsize = max(aoff + na * npad, 1)
     # A's rows are formed over whole vectors: columns n..npad-1 read past the end of P's
     # row (harmless, never used) unless that would read past the end of P itself
     S_max = max((c for _, cols in rows for c in cols), default=0)
     kt = npad if S_max * n + npad <= n * n else n
+    B = "T"
     L = [f"# generated by inmotion.estimation.predict ({_GENERATOR}); do not edit",
          f"# n = {n}, active = {[int(i) for i in act]}",
+         *(["# first-order Phi = I + F dt"] if order == 1 else []),
          "import numba",
+         "from llvmlite import ir",
          "from numba import types",
+         "from numba.core import cgutils",
+         "from numba.extending import intrinsic",
          "",
          "_D = types.CPointer(types.float64)",
+         "",
+         "",
+         "@intrinsic",
+         "def _stack(typingctx):",
+         "    # a buffer of the kernel's own: LLVM knows that it aliases none of the arguments",
+         "    def codegen(context, builder, signature, args):",
+         "        return cgutils.alloca_once(builder, context.get_value_type(types.float64),",
+         f"                                   size=ir.Constant(ir.IntType(64), {tsize}))",
+         "    return _D(), codegen",
          "",
          "",
          "@numba.cfunc(types.void(_D, _D, _D, _D, types.float64, _D), cache=True,",
          "             fastmath={'contract'}, error_model='numpy')",
          "def kernel(x, P, F, Qc, dt, W):",
          "    hdt = 0.5 * dt",
-         "    hdt2 = 0.5 * dt * dt"]
+         "    hdt2 = 0.5 * dt * dt",
+         "    T = _stack()"]
     q = [(int(i), int(j)) for i, j in zip(*np.nonzero(Qm))]
     qadd = [f"    P[{i * n + j}] += hdt * Qc[{i * n + j}]" for i, j in q]
     L.append("    # Pt = P + dt/2 Qc")
@@ -300,27 +372,27 @@ def kernel_source(F_pattern, Qc_pattern) -> str:
                 L.append(f"    p{a}_{c} = {_sum(parts)}")
                 L.append(f"    W[{c * nap + a}] = p{a}_{c}")
             L.append(f"    for k in range({kt}):")
-            L.append(f"        W[{aoff + a * npad} + k] = "
+            L.append(f"        {B}[{aoff + a * npad} + k] = "
                      + _sum([f"p{a}_{c} * P[{c * n} + k]" for c in cols]))
         L.append("    # x <- Phi x (4-wide over the active rows, in loops over their own columns)")
         for c in S:
             L.append(f"    x{c} = x[{c}]")
         for lo, hi in _segments(rows, 0, nap):
             L.append(f"    for b in range({lo}, {hi}):")
-            L.append(f"        W[{xoff} + b] = "
+            L.append(f"        {B}[{xoff} + b] = "
                      + _zsum(lambda c: f"x{c} * W[{c * nap} + b]", S, _cols_of(rows, lo, hi)))
         for a, (i, _) in enumerate(rows):
-            L.append(f"    x[{i}] = W[{xoff + a}]")
+            L.append(f"    x[{i}] = {B}[{xoff + a}]")
         L.append("    # R = A Phi_a^T, R[a, b] for b >= a rounded down to a multiple of 4, in loops")
         L.append("    # over b, each over the columns of its rows of Phi_a only")
         for a, (i, _) in enumerate(rows):
             b0 = a - a % 4
             need = sorted(set().union(*[set(rows[b][1]) for b in range(b0, na)]))
             for c in need:
-                L.append(f"    u{c} = W[{aoff + a * npad + c}]")
+                L.append(f"    u{c} = {B}[{aoff + a * npad + c}]")
             for lo, hi in _segments(rows, b0, nap):
                 L.append(f"    for b in range({lo}, {hi}):")
-                L.append(f"        W[{roff + a * nap} + b] = "
+                L.append(f"        {B}[{roff + a * nap} + b] = "
                          + _zsum(lambda c: f"u{c} * W[{c * nap} + b]", need,
                                  _cols_of(rows, lo, hi)))
         L.append("    # P' = R on the active block (upper triangle mirrored), A mirrored on the")
@@ -330,14 +402,14 @@ def kernel_source(F_pattern, Qc_pattern) -> str:
         for a, (i, _) in enumerate(rows):
             for b in range(na):
                 lo = min(a, b)
-                L.append(f"    P[{i * n + int(act[b])}] = W[{roff + lo * nap + max(a, b)}]")
+                L.append(f"    P[{i * n + int(act[b])}] = {B}[{roff + lo * nap + max(a, b)}]")
             for lo, hi in _runs(inact):
                 L.append(f"    for c in range({lo}, {hi}):")
-                L.append(f"        P[{i * n} + c] = W[{aoff + a * npad} + c]")
+                L.append(f"        P[{i * n} + c] = {B}[{aoff + a * npad} + c]")
         for lo, hi in _runs(inact):
             L.append(f"    for c in range({lo}, {hi}):")
             for a, (i, _) in enumerate(rows):
-                L.append(f"        P[c * {n} + {i}] = W[{aoff + a * npad} + c]")
+                L.append(f"        P[c * {n} + {i}] = {B}[{aoff + a * npad} + c]")
     L.append("    # + dt/2 Qc; diagonal floored at 0")
     L.extend(qadd)
     L.append(f"    for i in range(0, {n * n}, {n + 1}):")
@@ -398,7 +470,7 @@ def _kernel(src: str):
     return fn
 
 
-def make_workspace(F_pattern, Qc_pattern=None) -> PredictWorkspace:
+def make_workspace(F_pattern, Qc_pattern=None, order=2) -> PredictWorkspace:
     """The predict kernel of one F / Qc pattern (generated, compiled and cached on first use)
     and its buffer; once per filter.
 
@@ -409,6 +481,8 @@ def make_workspace(F_pattern, Qc_pattern=None) -> PredictWorkspace:
         state); its zero rows are the identity rows of ``Phi``
     Qc_pattern : (n, n) array, nonzero where Qc may be nonzero (default: the diagonal only);
         the diagonal is always included, and the pattern is symmetrized
+    order : 2 (default): ``Phi = I + F dt + (F dt)^2 / 2``; 1: ``Phi = I + F dt`` (KF-GINS's
+        discretization: module docstring, "First order")
 
     Returns
     -------
@@ -429,13 +503,16 @@ def make_workspace(F_pattern, Qc_pattern=None) -> PredictWorkspace:
     act = np.flatnonzero(rows).astype(np.int64)
     inact = np.flatnonzero(~rows).astype(np.int64)
     na = len(act)
-    src = kernel_source(Fm, Qm)
+    if order not in (1, 2):
+        raise ValueError(f"order must be 1 or 2, got {order!r}")
+    src = kernel_source(Fm, Qm, order)
     addr = _aot.kernel_address(kernel_key(src))      # compiled ahead of time (no numba)
     if addr is None:
         addr = _kernel(src).address
     nap = _pad(na)
-    buf = np.zeros(n * nap + na * nap + nap + na * _pad(n))
-    return PredictWorkspace(act, inact, buf[:n * nap].reshape(n, nap), buf, int(addr), Fm, Qm)
+    buf = np.zeros(max(n * nap, 1))
+    return PredictWorkspace(act, inact, buf[:n * nap].reshape(n, nap), buf, int(addr), Fm, Qm,
+                            int(order))
 
 
 # ------------------------------------------------------------------ the call
@@ -533,10 +610,10 @@ def predict_sparse(x, P, F, Qc, dt, ws):
     """In place, ``x <- Phi x``, ``P <- Phi P Phi^T + dt/2 (Phi Qc Phi^T + Qc)``, symmetric.
 
     The math of :func:`inmotion.estimation.kalman._predict_kernel` (second-order
-    ``Phi = I + F dt + (F dt)^2 / 2``, trapezoid ``Qd``, ``P`` symmetric, its diagonal
-    floored at 0) by the kernel generated for ``ws``'s pattern (module docstring); no
-    allocation. Also fills ``ws.PhiT`` (Phi's active rows, transposed, in its first ``na``
-    columns).
+    ``Phi = I + F dt + (F dt)^2 / 2``, or ``I + F dt`` for a workspace of ``order`` 1;
+    trapezoid ``Qd``, ``P`` symmetric, its diagonal floored at 0) by the kernel generated for
+    ``ws``'s pattern (module docstring); no allocation. Also fills ``ws.PhiT`` (Phi's active
+    rows, transposed, in its first ``na`` columns).
 
     Parameters
     ----------
