@@ -24,6 +24,7 @@ from consistency_mc import ARCMIN, drive_003  # noqa: E402
 from test_consistency_nees import PRIOR, START_SIGMA_DEG  # noqa: E402
 
 from inmotion.align import aided_kf as ak  # noqa: E402
+from inmotion.core import _kernels as K  # noqa: E402
 from inmotion.core.metrics import error_series  # noqa: E402
 from inmotion.core.solution import NavState  # noqa: E402
 from inmotion.estimation import engine as eng  # noqa: E402
@@ -34,6 +35,7 @@ from inmotion.sim.scenario import load_scenario  # noqa: E402
 
 N = SUB_LAYOUT.n
 NLOG = 1 + 6 + 3 * N
+WINDOWS = ((2.0, 20.0), (20.0, 28.0), (28.0, 48.0), (48.0, 80.0))
 BLOCKS = [(b, SUB_LAYOUT[b]) for b in ("phi", "dv", "dp", "eps", "nabla", "dk", "mount", "lever")]
 
 
@@ -68,7 +70,9 @@ def logging_fill(fill, log0):
 LOGS, RECS = [], []
 
 
-def install():
+def install(mean_mode=0, var_scale=1.0):
+    ak.LENGTH_MEAN_MODE = int(mean_mode)
+    ak.LENGTH_VAR_SCALE = float(var_scale)
     orig_channel = ak._channel
 
     def channel(*a, **k):
@@ -94,7 +98,8 @@ def install():
 
 
 def main(seed, t0, t1, extra):
-    install()
+    verbose = extra.pop("verbose", True)
+    install(extra.pop("mean_mode", 0), extra.pop("var_scale", 1.0))
     cfg = dict(PRIOR, fdi=False, nhc_fallback=False, use_baro=False, exact_attitude_columns=True,
                second_order_length=True, smooth=True)
     accelerate = extra.pop("accelerate", True)
@@ -116,6 +121,7 @@ def main(seed, t0, t1, extra):
           f"{len(logs)} updates logged, {len(rec['t'])} records")
     tot = {r_: {bn: 0.0 for bn, _ in BLOCKS} for r_ in range(3)}
     mism = []
+    acc_c = [0.0, 0.0]
     for i in range(1, len(rec["t"])):
         t = round(float(rec["t"][i]), 6)
         if t not in logs or not (t0 <= t <= t1):
@@ -126,6 +132,27 @@ def main(seed, t0, t1, extra):
         x = rec["phi"][i] @ rec["x"][i - 1]
         P = rec["p_pred"][i].copy()
         line = []
+        Pprev = rec["p"][i - 1]
+        vn = rec["xs"][i][K.VE:K.VE + 3]
+        al = np.r_[vn[:2], 0.0] / np.linalg.norm(vn[:2])
+        cr = np.array([al[1], -al[0], 0.0])         # right of the track (E, N, U)
+        o_dv = SUB_LAYOUT["dv"].start
+        Tdv = np.c_[al, cr, [0, 0, 1.0]]            # dv (n) -> along, across, up
+        sd = np.sqrt(np.diag(P))
+
+        def P_at(M):
+            return M[i_psi, o_dv:o_dv + 3] @ Tdv[:, 0] * ARCMIN
+        Pv = Tdv.T @ P[o_dv:o_dv + 3, o_dv:o_dv + 3] @ Tdv
+        c_psi_v = (P[i_psi, o_dv:o_dv + 3] @ Tdv) / (sd[i_psi] * np.sqrt(np.diag(Pv)))
+        o_dk = SUB_LAYOUT["dk"].start
+        o_mz = SUB_LAYOUT["mount"].start + 1
+        h1v = H[1, o_dv:o_dv + 3] @ Tdv
+        corr_line = (f"   corr psi: v_al {c_psi_v[0]:+.2f} v_cr {c_psi_v[1]:+.2f} dk "
+                     f"{P[i_psi, o_dk] / sd[i_psi] / sd[o_dk]:+.2f} mz "
+                     f"{P[i_psi, o_mz] / sd[i_psi] / sd[o_mz]:+.2f}; corr v_al,dk "
+                     f"{(Tdv[:, 0] @ P[o_dv:o_dv + 3, o_dk]) / np.sqrt(Pv[0, 0]) / sd[o_dk]:+.2f}"
+                     f"; row1 dv cols al {h1v[0]:.3e} cr {h1v[1]:+.3e} up {h1v[2]:+.3e} dk "
+                     f"{H[1, o_dk]:.3e}; sd v_al {np.sqrt(Pv[0, 0]):.2e} v_cr {np.sqrt(Pv[1, 1]):.2e}")
         for row in range(3):
             h = H[row]
             Ph = P @ h
@@ -137,12 +164,23 @@ def main(seed, t0, t1, extra):
             x = x + k * nu
             P = P - np.outer(Ph, Ph) / s
             line.append(f"r{row} nu {nu:9.2e} s {np.sqrt(s):8.2e} Kpsi.nu {k[i_psi] * nu * ARCMIN:7.3f}")
+        c_pred = P_at(rec["p_pred"][i]) - P_at(Pprev)
+        c_upd = P_at(P) - P_at(rec["p_pred"][i])
+        acc_c[0] += c_pred
+        acc_c[1] += c_upd
+        if verbose:
+            print(f"   cov(psi, v_al) [arcmin m/s]: predict {c_pred:+.3e} update {c_upd:+.3e} now "
+                  f"{P_at(P):+.3e}; row1 psi col {H[1, i_psi]:+.3e} H0 psi {H[0, i_psi]:+.3e} "
+                  f"H0 dv {np.round(H[0, o_dv:o_dv + 3] @ Tdv, 5)}")
         # the engine's estimate after the update (before feedback): record x plus this step's feedback
         fed = rec["fed"][i] - rec["fed"][i - 1]
         mism.append(abs(x[i_psi] - (rec["x"][i][i_psi] + fed[i_psi])) * ARCMIN)
         j = min(np.searchsorted(sol.t, t), len(sol.t) - 1)
         print(f"t {t:5.1f} psi err {e.phi_U_arcmin.iloc[j]:7.2f}/{sol.sigma['phi_U'][j] * ARCMIN:5.2f} "
               + " | ".join(line))
+        if verbose:
+            print(corr_line)
+    print(f"cov(psi, v_al) change summed: predict {acc_c[0]:+.3e} update {acc_c[1]:+.3e}")
     print(f"max |redone - engine| heading {max(mism):.2e} arcmin over {len(mism)} updates")
     print("heading correction summed over the window, per row and carrying block [arcmin]:")
     for row in range(3):
@@ -150,7 +188,115 @@ def main(seed, t0, t1, extra):
               " ".join(f"{bn} {v:8.3f}" for bn, v in tot[row].items()))
 
 
-if __name__ == "__main__":
+def innovations(rec, logs):
+    """``(t, nu, s)`` per update and row (3), the engine's sequential update redone."""
+    out = []
+    for i in range(1, len(rec["t"])):
+        t = round(float(rec["t"][i]), 6)
+        if t not in logs:
+            continue
+        lg = logs[t]
+        z, r = lg[1:4], lg[4:7]
+        H = lg[7:].reshape(3, N)
+        x = rec["phi"][i] @ rec["x"][i - 1]
+        P = rec["p_pred"][i].copy()
+        nu_s = []
+        for row in range(3):
+            h = H[row]
+            Ph = P @ h
+            s_ = h @ Ph + r[row]
+            nu = z[row] - h @ x
+            x = x + Ph * nu / s_
+            P = P - np.outer(Ph, Ph) / s_
+            nu_s.append((nu, s_))
+        out.append((t, nu_s))
+    return out
+
+
+def run_logged(seed, cfg, accelerate=True):
+    """One seed: ``(bundle, record, solution)`` of od-kf under ``cfg`` (smoothed run for the
+    record, forward run for the solution)."""
+    LOGS.clear()
+    RECS.clear()
+    rng = np.random.default_rng(seed)
+    b = simulate(straight_drive(accelerate=accelerate), rng)
+    err = np.radians(START_SIGMA_DEG) * rng.standard_normal(3)
+    init = NavState.from_truth(b.truth, euler_error=err)
+    ak.run_od_kf(b, dict(cfg, smooth=True), init)
+    rec = {k: np.concatenate([r[k] for r in RECS]) for k in RECS[0]}
+    logs = {round(float(lg[0]), 6): lg for lg in LOGS if lg[0] > 0}
+    inn = innovations(rec, logs)
+    sol = ak.run_od_kf(b, dict(cfg, smooth=False), init)
+    return b, rec, sol, inn
+
+
+def monte_carlo(runs, times, extra):
+    """The filter's correlation of the heading with the along-track velocity and the scale
+    against the Monte Carlo's, and the NEES of ``(psi, v_al, dk)`` with the filter's full
+    covariance, at ``times``."""
+    install(extra.pop("mean_mode", 0), extra.pop("var_scale", 1.0))
+    accelerate = extra.pop("accelerate", True)
+    cfg = dict(PRIOR, fdi=False, nhc_fallback=False, use_baro=False, exact_attitude_columns=True,
+               second_order_length=True)
+    cfg.update(extra)
+    i_psi = SUB_LAYOUT["phi"].start + 2
+    o_dv = SUB_LAYOUT["dv"].start
+    o_dk = SUB_LAYOUT["dk"].start
+    out = {t: {"e": [], "P": []} for t in times}
+    white = {}
+    for k in range(runs):
+        b, rec, sol, inn = run_logged(100 + k, cfg, accelerate)
+        for w0, w1 in WINDOWS:
+            y = np.array([[nu / np.sqrt(s_) for nu, s_ in ns] for t, ns in inn if w0 <= t <= w1])
+            white.setdefault((w0, w1), []).append(y)
+        e = error_series(sol, b.truth)
+        dk_true = b.meta["simulated_errors"]["odometer"]["scale_factor_ppm"] * 1e-6
+        for t in times:
+            i = int(np.argmin(np.abs(rec["t"] - t)))
+            j = int(np.argmin(np.abs(sol.t - rec["t"][i])))
+            vn = rec["xs"][i][K.VE:K.VE + 3]
+            al = np.r_[vn[:2], 0.0] / np.linalg.norm(vn[:2])
+            Tm = np.zeros((3, SUB_LAYOUT.n))
+            Tm[0, i_psi] = 1.0
+            Tm[1, o_dv:o_dv + 3] = al
+            Tm[2, o_dk] = 1.0
+            Pt = Tm @ rec["p"][i] @ Tm.T
+            ev = np.array([e.vE_m_s.iloc[j], e.vN_m_s.iloc[j], e.vU_m_s.iloc[j]])
+            st = sol.states["od_dk"]
+            dk_est = st[j + 1] if len(st) == len(sol.t) + 1 else st[j]
+            out[t]["e"].append([e.phi_U_arcmin.iloc[j] / ARCMIN, ev @ al, dk_true - dk_est])
+            out[t]["P"].append(Pt)
+    print(f"{runs} runs, config {extra}, accelerate {accelerate}")
+    for (w0, w1), ys in white.items():
+        for row in range(3):
+            yy = [y[:, row] for y in ys]
+            allv = np.concatenate(yy)
+            ac = {lag: np.mean([np.mean(y[lag:] * y[:-lag]) for y in yy]) for lag in (1, 2, 5, 10)}
+            rmean = [np.mean(y) for y in yy]
+            print(f"  row {row} normalized innovation {w0:.0f}-{w1:.0f} s: mean {allv.mean():+.3f} "
+                  f"(per-run means' RMS {np.sqrt(np.mean(np.square(rmean))):.3f}, white: "
+                  f"{1 / np.sqrt(len(yy[0])):.3f}) mean square {np.mean(allv ** 2):.3f}, "
+                  "autocovariance " + " ".join(f"lag {k} {v:+.3f}" for k, v in ac.items()))
+    for t in times:
+        E = np.array(out[t]["e"])
+        Ps = np.array(out[t]["P"])
+        sd = np.sqrt(np.einsum("kii->ki", Ps))
+        fc = Ps / (sd[:, :, None] * sd[:, None, :])
+        sc = np.corrcoef(E.T)
+        nees = {name: float(np.mean([E[k, ix] @ np.linalg.solve(Ps[k][np.ix_(ix, ix)], E[k, ix])
+                                     for k in range(runs)]))
+                for name, ix in (("psi", [0]), ("v_al", [1]), ("dk", [2]), ("psi,v_al", [0, 1]),
+                                 ("psi,v_al,dk", [0, 1, 2]))}
+        print(f"t {t:5.1f}: filter corr (mean) psi-v_al {fc[:, 0, 1].mean():+.2f} psi-dk "
+              f"{fc[:, 0, 2].mean():+.2f} v_al-dk {fc[:, 1, 2].mean():+.2f} | Monte Carlo corr "
+              f"psi-v_al {sc[0, 1]:+.2f} psi-dk {sc[0, 2]:+.2f} v_al-dk {sc[1, 2]:+.2f} | NEES "
+              + " ".join(f"{kk} {v:.2f}" for kk, v in nees.items()), flush=True)
+
+
+if __name__ == "__main__" and sys.argv[1] == "mc":
+    monte_carlo(int(sys.argv[2]), [float(x) for x in sys.argv[3].split(",")],
+                json.loads(sys.argv[4]) if len(sys.argv) > 4 else {})
+elif __name__ == "__main__":
     seed = int(sys.argv[1])
     t0, t1 = (float(sys.argv[2]), float(sys.argv[3])) if len(sys.argv) > 3 else (25.0, 50.0)
     extra = json.loads(sys.argv[4]) if len(sys.argv) > 4 else {}

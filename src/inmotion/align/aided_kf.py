@@ -537,7 +537,7 @@ def _channel(bundle, name, cfg, beta, P15, Q15, c, C_vb0, thr, ret):
     meas.log_nis = True
     if kind is ms.DisplacementIncrement:
         second = bool(cfg.exact_attitude_columns and cfg.second_order_length)
-        meas.fill = _length_fill(type(meas).fill, second)
+        meas.fill = _length_fill(type(meas).fill, second, LENGTH_MEAN_MODE, LENGTH_VAR_SCALE)
         meas.wants_state = second
     return LocalFilter(P, _pad(Q15 / beta), r_scale=1.0 / beta), meas
 
@@ -834,8 +834,14 @@ def _length_second_order(st, C_nb, u0, u1, u2, lp, H, o_phi, o_dv):
     return dz, dr
 
 
+#: experiment (issue 15, h15nees5): 0 the second order's mean in the innovation, 1 not
+LENGTH_MEAN_MODE = 0
+#: experiment (issue 15, h15nees5): the second order's variance times this
+LENGTH_VAR_SCALE = 1.0
+
+
 @functools.lru_cache(maxsize=None)
-def _length_fill(fill, second_order=False):
+def _length_fill(fill, second_order=False, mean_mode=0, var_scale=1.0):
     """The displacement-increment fill ``fill`` (paper 003 ref. 38, eq. 14-26's sensor rows)
     with its along-sensor row compared in length (issue 15).
 
@@ -865,6 +871,8 @@ def _length_fill(fill, second_order=False):
     o_x = ms.P_EXACT
     i_dk, i_mount, i_lever = ms.DK, ms.MOUNT, ms.LEVER
     second = bool(second_order)
+    mean_on = 1.0 if int(mean_mode) == 0 else 0.0
+    vs = float(var_scale)
     i_phi, i_dv = ms.PHI, ms.DV
     n_st = ms.STATE_PARAMS
 
@@ -904,8 +912,8 @@ def _length_fill(fill, second_order=False):
         if second and rotate and sins_along:
             dz, dr = _length_second_order(p[p.shape[0] - n_st:], C_nb, u0, u1, u2, lp, H,
                                           offs[i_phi], offs[i_dv])
-            z[1] += dz
-            r[1] += dr
+            z[1] += mean_on * dz
+            r[1] += vs * dr
         if sins_along:
             od, om, ol = offs[i_dk], offs[i_mount], offs[i_lever]
             for c in range(H.shape[1]):
