@@ -13,6 +13,40 @@ sigma, and per row (0 lateral, 1 along / length, 2 vertical) the innovation ``nu
 heading's correction ``K_psi nu`` [arcmin]; then over the window the sum of each row's
 heading correction split by the state block whose covariance with the heading carries it
 (``K_psi nu = sum_blocks P_psi,blk h_blk nu / s``).
+
+Monte Carlo mode (``mc RUNS TIMES [CONFIG_JSON]``, seeds 100..): at each time in ``TIMES``
+(comma-separated) the filter's correlation of the heading with the along-track velocity and
+the scale (mean over the runs) against the sample correlation of the true errors, and the
+NEES of the heading, the along-track velocity, the scale and their pairs with the filter's
+full covariance; per window (2-20, 20-28, 28-48, 48-80 s) and row the normalized
+innovations' mean, mean square, the RMS of the per-run means (white noise: ``1 / sqrt(n)``
+times the RMS) and autocovariance at lags 1, 2, 5, 10. ``CONFIG_JSON`` adds to the
+configuration, with ``mean_mode`` / ``var_scale`` setting ``aided_kf.LENGTH_MEAN_MODE`` /
+``LENGTH_VAR_SCALE`` (here 0 and 1 unless given: the form before helper h15nees5, the
+figures below) and ``accelerate: false`` dropping the acceleration; the trace mode takes
+the same keys.
+
+Measured (issue 15, helper h15nees5; both settings, detection off). ``heading_rows.py 100``:
+the heading error -1.41' (sigma 19.98') at 25 s, -20.56' (7.74') at 47 s; the heading's
+corrections over 25-50 s: row 0 (lateral) +1.65', row 1 (length) +15.56', row 2 +0.06'; row
+1's through the heading's covariance with the velocity +407.2' and the scale -393.2' (the
+row reads ``T dv_along - d dk``); 20 successive intervals (30-41 s) of row 1's innovation of
+one sign (-2e-5 .. -1.2e-4 m at sigmas 2.7e-4 .. 1.2e-4 m). The correlation builds in the
+acceleration (-0.01 at 20.5 s, -0.63 at 28 s) and is right: ``mc 20 30,36,47,80`` the filter
+-0.54, -0.50, +0.02, +0.32 with the along-track velocity, the true errors -0.77, -0.80,
+-0.18, +0.28 (with the scale -0.50, -0.47, +0.04, +0.32 against -0.73, -0.69, -0.12, +0.33);
+heading NEES (1 dof, band 0.48-1.71) 1.14, 1.66, 2.73, 4.21; heading, velocity and scale (3
+dof) 7.44, 6.88, 12.21, 19.87 (the filter holds velocity and scale 1.00 correlated, the
+errors 0.91-0.99). Row 1's normalized innovation over 28-48 s: mean square 0.142,
+autocovariance +0.041, +0.053, +0.022, +0.023 at lags 1, 2, 5, 10, per-run means' RMS 0.140
+(white noise of that mean square: 0.060; 48-80 s: 0.467, +0.048, +0.104, -0.010, +0.011,
+0.208 against 0.085): an error repeated over about 5 intervals. The rows 0 and 2 carry the
+constraint violation's own correlation (lag 1 about 0.5 of the mean square) at a mean square
+of 0.3-0.6. With ``'{"mean_mode": 1}'`` (the second-order mean out of the innovation) the
+heading NEES 1.27, 1.54, 1.64, 3.16, row 1 as coloured (28-48 s: 0.105, lag 2 +0.047, RMS
+0.161); with ``'{"var_scale": 4}'`` (the code's :data:`aided_kf.LENGTH_VAR_SCALE` since) 0.90,
+0.89, 0.79, 0.81, 3 dof 2.33, 2.72, 3.18, 4.78, the filter's correlations -0.38, -0.45,
+-0.06, +0.54 against -0.77, -0.82, -0.13, +0.58.
 """
 import json
 import sys
