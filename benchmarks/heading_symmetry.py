@@ -156,7 +156,7 @@ the innovation they stay so (fine odometer 8.32); the variance taken 4 times
 ``nees 6 no-violation,small-start`` with both settings at 4 times: no-violation 303.8 (per
 run 13.9, 119.2, 71.8, 1403.7, 9.0, 204.9; at once 333: the lateral rows' own second order,
 not modelled), small-start 0.87 (1.9, 0.1, 1.6, 1.3, 0.3, 0.0; band 1.37-5.25; at once
-2.93): a fixed factor over-covers where the error is small and its correlation shorter.
+2.93; at 2 times 1.77): a fixed factor over-covers where the error is small.
 """
 import json
 import sys
