@@ -14,7 +14,12 @@ Measured (issue 15, helper h15nees4; this machine): under the defaults ``psins``
 1.09, 0.95, 1.60 arcmin (sigma 1.33), horizontal 1.62, 1.47, 1.97 m of 4245 m. With
 ``'{"exact_attitude_columns": true}'``: 5.99, 6.35; 0.98, 0.88, 1.49 arcmin (1.56, 1.43,
 1.88 m). With ``'{"exact_attitude_columns": true, "second_order_length": true}'``: 5.56,
-8.08; 0.82, 0.67, 1.29 arcmin (1.42, 1.30, 1.71 m).
+8.08; 0.82, 0.67, 1.29 arcmin (1.42, 1.30, 1.71 m). The same with that second order's
+variance taken 4 times (``aided_kf.LENGTH_VAR_SCALE``, helper h15nees5): ``fine-mux`` level
+5.45, ``adaptive`` 7.70 arcmin (sigma 35.27; heading 2642.33, 2628.44 arcmin); ``process``
+0.89, 0.74, 1.39 arcmin (sigma 1.33), 1.46, 1.33, 1.78 m: ``adaptive``'s level error is
+still worse than the default's, so the setting stays off (the defaults measured again the
+same day: level 37.98, 4.00, heading 1955.48, 2511.46 arcmin).
 """
 import json
 import os

@@ -9,6 +9,12 @@ cases. About 90 s on one core at 6 runs. ``nhc-kf`` runs twice: with its rows' n
 drive's constraint violation (the default, ``aided_kf.nhc_noise_from_meta``) and with the
 0.01 m/s the test set before (overconfident: 6.18 over 20 runs, issue 15). Paper 001's USQUE family (its own drive, 100 Hz, both
 noise presets): ``benchmarks/nees_usque.py``.
+
+Measured (issue 15, helper h15nees5, ``20 fkf,od-kf,ldv-kf``): under the defaults fkf 2.94,
+fkf conservative 1.65, fkf with the 30-times sensors 14.38; with ``benchmarks/with_length_knobs.py 0 4
+'{"exact_attitude_columns": true, "second_order_length": true}' benchmarks/nees_methods.py
+20 fkf,od-kf,ldv-kf`` (the length row's second order, its variance 4 times) fkf 2.44, od-kf
+2.88, ldv-kf 2.65 (band 2.02-4.16), conservative 1.62, the 30-times sensors 15.27.
 """
 import sys
 
