@@ -396,6 +396,12 @@ class FkfConfig(AidedKfConfig):
                     "sub-filter with the healthy one (false: paper 003 Table 1 as printed, the "
                     "healthy sub-filter alone, which costs the fused heading at each false "
                     "isolation; issue 15)")
+    return_test: Literal["conditioned", "masked"] = Field(
+        "conditioned",
+        description="what an isolated channel's residual test (its return) is judged against: "
+                    "conditioned: a copy of its masked sub-filter conditioned on the healthy "
+                    "sub-filters' estimate of the common states; masked: its masked, predicted "
+                    "sub-filter alone, whose error is frozen since the isolation (issue 15)")
 
 
 def _config(config, cls):
@@ -1205,7 +1211,8 @@ def run_aided(bundle: Bundle, cfg, init: NavState, sensors: tuple, *, method: st
                          out_every=out_every, n_common=NS,
                          max_nis=(n_ep // meas_every + 1) * max(len(sensors), 1),
                          record=smooth and not bank,
-                         fuse_isolated=bool(getattr(cfg, "isolated_in_fusion", False)))
+                         fuse_isolated=bool(getattr(cfg, "isolated_in_fusion", False)),
+                         return_conditioned=getattr(cfg, "return_test", "masked") == "conditioned")
     res = _feed(f, bundle, k0, sensors, meas_every, use_nhc, use_baro,
                 None if smooth and bank else progress,
                 ForwardRecord.for_filter(f, n_ep) if smooth and not bank else None,

@@ -280,7 +280,8 @@ _State = namedtuple("_State", "xs ms xd md X P fed_back bias_g bias_a acc ints u
 _Const = namedtuple("_Const", "offs offs9 Qc q_dr_m2_s inv_tau_dk inv_tau_b dr_eps grav_grad "
                               "with_dr step out_every fb_mask fb_states feedback_every C_bm l_b gates "
                               "params dofs local r_scale isolate return_tests primary fallback "
-                              "n_common need_nb has_acc log_nis ws record fuse_isolated")
+                              "n_common need_nb has_acc log_nis ws record fuse_isolated "
+                              "return_conditioned")
 #: the output buffers of one call
 _Out = namedtuple("_Out", "t xs sigma states cov_phi mode local_x local_sig n rec_t rec_phi "
                           "rec_ppred rec_x rec_p rec_fed rec_xs rec_epoch nrec")
@@ -479,12 +480,65 @@ def _write_output(S, C, O, t_now, x_g, P_g):
 
 
 @njit(cache=True)
+def _condition_on_healthy(S, C, l, Xc, Pc):
+    """Condition a copy ``Xc``, ``Pc`` of local ``l`` (masked: a measurement of it isolated)
+    on the healthy primaries' estimate of the common states (eq. 36 over the primaries other
+    than ``l`` with no isolated measurement), taken as a measurement of ``Xc[:n_common]``
+    with its covariance: ``K = Pc[:, c] (Pc[c, c] + P_h)^-1``, ``Xc += K (x_h - Xc[c])``,
+    ``Pc -= K Pc[c, :]`` (the sensor states move by their correlation with the common ones).
+    The locals' errors are taken as uncorrelated: the ``1 / beta`` sharing makes their
+    block-diagonal an upper bound of the joint covariance (eq. 33-35,
+    :mod:`inmotion.estimation.federated`), so the conditioned ``Pc`` bounds the error of
+    ``Xc``. Returns False (copy untouched) when no other primary is healthy."""
+    nc = C.n_common
+    L = S.X.shape[0]
+    use = np.zeros(L, dtype=np.bool_)
+    k = 0
+    for i in range(L):
+        use[i] = i != l and C.primary[i] and _local_healthy(S, C, i)
+        if use[i]:
+            k += 1
+    if k == 0:
+        return False
+    xh = np.empty(nc)
+    Ph = np.empty((nc, nc))
+    fuse_kernel(S.X, S.P, use, nc, xh, Ph)
+    Sm = np.ascontiguousarray(Pc[:nc, :nc]) + Ph
+    Si = np.linalg.inv(0.5 * (Sm + Sm.T))
+    PcT = np.ascontiguousarray(Pc[:, :nc])
+    K = PcT @ Si
+    d = xh - Xc[:nc]
+    Xc += K @ d
+    Pn = Pc - K @ PcT.T
+    for a in range(Pc.shape[0]):
+        for b in range(Pc.shape[0]):
+            Pc[a, b] = 0.5 * (Pn[a, b] + Pn[b, a])
+    return True
+
+
+@njit(cache=True)
 def _apply(S, C, fills, j, l, z, H, r, m, xw, Pw, t_now, first):
     """Apply the filled rows of measurement ``j`` to local filter ``l`` (gate, FDI)."""
     rl = r[:m] * (C.r_scale[l] if C.local[j] < 0 else 1.0)
     if C.isolate[j]:
         S.tests[j] += 1
-        if S.healthy[j]:
+        if S.healthy[j] and S.normal_run[j] < 0:
+            # on probation after a return: judged as while isolated (on the conditioned
+            # copy), applied to the sub-filter itself, which its own masked prediction's
+            # frozen error would fail (issue 15)
+            Xc = S.X[l].copy()
+            Pc = S.P[l].copy()
+            _condition_on_healthy(S, C, l, Xc, Pc)
+            ok, nis = sequential_joseph(Xc, Pc, z, H, rl, 0, m, C.gates[j], xw, Pw)
+            if ok:
+                S.normal_run[j] += 1
+                sequential_joseph(S.X[l], S.P[l], z, H, rl, 0, m, 0.0, xw, Pw)
+            else:
+                S.exceed[j] += 1
+                S.healthy[j] = False
+                S.normal_run[j] = 0
+                _log_event(S, t_now, j, EVENT_DETECTED, nis)
+        elif S.healthy[j]:
             ok, nis = sequential_joseph(S.X[l], S.P[l], z, H, rl, 0, m, C.gates[j], xw, Pw)
             if not ok:
                 S.exceed[j] += 1
@@ -492,12 +546,17 @@ def _apply(S, C, fills, j, l, z, H, r, m, xw, Pw, t_now, first):
                 S.normal_run[j] = 0
                 _log_event(S, t_now, j, EVENT_DETECTED, nis)
         else:             # isolated: tested on a copy, never applied until it has returned
-            ok, nis = sequential_joseph(S.X[l].copy(), S.P[l].copy(), z, H, rl, 0, m,
-                                        C.gates[j], xw, Pw)
+            Xc = S.X[l].copy()
+            Pc = S.P[l].copy()
+            if C.return_conditioned:
+                _condition_on_healthy(S, C, l, Xc, Pc)
+            ok, nis = sequential_joseph(Xc, Pc, z, H, rl, 0, m, C.gates[j], xw, Pw)
             if ok:
                 S.normal_run[j] += 1
                 if S.normal_run[j] >= C.return_tests[j]:
                     S.healthy[j] = True
+                    if C.return_conditioned:          # probation: as many tests again
+                        S.normal_run[j] = -C.return_tests[j]
                     _log_event(S, t_now, j, EVENT_RETURNED, nis)
             else:
                 S.normal_run[j] = 0
@@ -903,7 +962,7 @@ class ErrorStateFilter:
                  out_every: int = 1, dr_mounting=None, dr_lever_arm_m=None,
                  dr_position_m2_s: float = 0.0, n_common: int | None = None,
                  max_events: int = 100000, max_nis: int = 0, record: bool = False,
-                 fuse_isolated: bool = False):
+                 fuse_isolated: bool = False, return_conditioned: bool = False):
         for name in ("phi", "dv", "dp"):
             if name not in layout:
                 raise ValueError(f"the filter needs block {name!r} in the layout")
@@ -1001,7 +1060,7 @@ class ErrorStateFilter:
             need_nb=bool(has_acc.any() or any(m.needs_body_rate for m in measurements)),
             has_acc=has_acc, log_nis=per_meas(lambda m: m.isolate or m.log_nis, False,
                                                 np.bool_), ws=ws, record=bool(record),
-            fuse_isolated=bool(fuse_isolated))
+            fuse_isolated=bool(fuse_isolated), return_conditioned=bool(return_conditioned))
         # the fill and accumulator functions (numba functions, compiled or loaded at first use
         # by the JIT path: _fills, _accs)
         self._fill_objs = tuple([m.fill for m in measurements]
