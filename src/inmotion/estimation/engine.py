@@ -523,17 +523,22 @@ def _apply(S, C, fills, j, l, z, H, r, m, xw, Pw, t_now, first):
     if C.isolate[j]:
         S.tests[j] += 1
         if S.healthy[j] and S.normal_run[j] < 0:
-            # on probation after a return: judged as while isolated (on the conditioned
-            # copy), applied to the sub-filter itself, which its own masked prediction's
-            # frozen error would fail (issue 15)
-            Xc = S.X[l].copy()
-            Pc = S.P[l].copy()
-            _condition_on_healthy(S, C, l, Xc, Pc)
-            ok, nis = sequential_joseph(Xc, Pc, z, H, rl, 0, m, C.gates[j], xw, Pw)
+            # on probation after a return (issue 15): the sub-filter's own test first (passed:
+            # applied, probation over); failed, the sample is judged as while isolated, on the
+            # conditioned copy, and if it passes there it is applied to the sub-filter itself
+            # (its masked prediction's error is frozen since the isolation: the own test
+            # would isolate the channel again on that alone)
+            ok, nis = sequential_joseph(S.X[l], S.P[l], z, H, rl, 0, m, C.gates[j], xw, Pw)
             if ok:
-                S.normal_run[j] += 1
-                sequential_joseph(S.X[l], S.P[l], z, H, rl, 0, m, 0.0, xw, Pw)
+                S.normal_run[j] = 0
             else:
+                Xc = S.X[l].copy()
+                Pc = S.P[l].copy()
+                _condition_on_healthy(S, C, l, Xc, Pc)
+                ok, nis = sequential_joseph(Xc, Pc, z, H, rl, 0, m, C.gates[j], xw, Pw)
+                if ok:
+                    sequential_joseph(S.X[l], S.P[l], z, H, rl, 0, m, 0.0, xw, Pw)
+            if not ok:
                 S.exceed[j] += 1
                 S.healthy[j] = False
                 S.normal_run[j] = 0
@@ -555,8 +560,8 @@ def _apply(S, C, fills, j, l, z, H, r, m, xw, Pw, t_now, first):
                 S.normal_run[j] += 1
                 if S.normal_run[j] >= C.return_tests[j]:
                     S.healthy[j] = True
-                    if C.return_conditioned:          # probation: as many tests again
-                        S.normal_run[j] = -C.return_tests[j]
+                    if C.return_conditioned:          # on probation
+                        S.normal_run[j] = -1
                     _log_event(S, t_now, j, EVENT_RETURNED, nis)
             else:
                 S.normal_run[j] = 0
