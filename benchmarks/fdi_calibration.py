@@ -339,9 +339,17 @@ def detection_on(runs: int, seed: int = 0):
             exc_on = sum(f["exceedances"][c] for f in ff)
             cal = sum(s_[f"exceedances {k}"][c] for s_ in st)
             cal_n = sum(s_["tests"][c] for s_ in st)
+            on_runs = [f["exceedances"][c] / f["tests"][c] for f in ff]
+            off_runs = [s_[f"exceedances {k}"][c] / s_["tests"][c] for s_ in st]
             row[ch] = {"tests": tests, "isolations": iso, "isolations_per_test": iso / tests,
                        "exceedances_per_test_detection_on": exc_on / tests,
+                       "detection_on_ci95": list(clopper_pearson(exc_on, tests)),
+                       "detection_on_run_level_ci95": list(run_level_ci(on_runs)[1]),
                        "calibrated_rate_detection_off": cal / cal_n,
+                       "detection_off_ci95": list(clopper_pearson(cal, cal_n)),
+                       "detection_off_run_level_ci95": list(run_level_ci(off_runs)[1]),
+                       "per_run_exceedance_rate_detection_on": on_runs,
+                       "per_run_exceedance_rate_detection_off": off_runs,
                        "per_run_isolations": [f["false_isolations"][c] for f in ff]}
         faults = []
         for i, (ch, start, _, label) in enumerate(P.FAULTS):
@@ -376,6 +384,9 @@ def main(argv=None):
                     "(npz: per run t and lambda, channels) of the last preset")
     ap.add_argument("--config", default="{}", help="extra fkf configuration (JSON), e.g. "
                     "'{\"measurement_period_s\": 2.0}'")
+    ap.add_argument("--return-test", default=None, choices=("conditioned", "masked"),
+                    help="fkf's return_test in the detection-on experiment (default: "
+                    "fkf's)")
     ap.add_argument("--detection-on-runs", type=int, default=0,
                     help="runs of paper 003's fault experiment with the detection on "
                     "(:func:`detection_on`; its reproduction's drives and seeding); 0: none")
@@ -387,6 +398,9 @@ def main(argv=None):
            "presets": {}}
     t0 = time.perf_counter()
     if args.detection_on_runs > 0:
+        if args.return_test:
+            from inmotion.reproductions import paper003 as P
+            P.PAPER_FKF["return_test"] = args.return_test
         don = detection_on(args.detection_on_runs)
         res["detection_on"] = don
         print(f"paper 003's fault experiment, detection on, {don['runs']} runs:")
@@ -398,7 +412,17 @@ def main(argv=None):
                 print(f"    fault-free {ch}: {x['isolations']} isolations / {x['tests']} tests "
                       f"= {x['isolations_per_test']:.2e} per test (calibrated rate, detection "
                       f"off: {x['calibrated_rate_detection_off']:.2e}); exceedances per test "
-                      f"with the detection on {x['exceedances_per_test_detection_on']:.2e}")
+                      f"with the detection on {x['exceedances_per_test_detection_on']:.2e} "
+                      f"(pooled [{x['detection_on_ci95'][0]:.2e}, {x['detection_on_ci95'][1]:.2e}],"
+                      f" over runs [{x['detection_on_run_level_ci95'][0]:.2e}, "
+                      f"{x['detection_on_run_level_ci95'][1]:.2e}]; off: pooled "
+                      f"[{x['detection_off_ci95'][0]:.2e}, {x['detection_off_ci95'][1]:.2e}], "
+                      f"over runs [{x['detection_off_run_level_ci95'][0]:.2e}, "
+                      f"{x['detection_off_run_level_ci95'][1]:.2e}])")
+                print("      per run, on / off: " + ", ".join(
+                    f"{a_:.3f}/{b_:.3f}" for a_, b_ in zip(
+                        x["per_run_exceedance_rate_detection_on"],
+                        x["per_run_exceedance_rate_detection_off"])))
             print("    fault runs, clean stretches: isolations per test " + ", ".join(
                 f"{c} {v:.2e}" for c, v in r["fault_runs_clean_isolations_per_test"].items()))
             for f in r["faults"]:
