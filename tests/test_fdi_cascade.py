@@ -95,3 +95,4 @@ def test_the_conditioned_return_test_follows_the_model(after_fault):
         assert r["lam"].mean() < 2.0 * r["model"], (r["lam"].mean(), r["model"])
     exc = np.concatenate([r["lam"] > r["thr"] for r in runs])
     assert exc.mean() < 0.25, exc.mean()
+
