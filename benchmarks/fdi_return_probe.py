@@ -15,8 +15,9 @@ Usage: ``OPENBLAS_NUM_THREADS=1 python benchmarks/fdi_return_probe.py [--run 3] 
 
 Measured 2026-12-02 (``--run 3 --of 10 --return-test masked``, the drive that latches): the
 LDV isolated at 1.65 s (statistic 8.03 > 4.46), then 1198 of its 1200 tests above the
-threshold (mean 8.40); its masked sub-filter's NEES while isolated velocity 8.05, attitude
-9.18 (while healthy, the first 1.65 s: 0.70, 4.78). Runs 0-2, 4, 5 (not latched): the masked
+threshold (mean 8.40 while isolated); its masked sub-filter's NEES while isolated velocity
+8.05, attitude 9.18 (while healthy, the first three records: 1.32, 6.37); its velocity
+error then grows with its sigma (2.65 s: dv_N 27 / 238 mm/s; 600 s: 5.2 / 4.6 m/s). Runs 0-2, 4, 5 (not latched): the masked
 sub-filters' NEES while isolated is that of the same sub-filter while healthy (LDV velocity
 3.60 / 3.39, 1.03 / 0.87, 1.85 / 2.31, 3.65 / 3.25, 2.92 / 2.64; attitude 2.53 / 2.09,
 2.10 / 2.00, 2.09 / 2.26, 5.58 / 5.42, 2.41 / 2.45): the masked sub-filter's ``P`` is not
