@@ -144,9 +144,10 @@ estimate at each false isolation, and the run keeps the jump: ``tests/
 test_consistency_nees.py``'s run 2 (two false isolations at 1e-3) ends at NEES 11.5 with
 Table 1 as printed, 5.4 with the fusion (5.96 with the detection off); the 6 runs' mean
 5.21 -> 4.19, 20 runs (seeds 100-119, ``benchmarks/nees_methods.py 20 fkf``) 3.30 -> 3.00
-(band 2.02-4.16). Its limit: the masked sub-filter drifts in velocity and position (above), so
-the fusion takes them from it with too small a covariance; over a 1 s isolation at 1e-3
-that costs less than the switch, at 0.05 in the paper's setting (``isolated_in_fusion:
+(band 2.02-4.16). Its limit: the masked sub-filter's velocity and position go without their
+sensor (its error frozen and its covariance growing, above), and a false isolation selects
+a sub-filter whose error is large; over a 1 s isolation at 1e-3 that costs less than the
+switch, at 0.05 in the paper's setting (``isolated_in_fusion:
 false`` in :mod:`inmotion.reproductions.paper003`, Table 1 as printed) it is not measured
 to help: LDV faults detected 7 and 6 of 10 with it against 10 and 9 without.
 
