@@ -61,15 +61,15 @@ isolations 4.4e-2 / 4.3e-2 per test; faults 7, 6, 10, 9 of 10) are these drives'
 ten's 0.147 / 0.147 (525 / 508 isolations) on today's code.
 
 Measured 2026-12-02 (``--runs 0 --det-on-runs 10 --biases 0.005,0.01,0.02,0.05 --presets
-matched``, 59 s; fkf's defaults, ``return_test: conditioned``): the odometer step bias at
+matched [--return-test masked]``, 59 s; fkf's defaults otherwise): the odometer step bias at
 320 s with the detection on, detected (isolated within 2 s) at 1e-3: 0.005 m/s 5/10
 (median 1.5 s), 0.01 m/s 10/10 (median 0.5 s, max 2.0 s), 0.02 and 0.05 m/s 10/10 (max
 0.5 s); at 0.05: 6/10, 10/10, 9/10, 8/10, where every miss at 0.02 and 0.05 m/s is a run
 whose odometer a false alarm had isolated just before the onset (2 of 10 at each bias):
 the fault then keeps it isolated (no biased sample is applied) without a "detected" event.
 The smallest step detected in every run: 0.01 m/s at both rates. The same figures, run for
-run, with ``--return-test masked`` (659 s at load ~8): the first detection is the healthy
-channel's test, which the return test does not change.
+run, with either return test (``masked`` 659 s at load ~8): the first detection is the
+healthy channel's test, which the return test does not change.
 
 Thresholds: each channel's from the test statistic's model (``info["residual_test_weights"]``,
 :func:`inmotion.align.aided_kf.residual_test_thresholds`): ``chi2(3)``'s unless the rows take
@@ -459,8 +459,9 @@ def main(argv=None):
                     help="runs per bias of the odometer step bias with the detection on "
                     "(:func:`detection_with_isolation`); 0: none")
     ap.add_argument("--return-test", default=None, choices=("conditioned", "masked"),
-                    help="fkf's return_test in the detection-on experiment (default: "
-                    "fkf's)")
+                    help="fkf's return_test in the detection-on experiments (default: the "
+                    "reproduction's FDI_RETURN_TEST for --detection-on-runs, fkf's default "
+                    "for --det-on-runs)")
     ap.add_argument("--detection-on-runs", type=int, default=0,
                     help="runs of paper 003's fault experiment with the detection on "
                     "(:func:`detection_on`; its reproduction's drives and seeding); 0: none")
@@ -474,7 +475,7 @@ def main(argv=None):
     if args.detection_on_runs > 0:
         if args.return_test:
             from inmotion.reproductions import paper003 as P
-            P.PAPER_FKF["return_test"] = args.return_test
+            P.FDI_RETURN_TEST = args.return_test
         don = detection_on(args.detection_on_runs)
         res["detection_on"] = don
         print(f"paper 003's fault experiment, detection on, {don['runs']} runs:")

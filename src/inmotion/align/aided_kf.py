@@ -203,7 +203,8 @@ drive, start 0.1 / 0.1 / 0.5 deg off, seeds 100-123; final-attitude NEES, band f
   channel tested against its masked sub-filter, whose error is frozen from the isolation on,
   can stay isolated for the rest of the drive (5 of 20 of the reproduction's fault-free
   drives latch a channel, exceedances per test with the detection on 0.138 LDV, 0.183
-  odometer). ``return_test: conditioned`` (the default) tests it against a copy conditioned
+  odometer). ``return_test: conditioned`` (a named setting, not the default) tests it
+  against a copy conditioned
   on the healthy sub-filter's common estimate and keeps it on probation after its return:
   LDV 5.07e-2 (detection off 4.82e-2), odometer 7.37e-2 (5.26e-2; the excess in four drives
   whose odometer already exceeds 4-12 % with the detection off). The diagnosis, the design
@@ -405,12 +406,14 @@ class FkfConfig(AidedKfConfig):
                     "sub-filter with the healthy one (false: paper 003 Table 1 as printed, the "
                     "healthy sub-filter alone, which costs the fused heading at each false "
                     "isolation; issue 15)")
-    return_test: Literal["conditioned", "masked"] = Field(
-        "conditioned",
+    return_test: Literal["masked", "conditioned"] = Field(
+        "masked",
         description="what an isolated channel's residual test (its return) is judged against: "
-                    "conditioned: a copy of its masked sub-filter conditioned on the healthy "
-                    "sub-filters' estimate of the common states; masked: its masked, predicted "
-                    "sub-filter alone, whose error is frozen since the isolation (issue 15)")
+                    "masked: its masked, predicted sub-filter alone, whose error is frozen "
+                    "since the isolation (at 0.05 a channel can stay isolated for good); "
+                    "conditioned: a copy of it conditioned on the healthy sub-filters' "
+                    "estimate of the common states, and probation after the return (paper "
+                    "003's reproduction's fault experiment; issue 15)")
 
 
 def _config(config, cls):
