@@ -3,7 +3,7 @@ early (its sub-filter still far from converged) is tested for its return, with
 ``return_test: masked``, against its masked sub-filter, whose error is frozen from the
 isolation on (no update; the feedback shifts every local filter alike) while its covariance
 grows by the prediction: the statistic stays far above its model after the fault has ended
-and the channel keeps being isolated. With ``return_test: conditioned`` (the default) the
+and the channel keeps being isolated. With ``return_test: conditioned`` (a named setting) the
 test is of a copy conditioned on the healthy sub-filter's common estimate, and after a
 return the sub-filter is on probation (:mod:`inmotion.estimation.engine`'s docstring).
 

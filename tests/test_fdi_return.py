@@ -25,7 +25,7 @@ def runs():
                                * rng.standard_normal(3))
     # the return test on the masked sub-filter alone: its decisions do not involve the other
     # sub-filters' estimates, so they are the same under either feedback, the premise of the
-    # comparison (with the conditioned test, the default, the two runs' event lists are equal
+    # comparison (with the conditioned test, a named setting, the two runs' event lists are equal
     # up to 84.0 s, where a test at its threshold flips with the second-order difference of
     # the two feedbacks' linearization points)
     cfg = {"init_tilt_sigma_deg": 0.1, "init_heading_sigma_deg": 0.5,
