@@ -23,8 +23,13 @@ def runs():
     b = simulate(drive_003(), rng)
     init = NavState.from_truth(b.truth, euler_error=np.radians([0.1, 0.1, 0.5])
                                * rng.standard_normal(3))
+    # the return test on the masked sub-filter alone: its decisions do not involve the other
+    # sub-filters' estimates, so they are the same under either feedback, the premise of the
+    # comparison (with the conditioned test, a named setting, the two runs' event lists are equal
+    # up to 84.0 s, where a test at its threshold flips with the second-order difference of
+    # the two feedbacks' linearization points)
     cfg = {"init_tilt_sigma_deg": 0.1, "init_heading_sigma_deg": 0.5,
-           "false_alarm_rate": 0.05, "output_interval_s": 0.1}
+           "false_alarm_rate": 0.05, "output_interval_s": 0.1, "return_test": "masked"}
     return {flag: ak.run_fkf(b, dict(cfg, isolated_in_fusion=flag), init)
             for flag in (True, False)}
 
