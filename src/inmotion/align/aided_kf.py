@@ -77,10 +77,16 @@ quantile of that statistic's model (:func:`residual_test_weights`,
 ``chi2(3)``'s 7.81 and 16.27; ``info["fdi_thresholds"]`` per channel,
 ``info["residual_test_weights"]`` (and :func:`residual_test_thresholds` for any rate). The
 model neglects the state part ``H P H^T`` of ``C`` (its mean statistic is the sum of the
-weights, 1.50): right for the tests of a converged sub-filter, not for a young, masked or
-just-returned one, whose larger ``H P H^T`` enters the statistic at full weight and makes
-it exceed more often (issue 15: what is left of the cascade at 0.05, the engine's docstring,
-"Isolate and return"). Without a vehicle spec, or with row noise the configuration sets, the test
+weights, 1.50), which enters the statistic at full weight (the test's ``C`` is ``H P H^T +
+R``: :func:`inmotion.estimation.kalman.sequential_joseph`). Measured, it does not matter
+(issue 15, ``benchmarks/fdi_state_probe.py``, paper 003's reproduction's 20 fault-free
+drives at 0.05): ``H P H^T`` is 4-7 % of the forward row's ``C`` in a healthy, isolated or
+returned sub-filter's tests and 13-14 % in a young one's (first 60 s); the statistic's exact
+law given each test's ``C`` (``P`` taken as honest) puts the rate at 0.050-0.053 in every
+state but the young (0.058-0.063, where the observed is 0.040-0.050: that ``P`` is
+pessimistic), pooled 0.0507 (odometer) and 0.0514 (LDV) against the model's 0.05. What is
+left of the cascade at 0.05 is not this (the engine's docstring, "Isolate and return").
+Without a vehicle spec, or with row noise the configuration sets, the test
 is the ``chi2(3)`` one.
 
 The odometer's forward row, and why its false-alarm rate is judged over drives (issue 15,
