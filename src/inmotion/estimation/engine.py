@@ -123,10 +123,13 @@ detection on against the same drives with it off, pooled and the interval over d
   isolation adds spread, not mean: the forward innovation is offset from the detection-off
   filter's by -0.19, -0.41, -0.22, +0.40 ``sqrt(r)`` (the lateral row's by 0.03-0.08), which
   lifts one level of the cruise's two-valued quantization error above the threshold (drive
-  5's 95 % quantile 4.77 off, 6.72 on; threshold 4.65). Which state carries the offset is
-  not measured (the odometer's own scale factor and mount, which the conditioned copy moves
-  only by correlation with the LDV-observed common states, are the candidates); a threshold
-  from the exact law would not remove it;
+  5's 95 % quantile 4.77 off, 6.72 on; threshold 4.65). The offset is mostly the odometer's
+  scale factor: the sub-filter's ``dk`` with the detection on differs from the same drive's
+  with it off by -0.48, -0.70, -0.84, +0.61 sigma while isolated (the offset's sign on each
+  drive, 0.2-0.3 ``sqrt(r)`` of it at cruise), and about as much while healthy, where it
+  does not show (the sub-filter's own velocity absorbed it); the conditioned copy takes its
+  velocity from the LDV-based primaries and so exposes it. A threshold from the exact law
+  would not remove it; a fix is not measured;
 - at 1e-3, unchanged by the return test on these 20 drives (odometer 1.63e-3, LDV 1.54e-3
   with the detection on, 1.50e-3 / 1.58e-3 off);
 - the paper's four faults at 0.05 detected 17, 16, 20, 18 of 20 (masked 15, 16, 19, 18),
