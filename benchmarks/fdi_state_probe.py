@@ -176,30 +176,14 @@ def paired(r, runs, rate):
 
 
 def _run_recorded(win, start, det, rate):
-    """``fkf`` with each local's ``X`` and ``P`` recorded every 50 IMU rows (0.5 s; the engine
-    continues bit-identically across pieces, as in ``benchmarks/fdi_return_probe.py``)."""
-    from inmotion.estimation import engine as E
-    rec = []
-    orig = E.ErrorStateFilter.add_imu
-
-    def add_imu(self, t, dtheta, dvel, *, row_data=None, flush=False, **kw):
-        outs = []
-        for a in range(0, len(t), 50):
-            b = min(a + 50, len(t))
-            rd = None if row_data is None else {k: v[a:b] for k, v in row_data.items()}
-            outs.append(orig(self, t[a:b], dtheta[a:b], dvel[a:b], row_data=rd,
-                             flush=flush and b == len(t), **kw))
-            rec.append((self.t, self._S.X.copy(), self._S.P.copy()))
-        return {k: np.concatenate([o[k] for o in outs]) for k in outs[0]}
-
-    E.ErrorStateFilter.add_imu = add_imu
-    try:
-        ex = {"keep_test_statistics": True, "false_alarm_rate": rate, "return_test": "conditioned"}
-        if not det:
-            ex["fdi"] = False
+    """``fkf`` with each local's ``X`` and ``P`` recorded every 50 IMU rows (0.5 s;
+    :func:`fdi_return_probe.recording_locals`): ``(records (t, xs, X, P), solution)``."""
+    from fdi_return_probe import recording_locals
+    ex = {"keep_test_statistics": True, "false_alarm_rate": rate, "return_test": "conditioned"}
+    if not det:
+        ex["fdi"] = False
+    with recording_locals() as rec:
         sol = P._fine(win, start, "fkf", ex)
-    finally:
-        E.ErrorStateFilter.add_imu = orig
     return rec, sol
 
 
@@ -213,8 +197,8 @@ def states(r, runs, rate):
     a, _ = _run_recorded(win, start, False, rate)
     b, sol = _run_recorded(win, start, True, rate)
     iso = isolated_mask(sol, np.array([x[0] for x in b]), "odometer")
-    Xa, Xb = np.array([x[1][0] for x in a]), np.array([x[1][0] for x in b])
-    sa = np.sqrt(np.array([np.diag(x[2][0]) for x in a]))
+    Xa, Xb = np.array([x[2][0] for x in a]), np.array([x[2][0] for x in b])
+    sa = np.sqrt(np.array([np.diag(x[3][0]) for x in a]))
     for i, nm in enumerate(("dk", "mount_x", "mount_z")):
         k = NS + i
         d = (Xb[:, k] - Xa[:, k]) / sa[:, k]
