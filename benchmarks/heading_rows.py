@@ -162,15 +162,9 @@ def main(seed, t0, t1, extra):
     tot = {r_: {bn: 0.0 for bn, _ in BLOCKS} for r_ in range(3)}
     mism = []
     acc_c = [0.0, 0.0]
-    for i in range(1, len(rec["t"])):
-        t = round(float(rec["t"][i]), 6)
-        if t not in logs or not (t0 <= t <= t1):
+    for i, t, z, r, H, x, P in logged_updates(rec, logs):
+        if not (t0 <= t <= t1):
             continue
-        lg = logs[t]
-        z, r = lg[1:4], lg[4:7]
-        H = lg[7:].reshape(3, N)
-        x = rec["phi"][i] @ rec["x"][i - 1]
-        P = rec["p_pred"][i].copy()
         line = []
         Pprev = rec["p"][i - 1]
         vn = rec["xs"][i][K.VE:K.VE + 3]
@@ -195,14 +189,11 @@ def main(seed, t0, t1, extra):
                      f"{H[1, o_dk]:.3e}; sd v_al {np.sqrt(Pv[0, 0]):.2e} v_cr {np.sqrt(Pv[1, 1]):.2e}")
         for row in range(3):
             h = H[row]
-            Ph = P @ h
-            s = h @ Ph + r[row]
-            nu = z[row] - h @ x
+            x_new, P_new, nu, s, Ph = scalar_update(x, P, h, z[row], r[row])
             k = Ph / s
-            for bn, sl in BLOCKS:
+            for bn, sl in BLOCKS:       # the heading's change, by the block carrying it
                 tot[row][bn] += P[i_psi, sl] @ h[sl] * nu / s * ARCMIN
-            x = x + k * nu
-            P = P - np.outer(Ph, Ph) / s
+            x, P = x_new, P_new
             line.append(f"r{row} nu {nu:9.2e} s {np.sqrt(s):8.2e} Kpsi.nu {k[i_psi] * nu * ARCMIN:7.3f}")
         c_pred = P_at(rec["p_pred"][i]) - P_at(Pprev)
         c_upd = P_at(P) - P_at(rec["p_pred"][i])
@@ -228,26 +219,33 @@ def main(seed, t0, t1, extra):
               " ".join(f"{bn} {v:8.3f}" for bn, v in tot[row].items()))
 
 
+def logged_updates(rec, logs):
+    """Per logged update: ``(i, t, z, r, H, x, P)``, the record's index and time, the three
+    rows and their noise variances, and the prior (``Phi x`` of the record before, the
+    recorded predicted ``P``, a copy)."""
+    for i in range(1, len(rec["t"])):
+        t = round(float(rec["t"][i]), 6)
+        if t in logs:
+            lg = logs[t]
+            yield (i, t, lg[1:4], lg[4:7], lg[7:].reshape(3, N),
+                   rec["phi"][i] @ rec["x"][i - 1], rec["p_pred"][i].copy())
+
+
+def scalar_update(x, P, h, z, r):
+    """One scalar Kalman update (the engine's sequential form): ``(x, P, nu, s, P h)``."""
+    Ph = P @ h
+    s = h @ Ph + r
+    nu = z - h @ x
+    return x + Ph * nu / s, P - np.outer(Ph, Ph) / s, nu, s, Ph
+
+
 def innovations(rec, logs):
     """``(t, nu, s)`` per update and row (3), the engine's sequential update redone."""
     out = []
-    for i in range(1, len(rec["t"])):
-        t = round(float(rec["t"][i]), 6)
-        if t not in logs:
-            continue
-        lg = logs[t]
-        z, r = lg[1:4], lg[4:7]
-        H = lg[7:].reshape(3, N)
-        x = rec["phi"][i] @ rec["x"][i - 1]
-        P = rec["p_pred"][i].copy()
+    for _, t, z, r, H, x, P in logged_updates(rec, logs):
         nu_s = []
         for row in range(3):
-            h = H[row]
-            Ph = P @ h
-            s_ = h @ Ph + r[row]
-            nu = z[row] - h @ x
-            x = x + Ph * nu / s_
-            P = P - np.outer(Ph, Ph) / s_
+            x, P, nu, s_, _ = scalar_update(x, P, H[row], z[row], r[row])
             nu_s.append((nu, s_))
         out.append((t, nu_s))
     return out
