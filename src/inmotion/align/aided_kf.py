@@ -547,26 +547,50 @@ def _pad(M15, n=NSUB):
     return out
 
 
-def _channel(bundle, name, cfg, beta, P15, Q15, c, C_vb0, thr, ret):
+def _channel(bundle, name, cfg, beta, P15, Q15, c, C_vb0, thr, ret, t0=0.0):
     """The local filter of one velocity sensor (eq. 33-35: SINS part shared by ``1 /
-    beta``) and its measurement."""
+    beta``) and its measurement; ``t0`` the filter's start time [s] (the length row's
+    memory, :data:`LENGTH_VAR_SCALE`)."""
     lever = np.asarray(bundle.meta.get("lever_arms_m", {}).get(name, [0.0, 0.0, 0.0]), float)
     short = "od" if name == "odometer" else "ldv"
     P = _pad(P15 / beta)
     P[SUB_LAYOUT["dk"], SUB_LAYOUT["dk"]] = (getattr(cfg, f"{short}_scale_sigma_ppm") * 1e-6) ** 2
     P[SUB_LAYOUT["mount"], SUB_LAYOUT["mount"]] = np.eye(2) * (cfg.mount_sigma_arcmin * ARCMIN) ** 2
     P[SUB_LAYOUT["lever"], SUB_LAYOUT["lever"]] = np.eye(3) * cfg.lever_sigma_m ** 2
+    second = bool(cfg.measurement == "displacement" and cfg.exact_attitude_columns
+                  and cfg.second_order_length)
     kind = ms.DisplacementIncrement if cfg.measurement == "displacement" else ms.SensorVelocityNav
+    extra = {}
+    if second:
+        kind, extra = _LengthIncrement, {"start_s": float(t0)}
     meas = kind(np.asarray(getattr(cfg, f"{short}_noise_m_s"), float), lever_arm_m=lever,
                 vehicle_mounting=C_vb0, local=c, isolate=thr > 0, return_tests=ret, gate=thr,
                 name=name, model_floor_per_m=linearization_floor_per_m(cfg),
-                exact_attitude_columns=cfg.exact_attitude_columns)
+                exact_attitude_columns=cfg.exact_attitude_columns, **extra)
     meas.log_nis = True
-    if kind is ms.DisplacementIncrement:
-        second = bool(cfg.exact_attitude_columns and cfg.second_order_length)
-        meas.fill = _length_fill(type(meas).fill, second, LENGTH_MEAN_MODE, LENGTH_VAR_SCALE)
+    if issubclass(kind, ms.DisplacementIncrement):
+        meas.fill = _length_fill(ms.DisplacementIncrement.fill, second, LENGTH_MEAN_MODE,
+                                 LENGTH_VAR_SCALE)
         meas.wants_state = second
     return LocalFilter(P, _pad(Q15 / beta), r_scale=1.0 / beta), meas
+
+
+class _LengthIncrement(ms.DisplacementIncrement):
+    """:class:`~inmotion.estimation.measurements.DisplacementIncrement` under
+    ``second_order_length``: its parameter row carries the filter's start time ``start_s``
+    at :data:`P_START` (after the channel's own), from which the length fill counts the
+    intervals the filter has combined (:data:`LENGTH_VAR_SCALE`)."""
+
+    def __init__(self, *args, start_s=0.0, **kw):
+        super().__init__(*args, **kw)
+        self.start_s = float(start_s)
+
+    def params(self):
+        return np.r_[super().params(), self.start_s]
+
+
+#: where :class:`_LengthIncrement`'s start time is in its parameter row
+P_START = ms.P_EXACT + 1
 
 
 #: the largest angle [rad] between the SINS's displacement and the sensor's over an interval
@@ -910,7 +934,7 @@ LENGTH_MEAN_MODE = 0
 #: (10 runs, per run 7.1, 0.1, 11.1, 2.0, 4.5, 0.2, 5.3, 2.7, 5.5, 5.7), the small start 1.77;
 #: 4 is kept for the measured correlation (about 5 intervals). The consistent form is a state
 #: (or a correlated-noise model) for the second-order error, not done.
-LENGTH_VAR_SCALE = 4.0
+LENGTH_VAR_SCALE = 0.0
 
 
 @functools.lru_cache(maxsize=None)
@@ -948,6 +972,7 @@ def _length_fill(fill, second_order=False, mean_mode=0, var_scale=1.0):
     vs = float(var_scale)
     i_phi, i_dv = ms.PHI, ms.DV
     n_st = ms.STATE_PARAMS
+    i_t, o_t, o_start = ms.AUX_T, ms.ACC_T, P_START
 
     def length(xs, xd, aux, acc, data, p, offs, z, H, r):
         m = inner(xs, xd, aux, acc, data, p, offs, z, H, r)
@@ -986,7 +1011,10 @@ def _length_fill(fill, second_order=False, mean_mode=0, var_scale=1.0):
             dz, dr = _length_second_order(p[p.shape[0] - n_st:], C_nb, u0, u1, u2, lp, H,
                                           offs[i_phi], offs[i_dv])
             z[1] += mean_on * dz
-            r[1] += vs * dr
+            if vs > 0.0:
+                r[1] += vs * dr
+            else:                   # the intervals the filter has combined since its start
+                r[1] += max(1.0, (aux[i_t] - p[o_start]) / acc[o_t]) * dr
         if sins_along:
             od, om, ol = offs[i_dk], offs[i_mount], offs[i_lever]
             for c in range(H.shape[1]):
@@ -1382,7 +1410,8 @@ def run_aided(bundle: Bundle, cfg, init: NavState, sensors: tuple, *, method: st
     C_vb0 = rotations.mounting_dcm(A)
     locals_, meas = [], []
     for c, s_ in enumerate(sensors):
-        lf, m = _channel(bundle, s_, cfg, betas[s_], P15, Q15, c, C_vb0, thr_ch[s_], ret)
+        lf, m = _channel(bundle, s_, cfg, betas[s_], P15, Q15, c, C_vb0, thr_ch[s_], ret,
+                         float(imu.t[k0]))
         locals_.append(lf)
         meas.append(m)
     lay = SUB_LAYOUT if sensors else NHC_LAYOUT
@@ -1460,13 +1489,14 @@ def _nhc(cfg, C_vb0, local):
 
 
 @functools.lru_cache(maxsize=None)
-def _remapped_fill(fill):
+def _remapped_fill(fill, o=ms.P_EXACT + 1):
     """The fill function ``fill`` of a paper 003 sensor channel with its ``dk``, ``mount``
     and ``lever`` blocks read from the three parameter slots after the channel's own
-    (``P_EXACT + 1 ...``) instead of the layout's blocks of those names: the second channel of
-    :func:`_central_layout`'s filter, with the rows of the one channel plug-in."""
+    (``o``: ``P_EXACT + 1 ...``, or after :class:`_LengthIncrement`'s start time) instead of
+    the layout's blocks of those names: the second channel of :func:`_central_layout`'s
+    filter, with the rows of the one channel plug-in."""
     inner = ms.dispatcher(fill)
-    o = ms.P_EXACT + 1
+    o = int(o)
 
     def remapped(xs, xd, aux, acc, data, p, offs, z, H, r):
         oo = offs.copy()
@@ -1562,7 +1592,8 @@ def _smooth_bank(f, res_fwd, bundle, cfg, init, k0, sensors, use_nhc, use_baro, 
     isol = _isolations(f, len(sensors))
     meas = []
     for c, name in enumerate(sensors):
-        lf, m = _channel(bundle, name, cfg, 1.0, P15, Q15, 0, C_vb0, 0.0, 1)
+        lf, m = _channel(bundle, name, cfg, 1.0, P15, Q15, 0, C_vb0, 0.0, 1,
+                         float(bundle.imu.t[k0]))
         m.log_nis = False
         o_dk, o_m, o_l = starts[c]
         for o_sub, o_c, k in ((SUB_LAYOUT["dk"].start, o_dk, 1),
@@ -1571,7 +1602,7 @@ def _smooth_bank(f, res_fwd, bundle, cfg, init, k0, sensors, use_nhc, use_baro, 
             P0[o_c:o_c + k, o_c:o_c + k] = lf.P0[o_sub:o_sub + k, o_sub:o_sub + k]
         if c > 0:
             base = m.params()
-            m.fill = _remapped_fill(m.fill)
+            m.fill = _remapped_fill(m.fill, len(base))
             m.params = (lambda b=base, s=starts[c]: np.r_[b, np.asarray(s, float)])
         meas.append(m)
     if use_nhc:
