@@ -222,3 +222,43 @@ def test_second_order_length_for_a_heading_error_alone():
     (z0, r0, _), (z1, r1, _) = _second_order_rows(big * big * np.outer(J, J))
     np.testing.assert_array_equal(z1, z0)
     np.testing.assert_array_equal(r1, r0)
+
+
+@pytest.mark.parametrize("t, memory_max, n", [(15.0, np.inf, 30.0), (0.2, np.inf, 1.0),
+                                              (15.0, 16.0, 16.0)])
+def test_length_memory_takes_the_second_order_variance_n_times(t, memory_max, n):
+    """``aided_kf.LENGTH_MEMORY_MAX`` (issue 15, helper h15nees6): the length row's
+    second-order variance (the same as taken once, the other rows and the innovation
+    untouched) times the intervals the filter has combined since its start, ``(t - t0) / T``
+    (the filter started at 5 s, 0.5 s intervals: 30 at 20 s), at least 1 and at most the
+    bound."""
+    d, T, t0 = 7.0, 0.5, 5.0
+    s = np.radians(0.5)
+    v = np.array([0.0, d / T, 0.0])
+    J = np.r_[[0.0, 0.0, 1.0], np.cross(v, [0.0, 0.0, 1.0])]
+    P6 = s * s * np.outer(J, J)
+    dD = np.array([0.0, d, 0.0])
+    xs = np.zeros(10)
+    xs[6] = 1.0
+    acc = np.zeros(ms.ACC_SIZE)
+    acc[ms.ACC_T] = T
+    for o in (ms.ACC_D, ms.ACC_W, ms.ACC_DP):
+        acc[o:o + 3] = dD
+    aux = np.zeros(ms.AUX_SIZE)
+    aux[ms.AUX_T] = t0 + t
+    m = ak._LengthIncrement(np.array([0.01, 4e-5, 0.02]), exact_attitude_columns=True,
+                            start_s=t0)
+    p = np.r_[m.params(), np.zeros(6), P6.ravel()]
+    assert p[ak.P_START] == t0
+    out = []
+    for fill in (ak._length_fill(ms.DisplacementIncrement.fill, False),
+                 ak._length_fill(ms.DisplacementIncrement.fill, True),
+                 ak._length_fill(ms.DisplacementIncrement.fill, True, 0, 1.0, memory_max)):
+        z, H, r = np.zeros(3), np.zeros((3, SUB_LAYOUT.n)), np.zeros(3)
+        fill(xs, xs, aux, acc, np.zeros(1), p, SUB_LAYOUT.offsets(), z, H, r)
+        out.append((z, r))
+    (z0, r0), (z1, r1), (z2, r2) = out
+    assert r1[1] > r0[1]
+    np.testing.assert_allclose(r2[1] - r0[1], n * (r1[1] - r0[1]), rtol=1e-12)
+    np.testing.assert_array_equal(z2, z1)
+    np.testing.assert_array_equal(r2[[0, 2]], r1[[0, 2]])
