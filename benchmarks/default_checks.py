@@ -19,7 +19,12 @@ variance taken 4 times (``aided_kf.LENGTH_VAR_SCALE``, helper h15nees5): ``fine-
 5.45, ``adaptive`` 7.70 arcmin (sigma 35.27; heading 2642.33, 2628.44 arcmin); ``process``
 0.89, 0.74, 1.39 arcmin (sigma 1.33), 1.46, 1.33, 1.78 m: ``adaptive``'s level error is
 still worse than the default's, so the setting stays off (the defaults measured again the
-same day: level 37.98, 4.00, heading 1955.48, 2511.46 arcmin).
+same day: level 37.98, 4.00, heading 1955.48, 2511.46 arcmin). With the variance taken as
+many times as the filter has combined intervals (``benchmarks/with_length_knobs.py 0 memory
+'{"exact_attitude_columns": true, "second_order_length": true}' benchmarks/default_checks.py
+psins|process``, ``aided_kf.LENGTH_MEMORY_MAX``, helper h15nees6): ``fine-mux`` level 4.97,
+``adaptive`` 5.21 arcmin (sigma 35.27); ``process`` heading 0.94, 0.88, 1.47 arcmin (sigma
+1.35), horizontal 1.48, 1.39, 1.83 m.
 """
 import json
 import os
