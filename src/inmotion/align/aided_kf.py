@@ -970,8 +970,10 @@ LENGTH_VAR_SCALE = 4.0
 #: 5.21 arcmin (sigma 35.27; at 4 times 5.45, 7.70; the default settings 37.98, 4.00);
 #: ``process``: heading 0.94, 0.88, 1.47 arcmin (sigma 1.35), horizontal 1.48, 1.39, 1.83
 #: m (at 4 times 0.89, 0.74, 1.39 arcmin, sigma 1.33; the default settings 1.09, 0.95,
-#: 1.60, sigma 1.33). Bounded at 64: the fine odometer 2.75, the matched small start 4.05;
-#: at 16: 2.71, 5.20.
+#: 1.60, sigma 1.33). Bounded at 64 (``memory:64``): the fine odometer 2.75 (seeds 100-119
+#: 2.49), the matched small start 4.05, fkf 2.43, od-kf 2.59, ldv-kf 2.39, ``fine-mux`` 4.97,
+#: ``adaptive`` 6.30 arcmin, the process drive 0.95, 0.82, 1.48 arcmin (sigma 1.34); at 16:
+#: 2.71, 5.20.
 #:
 #: Why it is off. The residual test takes the filter's ``R`` (its weights,
 #: :func:`residual_test_weights`, are per channel, not per interval), so the inflation that
