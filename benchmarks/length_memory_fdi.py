@@ -7,7 +7,8 @@ fault window with its statistic and threshold. Usage (from the repository root):
 
 ``KNOB``: a number (``aided_kf.LENGTH_VAR_SCALE``), or ``memory`` / ``memory:N``
 (``aided_kf.LENGTH_MEMORY_MAX``: the variance times the intervals the filter has combined since
-its start, at most ``N``); ``CONFIG_JSON`` adds to the configuration (default: both issue 15
+its start, at most ``N``), or ``walk:Q[:N]`` (``aided_kf.LENGTH_SCALE_WALK``: a random walk of
+``Q`` ppm / sqrt(s) on the scale state, the variance ``N`` times, default 1); ``CONFIG_JSON`` adds to the configuration (default: both issue 15
 settings on, ``'{"exact_attitude_columns": false, "second_order_length": false}'`` for paper
 003's rows).
 
@@ -16,7 +17,8 @@ LDV -0.5 m/s 70-75 s; statistic / threshold, odometer 7.6, LDV 19.8): paper 003'
 (any knob) odometer 2059.5, LDV 101.9, odometer 4483.1, LDV 141.5; both settings at
 ``4``: 529.7, 1245.0, 2125.3, 2406.8; ``memory:16``: 159.4, 259.6, 713.8, 451.0;
 ``memory:32``: 82.1, 123.3, 364.8, 210.0; ``memory:64``: 41.8, 59.6, 180.3, 99.7;
-``memory`` (no bound): 18.1, the LDV's 50 s fault not detected, 34.6, 22.7. The inflation
+``memory`` (no bound): 18.1, the LDV's 50 s fault not detected, 34.6, 22.7; ``walk:20``:
+1246.6, 8198.1, 3585.2, 41.7 (at 70.0 s). The inflation
 that makes the NEES honest deflates the single-row test by the same factor (the test takes
 the filter's ``R``; its weights, ``aided_kf.residual_test_weights``, are per channel, not per
 interval), so an unbounded memory blinds the detection as a run goes on.
@@ -36,6 +38,10 @@ from inmotion.sim.scenario import load_scenario  # noqa: E402
 knob = sys.argv[1]
 if knob.startswith("memory"):
     ak.LENGTH_MEMORY_MAX = float(knob.partition(":")[2] or "inf")
+elif knob.startswith("walk:"):
+    walk, _, scale = knob[5:].partition(":")
+    ak.LENGTH_SCALE_WALK = float(walk)
+    ak.LENGTH_VAR_SCALE = float(scale or 1.0)
 else:
     ak.LENGTH_VAR_SCALE = float(knob)
 cfg = {"exact_attitude_columns": True, "second_order_length": True, "measurement":

@@ -572,7 +572,11 @@ def _channel(bundle, name, cfg, beta, P15, Q15, c, C_vb0, thr, ret, t0=0.0):
         meas.fill = _length_fill(ms.DisplacementIncrement.fill, second, LENGTH_MEAN_MODE,
                                  LENGTH_VAR_SCALE, LENGTH_MEMORY_MAX)
         meas.wants_state = second
-    return LocalFilter(P, _pad(Q15 / beta), r_scale=1.0 / beta), meas
+    Q = _pad(Q15 / beta)
+    if second and LENGTH_SCALE_WALK > 0.0:
+        i = SUB_LAYOUT["dk"].start
+        Q[i, i] += (LENGTH_SCALE_WALK * 1e-6) ** 2
+    return LocalFilter(P, Q, r_scale=1.0 / beta), meas
 
 
 class _LengthIncrement(ms.DisplacementIncrement):
@@ -987,6 +991,25 @@ LENGTH_VAR_SCALE = 4.0
 #: row, or process noise on the scale state as the second order's mean moves): engine work,
 #: not done.
 LENGTH_MEMORY_MAX = 0.0
+
+#: an experiment (issue 15, helper h15nees6), 0: off: a random walk of this many ppm / sqrt(s)
+#: on a channel's scale state under ``second_order_length`` (the forward filters; not the
+#: central filter a smoothed bank builds), with :data:`LENGTH_VAR_SCALE` 1: the persistent
+#: part of the length row's second-order error carried by a state (the scale, whose column
+#: on the row is the interval's distance) instead of the row's variance, so each interval's
+#: test keeps its own variance. Measured (``benchmarks/with_length_knobs.py 0 walk:20 ..``,
+#: 20 ppm / sqrt(s), once): the fine odometer 3.71 (band 1.68-4.70; per run 10.0, 0.5, 1.4,
+#: 1.8, 7.2, 0.1, 1.3, 4.4, 3.8, 6.5), the matched small start (:data:`LENGTH_VAR_SCALE`)
+#: 3.54, 200 pulses/m 2.98; paper 003's drive fkf 2.29, od-kf 2.85, ldv-kf 2.27 (band
+#: 2.02-4.16); ``benchmarks/length_memory_fdi.py``: statistics 1247, 8198, 3585, 41.7 (all
+#: detected; at 4 times without the walk 530, 1245, 2125, 2407); the process drive 0.72,
+#: 0.89, 1.19 arcmin (sigma 1.38), 1.40, 1.61, 1.68 m; the PSINS MEMS log ``fine-mux`` 5.57,
+#: ``adaptive`` 8.07 arcmin level. At 1 and 5 ppm / sqrt(s) not enough (the fine odometer
+#: 6.69, 5.24; the matched small start 20.41, 9.57). A constant, and a scale that wanders
+#: 200 ppm in 100 s where the sensor's does not: the size wanted is the second order's own
+#: rate of change, from the filter's covariance at each interval (process noise set per
+#: interval, which the engine does not offer a measurement), not done.
+LENGTH_SCALE_WALK = 0.0
 
 
 @functools.lru_cache(maxsize=None)
