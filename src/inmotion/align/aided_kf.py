@@ -999,8 +999,9 @@ LENGTH_MEMORY_MAX = 0.0
 #: on the row is the interval's distance) instead of the row's variance, so each interval's
 #: test keeps its own variance. Measured (``benchmarks/with_length_knobs.py 0 walk:20 ..``,
 #: 20 ppm / sqrt(s), once): the fine odometer 3.71 (band 1.68-4.70; per run 10.0, 0.5, 1.4,
-#: 1.8, 7.2, 0.1, 1.3, 4.4, 3.8, 6.5), the matched small start (:data:`LENGTH_VAR_SCALE`)
-#: 3.54, 200 pulses/m 2.98; paper 003's drive fkf 2.29, od-kf 2.85, ldv-kf 2.27 (band
+#: 1.8, 7.2, 0.1, 1.3, 4.4, 3.8, 6.5; seeds 100-119 3.80, band 2.02-4.16), the matched small
+#: start (:data:`LENGTH_VAR_SCALE`) 3.54 (``heading_symmetry.py``'s, its prior 5 times the
+#: start error, 1.20; ``no-violation`` 159.7, detection off), 200 pulses/m 2.98; paper 003's drive fkf 2.29, od-kf 2.85, ldv-kf 2.27 (band
 #: 2.02-4.16); ``benchmarks/length_memory_fdi.py``: statistics 1247, 8198, 3585, 41.7 (all
 #: detected; at 4 times without the walk 530, 1245, 2125, 2407); the process drive 0.72,
 #: 0.89, 1.19 arcmin (sigma 1.38), 1.40, 1.61, 1.68 m; the PSINS MEMS log ``fine-mux`` 5.57,
