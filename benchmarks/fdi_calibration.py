@@ -34,6 +34,7 @@ Usage: ``OPENBLAS_NUM_THREADS=1 nice -n 10 python benchmarks/fdi_calibration.py 
 [--return-test conditioned|masked] [--det-on-runs N]``. Prints a table.
 
 Measured 2026-12-02 (``--runs 0 --detection-on-runs 20 [--return-test masked]``, 96-154 s;
+``conditioned`` re-run by h15fdi5 on main d81ca8d, 127 s: every figure identical;
 the paper's setting, Table 1 as printed, main filter every 10 s; exceedances per test with
 the detection on, pooled, the interval over drives in brackets, against the same drives
 with the detection off):
@@ -53,8 +54,10 @@ on, at 1e-3 (either)        1.63e-3                    1.54e-3                  
 sample, 0.15 s after the onset, but one masked OD slip at up to 2.65 s. (*): ``conditioned``
 with ``benchmarks/fdi_condition_common.patch``, the return test's copy conditioned in its
 common states only, its sensor states left, with that gain's covariance (h15fdi5, 307 s;
-1e-3 rows unchanged): within the Monte Carlo error of ``conditioned``, not adopted; the
-odometer's excess is censoring, ``benchmarks/fdi_state_probe.py``'s item 4.) Before, 5 of the 20
+1e-3 rows unchanged; paired by drive on - off odometer 1.7e-2 +- 1.6e-2, LDV 5e-4 +-
+2.1e-3, t-intervals, against 2.1e-2 and 2.5e-3): within the Monte Carlo error of
+``conditioned``, not adopted; the odometer's excess is censoring,
+``benchmarks/fdi_state_probe.py``'s item 4.) Before, 5 of the 20
 drives latch a channel (its statistic above the threshold for the rest of the drive:
 exceedances per test 0.94, 0.95, 0.91 odometer, 1.00, 0.72 LDV); with the conditioned
 return test none does. Paired by drive, what the detection on adds is 2.5e-3 (4e-4-4.6e-3)
