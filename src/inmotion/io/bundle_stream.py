@@ -52,8 +52,8 @@ from ..core.bundle import (VELOCITY_SENSORS, Bundle, ImuData, SpeedData, Truth,
 from ..errors import BadInput
 from . import bundle as B
 
-__all__ = ["open_bundle", "BundleStream", "TruthStream", "SpeedStream", "CHUNK_ROWS",
-           "STREAM_SENSOR_RATE_HZ"]
+__all__ = ["open_bundle", "BundleStream", "TruthStream", "TruthReducer", "SpeedStream",
+           "CHUNK_ROWS", "STREAM_SENSOR_RATE_HZ"]
 
 #: rows per chunk read from the IMU and truth tables
 CHUNK_ROWS = 65536
@@ -725,21 +725,152 @@ class TruthStream(_Times):
         times, w0 = self._span()
         if len(times) == 0:
             return Truth(times, times, times, times, np.zeros((0, 3)), np.zeros((0, 3)))
-        j = np.clip(np.searchsorted(times, np.asarray(t_out, dtype=float), side="right") - 1,
-                    0, len(times) - 1)
-        keep = np.unique(np.concatenate([[0, len(times) - 1], j,
-                                         np.minimum(j + 1, len(times) - 1)])) + w0
+        keep = _keep_rows(times, t_out) + w0
         w1 = w0 + len(times)
-        del times, j
-        parts = _kept_rows(self._rows(), keep, w0, w1)
-        return Truth(*(np.concatenate([getattr(p, f) for p in parts])
-                       for f in ("t", "lat", "lon", "h", "vel_n", "euler", "path_length_m")))
+        del times
+        return _joined(_kept_rows(self._rows(), keep, w0, w1))
+
+    def reducer(self) -> "TruthReducer":
+        """A :class:`TruthReducer`: :meth:`reduced` made in a thread while the output times
+        arrive (a method's run), started at the first times fed."""
+        return TruthReducer(self)
 
 
-def _kept_rows(rows, keep, w0, w1):
+def _keep_rows(times, t_out) -> np.ndarray:
+    """The rows of ``times`` (indices from 0) :meth:`TruthStream.reduced` keeps for the output
+    times ``t_out``: the first and the last row and the two rows around each output time."""
+    n = len(times)
+    j = np.clip(np.searchsorted(times, np.asarray(t_out, dtype=float), side="right") - 1,
+                0, n - 1)
+    return np.unique(np.concatenate([[0, n - 1], j, np.minimum(j + 1, n - 1)]))
+
+
+def _joined(parts) -> Truth:
+    return Truth(*(np.concatenate([getattr(p, f) for p in parts])
+                   for f in ("t", "lat", "lon", "h", "vel_n", "euler", "path_length_m")))
+
+
+class _Stopped(Exception):
+    """A :class:`TruthReducer`'s thread told to stop (or its output times out of order)."""
+
+
+class TruthReducer:
+    """:meth:`TruthStream.reduced` computed while a method runs (issue 13: the command line's
+    hour, 2 cores): the output times are fed as the run makes them (:meth:`feed`, each
+    chunk's, in increasing order), and a thread reads and checks the truth table chunk by
+    chunk (:meth:`TruthStream._rows`, the same code), each chunk once the output times have
+    passed its end, so that its kept rows are known; :meth:`result` returns what
+    ``reduced(t_out)`` returns, array for array, for any ``t_out`` whose kept rows are among
+    those of the times fed (the thinned output of a method: a subset of its rows); otherwise
+    (or if the times fed were not increasing) it calls :meth:`TruthStream.reduced` itself.
+    Memory: one truth chunk at a time and the kept rows, as :meth:`TruthStream.reduced`; the
+    window's time column (which the bundle keeps from opening until its rows are read) is held
+    until :meth:`result`. A :class:`BadInput` of the table is raised by :meth:`result`, as it
+    was raised, in the caller's thread; :meth:`close` stops the thread (a failed run)."""
+
+    def __init__(self, truth: "TruthStream"):
+        self._truth = truth
+        self._times, self._w0 = truth._span()
+        self._cond = threading.Condition()
+        self._fed = []                   # the output times fed, not yet turned into rows
+        self._rows_fed = []              # their kept rows' candidates (absolute)
+        self._last = -np.inf             # the last time fed
+        self._ordered = True
+        self._done = self._stop = False
+        self._out = None                 # (parts, kept rows) or an exception
+        self._thread = None
+
+    def feed(self, t) -> None:
+        """Output times ``t`` [s] of the run, after those fed before."""
+        t = np.array(t, dtype=float).reshape(-1)
+        if len(t) == 0:
+            return
+        with self._cond:
+            if not (t[0] >= self._last and bool(np.all(np.diff(t) >= 0))):
+                self._ordered = False
+            self._fed.append(t)
+            self._last = max(self._last, float(t[-1]))
+            self._cond.notify_all()
+        if self._thread is None and len(self._times):
+            self._thread = threading.Thread(target=self._run, name="inmotion-truth",
+                                            daemon=True)
+            self._thread.start()
+
+    def _keep_in(self, a: int, b: int) -> np.ndarray:
+        """The kept rows (absolute, sorted) among the rows ``a <= row < b`` of the table: waits
+        until the output times have passed row ``b``'s time (or have all been fed)."""
+        times, w0 = self._times, self._w0
+        n = len(times)
+        with self._cond:
+            while not (self._stop or self._done or not self._ordered
+                       or (b - w0 < n and self._last >= times[b - w0])):
+                self._cond.wait()
+            if self._stop or not self._ordered:
+                raise _Stopped
+            fed, self._fed = self._fed, []
+        for t in fed:                    # row j at or before each time, and j + 1
+            j = np.clip(np.searchsorted(times, t, side="right") - 1, 0, n - 1)
+            self._rows_fed.append(np.concatenate([j, np.minimum(j + 1, n - 1)]) + w0)
+        cand = np.concatenate([[w0, w0 + n - 1]] + self._rows_fed)
+        # the times fed so far end past row b: rows before b - 1 are not asked for again
+        self._rows_fed = [r for r in self._rows_fed if len(r) and r.max() >= b - 1]
+        return np.unique(cand[(cand >= a) & (cand < b)])
+
+    def _run(self):
+        rows = self._truth._rows()
+        try:
+            kept = []
+            parts = _kept_rows(rows, self._keep_in, self._w0, self._w0 + len(self._times),
+                               kept)
+            self._out = (parts, np.concatenate(kept) if kept else np.zeros(0, dtype=int))
+        except _Stopped:
+            self._out = None
+        except BaseException as e:          # noqa: BLE001 (raised by result())
+            self._out = e
+        finally:
+            rows.close()
+
+    def _finish(self, stop: bool):
+        with self._cond:
+            self._done = True
+            self._stop = self._stop or stop
+            self._cond.notify_all()
+        if self._thread is not None:
+            self._thread.join()
+
+    def result(self, t_out) -> Truth:
+        """``TruthStream.reduced(t_out)`` (``t_out``: the output times of the result written)."""
+        self._finish(stop=False)
+        out, self._out = self._out, None
+        if isinstance(out, BaseException):
+            raise out
+        times, w0 = self._times, self._w0
+        if out is None or len(times) == 0:
+            return self._truth.reduced(t_out)
+        parts, kept = out
+        keep = _keep_rows(times, t_out) + w0
+        sel = np.searchsorted(kept, keep)
+        if not (np.all(sel < len(kept)) and np.array_equal(kept[np.minimum(sel, len(kept) - 1)],
+                                                           keep)):
+            return self._truth.reduced(t_out)      # rows the times fed did not ask for
+        full = _joined(parts)
+        if len(keep) == len(kept):
+            return full
+        return Truth(*(getattr(full, f)[sel] for f in
+                       ("t", "lat", "lon", "h", "vel_n", "euler", "path_length_m")))
+
+    def close(self) -> None:
+        """Stop the thread (if any) and wait for it."""
+        self._finish(stop=True)
+
+
+def _kept_rows(rows, keep, w0, w1, kept=None):
     """:meth:`TruthStream.reduced`'s loop over the checked chunks ``rows`` (``(offset, Truth,
     dh, steps)``, :meth:`TruthStream._rows`): the kept rows ``keep`` of the window rows
-    ``w0 .. w1 - 1``, unwrapped, with the path length, a :class:`Truth` per chunk."""
+    ``w0 .. w1 - 1``, unwrapped, with the path length, a :class:`Truth` per chunk. ``keep``:
+    the rows (absolute, sorted), or a function ``keep(a, b)`` giving those among the rows
+    ``a <= row < b`` (:class:`TruthReducer`); ``kept``: a list the kept rows of each chunk
+    are appended to."""
     parts = []
     prev, carry_e, carry_l, carry_s = None, np.zeros(3), 0.0, 0.0
     for offset, tr, dh, steps in rows:
@@ -756,7 +887,10 @@ def _kept_rows(rows, keep, w0, w1):
         j = (offset > 0) - 1
         s, carry_s = _path_carry(*(x[i0 + j + (prev is None):i1 + j]
                                    for x in (dh, *steps)), prev is None, carry_s)
-        k = keep[(keep >= a) & (keep < b)] - a
+        k = keep(a, b) if callable(keep) else keep[(keep >= a) & (keep < b)]
+        if kept is not None:
+            kept.append(k)
+        k = k - a
         parts.append(Truth(tr.t[k], tr.lat[k], lon[k], tr.h[k], tr.vel_n[k], euler[k], s[k]))
         prev = _take(tr, slice(-1, None))
     return parts
