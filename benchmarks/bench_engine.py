@@ -24,7 +24,12 @@ thread):
 * ``process --smooth``: the main job (``inmotion.process.run_process``) on the same hour
   with an odometer in place of the radar, smoothed (issue 14's target: 3 s);
 * ``CLI``: ``inmotion navigate BUNDLE --method sins-dr`` on a Parquet bundle of the hour with
-  the same settings and 1 Hz output, wall time of the whole command, and ``inmotion --help``
+  the same settings and 1 Hz output, wall time of the whole command; ``inmotion align BUNDLE
+  --method od-velocity-kf`` with ``filter_rate_hz=100``, ``measurement_rate_hz=10``,
+  ``feedback_rate_hz=10``, ``use_baro=false``, ``--output-rate 1``: the equal workload itself
+  through the command line (19 states: ``phi, dv, dp, eps, nabla, mount, dk``; the sensor's
+  velocity and the NHC at 10 Hz), which the ahead-of-time extension also holds
+  (``_aot_build.RUNS``; the line says so when a run imports numba); and ``inmotion --help``
   (the fixed start-up cost).
 
     OPENBLAS_NUM_THREADS=1 .venv/bin/python benchmarks/bench_engine.py [--repeat N] [--no-cli]
@@ -122,6 +127,32 @@ def best_cpu(fn, repeat):
     return best
 
 
+def cli_wall(cmd, env, repeat):
+    """Best wall time [s] of ``repeat`` runs of the command ``cmd`` after a warm-up run."""
+    walls = []
+    for i in range(repeat + 1):
+        t0 = time.perf_counter()
+        subprocess.run(cmd, check=True, env=env, capture_output=True)
+        if i:                                              # the first warms caches
+            walls.append(time.perf_counter() - t0)
+    return min(walls)
+
+
+#: the command line run in-process, then whether numba was imported (the JIT path)
+_NUMBA_CHECK = ("import sys, os\nimport inmotion.cli.main as M\nsys.argv = ['inmotion'] + "
+                "sys.argv[1:]\ntry:\n    M.main()\nexcept SystemExit as e:\n    assert not "
+                "e.code\nprint('NUMBA', 'numba' in sys.modules)\nos._exit(0)\n")
+
+
+def numba_note(cmd, env):
+    """``"; numba imported"`` when the command's run imports numba (no ahead-of-time case
+    for it: ``python -m inmotion.warmup`` builds them), else ``""``."""
+    i = cmd.index("inmotion.cli.main")
+    p = subprocess.run([cmd[0], "-c", _NUMBA_CHECK, *cmd[i + 1:]], env=env,
+                       capture_output=True, text=True, check=True)
+    return "; numba imported (JIT path)" if "NUMBA True" in p.stdout else ""
+
+
 def main():
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--repeat", type=int, default=3)
@@ -167,14 +198,18 @@ def main():
                      "--set", "mode=velocity-position", "--set", "filter_rate_hz=100",
                      "--set", "measurement_rate_hz=10", "--set", "output_rate_hz=1",
                      "-o", str(Path(tmp) / "out")]
-        walls = []
-        for i in range(args.repeat + 1):
-            t0 = time.perf_counter()
-            subprocess.run(cmd, check=True, env=env, capture_output=True)
-            if i:                                          # the first compiles / warms caches
-                walls.append(time.perf_counter() - t0)
-        print(f"CLI sins-dr 100 Hz, Parquet in, 1 Hz out: {min(walls):.2f} s wall per hour "
-              f"(target 1.0 s)")
+        print(f"CLI sins-dr 100 Hz, Parquet in, 1 Hz out: {cli_wall(cmd, env, args.repeat):.2f} "
+              f"s wall per hour (target 1.0 s){numba_note(cmd, env)}")
+        # issue 13's equal workload itself through the command line: mechanization and a
+        # 19-state predict every IMU row (phi, dv, dp, eps, nabla, mount, dk), the sensor's
+        # velocity and the NHC at 10 Hz, closed-loop feedback at 10 Hz, 1 Hz out
+        cmd = exe + ["-q", "align", str(path), "--method", "od-velocity-kf", "--init", "truth",
+                     "--set", "filter_rate_hz=100", "--set", "measurement_rate_hz=10",
+                     "--set", "feedback_rate_hz=10", "--set", "use_baro=false",
+                     "--output-rate", "1", "-o", str(Path(tmp) / "out-odv")]
+        print(f"CLI od-velocity-kf 100 Hz (equal workload: 19 states, velocity + NHC at 10 Hz), "
+              f"Parquet in, 1 Hz out: {cli_wall(cmd, env, args.repeat):.2f} s wall per hour "
+              f"(target 1.0 s){numba_note(cmd, env)}")
         walls = []
         for _ in range(args.repeat):
             t0 = time.perf_counter()

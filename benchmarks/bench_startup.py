@@ -168,7 +168,9 @@ PARTS = textwrap.dedent("""\
     timed(E.ErrorStateFilter, "add_imu", "filter kernel (add_imu)")
     timed(M, "run_method", "method run (the main thread: the above but a reader thread's, "
           "and the wrapper)")
-    timed(S.TruthStream, "reduced", "truth rows kept for the errors")
+    timed(S.TruthStream, "reduced", "truth rows kept for the errors (after the run)")
+    timed(S.TruthReducer, "_run", "truth rows kept for the errors (in a thread during the run)")
+    timed(S.TruthReducer, "result", "truth rows: the main thread's wait after the run")
     timed(R, "write_result", "result written (errors against truth)")
     sys.argv = ["inmotion", "-q"] + sys.argv[1:]
     try:

@@ -492,8 +492,8 @@ def run_dr_kf(bundle: Bundle, config: DrKfConfig | dict | None = None,
 def run_od_velocity_kf(bundle: Bundle, config: OdVelocityKfConfig | dict | None = None,
                        init: NavState | None = None,
                        progress: Optional[Callable] = None, *,
-                       output_times=None) -> Solution:
+                       select=None, output_times=None) -> Solution:
     """``od-velocity-kf``: SINS / velocity-sensor velocity matching (the baseline).
-    ``output_times``: as :func:`run_dr_kf`'s."""
+    ``select``, ``output_times``: as :func:`run_dr_kf`'s."""
     return _run(bundle, config, init, progress, OdVelocityKfConfig, False, "od-velocity-kf",
-                output_times=output_times)
+                select=select, output_times=output_times)

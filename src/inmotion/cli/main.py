@@ -644,7 +644,8 @@ def _preload(modules):
 _WRITE_MODULES = ("glob", "pyarrow.csv")
 
 
-def run_method(ctx, bundle, spec, config, init_state, window, truth_reducer=False):
+def run_method(ctx, bundle, spec, config, init_state, window, truth_reducer=False,
+               thin_rate_hz=None):
     """Run ``spec`` on ``bundle`` cut to ``window`` = (start, end); return ``(Solution, the
     bundle it ran on)``.
     A method that streams its IMU rows (:data:`STREAMED`) takes the bundle as it is (read in
@@ -656,7 +657,13 @@ def run_method(ctx, bundle, spec, config, init_state, window, truth_reducer=Fals
     :class:`inmotion.io.bundle_stream.TruthReducer` that read the truth rows the errors need
     while the method ran (its ``result(t)`` is ``truth.reduced(t)``; the caller closes it),
     for a method that gives its output times as it makes them (keyword ``output_times``) on a
-    bundle read in chunks; else None."""
+    bundle read in chunks; else None.
+
+    ``thin_rate_hz``: the rate the caller thins the solution to afterwards
+    (:func:`inmotion.io.result.thin`); a streaming method that takes a row selection
+    (keyword ``select``) and does not smooth keeps only the rows thinning can keep
+    (:func:`inmotion.io.result.thin_select`: the same rows after thinning, without holding
+    the others)."""
     start, end = window
     b = (bundle.window(start, end) if spec.name in STREAMED
          else bundle.load_window(start, end, truth=True))
@@ -668,6 +675,10 @@ def run_method(ctx, bundle, spec, config, init_state, window, truth_reducer=Fals
                        f"covers {t0:g}-{t1:g} s (check --start / --end)")
     run, _ = spec.load()
     kw, reducer = {}, None
+    if (thin_rate_hz is not None and spec.name in STREAMED and not getattr(config, "smooth", False)
+            and _accepts(run, "select")):
+        from ..io.result import thin_select
+        kw["select"] = thin_select(thin_rate_hz)
     if (truth_reducer and spec.name in STREAMED and hasattr(b.truth, "reducer")
             and _accepts(run, "output_times")):
         reducer = b.truth.reducer()
@@ -773,7 +784,7 @@ def _run_command(ctx, kind, bundle_path, method, config_file, output, init, init
     preload = _preload(_WRITE_MODULES)
     try:
         sol, b, reducer = run_method(ctx, bundle, spec, config, state, (start, end),
-                                     truth_reducer=True)
+                                     truth_reducer=True, thin_rate_hz=thin_rate)
     finally:
         preload.join()
     try:

@@ -763,14 +763,14 @@ class TruthReducer:
     ``reduced(t_out)`` returns, array for array, for any ``t_out`` whose kept rows are among
     those of the times fed (the thinned output of a method: a subset of its rows); otherwise
     (or if the times fed were not increasing) it calls :meth:`TruthStream.reduced` itself.
-    Memory: one truth chunk at a time and the kept rows, as :meth:`TruthStream.reduced`; the
-    window's time column (which the bundle keeps from opening until its rows are read) is held
-    until :meth:`result`. A :class:`BadInput` of the table is raised by :meth:`result`, as it
+    Memory: one truth chunk at a time and the kept rows, as :meth:`TruthStream.reduced`, and
+    the window's time column (which the bundle keeps from opening until its rows are read),
+    read again by the thread, until :meth:`result`. A :class:`BadInput` of the table is raised by :meth:`result`, as it
     was raised, in the caller's thread; :meth:`close` stops the thread (a failed run)."""
 
     def __init__(self, truth: "TruthStream"):
         self._truth = truth
-        self._times, self._w0 = truth._span()
+        self._times, self._w0 = None, 0      # the window's times, read by the thread
         self._cond = threading.Condition()
         self._fed = []                   # the output times fed, not yet turned into rows
         self._rows_fed = []              # their kept rows' candidates (absolute)
@@ -791,7 +791,7 @@ class TruthReducer:
             self._fed.append(t)
             self._last = max(self._last, float(t[-1]))
             self._cond.notify_all()
-        if self._thread is None and len(self._times):
+        if self._thread is None:
             self._thread = threading.Thread(target=self._run, name="inmotion-truth",
                                             daemon=True)
             self._thread.start()
@@ -817,8 +817,12 @@ class TruthReducer:
         return np.unique(cand[(cand >= a) & (cand < b)])
 
     def _run(self):
-        rows = self._truth._rows()
+        rows = None
         try:
+            self._times, self._w0 = self._truth._span()
+            if len(self._times) == 0:
+                return                        # result(): reduced's own answer
+            rows = self._truth._rows()
             kept = []
             parts = _kept_rows(rows, self._keep_in, self._w0, self._w0 + len(self._times),
                                kept)
@@ -828,7 +832,8 @@ class TruthReducer:
         except BaseException as e:          # noqa: BLE001 (raised by result())
             self._out = e
         finally:
-            rows.close()
+            if rows is not None:
+                rows.close()
 
     def _finish(self, stop: bool):
         with self._cond:
@@ -845,7 +850,7 @@ class TruthReducer:
         if isinstance(out, BaseException):
             raise out
         times, w0 = self._times, self._w0
-        if out is None or len(times) == 0:
+        if out is None:
             return self._truth.reduced(t_out)
         parts, kept = out
         keep = _keep_rows(times, t_out) + w0

@@ -112,6 +112,33 @@ def thin(solution: Solution, rate_hz: float) -> Solution:
                     state_units=dict(solution.state_units), info=dict(solution.info))
 
 
+def thin_select(rate_hz: float):
+    """:func:`thin`'s choice of rows made chunk by chunk as a method makes its output rows: a
+    ``select(t, sigma) -> (mask, stop)`` for a streaming run
+    (:meth:`inmotion.estimation.velocity_aided.VelocityAidedRun.run_stream`), so that rows
+    :func:`thin` would drop are not kept (memory, and the work on them) by a method without
+    an output rate of its own. It keeps the rows :func:`thin` keeps (the first, each first
+    row of a period, with the same arithmetic, the period counted from the first row it is
+    given) and the last row of every chunk (the run may end there); :func:`thin` applied
+    afterwards drops those extra rows: on increasing times the rows it keeps from these are
+    exactly those it keeps from all the rows (a row starts a period among the rows kept iff
+    it starts one among all of them, since every row that starts one is kept)."""
+    state = {"t0": None, "k": None}
+
+    def select(t, sigma=None):
+        t = np.asarray(t, dtype=float)
+        if len(t) == 0:
+            return np.zeros(0, dtype=bool), False
+        if state["t0"] is None:
+            state["t0"] = t[0]
+        k = np.floor((t - state["t0"]) * rate_hz + 1e-6)
+        keep = np.r_[state["k"] is None or k[0] != state["k"], k[1:] != k[:-1]]
+        keep[-1] = True
+        state["k"] = k[-1]
+        return keep, False
+    return select
+
+
 def find_table(folder: PathLike, stem: str) -> Path | None:
     """``folder/stem.csv`` or ``folder/stem.parquet``, whichever exists (None: neither)."""
     for fmt in FORMATS:
