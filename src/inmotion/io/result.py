@@ -218,16 +218,60 @@ _DIVERGED = (" (the method diverged, or its input or configuration is wrong); no
 
 
 def _write_result_files(solution, folder: Path, truth, summary_extra, fmt) -> dict:
-    _write_table(_solution_columns(solution), folder, "solution", fmt)
+    tables = [("solution", _solution_columns(solution))]
     states = _state_columns(solution)
     if states:
-        cols = {"t": solution.t, **{s["column"]: np.asarray(solution.states[n]) * s["scale"]
-                                    for n, s in states.items()}}
-        _write_table(cols, folder, "states", fmt)
+        tables.append(("states", {"t": solution.t,
+                                  **{s["column"]: np.asarray(solution.states[n]) * s["scale"]
+                                     for n, s in states.items()}}))
     else:
         _unlink_table(folder, "states")
     if truth is None:
         _unlink_table(folder, "errors")
+        for stem, cols in tables:
+            _write_table(cols, folder, stem, fmt)
+        writer = None
+    else:
+        # the solution and states tables written in a thread (pyarrow's writer releases the
+        # GIL) while this one computes the errors against truth and writes their table
+        writer = _Writer([(cols, folder, stem, fmt) for stem, cols in tables])
+    try:
+        summary = _summary(solution, states, summary_extra, fmt)
+        if truth is not None:
+            summary["errors"] = write_errors(solution, truth, folder, fmt=fmt)
+    finally:
+        if writer is not None:
+            writer.join()              # its exception (if any) raised here, as it was raised
+    write_summary(summary, folder)
+    return summary
+
+
+class _Writer:
+    """:func:`_write_table` of each of ``jobs`` in a thread; :meth:`join` waits for it and
+    raises its exception, if any."""
+
+    def __init__(self, jobs):
+        import threading
+        self._error = None
+        self._thread = threading.Thread(target=self._run, args=(jobs,), daemon=True,
+                                        name="inmotion-writer")
+        self._thread.start()
+
+    def _run(self, jobs):
+        try:
+            for job in jobs:
+                _write_table(*job)
+        except BaseException as e:       # noqa: BLE001 (raised by join)
+            self._error = e
+
+    def join(self):
+        self._thread.join()
+        if self._error is not None:
+            e, self._error = self._error, None
+            raise e
+
+
+def _summary(solution, states, summary_extra, fmt) -> dict:
     info = dict(solution.info)
     summary = {"method": info.pop("method", None), "config": info.pop("config", None),
                "timing": info.pop("timing", {}), "epochs": len(solution),
@@ -236,9 +280,6 @@ def _write_result_files(solution, folder: Path, truth, summary_extra, fmt) -> di
     if info.get("nis") is not None:      # NIS per measurement kind (chi2.nis_summary)
         summary["nis"] = info.pop("nis")
     summary.update(summary_extra or {})
-    if truth is not None:
-        summary["errors"] = write_errors(solution, truth, folder, fmt=fmt)
-    write_summary(summary, folder)
     return summary
 
 
