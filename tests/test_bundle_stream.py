@@ -435,7 +435,7 @@ def test_truth_reducer_gives_reduced(drive, tmp_path):
     t_imu = whole.imu.t
     t_out = np.r_[t_imu[0], t_imu[10::10], t_imu[-1]]           # 10 Hz and the last row
 
-    def fed(stream, times, cuts, ask=None):
+    def fed(stream, times, cuts, ask=None, fell_back=False):
         r = stream.truth.reducer()
         for a, b in zip(np.r_[0, cuts], np.r_[cuts, len(times)]):
             r.feed(times[a:b])
@@ -443,6 +443,7 @@ def test_truth_reducer_gives_reduced(drive, tmp_path):
             return r.result(times if ask is None else ask)
         finally:
             r.close()
+            assert r.fell_back == fell_back     # its own rows, or reduced's answer
 
     s = open_bundle(folder, chunk_rows=700)
     cuts = [1, 5, 6, 200, 201, 555]
@@ -454,10 +455,22 @@ def test_truth_reducer_gives_reduced(drive, tmp_path):
     got = fed(w, tw, [3, 100])
     assert got.t[0] >= 20.0 and got.t[-1] <= 60.0
     _same_truth(got, w.truth.reduced(tw))
+    t_tr = whole.truth.t
+    for k0 in (698, 699, 700, 1399):           # windows starting 2, 1, 0 rows before a chunk's end
+        w = s.window(t_tr[k0], t_tr[k0 + 900])
+        # 10 Hz, and times before the window's first row and after its last (clipped rows)
+        tw = np.r_[t_tr[k0] - 0.5, t_tr[k0] - 0.001, t_out[(t_out >= t_tr[k0])
+                                                          & (t_out <= t_tr[k0 + 900])],
+                   t_tr[k0 + 900] + 0.3]
+        for cuts_w in ([1], [2, 3, 40], [60]):
+            _same_truth(fed(w, tw, cuts_w), w.truth.reduced(tw))
+        _same_truth(fed(w, tw, [5], ask=tw[1::4]), w.truth.reduced(tw[1::4]))
     shuffled = t_out[np.r_[100:200, 0:100, 200:len(t_out)]]     # out of order: reduced's
-    _same_truth(fed(s, shuffled, [100, 200], ask=t_out), s.truth.reduced(t_out))
+    _same_truth(fed(s, shuffled, [100, 200], ask=t_out, fell_back=True),
+                s.truth.reduced(t_out))
     more = np.r_[t_out, t_imu[-5]]                              # rows not asked for by the feed
-    _same_truth(fed(s, t_out[:300], [150], ask=np.sort(more)), s.truth.reduced(np.sort(more)))
+    _same_truth(fed(s, t_out[:300], [150], ask=np.sort(more), fell_back=True),
+                s.truth.reduced(np.sort(more)))
     r = s.truth.reducer()                                       # closed mid-run: thread ends
     r.feed(t_out[:50])
     r.close()

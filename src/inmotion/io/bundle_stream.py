@@ -759,26 +759,34 @@ class TruthReducer:
     hour, 2 cores): the output times are fed as the run makes them (:meth:`feed`, each
     chunk's, in increasing order), and a thread reads and checks the truth table chunk by
     chunk (:meth:`TruthStream._rows`, the same code), each chunk once the output times have
-    passed its end, so that its kept rows are known; :meth:`result` returns what
-    ``reduced(t_out)`` returns, array for array, for any ``t_out`` whose kept rows are among
-    those of the times fed (the thinned output of a method: a subset of its rows); otherwise
-    (or if the times fed were not increasing) it calls :meth:`TruthStream.reduced` itself.
-    Memory: one truth chunk at a time and the kept rows, as :meth:`TruthStream.reduced`, and
-    the window's time column (which the bundle keeps from opening until its rows are read),
-    read again by the thread, until :meth:`result`. A :class:`BadInput` of the table is raised by :meth:`result`, as it
-    was raised, in the caller's thread; :meth:`close` stops the thread (a failed run)."""
+    passed the next chunk's first row, so that its kept rows are known; :meth:`result` returns
+    what ``reduced(t_out)`` returns, array for array, for any ``t_out`` among the times fed
+    (the thinned output of a method: a subset of its rows); otherwise (or if the times fed
+    were not increasing) it calls :meth:`TruthStream.reduced` itself.
+
+    The kept rows of a chunk are found from its own times: for an output time ``t`` after the
+    previous chunk's last row and before the next chunk's first, the row at or before it is
+    the chunk's first row plus ``searchsorted(chunk times, t, 'right') - 1``, as
+    :func:`_keep_rows` finds it in the whole column (the clipping at the first and the last
+    row included). So the thread holds one truth chunk (and the next one's first row) and the
+    times fed not yet passed, not the table's time column: memory does not grow with the log.
+    A :class:`BadInput` of the table is raised by :meth:`result`, as it was raised, in the
+    caller's thread; :meth:`close` stops the thread (a failed run)."""
 
     def __init__(self, truth: "TruthStream"):
         self._truth = truth
-        self._times, self._w0 = None, 0      # the window's times, read by the thread
         self._cond = threading.Condition()
-        self._fed = []                   # the output times fed, not yet turned into rows
-        self._rows_fed = []              # their kept rows' candidates (absolute)
+        self._fed = []                   # the output times fed, not yet passed by the thread
+        self._all = []                   # every time fed (result(): t_out among them?)
         self._last = -np.inf             # the last time fed
         self._ordered = True
         self._done = self._stop = False
-        self._out = None                 # (parts, kept rows) or an exception
+        self._out = None                 # (parts, kept rows, w0, w1) or an exception
         self._thread = None
+        self._next_first = None          # the next chunk's first time (None: no next chunk)
+        self._w = (0, 0)
+        #: :meth:`result` called :meth:`TruthStream.reduced` (times not fed, or not in order)
+        self.fell_back = False
 
     def feed(self, t) -> None:
         """Output times ``t`` [s] of the run, after those fed before."""
@@ -789,6 +797,7 @@ class TruthReducer:
             if not (t[0] >= self._last and bool(np.all(np.diff(t) >= 0))):
                 self._ordered = False
             self._fed.append(t)
+            self._all.append(t)
             self._last = max(self._last, float(t[-1]))
             self._cond.notify_all()
         if self._thread is None:
@@ -796,36 +805,55 @@ class TruthReducer:
                                             daemon=True)
             self._thread.start()
 
-    def _keep_in(self, a: int, b: int) -> np.ndarray:
-        """The kept rows (absolute, sorted) among the rows ``a <= row < b`` of the table: waits
-        until the output times have passed row ``b``'s time (or have all been fed)."""
-        times, w0 = self._times, self._w0
-        n = len(times)
+    def _peeked(self, rows):
+        """The chunks of ``rows``, each yielded once the next one is read (its first time in
+        :attr:`_next_first`; None after the last)."""
+        cur = next(rows, None)
+        while cur is not None:
+            nxt = next(rows, None)
+            self._next_first = None if nxt is None else float(nxt[1].t[0])
+            yield cur
+            cur = nxt
+
+    def _keep_in(self, a: int, b: int, t_ab, t_prev) -> np.ndarray:
+        """The kept rows (absolute, sorted) among the window's rows ``a <= row < b``, whose
+        times are ``t_ab`` (``t_prev``: the window's row before, None at its start): waits
+        until the output times have reached row ``b`` (or have all been fed)."""
+        w0, w1 = self._w
+        n = w1 - w0
+        nxt = self._next_first if b < w1 else None      # row b's time (None: past the end)
         with self._cond:
             while not (self._stop or self._done or not self._ordered
-                       or (b - w0 < n and self._last >= times[b - w0])):
+                       or (nxt is not None and self._last >= nxt)):
                 self._cond.wait()
             if self._stop or not self._ordered:
                 raise _Stopped
-            fed, self._fed = self._fed, []
-        for t in fed:                    # row j at or before each time, and j + 1
-            j = np.clip(np.searchsorted(times, t, side="right") - 1, 0, n - 1)
-            self._rows_fed.append(np.concatenate([j, np.minimum(j + 1, n - 1)]) + w0)
-        cand = np.concatenate([[w0, w0 + n - 1]] + self._rows_fed)
-        # the times fed so far end past row b: rows before b - 1 are not asked for again
-        self._rows_fed = [r for r in self._rows_fed if len(r) and r.max() >= b - 1]
+            fed = np.concatenate(self._fed) if self._fed else np.zeros(0)
+        ra = a - w0
+        # the times whose row at or before lies in a - 1 .. b - 1 (and, with the chunk's
+        # first row the window's second, those before the window: their rows are 0 and 1)
+        lo = 0 if (t_prev is None or ra <= 1) else np.searchsorted(fed, t_prev, side="left")
+        hi = len(fed) if nxt is None else np.searchsorted(fed, nxt, side="left")
+        t = fed[lo:hi]
+        j = np.clip(ra + np.searchsorted(t_ab, t, side="right") - 1, 0, n - 1)
+        cand = np.concatenate([[0, n - 1], j, np.minimum(j + 1, n - 1)]) + w0
+        with self._cond:                 # times before this chunk's last row are passed
+            if len(t_ab) >= 2 or ra >= 1:
+                rest = np.concatenate(self._fed) if self._fed else np.zeros(0)
+                self._fed = [rest[np.searchsorted(rest, t_ab[-1], side="left"):]]
         return np.unique(cand[(cand >= a) & (cand < b)])
 
     def _run(self):
         rows = None
         try:
-            self._times, self._w0 = self._truth._span()
-            if len(self._times) == 0:
+            times, w0 = self._truth._span()
+            self._w = (w0, w0 + len(times))
+            del times                         # (the table forgets it when its rows are read)
+            if self._w[1] == w0:
                 return                        # result(): reduced's own answer
             rows = self._truth._rows()
             kept = []
-            parts = _kept_rows(rows, self._keep_in, self._w0, self._w0 + len(self._times),
-                               kept)
+            parts = _kept_rows(self._peeked(rows), self._keep_in, *self._w, kept)
             self._out = (parts, np.concatenate(kept) if kept else np.zeros(0, dtype=int))
         except _Stopped:
             self._out = None
@@ -849,16 +877,23 @@ class TruthReducer:
         out, self._out = self._out, None
         if isinstance(out, BaseException):
             raise out
-        times, w0 = self._times, self._w0
-        if out is None:
-            return self._truth.reduced(t_out)
+        t_out = np.asarray(t_out, dtype=float)
+        fed = np.concatenate(self._all) if self._all else np.zeros(0)
+        if out is None or not np.isin(t_out, fed).all():
+            self.fell_back = True
+            return self._truth.reduced(t_out)      # times the rows were not kept for
         parts, kept = out
-        keep = _keep_rows(times, t_out) + w0
+        full = _joined(parts)
+        w1 = self._w[1]
+        # each time's row at or before it is the last kept row at or before it (it is kept)
+        i = np.clip(np.searchsorted(full.t, t_out, side="right") - 1, 0, len(kept) - 1)
+        j = kept[i]
+        keep = np.unique(np.concatenate([[self._w[0], w1 - 1], j, np.minimum(j + 1, w1 - 1)]))
         sel = np.searchsorted(kept, keep)
         if not (np.all(sel < len(kept)) and np.array_equal(kept[np.minimum(sel, len(kept) - 1)],
                                                            keep)):
-            return self._truth.reduced(t_out)      # rows the times fed did not ask for
-        full = _joined(parts)
+            self.fell_back = True                  # (not expected: the times were fed)
+            return self._truth.reduced(t_out)
         if len(keep) == len(kept):
             return full
         return Truth(*(getattr(full, f)[sel] for f in
@@ -873,8 +908,9 @@ def _kept_rows(rows, keep, w0, w1, kept=None):
     """:meth:`TruthStream.reduced`'s loop over the checked chunks ``rows`` (``(offset, Truth,
     dh, steps)``, :meth:`TruthStream._rows`): the kept rows ``keep`` of the window rows
     ``w0 .. w1 - 1``, unwrapped, with the path length, a :class:`Truth` per chunk. ``keep``:
-    the rows (absolute, sorted), or a function ``keep(a, b)`` giving those among the rows
-    ``a <= row < b`` (:class:`TruthReducer`); ``kept``: a list the kept rows of each chunk
+    the rows (absolute, sorted), or a function ``keep(a, b, t, t_prev)`` giving those among
+    the rows ``a <= row < b`` from their times ``t`` and the time of the row before (None at
+    the window's start; :class:`TruthReducer`); ``kept``: a list the kept rows of each chunk
     are appended to."""
     parts = []
     prev, carry_e, carry_l, carry_s = None, np.zeros(3), 0.0, 0.0
@@ -892,7 +928,8 @@ def _kept_rows(rows, keep, w0, w1, kept=None):
         j = (offset > 0) - 1
         s, carry_s = _path_carry(*(x[i0 + j + (prev is None):i1 + j]
                                    for x in (dh, *steps)), prev is None, carry_s)
-        k = keep(a, b) if callable(keep) else keep[(keep >= a) & (keep < b)]
+        k = (keep(a, b, tr.t, None if prev is None else prev.t[-1]) if callable(keep)
+             else keep[(keep >= a) & (keep < b)])
         if kept is not None:
             kept.append(k)
         k = k - a
