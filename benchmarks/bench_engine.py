@@ -33,6 +33,7 @@ thread):
   (the fixed start-up cost).
 
     OPENBLAS_NUM_THREADS=1 .venv/bin/python benchmarks/bench_engine.py [--repeat N] [--no-cli]
+        [--cli-only]
 
 What the CLI hour is made of (issue 13, branch h13cli5; AMD EPYC, 2 cores shared with other
 jobs, load 2-4; ``benchmarks/bench_startup.py --parts HOUR --set mode=velocity-position --set
@@ -157,12 +158,22 @@ def main():
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--repeat", type=int, default=3)
     ap.add_argument("--no-cli", action="store_true")
+    ap.add_argument("--cli-only", action="store_true", help="only the command-line lines")
     args = ap.parse_args()
     bundle = simulate(load_scenario(find_scenario("paper002_hour")), np.random.default_rng(0))
     init = NavState.from_truth(bundle.truth)
     hours = (bundle.imu.t[-1] - bundle.imu.t[0]) / 3600.0
     print(f"paper002_hour: {len(bundle.imu.t) - 1} IMU rows, {hours:.3f} h at "
           f"{1 / np.median(np.diff(bundle.imu.t)):.0f} Hz")
+    if not args.cli_only:
+        in_process(bundle, init, hours, args)
+    if args.no_cli:
+        return
+    cli_lines(bundle, args)
+
+
+def in_process(bundle, init, hours, args):
+    """The in-process lines (CPU per hour)."""
     f = engine_run(bundle, init)
     print(f"  engine: {f.epochs} predicts, counts {f.counts()}")
     s = best_cpu(lambda: engine_run(bundle, init), args.repeat) / hours
@@ -186,8 +197,10 @@ def main():
     s = best_cpu(lambda: run_process(odo, ProcessConfig(smooth=True)), 1) / hours
     print(f"process --smooth, 1 h at 100 Hz with an odometer: {s:.3f} s CPU per hour "
           f"(target 3 s)")
-    if args.no_cli:
-        return
+
+
+def cli_lines(bundle, args):
+    """The command-line lines (wall time of the whole command)."""
     from inmotion.io.bundle import write_bundle
     exe = [sys.executable, "-m", "inmotion.cli.main"]
     env = dict(os.environ, OPENBLAS_NUM_THREADS="1")
