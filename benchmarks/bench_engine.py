@@ -64,6 +64,27 @@ which only reading overlaps. Why sins-dr's filter costs twice the equal workload
 dynamics: paper 002's model), and the predict scales with them (``bench_predict.py``, load
 12: 1.11 us a call against 0.55 us, 0.40 s against 0.20 s an hour), plus a DR step per row
 (its attitude update, midpoint and position noise, ~0.1 s an hour); not overhead.
+
+Branch h13cli6 (issue 13, the CLI hour on 2 cores): what ran after the filter now runs
+beside it, while the extension's loop (which releases the GIL) runs on the other core. The
+truth rows the errors need are read and checked in a thread as the outputs come
+(:class:`inmotion.io.bundle_stream.TruthReducer`, fed each chunk's output times by
+``VelocityAidedRun.run_stream(output_times=...)``; its result equals ``TruthStream.reduced``
+array for array; one truth chunk held, no time column); the solution and states tables are
+written in a thread while the errors are computed; the writer's imports (``pyarrow.csv``,
+``glob``) load during the run. ``od-velocity-kf`` and ``dr-kf`` read their next IMU chunk
+ahead as ``sins-dr`` does, and a streaming method without an output rate of its own keeps only
+the rows thinning can keep (:func:`inmotion.io.result.thin_select`): ``od-velocity-kf`` wrote
+the same files but held, concatenated and packed every 100 Hz row (2.5 s of CPU per hour, of
+which ~0.35 s concatenating them); its equal-workload case is in ``_aot_build.RUNS`` (numba
+was imported: its 19-state predict kernel and fills were not in the extension). Outputs
+byte-identical (``summary.json`` but its timing). Measured back to back (``/tmp`` A/B script
+alternating the two trees, 7 runs each, load 6-7.5 on 2 cores, so wall times were 1.5-2.5x
+the CPU and the figure is the main thread's CPU, the critical path on an idle machine when
+the other threads fit on the second core): ``sins-dr`` main thread 1.217 s -> 0.995 s (min;
+median 1.352 -> 1.204), process CPU 1.265 -> 1.146 s; ``od-velocity-kf`` (5 runs each) main
+thread 2.50 -> 1.29 s, process 2.50 -> 1.45 s. This file ``--cli-only --repeat 5`` at load
+5-6: sins-dr 2.08 s wall, od-velocity-kf 1.64 s wall (inflated by the load alike).
 """
 from __future__ import annotations
 
