@@ -257,7 +257,8 @@ def test_cli_bad_row_in_chunk_3_exit_2_nothing_written(drive, tmp_path, monkeypa
 
 @pytest.mark.parametrize("args", [["-m", "sins-dr", "--mode", "velocity-position"],
                                   ["-m", "sins", "--start", "10", "--end", "61.5"],
-                                  ["-m", "dr-kf", "--start", "12", "--output-rate", "2"]])
+                                  ["-m", "dr-kf", "--start", "12", "--output-rate", "2"],
+                                  ["-m", "od-velocity-kf", "--output-rate", "1"]])
 def test_cli_chunked_result_equals_whole(drive, tmp_path, monkeypatch, args):
     """The files ``inmotion navigate`` / ``align`` write when it reads the bundle in chunks
     equal those it writes when it reads the bundle whole (the reader it uses for every other
@@ -266,7 +267,7 @@ def test_cli_chunked_result_equals_whole(drive, tmp_path, monkeypatch, args):
     folder = tmp_path / "b"
     write_bundle(drive, folder, fmt="parquet")
     monkeypatch.setattr(bundle_stream, "CHUNK_ROWS", 777)
-    kind = "align" if "dr-kf" in args else "navigate"
+    kind = "align" if ("dr-kf" in args or "od-velocity-kf" in args) else "navigate"
     for out, streamed in (("r", cli_main.STREAMED), ("w", ())):
         monkeypatch.setattr(cli_main, "STREAMED", streamed)
         r = CliRunner().invoke(cli, ["-q", kind, str(folder), *args, "-o", str(tmp_path / out)])

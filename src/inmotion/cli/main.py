@@ -629,6 +629,9 @@ def _preload(modules):
     import importlib
     import threading
 
+    from ..io import bundle_stream
+    bundle_stream.one_malloc_arena()        # before the first thread (bundle_stream notes)
+
     def load():
         for m in modules:
             try:
@@ -661,7 +664,8 @@ def run_method(ctx, bundle, spec, config, init_state, window, truth_reducer=Fals
 
     ``thin_rate_hz``: the rate the caller thins the solution to afterwards
     (:func:`inmotion.io.result.thin`); a streaming method that takes a row selection
-    (keyword ``select``) and does not smooth keeps only the rows thinning can keep
+    (keyword ``select``), does not smooth and keeps no covariance history in its ``info``
+    (``keep_covariance``) keeps only the rows thinning can keep
     (:func:`inmotion.io.result.thin_select`: the same rows after thinning, without holding
     the others)."""
     start, end = window
@@ -676,7 +680,8 @@ def run_method(ctx, bundle, spec, config, init_state, window, truth_reducer=Fals
     run, _ = spec.load()
     kw, reducer = {}, None
     if (thin_rate_hz is not None and spec.name in STREAMED and not getattr(config, "smooth", False)
-            and _accepts(run, "select")):
+            and not getattr(config, "keep_covariance", False) and _accepts(run, "select")):
+        # (a smoothed run is smoothed at the rows kept; kept covariances are every row's)
         from ..io.result import thin_select
         kw["select"] = thin_select(thin_rate_hz)
     if (truth_reducer and spec.name in STREAMED and hasattr(b.truth, "reducer")

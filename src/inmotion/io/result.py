@@ -252,6 +252,9 @@ class _Writer:
 
     def __init__(self, jobs):
         import threading
+
+        from . import bundle_stream
+        bundle_stream.one_malloc_arena()    # before the first thread (bundle_stream notes)
         self._error = None
         self._thread = threading.Thread(target=self._run, args=(jobs,), daemon=True,
                                         name="inmotion-writer")
