@@ -70,7 +70,10 @@ beside it, while the extension's loop (which releases the GIL) runs on the other
 truth rows the errors need are read and checked in a thread as the outputs come
 (:class:`inmotion.io.bundle_stream.TruthReducer`, fed each chunk's output times by
 ``VelocityAidedRun.run_stream(output_times=...)``; its result equals ``TruthStream.reduced``
-array for array; one truth chunk held, no time column); the solution and states tables are
+array for array; two truth chunks of 16,384 rows held, no time column, Arrow's buffers from
+malloc: with Arrow's default pool the thread's heap raised the hour's peak RSS from ~175 to
+~211 MiB, now 186-207 MiB, 4 h / 1 h 1.02, ``bench_memory.py --only sins-dr``); the solution
+and states tables are
 written in a thread while the errors are computed; the writer's imports (``pyarrow.csv``,
 ``glob``) load during the run. ``od-velocity-kf`` and ``dr-kf`` read their next IMU chunk
 ahead as ``sins-dr`` does, and a streaming method without an output rate of its own keeps only
