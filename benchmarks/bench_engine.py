@@ -81,13 +81,20 @@ the rows thinning can keep (:func:`inmotion.io.result.thin_select`): ``od-veloci
 the same files but held, concatenated and packed every 100 Hz row (2.5 s of CPU per hour, of
 which ~0.35 s concatenating them); its equal-workload case is in ``_aot_build.RUNS`` (numba
 was imported: its 19-state predict kernel and fills were not in the extension). Outputs
-byte-identical (``summary.json`` but its timing). Measured back to back (``/tmp`` A/B script
-alternating the two trees, 7 runs each, load 6-7.5 on 2 cores, so wall times were 1.5-2.5x
-the CPU and the figure is the main thread's CPU, the critical path on an idle machine when
-the other threads fit on the second core): ``sins-dr`` main thread 1.217 s -> 0.995 s (min;
-median 1.352 -> 1.204), process CPU 1.265 -> 1.146 s; ``od-velocity-kf`` (5 runs each) main
-thread 2.50 -> 1.29 s, process 2.50 -> 1.45 s. This file ``--cli-only --repeat 5`` at load
-5-6: sins-dr 2.08 s wall, od-velocity-kf 1.64 s wall (inflated by the load alike).
+byte-identical (``summary.json`` but its timing). Measured back to back (``benchmarks/ab_cli.py``:
+the two trees' runs alternated, each child's main-thread and process CPU printed; load 3.8-5 on 2 cores, so wall times wander and the main thread's CPU, the
+critical path when the other threads fit on the second core, is the steadier figure):
+``sins-dr`` (11 runs each) wall min 1.057 -> 1.021 s, main thread 0.989 -> 0.865 s (min),
+1.112 -> 1.048 s (median), process CPU 1.032 -> 1.010 s (min); an earlier series of 7 at
+load 6-7.5: main thread 1.217 -> 0.995 s (min), 1.352 -> 1.204 s (median);
+``bench_startup.py --parts`` (best of 7, load 5-5.9): truth rows 0.062 s on the main thread
+-> 0.098 s in the thread, the main thread's wait for them 0.002 s, result written 0.042 ->
+0.022 s, but the filter kernel's CPU 0.589 -> 0.634 s (the threads beside it; at this load
+the spread is of that size). ``od-velocity-kf`` (6 runs each): wall min 3.15 -> 1.58 s,
+main thread 2.39 -> 1.23 s, no numba. This file ``--cli-only --repeat 5`` at load 5-6:
+sins-dr 2.08 s wall, od-velocity-kf 1.64 s wall (inflated by the load alike). Still above
+1.0 s at these loads; the floor of this design is imports (~0.25 s) + opening (~0.06 s) +
+the filter kernel (~0.55-0.6 s, the predict ~0.36 s of it) + ~0.05 s.
 """
 from __future__ import annotations
 
