@@ -236,8 +236,11 @@ def test_a_bad_truth_row_late_in_the_table(drive, tmp_path):
     assert "row 6001" in expected
 
 
-def test_cli_bad_row_in_chunk_3_exit_2_nothing_written(drive, tmp_path, monkeypatch):
-    """Through the command line: exit 2, one line naming file, row and time, no result."""
+@pytest.mark.parametrize("kind,method", [("navigate", "sins-dr"), ("align", "od-velocity-kf")])
+def test_cli_bad_row_in_chunk_3_exit_2_nothing_written(drive, tmp_path, monkeypatch, kind,
+                                                       method):
+    """Through the command line: exit 2, one line naming file, row and time, no result (the
+    row read and checked in the reader thread of sins-dr and od-velocity-kf)."""
     folder = tmp_path / "b"
     write_bundle(drive, folder, fmt="parquet")
 
@@ -247,7 +250,7 @@ def test_cli_bad_row_in_chunk_3_exit_2_nothing_written(drive, tmp_path, monkeypa
     _spoil(folder, "imu", "parquet", edit)
     monkeypatch.setattr(bundle_stream, "CHUNK_ROWS", 1000)
     out = tmp_path / "r"
-    r = CliRunner().invoke(cli, ["-q", "navigate", str(folder), "-m", "sins-dr", "-o", str(out)])
+    r = CliRunner().invoke(cli, ["-q", kind, str(folder), "-m", method, "-o", str(out)])
     assert r.exit_code == 2
     err = r.stderr if hasattr(r, "stderr") else r.output
     line = [x for x in err.splitlines() if x.startswith("inmotion: error:")]
