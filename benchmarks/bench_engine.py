@@ -24,10 +24,16 @@ thread):
 * ``process --smooth``: the main job (``inmotion.process.run_process``) on the same hour
   with an odometer in place of the radar, smoothed (issue 14's target: 3 s);
 * ``CLI``: ``inmotion navigate BUNDLE --method sins-dr`` on a Parquet bundle of the hour with
-  the same settings and 1 Hz output, wall time of the whole command, and ``inmotion --help``
+  the same settings and 1 Hz output, wall time of the whole command; ``inmotion align BUNDLE
+  --method od-velocity-kf`` with ``filter_rate_hz=100``, ``measurement_rate_hz=10``,
+  ``feedback_rate_hz=10``, ``use_baro=false``, ``--output-rate 1``: the equal workload itself
+  through the command line (19 states: ``phi, dv, dp, eps, nabla, mount, dk``; the sensor's
+  velocity and the NHC at 10 Hz), which the ahead-of-time extension also holds
+  (``_aot_build.RUNS``; the line says so when a run imports numba); and ``inmotion --help``
   (the fixed start-up cost).
 
     OPENBLAS_NUM_THREADS=1 .venv/bin/python benchmarks/bench_engine.py [--repeat N] [--no-cli]
+        [--cli-only]
 
 What the CLI hour is made of (issue 13, branch h13cli5; AMD EPYC, 2 cores shared with other
 jobs, load 2-4; ``benchmarks/bench_startup.py --parts HOUR --set mode=velocity-position --set
@@ -58,6 +64,37 @@ which only reading overlaps. Why sins-dr's filter costs twice the equal workload
 dynamics: paper 002's model), and the predict scales with them (``bench_predict.py``, load
 12: 1.11 us a call against 0.55 us, 0.40 s against 0.20 s an hour), plus a DR step per row
 (its attitude update, midpoint and position noise, ~0.1 s an hour); not overhead.
+
+Branch h13cli6 (issue 13, the CLI hour on 2 cores): what ran after the filter now runs
+beside it, while the extension's loop (which releases the GIL) runs on the other core. The
+truth rows the errors need are read and checked in a thread as the outputs come
+(:class:`inmotion.io.bundle_stream.TruthReducer`, fed each chunk's output times by
+``VelocityAidedRun.run_stream(output_times=...)``; its result equals ``TruthStream.reduced``
+array for array; two truth chunks of 16,384 rows held, no time column, Arrow's buffers from
+malloc: with Arrow's default pool the thread's heap raised the hour's peak RSS from ~175 to
+~211 MiB, now 186-207 MiB, 4 h / 1 h 1.02, ``bench_memory.py --only sins-dr``); the solution
+and states tables are
+written in a thread while the errors are computed; the writer's imports (``pyarrow.csv``,
+``glob``) load during the run. ``od-velocity-kf`` and ``dr-kf`` read their next IMU chunk
+ahead as ``sins-dr`` does, and a streaming method without an output rate of its own keeps only
+the rows thinning can keep (:func:`inmotion.io.result.thin_select`): ``od-velocity-kf`` wrote
+the same files but held, concatenated and packed every 100 Hz row (2.5 s of CPU per hour, of
+which ~0.35 s concatenating them); its equal-workload case is in ``_aot_build.RUNS`` (numba
+was imported: its 19-state predict kernel and fills were not in the extension). Outputs
+byte-identical (``summary.json`` but its timing). Measured back to back (``benchmarks/ab_cli.py``:
+the two trees' runs alternated, each child's main-thread and process CPU printed; load 3.8-5 on 2 cores, so wall times wander and the main thread's CPU, the
+critical path when the other threads fit on the second core, is the steadier figure):
+``sins-dr`` (11 runs each) wall min 1.057 -> 1.021 s, main thread 0.989 -> 0.865 s (min),
+1.112 -> 1.048 s (median), process CPU 1.032 -> 1.010 s (min); an earlier series of 7 at
+load 6-7.5: main thread 1.217 -> 0.995 s (min), 1.352 -> 1.204 s (median);
+``bench_startup.py --parts`` (best of 7, load 5-5.9): truth rows 0.062 s on the main thread
+-> 0.098 s in the thread, the main thread's wait for them 0.002 s, result written 0.042 ->
+0.022 s, but the filter kernel's CPU 0.589 -> 0.634 s (the threads beside it; at this load
+the spread is of that size). ``od-velocity-kf`` (6 runs each): wall min 3.15 -> 1.58 s,
+main thread 2.39 -> 1.23 s, no numba. This file ``--cli-only --repeat 5`` at load 5-6:
+sins-dr 2.08 s wall, od-velocity-kf 1.64 s wall (inflated by the load alike). Still above
+1.0 s at these loads; the floor of this design is imports (~0.25 s) + opening (~0.06 s) +
+the filter kernel (~0.55-0.6 s, the predict ~0.36 s of it) + ~0.05 s.
 """
 from __future__ import annotations
 
@@ -122,16 +159,52 @@ def best_cpu(fn, repeat):
     return best
 
 
+def cli_wall(cmd, env, repeat):
+    """Best wall time [s] of ``repeat`` runs of the command ``cmd`` after a warm-up run."""
+    walls = []
+    for i in range(repeat + 1):
+        t0 = time.perf_counter()
+        subprocess.run(cmd, check=True, env=env, capture_output=True)
+        if i:                                              # the first warms caches
+            walls.append(time.perf_counter() - t0)
+    return min(walls)
+
+
+#: the command line run in-process, then whether numba was imported (the JIT path)
+_NUMBA_CHECK = ("import sys, os\nimport inmotion.cli.main as M\nsys.argv = ['inmotion'] + "
+                "sys.argv[1:]\ntry:\n    M.main()\nexcept SystemExit as e:\n    assert not "
+                "e.code\nprint('NUMBA', 'numba' in sys.modules)\nos._exit(0)\n")
+
+
+def numba_note(cmd, env):
+    """``"; numba imported"`` when the command's run imports numba (no ahead-of-time case
+    for it: ``python -m inmotion.warmup`` builds them), else ``""``."""
+    i = cmd.index("inmotion.cli.main")
+    p = subprocess.run([cmd[0], "-c", _NUMBA_CHECK, *cmd[i + 1:]], env=env,
+                       capture_output=True, text=True, check=True)
+    return "; numba imported (JIT path)" if "NUMBA True" in p.stdout else ""
+
+
 def main():
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--repeat", type=int, default=3)
     ap.add_argument("--no-cli", action="store_true")
+    ap.add_argument("--cli-only", action="store_true", help="only the command-line lines")
     args = ap.parse_args()
     bundle = simulate(load_scenario(find_scenario("paper002_hour")), np.random.default_rng(0))
     init = NavState.from_truth(bundle.truth)
     hours = (bundle.imu.t[-1] - bundle.imu.t[0]) / 3600.0
     print(f"paper002_hour: {len(bundle.imu.t) - 1} IMU rows, {hours:.3f} h at "
           f"{1 / np.median(np.diff(bundle.imu.t)):.0f} Hz")
+    if not args.cli_only:
+        in_process(bundle, init, hours, args)
+    if args.no_cli:
+        return
+    cli_lines(bundle, args)
+
+
+def in_process(bundle, init, hours, args):
+    """The in-process lines (CPU per hour)."""
     f = engine_run(bundle, init)
     print(f"  engine: {f.epochs} predicts, counts {f.counts()}")
     s = best_cpu(lambda: engine_run(bundle, init), args.repeat) / hours
@@ -155,8 +228,10 @@ def main():
     s = best_cpu(lambda: run_process(odo, ProcessConfig(smooth=True)), 1) / hours
     print(f"process --smooth, 1 h at 100 Hz with an odometer: {s:.3f} s CPU per hour "
           f"(target 3 s)")
-    if args.no_cli:
-        return
+
+
+def cli_lines(bundle, args):
+    """The command-line lines (wall time of the whole command)."""
     from inmotion.io.bundle import write_bundle
     exe = [sys.executable, "-m", "inmotion.cli.main"]
     env = dict(os.environ, OPENBLAS_NUM_THREADS="1")
@@ -167,14 +242,18 @@ def main():
                      "--set", "mode=velocity-position", "--set", "filter_rate_hz=100",
                      "--set", "measurement_rate_hz=10", "--set", "output_rate_hz=1",
                      "-o", str(Path(tmp) / "out")]
-        walls = []
-        for i in range(args.repeat + 1):
-            t0 = time.perf_counter()
-            subprocess.run(cmd, check=True, env=env, capture_output=True)
-            if i:                                          # the first compiles / warms caches
-                walls.append(time.perf_counter() - t0)
-        print(f"CLI sins-dr 100 Hz, Parquet in, 1 Hz out: {min(walls):.2f} s wall per hour "
-              f"(target 1.0 s)")
+        print(f"CLI sins-dr 100 Hz, Parquet in, 1 Hz out: {cli_wall(cmd, env, args.repeat):.2f} "
+              f"s wall per hour (target 1.0 s){numba_note(cmd, env)}")
+        # issue 13's equal workload itself through the command line: mechanization and a
+        # 19-state predict every IMU row (phi, dv, dp, eps, nabla, mount, dk), the sensor's
+        # velocity and the NHC at 10 Hz, closed-loop feedback at 10 Hz, 1 Hz out
+        cmd = exe + ["-q", "align", str(path), "--method", "od-velocity-kf", "--init", "truth",
+                     "--set", "filter_rate_hz=100", "--set", "measurement_rate_hz=10",
+                     "--set", "feedback_rate_hz=10", "--set", "use_baro=false",
+                     "--output-rate", "1", "-o", str(Path(tmp) / "out-odv")]
+        print(f"CLI od-velocity-kf 100 Hz (equal workload: 19 states, velocity + NHC at 10 Hz), "
+              f"Parquet in, 1 Hz out: {cli_wall(cmd, env, args.repeat):.2f} s wall per hour "
+              f"(target 1.0 s){numba_note(cmd, env)}")
         walls = []
         for _ in range(args.repeat):
             t0 = time.perf_counter()

@@ -66,6 +66,10 @@ numba), kernel 0.001 s, result 0.010 s, total in the process 0.344 s. The loop i
 extension 13.79 ms (the difference is about the JIT's unboxing of its 16 first-class
 functions, ~0.85 ms), outputs bit-identical.
 
+Branch h13cli6: the truth rows for the errors are read in a thread during the run
+(``TruthReducer``): ``--parts`` times that thread's CPU and the main thread's wait for it after
+the run (``TruthStream.reduced`` only when the reducer falls back).
+
 Branch h13cli5 (issue 13, the CLI hour): ``--parts`` on paper 002's hour showed numba
 imported after all ("filter built" 0.56-0.65 s): the hour's radar states a Markov scale
 factor, whose predict kernel (16 active rows) the extension did not hold (its recorded 7 s
@@ -168,7 +172,9 @@ PARTS = textwrap.dedent("""\
     timed(E.ErrorStateFilter, "add_imu", "filter kernel (add_imu)")
     timed(M, "run_method", "method run (the main thread: the above but a reader thread's, "
           "and the wrapper)")
-    timed(S.TruthStream, "reduced", "truth rows kept for the errors")
+    timed(S.TruthStream, "reduced", "truth rows kept for the errors (after the run)")
+    timed(S.TruthReducer, "_run", "truth rows kept for the errors (in a thread during the run)")
+    timed(S.TruthReducer, "result", "truth rows: the main thread's wait after the run")
     timed(R, "write_result", "result written (errors against truth)")
     sys.argv = ["inmotion", "-q"] + sys.argv[1:]
     try:

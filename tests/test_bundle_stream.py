@@ -236,8 +236,11 @@ def test_a_bad_truth_row_late_in_the_table(drive, tmp_path):
     assert "row 6001" in expected
 
 
-def test_cli_bad_row_in_chunk_3_exit_2_nothing_written(drive, tmp_path, monkeypatch):
-    """Through the command line: exit 2, one line naming file, row and time, no result."""
+@pytest.mark.parametrize("kind,method", [("navigate", "sins-dr"), ("align", "od-velocity-kf")])
+def test_cli_bad_row_in_chunk_3_exit_2_nothing_written(drive, tmp_path, monkeypatch, kind,
+                                                       method):
+    """Through the command line: exit 2, one line naming file, row and time, no result (the
+    row read and checked in the reader thread of sins-dr and od-velocity-kf)."""
     folder = tmp_path / "b"
     write_bundle(drive, folder, fmt="parquet")
 
@@ -247,7 +250,7 @@ def test_cli_bad_row_in_chunk_3_exit_2_nothing_written(drive, tmp_path, monkeypa
     _spoil(folder, "imu", "parquet", edit)
     monkeypatch.setattr(bundle_stream, "CHUNK_ROWS", 1000)
     out = tmp_path / "r"
-    r = CliRunner().invoke(cli, ["-q", "navigate", str(folder), "-m", "sins-dr", "-o", str(out)])
+    r = CliRunner().invoke(cli, ["-q", kind, str(folder), "-m", method, "-o", str(out)])
     assert r.exit_code == 2
     err = r.stderr if hasattr(r, "stderr") else r.output
     line = [x for x in err.splitlines() if x.startswith("inmotion: error:")]
@@ -257,7 +260,8 @@ def test_cli_bad_row_in_chunk_3_exit_2_nothing_written(drive, tmp_path, monkeypa
 
 @pytest.mark.parametrize("args", [["-m", "sins-dr", "--mode", "velocity-position"],
                                   ["-m", "sins", "--start", "10", "--end", "61.5"],
-                                  ["-m", "dr-kf", "--start", "12", "--output-rate", "2"]])
+                                  ["-m", "dr-kf", "--start", "12", "--output-rate", "2"],
+                                  ["-m", "od-velocity-kf", "--output-rate", "1"]])
 def test_cli_chunked_result_equals_whole(drive, tmp_path, monkeypatch, args):
     """The files ``inmotion navigate`` / ``align`` write when it reads the bundle in chunks
     equal those it writes when it reads the bundle whole (the reader it uses for every other
@@ -266,7 +270,7 @@ def test_cli_chunked_result_equals_whole(drive, tmp_path, monkeypatch, args):
     folder = tmp_path / "b"
     write_bundle(drive, folder, fmt="parquet")
     monkeypatch.setattr(bundle_stream, "CHUNK_ROWS", 777)
-    kind = "align" if "dr-kf" in args else "navigate"
+    kind = "align" if ("dr-kf" in args or "od-velocity-kf" in args) else "navigate"
     for out, streamed in (("r", cli_main.STREAMED), ("w", ())):
         monkeypatch.setattr(cli_main, "STREAMED", streamed)
         r = CliRunner().invoke(cli, ["-q", kind, str(folder), *args, "-o", str(tmp_path / out)])
@@ -411,3 +415,98 @@ def test_sins_dr_stopped_early_leaves_no_reader_thread(folder):
         run_sins_dr(s, {"output_rate_hz": 1.0}, NavState.from_truth(s.truth),
                     progress=lambda f: (_ for _ in ()).throw(BadInput("stop here")))
     assert threading.active_count() == before
+
+
+_TRUTH_FIELDS = ("t", "lat", "lon", "h", "vel_n", "euler", "path_length_m")
+
+
+def _same_truth(a, b):
+    for f in _TRUTH_FIELDS:
+        x, y = getattr(a, f), getattr(b, f)
+        assert x.dtype == y.dtype, f
+        np.testing.assert_array_equal(x, y, err_msg=f)
+
+
+def test_truth_reducer_gives_reduced(drive, tmp_path):
+    """``TruthReducer`` (the truth rows read in a thread while the run feeds its output times,
+    issue 13) returns ``TruthStream.reduced``'s arrays exactly: output times fed in uneven
+    pieces across the 700-row chunks and the yaw wrap, the result asked for them or for a
+    subset (a thinned output), in a window, and (by ``reduced`` itself) for times fed out of
+    order or not fed."""
+    folder = tmp_path / "b"
+    write_bundle(drive, folder, fmt="parquet")
+    whole = read_bundle(folder)
+    t_imu = whole.imu.t
+    t_out = np.r_[t_imu[0], t_imu[10::10], t_imu[-1]]           # 10 Hz and the last row
+
+    def fed(stream, times, cuts, ask=None, fell_back=False):
+        r = stream.truth.reducer()
+        for a, b in zip(np.r_[0, cuts], np.r_[cuts, len(times)]):
+            r.feed(times[a:b])
+        try:
+            return r.result(times if ask is None else ask)
+        finally:
+            r.close()
+            assert r.fell_back == fell_back     # its own rows, or reduced's answer
+
+    s = open_bundle(folder, chunk_rows=700)
+    cuts = [1, 5, 6, 200, 201, 555]
+    _same_truth(fed(s, t_out, cuts), s.truth.reduced(t_out))
+    sub = t_out[::7]                                            # thinned
+    _same_truth(fed(s, t_out, cuts, ask=sub), s.truth.reduced(sub))
+    w = s.window(20.0, 60.0)
+    tw = t_out[(t_out >= 20.0) & (t_out <= 60.0)]
+    got = fed(w, tw, [3, 100])
+    assert got.t[0] >= 20.0 and got.t[-1] <= 60.0
+    _same_truth(got, w.truth.reduced(tw))
+    t_tr = whole.truth.t
+    for k0 in (698, 699, 700, 1399):           # windows starting 2, 1, 0 rows before a chunk's end
+        w = s.window(t_tr[k0], t_tr[k0 + 900])
+        # 10 Hz, and times before the window's first row and after its last (clipped rows)
+        tw = np.r_[t_tr[k0] - 0.5, t_tr[k0] - 0.001, t_out[(t_out >= t_tr[k0])
+                                                          & (t_out <= t_tr[k0 + 900])],
+                   t_tr[k0 + 900] + 0.3]
+        for cuts_w in ([1], [2, 3, 40], [60]):
+            _same_truth(fed(w, tw, cuts_w), w.truth.reduced(tw))
+        _same_truth(fed(w, tw, [5], ask=tw[1::4]), w.truth.reduced(tw[1::4]))
+    shuffled = t_out[np.r_[100:200, 0:100, 200:len(t_out)]]     # out of order: reduced's
+    _same_truth(fed(s, shuffled, [100, 200], ask=t_out, fell_back=True),
+                s.truth.reduced(t_out))
+    more = np.r_[t_out, t_imu[-5]]                              # rows not asked for by the feed
+    _same_truth(fed(s, t_out[:300], [150], ask=np.sort(more), fell_back=True),
+                s.truth.reduced(np.sort(more)))
+    r = s.truth.reducer()                                       # closed mid-run: thread ends
+    r.feed(t_out[:50])
+    r.close()
+    import threading
+    assert not [th for th in threading.enumerate() if th.name == "inmotion-truth"]
+
+
+def test_cli_bad_truth_row_read_in_the_thread_exit_2(drive, tmp_path, monkeypatch):
+    """A bad truth row found by the reducer's thread while ``navigate`` runs: exit 2, one line
+    with read_bundle's message (file, row, time), nothing written; the thread was used."""
+    folder = tmp_path / "b"
+    write_bundle(drive, folder, fmt="parquet")
+
+    def edit(df):
+        df.loc[6000, "pitch"] = 95.0
+        return df
+    _spoil(folder, "truth", "parquet", edit)
+    expected = _message(lambda: read_bundle(folder))
+    monkeypatch.setattr(bundle_stream, "CHUNK_ROWS", 1000)
+    threads = []
+    run = bundle_stream.TruthReducer._run
+
+    def spy(self):
+        import threading
+        threads.append(threading.current_thread().name)
+        run(self)
+    monkeypatch.setattr(bundle_stream.TruthReducer, "_run", spy)
+    out = tmp_path / "r"
+    r = CliRunner().invoke(cli, ["-q", "navigate", str(folder), "-m", "sins-dr", "-o", str(out)])
+    assert r.exit_code == 2
+    err = r.stderr if hasattr(r, "stderr") else r.output
+    line = [x for x in err.splitlines() if x.startswith("inmotion: error:")]
+    assert line == [f"inmotion: error: {expected}"], err
+    assert threads == ["inmotion-truth"]
+    assert not out.exists() and not list(tmp_path.glob(".r*"))

@@ -156,3 +156,33 @@ def test_states_file_damaged(tmp_path):
     (tmp_path / "r" / "states.csv").unlink()
     with pytest.raises(BadInput, match="missing states.csv"):
         read_result(tmp_path / "r")
+
+
+@pytest.mark.parametrize("rate_hz", [1.0, 2.0, 7.3])
+def test_thin_select_chunk_by_chunk_then_thin_is_thin(rate_hz):
+    """``thin_select`` (the command line's row selection inside a streaming run) keeps a
+    superset of ``thin``'s rows chunk by chunk; ``thin`` of those is ``thin`` of all rows,
+    row for row: 100 Hz times with jitter and a gap, cut into uneven chunks (single rows,
+    a chunk inside one period, the initial row alone as a run's first output is)."""
+    from inmotion.io.result import thin, thin_select
+    rng = np.random.default_rng(5)
+    t = 12.345 + np.cumsum(np.full(4000, 0.01) + rng.normal(0, 2e-4, 4000))
+    t[2500:] += 3.0                                            # a gap of 3 s
+    n = len(t)
+    cuts = np.unique(np.r_[1, 2, 3, 150, 151, rng.choice(np.arange(4, n - 1), 30), n - 1])
+
+    def sol(k):
+        z = np.zeros(len(k))
+        return Solution(t[k], z, z, z, np.zeros((len(k), 3)), np.zeros((len(k), 3)),
+                        sigma={"h": np.arange(n, dtype=float)[k]})
+    sel = thin_select(rate_hz)
+    kept = np.concatenate([np.flatnonzero(sel(t[a:b], None)[0]) + a
+                           for a, b in zip(np.r_[0, cuts], np.r_[cuts, n])])
+    want, got = thin(sol(np.arange(n)), rate_hz), thin(sol(kept), rate_hz)
+    assert len(kept) < n / 2 and len(got.t) < len(kept)
+    np.testing.assert_array_equal(got.t, want.t)
+    np.testing.assert_array_equal(got.sigma["h"], want.sigma["h"])
+    # every row starting a period is among those kept (the reference written out)
+    k = np.floor((t - t[0]) * rate_hz + 1e-6)
+    starts = np.r_[0, np.flatnonzero(np.diff(k) != 0) + 1, n - 1]
+    assert np.isin(starts, kept).all()

@@ -55,7 +55,7 @@ _DRIVE = {
     "sensors": {"radar": {"rate_hz": 10.0, "noise_m_s": 0.1},
                 "baro": {"rate_hz": 10.0, "noise_m": 0.5}}}
 #: the methods whose run path is compiled ahead of time
-METHODS = ("sins", "sins-dr")
+METHODS = ("sins", "sins-dr", "od-velocity-kf")
 #: the runs recorded: each method with its defaults, and sins-dr's other mode (its
 #: measurement groups differ, so its filter is another case: paper 002 eq. 52); and sins-dr
 #: with the paper's noise figures, whose scale factor ``dk`` is a first-order Markov process
@@ -63,8 +63,13 @@ METHODS = ("sins", "sins-dr")
 #: ``F[dk, dk] = -1 / tau`` makes another predict kernel (16 active rows, not 15: the
 #: recorded drive's radar has no scale-factor spec, so its ``dk`` is a random constant).
 #: Without it a run on such a bundle loaded that kernel with numba (~0.55 s CPU).
+#: And ``align --method od-velocity-kf`` at issue 13's equal workload as
+#: ``benchmarks/bench_engine.py`` runs it (19 states, the sensor's velocity and the NHC, no
+#: barometer; a Markov ``dk`` as the hour's radar states): its fills and predict kernel
+#: (mounting block, 19 states) are another case (without it the run loads numba, ~0.5 s).
 RUNS = (("sins",), ("sins-dr",), ("sins-dr", "--set", "mode=velocity-position"),
-        ("sins-dr", "--set", "noise_preset=paper"))
+        ("sins-dr", "--set", "noise_preset=paper"),
+        ("od-velocity-kf", "--set", "noise_preset=paper", "--set", "use_baro=false"))
 
 
 def _fn_name(f) -> str:
@@ -79,6 +84,7 @@ def _record(runs=RUNS):
     :func:`inmotion._aot.call`: ``(cases, calls)``, ``cases`` a list of dicts (filter, its
     first ``_advance`` call's arguments before and after), ``calls`` ``{name: (function,
     first arguments)}``."""
+    from . import registry
     from .cli import main as cli
     from .estimation import engine as E
     from .io.bundle import write_bundle
@@ -109,14 +115,15 @@ def _record(runs=RUNS):
             write_bundle(simulate(load_scenario(_DRIVE), np.random.default_rng(0)), b,
                          fmt="parquet")
             for i, (m, *opts) in enumerate(runs):   # the command line's own code path
+                kind = registry.get(m).kind          # navigate or align
                 try:
                     with contextlib.redirect_stdout(io.StringIO()):
-                        cli.cli.main(args=["-q", "navigate", str(b), "--method", m, *opts,
+                        cli.cli.main(args=["-q", kind, str(b), "--method", m, *opts,
                                            "-o", str(Path(tmp) / f"run{i}")],
                                      prog_name="inmotion")
                 except SystemExit as e:
                     if e.code:
-                        raise RuntimeError(f"navigate --method {m} {' '.join(opts)} failed "
+                        raise RuntimeError(f"{kind} --method {m} {' '.join(opts)} failed "
                                            f"({e.code})") from e
     finally:
         E.ErrorStateFilter._call_advance, _aot.call = orig_call, orig_common

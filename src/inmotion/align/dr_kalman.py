@@ -435,7 +435,8 @@ def _config(config, cls):
     return cfg
 
 
-def _run(bundle, config, init, progress, cls, with_dr, method, dtheta_dr=None, select=None):
+def _run(bundle, config, init, progress, cls, with_dr, method, dtheta_dr=None, select=None,
+         output_times=None):
     cfg = _config(config, cls)
     t0 = time.perf_counter()
     filt, (n_rows, pieces, k0), (sensor, speed), (cfg, cfg_source) = _engine_filter(
@@ -444,8 +445,17 @@ def _run(bundle, config, init, progress, cls, with_dr, method, dtheta_dr=None, s
     if dtheta_dr is not None:                # the DR's own gyro (a bundle in memory)
         pieces = with_dr_gyro(pieces, dr_gyro_rows(bundle.imu, dtheta_dr,
                                                    slice(k0, k0 + n_rows)))
-    out = filt.run_stream(pieces, n_rows, speed, h_baro=h_baro, sensor=sensor,
-                          progress=progress, select=select)
+    elif not isinstance(pieces, (list, tuple)):
+        # read from the file: the next chunk read and checked in a reader thread while the
+        # filter runs on this one, as sins-dr's (nothing else reads the IMU table meanwhile)
+        from ..io.bundle_stream import read_ahead
+        pieces = read_ahead(pieces)
+    try:
+        out = filt.run_stream(pieces, n_rows, speed, h_baro=h_baro, sensor=sensor,
+                              progress=progress, select=select, output_times=output_times)
+    finally:
+        if hasattr(pieces, "close"):     # the reader thread stopped, whatever happened
+            pieces.close()
     sol = _engine_solution(filt, out, cfg, method, sensor, time.perf_counter() - t0)
     sol.info["config_source"] = cfg_source
     return sol
@@ -453,7 +463,7 @@ def _run(bundle, config, init, progress, cls, with_dr, method, dtheta_dr=None, s
 
 def run_dr_kf(bundle: Bundle, config: DrKfConfig | dict | None = None,
               init: NavState | None = None, progress: Optional[Callable] = None, *,
-              dtheta_dr=None, select=None) -> Solution:
+              dtheta_dr=None, select=None, output_times=None) -> Solution:
     """``dr-kf``: paper 000's SINS / radar-DR alignment filter (see the module docstring).
 
     ``dtheta_dr`` (N, 3) [rad], one row per IMU row, or None: the gyro increments the dead
@@ -472,12 +482,18 @@ def run_dr_kf(bundle: Bundle, config: DrKfConfig | dict | None = None,
     ``select``: which output rows to keep and where to stop
     (:meth:`inmotion.estimation.velocity_aided.VelocityAidedRun.run_stream`; None: all, to
     the end; ``inmotion process`` keeps its output rate's rows and stops at the handover).
+    ``output_times``: a callable given the kept output rows' times as the run makes them
+    (:meth:`~inmotion.estimation.velocity_aided.VelocityAidedRun.run_stream`).
     """
-    return _run(bundle, config, init, progress, DrKfConfig, True, "dr-kf", dtheta_dr, select)
+    return _run(bundle, config, init, progress, DrKfConfig, True, "dr-kf", dtheta_dr, select,
+                output_times)
 
 
 def run_od_velocity_kf(bundle: Bundle, config: OdVelocityKfConfig | dict | None = None,
                        init: NavState | None = None,
-                       progress: Optional[Callable] = None) -> Solution:
-    """``od-velocity-kf``: SINS / velocity-sensor velocity matching (the baseline)."""
-    return _run(bundle, config, init, progress, OdVelocityKfConfig, False, "od-velocity-kf")
+                       progress: Optional[Callable] = None, *,
+                       select=None, output_times=None) -> Solution:
+    """``od-velocity-kf``: SINS / velocity-sensor velocity matching (the baseline).
+    ``select``, ``output_times``: as :func:`run_dr_kf`'s."""
+    return _run(bundle, config, init, progress, OdVelocityKfConfig, False, "od-velocity-kf",
+                select=select, output_times=output_times)

@@ -612,12 +612,62 @@ def _spec(method, kind=None):
     return spec
 
 
-def run_method(ctx, bundle, spec, config, init_state, window):
-    """Run ``spec`` on ``bundle`` cut to ``window`` = (start, end); return the Solution.
+def _accepts(run, name: str) -> bool:
+    """``run`` (a method's function, :meth:`MethodSpec.load`'s wrapper) takes keyword
+    ``name``."""
+    import inspect
+    try:
+        return name in inspect.signature(run).parameters
+    except (TypeError, ValueError):
+        return False
+
+
+def _preload(modules):
+    """Import ``modules`` in a thread (joined by the caller): those the command needs only
+    after the method's run, imported while the run's compiled loop, which releases the GIL,
+    runs on the other core."""
+    import importlib
+    import threading
+
+    from ..io import bundle_stream
+    bundle_stream.one_malloc_arena()        # before the first thread (bundle_stream notes)
+
+    def load():
+        for m in modules:
+            try:
+                importlib.import_module(m)
+            except Exception:       # noqa: BLE001 (imported again where used, errors there)
+                pass
+    th = threading.Thread(target=load, name="inmotion-preload", daemon=True)
+    th.start()
+    return th
+
+
+#: modules the result's writing imports (``--format csv``; stale partial folders' glob)
+_WRITE_MODULES = ("glob", "pyarrow.csv")
+
+
+def run_method(ctx, bundle, spec, config, init_state, window, truth_reducer=False,
+               thin_rate_hz=None):
+    """Run ``spec`` on ``bundle`` cut to ``window`` = (start, end); return ``(Solution, the
+    bundle it ran on)``.
     A method that streams its IMU rows (:data:`STREAMED`) takes the bundle as it is (read in
     chunks or in memory); any other takes the window in memory (:meth:`Bundle.load_window`:
     from a bundle read in chunks only the window's rows are read, so ``--start`` / ``--end``
-    bound its memory)."""
+    bound its memory).
+
+    ``truth_reducer``: return ``(Solution, bundle, reducer)``, ``reducer`` a
+    :class:`inmotion.io.bundle_stream.TruthReducer` that read the truth rows the errors need
+    while the method ran (its ``result(t)`` is ``truth.reduced(t)``; the caller closes it),
+    for a method that gives its output times as it makes them (keyword ``output_times``) on a
+    bundle read in chunks; else None.
+
+    ``thin_rate_hz``: the rate the caller thins the solution to afterwards
+    (:func:`inmotion.io.result.thin`); a streaming method that takes a row selection
+    (keyword ``select``), does not smooth and keeps no covariance history in its ``info``
+    (``keep_covariance``) keeps only the rows thinning can keep
+    (:func:`inmotion.io.result.thin_select`: the same rows after thinning, without holding
+    the others)."""
     start, end = window
     b = (bundle.window(start, end) if spec.name in STREAMED
          else bundle.load_window(start, end, truth=True))
@@ -628,16 +678,31 @@ def run_method(ctx, bundle, spec, config, init_state, window):
         raise BadInput(f"the window from {lo} to {hi} holds fewer than 2 IMU rows; the drive "
                        f"covers {t0:g}-{t1:g} s (check --start / --end)")
     run, _ = spec.load()
+    kw, reducer = {}, None
+    if (thin_rate_hz is not None and spec.name in STREAMED and not getattr(config, "smooth", False)
+            and not getattr(config, "keep_covariance", False) and _accepts(run, "select")):
+        # (a smoothed run is smoothed at the rows kept; kept covariances are every row's)
+        from ..io.result import thin_select
+        kw["select"] = thin_select(thin_rate_hz)
+    if (truth_reducer and spec.name in STREAMED and hasattr(b.truth, "reducer")
+            and _accepts(run, "output_times")):
+        reducer = b.truth.reducer()
+        kw["output_times"] = reducer.feed
     t0 = time.perf_counter()
-    with _progress(ctx, spec.name) as progress:
-        sol = run(b, config, init_state, progress=progress)
+    try:
+        with _progress(ctx, spec.name) as progress:
+            sol = run(b, config, init_state, progress=progress, **kw)
+    except BaseException:
+        if reducer is not None:
+            reducer.close()
+        raise
     wall = time.perf_counter() - t0
     sol.info.setdefault("method", spec.name)
     sol.info.setdefault("config", config.model_dump(mode="json"))
     timing = dict(sol.info.get("timing") or {})
     timing["wall_s"] = wall
     sol.info["timing"] = timing
-    return sol, b
+    return (sol, b, reducer) if truth_reducer else (sol, b)
 
 
 #: default ``--output-rate`` per command [Hz]; None: every row the method outputs
@@ -721,16 +786,27 @@ def _run_command(ctx, kind, bundle_path, method, config_file, output, init, init
     if start is None and init_desc.startswith("result"):
         start = state.t
     config, thin_rate = apply_output_rate(config, bundle, rate, explicit)
-    sol, b = run_method(ctx, bundle, spec, config, state, (start, end))
-    if thin_rate is not None:
-        sol = thin(sol, thin_rate)
-    extra = {"bundle": str(bundle_path), "bundle_name": bundle.name,
-             "init": {"from": init_desc, "error": init_error, "t_s": state.t},
-             "window": {"start_s": start, "end_s": end},
-             "output_rate_hz": thin_rate}
-    truth = b.truth
-    if hasattr(truth, "reduced"):        # read in chunks: the rows the output's errors need
-        truth = truth.reduced(sol.t)
+    preload = _preload(_WRITE_MODULES)
+    try:
+        sol, b, reducer = run_method(ctx, bundle, spec, config, state, (start, end),
+                                     truth_reducer=True, thin_rate_hz=thin_rate)
+    finally:
+        preload.join()
+    try:
+        if thin_rate is not None:
+            sol = thin(sol, thin_rate)
+        extra = {"bundle": str(bundle_path), "bundle_name": bundle.name,
+                 "init": {"from": init_desc, "error": init_error, "t_s": state.t},
+                 "window": {"start_s": start, "end_s": end},
+                 "output_rate_hz": thin_rate}
+        truth = b.truth
+        if reducer is not None:          # read while the method ran
+            truth = reducer.result(sol.t)
+        elif hasattr(truth, "reduced"):  # read in chunks: the rows the output's errors need
+            truth = truth.reduced(sol.t)
+    finally:
+        if reducer is not None:
+            reducer.close()
     summary = write_result(sol, output, truth=truth, summary_extra=extra, fmt=fmt)
     _emit(ctx, summary, _run_text(summary, output), as_json)
 

@@ -310,7 +310,7 @@ class VelocityAidedRun:
                                progress=progress)
 
     def run_stream(self, pieces, n_rows: int, speed: SpeedData, h_baro=None, sensor="speed",
-                   progress=None, select=None) -> dict:
+                   progress=None, select=None, output_times=None) -> dict:
         """:meth:`run` on rows that arrive in pieces (a log read in chunks).
 
         ``pieces`` yields consecutive blocks ``(t, dtheta, dvel)`` (or with ``dtheta_dr`` as a
@@ -326,13 +326,21 @@ class VelocityAidedRun:
         output rate writes), and ``stop`` ends the run after this chunk (the rows kept are
         those of the whole run: the filter is causal). With ``smooth`` the smoothed rows are
         returned at the rows kept.
+
+        ``output_times`` (None: nothing): a callable given the times [s] of the output rows
+        kept, chunk by chunk as they come, in order (the command line computes the truth
+        rows the errors need meanwhile: :class:`inmotion.io.bundle_stream.TruthReducer`).
         """
         def take(o):
             if select is None:
-                return o, False
-            mask, stop = select(o["t"], self.layout.as_dict(o["sigma"]))
-            mask = np.asarray(mask, dtype=bool)
-            return {k: v[mask] for k, v in o.items()}, bool(stop)
+                kept = o, False
+            else:
+                mask, stop = select(o["t"], self.layout.as_dict(o["sigma"]))
+                mask = np.asarray(mask, dtype=bool)
+                kept = {k: v[mask] for k, v in o.items()}, bool(stop)
+            if output_times is not None:
+                output_times(kept[0]["t"])
+            return kept
 
         if n_rows <= 0:
             raise ValueError("VelocityAidedRun.run needs at least one IMU row")

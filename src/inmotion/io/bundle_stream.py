@@ -52,13 +52,16 @@ from ..core.bundle import (VELOCITY_SENSORS, Bundle, ImuData, SpeedData, Truth,
 from ..errors import BadInput
 from . import bundle as B
 
-__all__ = ["open_bundle", "BundleStream", "TruthStream", "SpeedStream", "CHUNK_ROWS",
-           "STREAM_SENSOR_RATE_HZ"]
+__all__ = ["open_bundle", "BundleStream", "TruthStream", "TruthReducer", "SpeedStream",
+           "CHUNK_ROWS", "STREAM_SENSOR_RATE_HZ"]
 
 #: rows per chunk read from the IMU and truth tables
 CHUNK_ROWS = 65536
 #: items a reader thread may read beyond the one its consumer holds (:func:`read_ahead`)
 READ_AHEAD = 1
+#: rows per chunk of the truth table read by :class:`TruthReducer`'s thread (it runs beside
+#: the method: two such chunks, the current one and the next one's first row, in memory)
+TRUTH_THREAD_ROWS = 16384
 
 
 # --------------------------------------------------------------------------- reading ahead
@@ -66,21 +69,22 @@ READ_AHEAD = 1
 _M_ARENA_MAX = -8                      # glibc's mallopt parameter (malloc.h)
 
 
-def _one_malloc_arena():
+def one_malloc_arena():
     """Make glibc's malloc serve every thread from its main arena (``mallopt(M_ARENA_MAX,
-    1)``; elsewhere nothing). The reader thread's chunks are allocated by it and freed by the
+    1)``; elsewhere nothing); called before any of the package's threads starts (the reader,
+    :class:`TruthReducer`'s, the command line's and the result writer's). The reader thread's chunks are allocated by it and freed by the
     consumer; in a thread arena of their own the freed chunks were not reused by the main
     thread, and the peak memory of ``bench_memory.py``'s 4 h ``navigate`` varied from run to
     run with the threads' timing (issue 13: 195-212 MiB, 4 h / 1 h 1.09-1.19 against the
     target 1.15; with one arena 191-192 MiB, 1.11). Called once, before the first reader
     thread starts; it changes no result."""
-    global _one_malloc_arena
+    global one_malloc_arena
     try:
         import ctypes
         ctypes.CDLL("libc.so.6").mallopt(_M_ARENA_MAX, 1)
     except (OSError, AttributeError):
         pass
-    _one_malloc_arena = lambda: None      # noqa: E731
+    one_malloc_arena = lambda: None       # noqa: E731
 
 
 class _ReadAhead:
@@ -97,7 +101,7 @@ class _ReadAhead:
         return self
 
     def _start(self):
-        _one_malloc_arena()
+        one_malloc_arena()
         self._q = queue.SimpleQueue()                # bounded by the slots
         self._slots = threading.Semaphore(self._depth)
         self._stop = threading.Event()
@@ -179,7 +183,7 @@ def read_ahead(it, depth: int = READ_AHEAD):
 
 # --------------------------------------------------------------------------- one table
 
-def _parquet_reader(path, **options):
+def _parquet_reader(path, memory_pool=None, **options):
     """An open ``pyarrow._parquet.ParquetReader`` of the file ``path`` (``options``: those of
     its ``open``, e.g. ``buffer_size``, ``pre_buffer``): the reader ``pyarrow.parquet.
     ParquetFile`` wraps, made without importing ``pyarrow.parquet``, whose import of Arrow's
@@ -187,10 +191,10 @@ def _parquet_reader(path, **options):
     ``ParquetFile`` if this pyarrow has no such reader."""
     try:
         from pyarrow._parquet import ParquetReader
-        reader = ParquetReader()
+        reader = ParquetReader(memory_pool) if memory_pool is not None else ParquetReader()
     except (ImportError, AttributeError, TypeError):
         import pyarrow.parquet as pq
-        return pq.ParquetFile(path, **options).reader
+        return pq.ParquetFile(path, memory_pool=memory_pool, **options).reader
     reader.open(str(path), **options)
     return reader
 
@@ -199,14 +203,19 @@ class _Table:
     """One table file, read in chunks of rows; every chunk checked as :func:`read_bundle`
     checks the whole table (numeric, finite, time strictly increasing)."""
 
-    def __init__(self, path: Path, chunk_rows: int):
+    def __init__(self, path: Path, chunk_rows: int, system_pool: bool = False):
         self.path = path
         self.chunk_rows = max(2, int(chunk_rows))
         self.parquet = B.SUFFIXES.get(path.suffix) == "parquet"
         try:
             if self.parquet:
-                # a buffered stream of the column chunks, not each chunk whole in memory
-                self._pf = _parquet_reader(path, buffer_size=1 << 20, pre_buffer=False)
+                # a buffered stream of the column chunks, not each chunk whole in memory;
+                # system_pool: Arrow's buffers from malloc, not its default pool (below)
+                pool = None
+                if system_pool:
+                    import pyarrow as pa
+                    pool = pa.system_memory_pool()
+                self._pf = _parquet_reader(path, pool, buffer_size=1 << 20, pre_buffer=False)
                 raw = [str(c) for c in self._pf.schema_arrow.names]
                 n = self._pf.metadata.num_rows
             else:
@@ -221,7 +230,7 @@ class _Table:
         if n == 0:
             raise BadInput("table has no data rows", file=path)
 
-    def _frames(self, names, first_row: int = 0):
+    def _frames(self, names, first_row: int = 0, chunk_rows: Optional[int] = None):
         """Raw chunks ``(offset, {name: column})`` (pyarrow arrays or pandas Series);
         ``first_row``: a Parquet file skips the row groups that end before it (the first
         chunk yielded may still start before it)."""
@@ -239,7 +248,7 @@ class _Table:
                     return
                 offset = start
                 cols = [self._pf.column_name_idx(self.raw[c]) for c in names]
-                for batch in self._pf.iter_batches(self.chunk_rows, groups,
+                for batch in self._pf.iter_batches(chunk_rows or self.chunk_rows, groups,
                                                    column_indices=cols, use_threads=False):
                     yield offset, {c: batch.column(i) for i, c in enumerate(names)}
                     offset += batch.num_rows
@@ -247,7 +256,7 @@ class _Table:
                 import pandas as pd
                 offset = 0
                 for df in pd.read_csv(self.path, skipinitialspace=True,
-                                      chunksize=self.chunk_rows):
+                                      chunksize=chunk_rows or self.chunk_rows):
                     df.columns = [str(c).strip() for c in df.columns]
                     yield offset, {c: df[c] for c in names}
                     offset += len(df)
@@ -256,18 +265,19 @@ class _Table:
         except Exception as e:
             raise B.cannot_read(e, self.path) from None
 
-    def chunks(self, names, rows=None):
+    def chunks(self, names, rows=None, chunk_rows: Optional[int] = None):
         """Yield ``(offset, {name: float64 array})``: the named columns (``t`` first) of
         consecutive chunks, ``offset`` rows before each; BadInput at the first bad row.
         ``rows = (a, b)``: only the table's rows ``a <= row < b`` (a time-filtered read:
         the chunks that hold them are read and checked, Parquet row groups before ``a``
-        skipped, reading stops after ``b``)."""
+        skipped, reading stops after ``b``); ``chunk_rows``: rows per chunk (default the
+        table's)."""
         names = ("t",) + tuple(c for c in names if c != "t")
         B.missing_columns(self.columns, names, self.path)
         self._t = None          # reading rows: the time column is not kept meanwhile
         a, b = (0, None) if rows is None else (int(rows[0]), int(rows[1]))
         seen, t_prev = 0, None
-        for offset, frame in self._frames(names, a):
+        for offset, frame in self._frames(names, a, chunk_rows):
             n = len(frame["t"])
             if n == 0:
                 continue
@@ -338,6 +348,22 @@ class _Times:
         t = self._table.times()
         w0, w1 = _window_rows(t, self._window)
         return t[w0:w1], w0
+
+    def _span_rows(self) -> tuple:
+        """``(w0, w1)``: the rows ``w0 <= row < w1`` of :meth:`_span`, the time column read
+        chunk by chunk unless it is kept (not held whole: :class:`TruthReducer`'s thread)."""
+        if self._table._t is not None:
+            return _window_rows(self._table._t, self._window)
+        lo, hi = self._window
+        a = b = n = 0
+        for _, c in self._table.chunks(("t",)):       # checked increasing across chunks
+            t = c["t"]
+            n += len(t)
+            if lo is not None:
+                a += int(np.searchsorted(t, lo, side="left"))
+            if hi is not None:
+                b += int(np.searchsorted(t, hi, side="right"))
+        return (0 if lo is None else a), max(0 if lo is None else a, n if hi is None else b)
 
 
 class _TimesOf(_Times):
@@ -659,7 +685,7 @@ class TruthStream(_Times):
         new._window = _intersect(self._window, (start, end))
         return new
 
-    def _rows(self):
+    def _rows(self, chunk_rows: Optional[int] = None):
         """Yield ``(offset, Truth, dh, steps)`` chunks of the whole table, every row checked;
         ``steps`` (:func:`inmotion.io.bundle.truth_steps`) and ``dh`` (the height steps) are
         those from the row before the chunk (none before the first) through the chunk, so that
@@ -668,7 +694,7 @@ class TruthStream(_Times):
         from_pos = from_vel = 0.0
         prev = None
         n = 0
-        for offset, c in self._table.chunks(B.TRUTH_COLUMNS):
+        for offset, c in self._table.chunks(B.TRUTH_COLUMNS, chunk_rows=chunk_rows):
             tr = B.truth_rows(c, self.path, offset)
             both = tr if prev is None else _Steps(*(np.concatenate([getattr(prev, f),
                                                                      getattr(tr, f)])
@@ -725,21 +751,193 @@ class TruthStream(_Times):
         times, w0 = self._span()
         if len(times) == 0:
             return Truth(times, times, times, times, np.zeros((0, 3)), np.zeros((0, 3)))
-        j = np.clip(np.searchsorted(times, np.asarray(t_out, dtype=float), side="right") - 1,
-                    0, len(times) - 1)
-        keep = np.unique(np.concatenate([[0, len(times) - 1], j,
-                                         np.minimum(j + 1, len(times) - 1)])) + w0
+        keep = _keep_rows(times, t_out) + w0
         w1 = w0 + len(times)
-        del times, j
-        parts = _kept_rows(self._rows(), keep, w0, w1)
-        return Truth(*(np.concatenate([getattr(p, f) for p in parts])
-                       for f in ("t", "lat", "lon", "h", "vel_n", "euler", "path_length_m")))
+        del times
+        return _joined(_kept_rows(self._rows(), keep, w0, w1))
+
+    def reducer(self) -> "TruthReducer":
+        """A :class:`TruthReducer`: :meth:`reduced` made in a thread while the output times
+        arrive (a method's run), started at the first times fed."""
+        return TruthReducer(self)
 
 
-def _kept_rows(rows, keep, w0, w1):
+def _keep_rows(times, t_out) -> np.ndarray:
+    """The rows of ``times`` (indices from 0) :meth:`TruthStream.reduced` keeps for the output
+    times ``t_out``: the first and the last row and the two rows around each output time."""
+    n = len(times)
+    j = np.clip(np.searchsorted(times, np.asarray(t_out, dtype=float), side="right") - 1,
+                0, n - 1)
+    return np.unique(np.concatenate([[0, n - 1], j, np.minimum(j + 1, n - 1)]))
+
+
+def _joined(parts) -> Truth:
+    return Truth(*(np.concatenate([getattr(p, f) for p in parts])
+                   for f in ("t", "lat", "lon", "h", "vel_n", "euler", "path_length_m")))
+
+
+class _Stopped(Exception):
+    """A :class:`TruthReducer`'s thread told to stop (or its output times out of order)."""
+
+
+class TruthReducer:
+    """:meth:`TruthStream.reduced` computed while a method runs (issue 13: the command line's
+    hour, 2 cores): the output times are fed as the run makes them (:meth:`feed`, each
+    chunk's, in increasing order), and a thread reads and checks the truth table chunk by
+    chunk (:meth:`TruthStream._rows`, the same code), each chunk once the output times have
+    passed the next chunk's first row, so that its kept rows are known; :meth:`result` returns
+    what ``reduced(t_out)`` returns, array for array, for any ``t_out`` among the times fed
+    (the thinned output of a method: a subset of its rows); otherwise (or if the times fed
+    were not increasing) it calls :meth:`TruthStream.reduced` itself.
+
+    The kept rows of a chunk are found from its own times: for an output time ``t`` after the
+    previous chunk's last row and before the next chunk's first, the row at or before it is
+    the chunk's first row plus ``searchsorted(chunk times, t, 'right') - 1``, as
+    :func:`_keep_rows` finds it in the whole column (the clipping at the first and the last
+    row included). So the thread holds two truth chunks of :data:`TRUTH_THREAD_ROWS` rows (the
+    current one and the next, read for its first row) and the times fed not yet passed, not
+    the table's time column: memory does not grow with the log.
+    A :class:`BadInput` of the table is raised by :meth:`result`, as it was raised, in the
+    caller's thread; :meth:`close` stops the thread (a failed run)."""
+
+    def __init__(self, truth: "TruthStream"):
+        self._truth = truth
+        self._cond = threading.Condition()
+        self._fed = []                   # the output times fed, not yet passed by the thread
+        self._all = []                   # every time fed (result(): t_out among them?)
+        self._last = -np.inf             # the last time fed
+        self._ordered = True
+        self._done = self._stop = False
+        self._out = None                 # (parts, kept rows, w0, w1) or an exception
+        self._thread = None
+        self._next_first = None          # the next chunk's first time (None: no next chunk)
+        self._w = (0, 0)
+        #: :meth:`result` called :meth:`TruthStream.reduced` (times not fed, or not in order)
+        self.fell_back = False
+
+    def feed(self, t) -> None:
+        """Output times ``t`` [s] of the run, after those fed before."""
+        t = np.array(t, dtype=float).reshape(-1)
+        if len(t) == 0:
+            return
+        with self._cond:
+            if not (t[0] >= self._last and bool(np.all(np.diff(t) >= 0))):
+                self._ordered = False
+            self._fed.append(t)
+            self._all.append(t)
+            self._last = max(self._last, float(t[-1]))
+            self._cond.notify_all()
+        if self._thread is None:
+            one_malloc_arena()
+            self._thread = threading.Thread(target=self._run, name="inmotion-truth",
+                                            daemon=True)
+            self._thread.start()
+
+    def _peeked(self, rows):
+        """The chunks of ``rows``, each yielded once the next one is read (its first time in
+        :attr:`_next_first`; None after the last)."""
+        cur = next(rows, None)
+        while cur is not None:
+            nxt = next(rows, None)
+            self._next_first = None if nxt is None else float(nxt[1].t[0])
+            yield cur
+            cur = nxt
+
+    def _keep_in(self, a: int, b: int, t_ab, t_prev) -> np.ndarray:
+        """The kept rows (absolute, sorted) among the window's rows ``a <= row < b``, whose
+        times are ``t_ab`` (``t_prev``: the window's row before, None at its start): waits
+        until the output times have reached row ``b`` (or have all been fed)."""
+        w0, w1 = self._w
+        n = w1 - w0
+        nxt = self._next_first if b < w1 else None      # row b's time (None: past the end)
+        with self._cond:
+            while not (self._stop or self._done or not self._ordered
+                       or (nxt is not None and self._last >= nxt)):
+                self._cond.wait()
+            if self._stop or not self._ordered:
+                raise _Stopped
+            fed = np.concatenate(self._fed) if self._fed else np.zeros(0)
+        ra = a - w0
+        # the times whose row at or before lies in a - 1 .. b - 1 (and, with the chunk's
+        # first row the window's second, those before the window: their rows are 0 and 1)
+        lo = 0 if (t_prev is None or ra <= 1) else np.searchsorted(fed, t_prev, side="left")
+        hi = len(fed) if nxt is None else np.searchsorted(fed, nxt, side="left")
+        t = fed[lo:hi]
+        j = np.clip(ra + np.searchsorted(t_ab, t, side="right") - 1, 0, n - 1)
+        cand = np.concatenate([[0, n - 1], j, np.minimum(j + 1, n - 1)]) + w0
+        with self._cond:                 # times before this chunk's last row are passed
+            if len(t_ab) >= 2 or ra >= 1:
+                rest = np.concatenate(self._fed) if self._fed else np.zeros(0)
+                self._fed = [rest[np.searchsorted(rest, t_ab[-1], side="left"):]]
+        return np.unique(cand[(cand >= a) & (cand < b)])
+
+    def _run(self):
+        rows = None
+        try:
+            self._w = w0, w1 = self._truth._span_rows()
+            if w1 == w0:
+                return                        # result(): reduced's own answer
+            rows = self._truth._rows(min(self._truth._table.chunk_rows, TRUTH_THREAD_ROWS))
+            kept = []
+            parts = _kept_rows(self._peeked(rows), self._keep_in, *self._w, kept)
+            self._out = (parts, np.concatenate(kept) if kept else np.zeros(0, dtype=int))
+        except _Stopped:
+            self._out = None
+        except BaseException as e:          # noqa: BLE001 (raised by result())
+            self._out = e
+        finally:
+            if rows is not None:
+                rows.close()
+
+    def _finish(self, stop: bool):
+        with self._cond:
+            self._done = True
+            self._stop = self._stop or stop
+            self._cond.notify_all()
+        if self._thread is not None:
+            self._thread.join()
+
+    def result(self, t_out) -> Truth:
+        """``TruthStream.reduced(t_out)`` (``t_out``: the output times of the result written)."""
+        self._finish(stop=False)
+        out, self._out = self._out, None
+        if isinstance(out, BaseException):
+            raise out
+        t_out = np.asarray(t_out, dtype=float)
+        fed = np.concatenate(self._all) if self._all else np.zeros(0)
+        if out is None or not np.isin(t_out, fed).all():
+            self.fell_back = True
+            return self._truth.reduced(t_out)      # times the rows were not kept for
+        parts, kept = out
+        full = _joined(parts)
+        w1 = self._w[1]
+        # each time's row at or before it is the last kept row at or before it (it is kept)
+        i = np.clip(np.searchsorted(full.t, t_out, side="right") - 1, 0, len(kept) - 1)
+        j = kept[i]
+        keep = np.unique(np.concatenate([[self._w[0], w1 - 1], j, np.minimum(j + 1, w1 - 1)]))
+        sel = np.searchsorted(kept, keep)
+        if not (np.all(sel < len(kept)) and np.array_equal(kept[np.minimum(sel, len(kept) - 1)],
+                                                           keep)):
+            self.fell_back = True                  # (not expected: the times were fed)
+            return self._truth.reduced(t_out)
+        if len(keep) == len(kept):
+            return full
+        return Truth(*(getattr(full, f)[sel] for f in
+                       ("t", "lat", "lon", "h", "vel_n", "euler", "path_length_m")))
+
+    def close(self) -> None:
+        """Stop the thread (if any) and wait for it."""
+        self._finish(stop=True)
+
+
+def _kept_rows(rows, keep, w0, w1, kept=None):
     """:meth:`TruthStream.reduced`'s loop over the checked chunks ``rows`` (``(offset, Truth,
     dh, steps)``, :meth:`TruthStream._rows`): the kept rows ``keep`` of the window rows
-    ``w0 .. w1 - 1``, unwrapped, with the path length, a :class:`Truth` per chunk."""
+    ``w0 .. w1 - 1``, unwrapped, with the path length, a :class:`Truth` per chunk. ``keep``:
+    the rows (absolute, sorted), or a function ``keep(a, b, t, t_prev)`` giving those among
+    the rows ``a <= row < b`` from their times ``t`` and the time of the row before (None at
+    the window's start; :class:`TruthReducer`); ``kept``: a list the kept rows of each chunk
+    are appended to."""
     parts = []
     prev, carry_e, carry_l, carry_s = None, np.zeros(3), 0.0, 0.0
     for offset, tr, dh, steps in rows:
@@ -756,7 +954,11 @@ def _kept_rows(rows, keep, w0, w1):
         j = (offset > 0) - 1
         s, carry_s = _path_carry(*(x[i0 + j + (prev is None):i1 + j]
                                    for x in (dh, *steps)), prev is None, carry_s)
-        k = keep[(keep >= a) & (keep < b)] - a
+        k = (keep(a, b, tr.t, None if prev is None else prev.t[-1]) if callable(keep)
+             else keep[(keep >= a) & (keep < b)])
+        if kept is not None:
+            kept.append(k)
+        k = k - a
         parts.append(Truth(tr.t[k], tr.lat[k], lon[k], tr.h[k], tr.vel_n[k], euler[k], s[k]))
         prev = _take(tr, slice(-1, None))
     return parts
@@ -1007,7 +1209,12 @@ def open_bundle(path, *, max_gap_periods: float = B.MAX_GAP_PERIODS,
         baro = B.baro_data(tb.read(("t", "h")), tb.path)
         B._check_gaps("baro", baro.t, tb.path, max_gap_periods, error=False)
     if "truth" in files:
-        truth = TruthStream(_Table(files["truth"], chunk_rows), max_gap_periods)
+        # read beside the method's run by TruthReducer's thread: Arrow's buffers from malloc
+        # (one arena, one_malloc_arena), not from Arrow's default pool (mimalloc), whose heap
+        # for that thread raised the run's peak (paper 002's hour, sins-dr: peak RSS 210-213
+        # MiB, 176-185 MiB with malloc, 168-174 MiB reading the truth after the run)
+        truth = TruthStream(_Table(files["truth"], chunk_rows, system_pool=True),
+                            max_gap_periods)
     if truth is None:
         B._check_initial_position(meta, folder / "meta.yaml")
     stream = BundleStream(folder, meta, imu, speeds, baro, truth)

@@ -112,6 +112,33 @@ def thin(solution: Solution, rate_hz: float) -> Solution:
                     state_units=dict(solution.state_units), info=dict(solution.info))
 
 
+def thin_select(rate_hz: float):
+    """:func:`thin`'s choice of rows made chunk by chunk as a method makes its output rows: a
+    ``select(t, sigma) -> (mask, stop)`` for a streaming run
+    (:meth:`inmotion.estimation.velocity_aided.VelocityAidedRun.run_stream`), so that rows
+    :func:`thin` would drop are not kept (memory, and the work on them) by a method without
+    an output rate of its own. It keeps the rows :func:`thin` keeps (the first, each first
+    row of a period, with the same arithmetic, the period counted from the first row it is
+    given) and the last row of every chunk (the run may end there); :func:`thin` applied
+    afterwards drops those extra rows: on increasing times the rows it keeps from these are
+    exactly those it keeps from all the rows (a row starts a period among the rows kept iff
+    it starts one among all of them, since every row that starts one is kept)."""
+    state = {"t0": None, "k": None}
+
+    def select(t, sigma=None):
+        t = np.asarray(t, dtype=float)
+        if len(t) == 0:
+            return np.zeros(0, dtype=bool), False
+        if state["t0"] is None:
+            state["t0"] = t[0]
+        k = np.floor((t - state["t0"]) * rate_hz + 1e-6)
+        keep = np.r_[state["k"] is None or k[0] != state["k"], k[1:] != k[:-1]]
+        keep[-1] = True
+        state["k"] = k[-1]
+        return keep, False
+    return select
+
+
 def find_table(folder: PathLike, stem: str) -> Path | None:
     """``folder/stem.csv`` or ``folder/stem.parquet``, whichever exists (None: neither)."""
     for fmt in FORMATS:
@@ -191,16 +218,63 @@ _DIVERGED = (" (the method diverged, or its input or configuration is wrong); no
 
 
 def _write_result_files(solution, folder: Path, truth, summary_extra, fmt) -> dict:
-    _write_table(_solution_columns(solution), folder, "solution", fmt)
+    tables = [("solution", _solution_columns(solution))]
     states = _state_columns(solution)
     if states:
-        cols = {"t": solution.t, **{s["column"]: np.asarray(solution.states[n]) * s["scale"]
-                                    for n, s in states.items()}}
-        _write_table(cols, folder, "states", fmt)
+        tables.append(("states", {"t": solution.t,
+                                  **{s["column"]: np.asarray(solution.states[n]) * s["scale"]
+                                     for n, s in states.items()}}))
     else:
         _unlink_table(folder, "states")
     if truth is None:
         _unlink_table(folder, "errors")
+        for stem, cols in tables:
+            _write_table(cols, folder, stem, fmt)
+        writer = None
+    else:
+        # the solution and states tables written in a thread (pyarrow's writer releases the
+        # GIL) while this one computes the errors against truth and writes their table
+        writer = _Writer([(cols, folder, stem, fmt) for stem, cols in tables])
+    try:
+        summary = _summary(solution, states, summary_extra, fmt)
+        if truth is not None:
+            summary["errors"] = write_errors(solution, truth, folder, fmt=fmt)
+    finally:
+        if writer is not None:
+            writer.join()              # its exception (if any) raised here, as it was raised
+    write_summary(summary, folder)
+    return summary
+
+
+class _Writer:
+    """:func:`_write_table` of each of ``jobs`` in a thread; :meth:`join` waits for it and
+    raises its exception, if any."""
+
+    def __init__(self, jobs):
+        import threading
+
+        from . import bundle_stream
+        bundle_stream.one_malloc_arena()    # before the first thread (bundle_stream notes)
+        self._error = None
+        self._thread = threading.Thread(target=self._run, args=(jobs,), daemon=True,
+                                        name="inmotion-writer")
+        self._thread.start()
+
+    def _run(self, jobs):
+        try:
+            for job in jobs:
+                _write_table(*job)
+        except BaseException as e:       # noqa: BLE001 (raised by join)
+            self._error = e
+
+    def join(self):
+        self._thread.join()
+        if self._error is not None:
+            e, self._error = self._error, None
+            raise e
+
+
+def _summary(solution, states, summary_extra, fmt) -> dict:
     info = dict(solution.info)
     summary = {"method": info.pop("method", None), "config": info.pop("config", None),
                "timing": info.pop("timing", {}), "epochs": len(solution),
@@ -209,9 +283,6 @@ def _write_result_files(solution, folder: Path, truth, summary_extra, fmt) -> di
     if info.get("nis") is not None:      # NIS per measurement kind (chi2.nis_summary)
         summary["nis"] = info.pop("nis")
     summary.update(summary_extra or {})
-    if truth is not None:
-        summary["errors"] = write_errors(solution, truth, folder, fmt=fmt)
-    write_summary(summary, folder)
     return summary
 
 

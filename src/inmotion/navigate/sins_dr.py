@@ -368,11 +368,14 @@ def _solution(filt: VelocityAidedRun, out: dict, cfg: SinsDrConfig, sensor: str,
 def run_sins_dr(bundle: Bundle, config: SinsDrConfig | dict | None = None,
                 init: NavState | None = None,
                 progress: Optional[Callable[[float], None]] = None, *,
-                dtheta_dr=None, select=None) -> Solution:
+                dtheta_dr=None, select=None, output_times=None) -> Solution:
     """``sins-dr``: SINS / dead-reckoning integrated position and orientation (paper 002).
 
     ``select``: which output rows to keep (:meth:`inmotion.estimation.velocity_aided.
     VelocityAidedRun.run_stream`; None: all; ``inmotion process`` keeps its output rate's).
+    ``output_times``: a callable given the kept output rows' times as the run makes them
+    (:meth:`~inmotion.estimation.velocity_aided.VelocityAidedRun.run_stream`; the command
+    line's truth rows for the errors are read meanwhile).
 
     ``dtheta_dr`` (N, 3) [rad], one row per IMU row, or None: the gyro increments the dead
     reckoner integrates when it has its own gyro (as ``run_dr_kf``'s; with
@@ -429,7 +432,8 @@ def run_sins_dr(bundle: Bundle, config: SinsDrConfig | dict | None = None,
                                                    slice(k0, k0 + n_rows)))
     try:
         out = filt.run_stream(pieces, n_rows, speed, h_baro=_baro_source(bundle, cfg),
-                              sensor=name, progress=progress, select=select)
+                              sensor=name, progress=progress, select=select,
+                              output_times=output_times)
     finally:
         if hasattr(pieces, "close"):     # the reader thread stopped, whatever happened
             pieces.close()
