@@ -258,9 +258,9 @@ def _segments(rows, lo, hi):
     3,264 products for 1,247 needed; dropping an exact zero product changes no bit of a sum of
     finite terms)."""
     best = {hi: (0, [])}
-    for p in range(hi - 4, lo - 1, -4):
+    for p in range(hi - _VW, lo - 1, -_VW):
         cands = []
-        for q in range(p + 4, hi + 1, 4):
+        for q in range(p + _VW, hi + 1, _VW):
             if q - p < _MIN_SEGMENT and not (p == lo and q == hi):
                 continue
             if q not in best:
@@ -285,9 +285,13 @@ def _zsum(term, full, cols):
     return "0.0 + " + s if cols and full and cols[0] != full[0] else s
 
 
-def _pad(na):
+#: the vector width the loops over active rows (R, Phi_a x) are aligned to
+_VW = 8
+
+
+def _pad(na, w=4):
     """``na`` rounded up to a multiple of 4: the buffer's row length (whole 256-bit vectors)."""
-    return -(-na // 4) * 4
+    return -(-na // w) * w
 
 
 def kernel_source(F_pattern, Qc_pattern, order=2) -> str:
@@ -308,7 +312,7 @@ def kernel_source(F_pattern, Qc_pattern, order=2) -> str:
     act = np.flatnonzero(Fm.any(axis=1))
     inact = np.flatnonzero(~Fm.any(axis=1))
     na = len(act)
-    nap = _pad(na)
+    nap = _pad(na, _VW)
     rows = _phi_terms(Fm, act, order)
     npad = _pad(n)                                # A's row length (whole 4-wide vectors)
     # R, Phi_a x and A = Phi_a Pt in the kernel's own stack buffer T (not the workspace's:
@@ -401,7 +405,7 @@ def kernel_source(F_pattern, Qc_pattern, order=2) -> str:
         L.append("    # R = A Phi_a^T, R[a, b] for b >= a rounded down to a multiple of 4, in loops")
         L.append("    # over b, each over the columns of its rows of Phi_a only")
         for a, (i, _) in enumerate(rows):
-            b0 = a - a % 4
+            b0 = a - a % _VW
             need = sorted(set().union(*[set(rows[b][1]) for b in range(b0, na)]))
             for c in need:
                 L.append(f"    u{c} = {B}[{aoff + a * npad + c}]")
@@ -524,7 +528,7 @@ def make_workspace(F_pattern, Qc_pattern=None, order=2) -> PredictWorkspace:
     addr = _aot.kernel_address(kernel_key(src))      # compiled ahead of time (no numba)
     if addr is None:
         addr = _kernel(src).address
-    nap = _pad(na)
+    nap = _pad(na, _VW)
     buf = np.zeros(max(n * nap, 1))
     return PredictWorkspace(act, inact, buf[:n * nap].reshape(n, nap), buf, int(addr), Fm, Qm,
                             int(order))
