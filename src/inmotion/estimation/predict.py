@@ -23,7 +23,10 @@ random-constant states (``eps, nabla, mount, lever``) have zero rows, i.e. ident
   formed row by row into a buffer (on the kernel's stack: below) whose rows are ``n``
   rounded up to a multiple of 4 (each
   row a sum of ``Phi_a[a, c] Pt[c, :]`` over whole 4-wide vectors, no scalar remainder; the
-  padding columns read past the end of ``Pt``'s row and are never used);
+  padding columns read past the end of ``Pt``'s row and are never used; a row of ``Pt``
+  whose padded read would pass the end of ``P`` itself, the last when its index is a column
+  of ``Phi_a``, is read from a zero-padded copy of it on the stack: "Issue 13, vector
+  widths" below);
   each row of ``Phi_a`` is formed right before its row of ``A`` (``Pt`` first): formed all
   at once, its ~115 entries (the engine workload's) were all live until the ``A`` pass and
   the compiled kernel spilled most of them to the stack (perf, issue 13: forming ``Phi_a``
@@ -37,8 +40,9 @@ random-constant states (``eps, nabla, mount, lever``) have zero rows, i.e. ident
   bit-identical: LLVM fuses other products into FMAs); each row of ``P'`` read into locals
   before its stores (0.56 -> 0.59);
 * ``P' = (Phi Pt) Phi^T``: between two active indices ``R = A Phi_a^T`` (its upper triangle,
-  mirrored: ``P`` symmetric by construction; each row of ``R`` in loops over ``b``, 4-wide,
-  split where the columns of ``Phi_a``'s rows change, each loop summing over its own rows'
+  mirrored: ``P`` symmetric by construction; each row of ``R`` in loops over ``b`` from
+  ``a`` rounded down to a multiple of 8 (the buffer's rows ``nap``, ``na`` rounded up to a
+  multiple of 8: whole 512-bit vectors, "Issue 13, vector widths" below), split where the columns of ``Phi_a``'s rows change, each loop summing over its own rows'
   columns only: :func:`_segments`); between an active ``i`` and an inactive ``j``
   it is ``A[i, j]`` (copied into row ``i`` and column ``i``); between two inactive
   indices ``Pt`` (+ dt/2 Qc). ``P'`` is written row by row (contiguous stores; the mirrored
@@ -134,7 +138,8 @@ side as above, load 2.3-3.4; all bit-identical to the kernel above):
 
 * padding to 8 doubles (this CPU's 512-bit vectors) instead of 4: 0.394 -> 0.427 us. LLVM
   already runs each 12-trip loop as one 512-bit iteration and one masked one (``kmovd``);
-  16-wide rows only add work;
+  16-wide rows only add work. (No longer so with numba 0.68.1 / llvmlite 0.50, which leave
+  the remainder scalar; kept since: "Issue 13, vector widths" below.);
 * ``A = Pt_a + dt F_a Pt + dt^2/2 F_aa (F_a Pt)`` without ``Phi_a`` (counted, not built: 98
   products a column against ``Phi_a``'s 115, plus a pass over ``F_a Pt`` stored and read
   back, ~7 % of the ``A`` pass; ``Phi_a`` is still needed by the ``R`` pass and ``x``, so
