@@ -369,6 +369,7 @@ def kernel_source(F_pattern, Qc_pattern, order=2) -> str:
     qadd = [f"    P[{i * n + j}] += hdt * Qc[{i * n + j}]" for i, j in q]
     L.append("    # Pt = P + dt/2 Qc")
     L.extend(qadd)
+    folded = set()
     if na:
         S = sorted(set().union(*[set(cols) for _, cols in rows]))
         if tail:
@@ -426,7 +427,12 @@ def kernel_source(F_pattern, Qc_pattern, order=2) -> str:
         for a, (i, _) in enumerate(rows):
             for b in range(na):
                 lo = min(a, b)
-                L.append(f"    P[{i * n + int(act[b])}] = {B}[{roff + lo * nap + max(a, b)}]")
+                k = i * n + int(act[b])
+                if Qm[i, act[b]]:                 # + dt/2 Qc here, not read back after
+                    folded.add(k)
+                    L.append(f"    P[{k}] = {B}[{roff + lo * nap + max(a, b)}] + hdt * Qc[{k}]")
+                else:
+                    L.append(f"    P[{k}] = {B}[{roff + lo * nap + max(a, b)}]")
             for lo, hi in _runs(inact):
                 L.append(f"    for c in range({lo}, {hi}):")
                 L.append(f"        P[{i * n} + c] = {B}[{aoff + a * npad} + c]")
@@ -434,8 +440,9 @@ def kernel_source(F_pattern, Qc_pattern, order=2) -> str:
             L.append(f"    for c in range({lo}, {hi}):")
             for a, (i, _) in enumerate(rows):
                 L.append(f"        P[c * {n} + {i}] = {B}[{aoff + a * npad} + c]")
-    L.append("    # + dt/2 Qc; diagonal floored at 0")
-    L.extend(qadd)
+    L.append("    # + dt/2 Qc (where not added above); diagonal floored at 0")
+    L.extend(f"    P[{i * n + j}] += hdt * Qc[{i * n + j}]" for i, j in q
+             if i * n + j not in folded)
     L.append(f"    for i in range(0, {n * n}, {n + 1}):")
     L.append("        if P[i] < 0.0:")
     L.append("            P[i] = 0.0")
