@@ -146,6 +146,71 @@ side as above, load 2.3-3.4; all bit-identical to the kernel above):
   its formation stays): at most ~3 % of the kernel, below this machine's noise (+-10 %
   between rounds), and not bit-identical.
 
+Issue 13, vector widths (this AMD EPYC, Zen 4: AVX-512, numba 0.68.1, llvmlite 0.50; counted
+in the machine code of the compiled kernels): LLVM vectorizes a loop of constant trip count
+8-wide (512-bit) and leaves the remainder scalar, unrolled: a 12-trip loop over ``b`` (the
+``R`` and ``x`` passes of a 9-row ``Phi_a``, ``nap`` = 12) was one 8-wide iteration and four
+scalar ones, and ``sins-dr``'s 22-trip ``A`` rows (``n`` = 22 and a last row of ``Pt`` that
+a 24-wide read would pass the end of ``P`` with) five 4-wide and two scalar FMAs per term
+instead of three 8-wide. Three changes, each bit-identical to the kernel before (``P``,
+``x`` after 200 chained steps from a random ``P``, four layouts; the engine's hour, both
+orders, its covariance ``np.array_equal``; ``sins-dr``'s hour, plain and smoothed, its
+solution):
+
+* the rows of ``Pt`` whose padded read would pass the end of ``P`` (the last, when it is a
+  column of ``Phi_a``) are copied, zero-padded, to the stack and read there, so every row
+  of ``A`` is whole vectors (``sins-dr``'s machine code 7,925 -> 6,665 instructions);
+* ``nap`` and the starts of ``R``'s loops are multiples of 8 (``_VW``), not 4: no scalar
+  remainder (the engine workload's first-order kernel 2,331 -> 1,437 instructions; the
+  extra lanes read zero padding of ``Phi_a^T`` and write entries below ``R``'s diagonal that
+  are never read; ``PhiT`` is 16 columns wide instead of 12 for 9 active rows);
+* ``dt/2 Qc`` is added to the active block's entries of ``P'`` as they are written instead
+  of by a read-modify-write after them (the same ``fma``).
+
+Per call (``Phi_a`` order 2 unless said; minimum over 80-100 batches of 5,000 calls, the
+kernels interleaved batch by batch in one process; 2 cores shared with other jobs, load
+given): before -> tail copy -> 8-aligned -> ``Qc`` folded:
+
+=========================  ==========  ==========  ===========  ===========
+kernel                     before      tail copy   8-aligned    Qc folded
+=========================  ==========  ==========  ===========  ===========
+engine workload (na = 9)   0.363 us    (same)      0.321        0.317
+engine workload, order 1   0.347       (same)      0.226        0.222
+``sins-dr`` (na = 16)      0.733       0.66-0.71   0.590        0.577
+``dr-kf`` (n = 25, na 16)  0.869       0.867       0.765-0.788
+=========================  ==========  ==========  ===========  ===========
+
+(load 5.0-5.1 for the last two columns, 5.6-8 for ``dr-kf`` and the tail copy; at load
+7.5-8, before -> 8-aligned: 0.391 -> 0.351, 0.337 -> 0.224, 0.786 -> 0.642, 0.869 -> 0.788.)
+The engine's hour, the two generators alternated in one process (``make_workspace``
+swapped; min of 6 runs each, load 5.7-7.2, CPU s per hour; the rest of the hour is the
+engine's own loop): second order 0.325 -> 0.334 (even: the kernel is ~0.12 s of it),
+first order 0.325 -> 0.292, ``sins-dr`` at 100 Hz 0.632 -> 0.576.
+
+Tried in the same way and not kept:
+
+* ``Phi_a``'s rows formed 8-wide (``dt F[i, :] + dt^2/2 sum_j F[i, j] F[j, :]`` over whole
+  rows into the stack, then read back as scalars): ``sins-dr`` 0.661 -> 0.808 us, the engine
+  workload 0.375 -> 0.465 (rows of 24 mostly zero columns, every entry stored and reloaded);
+* two partial sums per row of ``A`` (halved FMA chains): even (0.670 -> 0.656, 0.386 ->
+  0.390) and not bit-identical: the kernel is bound by its instruction count, not by FMA
+  latency;
+* ``P'``'s entries copied from ``R``'s rows in loops where the active indices are
+  contiguous: even (0.668 -> 0.660, 0.365 -> 0.365);
+* LLVM's SLP vectorizer for the kernel alone (numba's ``SLP_VECTORIZE`` set while it is
+  compiled; numba switched it off by default in 0.57 for miscompilations, numba PR 8852):
+  with 4-aligned loops first order 0.342 -> 0.264 and ``sins-dr`` 0.662 -> 0.595 but
+  second order 0.377 -> 0.469 us; with the 8-aligned ones all three slower (0.220 -> 0.245,
+  0.601 -> 0.654, 0.323 -> 0.358);
+* no AVX-512 (``NUMBA_CPU_FEATURES`` without ``avx512*``), 4-aligned: ``sins-dr`` 0.66 ->
+  0.74-0.76, the engine workload even;
+* counted, not built: ``A = Pt_a + dt F_a Pt + dt^2/2 F_aa (F_a Pt)`` without ``Phi_a``
+  needs ``nnz(F_a) + nnz(F_aa) + 2 na`` terms a column, 116 against ``Phi_a``'s 115 for the
+  engine workload and 199 against 171 for ``sins-dr`` (``Phi_a`` is still formed for ``R``,
+  ``x`` and ``PhiT``); and ``sins-dr``'s Markov ``dk`` row (``F[dk, dk]`` alone) as a
+  "diagonal" row class: its row of ``A`` is already one term, its column of ``R`` is summed
+  by the DR rows' loop, which has the column ``dk`` anyway, and 15 rows leave ``nap`` at 16.
+
 Rows of ``F`` outside the pattern, and entries of ``Qc`` outside its pattern, are ignored
 (taken as zero); ``Qc``'s diagonal is always in its pattern. ``x``, ``P``, ``F``, ``Qc`` must
 be C-contiguous float64 of the workspace's ``n`` (checked on every call: the kernel reads and
@@ -190,7 +255,7 @@ _Fields = namedtuple("_Fields", [
     "act",        # (na,) int64: active indices (rows where F may be nonzero), ascending
     "inact",      # (n - na,) int64: the other indices (identity rows of Phi)
     "PhiT",       # (n, nap) float64: Phi's active rows, transposed, in its first na columns
-                  # (written by every call; nap = na rounded up to a multiple of 4)
+                  # (written by every call; nap = na rounded up to a multiple of 8)
     "buf",        # (n nap,) float64: PhiT's data (R, Phi_a x and A are on the kernel's stack)
     "kernel",     # int: address of the compiled kernel (valid in this process)
     "F_pattern",  # (n, n) bool: the pattern the kernel was generated for
@@ -256,7 +321,7 @@ def _cols_of(rows, lo, hi):
 
 
 def _segments(rows, lo, hi):
-    """Split ``lo .. hi`` (multiples of 4) into loops of >= ``_MIN_SEGMENT`` rows (or one loop)
+    """Split ``lo .. hi`` (multiples of ``_VW``) into loops of >= ``_MIN_SEGMENT`` rows (or one loop)
     minimizing the products: a loop over rows ``b`` sums over the union of its rows' columns,
     adding exact zeros ``u_c * 0.0`` for the columns of other rows (issue 13: in ``sins-dr``'s
     layout one loop per R row summed the DR rows' columns into the SINS rows' entries and back,
@@ -290,12 +355,14 @@ def _zsum(term, full, cols):
     return "0.0 + " + s if cols and full and cols[0] != full[0] else s
 
 
-#: the vector width the loops over active rows (R, Phi_a x) are aligned to
+#: the width (doubles) the loops over active rows (``R``, ``Phi_a x``) and ``nap`` are
+#: aligned to: a 512-bit vector (module docstring, "Issue 13, vector widths"); with 4, a
+#: 12-trip loop was one 8-wide iteration and four scalar ones
 _VW = 8
 
 
 def _pad(na, w=4):
-    """``na`` rounded up to a multiple of 4: the buffer's row length (whole 256-bit vectors)."""
+    """``na`` rounded up to a multiple of ``w`` (4: whole 256-bit vectors, 8: 512-bit)."""
     return -(-na // w) * w
 
 
@@ -304,9 +371,10 @@ def kernel_source(F_pattern, Qc_pattern, order=2) -> str:
     ((n, n) bool; ``Qc_pattern`` symmetric with its diagonal): the module docstring's
     algorithm with every index a literal. The module defines ``kernel``, a ``numba.cfunc``
     ``void(x*, P*, F*, Qc*, dt, buf*)``; ``buf`` holds ``Phi_a^T`` (n x nap), ``nap`` = na
-    rounded up to a multiple of 4 (the pad columns stay zero) so that the loops over active
-    indices are whole 4-wide vectors; ``R`` (na x nap), ``Phi_a x`` (nap) and ``A`` (na rows
-    of n rounded up to a multiple of 4) are in a buffer on the kernel's stack.
+    rounded up to a multiple of 8 (``_VW``; the pad columns stay zero) so that the loops over
+    active indices are whole 8-wide vectors; ``R`` (na x nap), ``Phi_a x`` (nap), ``A`` (na
+    rows of n rounded up to a multiple of 4) and the zero-padded copies of the rows of ``Pt``
+    that ``A``'s pass would read past the end of ``P`` are in a buffer on the kernel's stack.
     ``order`` 1: ``Phi = I + F dt`` (no ``F F`` terms), else the module docstring's second
     order."""
     if order not in (1, 2):
@@ -399,7 +467,7 @@ def kernel_source(F_pattern, Qc_pattern, order=2) -> str:
             L.append(f"    for k in range({npad}):")
             L.append(f"        {B}[{aoff + a * npad} + k] = "
                      + _sum([f"p{a}_{c} * {prow(c)}" for c in cols]))
-        L.append("    # x <- Phi x (4-wide over the active rows, in loops over their own columns)")
+        L.append(f"    # x <- Phi x ({_VW}-wide over the active rows, in loops over their own columns)")
         for c in S:
             L.append(f"    x{c} = x[{c}]")
         for lo, hi in _segments(rows, 0, nap):
@@ -408,7 +476,7 @@ def kernel_source(F_pattern, Qc_pattern, order=2) -> str:
                      + _zsum(lambda c: f"x{c} * W[{c * nap} + b]", S, _cols_of(rows, lo, hi)))
         for a, (i, _) in enumerate(rows):
             L.append(f"    x[{i}] = {B}[{xoff + a}]")
-        L.append("    # R = A Phi_a^T, R[a, b] for b >= a rounded down to a multiple of 4, in loops")
+        L.append(f"    # R = A Phi_a^T, R[a, b] for b >= a rounded down to a multiple of {_VW}, in loops")
         L.append("    # over b, each over the columns of its rows of Phi_a only")
         for a, (i, _) in enumerate(rows):
             b0 = a - a % _VW
