@@ -167,25 +167,28 @@ solution):
 * ``dt/2 Qc`` is added to the active block's entries of ``P'`` as they are written instead
   of by a read-modify-write after them (the same ``fma``).
 
-Per call (``Phi_a`` order 2 unless said; minimum over 80-100 batches of 5,000 calls, the
+Per call (``Phi_a`` order 2 unless said; minimum over 100 batches of 5,000 calls, the four
 kernels interleaved batch by batch in one process; 2 cores shared with other jobs, load
-given): before -> tail copy -> 8-aligned -> ``Qc`` folded:
+2.6-3.5): before -> tail copy -> 8-aligned -> ``Qc`` folded:
 
 =========================  ==========  ==========  ===========  ===========
 kernel                     before      tail copy   8-aligned    Qc folded
 =========================  ==========  ==========  ===========  ===========
-engine workload (na = 9)   0.363 us    (same)      0.321        0.317
-engine workload, order 1   0.347       (same)      0.226        0.222
-``sins-dr`` (na = 16)      0.733       0.66-0.71   0.590        0.577
-``dr-kf`` (n = 25, na 16)  0.869       0.867       0.765-0.788
+engine workload (na = 9)   0.394 us    0.385       0.328        0.324
+engine workload, order 1   0.340       0.342       0.226        0.220
+``sins-dr`` (na = 16)      0.782       0.726       0.600        0.606
+``dr-kf`` (n = 25, na 16)  0.804       0.831       0.752        0.756
 =========================  ==========  ==========  ===========  ===========
 
-(load 5.0-5.1 for the last two columns, 5.6-8 for ``dr-kf`` and the tail copy; at load
-7.5-8, before -> 8-aligned: 0.391 -> 0.351, 0.337 -> 0.224, 0.786 -> 0.642, 0.869 -> 0.788.)
-The engine's hour, the two generators alternated in one process (``make_workspace``
-swapped; min of 6 runs each, load 5.7-7.2, CPU s per hour; the rest of the hour is the
-engine's own loop): second order 0.325 -> 0.334 (even: the kernel is ~0.12 s of it),
-first order 0.325 -> 0.292, ``sins-dr`` at 100 Hz 0.632 -> 0.576.
+(the tail copy changes only ``sins-dr``'s and ``dr-kf``'s code; ``Qc`` folded is even here,
+-1 to -2 % in an earlier series at load ~5: 0.321 -> 0.317, 0.226 -> 0.222, 0.590 ->
+0.577; before -> 8-aligned at load 7.5-8: 0.391 -> 0.351, 0.337 -> 0.224, 0.786 -> 0.642,
+0.869 -> 0.788.) The engine's hour (``bench_engine.py``'s workload functions), the two
+generators alternated in one process (``make_workspace`` swapped; CPU s per hour, min of
+6-9 runs each, three series at load 5.7-7.2, 5.3-5.5 and 3.8-4.6): second order 0.325 ->
+0.334, 0.374 -> 0.355, 0.324 -> 0.324 (even within this machine's noise: the kernel is
+~0.12 s of the hour, -0.025 s expected); first order 0.325 -> 0.292, 0.355 -> 0.295,
+0.337 -> 0.281; ``sins-dr`` at 100 Hz 0.632 -> 0.576, 0.698 -> 0.659, 0.615 -> 0.575.
 
 Tried in the same way and not kept:
 
