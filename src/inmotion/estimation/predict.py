@@ -189,6 +189,15 @@ generators alternated in one process (``make_workspace`` swapped; CPU s per hour
 0.334, 0.374 -> 0.355, 0.324 -> 0.324 (even within this machine's noise: the kernel is
 ~0.12 s of the hour, -0.025 s expected); first order 0.325 -> 0.292, 0.355 -> 0.295,
 0.337 -> 0.281; ``sins-dr`` at 100 Hz 0.632 -> 0.576, 0.698 -> 0.659, 0.615 -> 0.575.
+A fourth series at load 1.5 (``benchmarks/ab_predict.py --hour``, against main): kernels
+0.388 -> 0.322, 0.338 -> 0.215, 0.772 -> 0.575, 0.845 -> 0.747 us; the hour 0.306 -> 0.305,
+0.295 -> 0.277, 0.576 -> 0.532 s. In the hour a kernel's gain shows as far as its machine
+code shrank, not as far as its time in a tight loop did: the code is straight-line, 15-30
+KB against a 32 KB instruction cache shared with the engine's loop, and the instructions
+went 7,925 -> 3,830 for ``sins-dr``, 2,331 -> 1,437 for the first order, but only 2,357 ->
+~2,280 for the second order (its ``R`` and ``x`` loops are most of what changed; ``Phi_a``'s
+~365 scalar operations and the ~315 scalar stores of ``P'`` are unchanged), whose hour is
+even in all four series although its kernel alone is 10-17 % faster.
 
 Tried in the same way and not kept:
 
