@@ -23,7 +23,10 @@ random-constant states (``eps, nabla, mount, lever``) have zero rows, i.e. ident
   formed row by row into a buffer (on the kernel's stack: below) whose rows are ``n``
   rounded up to a multiple of 4 (each
   row a sum of ``Phi_a[a, c] Pt[c, :]`` over whole 4-wide vectors, no scalar remainder; the
-  padding columns read past the end of ``Pt``'s row and are never used);
+  padding columns read past the end of ``Pt``'s row and are never used; a row of ``Pt``
+  whose padded read would pass the end of ``P`` itself, the last when its index is a column
+  of ``Phi_a``, is read from a zero-padded copy of it on the stack: "Issue 13, vector
+  widths" below);
   each row of ``Phi_a`` is formed right before its row of ``A`` (``Pt`` first): formed all
   at once, its ~115 entries (the engine workload's) were all live until the ``A`` pass and
   the compiled kernel spilled most of them to the stack (perf, issue 13: forming ``Phi_a``
@@ -37,8 +40,9 @@ random-constant states (``eps, nabla, mount, lever``) have zero rows, i.e. ident
   bit-identical: LLVM fuses other products into FMAs); each row of ``P'`` read into locals
   before its stores (0.56 -> 0.59);
 * ``P' = (Phi Pt) Phi^T``: between two active indices ``R = A Phi_a^T`` (its upper triangle,
-  mirrored: ``P`` symmetric by construction; each row of ``R`` in loops over ``b``, 4-wide,
-  split where the columns of ``Phi_a``'s rows change, each loop summing over its own rows'
+  mirrored: ``P`` symmetric by construction; each row of ``R`` in loops over ``b`` from
+  ``a`` rounded down to a multiple of 8 (the buffer's rows ``nap``, ``na`` rounded up to a
+  multiple of 8: whole 512-bit vectors, "Issue 13, vector widths" below), split where the columns of ``Phi_a``'s rows change, each loop summing over its own rows'
   columns only: :func:`_segments`); between an active ``i`` and an inactive ``j``
   it is ``A[i, j]`` (copied into row ``i`` and column ``i``); between two inactive
   indices ``Pt`` (+ dt/2 Qc). ``P'`` is written row by row (contiguous stores; the mirrored
@@ -134,12 +138,90 @@ side as above, load 2.3-3.4; all bit-identical to the kernel above):
 
 * padding to 8 doubles (this CPU's 512-bit vectors) instead of 4: 0.394 -> 0.427 us. LLVM
   already runs each 12-trip loop as one 512-bit iteration and one masked one (``kmovd``);
-  16-wide rows only add work;
+  16-wide rows only add work. (No longer so with numba 0.68.1 / llvmlite 0.50, which leave
+  the remainder scalar; kept since: "Issue 13, vector widths" below.);
 * ``A = Pt_a + dt F_a Pt + dt^2/2 F_aa (F_a Pt)`` without ``Phi_a`` (counted, not built: 98
   products a column against ``Phi_a``'s 115, plus a pass over ``F_a Pt`` stored and read
   back, ~7 % of the ``A`` pass; ``Phi_a`` is still needed by the ``R`` pass and ``x``, so
   its formation stays): at most ~3 % of the kernel, below this machine's noise (+-10 %
   between rounds), and not bit-identical.
+
+Issue 13, vector widths (this AMD EPYC, Zen 4: AVX-512, numba 0.68.1, llvmlite 0.50; counted
+in the machine code of the compiled kernels): LLVM vectorizes a loop of constant trip count
+8-wide (512-bit) and leaves the remainder scalar, unrolled: a 12-trip loop over ``b`` (the
+``R`` and ``x`` passes of a 9-row ``Phi_a``, ``nap`` = 12) was one 8-wide iteration and four
+scalar ones, and ``sins-dr``'s 22-trip ``A`` rows (``n`` = 22 and a last row of ``Pt`` that
+a 24-wide read would pass the end of ``P`` with) five 4-wide and two scalar FMAs per term
+instead of three 8-wide. Three changes, each bit-identical to the kernel before (``P``,
+``x`` after 200 chained steps from a random ``P``, four layouts; the engine's hour, both
+orders, its covariance ``np.array_equal``; ``sins-dr``'s hour, plain and smoothed, its
+solution):
+
+* the rows of ``Pt`` whose padded read would pass the end of ``P`` (the last, when it is a
+  column of ``Phi_a``) are copied, zero-padded, to the stack and read there, so every row
+  of ``A`` is whole vectors (``sins-dr``'s machine code 7,925 -> 6,665 instructions);
+* ``nap`` and the starts of ``R``'s loops are multiples of 8 (``_VW``), not 4: no scalar
+  remainder (the engine workload's first-order kernel 2,331 -> 1,437 instructions; the
+  extra lanes read zero padding of ``Phi_a^T`` and write entries below ``R``'s diagonal that
+  are never read; ``PhiT`` is 16 columns wide instead of 12 for 9 active rows);
+* ``dt/2 Qc`` is added to the active block's entries of ``P'`` as they are written instead
+  of by a read-modify-write after them (the same ``fma``).
+
+Per call (``Phi_a`` order 2 unless said; minimum over 100 batches of 5,000 calls, the four
+kernels interleaved batch by batch in one process; 2 cores shared with other jobs, load
+2.6-3.5): before -> tail copy -> 8-aligned -> ``Qc`` folded:
+
+=========================  ==========  ==========  ===========  ===========
+kernel                     before      tail copy   8-aligned    Qc folded
+=========================  ==========  ==========  ===========  ===========
+engine workload (na = 9)   0.394 us    0.385       0.328        0.324
+engine workload, order 1   0.340       0.342       0.226        0.220
+``sins-dr`` (na = 16)      0.782       0.726       0.600        0.606
+``dr-kf`` (n = 25, na 16)  0.804       0.831       0.752        0.756
+=========================  ==========  ==========  ===========  ===========
+
+(the tail copy changes only ``sins-dr``'s and ``dr-kf``'s code; ``Qc`` folded is even here,
+-1 to -2 % in an earlier series at load ~5: 0.321 -> 0.317, 0.226 -> 0.222, 0.590 ->
+0.577; before -> 8-aligned at load 7.5-8: 0.391 -> 0.351, 0.337 -> 0.224, 0.786 -> 0.642,
+0.869 -> 0.788.) The engine's hour (``bench_engine.py``'s workload functions), the two
+generators alternated in one process (``make_workspace`` swapped; CPU s per hour, min of
+6-9 runs each, three series at load 5.7-7.2, 5.3-5.5 and 3.8-4.6): second order 0.325 ->
+0.334, 0.374 -> 0.355, 0.324 -> 0.324 (even within this machine's noise: the kernel is
+~0.12 s of the hour, -0.025 s expected); first order 0.325 -> 0.292, 0.355 -> 0.295,
+0.337 -> 0.281; ``sins-dr`` at 100 Hz 0.632 -> 0.576, 0.698 -> 0.659, 0.615 -> 0.575.
+A fourth series at load 1.5 (``benchmarks/ab_predict.py --hour``, against main): kernels
+0.388 -> 0.322, 0.338 -> 0.215, 0.772 -> 0.575, 0.845 -> 0.747 us; the hour 0.306 -> 0.305,
+0.295 -> 0.277, 0.576 -> 0.532 s. In the hour a kernel's gain shows as far as its machine
+code shrank, not as far as its time in a tight loop did: the code is straight-line, 15-30
+KB against a 32 KB instruction cache shared with the engine's loop, and the instructions
+went 7,925 -> 3,830 for ``sins-dr``, 2,331 -> 1,437 for the first order, but only 2,357 ->
+~2,280 for the second order (its ``R`` and ``x`` loops are most of what changed; ``Phi_a``'s
+~365 scalar operations and the ~315 scalar stores of ``P'`` are unchanged), whose hour is
+even in all four series although its kernel alone is 10-17 % faster.
+
+Tried in the same way and not kept:
+
+* ``Phi_a``'s rows formed 8-wide (``dt F[i, :] + dt^2/2 sum_j F[i, j] F[j, :]`` over whole
+  rows into the stack, then read back as scalars): ``sins-dr`` 0.661 -> 0.808 us, the engine
+  workload 0.375 -> 0.465 (rows of 24 mostly zero columns, every entry stored and reloaded);
+* two partial sums per row of ``A`` (halved FMA chains): even (0.670 -> 0.656, 0.386 ->
+  0.390) and not bit-identical: the kernel is bound by its instruction count, not by FMA
+  latency;
+* ``P'``'s entries copied from ``R``'s rows in loops where the active indices are
+  contiguous: even (0.668 -> 0.660, 0.365 -> 0.365);
+* LLVM's SLP vectorizer for the kernel alone (numba's ``SLP_VECTORIZE`` set while it is
+  compiled; numba switched it off by default in 0.57 for miscompilations, numba PR 8852):
+  with 4-aligned loops first order 0.342 -> 0.264 and ``sins-dr`` 0.662 -> 0.595 but
+  second order 0.377 -> 0.469 us; with the 8-aligned ones all three slower (0.220 -> 0.245,
+  0.601 -> 0.654, 0.323 -> 0.358);
+* no AVX-512 (``NUMBA_CPU_FEATURES`` without ``avx512*``), 4-aligned: ``sins-dr`` 0.66 ->
+  0.74-0.76, the engine workload even;
+* counted, not built: ``A = Pt_a + dt F_a Pt + dt^2/2 F_aa (F_a Pt)`` without ``Phi_a``
+  needs ``nnz(F_a) + nnz(F_aa) + 2 na`` terms a column, 116 against ``Phi_a``'s 115 for the
+  engine workload and 199 against 171 for ``sins-dr`` (``Phi_a`` is still formed for ``R``,
+  ``x`` and ``PhiT``); and ``sins-dr``'s Markov ``dk`` row (``F[dk, dk]`` alone) as a
+  "diagonal" row class: its row of ``A`` is already one term, its column of ``R`` is summed
+  by the DR rows' loop, which has the column ``dk`` anyway, and 15 rows leave ``nap`` at 16.
 
 Rows of ``F`` outside the pattern, and entries of ``Qc`` outside its pattern, are ignored
 (taken as zero); ``Qc``'s diagonal is always in its pattern. ``x``, ``P``, ``F``, ``Qc`` must
@@ -179,13 +261,13 @@ __all__ = ["PredictWorkspace", "make_workspace", "predict_sparse", "kernel_sourc
            "borrowed", "predict_kernel_call"]
 
 #: bump when the generated code changes meaning (the source's hash keys the cache anyway)
-_GENERATOR = "predict-kernel 4"
+_GENERATOR = "predict-kernel 5"
 
 _Fields = namedtuple("_Fields", [
     "act",        # (na,) int64: active indices (rows where F may be nonzero), ascending
     "inact",      # (n - na,) int64: the other indices (identity rows of Phi)
     "PhiT",       # (n, nap) float64: Phi's active rows, transposed, in its first na columns
-                  # (written by every call; nap = na rounded up to a multiple of 4)
+                  # (written by every call; nap = na rounded up to a multiple of 8)
     "buf",        # (n nap,) float64: PhiT's data (R, Phi_a x and A are on the kernel's stack)
     "kernel",     # int: address of the compiled kernel (valid in this process)
     "F_pattern",  # (n, n) bool: the pattern the kernel was generated for
@@ -251,16 +333,16 @@ def _cols_of(rows, lo, hi):
 
 
 def _segments(rows, lo, hi):
-    """Split ``lo .. hi`` (multiples of 4) into loops of >= ``_MIN_SEGMENT`` rows (or one loop)
+    """Split ``lo .. hi`` (multiples of ``_VW``) into loops of >= ``_MIN_SEGMENT`` rows (or one loop)
     minimizing the products: a loop over rows ``b`` sums over the union of its rows' columns,
     adding exact zeros ``u_c * 0.0`` for the columns of other rows (issue 13: in ``sins-dr``'s
     layout one loop per R row summed the DR rows' columns into the SINS rows' entries and back,
     3,264 products for 1,247 needed; dropping an exact zero product changes no bit of a sum of
     finite terms)."""
     best = {hi: (0, [])}
-    for p in range(hi - 4, lo - 1, -4):
+    for p in range(hi - _VW, lo - 1, -_VW):
         cands = []
-        for q in range(p + 4, hi + 1, 4):
+        for q in range(p + _VW, hi + 1, _VW):
             if q - p < _MIN_SEGMENT and not (p == lo and q == hi):
                 continue
             if q not in best:
@@ -285,9 +367,15 @@ def _zsum(term, full, cols):
     return "0.0 + " + s if cols and full and cols[0] != full[0] else s
 
 
-def _pad(na):
-    """``na`` rounded up to a multiple of 4: the buffer's row length (whole 256-bit vectors)."""
-    return -(-na // 4) * 4
+#: the width (doubles) the loops over active rows (``R``, ``Phi_a x``) and ``nap`` are
+#: aligned to: a 512-bit vector (module docstring, "Issue 13, vector widths"); with 4, a
+#: 12-trip loop was one 8-wide iteration and four scalar ones
+_VW = 8
+
+
+def _pad(na, w=4):
+    """``na`` rounded up to a multiple of ``w`` (4: whole 256-bit vectors, 8: 512-bit)."""
+    return -(-na // w) * w
 
 
 def kernel_source(F_pattern, Qc_pattern, order=2) -> str:
@@ -295,9 +383,10 @@ def kernel_source(F_pattern, Qc_pattern, order=2) -> str:
     ((n, n) bool; ``Qc_pattern`` symmetric with its diagonal): the module docstring's
     algorithm with every index a literal. The module defines ``kernel``, a ``numba.cfunc``
     ``void(x*, P*, F*, Qc*, dt, buf*)``; ``buf`` holds ``Phi_a^T`` (n x nap), ``nap`` = na
-    rounded up to a multiple of 4 (the pad columns stay zero) so that the loops over active
-    indices are whole 4-wide vectors; ``R`` (na x nap), ``Phi_a x`` (nap) and ``A`` (na rows
-    of n rounded up to a multiple of 4) are in a buffer on the kernel's stack.
+    rounded up to a multiple of 8 (``_VW``; the pad columns stay zero) so that the loops over
+    active indices are whole 8-wide vectors; ``R`` (na x nap), ``Phi_a x`` (nap), ``A`` (na
+    rows of n rounded up to a multiple of 4) and the zero-padded copies of the rows of ``Pt``
+    that ``A``'s pass would read past the end of ``P`` are in a buffer on the kernel's stack.
     ``order`` 1: ``Phi = I + F dt`` (no ``F F`` terms), else the module docstring's second
     order."""
     if order not in (1, 2):
@@ -308,18 +397,26 @@ def kernel_source(F_pattern, Qc_pattern, order=2) -> str:
     act = np.flatnonzero(Fm.any(axis=1))
     inact = np.flatnonzero(~Fm.any(axis=1))
     na = len(act)
-    nap = _pad(na)
+    nap = _pad(na, _VW)
     rows = _phi_terms(Fm, act, order)
     npad = _pad(n)                                # A's row length (whole 4-wide vectors)
     # R, Phi_a x and A = Phi_a Pt in the kernel's own stack buffer T (not the workspace's:
     # LLVM then knows that they alias none of the arguments; module docstring)
     roff, xoff = 0, na * nap
     aoff = xoff + nap
-    tsize = max(aoff + na * npad, 1)
     # A's rows are formed over whole vectors: columns n..npad-1 read past the end of P's
-    # row (harmless, never used) unless that would read past the end of P itself
-    S_max = max((c for _, cols in rows for c in cols), default=0)
-    kt = npad if S_max * n + npad <= n * n else n
+    # row (harmless, never used); a row of Pt whose padded read would pass the end of P
+    # itself (the last, when it is an active column) is read from a zero-padded copy of it
+    # in T instead (issue 13: with a scalar remainder, n = 22 in 22-trip loops, LLVM formed
+    # each row of A in five 4-wide and two scalar FMAs per term instead of three 8-wide)
+    tail = sorted({c for _, cols in rows for c in cols if c * n + npad > n * n})
+    toff = aoff + na * npad
+    tsize = max(toff + len(tail) * npad, 1)
+
+    def prow(c):
+        if c in tail:
+            return f"{B}[{toff + tail.index(c) * npad} + k]"
+        return f"P[{c * n} + k]"
     B = "T"
     L = [f"# generated by inmotion.estimation.predict ({_GENERATOR}); do not edit",
          f"# n = {n}, active = {[int(i) for i in act]}",
@@ -352,8 +449,16 @@ def kernel_source(F_pattern, Qc_pattern, order=2) -> str:
     qadd = [f"    P[{i * n + j}] += hdt * Qc[{i * n + j}]" for i, j in q]
     L.append("    # Pt = P + dt/2 Qc")
     L.extend(qadd)
+    folded = set()
     if na:
         S = sorted(set().union(*[set(cols) for _, cols in rows]))
+        if tail:
+            L.append("    # the rows of Pt read past P's end by A's 4-wide pass, copied zero-padded")
+        for t, c in enumerate(tail):
+            L.append(f"    for k in range({n}):")
+            L.append(f"        {B}[{toff + t * npad} + k] = P[{c * n} + k]")
+            for k in range(n, npad):
+                L.append(f"    {B}[{toff + t * npad + k}] = 0.0")
         L.append("    # F's entries")
         for i in act:
             for c in np.flatnonzero(Fm[i]):
@@ -371,10 +476,10 @@ def kernel_source(F_pattern, Qc_pattern, order=2) -> str:
                                  + ")")
                 L.append(f"    p{a}_{c} = {_sum(parts)}")
                 L.append(f"    W[{c * nap + a}] = p{a}_{c}")
-            L.append(f"    for k in range({kt}):")
+            L.append(f"    for k in range({npad}):")
             L.append(f"        {B}[{aoff + a * npad} + k] = "
-                     + _sum([f"p{a}_{c} * P[{c * n} + k]" for c in cols]))
-        L.append("    # x <- Phi x (4-wide over the active rows, in loops over their own columns)")
+                     + _sum([f"p{a}_{c} * {prow(c)}" for c in cols]))
+        L.append(f"    # x <- Phi x ({_VW}-wide over the active rows, in loops over their own columns)")
         for c in S:
             L.append(f"    x{c} = x[{c}]")
         for lo, hi in _segments(rows, 0, nap):
@@ -383,10 +488,10 @@ def kernel_source(F_pattern, Qc_pattern, order=2) -> str:
                      + _zsum(lambda c: f"x{c} * W[{c * nap} + b]", S, _cols_of(rows, lo, hi)))
         for a, (i, _) in enumerate(rows):
             L.append(f"    x[{i}] = {B}[{xoff + a}]")
-        L.append("    # R = A Phi_a^T, R[a, b] for b >= a rounded down to a multiple of 4, in loops")
+        L.append(f"    # R = A Phi_a^T, R[a, b] for b >= a rounded down to a multiple of {_VW}, in loops")
         L.append("    # over b, each over the columns of its rows of Phi_a only")
         for a, (i, _) in enumerate(rows):
-            b0 = a - a % 4
+            b0 = a - a % _VW
             need = sorted(set().union(*[set(rows[b][1]) for b in range(b0, na)]))
             for c in need:
                 L.append(f"    u{c} = {B}[{aoff + a * npad + c}]")
@@ -402,7 +507,12 @@ def kernel_source(F_pattern, Qc_pattern, order=2) -> str:
         for a, (i, _) in enumerate(rows):
             for b in range(na):
                 lo = min(a, b)
-                L.append(f"    P[{i * n + int(act[b])}] = {B}[{roff + lo * nap + max(a, b)}]")
+                k = i * n + int(act[b])
+                if Qm[i, act[b]]:                 # + dt/2 Qc here, not read back after
+                    folded.add(k)
+                    L.append(f"    P[{k}] = {B}[{roff + lo * nap + max(a, b)}] + hdt * Qc[{k}]")
+                else:
+                    L.append(f"    P[{k}] = {B}[{roff + lo * nap + max(a, b)}]")
             for lo, hi in _runs(inact):
                 L.append(f"    for c in range({lo}, {hi}):")
                 L.append(f"        P[{i * n} + c] = {B}[{aoff + a * npad} + c]")
@@ -410,8 +520,9 @@ def kernel_source(F_pattern, Qc_pattern, order=2) -> str:
             L.append(f"    for c in range({lo}, {hi}):")
             for a, (i, _) in enumerate(rows):
                 L.append(f"        P[c * {n} + {i}] = {B}[{aoff + a * npad} + c]")
-    L.append("    # + dt/2 Qc; diagonal floored at 0")
-    L.extend(qadd)
+    L.append("    # + dt/2 Qc (where not added above); diagonal floored at 0")
+    L.extend(f"    P[{i * n + j}] += hdt * Qc[{i * n + j}]" for i, j in q
+             if i * n + j not in folded)
     L.append(f"    for i in range(0, {n * n}, {n + 1}):")
     L.append("        if P[i] < 0.0:")
     L.append("            P[i] = 0.0")
@@ -509,7 +620,7 @@ def make_workspace(F_pattern, Qc_pattern=None, order=2) -> PredictWorkspace:
     addr = _aot.kernel_address(kernel_key(src))      # compiled ahead of time (no numba)
     if addr is None:
         addr = _kernel(src).address
-    nap = _pad(na)
+    nap = _pad(na, _VW)
     buf = np.zeros(max(n * nap, 1))
     return PredictWorkspace(act, inact, buf[:n * nap].reshape(n, nap), buf, int(addr), Fm, Qm,
                             int(order))
