@@ -25,6 +25,15 @@ many times as the filter has combined intervals (``benchmarks/with_length_knobs.
 psins|process``, ``aided_kf.LENGTH_MEMORY_MAX``, helper h15nees6): ``fine-mux`` level 4.97,
 ``adaptive`` 5.21 arcmin (sigma 35.27); ``process`` heading 0.94, 0.88, 1.47 arcmin (sigma
 1.35), horizontal 1.48, 1.39, 1.83 m.
+
+Under the defaults since issue 15's helper h15def (``exact_attitude_columns`` and
+``second_order_length`` on, ``aided_kf.LENGTH_VAR_SCALE`` 4; no ``CONFIG_JSON``; 2026-12-02,
+this machine): ``psins``: ``fine-mux`` heading 2642.33, level 5.45 arcmin (sigma 35.27),
+``adaptive`` heading 2628.44, level 7.70 arcmin (sigma 35.27); ``process`` (seeds 1-3):
+heading 0.89, 0.74, 1.39 arcmin (sigma 1.33, 1.33, 1.33), level 0.01 arcmin, horizontal
+1.46, 1.33, 1.78 m of 4245 m: the figures of both settings at 4 times above, run for run.
+The former defaults (paper 003's rows) are now ``'{"exact_attitude_columns": false,
+"second_order_length": false}'``.
 """
 import json
 import os

@@ -44,7 +44,9 @@ mounting: 2.2 cm over 7 m; 2000 ppm of scale: 1.4 cm), a thousand times a 20,000
 odometer's noise (2e-5 m), so every interval "measures" the heading against the mounting's
 residual (``tests/test_length_row.py::test_rows_are_blind_to_a_rotation_about_the_vertical``).
 The exact columns, and the length row's SINS-side columns along the SINS's displacement, are
-the setting ``exact_attitude_columns`` (off by default). Measured, ``nees 6 KIND`` (seeds
+the setting ``exact_attitude_columns`` (off by default then; with
+``second_order_length`` the default since issue 15's helper h15def, so ``'{}'`` below means
+paper 003's rows only in the figures measured before). Measured, ``nees 6 KIND`` (seeds
 100-105, detection off, band 1.37-5.25), paper 003's form -> ``'{"exact_attitude_columns":
 true}'``:
 

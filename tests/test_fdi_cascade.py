@@ -19,6 +19,13 @@ fault-free figures is the returned sub-filter's state: the test does include ``H
 (h15fdi4, ``benchmarks/fdi_state_probe.py``: the exact law of the statistic moves the rate by
 less than 1e-3); what the conditioned copy exposes is the channel's own states' lag, e.g. the
 odometer's scale factor (:mod:`inmotion.estimation.engine`'s "Isolate and return").
+
+The filters run paper 003's rows (:data:`PAPER_FORM`), on which the figures above were
+measured and the statistic's model holds. Under the defaults since issue 15 (helper h15def:
+``exact_attitude_columns`` and ``second_order_length`` on) the length row's variance carries
+``aided_kf.LENGTH_VAR_SCALE`` times its second-order term, which the statistic's model does
+not, and the masked test's statistic after the fault is 0.39, 0.38, 0.36 times its model
+(seeds 300-302): no cascade, but a deflated test (``tests/test_fdi_nis_vehicle.py``).
 """
 import numpy as np
 import pytest
@@ -32,6 +39,8 @@ from inmotion.sim.scenario import load_scenario
 SEEDS = (300, 301, 302)
 FAULT = (1.0, 4.0)          # LDV +0.5 m/s over these seconds
 AFTER = FAULT[1] + 3.0      # tests from here on are of a healthy sensor
+#: paper 003's rows as printed (its reproduction's ``paper003.PAPER_ROWS_FORM``)
+PAPER_FORM = {"exact_attitude_columns": False, "second_order_length": False}
 
 
 def _scenario():
@@ -55,7 +64,7 @@ def after_fault():
         for mode in out:
             sol = ak.run_fkf(b, {"init_tilt_sigma_deg": 0.15, "init_heading_sigma_deg": 1.5,
                                  "false_alarm_rate": 0.05, "keep_test_statistics": True,
-                                 "return_test": mode}, init)
+                                 "return_test": mode, **PAPER_FORM}, init)
             ts = sol.info["test_statistics"]
             c = list(ts["channels"]).index("ldv")
             lam = ts["lambda"][ts["t"] > AFTER, c]
