@@ -222,7 +222,8 @@ def test_a_bad_row_in_chunk_3_is_named(drive, tmp_path, fmt, bad):
         assert f"imu.{fmt}, row {row}, t=" in got
 
 
-def test_a_bad_truth_row_late_in_the_table(drive, tmp_path):
+def _bad_truth_bundle(drive, tmp_path):
+    """A Parquet bundle of ``drive`` whose truth row 6001 has a pitch of 95 deg."""
     folder = tmp_path / "b"
     write_bundle(drive, folder, fmt="parquet")
 
@@ -230,6 +231,11 @@ def test_a_bad_truth_row_late_in_the_table(drive, tmp_path):
         df.loc[6000, "pitch"] = 95.0
         return df
     _spoil(folder, "truth", "parquet", edit)
+    return folder
+
+
+def test_a_bad_truth_row_late_in_the_table(drive, tmp_path):
+    folder = _bad_truth_bundle(drive, tmp_path)
     expected = _message(lambda: read_bundle(folder))
     s = open_bundle(folder, chunk_rows=1000)
     assert _message(lambda: s.truth.reduced(np.arange(0.0, 70.0))) == expected
@@ -485,13 +491,7 @@ def test_truth_reducer_gives_reduced(drive, tmp_path):
 def test_cli_bad_truth_row_read_in_the_thread_exit_2(drive, tmp_path, monkeypatch):
     """A bad truth row found by the reducer's thread while ``navigate`` runs: exit 2, one line
     with read_bundle's message (file, row, time), nothing written; the thread was used."""
-    folder = tmp_path / "b"
-    write_bundle(drive, folder, fmt="parquet")
-
-    def edit(df):
-        df.loc[6000, "pitch"] = 95.0
-        return df
-    _spoil(folder, "truth", "parquet", edit)
+    folder = _bad_truth_bundle(drive, tmp_path)
     expected = _message(lambda: read_bundle(folder))
     monkeypatch.setattr(bundle_stream, "CHUNK_ROWS", 1000)
     threads = []

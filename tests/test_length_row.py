@@ -148,10 +148,9 @@ def _rot(phi):
     return np.eye(3) - np.sin(a) * K_ + (1.0 - np.cos(a)) * K_ @ K_
 
 
-def _second_order_rows(P6, d=7.0, T=0.5):
-    """The length fill with ``second_order_length`` on a straight interval whose SINS and
-    sensor displacements agree (``z = 0``), the filter's ``[phi, dv]`` at zero with
-    covariance ``P6``; and the same without: ``(z, r)`` of each, ``H``."""
+def _straight_interval(d, T):
+    """A straight interval of ``d`` [m] over ``T`` [s] along the body's forward axis whose SINS
+    and sensor displacements agree: ``(dD, xs, acc)`` for a displacement fill."""
     dD = np.array([0.0, d, 0.0])
     xs = np.zeros(10)
     xs[6] = 1.0
@@ -159,6 +158,14 @@ def _second_order_rows(P6, d=7.0, T=0.5):
     acc[ms.ACC_T] = T
     for o in (ms.ACC_D, ms.ACC_W, ms.ACC_DP):
         acc[o:o + 3] = dD
+    return dD, xs, acc
+
+
+def _second_order_rows(P6, d=7.0, T=0.5):
+    """The length fill with ``second_order_length`` on a straight interval whose SINS and
+    sensor displacements agree (``z = 0``), the filter's ``[phi, dv]`` at zero with
+    covariance ``P6``; and the same without: ``(z, r)`` of each, ``H``."""
+    dD, xs, acc = _straight_interval(d, T)
     m = ms.DisplacementIncrement(np.array([0.01, 4e-5, 0.02]), exact_attitude_columns=True)
     p = np.r_[m.params(), np.zeros(6), P6.ravel()]
     out = []
@@ -237,13 +244,7 @@ def test_length_memory_takes_the_second_order_variance_n_times(t, memory_max, n)
     v = np.array([0.0, d / T, 0.0])
     J = np.r_[[0.0, 0.0, 1.0], np.cross(v, [0.0, 0.0, 1.0])]
     P6 = s * s * np.outer(J, J)
-    dD = np.array([0.0, d, 0.0])
-    xs = np.zeros(10)
-    xs[6] = 1.0
-    acc = np.zeros(ms.ACC_SIZE)
-    acc[ms.ACC_T] = T
-    for o in (ms.ACC_D, ms.ACC_W, ms.ACC_DP):
-        acc[o:o + 3] = dD
+    dD, xs, acc = _straight_interval(d, T)
     aux = np.zeros(ms.AUX_SIZE)
     aux[ms.AUX_T] = t0 + t
     m = ak._LengthIncrement(np.array([0.01, 4e-5, 0.02]), exact_attitude_columns=True,
