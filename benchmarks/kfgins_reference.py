@@ -24,6 +24,11 @@ earlier that day, and the engine 0.44 s at load ~1: the host's speed varies over
 ratio is only taken from runs side by side. This script itself, right after (``--repeat 2
 --engine``, 18:39-18:41 UTC): KF-GINS 5.21, 5.04 s; the engine 0.321, 0.299 s (first order
 0.323, 0.233): 16.5x median to median, 16.9x best to best (first order 18.4x / 21.6x).
+Again at 19:03-19:06 UTC (``--repeat 5 --engine``, load 0.5-1.1): KF-GINS 4.80, 4.49, 4.77,
+5.13, 4.37 s; the engine 0.383, 0.304, 0.317, 0.392, 0.306 s (first order 0.236, 0.233, 0.309,
+0.288, 0.247): 15.0x median to median, 14.4x best to best (first order 19.3x / 18.8x). The three
+series pooled (15 KF-GINS runs, 12 engine runs alternating with them): medians 4.77 s and
+0.312 s, 15.3x.
 """
 from __future__ import annotations
 
