@@ -95,6 +95,18 @@ main thread 2.39 -> 1.23 s, no numba. This file ``--cli-only --repeat 5`` at loa
 sins-dr 2.08 s wall, od-velocity-kf 1.64 s wall (inflated by the load alike). Still above
 1.0 s at these loads; the floor of this design is imports (~0.25 s) + opening (~0.06 s) +
 the filter kernel (~0.55-0.6 s, the predict ~0.36 s of it) + ~0.05 s.
+
+Why ``od-velocity-kf``'s CLI line (1.41 s in ``make bench`` 2026-12-02 18:23 UTC; 1.22-1.49 s
+in three runs after) stays above ``sins-dr``'s although its model is the smaller one (lead's
+profile, 19:08 UTC, quiet machine): ``cProfile`` of the command puts 1.11 s of its 2.2 s in the
+extension's ``advance`` (22 calls), against the in-process equal workload's ~0.3 s per hour;
+its predict pattern is not the cause (19 states, 10 active rows ``phi, dv, dp`` and the Markov
+``dk``, 59 nonzeros of F, against the equal workload's 9). What differs: ``dr_kalman._engine_filter``
+builds the run with ``out_every=1``, so the kernel writes the state and its sigma at every
+100 Hz filter epoch (360,000 rows an hour) and the CLI's 1 Hz thinning (``thin_select``) only
+picks from them afterwards, where ``sins-dr`` and the equal workload write at 1 Hz in the
+kernel. Next step (not done): an output interval in the configuration, set by
+``--output-rate`` where the rows written stay the same, as ``sins-dr``'s ``output_rate_hz``.
 """
 from __future__ import annotations
 
