@@ -282,3 +282,34 @@ def test_matched_noise_from_the_sensor_spec():
     assert cfg.gyro_drift_deg_h == 0.005 and src["gyro_arw_deg_sqrt_h"] == "default"
     cfg, src = dr_kalman.config_with_spec(dr_kalman.DrKfConfig(noise_preset="paper"), meta, "ldv")
     assert cfg == dr_kalman.DrKfConfig(noise_preset="paper") and set(src.values()) == {"default"}
+
+
+@pytest.mark.parametrize("method", ["od-velocity-kf", "dr-kf"])
+def test_output_interval_writes_the_rows_thinning_keeps(drive, method):
+    """``output_interval_s`` (set by ``--output-rate`` through ``output_interval_for_rate``,
+    issue 13): the kernel writes every ``k``-th filter epoch and the last, and those are
+    exactly the rows :func:`inmotion.io.result.thin` keeps of the every-epoch run, arrays
+    equal; a rate off the filter's grid leaves every epoch."""
+    from inmotion.io.result import thin
+    run = (dr_kalman.run_od_velocity_kf if method == "od-velocity-kf"
+           else dr_kalman.run_dr_kf)
+    cfg_cls = (dr_kalman.OdVelocityKfConfig if method == "od-velocity-kf"
+               else dr_kalman.DrKfConfig)
+    dt = float(np.median(np.diff(drive.imu.t)))
+    base = cfg_cls(filter_rate_hz=20.0, measurement_rate_hz=5.0)
+    interval = base.output_interval_for_rate(dt, 2.0)
+    assert interval == 0.5
+    assert base.output_interval_for_rate(dt, 3.0) is None      # 20 Hz / 3 Hz: off the grid
+    assert cfg_cls(filter_rate_hz=20.0, smooth=True).output_interval_for_rate(dt, 2.0) is None
+    every = run(drive, base, _init(drive))
+    few = run(drive, base.model_copy(update={"output_interval_s": interval}), _init(drive))
+    want = thin(every, 2.0)
+    assert len(few.t) < len(every.t) / 5
+    np.testing.assert_array_equal(few.t, want.t)
+    for name in ("lat", "lon", "h", "vel_n", "euler"):
+        np.testing.assert_array_equal(getattr(few, name), getattr(want, name))
+    assert few.sigma.keys() == want.sigma.keys()
+    for k in want.sigma:
+        np.testing.assert_array_equal(few.sigma[k], want.sigma[k])
+    for k in want.states:
+        np.testing.assert_array_equal(few.states[k], want.states[k])

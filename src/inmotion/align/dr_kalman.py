@@ -190,6 +190,25 @@ class OdVelocityKfConfig(StopUpdateFields):
         0.03, gt=0,
         description="noise floor of the velocity difference across the sensor's axis [m/s]")
     baro_noise_m: float = cf.baro_noise_m(2.0)
+    output_interval_s: Optional[float] = Field(
+        None, gt=0,
+        description="rows written every round(output_interval_s / filter interval) filter "
+                    "epochs, and the last [s]; None: every filter epoch. --output-rate sets it "
+                    "where those are the rows thinning keeps (issue 13: written at 100 Hz and "
+                    "thinned afterwards, the kernel spent three quarters of its hour on rows "
+                    "the result drops)")
+
+    def output_interval_for_rate(self, dt_imu: float, rate_hz: float) -> Optional[float]:
+        """The ``output_interval_s`` whose rows are those :func:`inmotion.io.result.thin` at
+        ``rate_hz`` keeps of the every-epoch run (``1 / rate_hz`` when it is a whole number of
+        filter intervals of an IMU of period ``dt_imu`` [s]), else None (every epoch); None
+        also for a smoothed run or one that keeps its covariance series (their rows are
+        every epoch's)."""
+        if self.smooth or self.keep_covariance:
+            return None
+        step = max(1, int(round(1.0 / (self.filter_rate_hz * dt_imu))))
+        k = 1.0 / (rate_hz * step * dt_imu)
+        return 1.0 / rate_hz if round(k) >= 1 and abs(k - round(k)) < 1e-6 else None
 
 
 class DrKfConfig(OdVelocityKfConfig):
@@ -354,6 +373,8 @@ def _engine_filter(bundle: Bundle, cfg, init: NavState, with_dr: bool):
     step = max(1, int(round(1.0 / (cfg.filter_rate_hz * imu_dt))))
     meas_every = max(1, int(round(cfg.filter_rate_hz / cfg.measurement_rate_hz)))
     feedback_every = max(1, int(round(cfg.measurement_rate_hz / cfg.feedback_rate_hz)))
+    out_every = (1 if cfg.output_interval_s is None
+                 else max(1, int(round(cfg.output_interval_s / (step * imu_dt)))))
     use = {"nhc": cfg.use_nhc, "height": cfg.use_baro and bundle.baro is not None}
     if with_dr:
         lay = LAYOUT_DR_KF
@@ -380,7 +401,7 @@ def _engine_filter(bundle: Bundle, cfg, init: NavState, with_dr: bool):
     _, lever = mounting_from_meta(bundle.meta, sensor_name)
     filt = VelocityAidedRun(init, lay, model, _initial_covariance(lay, cfg, init.lat, init.h),
                         use=use, noise=noise, gates=_gates(cfg.gate_probability),
-                        step_rows=step, meas_every=meas_every, out_every=1,
+                        step_rows=step, meas_every=meas_every, out_every=out_every,
                         nhc_mount=cfg.nhc_mount_terms, closed_loop=cfg.closed_loop,
                         feedback_every=feedback_every, smooth=cfg.smooth,
                         lever_arm_b=None if lever is None else np.asarray(lever, float),
