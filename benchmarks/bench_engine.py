@@ -105,8 +105,11 @@ its predict pattern is not the cause (19 states, 10 active rows ``phi, dv, dp`` 
 builds the run with ``out_every=1``, so the kernel writes the state and its sigma at every
 100 Hz filter epoch (360,000 rows an hour) and the CLI's 1 Hz thinning (``thin_select``) only
 picks from them afterwards, where ``sins-dr`` and the equal workload write at 1 Hz in the
-kernel. Next step (not done): an output interval in the configuration, set by
-``--output-rate`` where the rows written stay the same, as ``sins-dr``'s ``output_rate_hz``.
+kernel. Done right after: ``output_interval_s`` in the configuration (``dr_kalman.
+OdVelocityKfConfig.output_interval_for_rate``), set by ``--output-rate`` where the rows written
+are those thinning keeps: the CLI hour 1.22-1.49 -> 0.82-0.90 s wall (three runs each, load
+~1), files byte-identical; in-process, ``out_every`` 1 -> 100: 1.33 -> 0.35 s CPU. This file
+``--cli-only --repeat 5`` then (19:11 UTC, load 1.3): sins-dr 0.93 s, od-velocity-kf 0.85 s.
 """
 from __future__ import annotations
 
