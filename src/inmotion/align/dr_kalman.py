@@ -466,17 +466,8 @@ def _run(bundle, config, init, progress, cls, with_dr, method, dtheta_dr=None, s
     if dtheta_dr is not None:                # the DR's own gyro (a bundle in memory)
         pieces = with_dr_gyro(pieces, dr_gyro_rows(bundle.imu, dtheta_dr,
                                                    slice(k0, k0 + n_rows)))
-    elif not isinstance(pieces, (list, tuple)):
-        # read from the file: the next chunk read and checked in a reader thread while the
-        # filter runs on this one, as sins-dr's (nothing else reads the IMU table meanwhile)
-        from ..io.bundle_stream import read_ahead
-        pieces = read_ahead(pieces)
-    try:
-        out = filt.run_stream(pieces, n_rows, speed, h_baro=h_baro, sensor=sensor,
-                              progress=progress, select=select, output_times=output_times)
-    finally:
-        if hasattr(pieces, "close"):     # the reader thread stopped, whatever happened
-            pieces.close()
+    out = filt.run_stream(pieces, n_rows, speed, h_baro=h_baro, sensor=sensor,
+                          progress=progress, select=select, output_times=output_times)
     sol = _engine_solution(filt, out, cfg, method, sensor, time.perf_counter() - t0)
     sol.info["config_source"] = cfg_source
     return sol

@@ -330,7 +330,24 @@ class VelocityAidedRun:
         ``output_times`` (None: nothing): a callable given the times [s] of the output rows
         kept, chunk by chunk as they come, in order (the command line computes the truth
         rows the errors need meanwhile: :class:`inmotion.io.bundle_stream.TruthReducer`).
+
+        ``pieces`` that are not a list or tuple (read from a file) are read ahead: the next
+        piece read and checked in a reader thread while the filter runs on this one
+        (:func:`inmotion._read_ahead.read_ahead`, issue 13; nothing else may read them
+        meanwhile), the thread stopped when the run ends, however it ends.
         """
+        if isinstance(pieces, (list, tuple)):
+            return self._stream(pieces, n_rows, speed, h_baro, sensor, progress, select,
+                                output_times)
+        from .._read_ahead import read_ahead
+        ahead = read_ahead(pieces)
+        try:
+            return self._stream(ahead, n_rows, speed, h_baro, sensor, progress, select,
+                                output_times)
+        finally:
+            ahead.close()
+
+    def _stream(self, pieces, n_rows, speed, h_baro, sensor, progress, select, output_times):
         def take(o):
             if select is None:
                 kept = o, False

@@ -420,23 +420,13 @@ def run_sins_dr(bundle: Bundle, config: SinsDrConfig | dict | None = None,
     sensor = _sensor(bundle, cfg)
     cfg, cfg_source = config_with_spec(cfg, bundle.meta, sensor[0])
     n_rows, imu_dt, pieces, k0 = bundle.imu_rows_after(init.t)   # whole, or read in chunks
-    if not isinstance(pieces, (list, tuple)):
-        # read from the file: the next chunk is read and checked in a reader thread while
-        # the filter runs on this one (nothing else reads the IMU table meanwhile)
-        from ..io.bundle_stream import read_ahead
-        pieces = read_ahead(pieces)
     filt = _make_filter(bundle, cfg, init, sensor, imu_dt)
     name, speed = sensor[:2]
     if dtheta_dr is not None:                # the DR's own gyro (a bundle in memory)
         pieces = with_dr_gyro(pieces, dr_gyro_rows(bundle.imu, dtheta_dr,
                                                    slice(k0, k0 + n_rows)))
-    try:
-        out = filt.run_stream(pieces, n_rows, speed, h_baro=_baro_source(bundle, cfg),
-                              sensor=name, progress=progress, select=select,
-                              output_times=output_times)
-    finally:
-        if hasattr(pieces, "close"):     # the reader thread stopped, whatever happened
-            pieces.close()
+    out = filt.run_stream(pieces, n_rows, speed, h_baro=_baro_source(bundle, cfg), sensor=name,
+                          progress=progress, select=select, output_times=output_times)
     sol = _solution(filt, out, cfg, name, time.perf_counter() - t0)
     sol.info["config_source"] = cfg_source
     return sol
