@@ -313,3 +313,11 @@ def test_output_interval_writes_the_rows_thinning_keeps(drive, method):
         np.testing.assert_array_equal(few.sigma[k], want.sigma[k])
     for k in want.states:
         np.testing.assert_array_equal(few.states[k], want.states[k])
+
+
+@pytest.mark.parametrize("value", [0.0, -1.0])
+def test_output_interval_must_be_positive(drive, value):
+    """``output_interval_s`` <= 0 is refused with the field's name (BadInput, exit 2 on the
+    command line), never taken as "every epoch"."""
+    with pytest.raises(BadInput, match="output_interval_s"):
+        dr_kalman.run_od_velocity_kf(drive, {"output_interval_s": value}, _init(drive))
