@@ -1,0 +1,48 @@
+"""Issue 15: final-attitude NEES of ``fine-mux`` / ``adaptive`` (moving start) over a Monte
+Carlo of paper 003's drive cut to 85 s (``tests/consistency_mc.drive_003``), per coarse
+window, with each run's final heading error, its sigma and the coarse envelope's heading.
+
+    PYTHONPATH=src OPENBLAS_NUM_THREADS=1 python benchmarks/nees_fine_mux.py fine-mux 20,40,80 [runs] [seed0]
+"""
+import sys
+
+import numpy as np
+
+sys.path.insert(0, "tests")
+from consistency_mc import ARCMIN, drive_003  # noqa: E402
+
+from inmotion import registry  # noqa: E402
+from inmotion.core.metrics import error_series  # noqa: E402
+from inmotion.core.solution import NavState  # noqa: E402
+from inmotion.estimation import chi2  # noqa: E402
+from inmotion.sim import simulate  # noqa: E402
+
+method = sys.argv[1]
+wins = [float(w) for w in sys.argv[2].split(",")]
+runs = int(sys.argv[3]) if len(sys.argv) > 3 else 6
+seed0 = int(sys.argv[4]) if len(sys.argv) > 4 else 100
+run, Config = registry.get(method).load()
+sc = drive_003()
+for W in wins:
+    cfg = {"coarse_window_s": W} if method == "fine-mux" else {"mux": {"coarse_window_s": W}}
+    vals, rows = [], []
+    for k in range(runs):
+        rng = np.random.default_rng(seed0 + k)
+        b = simulate(sc, rng)
+        err = np.radians([0.1, 0.1, 0.5]) * rng.standard_normal(3)
+        init = NavState.from_truth(b.truth, euler_error=err)
+        sol = run(b, Config(**cfg), init)
+        e = error_series(sol, b.truth)
+        phi = e[["phi_E_arcmin", "phi_N_arcmin", "phi_U_arcmin"]].to_numpy()[-1] / ARCMIN
+        sig = np.array([sol.sigma[c][-1] for c in ("phi_E", "phi_N", "phi_U")])
+        vals.append(float(np.sum((phi / sig) ** 2)))
+        env = sol.info.get("coarse_envelope", {})
+        e0 = e[["phi_U_arcmin"]].to_numpy()[0, 0]
+        rows.append((round(phi[2] * ARCMIN, 2), round(sig[2] * ARCMIN, 2), round(e0, 1),
+                     round((env.get("heading_limit_deg") or 0) * 60, 1),
+                     round(vals[-1], 2), len(sol.info.get("warnings", []))))
+    lo, hi = chi2.isf(0.975, 3 * runs) / runs, chi2.isf(0.025, 3 * runs) / runs
+    print(f"{method} W={W:g} runs={runs}: NEES {np.mean(vals):.2f} (band {lo:.2f}-{hi:.2f})",
+          flush=True)
+    print("  per run (final heading err', sigma', coarse heading err', coarse sigma', NEES, "
+          "n warnings):", rows, flush=True)
