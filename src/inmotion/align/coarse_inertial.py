@@ -40,7 +40,7 @@ from pydantic import BaseModel, ConfigDict, Field
 
 from .. import config_fields as cf
 from ..core.bundle import Bundle
-from ..core.solution import NavState, Solution
+from ..core.solution import NavState
 from . import attitude_determination as ad
 from . import obs_vectors as ov
 
