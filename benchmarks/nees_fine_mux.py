@@ -2,7 +2,9 @@
 Carlo of paper 003's drive cut to 85 s (``tests/consistency_mc.drive_003``), per coarse
 window, with each run's final heading error, its sigma and the coarse envelope's heading.
 
-    PYTHONPATH=src OPENBLAS_NUM_THREADS=1 python benchmarks/nees_fine_mux.py fine-mux 20,40,80 [runs] [seed0]
+    PYTHONPATH=src OPENBLAS_NUM_THREADS=1 python benchmarks/nees_fine_mux.py fine-mux 20,40,80 [runs] [seed0] [full]
+
+``full``: paper 003's whole 10-minute drive (``paper003_drive``, constant errors drawn).
 """
 import sys
 
@@ -22,7 +24,15 @@ wins = [float(w) for w in sys.argv[2].split(",")]
 runs = int(sys.argv[3]) if len(sys.argv) > 3 else 6
 seed0 = int(sys.argv[4]) if len(sys.argv) > 4 else 100
 run, Config = registry.get(method).load()
-sc = drive_003()
+if len(sys.argv) > 5 and sys.argv[5] == "full":
+    import yaml
+
+    from inmotion.sim.scenario import find_scenario, load_scenario
+    d = yaml.safe_load(open(find_scenario("paper003_drive")).read())
+    d["imu"]["constant_errors"] = "random"
+    sc = load_scenario(d)
+else:
+    sc = drive_003()
 for W in wins:
     cfg = {"coarse_window_s": W} if method == "fine-mux" else {"mux": {"coarse_window_s": W}}
     vals, rows = [], []

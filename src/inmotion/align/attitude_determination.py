@@ -25,7 +25,7 @@ from . import obs_vectors as ov
 from . import velocity_source as vs
 
 __all__ = ["Inputs", "prepare", "window_blocks", "Level", "run_level", "to_solution",
-           "euler_deg_dict"]
+           "euler_deg_dict", "window_error_map", "window_terms"]
 
 
 @dataclass
