@@ -304,12 +304,14 @@ def window_error_map(inp: Inputs, level: Level, lowpass_time_constant_s=None) ->
 
     Returns ``{"H": (M, 3, 3) [rad per m/s], "dt": (M,) [s], "speed": (M,) [m/s],
     "rate_b": (M, 3) body rate over each interval [rad/s]}`` (``eps`` in ``n(0)``, ENU at the
-    window's start)."""
+    window's start), or None with fewer than 3 epochs or vectors that span no plane."""
     run = level.run
     t = run.t - run.t[0]
     skip = 3.0 * lowpass_time_constant_s if lowpass_time_constant_s else 0.0
     use = np.flatnonzero(t > max(skip, 0.0) - 1e-9)
     use = use[use > 0]
+    if len(use) < 3:                  # too few epochs to size anything: no map
+        return None
     dt = np.diff(t)[use - 1]
     beta = run.beta[use]
     w = dt / dt.sum()
@@ -318,6 +320,8 @@ def window_error_map(inp: Inputs, level: Level, lowpass_time_constant_s=None) ->
                              - b[:, :, None] * b[:, None, :])).sum(0)
     Cb0b = rotations.dcm_from_quat(run.q_b0b)
     C = level.C0
+    if np.linalg.cond(M) > 1e14:       # the vectors span no plane (parked-like, no Earth
+        return None                      # rate seen yet): no linear map
     Minv = np.linalg.inv(M)
     H = Minv[None] @ (w[:, None, None] * rotations.skew(b)) @ C[None] @ Cb0b[use]
     rel = np.swapaxes(Cb0b[use - 1], -1, -2) @ Cb0b[use]          # C_{b(j)}^{b(j-1)}
