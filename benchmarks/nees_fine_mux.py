@@ -2,9 +2,10 @@
 Carlo of paper 003's drive cut to 85 s (``tests/consistency_mc.drive_003``), per coarse
 window, with each run's final heading error, its sigma and the coarse envelope's heading.
 
-    PYTHONPATH=src OPENBLAS_NUM_THREADS=1 python benchmarks/nees_fine_mux.py fine-mux 20,40,80 [runs] [seed0] [full]
+    PYTHONPATH=src OPENBLAS_NUM_THREADS=1 python benchmarks/nees_fine_mux.py fine-mux 20,40,80 [runs] [seed0] [full|start]
 
-``full``: paper 003's whole 10-minute drive (``paper003_drive``, constant errors drawn).
+``full``: paper 003's whole 10-minute drive (``paper003_drive``, constant errors drawn);
+``start``: its first 194 s (``consistency_mc.drive_003_start``).
 """
 import sys
 
@@ -24,7 +25,10 @@ wins = [float(w) for w in sys.argv[2].split(",")]
 runs = int(sys.argv[3]) if len(sys.argv) > 3 else 6
 seed0 = int(sys.argv[4]) if len(sys.argv) > 4 else 100
 run, Config = registry.get(method).load()
-if len(sys.argv) > 5 and sys.argv[5] == "full":
+if len(sys.argv) > 5 and sys.argv[5] == "start":
+    from consistency_mc import drive_003_start
+    sc = drive_003_start()
+elif len(sys.argv) > 5 and sys.argv[5] == "full":
     import yaml
 
     from inmotion.sim.scenario import find_scenario, load_scenario
