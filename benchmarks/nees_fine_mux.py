@@ -6,6 +6,22 @@ window, with each run's final heading error, its sigma and the coarse envelope's
 
 ``full``: paper 003's whole 10-minute drive (``paper003_drive``, constant errors drawn);
 ``start``: its first 194 s (``consistency_mc.drive_003_start``).
+
+Measured (issue 15, helper h15mux, seeds 100-119; 20-run band 2.02-4.16, 6-run 1.37-5.25),
+``fine-mux`` and ``adaptive`` (moving start) alike, run for run:
+
+- 85 s drive, W = 20 / 40 / 80 s: 0.47 / 0.37 / 0.15 over 20 runs, every run warning that
+  the window is too short (coarse heading 1-sigma about 16 / 10 / 3.7 deg, beyond the 2 deg
+  of ``multiplex.LINEAR_HEADING_DEG``; reported sigma kept covering: conservative). Before
+  (6 runs): 653 / 6.11 / 1.39. With the envelope as the prior but no linear-range check:
+  W = 40 s 780 (6 runs), W = 80 s 9.48 (20 runs, one run 192 arcmin off with a 20 arcmin
+  sigma).
+- the drive's first 194 s (``start``), W = 120 s (coarse heading 1-sigma 50 arcmin): 2.42
+  over 6 runs, 1.26 over 20; ``adaptive`` W = 80 s there 1.12 (20 runs).
+- the full drive, W = 600 s (the default): 1.88 over 6 runs, 1.08 over 20; run for run the
+  same final errors and sigma as before the window terms (the fine prior stays the fine
+  configuration's 2 deg heading); the coarse heading envelope 5.8 arcmin (was 1.5, while the
+  coarse heading errors reach 17.6 arcmin).
 """
 import sys
 
