@@ -36,6 +36,15 @@ def drive_003():
     return load_scenario(d)
 
 
+def drive_003_start():
+    """Paper 003's 10-minute drive's first 194 s (cruise, accelerate, cruise, a 90 deg turn,
+    cruise), constant errors drawn."""
+    d = yaml.safe_load(open(find_scenario("paper003_drive")).read())
+    d["segments"] = d["segments"][:5]
+    d["imu"]["constant_errors"] = "random"
+    return load_scenario(d)
+
+
 def parked_003(duration_s=120.0):
     """Paper 003's parked start (engine vibration, rocking), parked for ``duration_s``."""
     d = yaml.safe_load(open(find_scenario("paper003_parked_then_drive")).read())

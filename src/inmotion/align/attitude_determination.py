@@ -25,7 +25,7 @@ from . import obs_vectors as ov
 from . import velocity_source as vs
 
 __all__ = ["Inputs", "prepare", "window_blocks", "Level", "run_level", "to_solution",
-           "euler_deg_dict"]
+           "euler_deg_dict", "window_error_map", "window_terms"]
 
 
 @dataclass
@@ -281,3 +281,118 @@ def to_solution(inp: Inputs, level: Level, *, method: str, config, levels_info: 
     units = {"eigval_gap_rel": StateUnit("ratio")}
     return Solution(run.t, run.lat, run.lon, run.h, run.vel_n, euler, states=states,
                     state_units=units, info=info)
+
+
+def window_error_map(inp: Inputs, level: Level, lowpass_time_constant_s=None) -> dict:
+    """Linear map from an error of the body velocity ``v^b`` the vectors assumed to the error
+    of the coarse attitude ``C_b^n(0)`` (issue 15: the window's own terms of the coarse
+    envelope, beside the IMU's).
+
+    Derivation. The centred q-method answer minimises ``sum_k |b_k - C a_k|^2`` over the
+    centred pairs (Davenport's ``K`` is this least squares for unit weights). With ``a_k``
+    perturbed by ``da_k`` and the answer ``C_hat = (I - [eps x]) C``, the second-order
+    expansion of the objective in ``eps`` gives ``eps = M^-1 sum_k b_k x (C da_k)`` with ``M =
+    sum_k (|b_k|^2 I - b_k b_k^T)``; the centring of ``da`` drops out since ``sum b_k = 0``. In
+    motion ``alpha`` holds ``C_{b(t)}^{b(0)} v^b(t)`` (:data:`obs_vectors.MODEL_VB_EARTH`), so
+    an error ``dv^b`` of the assumed ``[0, s, 0]`` (a mounting angle: ``s`` times it on the
+    lateral / vertical axis; a scale factor; a lever arm's ``omega x l``; the vehicle
+    constraint's violation; speed noise) gives ``da_k = C_{b(t_k)}^{b(0)} dv^b(t_k)`` (the
+    Earth-rate integral's share, ``omega_ie`` times the window, is left out). The sums are
+    taken over the output epochs (each standing for the intervals since the one before; the
+    low-pass's settling time is skipped as in ``K``), so ``eps = sum_j H_j dv_j`` with ``dv_j``
+    the mean of ``dv^b`` over epoch ``j``'s interval.
+
+    Returns ``{"H": (M, 3, 3) [rad per m/s], "dt": (M,) [s], "speed": (M,) [m/s],
+    "rate_b": (M, 3) body rate over each interval [rad/s]}`` (``eps`` in ``n(0)``, ENU at the
+    window's start), or None with fewer than 3 epochs or vectors that span no plane."""
+    run = level.run
+    t = run.t - run.t[0]
+    skip = 3.0 * lowpass_time_constant_s if lowpass_time_constant_s else 0.0
+    use = np.flatnonzero(t > max(skip, 0.0) - 1e-9)
+    use = use[use > 0]
+    if len(use) < 3:                  # too few epochs to size anything: no map
+        return None
+    dt = np.diff(t)[use - 1]
+    beta = run.beta[use]
+    w = dt / dt.sum()
+    b = beta - (w[:, None] * beta).sum(0)
+    M = (w[:, None, None] * (np.einsum("ki,ki->k", b, b)[:, None, None] * np.eye(3)
+                             - b[:, :, None] * b[:, None, :])).sum(0)
+    Cb0b = rotations.dcm_from_quat(run.q_b0b)
+    C = level.C0
+    if np.linalg.cond(M) > 1e14:       # the vectors span no plane (parked-like, no Earth
+        return None                      # rate seen yet): no linear map
+    Minv = np.linalg.inv(M)
+    H = Minv[None] @ (w[:, None, None] * rotations.skew(b)) @ C[None] @ Cb0b[use]
+    rel = np.swapaxes(Cb0b[use - 1], -1, -2) @ Cb0b[use]          # C_{b(j)}^{b(j-1)}
+    rate = rotations.rotvec_from_dcm(rel) / dt[:, None]
+    speed = np.linalg.norm(run.vel_n[use], axis=1)
+    return {"H": H, "dt": dt, "speed": speed, "rate_b": rate}
+
+
+def _markov_bin_cov_sum(u: np.ndarray, sigma: float, tau: float, dt: float) -> np.ndarray:
+    """``sum_ij u_i u_j^T c_ij`` (3x3): ``c_ij`` the covariance of the means over consecutive
+    intervals of ``dt`` of a first-order Gauss-Markov process (``sigma``, ``tau``):
+    ``c_ii = sigma^2 2 (x - 1 + e^-x) / x^2``, ``c_ij = sigma^2 (tau / dt)^2 (1 - e^-x)^2
+    e^-(|i-j|-1) x`` (``x = dt / tau``); O(M) by the recursion ``r_j = rho r_(j-1) +
+    u_(j-1)``."""
+    if sigma <= 0.0 or len(u) == 0:
+        return np.zeros((3, 3))
+    x = dt / tau
+    c0 = sigma * sigma * 2.0 * (x - 1.0 + np.exp(-x)) / (x * x)
+    c1 = sigma * sigma * (tau / dt) ** 2 * (1.0 - np.exp(-x)) ** 2
+    rho = np.exp(-x)
+    S = c0 * u.T @ u
+    r = np.zeros(3)
+    acc = np.zeros((3, 3))
+    for j in range(1, len(u)):
+        r = rho * r + u[j - 1]
+        acc += np.outer(u[j], r)
+    return S + c1 * (acc + acc.T)
+
+
+def window_terms(emap: dict, *, mount_sigma_rad: float, scale_sigma: float,
+                 lever_m=(0.0, 0.0, 0.0), lever_sigma_m: float = 0.0,
+                 constraint_violation=None, speed_noise_m_s: float = 0.0,
+                 speed_rate_hz: float = 0.0) -> dict:
+    """The window's terms of the coarse attitude error (:func:`window_error_map`), each a
+    3x3 covariance [rad^2] of ``eps`` (ENU at the window's start):
+
+    * ``mount``: the IMU's mounting in the vehicle, yaw and pitch each ``mount_sigma_rad``
+      (``dv^b = s [mu_z, 0, mu_x]``, up to sign);
+    * ``scale``: the speed's scale factor (``dv^b = k s e_y``);
+    * ``lever``: the sensor's lever arm ``l`` (not compensated by the coarse stage;
+      ``dv^b_y = omega_z l_x - omega_x l_z``), per axis 1-sigma ``hypot(l, lever_sigma_m)``;
+    * ``constraint``: the vehicle constraint's violation, lateral and vertical Gauss-Markov
+      ``(sigma, tau)`` pairs (``constraint_violation = ((s_lat, tau_lat), (s_vert,
+      tau_vert))``) on ``dv^b_x`` / ``dv^b_z`` (:func:`_markov_bin_cov_sum`);
+    * ``speed_noise``: white speed noise of ``speed_noise_m_s`` at ``speed_rate_hz`` on
+      ``dv^b_y``.
+    """
+    H, dt, s, om = emap["H"], emap["dt"], emap["speed"], emap["rate_b"]
+    P = {}
+
+    def const(dv):                          # a random constant: eps = sum H dv
+        e = np.einsum("kij,kj->i", H, dv)
+        return np.outer(e, e)
+
+    zero = np.zeros_like(s)
+    P["mount"] = (const(np.stack([s, zero, zero], 1)) + const(np.stack([zero, zero, s], 1))) \
+        * mount_sigma_rad ** 2
+    P["scale"] = const(np.stack([zero, s, zero], 1)) * scale_sigma ** 2
+    lx, _, lz = (float(np.hypot(a, lever_sigma_m)) for a in lever_m)
+    P["lever"] = (const(np.stack([zero, om[:, 2] * lx, zero], 1))
+                  + const(np.stack([zero, om[:, 0] * lz, zero], 1)))
+    Pc = np.zeros((3, 3))
+    if constraint_violation:
+        d = float(np.median(dt)) if len(dt) else 1.0
+        for axis, (sig, tau) in zip((0, 2), constraint_violation):
+            if sig > 0 and tau > 0:
+                Pc += _markov_bin_cov_sum(H[:, :, axis], sig, tau, d)
+    P["constraint"] = Pc
+    if speed_noise_m_s > 0 and speed_rate_hz > 0:
+        u = H[:, :, 1]
+        P["speed_noise"] = (u.T * (speed_noise_m_s ** 2 / (speed_rate_hz * dt))) @ u
+    else:
+        P["speed_noise"] = np.zeros((3, 3))
+    return P

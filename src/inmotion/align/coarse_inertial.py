@@ -40,7 +40,7 @@ from pydantic import BaseModel, ConfigDict, Field
 
 from .. import config_fields as cf
 from ..core.bundle import Bundle
-from ..core.solution import NavState, Solution
+from ..core.solution import NavState
 from . import attitude_determination as ad
 from . import obs_vectors as ov
 
@@ -74,9 +74,13 @@ class CoarseInertialConfig(BaseModel):
 
 
 def run_coarse_inertial(bundle: Bundle, config: CoarseInertialConfig,
-                        init: Optional[NavState] = None, progress=None) -> Solution:
+                        init: Optional[NavState] = None, progress=None,
+                        error_map: bool = False):
     """Inertial-frame coarse alignment (paper 003 eq. 1-10); returns the attitude series, the
-    attitude at the start and end of the window and the q-method's eigenvalue gap."""
+    attitude at the start and end of the window and the q-method's eigenvalue gap.
+    ``error_map``: return ``(solution, map)`` with the linear map from a body-velocity error
+    to the attitude error (:func:`inmotion.align.attitude_determination.window_error_map`;
+    in motion only, else None), from which ``fine-mux`` sizes its window's terms."""
     moving = config.mode == "moving" or (
         config.mode == "auto" and any(getattr(bundle, s) is not None
                                       for s in ("radar", "ldv", "odometer")))
@@ -88,6 +92,10 @@ def run_coarse_inertial(bundle: Bundle, config: CoarseInertialConfig,
                        output_interval_s=config.output_interval_s,
                        lowpass_time_constant_s=config.lowpass_time_constant_s)
     name = "coarse-inertial-moving" if moving else "coarse-inertial-parked"
-    return ad.to_solution(inp, lev, method="coarse-inertial", config=config,
-                          levels_info=[ad.level_info(lev, name)],
-                          meta=bundle.meta)
+    sol = ad.to_solution(inp, lev, method="coarse-inertial", config=config,
+                         levels_info=[ad.level_info(lev, name)],
+                         meta=bundle.meta)
+    if not error_map:
+        return sol
+    return sol, (ad.window_error_map(inp, lev, config.lowpass_time_constant_s)
+                 if moving else None)

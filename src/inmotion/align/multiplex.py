@@ -45,6 +45,25 @@ The coarse stage's envelope and the fine prior (issue 15)
     heading is observable only through the Earth rate), its level sigma at least
     ``bias / g`` (what no filter without an external attitude reference can beat), and the
     summary warns (``info['warnings']``).
+
+The coarse window's own terms (issue 15)
+    Beside the IMU, the window's data limit the coarse answer: the vectors assume the body
+    velocity ``[0, s, 0]``, while the IMU's mounting in the vehicle (yaw, pitch), the speed's
+    scale factor, the sensor's lever arm (``omega x l``), the vehicle constraint's violation
+    and the speed noise make it differ; the centred vectors remove only the part that stays
+    constant (constant speed and body direction). The heading information grows as ``g
+    Omega_ie cos(L) T^2 / 2``, so a short window (tens of seconds) turns centimetres per
+    second into degrees of heading. :func:`~inmotion.align.attitude_determination.
+    window_error_map` linearises the q-method's answer in the velocity error (checked
+    against the coarse stage run on the IMU increments turned by a mounting angle:
+    ``benchmarks/coarse_window_sensitivity.py``), :func:`window_envelope` sizes each term
+    from the fine configuration's priors and the bundle's spec, and their sum goes into the
+    envelope in quadrature (``info['coarse_envelope']``: ``imu``, ``window.terms`` [E, N, U]
+    arcmin per term) and so into the fine prior. It costs no extra coarse run (a 600 s window:
+    0.62 s with it, 0.64 s without, measured). Beyond :data:`LINEAR_HEADING_DEG` of coarse
+    heading 1-sigma (still resolvable) the fine filter's small-angle model no longer holds:
+    the reported sigma is kept covering (:func:`linear_range_check`) and ``info['warnings']``
+    names the window length to use.
 """
 from __future__ import annotations
 
@@ -59,14 +78,17 @@ from ..core.bundle import Bundle, SpeedData
 from ..core.solution import NavState, Solution
 from ..errors import BadInput
 from . import aided_kf as ak
-from .attitude_determination import UNRESOLVED_HEADING_DEG, coarse_envelope, initial_position
+from .attitude_determination import (UNRESOLVED_HEADING_DEG, coarse_envelope, initial_position,
+                                     window_terms)
+from .meta_spec import _constraint_violation_sigmas
 from .coarse_inertial import CoarseInertialConfig, run_coarse_inertial
 from .velocity_source import initial_speed, speed_on_imu_times
 
 __all__ = ["auto_fine_method", "MuxConfig", "fault_tolerant_speed", "coarse_fault_tolerant",
            "last_covered", "first_covered", "run_multiplexed", "run_fine_mux", "FINE_METHODS",
            "start_state", "coarse_envelope", "fine_config_from_coarse", "floor_attitude_sigma",
-           "UNRESOLVED_HEADING_DEG", "UNKNOWN_HEADING_SIGMA_DEG"]
+           "UNRESOLVED_HEADING_DEG", "UNKNOWN_HEADING_SIGMA_DEG", "window_envelope",
+           "linear_range_check", "LINEAR_HEADING_DEG"]
 
 #: the fine alignments ``fine-mux`` can run after the coarse stage
 FINE_METHODS = {"fkf": (ak.run_fkf, ak.FkfConfig), "od-kf": (ak.run_od_kf, ak.AidedKfConfig),
@@ -77,11 +99,63 @@ _CHANNELS = ("odometer", "ldv")
 UNKNOWN_HEADING_SIGMA_DEG = 360.0 / np.sqrt(12.0)
 
 
-def fine_config_from_coarse(cls, fine: dict, meta, lat: float, window_s: float):
+def window_envelope(emap: Optional[dict], base, meta, channel: Optional[str],
+                    rate_hz: float = 0.0) -> Optional[dict]:
+    """The coarse window's own terms (issue 15; :func:`inmotion.align.attitude_determination.
+    window_terms` on the window's error map): the IMU's mounting (the fine configuration's
+    ``mount_sigma_arcmin``), the speed's scale factor (``{od,ldv}_scale_sigma_ppm``), the
+    sensor's lever arm (``meta['lever_arms_m']``, not compensated by the coarse stage, with
+    ``lever_sigma_m``), the vehicle constraint's violation (``meta['vehicle']
+    ['constraint_violation']``; without it ``nhc_noise_m_s`` with a 0.5 s correlation time)
+    and the speed noise (``meta['sensors'][channel]['noise_m_s']``, else the fine
+    configuration's forward figure, at the sensor's rate). Returns ``{"terms": {name:
+    [E, N, U] 1-sigma arcmin}, "level_deg", "heading_deg", "cov_rad2"}`` or None without a
+    map (parked)."""
+    if emap is None or channel is None:
+        return None
+    short = "od" if channel == "odometer" else "ldv"
+    meta = meta if isinstance(meta, dict) else {}
+    sig = _constraint_violation_sigmas(meta, lambda sg, tau, _: sg, 0.0)
+    cv = None if sig is None else tuple(zip(sig, _constraint_violation_sigmas(
+        meta, lambda sg, tau, _: tau, 0.0) or (1.0, 1.0)))
+    if cv is None:
+        nhc = float(getattr(base, "nhc_noise_m_s", 0.1))
+        cv = ((nhc, 0.5), (nhc, 0.5))
+    sens = (meta.get("sensors") or {}).get(channel) or {}
+    noise = sens.get("noise_m_s")
+    if noise is None:
+        noise = (getattr(base, f"{short}_noise_m_s", None) or [0.0, 0.0, 0.0])[1]
+    rate = float(sens.get("rate_hz") or rate_hz or 0.0)
+    lever = (meta.get("lever_arms_m") or {}).get(channel) or [0.0, 0.0, 0.0]
+    P = window_terms(
+        emap, mount_sigma_rad=np.radians(float(getattr(base, "mount_sigma_arcmin", 30.0)) / 60),
+        scale_sigma=float(getattr(base, f"{short}_scale_sigma_ppm", 3000.0)) * 1e-6,
+        lever_m=[float(x) for x in lever], lever_sigma_m=float(getattr(base, "lever_sigma_m", 0.05)),
+        constraint_violation=cv, speed_noise_m_s=float(noise), speed_rate_hz=rate)
+    total = sum(P.values())
+    arcmin = np.degrees(1.0) * 60.0
+    return {"terms": {k: (np.sqrt(np.diag(v)) * arcmin).round(3).tolist() for k, v in P.items()},
+            "level_deg": float(np.degrees(np.sqrt(max(total[0, 0], total[1, 1])))),
+            "heading_deg": float(np.degrees(np.sqrt(total[2, 2]))),
+            "cov_rad2": total.tolist(), "channel": channel}
+
+
+def fine_config_from_coarse(cls, fine: dict, meta, lat: float, window_s: float,
+                            window: Optional[dict] = None):
     """``(config, envelope, warnings)``: the fine method's configuration with the coarse
-    envelope as its attitude prior (fields ``fine`` does not set; module docstring)."""
+    envelope as its attitude prior (fields ``fine`` does not set; module docstring).
+    ``window``: the window's own terms (:func:`window_envelope`), added in quadrature to the
+    IMU's envelope."""
     base, _ = ak.config_with_spec(ak._config(fine, cls), meta)
     env = coarse_envelope(base.gyro_drift_deg_h, base.accel_bias_ug, lat, window_s)
+    if window is not None:
+        env["imu"] = {"level_deg": env["level_deg"], "heading_deg": env["heading_limit_deg"]}
+        env["window"] = window
+        env["level_deg"] = float(np.hypot(env["level_deg"], window["level_deg"]))
+        head = float(np.hypot(env["heading_limit_deg"], window["heading_deg"]))
+        env["heading_limit_deg"] = head
+        env["resolvable"] = bool(head <= UNRESOLVED_HEADING_DEG)
+        env["heading_deg"] = head if env["resolvable"] else None
     upd = {"init_velocity_from_attitude": True,
            "init_tilt_sigma_deg": max(env["level_deg"], base.init_tilt_sigma_deg),
            "init_heading_sigma_deg": (max(env["heading_deg"], base.init_heading_sigma_deg)
@@ -116,6 +190,52 @@ def floor_attitude_sigma(sol: Solution, env: dict) -> None:
     if not env["resolvable"] and "phi_U" in sol.sigma:
         sol.sigma["phi_U"] = np.maximum(sol.sigma["phi_U"],
                                         np.radians(UNKNOWN_HEADING_SIGMA_DEG))
+
+
+#: the largest coarse heading 1-sigma [deg] the fine (linear, small-angle) filter is trusted
+#: to take. Measured (issue 15, ``tests/consistency_mc.final_nees``, paper 003's drive cut
+#: to 85 s, 20 runs, start error drawn from the prior): ``fkf`` from a 2 deg heading prior
+#: ends with NEES 1.80 (band 2.02-4.16: covered), from 3.7 deg 108.6 (four runs above 100);
+#: ``fine-mux`` with an 80 s window (coarse heading 1-sigma 3.7 deg) 9.48, one run 192
+#: arcmin off with a 20 arcmin sigma. So 2 deg, the fine filters' default heading prior
+#: (``init_heading_sigma_deg``), not ``aided_kf.LENGTH_MAX_ANGLE`` (5.7 deg).
+LINEAR_HEADING_DEG = 2.0
+
+
+def linear_range_check(sol: Solution, env: dict, window_s: float) -> list:
+    """When the coarse heading 1-sigma (IMU and window terms, :func:`fine_config_from_coarse`)
+    exceeds :data:`LINEAR_HEADING_DEG` but the heading is resolvable, the fine filter's own
+    heading sigma cannot be trusted: keep the reported heading 1-sigma at least the coarse
+    one, and the level 1-sigma at least ``hypot(level envelope, sqrt(3) / 2 sigma_psi^2
+    a_max / g)``: a heading error ``psi`` leaves a second-order forward velocity error
+    ``(1 - cos psi) v ~ psi^2 / 2 v`` the linear filter can only take as a pitch ``psi^2 / 2
+    a / g`` (``a_max`` the largest horizontal acceleration of the solution over 1 s;
+    ``sqrt(E psi^4) = sqrt(3) sigma_psi^2``); return the warning (else ``[]``). The window
+    needed is sized by the heading sigma falling at least as ``1 / T`` (the Earth-rate
+    information grows as ``T^2``)."""
+    head = env.get("heading_limit_deg")
+    if not env.get("resolvable") or head is None or head <= LINEAR_HEADING_DEG:
+        return []
+    if "phi_U" in sol.sigma:
+        sol.sigma["phi_U"] = np.maximum(sol.sigma["phi_U"], np.radians(head))
+    t, v = np.asarray(sol.t, float), np.asarray(sol.vel_n, float)[:, :2]
+    a_max = 0.0
+    if len(t) > 2:
+        k = max(1, int(round(1.0 / max(float(np.median(np.diff(t))), 1e-6))))
+        if len(t) > k:
+            a_max = float(np.max(np.linalg.norm(v[k:] - v[:-k], axis=1)
+                                 / (t[k:] - t[:-k])))
+    lvl = float(np.hypot(np.radians(env["level_deg"]),
+                         np.sqrt(3.0) / 2.0 * np.radians(head) ** 2 * a_max / earth.G0))
+    for c in ("phi_E", "phi_N"):
+        if c in sol.sigma:
+            sol.sigma[c] = np.maximum(sol.sigma[c], lvl)
+    need = window_s * head / LINEAR_HEADING_DEG
+    return [f"coarse window {window_s:.0f} s too short for the heading: coarse heading "
+            f"1-sigma {head * 60:.0f} arcmin (window terms: mounting, scale factor, lever "
+            "arm, vehicle constraint violation, speed noise; info['coarse_envelope']) exceeds "
+            f"the {LINEAR_HEADING_DEG:.1f} deg the fine filter linearises; reported heading "
+            f"1-sigma kept at least that; lengthen coarse_window_s to >= {need:.0f} s"]
 
 
 def auto_fine_method(bundle: Bundle, choice: str = "auto") -> str:
@@ -215,10 +335,12 @@ def fault_tolerant_speed(bundle: Bundle, t: np.ndarray, tolerance_m_s: float = 0
 
 
 def coarse_fault_tolerant(bundle: Bundle, cfg: MuxConfig, init: Optional[NavState],
-                          t0: float, t1: float):
+                          t0: float, t1: float, error_map: bool = False):
     """Coarse alignment over ``[t0, t1]`` with the fault-tolerant (or a single) speed.
 
-    Returns ``(solution, C_nb0)``: the coarse solution and the attitude at ``t0``.
+    Returns ``(solution, C_nb0)``: the coarse solution and the attitude at ``t0``; with
+    ``error_map`` also the window's error map
+    (:func:`inmotion.align.attitude_determination.window_error_map`).
     """
     t0 = first_covered(bundle, t0)
     win = bundle.load_window(t0, t1)          # the window's IMU rows only (read in chunks)
@@ -235,11 +357,15 @@ def coarse_fault_tolerant(bundle: Bundle, cfg: MuxConfig, init: Optional[NavStat
     else:
         name = cfg.coarse_sensor or ("ldv" if bundle.ldv is not None else "odometer")
         ccfg = ccfg.model_copy(update={"velocity_sensor": name})
-    sol = run_coarse_inertial(win, ccfg, init)
+    sol, emap = run_coarse_inertial(win, ccfg, init, error_map=True)
     sol.info["speed_source_events"] = events
+    # the channel whose spec sizes the window's terms: the LDV the fault-tolerant speed
+    # prefers (or the one sensor used)
+    sol.info["coarse_channel"] = (("ldv" if bundle.ldv is not None else "odometer")
+                                  if cfg.fault_tolerant_coarse else ccfg.velocity_sensor)
     a = sol.info["attitude_start_deg"]
     C0 = rotations.dcm_from_euler(np.radians([a["pitch"], a["roll"], a["yaw"]]))
-    return sol, C0
+    return (sol, C0, emap) if error_map else (sol, C0)
 
 
 def start_state(bundle: Bundle, C_nb, t0: float, init: Optional[NavState] = None) -> NavState:
@@ -255,6 +381,14 @@ def start_state(bundle: Bundle, C_nb, t0: float, init: Optional[NavState] = None
     C_nb = np.asarray(C_nb, dtype=float)
     return NavState(t0, lat, lon, h, C_nb @ np.array([0.0, v0, 0.0]),
                     rotations.quat_from_dcm(C_nb))
+
+
+def _rate_hz(bundle: Bundle, channel: Optional[str]) -> float:
+    """The sample rate of ``channel``'s speed [Hz] (0 without it)."""
+    sp = getattr(bundle, channel, None) if channel else None
+    if sp is None or len(sp.t) < 2:
+        return 0.0
+    return float(1.0 / np.median(np.diff(sp.t[:1000])))
 
 
 def first_covered(bundle: Bundle, t_from: float) -> float:
@@ -294,16 +428,21 @@ def run_multiplexed(bundle: Bundle, cfg: MuxConfig, init: Optional[NavState] = N
     t0 = first_covered(bundle, float(bundle.imu.t[0]) if init is None else float(init.t))
     t1 = last_covered(bundle, t0 + cfg.coarse_window_s)
     w0 = time.perf_counter()
-    coarse, C0 = coarse_fault_tolerant(bundle, cfg, init, t0, t1)
-    w_coarse = time.perf_counter() - w0
+    coarse, C0, emap = coarse_fault_tolerant(bundle, cfg, init, t0, t1, error_map=True)
     start = start_state(bundle, C0, t0, init)
     fine_method = auto_fine_method(bundle, cfg.fine_method)
     run, cls = FINE_METHODS[fine_method]
-    fcfg, env, warn = fine_config_from_coarse(cls, cfg.fine, bundle.meta, start.lat, t1 - t0)
+    base, _ = ak.config_with_spec(ak._config(cfg.fine, cls), bundle.meta)
+    channel = coarse.info.get("coarse_channel")
+    wenv = window_envelope(emap, base, bundle.meta, channel, _rate_hz(bundle, channel))
+    w_coarse = time.perf_counter() - w0
+    fcfg, env, warn = fine_config_from_coarse(cls, cfg.fine, bundle.meta, start.lat, t1 - t0,
+                                              wenv)
     w1 = time.perf_counter()
     sol = run(bundle, fcfg, start, progress=progress)
     w_fine = time.perf_counter() - w1
     floor_attitude_sigma(sol, env)
+    warn += linear_range_check(sol, env, t1 - t0)
     sol.info["warnings"] = warn + list(sol.info.get("warnings", []))
     sol.info["coarse_envelope"] = env
     data_s = float(bundle.imu.t[-1] - t0)
