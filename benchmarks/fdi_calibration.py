@@ -486,6 +486,8 @@ def main(argv=None):
                     help="fkf's return_test in the detection-on experiments (default: the "
                     "reproduction's FDI_RETURN_TEST for --detection-on-runs, fkf's default "
                     "for --det-on-runs)")
+    ap.add_argument("--return-span", action="store_true",
+                    help="fkf's return_span on in the detection-on experiments (issue 15)")
     ap.add_argument("--detection-on-runs", type=int, default=0,
                     help="runs of paper 003's fault experiment with the detection on "
                     "(:func:`detection_on`; its reproduction's drives and seeding); 0: none")
@@ -497,9 +499,11 @@ def main(argv=None):
            "presets": {}}
     t0 = time.perf_counter()
     if args.detection_on_runs > 0:
+        from inmotion.reproductions import paper003 as P
         if args.return_test:
-            from inmotion.reproductions import paper003 as P
             P.FDI_RETURN_TEST = args.return_test
+        if args.return_span:
+            P.FDI_RETURN_SPAN = True
         don = detection_on(args.detection_on_runs)
         res["detection_on"] = don
         print(f"paper 003's fault experiment, detection on, {don['runs']} runs:")
@@ -530,6 +534,8 @@ def main(argv=None):
     if args.det_on_runs > 0:
         if args.return_test:
             EXTRA["return_test"] = args.return_test
+        if args.return_span:
+            EXTRA["return_span"] = True
         for preset in args.presets.split(","):
             dwi = detection_with_isolation(args.det_on_runs, preset, biases, args.fault_start,
                                            args.within)

@@ -322,7 +322,8 @@ from . import error_model as em
 from .federated import fuse_kernel
 from .kalman import sequential_joseph
 from .layout import DP, DP_D, DV, EPS, NABLA, PHI, PHI_D, Layout
-from .measurements import (ACC_SIZE, STATE_PARAMS, AUX_FB, AUX_SIZE, AUX_T, AUX_WIB, AUX_WNB, Measurement,
+from .measurements import (ACC_BAD, ACC_D, ACC_DP, ACC_FN, ACC_SIZE, ACC_T, ACC_W, STATE_PARAMS,
+                           AUX_FB, AUX_SIZE, AUX_T, AUX_WIB, AUX_WNB, Measurement,
                            accumulator_function, dispatcher, fill_function)
 from .nav_ops import compensated_row, correct_nav, dcm_of_q
 from .predict import borrowed, make_workspace, predict_kernel_call
@@ -343,6 +344,13 @@ MODE_FUSED, MODE_NONE = -1, -2
 # acc: epoch accumulators [rows, sum_dt, f_sum x3, w_sum x3, nb_sum x3]
 _A_ROWS, _A_DT, _A_F, _A_W, _A_NB = 0, 1, 2, 5, 8
 _A_SIZE = 11
+# macc's columns after the interval's ACC_SIZE with ``return_span`` (issue 15): the span's
+# accumulator (the intervals whose samples were not applied since the last one that was, and
+# the feedback's corrections), then [spans applied, spans rejected by their test, longest
+# span applied [s], the longest span applied [s]]; without it macc has the interval's ACC_SIZE columns only
+_SPAN, _SPAN_OK, _SPAN_BAD, _SPAN_LONGEST, _SPAN_LIM = (ACC_SIZE, 2 * ACC_SIZE, 2 * ACC_SIZE + 1,
+                                                        2 * ACC_SIZE + 2, 2 * ACC_SIZE + 3)
+_SPAN_COLS = 2 * ACC_SIZE + 4
 # ints: [epochs, update epochs, mode, events logged, NIS rows logged]
 _I_EPOCHS, _I_UPDATES, _I_MODE, _I_EV, _I_NIS = 0, 1, 2, 3, 4
 
@@ -654,6 +662,90 @@ def _apply(S, C, fills, j, l, z, H, r, m, xw, Pw, t_now, first):
 
 
 @njit(cache=True)
+def _span_sample(S, C, fills, j, l, aux, data, t_now, was_isolated, used_before, z, H, r, xw,
+                 Pw):
+    """After measurement ``j``'s sample was judged (:func:`_apply`) with ``return_span``
+    (issue 15, module docstring "Return span"): the interval joins the span (``macc[j]``'s
+    span columns) when its sample was not applied, the span closes when one was; at a return
+    the span (the isolation's intervals and this one) is filled as one long interval, tested
+    as the isolated channel's samples are (on the conditioned copy with ``return_conditioned``)
+    and, passed, applied to the local filter itself (then it stands for this sample)."""
+    mj = S.macc[j]
+    cur = mj[:ACC_SIZE]
+    if was_isolated and S.healthy[j]:
+        T_int = cur[ACC_T]
+        span = np.empty(ACC_SIZE)
+        for i in range(ACC_SIZE):
+            span[i] = mj[_SPAN + i] + cur[i]
+        span[ACC_BAD] = max(mj[_SPAN + ACC_BAD], cur[ACC_BAD])
+        T_sp = span[ACC_T]
+        if T_int > 0.0 and T_sp > 1.5 * T_int and T_sp <= mj[_SPAN_LIM]:
+            dof = C.dofs[j]
+            for a in range(dof):
+                z[a] = 0.0
+                r[a] = 0.0
+                for b in range(H.shape[1]):
+                    H[a, b] = 0.0
+            m = fills[j](S.xs, S.xd, aux, span, data, C.params[j], C.offs, z, H, r)
+            if m > 0:
+                # each row's variance grows linearly over the span (the white parts: the
+                # sensor's noise, the constraint violation's interval means), not with T^2
+                # as the fill's rows take it for one interval (module docstring)
+                rl = r[:m] * (T_int / T_sp)
+                Xc = S.X[l].copy()
+                Pc = S.P[l].copy()
+                if C.return_conditioned:
+                    _condition_on_healthy(S, C, l, Xc, Pc)
+                ok, nis = sequential_joseph(Xc, Pc, z, H, rl, 0, m, C.gates[j], xw, Pw)
+                if ok:
+                    sequential_joseph(S.X[l], S.P[l], z, H, rl, 0, m, 0.0, xw, Pw)
+                    mj[_SPAN_OK] += 1.0
+                    mj[_SPAN_LONGEST] = max(mj[_SPAN_LONGEST], T_sp)
+                else:
+                    mj[_SPAN_BAD] += 1.0
+        for i in range(ACC_SIZE):
+            mj[_SPAN + i] = 0.0
+    elif S.used[j] > used_before:            # applied: the span closes
+        for i in range(ACC_SIZE):
+            mj[_SPAN + i] = 0.0
+    else:                                    # not applied: the interval joins the span
+        for i in range(ACC_SIZE):
+            if i == ACC_BAD:
+                mj[_SPAN + i] = max(mj[_SPAN + i], cur[i])
+            else:
+                mj[_SPAN + i] += cur[i]
+
+
+@njit(cache=True)
+def _span_feedback(macc, isolate, has_acc, x_g, offs, m):
+    """The feedback's corrections of the open spans (issue 15): the span's SINS displacement
+    and sensor sums become those of a SINS corrected by ``x_g`` (the fed-back blocks ``m``)
+    from the span's start, ``Delta P -= dv T_el`` (``T_el`` the span's time so far, with the
+    current interval's) and ``Delta D``, ``Delta W``, ``F`` (summed with the SINS attitude,
+    corrected ``C_b^n <- (I + [phi x]) C_b^n``) ``+= phi x`` their sums so far; kept in the
+    span's columns (its sums are additive), so that an interval whose sample is applied
+    drops them with the span."""
+    phi = _block3(x_g, offs[PHI], m[PHI])
+    dv = _block3(x_g, offs[DV], m[DV])
+    for j in range(isolate.shape[0]):
+        if not (isolate[j] and has_acc[j]):
+            continue
+        mj = macc[j]
+        T_el = mj[_SPAN + ACC_T] + mj[ACC_T]
+        if T_el <= 0.0:
+            continue
+        for i in range(3):
+            mj[_SPAN + ACC_DP + i] -= dv[i] * T_el
+        for o in (ACC_D, ACC_W, ACC_FN):
+            s0 = mj[_SPAN + o] + mj[o]
+            s1 = mj[_SPAN + o + 1] + mj[o + 1]
+            s2 = mj[_SPAN + o + 2] + mj[o + 2]
+            mj[_SPAN + o] += phi[1] * s2 - phi[2] * s1
+            mj[_SPAN + o + 1] += phi[2] * s0 - phi[0] * s2
+            mj[_SPAN + o + 2] += phi[0] * s1 - phi[1] * s0
+
+
+@njit(cache=True)
 def _state_to_params(p, s, X, P, l, offs):
     """Write the local filter ``l``'s (0 for a shared measurement) estimate of ``[phi, dv]``
     and its 6 x 6 covariance into ``p[s:s + STATE_PARAMS]``, for a measurement whose rows
@@ -813,6 +905,7 @@ def _advance(S, C, fills, accs, t, dtheta, dvel, dt, ds, v, dth_dr, rows, qt, qj
                                               borrowed(fb_states))
     feedback_every, out_every, step, need_nb = C.feedback_every, C.out_every, C.step, C.need_nb
     C_bm, l_b = C.C_bm, C.l_b
+    span_on = macc.shape[1] > ACC_SIZE       # return_span: the span's columns (issue 15)
     any_isolate = False               # without FDI the global estimate's source is fixed
     for j in range(isolate.shape[0]):
         any_isolate = any_isolate or isolate[j]
@@ -933,13 +1026,22 @@ def _advance(S, C, fills, accs, t, dtheta, dvel, dt, ds, v, dth_dr, rows, qt, qj
                             dof_sum[j] += m
                         else:
                             rejected[j] += 1
+                    elif l >= 0 and span_on and isolate[j] and has_acc[j]:   # issue 15
+                        was_isolated = not S.healthy[j]
+                        used_before = used[j]
+                        _apply(S, C, fills, j, l, z, H, r, m, xw, Pw, t_now, True)
+                        _span_sample(S, C, fills, j, l, aux, qd[qi], t_now, was_isolated,
+                                     used_before, z, H, r, xw, Pw)
                     elif l >= 0:
                         _apply(S, C, fills, j, l, z, H, r, m, xw, Pw, t_now, True)
                     else:                # shared: every local filter, noise scaled (eq. 33-35)
                         for l in range(X.shape[0]):
                             _apply(S, C, fills, j, l, z, H, r, m, xw, Pw, t_now, l == 0)
                 if has_acc[j]:
-                    macc[j, :] = 0.0
+                    if span_on and m == 0:      # an interval lost: no span across it
+                        macc[j, _SPAN + ACC_BAD] = 1.0
+                    for i in range(ACC_SIZE):
+                        macc[j, i] = 0.0
                 qi += 1
         if applied:
             ints[_I_UPDATES] += 1
@@ -957,6 +1059,8 @@ def _advance(S, C, fills, accs, t, dtheta, dvel, dt, ds, v, dth_dr, rows, qt, qj
                     _global(S, C, mode, x_g, P_g)
                 _feed_back_arrays(xs, ms, xd, md, bias_g, bias_a, fed_back, X, offs, fb_mask,
                                   fb_states, with_dr, x_g)
+                if span_on:
+                    _span_feedback(macc, isolate, has_acc, x_g, offs, fb_mask)
         if record or out_now:
             _epoch_outputs(S, C, O, t_now, x_g, P_g, applied, last)
         for i in range(_A_SIZE):
@@ -1056,6 +1160,13 @@ class ErrorStateFilter:
         other healthy primaries' common estimate, and is on probation after its return
         (module docstring, "Isolate and return"); default False: tested on its masked local
         filter alone.
+    return_span, return_span_max_s : bool, float [s]
+        At the return of an isolated measurement with a row accumulator (a displacement
+        increment), the intervals whose samples were not applied since the last applied one
+        and the returning one are filled as one interval (the span), tested as the isolated
+        samples are and, passed, applied to the local filter (module docstring, "Return
+        span"); spans longer than ``return_span_max_s`` are not applied. Default False:
+        the returning sample is not applied, the isolation's intervals are lost.
     record : keep what a Rauch-Tung-Striebel smoother needs
         (:mod:`inmotion.estimation.smoother`; one local filter only), at every epoch that
         applied samples, every output epoch and the last one, with the transition composed
@@ -1073,7 +1184,8 @@ class ErrorStateFilter:
                  dr_position_m2_s: float = 0.0, n_common: int | None = None,
                  max_events: int = 100000, max_nis: int = 0, record: bool = False,
                  fuse_isolated: bool = False, phi_order: int = 2,
-                 return_conditioned: bool = False):
+                 return_conditioned: bool = False, return_span: bool = False,
+                 return_span_max_s: float = math.inf):
         if phi_order not in (1, 2):
             raise ValueError(f"phi_order must be 1 or 2, got {phi_order!r}")
         for name in ("phi", "dv", "dp"):
@@ -1193,10 +1305,16 @@ class ErrorStateFilter:
             nis_sum=np.zeros(M), dof_sum=np.zeros(M, dtype=np.int64),
             t_end=np.array([float(init.t)]), healthy=np.ones(M, dtype=np.bool_),
             normal_run=np.zeros(M, dtype=np.int64), tests=np.zeros(M, dtype=np.int64),
-            exceed=np.zeros(M, dtype=np.int64), macc=np.zeros((M, ACC_SIZE)),
+            exceed=np.zeros(M, dtype=np.int64),
+            macc=np.zeros((M, _SPAN_COLS if return_span else ACC_SIZE)),
             ev=np.zeros((int(max_events), 4)), nis_log=np.zeros((int(max_nis), 3)),
             phc=np.eye(n) if record else np.zeros((0, 0)),
             ppred=np.zeros((n, n) if record else (0, 0)))
+        if return_span:
+            if not return_span_max_s > 0.0:
+                raise ValueError(f"return_span_max_s must be > 0, got {return_span_max_s!r}")
+            self._S.macc[:, _SPAN_LIM] = float(return_span_max_s)
+        self.return_span = bool(return_span)
         # the loop compiled ahead of time for this filter's functions and types, if any
         # (inmotion._aot: no numba on the run path); else numba's JIT
         self._aot = _aot.case([_aot_name(f) for f in self._fill_objs],
@@ -1468,6 +1586,11 @@ class ErrorStateFilter:
             if m.isolate:
                 res[m.name].update(tests=int(S.tests[j]), exceedances_while_healthy=int(
                     S.exceed[j]), healthy=bool(S.healthy[j]))
+                if self.return_span and m.accumulate is not None:
+                    mj = S.macc[j]
+                    res[m.name].update(spans_applied=int(mj[_SPAN_OK]),
+                                       spans_rejected=int(mj[_SPAN_BAD]),
+                                       longest_span_s=float(mj[_SPAN_LONGEST]))
         return res
 
     def nis_sums(self) -> dict:
