@@ -462,9 +462,10 @@ class FkfConfig(AidedKfConfig):
                     "are (displacement form only; issue 15: the odometer's false alarms at "
                     "0.05 censor its quantization, see the engine's 'Return span')")
     return_span_max_s: float = Field(
-        60.0, gt=0,
-        description="longest span [s] return_span applies (its rows' second-order terms in "
-                    "the span's length are neglected)")
+        10.0, gt=0,
+        description="longest span [s] return_span applies (beyond it the rows' neglected "
+                    "terms, the specific force's change within the span times the attitude "
+                    "error, reach the odometer's pulse)")
 
 
 def _config(config, cls):
@@ -1569,7 +1570,7 @@ def run_aided(bundle: Bundle, cfg, init: NavState, sensors: tuple, *, method: st
                          return_conditioned=getattr(cfg, "return_test", "masked") == "conditioned",
                          return_span=bool(getattr(cfg, "return_span", False))
                          and cfg.measurement == "displacement",
-                         return_span_max_s=float(getattr(cfg, "return_span_max_s", 60.0)))
+                         return_span_max_s=float(getattr(cfg, "return_span_max_s", 10.0)))
     res = _feed(f, bundle, k0, sensors, meas_every, use_nhc, use_baro,
                 None if smooth and bank else progress,
                 ForwardRecord.for_filter(f, n_ep) if smooth and not bank else None,

@@ -162,7 +162,66 @@ all; the latch above) and the heading is the odometer's alone (-0.57'), while ``
 returns it each time (27 s in all) and gives the fused filter's -4.22' (detection off
 -3.30'); without run 1: 0.95' masked, 1.11' conditioned, 1.14' off. The probation's forced
 updates are not it (their ``R`` raised so that the statistic sits at the threshold: 1.44').
-The remaining reason it is not the default: the odometer's excess at 0.05 (above).
+The remaining reason it is not the default: the odometer's excess at 0.05 (above), which
+the return span (below) removes.
+
+Return span (issue 15, ``return_span``; ``fkf``'s ``return_span``, off by default; on in
+paper 003's reproduction's fault experiment, ``reproductions.paper003.FDI_RETURN_SPAN``).
+The odometer's censoring above drops the far level of the cruise's quantization; but the
+pulses keep counting while the channel is isolated, and the distance over the whole
+isolation has the quantization of its two ends only (a pulse at most), whichever levels its
+intervals had. So at a return the intervals whose samples were not applied since the last
+one that was (the isolation's, and the returning one) are joined into one interval, the
+span, and its displacement increment is applied instead of nothing (the returning sample
+was not applied before): every interval's distance then enters the sub-filter once, either
+in its own sample or in a span, and the applied set is no longer selected by level. The
+row accumulator's sums are additive (``Delta P``, ``Delta D``, ``Delta W``, ``Delta
+theta_nb``, ``F``, ``T``), so the span is kept in ``macc``'s columns after the interval's
+(:data:`_SPAN`; ``macc`` is wider only with the option, so the compiled loop's types do not
+change) by adding each unapplied interval's sums, and filled by the measurement's own fill
+with ``T`` the span's length. Its rows are paper 003's displacement increment (its ref. 38
+for the measurement, eq. 26 for the state model) over the span: ``z = C_n^b (Delta P -
+Delta D)``, whose SINS side ``int dv dt`` is the position-error difference ``dp(t_b) -
+dp(t_a)`` over the span, expanded about the end ``t_b`` as the interval's rows already are,
+``T dv(t_b) - T^2 / 2 ([f_n x] phi + C_b^n nabla)``
+(:func:`inmotion.estimation.measurements._fill_displacement`); left out are the gyro drift's
+``T^3 / 6`` term, the masked sub-filter's process noise over the span (``q T^3 / 3``: 0.9
+mm at 10 s with paper 003's VRW) and the specific force's change within the span times the
+attitude error (about ``phi df T^2 / 8``: 2 mm at 10 s, 1 arcmin and 0.5 m/s^2), so spans
+longer than ``return_span_max_s`` (``fkf``: 10 s) are not applied. Each row's variance is
+the fill's for ``T`` times ``T_int / T`` (``T_int`` the returning interval's length): linear
+in the span's length, as the white parts grow (the sensor's noise, the constraint
+violation's interval means, ``aided_kf``'s white equivalent); the odometer's quantization,
+which does not grow, is then over-counted by the number of intervals (conservative). A
+feedback within a span shifts the SINS: :func:`_span_feedback` adds ``-dv T_el`` to the
+span's ``Delta P`` and ``phi x`` the sums so far to ``Delta D``, ``Delta W``, ``F`` (``C_b^n
+<- (I + [phi x]) C_b^n``), so that the span reads a SINS corrected from its start (a
+feedback within an ordinary interval is not corrected; paper 003's feedback falls on the
+sample epochs). The span is tested as the isolated samples are (on the conditioned copy
+with ``return_conditioned``) and applied to the sub-filter itself only if it passes: a fault
+that ended during the isolation is in the span (``tests/test_fdi_return_span.py``: a 0.1
+m/s odometer offset over 3 s, its span rejected, the scale factor unmoved at the return).
+An interval whose sample has no rows (a gap in the sensor's distance) voids the span.
+
+Measured (``benchmarks/fdi_calibration.py --runs 0 --detection-on-runs 20
+[--return-span]``, 61 s each; the paper's setting as above, ``conditioned``): at 0.05 the
+odometer's exceedances per test with the detection on 5.12e-2 (over drives 3.10-7.14e-2)
+against 7.37e-2 without the span and 5.26e-2 with the detection off; paired by drive on -
+off -1.4e-3 (-2.9e-3-1.1e-4; without the span 2.1e-2, 1.9e-3-4.0e-2); the four drives
+2, 5, 8, 12 on / off 0.038 / 0.038, 0.046 / 0.043, 0.109 / 0.117, 0.107 / 0.113 (without
+the span 0.077, 0.116, 0.247, 0.242). LDV 5.00e-2 (4.66-5.33e-2), paired +1.8e-3
+(-8e-5-3.7e-3; without 2.5e-3). At 1e-3 odometer 1.46e-3, LDV 1.58e-3 (without 1.63e-3,
+1.54e-3; off 1.50e-3, 1.58e-3). Faults at 0.05 detected 20, 16, 19, 18 of 20 (without 17,
+16, 20, 18; a miss is still a channel isolated at the onset), at 1e-3 20 each, 0.15 s.
+Final heading RMS of the faulted drive at 0.05 1.001' (without 1.207'; paired squared
+difference -0.46 arcmin^2, standard error 0.25), fault-free drive 0.887' (0.827'; +0.10,
+0.11), at 1e-3 1.147' / 0.816' (1.143' / 0.827'). The odometer's scale factor against the
+drawn one (``benchmarks/fdi_return_span.py``, after the first minute, ``(dk - dk_true) /
+sigma`` rms, detection off / on / on with the span): SPAN_DK_FIGURES. ``fkf``'s NEES
+(``benchmarks/nees_methods.py 20 fkf``: 2.44 under the defaults, band 2.02-4.16) with
+``return_test: conditioned`` NEES_COND, and with the span too NEES_SPAN (at 1e-3 a span is
+rare). Strategy 2 (``benchmarks/fdi_strategy2_probe.py --compare``, its ``fkf`` at 1e-3):
+STRATEGY2_FIGURES.
 
 Variants tried before (issue 15, 10 drives, at 0.05 the exceedances per test odometer /
 LDV, the four faults detected of 10, ``tests/test_paper003_filters.py``'s faulted drive's
