@@ -36,6 +36,7 @@ Usage: ``OPENBLAS_NUM_THREADS=1 nice -n 10 python benchmarks/fdi_calibration.py 
 table.
 
 Measured 2026-12-02 (``--runs 0 --detection-on-runs 20 [--return-test masked]``, 96-154 s;
+before h15ret's ``return_span``, now ``--return-span off`` for these rows;
 ``conditioned`` re-run by h15fdi5 on main d81ca8d, 127 s: every figure identical;
 the paper's setting, Table 1 as printed, main filter every 10 s; exceedances per test with
 the detection on, pooled, the interval over drives in brackets, against the same drives

@@ -69,8 +69,8 @@ isolation on (plus its own prediction), while its ``P`` grows by the prediction.
 test of the channel's sample against that sub-filter alone (``return_conditioned=False``,
 ``fkf``'s ``return_test: masked``, the behaviour before) latches: measured on paper 003's
 fault-free drive at 0.05 (``benchmarks/fdi_calibration.py --runs 0 --detection-on-runs 20
-[--return-test masked]``, the reproduction's run 3, 1.65 s into the window): the LDV
-isolated by one exceedance (8.03 > 4.46) while its sub-filter was young (heading sigma 88'),
+--return-span off [--return-test masked]``, the reproduction's run 3, 1.65 s into the
+window): the LDV isolated by one exceedance (8.03 > 4.46) while its sub-filter was young (heading sigma 88'),
 and its statistic then stayed at 8-10 for the remaining 598 s (1198 of its 1200 tests
 above the threshold) while the masked sub-filter's velocity error grew to up to 5 m/s at a
 sigma of the same size (velocity NEES 8.0, attitude 9.2 over the isolation: a frozen draw, the error
@@ -205,7 +205,7 @@ m/s odometer offset over 3 s, its span rejected, the scale factor unmoved at the
 An interval whose sample has no rows (a gap in the sensor's distance) voids the span.
 
 Measured (``benchmarks/fdi_calibration.py --runs 0 --detection-on-runs 20
-[--return-span]``, 61 s each; the paper's setting as above, ``conditioned``): at 0.05 the
+[--return-span off]``, 61 s each; the paper's setting as above, ``conditioned``): at 0.05 the
 odometer's exceedances per test with the detection on 5.12e-2 (over drives 3.10-7.14e-2)
 against 7.37e-2 without the span and 5.26e-2 with the detection off; paired by drive on -
 off -1.4e-3 (-2.9e-3-1.1e-4; without the span 2.1e-2, 1.9e-3-4.0e-2); the four drives
@@ -226,8 +226,9 @@ applied per drive, 0-3 rejected, the longest 3.5 s. ``fkf``'s NEES
 (``benchmarks/nees_methods.py 20 fkf``: 2.44 under the defaults, band 2.02-4.16) with
 ``return_test: conditioned`` 2.44 and with the span too 2.44, run for run (at 1e-3 on the
 85 s drive a span is rare; the 30-times sensors' overconfident case 15.27, 15.48, 15.60);
-at 0.05 NEES_05. Strategy 2 (``benchmarks/fdi_strategy2_probe.py --compare``, its ``fkf`` at 1e-3):
-the reproduction's ``fkf`` there has the defaults (``masked``, no span) and is unchanged
+at 0.05 (``with_length_knobs.py`` setting ``false_alarm_rate``) 2.44 conditioned, 2.37 with
+the span (band 2.02-4.16). Strategy 2 (``benchmarks/fdi_strategy2_probe.py --compare``,
+its ``fkf`` at 1e-3): the reproduction's ``fkf`` there has the defaults (``masked``, no span) and is unchanged
 (0.931'); with the span, ``masked`` 1.095' (paired squared difference +0.33 arcmin^2,
 standard error 0.34), ``conditioned`` 1.268' against 1.434' (-0.45, 0.48): not resolved by
 20 runs (run 18, from a heading 150' off, +2.10' -> +3.34' ``masked``: the odometer isolated
