@@ -70,8 +70,8 @@ test of the channel's sample against that sub-filter alone (``return_conditioned
 ``fkf``'s ``return_test: masked``, the behaviour before) latches: measured on paper 003's
 fault-free drive at 0.05 (``benchmarks/fdi_calibration.py --runs 0 --detection-on-runs 20
 --return-span off [--return-test masked]``, the reproduction's run 3, 1.65 s into the
-window): the LDV isolated by one exceedance (8.03 > 4.46) while its sub-filter was young (heading sigma 88'),
-and its statistic then stayed at 8-10 for the remaining 598 s (1198 of its 1200 tests
+window): the LDV isolated by one exceedance (8.03 > 4.46) while its sub-filter was young
+(heading sigma 88'), and its statistic then stayed at 8-10 for the remaining 598 s (1198 of its 1200 tests
 above the threshold) while the masked sub-filter's velocity error grew to up to 5 m/s at a
 sigma of the same size (velocity NEES 8.0, attitude 9.2 over the isolation: a frozen draw, the error
 moving with ``P``, so the statistic, the state part's NEES in the measurement's space, does
