@@ -1235,8 +1235,9 @@ class ErrorStateFilter:
         increment), the intervals whose samples were not applied since the last applied one
         and the returning one are filled as one interval (the span), tested as the isolated
         samples are and, passed, applied to the local filter (module docstring, "Return
-        span"); spans longer than ``return_span_max_s`` are not applied. Default False:
-        the returning sample is not applied, the isolation's intervals are lost.
+        span"); spans longer than ``return_span_max_s`` are not applied, nor those of a
+        measurement whose ``spans`` is False (e.g. a velocity). Default False: the returning
+        sample is not applied, the isolation's intervals are lost.
     record : keep what a Rauch-Tung-Striebel smoother needs
         (:mod:`inmotion.estimation.smoother`; one local filter only), at every epoch that
         applied samples, every output epoch and the last one, with the transition composed
@@ -1383,7 +1384,9 @@ class ErrorStateFilter:
         if return_span:
             if not return_span_max_s > 0.0:
                 raise ValueError(f"return_span_max_s must be > 0, got {return_span_max_s!r}")
-            self._S.macc[:, _SPAN_LIM] = float(return_span_max_s)
+            for j, m in enumerate(measurements):        # 0: never a span (a velocity)
+                if m.spans and m.isolate and m.accumulate is not None:
+                    self._S.macc[j, _SPAN_LIM] = float(return_span_max_s)
         self.return_span = bool(return_span)
         # the loop compiled ahead of time for this filter's functions and types, if any
         # (inmotion._aot: no numba on the run path); else numba's JIT
