@@ -22,8 +22,9 @@ seed per run, the start attitude 0.1 / 0.1 / 1 deg off):
    drive's isolations and exceedances per test with the detection on beside the same
    drive's exceedances with it off (an isolation cascade shows as the first far above the
    last), with the pooled (Clopper-Pearson) and over-drives intervals and the per-drive
-   rates, and each fault's detections and delays (``--runs 0`` skips 1 and 2;
-   ``--return-test masked|conditioned`` sets ``fkf``'s ``return_test``);
+   rates, each fault's detections and delays and both drives' final heading RMS (``--runs 0``
+   skips 1 and 2; ``--return-test masked|conditioned`` sets ``fkf``'s ``return_test``,
+   ``--return-span on|off`` its ``return_span``);
 4. ``--det-on-runs N`` (:func:`detection_with_isolation`): the odometer step bias of 2 with
    the detection on (fkf's defaults), detected when the odometer is isolated within
    ``--within`` of the onset; a run whose odometer is isolated at the onset is counted apart.
@@ -31,9 +32,11 @@ seed per run, the start attitude 0.1 / 0.1 / 1 deg off):
 Usage: ``OPENBLAS_NUM_THREADS=1 nice -n 10 python benchmarks/fdi_calibration.py [--runs 40]
 [--det-runs 20] [--biases 0.005,0.01,0.02,0.05] [--within 2] [--presets matched]
 [--config JSON] [--figure PNG] [--save-lambda NPZ] [--json FILE] [--detection-on-runs N]
-[--return-test conditioned|masked] [--det-on-runs N]``. Prints a table.
+[--return-test conditioned|masked] [--return-span on|off] [--det-on-runs N]``. Prints a
+table.
 
 Measured 2026-12-02 (``--runs 0 --detection-on-runs 20 [--return-test masked]``, 96-154 s;
+before h15ret's ``return_span``, now ``--return-span off`` for these rows;
 ``conditioned`` re-run by h15fdi5 on main d81ca8d, 127 s: every figure identical;
 the paper's setting, Table 1 as printed, main filter every 10 s; exceedances per test with
 the detection on, pooled, the interval over drives in brackets, against the same drives
@@ -46,11 +49,18 @@ off, at 0.05                5.26e-2 (3.19-7.33e-2)     4.82e-2 (4.53-5.11e-2)
 on, ``masked`` (before)     0.183 (3.1e-2-0.336)       0.138 (1.9e-2-0.256)       15, 16, 19, 18
 on, ``conditioned``         7.37e-2 (3.99e-2-0.108)    5.07e-2 (4.75-5.39e-2)     17, 16, 20, 18
 on, common states only (*)  6.95e-2 (3.83e-2-0.101)    4.87e-2 (4.49-5.25e-2)     19, 15, 20, 18
+on, ``conditioned`` + span  5.12e-2 (3.10-7.14e-2)     5.00e-2 (4.66-5.33e-2)     20, 16, 19, 18
 off, at 1e-3                1.50e-3                    1.58e-3
 on, at 1e-3 (either)        1.63e-3                    1.54e-3                    20 each
+on, at 1e-3, + span         1.46e-3                    1.58e-3                    20 each
 ==========================  =========================  =========================  ==============
 
-(faults: OD idling, OD slip, LDV -0.5, LDV +0.5 m/s, detected of 20, each at its first
+(+ span: ``--return-span on``, ``fkf``'s ``return_span``, issue 15, h15ret, the reproduction's
+setting since: paired by drive on - off odometer -1.4e-3 (-2.9e-3-1.1e-4), LDV +1.8e-3
+(-8e-5-3.7e-3): the odometer's censoring gone, the engine's docstring "Return span"; final
+heading RMS at 0.05 faulted drive 1.001' against 1.207', fault-free 0.887' against 0.827',
+at 1e-3 1.147' / 0.816' against 1.143' / 0.827'. Faults: OD idling, OD slip, LDV -0.5,
+LDV +0.5 m/s, detected of 20, each at its first
 sample, 0.15 s after the onset, but one masked OD slip at up to 2.65 s. (*): ``conditioned``
 with ``benchmarks/fdi_condition_common.patch``, the return test's copy conditioned in its
 common states only, its sensor states left, with that gain's covariance (h15fdi5, 307 s;
@@ -75,7 +85,10 @@ matched [--return-test masked]``, 59 s; fkf's defaults otherwise): the odometer 
 0.5 s); at 0.05: 6/10, 10/10, 9/10, 8/10, where every miss at 0.02 and 0.05 m/s is a run
 whose odometer a false alarm had isolated just before the onset (2 of 10 at each bias):
 the fault then keeps it isolated (no biased sample is applied) without a "detected" event.
-The smallest step detected in every run: 0.01 m/s at both rates. The same figures, run for
+The smallest step detected in every run: 0.01 m/s at both rates. Re-run on the code of
+h15ret (2026-12-02 20:15, 37 s): 0.005 m/s 6/10 and 5/10, 0.01 10/10 and 10/10, 0.02 10/10 and
+10/10, 0.05 9/10 and 10/10 (at 0.05 and 1e-3), identical run for run with ``--return-span on``
+(the first detection is the healthy channel's test). The same figures, run for
 run, with either return test (``masked`` 659 s at load ~8; ``conditioned`` re-run on the
 code of 2026-12-02 16:35, 46 s, identical): the first detection is the healthy channel's
 test, which the return test does not change.
@@ -456,6 +469,9 @@ def detection_on(runs: int, seed: int = 0):
                            "max_delay_s": float(np.max(hit)) if hit else None})
         fr = [x[k] for x in recs]
         row["faults"] = faults
+        # the final heading error [arcmin] of the faulted and the fault-free drive per run
+        row["heading_faulted"] = [float(x[k]["error"][2]) for x in recs]
+        row["heading_fault_free"] = [float(x[f"fault-free {k}"]["error"][2]) for x in recs]
         row["fault_runs_clean_isolations_per_test"] = {
             ch: sum(f["false_isolations"][c] for f in fr) / sum(f["tests"][c] for f in fr)
             for c, ch in enumerate(chans)}
@@ -486,6 +502,10 @@ def main(argv=None):
                     help="fkf's return_test in the detection-on experiments (default: the "
                     "reproduction's FDI_RETURN_TEST for --detection-on-runs, fkf's default "
                     "for --det-on-runs)")
+    ap.add_argument("--return-span", default=None, choices=("on", "off"),
+                    help="fkf's return_span in the detection-on experiments (default: the "
+                    "reproduction's FDI_RETURN_SPAN for --detection-on-runs, fkf's default "
+                    "for --det-on-runs; issue 15)")
     ap.add_argument("--detection-on-runs", type=int, default=0,
                     help="runs of paper 003's fault experiment with the detection on "
                     "(:func:`detection_on`; its reproduction's drives and seeding); 0: none")
@@ -497,9 +517,11 @@ def main(argv=None):
            "presets": {}}
     t0 = time.perf_counter()
     if args.detection_on_runs > 0:
+        from inmotion.reproductions import paper003 as P
         if args.return_test:
-            from inmotion.reproductions import paper003 as P
             P.FDI_RETURN_TEST = args.return_test
+        if args.return_span:
+            P.FDI_RETURN_SPAN = args.return_span == "on"
         don = detection_on(args.detection_on_runs)
         res["detection_on"] = don
         print(f"paper 003's fault experiment, detection on, {don['runs']} runs:")
@@ -522,6 +544,9 @@ def main(argv=None):
                     f"{a_:.3f}/{b_:.3f}" for a_, b_ in zip(
                         x["per_run_exceedance_rate_detection_on"],
                         x["per_run_exceedance_rate_detection_off"])))
+            print("    final heading RMS [arcmin]: faulted drive "
+                  f"{np.sqrt(np.mean(np.square(r['heading_faulted']))):.3f}, fault-free drive "
+                  f"{np.sqrt(np.mean(np.square(r['heading_fault_free']))):.3f}")
             print("    fault runs, clean stretches: isolations per test " + ", ".join(
                 f"{c} {v:.2e}" for c, v in r["fault_runs_clean_isolations_per_test"].items()))
             for f in r["faults"]:
@@ -530,6 +555,8 @@ def main(argv=None):
     if args.det_on_runs > 0:
         if args.return_test:
             EXTRA["return_test"] = args.return_test
+        if args.return_span:
+            EXTRA["return_span"] = args.return_span == "on"
         for preset in args.presets.split(","):
             dwi = detection_with_isolation(args.det_on_runs, preset, biases, args.fault_start,
                                            args.within)

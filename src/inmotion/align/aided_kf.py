@@ -454,6 +454,18 @@ class FkfConfig(AidedKfConfig):
                     "conditioned: a copy of it conditioned on the healthy sub-filters' "
                     "estimate of the common states, and probation after the return (paper "
                     "003's reproduction's fault experiment; issue 15)")
+    return_span: bool = Field(
+        False,
+        description="at an isolated channel's return, apply the displacement over the whole "
+                    "isolation (the intervals whose samples were not applied, and the "
+                    "returning one) as one interval, tested first as the isolated samples "
+                    "are (displacement form only; issue 15: the odometer's false alarms at "
+                    "0.05 censor its quantization, see the engine's 'Return span')")
+    return_span_max_s: float = Field(
+        10.0, gt=0,
+        description="longest span [s] return_span applies (beyond it the rows' neglected "
+                    "terms, the specific force's change within the span times the attitude "
+                    "error, reach the odometer's pulse)")
 
 
 def _config(config, cls):
@@ -1555,7 +1567,10 @@ def run_aided(bundle: Bundle, cfg, init: NavState, sensors: tuple, *, method: st
                          max_nis=(n_ep // meas_every + 1) * max(len(sensors), 1),
                          record=smooth and not bank,
                          fuse_isolated=bool(getattr(cfg, "isolated_in_fusion", False)),
-                         return_conditioned=getattr(cfg, "return_test", "masked") == "conditioned")
+                         return_conditioned=getattr(cfg, "return_test", "masked") == "conditioned",
+                         return_span=bool(getattr(cfg, "return_span", False))
+                         and cfg.measurement == "displacement",
+                         return_span_max_s=float(getattr(cfg, "return_span_max_s", 10.0)))
     res = _feed(f, bundle, k0, sensors, meas_every, use_nhc, use_baro,
                 None if smooth and bank else progress,
                 ForwardRecord.for_filter(f, n_ep) if smooth and not bank else None,

@@ -69,9 +69,9 @@ isolation on (plus its own prediction), while its ``P`` grows by the prediction.
 test of the channel's sample against that sub-filter alone (``return_conditioned=False``,
 ``fkf``'s ``return_test: masked``, the behaviour before) latches: measured on paper 003's
 fault-free drive at 0.05 (``benchmarks/fdi_calibration.py --runs 0 --detection-on-runs 20
-[--return-test masked]``, the reproduction's run 3, 1.65 s into the window): the LDV
-isolated by one exceedance (8.03 > 4.46) while its sub-filter was young (heading sigma 88'),
-and its statistic then stayed at 8-10 for the remaining 598 s (1198 of its 1200 tests
+--return-span off [--return-test masked]``, the reproduction's run 3, 1.65 s into the
+window): the LDV isolated by one exceedance (8.03 > 4.46) while its sub-filter was young
+(heading sigma 88'), and its statistic then stayed at 8-10 for the remaining 598 s (1198 of its 1200 tests
 above the threshold) while the masked sub-filter's velocity error grew to up to 5 m/s at a
 sigma of the same size (velocity NEES 8.0, attitude 9.2 over the isolation: a frozen draw, the error
 moving with ``P``, so the statistic, the state part's NEES in the measurement's space, does
@@ -140,7 +140,8 @@ detection on against the same drives with it off, pooled and the interval over d
   a bare gate (an exceeding sample rejected, no isolation: ``benchmarks/
   fdi_censoring.patch``) takes drives 8 and 12 from 0.117 / 0.113 to 0.416 / 0.415 with
   ``dk`` 5 sigma off. Any test that drops the odometer's exceeding samples at 0.05 has it;
-  isolate-and-return, which drops whole isolations of either level, less so;
+  isolate-and-return, which drops whole isolations of either level, less so; the return
+  span (below) gives an isolation's intervals back at its return and removes it;
 - at 1e-3, unchanged by the return test on these 20 drives (odometer 1.63e-3, LDV 1.54e-3
   with the detection on, 1.50e-3 / 1.58e-3 off);
 - the paper's four faults at 0.05 detected 17, 16, 20, 18 of 20 (masked 15, 16, 19, 18),
@@ -162,7 +163,76 @@ all; the latch above) and the heading is the odometer's alone (-0.57'), while ``
 returns it each time (27 s in all) and gives the fused filter's -4.22' (detection off
 -3.30'); without run 1: 0.95' masked, 1.11' conditioned, 1.14' off. The probation's forced
 updates are not it (their ``R`` raised so that the statistic sits at the threshold: 1.44').
-The remaining reason it is not the default: the odometer's excess at 0.05 (above).
+The remaining reason it is not the default: the odometer's excess at 0.05 (above), which
+the return span (below) removes.
+
+Return span (issue 15, ``return_span``; ``fkf``'s ``return_span``, off by default; on in
+paper 003's reproduction's fault experiment, ``reproductions.paper003.FDI_RETURN_SPAN``).
+The odometer's censoring above drops the far level of the cruise's quantization; but the
+pulses keep counting while the channel is isolated, and the distance over the whole
+isolation has the quantization of its two ends only (a pulse at most), whichever levels its
+intervals had. So at a return the intervals whose samples were not applied since the last
+one that was (the isolation's, and the returning one) are joined into one interval, the
+span, and its displacement increment is applied instead of nothing (the returning sample
+was not applied before): every interval's distance then enters the sub-filter once, either
+in its own sample or in a span, and the applied set is no longer selected by level. The
+row accumulator's sums are additive (``Delta P``, ``Delta D``, ``Delta W``, ``Delta
+theta_nb``, ``F``, ``T``), so the span is kept in ``macc``'s columns after the interval's
+(:data:`_SPAN`; ``macc`` is wider only with the option, so the compiled loop's types do not
+change) by adding each unapplied interval's sums, and filled by the measurement's own fill
+with ``T`` the span's length. Its rows are paper 003's displacement increment (its ref. 38
+for the measurement, eq. 26 for the state model) over the span: ``z = C_n^b (Delta P -
+Delta D)``, whose SINS side ``int dv dt`` is the position-error difference ``dp(t_b) -
+dp(t_a)`` over the span, expanded about the end ``t_b`` as the interval's rows already are,
+``T dv(t_b) - T^2 / 2 ([f_n x] phi + C_b^n nabla)``
+(:func:`inmotion.estimation.measurements._fill_displacement`); left out are the gyro drift's
+``T^3 / 6`` term, the masked sub-filter's process noise over the span (``q T^3 / 3``: 0.9
+mm at 10 s with paper 003's VRW) and the specific force's change within the span times the
+attitude error (about ``phi df T^2 / 8``: 2 mm at 10 s, 1 arcmin and 0.5 m/s^2), so spans
+longer than ``return_span_max_s`` (``fkf``: 10 s) are not applied. Each row's variance is
+the fill's for ``T`` times ``T_int / T`` (``T_int`` the returning interval's length): linear
+in the span's length, as the white parts grow (the sensor's noise, the constraint
+violation's interval means, ``aided_kf``'s white equivalent); the odometer's quantization,
+which does not grow, is then over-counted by the number of intervals (conservative). A
+feedback within a span shifts the SINS: :func:`_span_feedback` adds ``-dv T_el`` to the
+span's ``Delta P`` and ``phi x`` the sums so far to ``Delta D``, ``Delta W``, ``F`` (``C_b^n
+<- (I + [phi x]) C_b^n``), so that the span reads a SINS corrected from its start (a
+feedback within an ordinary interval is not corrected; paper 003's feedback falls on the
+sample epochs). The span is tested as the isolated samples are (on the conditioned copy
+with ``return_conditioned``) and applied to the sub-filter itself only if it passes: a fault
+that ended during the isolation is in the span (``tests/test_fdi_return_span.py``: a 0.1
+m/s odometer offset over 3 s, its span rejected, the scale factor unmoved at the return).
+An interval whose sample has no rows (a gap in the sensor's distance) voids the span.
+
+Measured (``benchmarks/fdi_calibration.py --runs 0 --detection-on-runs 20
+[--return-span off]``, 61 s each; the paper's setting as above, ``conditioned``): at 0.05 the
+odometer's exceedances per test with the detection on 5.12e-2 (over drives 3.10-7.14e-2)
+against 7.37e-2 without the span and 5.26e-2 with the detection off; paired by drive on -
+off -1.4e-3 (-2.9e-3-1.1e-4; without the span 2.1e-2, 1.9e-3-4.0e-2); the four drives
+2, 5, 8, 12 on / off 0.038 / 0.038, 0.046 / 0.043, 0.109 / 0.117, 0.107 / 0.113 (without
+the span 0.077, 0.116, 0.247, 0.242). LDV 5.00e-2 (4.66-5.33e-2), paired +1.8e-3
+(-8e-5-3.7e-3; without 2.5e-3). At 1e-3 odometer 1.46e-3, LDV 1.58e-3 (without 1.63e-3,
+1.54e-3; off 1.50e-3, 1.58e-3). Faults at 0.05 detected 20, 16, 19, 18 of 20 (without 17,
+16, 20, 18; a miss is still a channel isolated at the onset), at 1e-3 20 each, 0.15 s.
+Final heading RMS of the faulted drive at 0.05 1.001' (without 1.207'; paired squared
+difference -0.46 arcmin^2, standard error 0.25), fault-free drive 0.887' (0.827'; +0.10,
+0.11), at 1e-3 1.147' / 0.816' (1.143' / 0.827'). The odometer's scale factor against the
+drawn one (``benchmarks/fdi_return_span.py``, after the first minute, ``(dk - dk_true) /
+sigma`` rms, detection off / on / on with the span): drives 2, 5, 8, 12
+0.40 / 0.72 / 0.38, 0.83 / 1.59 / 1.07, 0.54 / 1.21 / 0.69, 1.07 / 1.36 / 0.93, drives 0, 1
+(no excess) 0.57 / 0.63 / 0.55, 0.65 / 0.61 / 0.91 (mean 0.68 / 1.02 / 0.76): the scale
+factor's error back to about the detection-off filter's, within its sigma; 9-119 spans
+applied per drive, 0-3 rejected, the longest 3.5 s. ``fkf``'s NEES
+(``benchmarks/nees_methods.py 20 fkf``: 2.44 under the defaults, band 2.02-4.16) with
+``return_test: conditioned`` 2.44 and with the span too 2.44, run for run (at 1e-3 on the
+85 s drive a span is rare; the 30-times sensors' overconfident case 15.27, 15.48, 15.60);
+at 0.05 (``with_length_knobs.py`` setting ``false_alarm_rate``) 2.44 conditioned, 2.37 with
+the span (band 2.02-4.16). Strategy 2 (``benchmarks/fdi_strategy2_probe.py --compare``,
+its ``fkf`` at 1e-3): the reproduction's ``fkf`` there has the defaults (``masked``, no span) and is unchanged
+(0.931'); with the span, ``masked`` 1.095' (paired squared difference +0.33 arcmin^2,
+standard error 0.34), ``conditioned`` 1.268' against 1.434' (-0.45, 0.48): not resolved by
+20 runs (run 18, from a heading 150' off, +2.10' -> +3.34' ``masked``: the odometer isolated
+3 s instead of 8 s in the young filter, as ``conditioned`` does).
 
 Variants tried before (issue 15, 10 drives, at 0.05 the exceedances per test odometer /
 LDV, the four faults detected of 10, ``tests/test_paper003_filters.py``'s faulted drive's
@@ -322,7 +392,8 @@ from . import error_model as em
 from .federated import fuse_kernel
 from .kalman import sequential_joseph
 from .layout import DP, DP_D, DV, EPS, NABLA, PHI, PHI_D, Layout
-from .measurements import (ACC_SIZE, STATE_PARAMS, AUX_FB, AUX_SIZE, AUX_T, AUX_WIB, AUX_WNB, Measurement,
+from .measurements import (ACC_BAD, ACC_D, ACC_DP, ACC_FN, ACC_SIZE, ACC_T, ACC_W, STATE_PARAMS,
+                           AUX_FB, AUX_SIZE, AUX_T, AUX_WIB, AUX_WNB, Measurement,
                            accumulator_function, dispatcher, fill_function)
 from .nav_ops import compensated_row, correct_nav, dcm_of_q
 from .predict import borrowed, make_workspace, predict_kernel_call
@@ -343,6 +414,13 @@ MODE_FUSED, MODE_NONE = -1, -2
 # acc: epoch accumulators [rows, sum_dt, f_sum x3, w_sum x3, nb_sum x3]
 _A_ROWS, _A_DT, _A_F, _A_W, _A_NB = 0, 1, 2, 5, 8
 _A_SIZE = 11
+# macc's columns after the interval's ACC_SIZE with ``return_span`` (issue 15): the span's
+# accumulator (the intervals whose samples were not applied since the last one that was, and
+# the feedback's corrections), then [spans applied, spans rejected by their test, longest
+# span applied [s], the longest span applied [s]]; without it macc has the interval's ACC_SIZE columns only
+_SPAN, _SPAN_OK, _SPAN_BAD, _SPAN_LONGEST, _SPAN_LIM = (ACC_SIZE, 2 * ACC_SIZE, 2 * ACC_SIZE + 1,
+                                                        2 * ACC_SIZE + 2, 2 * ACC_SIZE + 3)
+_SPAN_COLS = 2 * ACC_SIZE + 4
 # ints: [epochs, update epochs, mode, events logged, NIS rows logged]
 _I_EPOCHS, _I_UPDATES, _I_MODE, _I_EV, _I_NIS = 0, 1, 2, 3, 4
 
@@ -654,6 +732,90 @@ def _apply(S, C, fills, j, l, z, H, r, m, xw, Pw, t_now, first):
 
 
 @njit(cache=True)
+def _span_sample(S, C, fills, j, l, aux, data, t_now, was_isolated, used_before, z, H, r, xw,
+                 Pw):
+    """After measurement ``j``'s sample was judged (:func:`_apply`) with ``return_span``
+    (issue 15, module docstring "Return span"): the interval joins the span (``macc[j]``'s
+    span columns) when its sample was not applied, the span closes when one was; at a return
+    the span (the isolation's intervals and this one) is filled as one long interval, tested
+    as the isolated channel's samples are (on the conditioned copy with ``return_conditioned``)
+    and, passed, applied to the local filter itself (then it stands for this sample)."""
+    mj = S.macc[j]
+    cur = mj[:ACC_SIZE]
+    if was_isolated and S.healthy[j]:
+        T_int = cur[ACC_T]
+        span = np.empty(ACC_SIZE)
+        for i in range(ACC_SIZE):
+            span[i] = mj[_SPAN + i] + cur[i]
+        span[ACC_BAD] = max(mj[_SPAN + ACC_BAD], cur[ACC_BAD])
+        T_sp = span[ACC_T]
+        if T_int > 0.0 and T_sp > 1.5 * T_int and T_sp <= mj[_SPAN_LIM]:
+            dof = C.dofs[j]
+            for a in range(dof):
+                z[a] = 0.0
+                r[a] = 0.0
+                for b in range(H.shape[1]):
+                    H[a, b] = 0.0
+            m = fills[j](S.xs, S.xd, aux, span, data, C.params[j], C.offs, z, H, r)
+            if m > 0:
+                # each row's variance grows linearly over the span (the white parts: the
+                # sensor's noise, the constraint violation's interval means), not with T^2
+                # as the fill's rows take it for one interval (module docstring)
+                rl = r[:m] * (T_int / T_sp)
+                Xc = S.X[l].copy()
+                Pc = S.P[l].copy()
+                if C.return_conditioned:
+                    _condition_on_healthy(S, C, l, Xc, Pc)
+                ok, nis = sequential_joseph(Xc, Pc, z, H, rl, 0, m, C.gates[j], xw, Pw)
+                if ok:
+                    sequential_joseph(S.X[l], S.P[l], z, H, rl, 0, m, 0.0, xw, Pw)
+                    mj[_SPAN_OK] += 1.0
+                    mj[_SPAN_LONGEST] = max(mj[_SPAN_LONGEST], T_sp)
+                else:
+                    mj[_SPAN_BAD] += 1.0
+        for i in range(ACC_SIZE):
+            mj[_SPAN + i] = 0.0
+    elif S.used[j] > used_before:            # applied: the span closes
+        for i in range(ACC_SIZE):
+            mj[_SPAN + i] = 0.0
+    else:                                    # not applied: the interval joins the span
+        for i in range(ACC_SIZE):
+            if i == ACC_BAD:
+                mj[_SPAN + i] = max(mj[_SPAN + i], cur[i])
+            else:
+                mj[_SPAN + i] += cur[i]
+
+
+@njit(cache=True)
+def _span_feedback(macc, isolate, has_acc, x_g, offs, m):
+    """The feedback's corrections of the open spans (issue 15): the span's SINS displacement
+    and sensor sums become those of a SINS corrected by ``x_g`` (the fed-back blocks ``m``)
+    from the span's start, ``Delta P -= dv T_el`` (``T_el`` the span's time so far, with the
+    current interval's) and ``Delta D``, ``Delta W``, ``F`` (summed with the SINS attitude,
+    corrected ``C_b^n <- (I + [phi x]) C_b^n``) ``+= phi x`` their sums so far; kept in the
+    span's columns (its sums are additive), so that an interval whose sample is applied
+    drops them with the span."""
+    phi = _block3(x_g, offs[PHI], m[PHI])
+    dv = _block3(x_g, offs[DV], m[DV])
+    for j in range(isolate.shape[0]):
+        if not (isolate[j] and has_acc[j]):
+            continue
+        mj = macc[j]
+        T_el = mj[_SPAN + ACC_T] + mj[ACC_T]
+        if T_el <= 0.0:
+            continue
+        for i in range(3):
+            mj[_SPAN + ACC_DP + i] -= dv[i] * T_el
+        for o in (ACC_D, ACC_W, ACC_FN):
+            s0 = mj[_SPAN + o] + mj[o]
+            s1 = mj[_SPAN + o + 1] + mj[o + 1]
+            s2 = mj[_SPAN + o + 2] + mj[o + 2]
+            mj[_SPAN + o] += phi[1] * s2 - phi[2] * s1
+            mj[_SPAN + o + 1] += phi[2] * s0 - phi[0] * s2
+            mj[_SPAN + o + 2] += phi[0] * s1 - phi[1] * s0
+
+
+@njit(cache=True)
 def _state_to_params(p, s, X, P, l, offs):
     """Write the local filter ``l``'s (0 for a shared measurement) estimate of ``[phi, dv]``
     and its 6 x 6 covariance into ``p[s:s + STATE_PARAMS]``, for a measurement whose rows
@@ -813,6 +975,7 @@ def _advance(S, C, fills, accs, t, dtheta, dvel, dt, ds, v, dth_dr, rows, qt, qj
                                               borrowed(fb_states))
     feedback_every, out_every, step, need_nb = C.feedback_every, C.out_every, C.step, C.need_nb
     C_bm, l_b = C.C_bm, C.l_b
+    span_on = macc.shape[1] > ACC_SIZE       # return_span: the span's columns (issue 15)
     any_isolate = False               # without FDI the global estimate's source is fixed
     for j in range(isolate.shape[0]):
         any_isolate = any_isolate or isolate[j]
@@ -933,13 +1096,22 @@ def _advance(S, C, fills, accs, t, dtheta, dvel, dt, ds, v, dth_dr, rows, qt, qj
                             dof_sum[j] += m
                         else:
                             rejected[j] += 1
+                    elif l >= 0 and span_on and isolate[j] and has_acc[j]:   # issue 15
+                        was_isolated = not S.healthy[j]
+                        used_before = used[j]
+                        _apply(S, C, fills, j, l, z, H, r, m, xw, Pw, t_now, True)
+                        _span_sample(S, C, fills, j, l, aux, qd[qi], t_now, was_isolated,
+                                     used_before, z, H, r, xw, Pw)
                     elif l >= 0:
                         _apply(S, C, fills, j, l, z, H, r, m, xw, Pw, t_now, True)
                     else:                # shared: every local filter, noise scaled (eq. 33-35)
                         for l in range(X.shape[0]):
                             _apply(S, C, fills, j, l, z, H, r, m, xw, Pw, t_now, l == 0)
                 if has_acc[j]:
-                    macc[j, :] = 0.0
+                    if span_on and m == 0:      # an interval lost: no span across it
+                        macc[j, _SPAN + ACC_BAD] = 1.0
+                    for i in range(ACC_SIZE):
+                        macc[j, i] = 0.0
                 qi += 1
         if applied:
             ints[_I_UPDATES] += 1
@@ -957,6 +1129,8 @@ def _advance(S, C, fills, accs, t, dtheta, dvel, dt, ds, v, dth_dr, rows, qt, qj
                     _global(S, C, mode, x_g, P_g)
                 _feed_back_arrays(xs, ms, xd, md, bias_g, bias_a, fed_back, X, offs, fb_mask,
                                   fb_states, with_dr, x_g)
+                if span_on:
+                    _span_feedback(macc, isolate, has_acc, x_g, offs, fb_mask)
         if record or out_now:
             _epoch_outputs(S, C, O, t_now, x_g, P_g, applied, last)
         for i in range(_A_SIZE):
@@ -1056,6 +1230,14 @@ class ErrorStateFilter:
         other healthy primaries' common estimate, and is on probation after its return
         (module docstring, "Isolate and return"); default False: tested on its masked local
         filter alone.
+    return_span, return_span_max_s : bool, float [s]
+        At the return of an isolated measurement with a row accumulator (a displacement
+        increment), the intervals whose samples were not applied since the last applied one
+        and the returning one are filled as one interval (the span), tested as the isolated
+        samples are and, passed, applied to the local filter (module docstring, "Return
+        span"); spans longer than ``return_span_max_s`` are not applied, nor those of a
+        measurement whose ``spans`` is False (e.g. a velocity). Default False: the returning
+        sample is not applied, the isolation's intervals are lost.
     record : keep what a Rauch-Tung-Striebel smoother needs
         (:mod:`inmotion.estimation.smoother`; one local filter only), at every epoch that
         applied samples, every output epoch and the last one, with the transition composed
@@ -1073,7 +1255,8 @@ class ErrorStateFilter:
                  dr_position_m2_s: float = 0.0, n_common: int | None = None,
                  max_events: int = 100000, max_nis: int = 0, record: bool = False,
                  fuse_isolated: bool = False, phi_order: int = 2,
-                 return_conditioned: bool = False):
+                 return_conditioned: bool = False, return_span: bool = False,
+                 return_span_max_s: float = math.inf):
         if phi_order not in (1, 2):
             raise ValueError(f"phi_order must be 1 or 2, got {phi_order!r}")
         for name in ("phi", "dv", "dp"):
@@ -1193,10 +1376,18 @@ class ErrorStateFilter:
             nis_sum=np.zeros(M), dof_sum=np.zeros(M, dtype=np.int64),
             t_end=np.array([float(init.t)]), healthy=np.ones(M, dtype=np.bool_),
             normal_run=np.zeros(M, dtype=np.int64), tests=np.zeros(M, dtype=np.int64),
-            exceed=np.zeros(M, dtype=np.int64), macc=np.zeros((M, ACC_SIZE)),
+            exceed=np.zeros(M, dtype=np.int64),
+            macc=np.zeros((M, _SPAN_COLS if return_span else ACC_SIZE)),
             ev=np.zeros((int(max_events), 4)), nis_log=np.zeros((int(max_nis), 3)),
             phc=np.eye(n) if record else np.zeros((0, 0)),
             ppred=np.zeros((n, n) if record else (0, 0)))
+        if return_span:
+            if not return_span_max_s > 0.0:
+                raise ValueError(f"return_span_max_s must be > 0, got {return_span_max_s!r}")
+            for j, m in enumerate(measurements):        # 0: never a span (a velocity)
+                if m.spans and m.isolate and m.accumulate is not None:
+                    self._S.macc[j, _SPAN_LIM] = float(return_span_max_s)
+        self.return_span = bool(return_span)
         # the loop compiled ahead of time for this filter's functions and types, if any
         # (inmotion._aot: no numba on the run path); else numba's JIT
         self._aot = _aot.case([_aot_name(f) for f in self._fill_objs],
@@ -1468,6 +1659,11 @@ class ErrorStateFilter:
             if m.isolate:
                 res[m.name].update(tests=int(S.tests[j]), exceedances_while_healthy=int(
                     S.exceed[j]), healthy=bool(S.healthy[j]))
+                if self.return_span and m.accumulate is not None:
+                    mj = S.macc[j]
+                    res[m.name].update(spans_applied=int(mj[_SPAN_OK]),
+                                       spans_rejected=int(mj[_SPAN_BAD]),
+                                       longest_span_s=float(mj[_SPAN_LONGEST]))
         return res
 
     def nis_sums(self) -> dict:

@@ -183,6 +183,9 @@ class Measurement:
     #: the engine writes the local filter's ``[phi, dv]`` estimate and covariance at the end
     #: of the parameter row before each fill (:data:`STATE_PARAMS`)
     wants_state = False
+    #: its fill over the sums of several intervals' accumulators is the measurement over
+    #: their span (the engine's ``return_span``, issue 15: a displacement, not a velocity)
+    spans = False
 
     def __init__(self, *, gate: float = 0.0, name: str | None = None, local="default"):
         if not (gate >= 0.0 and math.isfinite(gate)):
@@ -907,3 +910,4 @@ class DisplacementIncrement(_SensorChannel):
 
     name, data_size = "displacement", 0
     fill = staticmethod(_fill_displacement)
+    spans = True
