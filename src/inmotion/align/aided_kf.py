@@ -607,7 +607,12 @@ class _LengthIncrement(ms.DisplacementIncrement):
     """:class:`~inmotion.estimation.measurements.DisplacementIncrement` under
     ``second_order_length``: its parameter row carries the filter's start time ``start_s``
     at :data:`P_START` (after the channel's own), from which the length fill counts the
-    intervals the filter has combined (:data:`LENGTH_VAR_SCALE`)."""
+    intervals the filter has combined (:data:`LENGTH_VAR_SCALE`). Its length row's residual
+    test takes the row's marginal variance, the sensor's plus one ``dr``
+    (:attr:`~inmotion.estimation.measurements.Measurement.test_variance`), while the update
+    takes the inflated one."""
+
+    test_variance = True
 
     def __init__(self, *args, start_s=0.0, **kw):
         super().__init__(*args, **kw)
@@ -1129,6 +1134,8 @@ def _length_fill(fill, second_order=False, mean_mode=0, var_scale=1.0, memory_ma
             dz, dr = _length_second_order(p[p.shape[0] - n_st:], C_nb, u0, u1, u2, lp, H,
                                           offs[i_phi], offs[i_dv])
             z[1] += mean_on * dz
+            if r.shape[0] >= 6:     # the test's variance: the marginal one, 1 x dr (the
+                r[4] = r[1] + dr    # engine's test_variance; _LengthIncrement)
             if mem > 0.0:           # the intervals the filter has combined since its start
                 r[1] += min(max(1.0, (aux[i_t] - p[o_start]) / acc[o_t]), mem) * dr
             else:

@@ -355,7 +355,7 @@ _Const = namedtuple("_Const", "offs offs9 Qc q_dr_m2_s inv_tau_dk inv_tau_b dr_e
                               "with_dr step out_every fb_mask fb_states feedback_every C_bm l_b gates "
                               "params dofs local r_scale isolate return_tests primary fallback "
                               "n_common need_nb has_acc log_nis ws record fuse_isolated pstate "
-                              "return_conditioned")
+                              "return_conditioned test_r")
 #: the output buffers of one call
 _Out = namedtuple("_Out", "t xs sigma states cov_phi mode local_x local_sig n rec_t rec_phi "
                           "rec_ppred rec_x rec_p rec_fed rec_xs rec_epoch nrec")
@@ -591,9 +591,50 @@ def _condition_on_healthy(S, C, l, Xc, Pc):
 
 
 @njit(cache=True)
+def _test_statistic(x, P, z, H, rt, m):
+    """The residual test's statistic ``nu^T (H P H^T + diag(rt))^-1 nu`` of the rows ``0:m``
+    (``nu = z - H x``), by a batch solve (``m`` is a measurement's few rows)."""
+    Hm = np.ascontiguousarray(H[:m])
+    nu = z[:m] - Hm @ x
+    S = Hm @ P @ Hm.T.copy()
+    for i in range(m):
+        S[i, i] += rt[i]
+    return nu @ np.linalg.solve(S, nu)
+
+
+@njit(cache=True)
+def _gated(x, P, z, H, rl, rt, m, gate, xw, Pw, split):
+    """A gated update of ``x``, ``P`` with the rows ``0:m``: without ``split``
+    :func:`~inmotion.estimation.kalman.sequential_joseph` with the noise ``rl`` (its
+    statistic from the same variances); with it, the statistic with the test's variances
+    ``rt`` (:func:`_test_statistic`), then, accepted (``gate`` 0 or the statistic at most
+    ``gate``), the same ungated update with ``rl`` (bit for bit the update the rows get
+    without ``split``). Returns ``(accepted, statistic)``."""
+    if not split:
+        return sequential_joseph(x, P, z, H, rl, 0, m, gate, xw, Pw)
+    nis = _test_statistic(x, P, z, H, rt, m)
+    if gate > 0.0 and nis > gate:
+        return False, nis
+    sequential_joseph(x, P, z, H, rl, 0, m, 0.0, xw, Pw)
+    return True, nis
+
+
+@njit(cache=True)
 def _apply(S, C, fills, j, l, z, H, r, m, xw, Pw, t_now, first):
-    """Apply the filled rows of measurement ``j`` to local filter ``l`` (gate, FDI)."""
-    rl = r[:m] * (C.r_scale[l] if C.local[j] < 0 else 1.0)
+    """Apply the filled rows of measurement ``j`` to local filter ``l`` (gate, FDI). A
+    measurement with its own test variances (``C.test_r``, :attr:`Measurement.test_variance`:
+    the fill wrote them at ``r[dof:dof + m]``, 0 for "as ``r``") is tested with them and
+    updated with ``r`` (:func:`_gated`)."""
+    scale = C.r_scale[l] if C.local[j] < 0 else 1.0
+    rl = r[:m] * scale
+    split = C.test_r[j]
+    rt = rl
+    if split:
+        rt = np.empty(m)
+        d = C.dofs[j]
+        for i in range(m):
+            v = r[d + i]
+            rt[i] = (v if v > 0.0 else r[i]) * scale
     if C.isolate[j]:
         S.tests[j] += 1
         if S.healthy[j] and S.normal_run[j] < 0:
@@ -602,14 +643,14 @@ def _apply(S, C, fills, j, l, z, H, r, m, xw, Pw, t_now, first):
             # conditioned copy, and if it passes there it is applied to the sub-filter itself
             # (its masked prediction's error is frozen since the isolation: the own test
             # would isolate the channel again on that alone)
-            ok, nis = sequential_joseph(S.X[l], S.P[l], z, H, rl, 0, m, C.gates[j], xw, Pw)
+            ok, nis = _gated(S.X[l], S.P[l], z, H, rl, rt, m, C.gates[j], xw, Pw, split)
             if ok:
                 S.normal_run[j] = 0
             else:
                 Xc = S.X[l].copy()
                 Pc = S.P[l].copy()
                 _condition_on_healthy(S, C, l, Xc, Pc)
-                ok, nis = sequential_joseph(Xc, Pc, z, H, rl, 0, m, C.gates[j], xw, Pw)
+                ok, nis = _gated(Xc, Pc, z, H, rl, rt, m, C.gates[j], xw, Pw, split)
                 if ok:
                     sequential_joseph(S.X[l], S.P[l], z, H, rl, 0, m, 0.0, xw, Pw)
             if not ok:
@@ -618,7 +659,7 @@ def _apply(S, C, fills, j, l, z, H, r, m, xw, Pw, t_now, first):
                 S.normal_run[j] = 0
                 _log_event(S, t_now, j, EVENT_DETECTED, nis)
         elif S.healthy[j]:
-            ok, nis = sequential_joseph(S.X[l], S.P[l], z, H, rl, 0, m, C.gates[j], xw, Pw)
+            ok, nis = _gated(S.X[l], S.P[l], z, H, rl, rt, m, C.gates[j], xw, Pw, split)
             if not ok:
                 S.exceed[j] += 1
                 S.healthy[j] = False
@@ -629,7 +670,7 @@ def _apply(S, C, fills, j, l, z, H, r, m, xw, Pw, t_now, first):
             Pc = S.P[l].copy()
             if C.return_conditioned:
                 _condition_on_healthy(S, C, l, Xc, Pc)
-            ok, nis = sequential_joseph(Xc, Pc, z, H, rl, 0, m, C.gates[j], xw, Pw)
+            ok, nis = _gated(Xc, Pc, z, H, rl, rt, m, C.gates[j], xw, Pw, split)
             if ok:
                 S.normal_run[j] += 1
                 if S.normal_run[j] >= C.return_tests[j]:
@@ -641,7 +682,7 @@ def _apply(S, C, fills, j, l, z, H, r, m, xw, Pw, t_now, first):
                 S.normal_run[j] = 0
             ok = False
     else:
-        ok, nis = sequential_joseph(S.X[l], S.P[l], z, H, rl, 0, m, C.gates[j], xw, Pw)
+        ok, nis = _gated(S.X[l], S.P[l], z, H, rl, rt, m, C.gates[j], xw, Pw, split)
     if C.log_nis[j] and first:
         _log_nis(S, t_now, j, nis)
     if first:
@@ -762,7 +803,7 @@ def _advance(S, C, fills, accs, t, dtheta, dvel, dt, ds, v, dth_dr, rows, qt, qj
         dmax = max(dmax, C.dofs[j])
     z_own = np.zeros(dmax)
     H_own = np.zeros((dmax, n))
-    r_own = np.zeros(dmax)
+    r_own = np.zeros(2 * dmax)        # r, then a measurement's test variances (test_r)
     xw_own = np.empty(n)
     Pw_own = np.empty((n, n))
     xg_own = np.zeros(n)
@@ -807,7 +848,7 @@ def _advance(S, C, fills, accs, t, dtheta, dvel, dt, ds, v, dth_dr, rows, qt, qj
     aux_own = aux
     aux, macc, qd, rows = borrowed(aux_own), borrowed(macc), borrowed(qd), borrowed(rows)
     isolate, log_nis, fb_mask, fb_states = C.isolate, C.log_nis, C.fb_mask, C.fb_states
-    pstate = C.pstate
+    pstate, test_r = C.pstate, C.test_r
     x_g, P_g, fed_back, fb_mask, fb_states = (borrowed(xg_own), borrowed(Pg_own),
                                               borrowed(fed_back), borrowed(fb_mask),
                                               borrowed(fb_states))
@@ -918,13 +959,16 @@ def _advance(S, C, fills, accs, t, dtheta, dvel, dt, ds, v, dth_dr, rows, qt, qj
                     r[a] = 0.0
                     for b in range(n):
                         H[a, b] = 0.0
+                if test_r[j]:
+                    for a in range(dofs[j], 2 * dofs[j]):
+                        r[a] = 0.0
                 if pstate[j] >= 0:       # the filter's own phi, dv estimate and covariance
                     _state_to_params(params[j], pstate[j], X, P, local[j], offs)
                 m = fills[j](xs, xd, aux, macc[j], qd[qi], params[j], offs, z, H, r)
                 applied = True
                 if m > 0:
                     l = local[j]
-                    if l >= 0 and not isolate[j] and not log_nis[j]:
+                    if l >= 0 and not isolate[j] and not log_nis[j] and not test_r[j]:
                         ok, nis = sequential_joseph(X[l], P[l], z, H, r, 0, m, gates[j], xw,
                                                     Pw)
                         if ok:
@@ -1177,7 +1221,8 @@ class ErrorStateFilter:
             fuse_isolated=bool(fuse_isolated),
             pstate=per_meas(lambda m: n_par - STATE_PARAMS if getattr(m, "wants_state", False)
                             else -1, -1, np.int64),
-            return_conditioned=bool(return_conditioned))
+            return_conditioned=bool(return_conditioned),
+            test_r=per_meas(lambda m: getattr(m, "test_variance", False), False, np.bool_))
         # the fill and accumulator functions (numba functions, compiled or loaded at first use
         # by the JIT path: _fills, _accs)
         self._fill_objs = tuple([m.fill for m in measurements]

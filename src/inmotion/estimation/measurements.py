@@ -183,6 +183,13 @@ class Measurement:
     #: the engine writes the local filter's ``[phi, dv]`` estimate and covariance at the end
     #: of the parameter row before each fill (:data:`STATE_PARAMS`)
     wants_state = False
+    #: the fill also writes each row's variance for the residual test (the gate statistic,
+    #: the NIS log, the isolation and return decisions) at ``r[dof + i]`` (``i < m``; 0 or
+    #: not written: the row's ``r[i]``), where it differs from the update's ``r[i]``: e.g. a
+    #: row whose ``r`` is inflated for an error correlated over intervals, so that the gain is
+    #: honest, while a single interval's residual has its marginal variance (the engine's
+    #: docstring, "Test variances"). The engine hands ``r`` with ``2 dof`` entries, zeroed.
+    test_variance = False
 
     def __init__(self, *, gate: float = 0.0, name: str | None = None, local="default"):
         if not (gate >= 0.0 and math.isfinite(gate)):
@@ -224,7 +231,7 @@ class Measurement:
                              f"shape {d.shape}")
         z = np.zeros(self.dof)
         H = np.zeros((self.dof, layout.n))
-        r = np.zeros(self.dof)
+        r = np.zeros(2 * self.dof)      # r, then the test's variances (test_variance)
         p = np.asarray(self.params(), dtype=float)
         if self.wants_state:             # no filter here: a zero estimate and covariance
             p = np.r_[p, np.zeros(STATE_PARAMS)]
