@@ -163,7 +163,17 @@ def _scenario(faults=()):
     return load_scenario(d)
 
 
+#: ``--drawn-start``: the start's attitude error drawn per run from the filter's prior (fkf's
+#: ``init_tilt_sigma_deg``, ``init_heading_sigma_deg``) instead of :data:`EULER_ERR_DEG`
+DRAWN_START = False
+#: the prior's attitude sigmas [deg] (pitch, roll, heading: fkf's defaults 0.5, 0.5, 2.0)
+PRIOR_SIGMA_DEG = (0.5, 0.5, 2.0)
+
+
 def _init(b, seed):
+    if DRAWN_START:
+        err = np.random.default_rng(7000 + int(seed)).normal(0.0, PRIOR_SIGMA_DEG)
+        return NavState.from_truth(b.truth, euler_error=np.deg2rad(err))
     return NavState.from_truth(b.truth, euler_error=np.deg2rad(EULER_ERR_DEG))
 
 
@@ -466,6 +476,9 @@ def detection_on(runs: int, seed: int = 0):
 def main(argv=None):
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--runs", type=int, default=40)
+    ap.add_argument("--drawn-start", action="store_true",
+                    help="draw each run's start attitude error from fkf's prior "
+                         "(PRIOR_SIGMA_DEG) instead of the fixed EULER_ERR_DEG")
     ap.add_argument("--det-runs", type=int, default=20)
     ap.add_argument("--biases", default="0.005,0.01,0.02,0.05,0.1")
     ap.add_argument("--fault-start", type=float, default=320.0,
@@ -492,6 +505,8 @@ def main(argv=None):
     args = ap.parse_args(argv)
     EXTRA.clear()
     EXTRA.update(json.loads(args.config))
+    global DRAWN_START
+    DRAWN_START = bool(args.drawn_start)
     biases = [float(x) for x in args.biases.split(",") if x]
     res = {"scenario": "paper003_drive", "start_error_deg": EULER_ERR_DEG, "config": EXTRA,
            "presets": {}}

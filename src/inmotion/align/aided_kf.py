@@ -851,8 +851,9 @@ def _rows_to_displacement_frame(z, H, e, d, fwd):
 
 @njit(cache=True)
 def _length_second_order(st, C_nb, u0, u1, u2, lp, H, o_phi, o_dv):
-    """``(dz, dr)``: the length row's second order in the SINS's errors, its mean moved into
-    the innovation (``z += dz``) and its spread into the row's variance (``r += dr``), under
+    """``(dz, dr, vt)``: the length row's second order in the SINS's errors, its mean moved
+    into the innovation (``z += dz``) and its spread into the row's variance (``r += dr``;
+    ``vt`` the single interval's variance the residual test takes, below), under
     the local filter's own Gaussian estimate of ``x = [phi, dv]`` (``st``: its mean and 6 x 6
     covariance, :data:`~inmotion.estimation.measurements.STATE_PARAMS`, written by the engine
     before the fill); ``u`` the SINS's displacement direction in b, ``lp = |Delta P_b|``,
@@ -911,7 +912,7 @@ def _length_second_order(st, C_nb, u0, u1, u2, lp, H, o_phi, o_dv):
         for k in range(n6):
             P[i, k] = st[n6 + n6 * i + k]
     if P[0, 0] + P[1, 1] + P[2, 2] > LENGTH_MAX_ANGLE * LENGTH_MAX_ANGLE:
-        return 0.0, 0.0
+        return 0.0, 0.0, 0.0
     # the attitude error across the displacement (n frame)
     un = C_nb @ np.array([u0, u1, u2])
     Pi = np.eye(3) - np.outer(un, un)
@@ -942,8 +943,24 @@ def _length_second_order(st, C_nb, u0, u1, u2, lp, H, o_phi, o_dv):
     # the heading's mean square as a floor (E[psi^4] / 4 d^2)
     mu = x[2]
     Pp = P[2, 2]
-    dr += 0.25 * (mu ** 4 + 6.0 * mu * mu * Pp + 3.0 * Pp * Pp) * lp * lp
-    return dz, dr
+    floor = 0.25 * (mu ** 4 + 6.0 * mu * mu * Pp + 3.0 * Pp * Pp) * lp * lp
+    # the test's variance: Var(e2) of the one quadratic form e2 = x^T M x, M = Hp^T Hp /
+    # (2 d) - (d / 2) Pi on the attitude block, with the two parts' correlation
+    # (2 tr(M P M P) + 4 m^T M P M m, x ~ N(m, P))
+    M = np.zeros((n6, n6))
+    for i in range(n6):
+        for k in range(n6):
+            M[i, k] = (Hp[0, i] * Hp[0, k] + Hp[1, i] * Hp[1, k]) / (2.0 * lp)
+    for i in range(3):
+        for k in range(3):
+            M[i, k] -= 0.5 * lp * Pi[i, k]
+    MP = M @ P
+    MPm = MP @ (M @ x)
+    vt = 4.0 * (x @ MPm)
+    for i in range(n6):
+        for k in range(n6):
+            vt += 2.0 * MP[i, k] * MP[k, i]
+    return dz, dr + floor, vt
 
 
 #: the length row's second-order mean (:func:`_length_second_order`) in its innovation: 0
@@ -1131,11 +1148,11 @@ def _length_fill(fill, second_order=False, mean_mode=0, var_scale=1.0, memory_ma
         if rotate:
             _rows_to_displacement_frame(z, H, e, d, p[o_f:o_f + 3])
         if second and rotate and sins_along:
-            dz, dr = _length_second_order(p[p.shape[0] - n_st:], C_nb, u0, u1, u2, lp, H,
-                                          offs[i_phi], offs[i_dv])
+            dz, dr, vt = _length_second_order(p[p.shape[0] - n_st:], C_nb, u0, u1, u2,
+                                              lp, H, offs[i_phi], offs[i_dv])
             z[1] += mean_on * dz
-            if r.shape[0] >= 6:     # the test's variance: the marginal one, 1 x dr (the
-                r[4] = r[1] + dr    # engine's test_variance; _LengthIncrement)
+            if r.shape[0] >= 6:     # the test's variance (the engine's test_variance):
+                r[4] = r[1] + vt    # the single interval's, Var(e2) (_length_second_order)
             if mem > 0.0:           # the intervals the filter has combined since its start
                 r[1] += min(max(1.0, (aux[i_t] - p[o_start]) / acc[o_t]), mem) * dr
             else:
