@@ -31,7 +31,8 @@ What happens per IMU row and per filter epoch (one numba loop, :func:`_advance`)
    the velocity sensor's white noise (``dr_position_m2_s``, isotropic in E, N, U);
 3. every queued measurement sample whose time is at or before the epoch's end is applied, in
    queue order (time, then the order of adding), by a gated sequential scalar Joseph update
-   (:func:`inmotion.estimation.kalman.sequential_joseph`); its NIS is counted per kind. A
+   (:func:`inmotion.estimation.kalman.sequential_joseph`); its NIS is counted per kind (a
+   measurement with its own test variances: "Test variances" below). A
    sample is therefore applied at the end of the first filter epoch that ends at or after its
    time (a latency below one epoch; none when samples fall on epoch ends, as in a batch run);
 4. feedback: after every ``feedback_every``-th epoch that applied samples, the blocks of the
@@ -194,6 +195,22 @@ a sub-filter whose error is large; over a 1 s isolation at 1e-3 that costs less 
 switch, at 0.05 in the paper's setting (``isolated_in_fusion:
 false`` in :mod:`inmotion.reproductions.paper003`, Table 1 as printed) it is not measured
 to help: LDV faults detected 7 and 6 of 10 with it against 10 and 9 without.
+
+Test variances (issue 15, :attr:`~inmotion.estimation.measurements.Measurement.test_variance`).
+A measurement may give its rows a variance for the residual test apart from the update's:
+its fill writes them at ``r[dof:dof + m]`` (0: the row's ``r``; the engine hands ``r`` with
+``2 dof`` entries, zeroed). Its samples then go through :func:`_apply`: the statistic (the
+gate, the NIS log and sums, the isolation and return decisions) is ``nu^T (H P H^T +
+R_test)^-1 nu`` by a batch solve of the ``m <= dof`` rows (:func:`_test_statistic`), and an
+accepted sample is applied by the same ungated
+:func:`~inmotion.estimation.kalman.sequential_joseph` with ``R`` as without it, so the
+filter's estimates are bit for bit those of the same measurement without test variances
+whenever the same samples are accepted (always with the detection off; only the statistic
+changes: ``tests/test_test_variance.py``). Other measurements pay nothing. The use: a row
+whose ``R`` is inflated for an error that persists over intervals (so that the gain is
+honest) while a single interval's residual has its marginal variance: ``fkf`` / ``od-kf`` /
+``ldv-kf``'s length row under ``second_order_length``
+(:class:`inmotion.align.aided_kf._LengthIncrement`).
 
 Row accumulators: a measurement over an interval (paper 003's displacement increment) has an
 accumulator function called on every IMU row with the row's data (e.g. the odometer's

@@ -15,7 +15,9 @@ means "no measurement now" (e.g. a NaN sample). The inputs are the SINS and dead
 kernel states ``xs``, ``xd`` (``[lat, lon, h, vE, vN, vU, q0..q3]``), ``aux = [t, omega_ib_b
 (3), f_b (3)]`` (the filter epoch's mean compensated body rate [rad/s] and specific force
 [m/s^2]), the sample ``data`` and the measurement's parameters ``p``. The engine hands ``z``,
-``H``, ``r`` zeroed.
+``H``, ``r`` zeroed; ``r`` has ``2 dof`` entries: after the update's variances, a
+measurement with :attr:`Measurement.test_variance` writes its residual test's own at
+``r[dof:dof + m]``.
 
 The engine's compiled loop calls the fill through a function pointer; :meth:`Measurement.rows`
 is the Python form, the same function called on fresh buffers, returning ``(z, H, R)``.
