@@ -368,10 +368,12 @@ class NhcKfConfig(StopUpdateFields):
                     "a 20,000 pulses/m odometer without the vehicle's constraint violation "
                     "(NEES 79 with detection on, 304 off; paper 003's rows 28.6, 2252) and a "
                     "small start with its prior matched (9.41; aided_kf.LENGTH_VAR_SCALE). "
-                    "Its cost: the residual test's model does not carry the added variance, "
-                    "so the fault test's statistic is deflated (fkf's LDV false-alarm rate "
-                    "3.75e-2 at a set 0.05 against 4.75e-2 with paper 003's rows; "
-                    "aided_kf.linearization_floor_per_m)")
+                    "The residual test takes the row's single-interval variance (the "
+                    "sensor's plus the second order's own, not the factor: "
+                    "Measurement.test_variance); its false-alarm rate is as paper 003's rows' "
+                    "when the start's prior is honest, and below it (fkf's LDV 3.89e-2 at a "
+                    "set 0.05 against 4.75e-2) for the first 1-2 minutes after a start whose "
+                    "prior is wider than its error (aided_kf.linearization_floor_per_m)")
     baro_noise_m: float = cf.baro_noise_m(10.0)
     keep_test_statistics: bool = Field(
         False,
