@@ -138,3 +138,29 @@ def test_the_gated_kernel_is_the_batch_statistic_and_the_plain_update():
     Sr = H[:m] @ P @ H[:m].T + np.diag(rl)
     assert nis_r == pytest.approx(nu @ np.linalg.solve(Sr, nu), rel=1e-10)
     assert np.array_equal(xd, xb) and np.array_equal(Pd, Pb)
+
+
+def test_fkf_with_the_detection_off_is_bit_for_bit_the_filter_whose_test_takes_r(monkeypatch):
+    """fkf's default (the length row tested with its single-interval variance): with the
+    detection off its solution is that of the same filter whose test takes the update's
+    inflated variance, bit for bit; only the logged statistic differs (larger: a smaller
+    variance in its test)."""
+    import sys
+    from pathlib import Path
+    sys.path.insert(0, str(Path(__file__).parent))
+    from consistency_mc import drive_003
+    from inmotion.align import aided_kf as ak
+
+    b = simulate(drive_003(), np.random.default_rng(500))
+    init = NavState.from_truth(b.truth, euler_error=np.radians([0.05, -0.05, 0.3]))
+    cfg = {"fdi": False, "keep_test_statistics": True}
+    split = ak.run_fkf(b, cfg, init)
+    monkeypatch.setattr(ak._LengthIncrement, "test_variance", False)
+    plain = ak.run_fkf(b, cfg, init)
+    for k in ("lat", "lon", "h", "vel_n", "euler"):
+        assert np.array_equal(getattr(split, k), getattr(plain, k)), k
+    for k in split.sigma:
+        assert np.array_equal(split.sigma[k], plain.sigma[k]), k
+    ls, lp = (s.info["test_statistics"]["lambda"] for s in (split, plain))
+    ok = np.isfinite(ls) & np.isfinite(lp)
+    assert np.all(ls[ok] >= lp[ok] * (1 - 1e-9)) and np.any(ls[ok] > lp[ok] * 1.01)
