@@ -141,7 +141,9 @@ runs 2.96-8.72e-4: excludes), odometer 6.67e-4, LDV 5.0e-4; detections as before
 40 --det-runs 10`` (95,920 tests): mean 1.41, at 0.05 pooled 4.16e-2 (over runs
 3.76-4.55e-2: excludes), odometer 4.23e-2, LDV 4.08e-2 (3.92-4.25e-2); at 1e-3 8.44e-4
 (over runs 6.19e-4-1.07e-3: contains), odometer 9.17e-4, LDV 7.71e-4 (5.27e-4-1.02e-3:
-contains). What is left is not the test's variance but the filter's ``P``: paper 003's
+contains), KS 0.019 / 0.049; paper 003's rows on the same 40 drives: mean 1.51, at 0.05
+4.81e-2 (4.39-5.22e-2), odometer 4.74e-2, LDV 4.87e-2 (4.69-5.05e-2), at 1e-3 9.49e-4,
+odometer 9.80e-4, LDV 9.17e-4, KS 0.024 / 0.007; detections the same for both. What is left is not the test's variance but the filter's ``P``: paper 003's
 rows and the default differ in the first 60-120 s only (4 drives, tests split by time:
 the LDV's mean statistic 0.49, 0.54, 1.13 over 0-30, 30-60, 60-120 s against 1.47, 1.50,
 1.46 with paper 003's rows, 1.45-1.47 for both after 120 s), and the length row's term of
