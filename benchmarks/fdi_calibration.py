@@ -144,7 +144,8 @@ runs 2.96-8.72e-4: excludes), odometer 6.67e-4, LDV 5.0e-4; detections as before
 contains), KS 0.019 / 0.049; paper 003's rows on the same 40 drives: mean 1.51, at 0.05
 4.81e-2 (4.39-5.22e-2), odometer 4.74e-2, LDV 4.87e-2 (4.69-5.05e-2), at 1e-3 9.49e-4,
 odometer 9.80e-4, LDV 9.17e-4, KS 0.024 / 0.007; detections the same for both. What is left is not the test's variance but the filter's ``P``: paper 003's
-rows and the default differ in the first 60-120 s only (4 drives, tests split by time:
+rows and the default differ in the first 60-120 s only (``benchmarks/fdi_length_probe.py``,
+4 drives, tests split by time:
 the LDV's mean statistic 0.49, 0.54, 1.13 over 0-30, 30-60, 60-120 s against 1.47, 1.50,
 1.46 with paper 003's rows, 1.45-1.47 for both after 120 s), and the length row's term of
 it stays deflated if its test variance is the sensor's alone (0.08 over 0-30 s against
