@@ -263,3 +263,65 @@ def test_length_memory_takes_the_second_order_variance_n_times(t, memory_max, n)
     np.testing.assert_allclose(r2[1] - r0[1], n * (r1[1] - r0[1]), rtol=1e-12)
     np.testing.assert_array_equal(z2, z1)
     np.testing.assert_array_equal(r2[[0, 2]], r1[[0, 2]])
+
+
+def _split_rows(P6, d=7.0, T=0.5):
+    """The default's length fill (``second_order_length``, the variance taken
+    ``LENGTH_VAR_SCALE`` times) handed ``2 dof`` noise entries, as the engine hands them:
+    ``(r, r_first_order)``, ``r[3:]`` the residual test's variances (``test_variance``)."""
+    dD, xs, acc = _straight_interval(d, T)
+    m = ms.DisplacementIncrement(np.array([0.01, 4e-5, 0.02]), exact_attitude_columns=True)
+    p = np.r_[m.params(), np.zeros(6), P6.ravel()]
+    out = []
+    for second in (False, True):
+        z, H, r = np.zeros(3), np.zeros((3, SUB_LAYOUT.n)), np.zeros(6)
+        ak._length_fill(ms.DisplacementIncrement.fill, second, 0, ak.LENGTH_VAR_SCALE)(
+            xs, xs, np.zeros(ms.AUX_SIZE), acc, np.zeros(1), p, SUB_LAYOUT.offsets(), z, H, r)
+        out.append(r)
+    return out[1], out[0]
+
+
+def test_the_length_rows_test_variance_is_the_single_intervals_for_a_heading_error_alone():
+    """Issue 15 (helper h15split): the heading alone off, the length row's model error is 0
+    for every heading (the lateral row's ``|b_perp|^2 / (2 d)`` and the track's ``d psi^2 /
+    2`` cancel: the test above), so its single-interval variance is 0: the residual test's
+    variance (``r[dof + 1]``) is the first-order row's to 1e-9 of ``d^2 s^4 / 2``, while the
+    update's carries ``LENGTH_VAR_SCALE`` times the two parts' variances (their correlation
+    left out) and the heading floor."""
+    d, s = 7.0, np.radians(0.5)
+    J = np.r_[[0.0, 0.0, 1.0], [0.0, 0.0, 0.0]]
+    r, r0 = _split_rows(s * s * np.outer(J, J), d)
+    assert abs(r[4] - r0[1]) < 1e-9 * d * d * s ** 4 / 2
+    assert r[1] - r0[1] > ak.LENGTH_VAR_SCALE * d * d * s ** 4 / 2
+    assert r[3] == 0.0 and r[5] == 0.0                      # the other rows: as r
+    np.testing.assert_array_equal(r[[0, 2]], r0[[0, 2]])
+
+
+@pytest.mark.parametrize("s_deg", [0.5, 2.0])
+def test_the_length_rows_test_variance_for_a_sins_turned_as_a_whole(s_deg):
+    """A SINS turned as a whole by ``psi ~ N(0, s^2)``: the length row's model error is the
+    first-order row's ``H x`` over the turn (Gauss-Hermite, as in the test above); the
+    residual test's variance is the first-order row's plus that error's variance (not the
+    heading floor, not ``LENGTH_VAR_SCALE``: one interval's marginal law), to the expansion's
+    next order."""
+    d, T = 7.0, 0.5
+    s = np.radians(s_deg)
+    v = np.array([0.0, d / T, 0.0])
+    J = np.r_[[0.0, 0.0, 1.0], np.cross(v, [0.0, 0.0, 1.0])]
+    r, r0 = _split_rows(s * s * np.outer(J, J), d, T)
+    (_, _, H), _ = _second_order_rows(s * s * np.outer(J, J), d, T)
+    nodes, w = np.polynomial.hermite_e.hermegauss(40)
+    w = w / w.sum()
+    hx = []
+    for psi in s * nodes:
+        phi = np.array([0.0, 0.0, psi])
+        x = np.zeros(SUB_LAYOUT.n)
+        x[SUB_LAYOUT["phi"]] = phi
+        x[SUB_LAYOUT["dv"]] = (np.eye(3) - _rot(phi).T) @ v
+        hx.append((H @ x)[1])
+    hx = np.array(hx)
+    var = w @ (hx - w @ hx) ** 2
+    np.testing.assert_allclose(r[4] - r0[1], var, rtol=3.0 * s * s)
+    e4 = w @ (s * nodes) ** 4
+    np.testing.assert_allclose(r[1] - r0[1], ak.LENGTH_VAR_SCALE * (var + e4 * d * d / 4),
+                               rtol=3.0 * s * s)

@@ -31,7 +31,8 @@ What happens per IMU row and per filter epoch (one numba loop, :func:`_advance`)
    the velocity sensor's white noise (``dr_position_m2_s``, isotropic in E, N, U);
 3. every queued measurement sample whose time is at or before the epoch's end is applied, in
    queue order (time, then the order of adding), by a gated sequential scalar Joseph update
-   (:func:`inmotion.estimation.kalman.sequential_joseph`); its NIS is counted per kind. A
+   (:func:`inmotion.estimation.kalman.sequential_joseph`); its NIS is counted per kind (a
+   measurement with its own test variances: "Test variances" below). A
    sample is therefore applied at the end of the first filter epoch that ends at or after its
    time (a latency below one epoch; none when samples fall on epoch ends, as in a batch run);
 4. feedback: after every ``feedback_every``-th epoch that applied samples, the blocks of the
@@ -265,6 +266,22 @@ switch, at 0.05 in the paper's setting (``isolated_in_fusion:
 false`` in :mod:`inmotion.reproductions.paper003`, Table 1 as printed) it is not measured
 to help: LDV faults detected 7 and 6 of 10 with it against 10 and 9 without.
 
+Test variances (issue 15, :attr:`~inmotion.estimation.measurements.Measurement.test_variance`).
+A measurement may give its rows a variance for the residual test apart from the update's:
+its fill writes them at ``r[dof:dof + m]`` (0: the row's ``r``; the engine hands ``r`` with
+``2 dof`` entries, zeroed). Its samples then go through :func:`_apply`: the statistic (the
+gate, the NIS log and sums, the isolation and return decisions) is ``nu^T (H P H^T +
+R_test)^-1 nu`` by a batch solve of the ``m <= dof`` rows (:func:`_test_statistic`), and an
+accepted sample is applied by the same ungated
+:func:`~inmotion.estimation.kalman.sequential_joseph` with ``R`` as without it, so the
+filter's estimates are bit for bit those of the same measurement without test variances
+whenever the same samples are accepted (always with the detection off; only the statistic
+changes: ``tests/test_test_variance.py``). Other measurements pay nothing. The use: a row
+whose ``R`` is inflated for an error that persists over intervals (so that the gain is
+honest) while a single interval's residual has its marginal variance: ``fkf`` / ``od-kf`` /
+``ldv-kf``'s length row under ``second_order_length``
+(:class:`inmotion.align.aided_kf._LengthIncrement`).
+
 Row accumulators: a measurement over an interval (paper 003's displacement increment) has an
 accumulator function called on every IMU row with the row's data (e.g. the odometer's
 distance), reset when its sample is applied; the engine then also forms the body rate with
@@ -433,7 +450,7 @@ _Const = namedtuple("_Const", "offs offs9 Qc q_dr_m2_s inv_tau_dk inv_tau_b dr_e
                               "with_dr step out_every fb_mask fb_states feedback_every C_bm l_b gates "
                               "params dofs local r_scale isolate return_tests primary fallback "
                               "n_common need_nb has_acc log_nis ws record fuse_isolated pstate "
-                              "return_conditioned")
+                              "return_conditioned test_r")
 #: the output buffers of one call
 _Out = namedtuple("_Out", "t xs sigma states cov_phi mode local_x local_sig n rec_t rec_phi "
                           "rec_ppred rec_x rec_p rec_fed rec_xs rec_epoch nrec")
@@ -669,9 +686,50 @@ def _condition_on_healthy(S, C, l, Xc, Pc):
 
 
 @njit(cache=True)
+def _test_statistic(x, P, z, H, rt, m):
+    """The residual test's statistic ``nu^T (H P H^T + diag(rt))^-1 nu`` of the rows ``0:m``
+    (``nu = z - H x``), by a batch solve (``m`` is a measurement's few rows)."""
+    Hm = np.ascontiguousarray(H[:m])
+    nu = z[:m] - Hm @ x
+    S = Hm @ P @ Hm.T.copy()
+    for i in range(m):
+        S[i, i] += rt[i]
+    return nu @ np.linalg.solve(S, nu)
+
+
+@njit(cache=True)
+def _gated(x, P, z, H, rl, rt, m, gate, xw, Pw, split):
+    """A gated update of ``x``, ``P`` with the rows ``0:m``: without ``split``
+    :func:`~inmotion.estimation.kalman.sequential_joseph` with the noise ``rl`` (its
+    statistic from the same variances); with it, the statistic with the test's variances
+    ``rt`` (:func:`_test_statistic`), then, accepted (``gate`` 0 or the statistic at most
+    ``gate``), the same ungated update with ``rl`` (bit for bit the update the rows get
+    without ``split``). Returns ``(accepted, statistic)``."""
+    if not split:
+        return sequential_joseph(x, P, z, H, rl, 0, m, gate, xw, Pw)
+    nis = _test_statistic(x, P, z, H, rt, m)
+    if gate > 0.0 and nis > gate:
+        return False, nis
+    sequential_joseph(x, P, z, H, rl, 0, m, 0.0, xw, Pw)
+    return True, nis
+
+
+@njit(cache=True)
 def _apply(S, C, fills, j, l, z, H, r, m, xw, Pw, t_now, first):
-    """Apply the filled rows of measurement ``j`` to local filter ``l`` (gate, FDI)."""
-    rl = r[:m] * (C.r_scale[l] if C.local[j] < 0 else 1.0)
+    """Apply the filled rows of measurement ``j`` to local filter ``l`` (gate, FDI). A
+    measurement with its own test variances (``C.test_r``, :attr:`Measurement.test_variance`:
+    the fill wrote them at ``r[dof:dof + m]``, 0 for "as ``r``") is tested with them and
+    updated with ``r`` (:func:`_gated`)."""
+    scale = C.r_scale[l] if C.local[j] < 0 else 1.0
+    rl = r[:m] * scale
+    split = C.test_r[j]
+    rt = rl
+    if split:
+        rt = np.empty(m)
+        d = C.dofs[j]
+        for i in range(m):
+            v = r[d + i]
+            rt[i] = (v if v > 0.0 else r[i]) * scale
     if C.isolate[j]:
         S.tests[j] += 1
         if S.healthy[j] and S.normal_run[j] < 0:
@@ -680,14 +738,14 @@ def _apply(S, C, fills, j, l, z, H, r, m, xw, Pw, t_now, first):
             # conditioned copy, and if it passes there it is applied to the sub-filter itself
             # (its masked prediction's error is frozen since the isolation: the own test
             # would isolate the channel again on that alone)
-            ok, nis = sequential_joseph(S.X[l], S.P[l], z, H, rl, 0, m, C.gates[j], xw, Pw)
+            ok, nis = _gated(S.X[l], S.P[l], z, H, rl, rt, m, C.gates[j], xw, Pw, split)
             if ok:
                 S.normal_run[j] = 0
             else:
                 Xc = S.X[l].copy()
                 Pc = S.P[l].copy()
                 _condition_on_healthy(S, C, l, Xc, Pc)
-                ok, nis = sequential_joseph(Xc, Pc, z, H, rl, 0, m, C.gates[j], xw, Pw)
+                ok, nis = _gated(Xc, Pc, z, H, rl, rt, m, C.gates[j], xw, Pw, split)
                 if ok:
                     sequential_joseph(S.X[l], S.P[l], z, H, rl, 0, m, 0.0, xw, Pw)
             if not ok:
@@ -696,7 +754,7 @@ def _apply(S, C, fills, j, l, z, H, r, m, xw, Pw, t_now, first):
                 S.normal_run[j] = 0
                 _log_event(S, t_now, j, EVENT_DETECTED, nis)
         elif S.healthy[j]:
-            ok, nis = sequential_joseph(S.X[l], S.P[l], z, H, rl, 0, m, C.gates[j], xw, Pw)
+            ok, nis = _gated(S.X[l], S.P[l], z, H, rl, rt, m, C.gates[j], xw, Pw, split)
             if not ok:
                 S.exceed[j] += 1
                 S.healthy[j] = False
@@ -707,7 +765,7 @@ def _apply(S, C, fills, j, l, z, H, r, m, xw, Pw, t_now, first):
             Pc = S.P[l].copy()
             if C.return_conditioned:
                 _condition_on_healthy(S, C, l, Xc, Pc)
-            ok, nis = sequential_joseph(Xc, Pc, z, H, rl, 0, m, C.gates[j], xw, Pw)
+            ok, nis = _gated(Xc, Pc, z, H, rl, rt, m, C.gates[j], xw, Pw, split)
             if ok:
                 S.normal_run[j] += 1
                 if S.normal_run[j] >= C.return_tests[j]:
@@ -719,7 +777,7 @@ def _apply(S, C, fills, j, l, z, H, r, m, xw, Pw, t_now, first):
                 S.normal_run[j] = 0
             ok = False
     else:
-        ok, nis = sequential_joseph(S.X[l], S.P[l], z, H, rl, 0, m, C.gates[j], xw, Pw)
+        ok, nis = _gated(S.X[l], S.P[l], z, H, rl, rt, m, C.gates[j], xw, Pw, split)
     if C.log_nis[j] and first:
         _log_nis(S, t_now, j, nis)
     if first:
@@ -751,22 +809,32 @@ def _span_sample(S, C, fills, j, l, aux, data, t_now, was_isolated, used_before,
         T_sp = span[ACC_T]
         if T_int > 0.0 and T_sp > 1.5 * T_int and T_sp <= mj[_SPAN_LIM]:
             dof = C.dofs[j]
+            split = C.test_r[j]
             for a in range(dof):
                 z[a] = 0.0
                 r[a] = 0.0
+                if split:
+                    r[dof + a] = 0.0
                 for b in range(H.shape[1]):
                     H[a, b] = 0.0
             m = fills[j](S.xs, S.xd, aux, span, data, C.params[j], C.offs, z, H, r)
             if m > 0:
                 # each row's variance grows linearly over the span (the white parts: the
                 # sensor's noise, the constraint violation's interval means), not with T^2
-                # as the fill's rows take it for one interval (module docstring)
+                # as the fill's rows take it for one interval (module docstring); the test's
+                # own variances (:func:`_apply`) likewise
                 rl = r[:m] * (T_int / T_sp)
+                rt = rl
+                if split:
+                    rt = np.empty(m)
+                    for i in range(m):
+                        v = r[dof + i]
+                        rt[i] = (v if v > 0.0 else r[i]) * (T_int / T_sp)
                 Xc = S.X[l].copy()
                 Pc = S.P[l].copy()
                 if C.return_conditioned:
                     _condition_on_healthy(S, C, l, Xc, Pc)
-                ok, nis = sequential_joseph(Xc, Pc, z, H, rl, 0, m, C.gates[j], xw, Pw)
+                ok, nis = _gated(Xc, Pc, z, H, rl, rt, m, C.gates[j], xw, Pw, split)
                 if ok:
                     sequential_joseph(S.X[l], S.P[l], z, H, rl, 0, m, 0.0, xw, Pw)
                     mj[_SPAN_OK] += 1.0
@@ -924,7 +992,7 @@ def _advance(S, C, fills, accs, t, dtheta, dvel, dt, ds, v, dth_dr, rows, qt, qj
         dmax = max(dmax, C.dofs[j])
     z_own = np.zeros(dmax)
     H_own = np.zeros((dmax, n))
-    r_own = np.zeros(dmax)
+    r_own = np.zeros(2 * dmax)        # r, then a measurement's test variances (test_r)
     xw_own = np.empty(n)
     Pw_own = np.empty((n, n))
     xg_own = np.zeros(n)
@@ -969,7 +1037,7 @@ def _advance(S, C, fills, accs, t, dtheta, dvel, dt, ds, v, dth_dr, rows, qt, qj
     aux_own = aux
     aux, macc, qd, rows = borrowed(aux_own), borrowed(macc), borrowed(qd), borrowed(rows)
     isolate, log_nis, fb_mask, fb_states = C.isolate, C.log_nis, C.fb_mask, C.fb_states
-    pstate = C.pstate
+    pstate, test_r = C.pstate, C.test_r
     x_g, P_g, fed_back, fb_mask, fb_states = (borrowed(xg_own), borrowed(Pg_own),
                                               borrowed(fed_back), borrowed(fb_mask),
                                               borrowed(fb_states))
@@ -1081,13 +1149,16 @@ def _advance(S, C, fills, accs, t, dtheta, dvel, dt, ds, v, dth_dr, rows, qt, qj
                     r[a] = 0.0
                     for b in range(n):
                         H[a, b] = 0.0
+                if test_r[j]:
+                    for a in range(dofs[j], 2 * dofs[j]):
+                        r[a] = 0.0
                 if pstate[j] >= 0:       # the filter's own phi, dv estimate and covariance
                     _state_to_params(params[j], pstate[j], X, P, local[j], offs)
                 m = fills[j](xs, xd, aux, macc[j], qd[qi], params[j], offs, z, H, r)
                 applied = True
                 if m > 0:
                     l = local[j]
-                    if l >= 0 and not isolate[j] and not log_nis[j]:
+                    if l >= 0 and not isolate[j] and not log_nis[j] and not test_r[j]:
                         ok, nis = sequential_joseph(X[l], P[l], z, H, r, 0, m, gates[j], xw,
                                                     Pw)
                         if ok:
@@ -1360,7 +1431,8 @@ class ErrorStateFilter:
             fuse_isolated=bool(fuse_isolated),
             pstate=per_meas(lambda m: n_par - STATE_PARAMS if getattr(m, "wants_state", False)
                             else -1, -1, np.int64),
-            return_conditioned=bool(return_conditioned))
+            return_conditioned=bool(return_conditioned),
+            test_r=per_meas(lambda m: getattr(m, "test_variance", False), False, np.bool_))
         # the fill and accumulator functions (numba functions, compiled or loaded at first use
         # by the JIT path: _fills, _accs)
         self._fill_objs = tuple([m.fill for m in measurements]

@@ -15,7 +15,9 @@ means "no measurement now" (e.g. a NaN sample). The inputs are the SINS and dead
 kernel states ``xs``, ``xd`` (``[lat, lon, h, vE, vN, vU, q0..q3]``), ``aux = [t, omega_ib_b
 (3), f_b (3)]`` (the filter epoch's mean compensated body rate [rad/s] and specific force
 [m/s^2]), the sample ``data`` and the measurement's parameters ``p``. The engine hands ``z``,
-``H``, ``r`` zeroed.
+``H``, ``r`` zeroed; ``r`` has ``2 dof`` entries: after the update's variances, a
+measurement with :attr:`Measurement.test_variance` writes its residual test's own at
+``r[dof:dof + m]``.
 
 The engine's compiled loop calls the fill through a function pointer; :meth:`Measurement.rows`
 is the Python form, the same function called on fresh buffers, returning ``(z, H, R)``.
@@ -186,6 +188,13 @@ class Measurement:
     #: its fill over the sums of several intervals' accumulators is the measurement over
     #: their span (the engine's ``return_span``, issue 15: a displacement, not a velocity)
     spans = False
+    #: the fill also writes each row's variance for the residual test (the gate statistic,
+    #: the NIS log, the isolation and return decisions) at ``r[dof + i]`` (``i < m``; 0 or
+    #: not written: the row's ``r[i]``), where it differs from the update's ``r[i]``: e.g. a
+    #: row whose ``r`` is inflated for an error correlated over intervals, so that the gain is
+    #: honest, while a single interval's residual has its marginal variance (the engine's
+    #: docstring, "Test variances"). The engine hands ``r`` with ``2 dof`` entries, zeroed.
+    test_variance = False
 
     def __init__(self, *, gate: float = 0.0, name: str | None = None, local="default"):
         if not (gate >= 0.0 and math.isfinite(gate)):
@@ -227,7 +236,7 @@ class Measurement:
                              f"shape {d.shape}")
         z = np.zeros(self.dof)
         H = np.zeros((self.dof, layout.n))
-        r = np.zeros(self.dof)
+        r = np.zeros(2 * self.dof)      # r, then the test's variances (test_variance)
         p = np.asarray(self.params(), dtype=float)
         if self.wants_state:             # no filter here: a zero estimate and covariance
             p = np.r_[p, np.zeros(STATE_PARAMS)]
