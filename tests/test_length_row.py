@@ -161,6 +161,21 @@ def _straight_interval(d, T):
     return dD, xs, acc
 
 
+def _heading_quadrature(s, v, H):
+    """``(w, psi, hx)``: Gauss-Hermite weights, the headings and the rows ``H`` applied to the error state of a
+    SINS turned as a whole by a heading ``psi ~ N(0, s^2)`` (its velocity ``v`` turned with
+    it: ``dv = v_SINS - v_true``), at the 40 nodes."""
+    nodes, w = np.polynomial.hermite_e.hermegauss(40)
+    hx = []
+    for psi in s * nodes:
+        phi = np.array([0.0, 0.0, psi])
+        x = np.zeros(SUB_LAYOUT.n)
+        x[SUB_LAYOUT["phi"]] = phi
+        x[SUB_LAYOUT["dv"]] = (np.eye(3) - _rot(phi).T) @ v
+        hx.append(H @ x)
+    return w / w.sum(), s * nodes, np.array(hx)
+
+
 def _second_order_rows(P6, d=7.0, T=0.5):
     """The length fill with ``second_order_length`` on a straight interval whose SINS and
     sensor displacements agree (``z = 0``), the filter's ``[phi, dv]`` at zero with
@@ -193,18 +208,9 @@ def test_second_order_length_for_a_sins_turned_as_a_whole(s_deg):
     v = np.array([0.0, d / T, 0.0])
     J = np.r_[[0.0, 0.0, 1.0], np.cross(v, [0.0, 0.0, 1.0])]     # d x / d psi at 0
     (z0, r0, H), (z1, r1, _) = _second_order_rows(s * s * np.outer(J, J), d, T)
-    nodes, w = np.polynomial.hermite_e.hermegauss(40)
-    w = w / w.sum()
-    hx = []
-    for psi in s * nodes:
-        phi = np.array([0.0, 0.0, psi])
-        x = np.zeros(SUB_LAYOUT.n)
-        x[SUB_LAYOUT["phi"]] = phi
-        x[SUB_LAYOUT["dv"]] = (np.eye(3) - _rot(phi).T) @ v     # v_SINS - v_true
-        hx.append(H @ x)
-    hx = np.array(hx)
+    w, psi, hx = _heading_quadrature(s, v, H)
     mean, var = w @ hx[:, 1], w @ (hx[:, 1] - w @ hx[:, 1]) ** 2
-    e4 = w @ (s * nodes) ** 4
+    e4 = w @ psi ** 4
     np.testing.assert_allclose(mean, d * (1.0 - np.exp(-s * s / 2)), rtol=1e-9)  # geometry
     assert np.abs(w @ hx[:, 0]) < 1e-3 * mean            # the lateral row: blind
     rel = 3.0 * s * s                                    # the expansion's next order
@@ -310,18 +316,10 @@ def test_the_length_rows_test_variance_for_a_sins_turned_as_a_whole(s_deg):
     J = np.r_[[0.0, 0.0, 1.0], np.cross(v, [0.0, 0.0, 1.0])]
     r, r0 = _split_rows(s * s * np.outer(J, J), d, T)
     (_, _, H), _ = _second_order_rows(s * s * np.outer(J, J), d, T)
-    nodes, w = np.polynomial.hermite_e.hermegauss(40)
-    w = w / w.sum()
-    hx = []
-    for psi in s * nodes:
-        phi = np.array([0.0, 0.0, psi])
-        x = np.zeros(SUB_LAYOUT.n)
-        x[SUB_LAYOUT["phi"]] = phi
-        x[SUB_LAYOUT["dv"]] = (np.eye(3) - _rot(phi).T) @ v
-        hx.append((H @ x)[1])
-    hx = np.array(hx)
+    w, psi, hx = _heading_quadrature(s, v, H)
+    hx = hx[:, 1]
     var = w @ (hx - w @ hx) ** 2
     np.testing.assert_allclose(r[4] - r0[1], var, rtol=3.0 * s * s)
-    e4 = w @ (s * nodes) ** 4
+    e4 = w @ psi ** 4
     np.testing.assert_allclose(r[1] - r0[1], ak.LENGTH_VAR_SCALE * (var + e4 * d * d / 4),
                                rtol=3.0 * s * s)

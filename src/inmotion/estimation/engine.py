@@ -715,21 +715,40 @@ def _gated(x, P, z, H, rl, rt, m, gate, xw, Pw, split):
 
 
 @njit(cache=True)
+def _noise_rows(r, d, m, scale, split):
+    """``(rl, rt)``: the update's variances ``r[:m]`` and the test's (``r[d:d + m]``, 0 for
+    "as ``r``", :attr:`Measurement.test_variance`; the same array without ``split``), both
+    times ``scale``."""
+    rl = r[:m] * scale
+    rt = rl
+    if split:
+        rt = np.empty(m)
+        for i in range(m):
+            v = r[d + i]
+            rt[i] = (v if v > 0.0 else r[i]) * scale
+    return rl, rt
+
+
+@njit(cache=True)
+def _test_copy(S, C, l, z, H, rl, rt, m, gate, xw, Pw, split, conditioned):
+    """The gated test of the rows on a copy of local ``l`` (an isolated channel's sample, a
+    return span), conditioned on the healthy primaries first with ``conditioned``
+    (:func:`_condition_on_healthy`); ``(accepted, statistic)``, the local itself unchanged."""
+    Xc = S.X[l].copy()
+    Pc = S.P[l].copy()
+    if conditioned:
+        _condition_on_healthy(S, C, l, Xc, Pc)
+    return _gated(Xc, Pc, z, H, rl, rt, m, gate, xw, Pw, split)
+
+
+@njit(cache=True)
 def _apply(S, C, fills, j, l, z, H, r, m, xw, Pw, t_now, first):
     """Apply the filled rows of measurement ``j`` to local filter ``l`` (gate, FDI). A
     measurement with its own test variances (``C.test_r``, :attr:`Measurement.test_variance`:
     the fill wrote them at ``r[dof:dof + m]``, 0 for "as ``r``") is tested with them and
     updated with ``r`` (:func:`_gated`)."""
-    scale = C.r_scale[l] if C.local[j] < 0 else 1.0
-    rl = r[:m] * scale
     split = C.test_r[j]
-    rt = rl
-    if split:
-        rt = np.empty(m)
-        d = C.dofs[j]
-        for i in range(m):
-            v = r[d + i]
-            rt[i] = (v if v > 0.0 else r[i]) * scale
+    rl, rt = _noise_rows(r, C.dofs[j], m, C.r_scale[l] if C.local[j] < 0 else 1.0, split)
     if C.isolate[j]:
         S.tests[j] += 1
         if S.healthy[j] and S.normal_run[j] < 0:
@@ -742,10 +761,7 @@ def _apply(S, C, fills, j, l, z, H, r, m, xw, Pw, t_now, first):
             if ok:
                 S.normal_run[j] = 0
             else:
-                Xc = S.X[l].copy()
-                Pc = S.P[l].copy()
-                _condition_on_healthy(S, C, l, Xc, Pc)
-                ok, nis = _gated(Xc, Pc, z, H, rl, rt, m, C.gates[j], xw, Pw, split)
+                ok, nis = _test_copy(S, C, l, z, H, rl, rt, m, C.gates[j], xw, Pw, split, True)
                 if ok:
                     sequential_joseph(S.X[l], S.P[l], z, H, rl, 0, m, 0.0, xw, Pw)
             if not ok:
@@ -761,11 +777,8 @@ def _apply(S, C, fills, j, l, z, H, r, m, xw, Pw, t_now, first):
                 S.normal_run[j] = 0
                 _log_event(S, t_now, j, EVENT_DETECTED, nis)
         else:             # isolated: tested on a copy, never applied until it has returned
-            Xc = S.X[l].copy()
-            Pc = S.P[l].copy()
-            if C.return_conditioned:
-                _condition_on_healthy(S, C, l, Xc, Pc)
-            ok, nis = _gated(Xc, Pc, z, H, rl, rt, m, C.gates[j], xw, Pw, split)
+            ok, nis = _test_copy(S, C, l, z, H, rl, rt, m, C.gates[j], xw, Pw, split,
+                                 C.return_conditioned)
             if ok:
                 S.normal_run[j] += 1
                 if S.normal_run[j] >= C.return_tests[j]:
@@ -823,18 +836,9 @@ def _span_sample(S, C, fills, j, l, aux, data, t_now, was_isolated, used_before,
                 # sensor's noise, the constraint violation's interval means), not with T^2
                 # as the fill's rows take it for one interval (module docstring); the test's
                 # own variances (:func:`_apply`) likewise
-                rl = r[:m] * (T_int / T_sp)
-                rt = rl
-                if split:
-                    rt = np.empty(m)
-                    for i in range(m):
-                        v = r[dof + i]
-                        rt[i] = (v if v > 0.0 else r[i]) * (T_int / T_sp)
-                Xc = S.X[l].copy()
-                Pc = S.P[l].copy()
-                if C.return_conditioned:
-                    _condition_on_healthy(S, C, l, Xc, Pc)
-                ok, nis = _gated(Xc, Pc, z, H, rl, rt, m, C.gates[j], xw, Pw, split)
+                rl, rt = _noise_rows(r, dof, m, T_int / T_sp, split)
+                ok, nis = _test_copy(S, C, l, z, H, rl, rt, m, C.gates[j], xw, Pw, split,
+                                     C.return_conditioned)
                 if ok:
                     sequential_joseph(S.X[l], S.P[l], z, H, rl, 0, m, 0.0, xw, Pw)
                     mj[_SPAN_OK] += 1.0
