@@ -567,6 +567,10 @@ def main(argv=None):
                     help="fkf's return_span in the detection-on experiments (default: the "
                     "reproduction's FDI_RETURN_SPAN for --detection-on-runs, fkf's default "
                     "for --det-on-runs; issue 15)")
+    ap.add_argument("--fkf-defaults", action="store_true",
+                    help="--detection-on-runs with fkf's default settings (the library's rows, "
+                    "IMU noise, main period, isolated_in_fusion) instead of the reproduction's "
+                    "PAPER_FKF; only fdi on (issue 15, h15retdef)")
     ap.add_argument("--detection-on-runs", type=int, default=0,
                     help="runs of paper 003's fault experiment with the detection on "
                     "(:func:`detection_on`; its reproduction's drives and seeding); 0: none")
@@ -585,6 +589,8 @@ def main(argv=None):
             P.FDI_RETURN_TEST = args.return_test
         if args.return_span:
             P.FDI_RETURN_SPAN = args.return_span == "on"
+        if args.fkf_defaults:
+            P.PAPER_FKF, P.PAPER_IMU, P.PAPER_ROWS_FORM = {"fdi": True}, {}, {}
         don = detection_on(args.detection_on_runs)
         res["detection_on"] = don
         print(f"paper 003's fault experiment, detection on, {don['runs']} runs:")
@@ -603,6 +609,11 @@ def main(argv=None):
                       f"[{x['detection_off_ci95'][0]:.2e}, {x['detection_off_ci95'][1]:.2e}], "
                       f"over runs [{x['detection_off_run_level_ci95'][0]:.2e}, "
                       f"{x['detection_off_run_level_ci95'][1]:.2e}])")
+                dif = (np.array(x["per_run_exceedance_rate_detection_on"])
+                       - np.array(x["per_run_exceedance_rate_detection_off"]))
+                m_, (lo_, hi_) = run_level_ci(dif.tolist())
+                x["paired_on_minus_off"] = [m_, lo_, hi_]
+                print(f"      paired by run, on - off: {m_:+.2e} ({lo_:+.2e} to {hi_:+.2e})")
                 print("      per run, on / off: " + ", ".join(
                     f"{a_:.3f}/{b_:.3f}" for a_, b_ in zip(
                         x["per_run_exceedance_rate_detection_on"],

@@ -78,6 +78,11 @@ def isolated_seconds(sol, ch):
     return tot
 
 
+#: ``--fkf-defaults``: Strategy 2's ``fkf`` with its default settings (the library's rows,
+#: IMU noise, main period, ``isolated_in_fusion``) instead of ``PAPER_FKF`` (h15retdef)
+FKF_DEFAULTS = False
+
+
 def strategy2(mode, runs):
     """Final heading errors [arcmin] of the Strategy 2 row, one per run."""
     out = []
@@ -85,7 +90,8 @@ def strategy2(mode, runs):
         ss = np.random.SeedSequence(0).spawn(20)[r]
         drive = simulate(P._scenario("paper003_parked_then_drive", parked_s=P.STRATEGY2_PARKED_S),
                          np.random.default_rng(ss.spawn(4)[3]))
-        fine = {k: v for k, v in P.PAPER_FKF.items() if k != "measurement"}
+        fine = ({} if FKF_DEFAULTS else
+                {k: v for k, v in P.PAPER_FKF.items() if k != "measurement"})
         if mode == "off":
             fine["fdi"] = False
         else:
@@ -110,14 +116,18 @@ def main(argv=None):
     ap.add_argument("--compare", action="store_true")
     ap.add_argument("--modes", default="", help="comma list of the modes --compare runs "
                     "(default: all)")
+    ap.add_argument("--fkf-defaults", action="store_true", help="fkf's default settings "
+                    "instead of the reproduction's PAPER_FKF")
     args = ap.parse_args(argv)
+    global FKF_DEFAULTS
+    FKF_DEFAULTS = bool(args.fkf_defaults)
     if not args.compare:
         strategy2(args.mode, args.runs)
         return
     h = {m: strategy2(m, args.runs) for m in (args.modes.split(",") if args.modes else MODES)}
     for a, b in (("conditioned", "off"), ("masked", "off"), ("conditioned", "masked"),
                  ("masked+span", "masked"), ("conditioned+span", "conditioned"),
-                 ("conditioned+span", "off")):
+                 ("conditioned+span", "off"), ("conditioned+span", "masked")):
         if a not in h or b not in h:
             continue
         d = h[a] ** 2 - h[b] ** 2
