@@ -85,10 +85,9 @@ detection on 0.94, 0.95, 0.91 odometer, 1.00, 0.72 LDV): the cascade's 0.149 / 0
 (10 drives) is mostly these, not a too-small ``P``; of the other 35 channel-drives 29 are
 within 1e-2 of their detection-off rate.
 
-With ``return_conditioned`` (``fkf``'s ``return_test: conditioned``, a named setting which
-paper 003's reproduction's fault experiment uses, with ``return_span`` ``fkf``'s default
-since h15retdef, below) an isolated
-channel's test is of a *copy* of its masked sub-filter conditioned on the healthy primaries'
+With ``return_conditioned`` (``fkf``'s ``return_test: conditioned``, with ``return_span``
+its default since helper h15retdef, below; paper 003's reproduction's fault experiment
+names both) an isolated channel's test is of a *copy* of its masked sub-filter conditioned on the healthy primaries'
 estimate of the common states (:func:`_condition_on_healthy`: eq. 36 over the other healthy
 primaries, taken as a measurement of the copy's common block with its covariance; the
 channel's own sensor states move by their correlation), so the test compares the sample
