@@ -3,7 +3,7 @@ early (its sub-filter still far from converged) is tested for its return, with
 ``return_test: masked``, against its masked sub-filter, whose error is frozen from the
 isolation on (no update; the feedback shifts every local filter alike) while its covariance
 grows by the prediction: the statistic stays far above its model after the fault has ended
-and the channel keeps being isolated. With ``return_test: conditioned`` (a named setting) the
+and the channel keeps being isolated. With ``return_test: conditioned`` (fkf's default since h15retdef) the
 test is of a copy conditioned on the healthy sub-filter's common estimate, and after a
 return the sub-filter is on probation (:mod:`inmotion.estimation.engine`'s docstring).
 
@@ -60,6 +60,8 @@ def after_fault():
     """Per return test: per seed the LDV's statistics after the fault, its model mean, its
     0.05 threshold and its detection times."""
     sc = _scenario()
+    # without the return span (fkf's default since h15retdef), as the figures above were
+    # measured; the checks pass with it too (h15retdef, 2026-12-02)
     out = {"masked": [], "conditioned": []}
     for seed in SEEDS:
         rng = np.random.default_rng(seed)
@@ -69,7 +71,8 @@ def after_fault():
         for mode in out:
             sol = ak.run_fkf(b, {"init_tilt_sigma_deg": 0.15, "init_heading_sigma_deg": 1.5,
                                  "false_alarm_rate": 0.05, "keep_test_statistics": True,
-                                 "return_test": mode, **PAPER_FORM}, init)
+                                 "return_test": mode, "return_span": False, **PAPER_FORM},
+                               init)
             ts = sol.info["test_statistics"]
             c = list(ts["channels"]).index("ldv")
             lam = ts["lambda"][ts["t"] > AFTER, c]

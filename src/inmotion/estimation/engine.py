@@ -68,7 +68,7 @@ what the masked sub-filter holds meanwhile. The masked sub-filter takes no updat
 non-reset feedback shifts every local by the same amount, so its *error* is frozen from the
 isolation on (plus its own prediction), while its ``P`` grows by the prediction. A return
 test of the channel's sample against that sub-filter alone (``return_conditioned=False``,
-``fkf``'s ``return_test: masked``, the behaviour before) latches: measured on paper 003's
+``fkf``'s ``return_test: masked``, its default before issue 15's helper h15retdef) latches: measured on paper 003's
 fault-free drive at 0.05 (``benchmarks/fdi_calibration.py --runs 0 --detection-on-runs 20
 --return-span off [--return-test masked]``, the reproduction's run 3, 1.65 s into the
 window): the LDV isolated by one exceedance (8.03 > 4.46) while its sub-filter was young
@@ -85,9 +85,9 @@ detection on 0.94, 0.95, 0.91 odometer, 1.00, 0.72 LDV): the cascade's 0.149 / 0
 (10 drives) is mostly these, not a too-small ``P``; of the other 35 channel-drives 29 are
 within 1e-2 of their detection-off rate.
 
-With ``return_conditioned`` (``fkf``'s ``return_test: conditioned``, a named setting which
-paper 003's reproduction's fault experiment uses; not the default, below) an isolated
-channel's test is of a *copy* of its masked sub-filter conditioned on the healthy primaries'
+With ``return_conditioned`` (``fkf``'s ``return_test: conditioned``, with ``return_span``
+its default since helper h15retdef, below; paper 003's reproduction's fault experiment
+names both) an isolated channel's test is of a *copy* of its masked sub-filter conditioned on the healthy primaries'
 estimate of the common states (:func:`_condition_on_healthy`: eq. 36 over the other healthy
 primaries, taken as a measurement of the copy's common block with its covariance; the
 channel's own sensor states move by their correlation), so the test compares the sample
@@ -149,7 +149,7 @@ detection on against the same drives with it off, pooled and the interval over d
   each at its first sample (0.15 s); a miss is the channel already isolated by a false
   alarm at the onset; at 1e-3 20 of 20 each, 0.15 s, either way.
 
-Not the default: with it everywhere, paper 003's reproduction (``inmotion reproduce 003``,
+Not the default at first: with it everywhere, paper 003's reproduction (``inmotion reproduce 003``,
 20 drives) kept every fault and false-alarm row at 1e-3 and moved Table 3's fkf heading
 within Monte Carlo error (0.415' -> 0.416' mean), but its Strategy 2 (in-motion coarse, then
 ``fkf`` with multiplexing at 1e-3) went from a heading RMS of 0.93' to 1.43' (run 1: -0.57'
@@ -164,10 +164,11 @@ all; the latch above) and the heading is the odometer's alone (-0.57'), while ``
 returns it each time (27 s in all) and gives the fused filter's -4.22' (detection off
 -3.30'); without run 1: 0.95' masked, 1.11' conditioned, 1.14' off. The probation's forced
 updates are not it (their ``R`` raised so that the statistic sits at the threshold: 1.44').
-The remaining reason it is not the default: the odometer's excess at 0.05 (above), which
-the return span (below) removes.
+The remaining reason it was not the default: the odometer's excess at 0.05 (above), which
+the return span (below) removes; both are ``fkf``'s defaults since ("Defaults" below).
 
-Return span (issue 15, ``return_span``; ``fkf``'s ``return_span``, off by default; on in
+Return span (issue 15, ``return_span``; ``fkf``'s ``return_span``, on by default since helper
+h15retdef; on in
 paper 003's reproduction's fault experiment, ``reproductions.paper003.FDI_RETURN_SPAN``).
 The odometer's censoring above drops the far level of the cruise's quantization; but the
 pulses keep counting while the channel is isolated, and the distance over the whole
@@ -229,11 +230,38 @@ applied per drive, 0-3 rejected, the longest 3.5 s. ``fkf``'s NEES
 85 s drive a span is rare; the 30-times sensors' overconfident case 15.27, 15.48, 15.60);
 at 0.05 (``with_length_knobs.py`` setting ``false_alarm_rate``) 2.44 conditioned, 2.37 with
 the span (band 2.02-4.16). Strategy 2 (``benchmarks/fdi_strategy2_probe.py --compare``,
-its ``fkf`` at 1e-3): the reproduction's ``fkf`` there has the defaults (``masked``, no span) and is unchanged
+its ``fkf`` at 1e-3): the reproduction's ``fkf`` there had the defaults then (``masked``, no span) and was unchanged
 (0.931'); with the span, ``masked`` 1.095' (paired squared difference +0.33 arcmin^2,
 standard error 0.34), ``conditioned`` 1.268' against 1.434' (-0.45, 0.48): not resolved by
 20 runs (run 18, from a heading 150' off, +2.10' -> +3.34' ``masked``: the odometer isolated
 3 s instead of 8 s in the young filter, as ``conditioned`` does).
+
+Defaults (issue 15, helper h15retdef): ``fkf``'s ``return_test: conditioned`` and
+``return_span: true`` (the engine's own ``return_conditioned`` / ``return_span`` stay False).
+Measured under ``fkf``'s default settings otherwise (``benchmarks/fdi_calibration.py --runs 0
+--detection-on-runs 20 --fkf-defaults --return-test masked|conditioned --return-span
+off|on``: paper 003's fault experiment's 20 drive pairs, the library's rows and noise, main
+filter every 1 s, the isolated sub-filter fused), exceedances per test of the fault-free drive
+with the detection on minus the same drive's with it off, paired by drive (t-interval): at
+0.05 odometer +6.3e-4 (-5.8e-4 to 1.8e-3) against ``masked``'s +1.9e-2 (1.3e-3 to 3.7e-2:
+no drive latches under these settings, but the censoring above doubles four drives'
+odometer rate), LDV +1.1e-3 (-1.7e-4 to 2.4e-3) against +2.2e-3 (5.9e-4 to 3.8e-3); at 1e-3
+0 and 0 against +1.3e-4 (-6.6e-5 to 3.2e-4) and 0. The paper's four faults at 0.05 detected
+20, 17, 19, 18 of 20 (``masked`` 17, 15, 20, 18), at 1e-3 20 each either way; the odometer
+step bias (``--det-on-runs 10 --biases 0.005,0.01,0.02``) identical run for run. Final
+heading RMS at 0.05 faulted drive 1.080' (``masked`` 1.103'), fault-free 0.609' (0.645'), at
+1e-3 1.030' / 0.638' (1.033' / 0.636'). NEES (``benchmarks/with_length_knobs.py 0 4
+'{"return_test": ..., "return_span": ..., ["false_alarm_rate": 0.05]}'
+benchmarks/nees_methods.py 20 fkf``, band 2.02-4.16): at 1e-3 2.44 (``masked`` 2.45), at
+0.05 2.25 (2.44; paired -0.19, standard error 0.07); conservative 1.62 either way; the
+30-times sensors' overconfident case 15.62 / 14.96 (15.27 / 14.76). Strategy 2 with
+``fkf``'s defaults (``benchmarks/fdi_strategy2_probe.py --fkf-defaults``): heading RMS
+0.714' (``masked`` 0.723', detection off 0.712'; paired squared difference -0.01, standard
+error 0.04 arcmin^2). The reproduction's Strategy 2 row (``PAPER_FKF``, main filter every
+10 s, Table 1 as printed), which takes the defaults: 1.268' against ``masked``'s 0.931'
+(paired +0.74, standard error 0.51 arcmin^2; detection off 1.34'), of which run 1 is 7.98
+(``masked`` latching out the fault-free LDV for 529 s: -0.57', conditioned + span -2.88')
+and run 18 6.74 (+2.10' -> +3.34', above); without run 1 0.946' / 1.120'.
 
 Variants tried before (issue 15, 10 drives, at 0.05 the exceedances per test odometer /
 LDV, the four faults detected of 10, ``tests/test_paper003_filters.py``'s faulted drive's

@@ -117,7 +117,9 @@ FDI_RATES = (1e-3, 0.05)
 FDI_RETURN_TEST = "conditioned"
 #: the fault experiment's ``return_span`` (``fkf``'s, issue 15): at a return the isolation's
 #: intervals are applied as one span, which undoes the odometer's censoring at 0.05 (the
-#: engine's docstring, "Return span", has the measurement)
+#: engine's docstring, "Return span", has the measurement). Both settings are ``fkf``'s
+#: defaults since issue 15's helper h15retdef; the fault experiment keeps them explicit, the
+#: Strategy 2 row (:func:`_adaptive`) takes the defaults
 FDI_RETURN_SPAN = True
 #: the report's row of the consistent false-alarm figures: the fault-free drive's window 0 with
 #: the detection off (every test of a healthy channel counted against the thresholds of each
