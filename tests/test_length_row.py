@@ -180,13 +180,19 @@ def _second_order_rows(P6, d=7.0, T=0.5):
     """The length fill with ``second_order_length`` on a straight interval whose SINS and
     sensor displacements agree (``z = 0``), the filter's ``[phi, dv]`` at zero with
     covariance ``P6``; and the same without: ``(z, r)`` of each, ``H``."""
+    return _fills(P6, d, T, 1.0, 3)
+
+
+def _fills(P6, d, T, var_scale, n_r):
+    """The length fill without and with ``second_order_length`` (its variance ``var_scale``
+    times) on :func:`_straight_interval`, handed ``n_r`` noise entries: ``[(z, r, H)] * 2``."""
     dD, xs, acc = _straight_interval(d, T)
     m = ms.DisplacementIncrement(np.array([0.01, 4e-5, 0.02]), exact_attitude_columns=True)
     p = np.r_[m.params(), np.zeros(6), P6.ravel()]
     out = []
     for second in (False, True):
-        z, H, r = np.zeros(3), np.zeros((3, SUB_LAYOUT.n)), np.zeros(3)
-        ak._length_fill(ms.DisplacementIncrement.fill, second)(
+        z, H, r = np.zeros(3), np.zeros((3, SUB_LAYOUT.n)), np.zeros(n_r)
+        ak._length_fill(ms.DisplacementIncrement.fill, second, 0, var_scale)(
             xs, xs, np.zeros(ms.AUX_SIZE), acc, np.zeros(1), p, SUB_LAYOUT.offsets(), z, H, r)
         out.append((z, r, H))
     return out
@@ -275,16 +281,8 @@ def _split_rows(P6, d=7.0, T=0.5):
     """The default's length fill (``second_order_length``, the variance taken
     ``LENGTH_VAR_SCALE`` times) handed ``2 dof`` noise entries, as the engine hands them:
     ``(r, r_first_order)``, ``r[3:]`` the residual test's variances (``test_variance``)."""
-    dD, xs, acc = _straight_interval(d, T)
-    m = ms.DisplacementIncrement(np.array([0.01, 4e-5, 0.02]), exact_attitude_columns=True)
-    p = np.r_[m.params(), np.zeros(6), P6.ravel()]
-    out = []
-    for second in (False, True):
-        z, H, r = np.zeros(3), np.zeros((3, SUB_LAYOUT.n)), np.zeros(6)
-        ak._length_fill(ms.DisplacementIncrement.fill, second, 0, ak.LENGTH_VAR_SCALE)(
-            xs, xs, np.zeros(ms.AUX_SIZE), acc, np.zeros(1), p, SUB_LAYOUT.offsets(), z, H, r)
-        out.append(r)
-    return out[1], out[0]
+    (_, r0, _), (_, r, _) = _fills(P6, d, T, ak.LENGTH_VAR_SCALE, 6)
+    return r, r0
 
 
 def test_the_length_rows_test_variance_is_the_single_intervals_for_a_heading_error_alone():
