@@ -1,0 +1,60 @@
+"""Per-axis final-attitude NEES of ``fine-mux`` with and without its level floor (issue 15).
+
+``multiplex.floor_attitude_sigma`` keeps the reported level 1-sigma at least ``bias / g``
+whenever it runs, the heading resolved or not. Usage (from the repository root)::
+
+    PYTHONPATH=src:tests OPENBLAS_NUM_THREADS=1 python benchmarks/fine_mux_level_floor.py RUNS WINDOW_S full|start [nofloor]
+
+``full``: paper 003's 10-minute drive; ``start``: its first 194 s
+(``consistency_mc.drive_003_start``); ``nofloor``: the floor only where the heading is not
+resolved (the experiment; the code keeps it everywhere). Seeds 100.., start error drawn
+from (0.1, 0.1, 0.5) deg.
+
+Measured 2026-12-02 (session 11, load ~1): ``10 600 full``: level errors 0.001-0.011 arcmin
+under a floor of 0.172, per-axis mean ``(e / sigma)^2`` 0.00 / 0.00 / 1.57 (NEES 1.57; 20
+runs of ``nees_fine_mux.py``: 1.08, below its band 2.02-4.16: conservative); ``20 600 full
+nofloor``: 0.97 / 1.23 / 1.09, NEES 3.29 (in band); ``12 120 start nofloor``: 0.77 / 1.42 /
+1.46, NEES 3.64, the heading error +7 to +12 arcmin on 9 of 12 runs (sigma 6), and
+``tests/test_consistency_nees_mux.py``'s 6 runs 5.57 (band top 5.25). Not adopted: the
+coarse tilt error's correlation with the accelerometer bias (a coarse tilt is off by about
+``-bias / g``) is not in the fine prior, and the 120 s window's heading keeps a
+mounting-driven sign; both to be worked out first (issue 15, open).
+"""
+import sys
+
+import numpy as np
+import yaml
+
+sys.path.insert(0, "tests")
+from consistency_mc import ARCMIN, drive_003_start  # noqa: E402
+
+from inmotion import registry  # noqa: E402
+from inmotion.align import multiplex as mx  # noqa: E402
+from inmotion.core.metrics import error_series  # noqa: E402
+from inmotion.core.solution import NavState  # noqa: E402
+from inmotion.sim import simulate  # noqa: E402
+from inmotion.sim.scenario import find_scenario, load_scenario  # noqa: E402
+
+runs, window = int(sys.argv[1]), float(sys.argv[2])
+if sys.argv[3] == "full":
+    d = yaml.safe_load(open(find_scenario("paper003_drive")).read())
+    d["imu"]["constant_errors"] = "random"
+    sc = load_scenario(d)
+else:
+    sc = drive_003_start()
+if "nofloor" in sys.argv[4:]:
+    floor = mx.floor_attitude_sigma
+    mx.floor_attitude_sigma = lambda sol, env: None if env["resolvable"] else floor(sol, env)
+run, Config = registry.get("fine-mux").load()
+R = []
+for s in range(100, 100 + runs):
+    rng = np.random.default_rng(s)
+    b = simulate(sc, rng)
+    err = np.radians([0.1, 0.1, 0.5]) * rng.standard_normal(3)
+    sol = run(b, Config(coarse_window_s=window), NavState.from_truth(b.truth, euler_error=err))
+    e = error_series(sol, b.truth)[["phi_E_arcmin", "phi_N_arcmin", "phi_U_arcmin"]].to_numpy()[-1]
+    sig = np.array([sol.sigma[c][-1] for c in ("phi_E", "phi_N", "phi_U")]) * ARCMIN
+    R.append((e / sig) ** 2)
+    print(s, "error", np.round(e, 3), "sigma", np.round(sig, 3), flush=True)
+R = np.array(R)
+print("per-axis mean (e/sigma)^2", np.round(R.mean(0), 2), "NEES", round(float(R.sum(1).mean()), 2))
