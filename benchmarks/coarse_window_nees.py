@@ -52,14 +52,13 @@ for k in range(runs):
         d["vehicle_mounting_arcmin"] = [float(m[0]), 0.0, float(m[1])]
     b = simulate(load_scenario(d), rng)
     lat = np.radians(b.meta["lat_deg"])
-    base, _ = ak.config_with_spec(ak._config({}, ak.FkfConfig), b.meta)
     for W in wins:
         cfg = mx.MuxConfig(coarse_window_s=W)
         t0 = mx.first_covered(b, float(b.imu.t[0]))
         t1 = mx.last_covered(b, t0 + W)
         sol, C0, emap = mx.coarse_fault_tolerant(b, cfg, None, t0, t1, error_map=True)
-        wenv = mx.window_envelope(emap, base, b.meta, "ldv", 100.0)
-        _, env, _ = mx.fine_config_from_coarse(ak.FkfConfig, {}, b.meta, lat, t1 - t0, wenv)
+        _, env, _ = mx.fine_config_from_coarse(ak.FkfConfig, {}, b.meta, lat, t1 - t0, emap,
+                                               "ldv", 100.0)
         k0 = int(np.searchsorted(b.truth.t, t0 - 1e-9))
         Ct = rotations.dcm_from_euler(b.truth.euler[k0])
         eps = -rotations.vee(C0 @ Ct.T - np.eye(3))

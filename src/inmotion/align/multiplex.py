@@ -117,7 +117,7 @@ def window_envelope(emap: Optional[dict], base, meta, channel: Optional[str],
     meta = meta if isinstance(meta, dict) else {}
     sig = _constraint_violation_sigmas(meta, lambda sg, tau, _: sg, 0.0)
     cv = None if sig is None else tuple(zip(sig, _constraint_violation_sigmas(
-        meta, lambda sg, tau, _: tau, 0.0) or (1.0, 1.0)))
+        meta, lambda sg, tau, _: tau, 0.0)))          # the taus: not None where sig is not
     if cv is None:
         nhc = float(getattr(base, "nhc_noise_m_s", 0.1))
         cv = ((nhc, 0.5), (nhc, 0.5))
@@ -141,13 +141,16 @@ def window_envelope(emap: Optional[dict], base, meta, channel: Optional[str],
 
 
 def fine_config_from_coarse(cls, fine: dict, meta, lat: float, window_s: float,
-                            window: Optional[dict] = None):
+                            emap: Optional[dict] = None, channel: Optional[str] = None,
+                            rate_hz: float = 0.0):
     """``(config, envelope, warnings)``: the fine method's configuration with the coarse
     envelope as its attitude prior (fields ``fine`` does not set; module docstring).
-    ``window``: the window's own terms (:func:`window_envelope`), added in quadrature to the
-    IMU's envelope."""
+    ``emap``: the window's error map (:func:`coarse_fault_tolerant`), whose terms
+    (:func:`window_envelope` with the fine configuration's priors, ``channel``'s spec at
+    ``rate_hz``) are added in quadrature to the IMU's envelope."""
     base, _ = ak.config_with_spec(ak._config(fine, cls), meta)
     env = coarse_envelope(base.gyro_drift_deg_h, base.accel_bias_ug, lat, window_s)
+    window = window_envelope(emap, base, meta, channel, rate_hz)
     if window is not None:
         env["imu"] = {"level_deg": env["level_deg"], "heading_deg": env["heading_limit_deg"]}
         env["window"] = window
@@ -432,12 +435,10 @@ def run_multiplexed(bundle: Bundle, cfg: MuxConfig, init: Optional[NavState] = N
     start = start_state(bundle, C0, t0, init)
     fine_method = auto_fine_method(bundle, cfg.fine_method)
     run, cls = FINE_METHODS[fine_method]
-    base, _ = ak.config_with_spec(ak._config(cfg.fine, cls), bundle.meta)
     channel = coarse.info.get("coarse_channel")
-    wenv = window_envelope(emap, base, bundle.meta, channel, _rate_hz(bundle, channel))
-    w_coarse = time.perf_counter() - w0
     fcfg, env, warn = fine_config_from_coarse(cls, cfg.fine, bundle.meta, start.lat, t1 - t0,
-                                              wenv)
+                                              emap, channel, _rate_hz(bundle, channel))
+    w_coarse = time.perf_counter() - w0
     w1 = time.perf_counter()
     sol = run(bundle, fcfg, start, progress=progress)
     w_fine = time.perf_counter() - w1

@@ -462,7 +462,8 @@ _A_SIZE = 11
 # macc's columns after the interval's ACC_SIZE with ``return_span`` (issue 15): the span's
 # accumulator (the intervals whose samples were not applied since the last one that was, and
 # the feedback's corrections), then [spans applied, spans rejected by their test, longest
-# span applied [s], the longest span applied [s]]; without it macc has the interval's ACC_SIZE columns only
+# span applied [s], the longest span allowed [s] (``return_span_max_s``)]; without it macc
+# has the interval's ACC_SIZE columns only
 _SPAN, _SPAN_OK, _SPAN_BAD, _SPAN_LONGEST, _SPAN_LIM = (ACC_SIZE, 2 * ACC_SIZE, 2 * ACC_SIZE + 1,
                                                         2 * ACC_SIZE + 2, 2 * ACC_SIZE + 3)
 _SPAN_COLS = 2 * ACC_SIZE + 4
@@ -714,6 +715,19 @@ def _condition_on_healthy(S, C, l, Xc, Pc):
 
 
 @njit(cache=True)
+def _clear_rows(z, H, r, dof, split):
+    """Zero the ``dof`` rows a fill writes: ``z``, ``H``, ``r`` and, with ``split``, the
+    test's variances ``r[dof:2 dof]`` (:attr:`Measurement.test_variance`)."""
+    for a in range(dof):
+        z[a] = 0.0
+        r[a] = 0.0
+        if split:
+            r[dof + a] = 0.0
+        for b in range(H.shape[1]):
+            H[a, b] = 0.0
+
+
+@njit(cache=True)
 def _test_statistic(x, P, z, H, rt, m):
     """The residual test's statistic ``nu^T (H P H^T + diag(rt))^-1 nu`` of the rows ``0:m``
     (``nu = z - H x``), by a batch solve (``m`` is a measurement's few rows)."""
@@ -851,13 +865,7 @@ def _span_sample(S, C, fills, j, l, aux, data, t_now, was_isolated, used_before,
         if T_int > 0.0 and T_sp > 1.5 * T_int and T_sp <= mj[_SPAN_LIM]:
             dof = C.dofs[j]
             split = C.test_r[j]
-            for a in range(dof):
-                z[a] = 0.0
-                r[a] = 0.0
-                if split:
-                    r[dof + a] = 0.0
-                for b in range(H.shape[1]):
-                    H[a, b] = 0.0
+            _clear_rows(z, H, r, dof, split)
             m = fills[j](S.xs, S.xd, aux, span, data, C.params[j], C.offs, z, H, r)
             if m > 0:
                 # each row's variance grows linearly over the span (the white parts: the
@@ -1176,14 +1184,7 @@ def _advance(S, C, fills, accs, t, dtheta, dvel, dt, ds, v, dth_dr, rows, qt, qj
                 aux[AUX_WNB + i] = acc[_A_NB + i] / sum_dt
             while qi < n_q and qt[qi] <= t_now:
                 j = qj[qi]
-                for a in range(dofs[j]):
-                    z[a] = 0.0
-                    r[a] = 0.0
-                    for b in range(n):
-                        H[a, b] = 0.0
-                if test_r[j]:
-                    for a in range(dofs[j], 2 * dofs[j]):
-                        r[a] = 0.0
+                _clear_rows(z, H, r, dofs[j], test_r[j])
                 if pstate[j] >= 0:       # the filter's own phi, dv estimate and covariance
                     _state_to_params(params[j], pstate[j], X, P, local[j], offs)
                 m = fills[j](xs, xd, aux, macc[j], qd[qi], params[j], offs, z, H, r)
