@@ -169,3 +169,13 @@ def test_a_span_over_a_fault_is_rejected(seed):
     dist = SPEED * (ret - det[0])
     assert FAULT[2] * (FAULT[1] - FAULT[0]) / dist > 4.0 * sg[i1]
     assert abs(dk[i1] - dk[i0]) < sg[i1], (dk[i0], dk[i1], sg[i1])
+
+
+@pytest.mark.parametrize("value", [0.0, -1.0, float("nan")])
+def test_return_span_max_must_be_a_positive_number(value):
+    """``return_span_max_s`` <= 0 or not a number is refused with the field's name
+    (BadInput, exit 2 on the command line) before any data is read, never taken as "no
+    span" or "no bound"."""
+    from inmotion.errors import BadInput
+    with pytest.raises(BadInput, match="return_span_max_s"):
+        ak.run_fkf(None, {"return_span_max_s": value})
