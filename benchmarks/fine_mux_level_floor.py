@@ -51,7 +51,8 @@ for s in range(100, 100 + runs):
     rng = np.random.default_rng(s)
     b = simulate(sc, rng)
     err = np.radians([0.1, 0.1, 0.5]) * rng.standard_normal(3)
-    sol = run(b, Config(coarse_window_s=window), NavState.from_truth(b.truth, euler_error=err))
+    sol = run(b, Config(coarse_window_s=window, prior_cross="cross" in sys.argv[4:]),
+              NavState.from_truth(b.truth, euler_error=err))
     e = error_series(sol, b.truth)[["phi_E_arcmin", "phi_N_arcmin", "phi_U_arcmin"]].to_numpy()[-1]
     sig = np.array([sol.sigma[c][-1] for c in ("phi_E", "phi_N", "phi_U")]) * ARCMIN
     R.append((e / sig) ** 2)
