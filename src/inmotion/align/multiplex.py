@@ -64,6 +64,22 @@ The coarse window's own terms (issue 15)
     heading 1-sigma (still resolvable) the fine filter's small-angle model no longer holds:
     the reported sigma is kept covering (:func:`linear_range_check`) and ``info['warnings']``
     names the window length to use.
+
+The coarse error's correlation with the fine filter's states (issue 15, ``prior_cross``)
+    The coarse attitude error is largely made by sensor errors the fine filter has states
+    for: the accelerometer bias (a tilt of about ``-bias / g`` in the nav frame, averaged
+    over the window's turns, and a forward bias turns a short window's heading), the IMU's
+    mounting in the vehicle (the vectors assume ``v^b = [0, s, 0]``). A prior that takes the
+    attitude error as independent of those states tells the filter that a mounting or bias
+    it estimates says nothing about its attitude, and the scalar level floor ``bias / g``
+    then had to stand in for the missing correlation (conservative: per-axis mean ``(e /
+    sigma)^2`` 0.00 / 0.00 / 1.57 at the default 600 s window). With ``prior_cross`` the
+    prior carries ``cov(phi, s) = J_s P_s`` (:func:`window_cross_maps`, :func:`attitude_cross`;
+    the fine filters' ``init_attitude_cross``), the attitude 1-sigma is the coarse envelope
+    itself (the correlated model is the error's; not raised to the fine filter's default
+    priors) and the level floor applies only where the heading is not resolved
+    (:func:`floor_attitude_sigma`). Measured (``benchmarks/fine_mux_level_floor.py``, 20 runs,
+    band 2.02-4.16): see that script's docstring.
 """
 from __future__ import annotations
 
@@ -369,12 +385,14 @@ class MuxConfig(BaseModel):
                             "fkf with odometer and LDV, od-kf or ldv-kf with one of them "
                             "(info: fine_method)")
     prior_cross: bool = Field(
-        False,
+        True,
         description="the fine prior carries the coarse attitude error's covariance with the "
                     "accelerometer bias and the mounting (init_attitude_cross; "
                     "multiplex.attitude_cross) and the reported level 1-sigma is the fine "
                     "filter's own where the heading is resolved (floor_attitude_sigma's "
-                    "level=False); issue 15")
+                    "level=False); issue 15. False: the prior independent and the level "
+                    "floor bias / g everywhere (before issue 15's session 12: NEES 1.08 at the "
+                    "600 s window, conservative; benchmarks/fine_mux_level_floor.py)")
     fine: dict = Field(default_factory=dict, description="configuration of the fine method")
     coarse: dict = Field(default_factory=dict, description="coarse-inertial configuration")
 
