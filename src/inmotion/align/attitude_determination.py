@@ -380,7 +380,7 @@ def _markov_bin_cov_sum(u: np.ndarray, sigma: float, tau: float, dt: float) -> n
 def window_terms(emap: dict, *, mount_sigma_rad: float, scale_sigma: float,
                  lever_m=(0.0, 0.0, 0.0), lever_sigma_m: float = 0.0,
                  constraint_violation=None, speed_noise_m_s: float = 0.0,
-                 speed_rate_hz: float = 0.0) -> dict:
+                 speed_rate_hz: float = 0.0, accel_bias_sigma: float = 0.0) -> dict:
     """The window's terms of the coarse attitude error (:func:`window_error_map`), each a
     3x3 covariance [rad^2] of ``eps`` (ENU at the window's start):
 
@@ -393,7 +393,11 @@ def window_terms(emap: dict, *, mount_sigma_rad: float, scale_sigma: float,
       ``(sigma, tau)`` pairs (``constraint_violation = ((s_lat, tau_lat), (s_vert,
       tau_vert))``) on ``dv^b_x`` / ``dv^b_z`` (:func:`_markov_bin_cov_sum`);
     * ``speed_noise``: white speed noise of ``speed_noise_m_s`` at ``speed_rate_hz`` on
-      ``dv^b_y``.
+      ``dv^b_y``;
+    * ``bias`` (with ``accel_bias_sigma`` > 0 [m/s^2] per axis, and the map's ``J_nabla``):
+      the accelerometer bias, ``J_nabla J_nabla^T sigma^2`` (the map's docstring): the
+      parked figures ``bias / g`` (level) and ``bias tan L / g`` (heading) with the
+      manoeuvres' turns, and the heading a forward bias turns over a short window.
     """
     H, dt, s, om = emap["H"], emap["dt"], emap["speed"], emap["rate_b"]
     P = {}
@@ -421,4 +425,7 @@ def window_terms(emap: dict, *, mount_sigma_rad: float, scale_sigma: float,
         P["speed_noise"] = (u.T * (speed_noise_m_s ** 2 / (speed_rate_hz * dt))) @ u
     else:
         P["speed_noise"] = np.zeros((3, 3))
+    if accel_bias_sigma > 0 and "J_nabla" in emap:
+        J = np.asarray(emap["J_nabla"])
+        P["bias"] = J @ J.T * accel_bias_sigma ** 2
     return P

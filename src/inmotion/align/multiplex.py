@@ -115,6 +115,11 @@ _CHANNELS = ("odometer", "ldv")
 UNKNOWN_HEADING_SIGMA_DEG = 360.0 / np.sqrt(12.0)
 
 
+#: the accelerometer bias as a window term (``window_terms``' ``bias``, through the map's
+#: ``J_nabla``) in place of the IMU envelope's parked figures
+WINDOW_BIAS_TERM = True
+
+
 def window_envelope(emap: Optional[dict], base, meta, channel: Optional[str],
                     rate_hz: float = 0.0) -> Optional[dict]:
     """The coarse window's own terms (issue 15; :func:`inmotion.align.attitude_determination.
@@ -147,7 +152,8 @@ def window_envelope(emap: Optional[dict], base, meta, channel: Optional[str],
         emap, mount_sigma_rad=np.radians(float(getattr(base, "mount_sigma_arcmin", 30.0)) / 60),
         scale_sigma=float(getattr(base, f"{short}_scale_sigma_ppm", 3000.0)) * 1e-6,
         lever_m=[float(x) for x in lever], lever_sigma_m=float(getattr(base, "lever_sigma_m", 0.05)),
-        constraint_violation=cv, speed_noise_m_s=float(noise), speed_rate_hz=rate)
+        constraint_violation=cv, speed_noise_m_s=float(noise), speed_rate_hz=rate,
+        accel_bias_sigma=float(ak._bias_prior(base)[1]) if WINDOW_BIAS_TERM else 0.0)
     total = sum(P.values())
     arcmin = np.degrees(1.0) * 60.0
     return {"terms": {k: (np.sqrt(np.diag(v)) * arcmin).round(3).tolist() for k, v in P.items()},
@@ -244,6 +250,10 @@ def fine_config_from_coarse(cls, fine: dict, meta, lat: float, window_s: float,
     base, _ = ak.config_with_spec(ak._config(fine, cls), meta)
     env = coarse_envelope(base.gyro_drift_deg_h, base.accel_bias_ug, lat, window_s)
     window = window_envelope(emap, base, meta, channel, rate_hz)
+    if window is not None and "bias" in window["terms"]:
+        # the bias is the window's term (turned with the vehicle): the IMU's part is the gyros'
+        env = {**coarse_envelope(base.gyro_drift_deg_h, 0.0, lat, window_s),
+               "accel_bias_ug": float(base.accel_bias_ug)}
     if window is not None:
         env["imu"] = {"level_deg": env["level_deg"], "heading_deg": env["heading_limit_deg"]}
         env["window"] = window
