@@ -154,12 +154,19 @@ def window_envelope(emap: Optional[dict], base, meta, channel: Optional[str],
         lever_m=[float(x) for x in lever], lever_sigma_m=float(getattr(base, "lever_sigma_m", 0.05)),
         constraint_violation=cv, speed_noise_m_s=float(noise), speed_rate_hz=rate,
         accel_bias_sigma=float(ak._bias_prior(base)[1]) if WINDOW_BIAS_TERM else 0.0)
+    bias = P.pop("bias", None)
     total = sum(P.values())
     arcmin = np.degrees(1.0) * 60.0
-    return {"terms": {k: (np.sqrt(np.diag(v)) * arcmin).round(3).tolist() for k, v in P.items()},
-            "level_deg": float(np.degrees(np.sqrt(max(total[0, 0], total[1, 1])))),
-            "heading_deg": float(np.degrees(np.sqrt(total[2, 2]))),
-            "cov_rad2": total.tolist(), "channel": channel}
+    out = {"terms": {k: (np.sqrt(np.diag(v)) * arcmin).round(3).tolist() for k, v in P.items()},
+           "level_deg": float(np.degrees(np.sqrt(max(total[0, 0], total[1, 1])))),
+           "heading_deg": float(np.degrees(np.sqrt(total[2, 2]))),
+           "cov_rad2": total.tolist(), "channel": channel}
+    if bias is not None:           # the IMU's term, through the window's map (not the window's)
+        out["imu_bias"] = {"arcmin": (np.sqrt(np.diag(bias)) * arcmin).round(3).tolist(),
+                           "level_deg": float(np.degrees(np.sqrt(max(bias[0, 0], bias[1, 1])))),
+                           "heading_deg": float(np.degrees(np.sqrt(bias[2, 2]))),
+                           "cov_rad2": bias.tolist()}
+    return out
 
 
 def window_cross_maps(emap: Optional[dict]) -> Optional[dict]:
@@ -250,10 +257,14 @@ def fine_config_from_coarse(cls, fine: dict, meta, lat: float, window_s: float,
     base, _ = ak.config_with_spec(ak._config(fine, cls), meta)
     env = coarse_envelope(base.gyro_drift_deg_h, base.accel_bias_ug, lat, window_s)
     window = window_envelope(emap, base, meta, channel, rate_hz)
-    if window is not None and "bias" in window["terms"]:
-        # the bias is the window's term (turned with the vehicle): the IMU's part is the gyros'
-        env = {**coarse_envelope(base.gyro_drift_deg_h, 0.0, lat, window_s),
-               "accel_bias_ug": float(base.accel_bias_ug)}
+    if window is not None and "imu_bias" in window:
+        # the accelerometer bias through the window's map (turned with the vehicle) in place
+        # of the parked figures bias / g, bias tan L / g; the gyros' terms as they were
+        gyro = coarse_envelope(base.gyro_drift_deg_h, 0.0, lat, window_s)
+        b = window["imu_bias"]
+        env = {**gyro, "accel_bias_ug": float(base.accel_bias_ug),
+               "level_deg": float(np.hypot(gyro["level_deg"], b["level_deg"])),
+               "heading_limit_deg": float(np.hypot(gyro["heading_limit_deg"], b["heading_deg"]))}
     if window is not None:
         env["imu"] = {"level_deg": env["level_deg"], "heading_deg": env["heading_limit_deg"]}
         env["window"] = window
