@@ -108,3 +108,22 @@ def test_fine_prior_carries_cross(coarse80):
                     0.0, 1, 0.0)
     with pytest.raises(BadInput, match="runs no ldv"):
         ak._attitude_cross(cfg, ("odometer",))
+
+
+def test_level_floor_only_where_unresolved():
+    """``floor_attitude_sigma(level=False)`` (``prior_cross``): a resolved heading keeps the
+    filter's own level sigma; an unresolved one, or ``level=True`` (the parked path), keeps
+    it at least ``bias / g``."""
+    from inmotion.core.solution import Solution
+    n = 3
+    sol = Solution(np.arange(n, dtype=float), np.zeros(n), np.zeros(n), np.zeros(n),
+                   np.zeros((n, 3)), np.zeros((n, 3)),
+                   sigma={k: np.full(n, 1e-6) for k in ("phi_E", "phi_N", "phi_U")})
+    floor = 50e-6                      # 50 ug: bias / g [rad]
+    for resolvable, level, want in ((True, False, 1e-6), (True, True, floor),
+                                    (False, False, floor)):
+        s = Solution(sol.t, sol.lat, sol.lon, sol.h, sol.vel_n, sol.euler,
+                     sigma={k: v.copy() for k, v in sol.sigma.items()})
+        mx.floor_attitude_sigma(s, {"accel_bias_ug": 50.0, "resolvable": resolvable}, level)
+        np.testing.assert_allclose(s.sigma["phi_E"], want)
+        np.testing.assert_allclose(s.sigma["phi_N"], want)
