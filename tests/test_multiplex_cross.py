@@ -127,3 +127,19 @@ def test_level_floor_only_where_unresolved():
         mx.floor_attitude_sigma(s, {"accel_bias_ug": 50.0, "resolvable": resolvable}, level)
         np.testing.assert_allclose(s.sigma["phi_E"], want)
         np.testing.assert_allclose(s.sigma["phi_N"], want)
+
+
+def test_sins_prior_velocity_rows_follow_the_cross():
+    """With ``init_velocity_from_attitude`` the start velocity's error is ``[v x] phi + w``:
+    its covariance with the bias is ``[v x] cov(phi, nabla)`` (the cross given), and the
+    whole prior is ``E P E^T`` of the independent one (``E`` adding ``[v x]`` phi to dv)."""
+    X = np.array([[1e-7, -2e-8, 0.0], [3e-8, 1e-7, 0.0], [0.0, 5e-8, 1e-8]])
+    cfg = ak.FkfConfig(init_velocity_from_attitude=True, init_tilt_sigma_deg=0.05,
+                       init_heading_sigma_deg=0.5, init_attitude_cross={"nabla": X.tolist()})
+    vel = np.array([3.0, 9.0, 0.1])
+    P = ak._sins_prior(cfg, 0.5, 0.0, vel)
+    P0 = ak._sins_prior(cfg.model_copy(update={"init_velocity_from_attitude": False}), 0.5, 0.0)
+    E = np.eye(P.shape[0])
+    E[3:6, 0:3] = rotations.skew(vel)
+    np.testing.assert_allclose(P, E @ P0 @ E.T, rtol=1e-12, atol=1e-18)
+    np.testing.assert_allclose(P0[0:3, 12:15], X)

@@ -585,9 +585,15 @@ def _sins_prior(cfg, lat, h, vel_n=None):
         P[NHC_LAYOUT["nabla"], a] = cross["nabla"].T
     T = _velocity_from_attitude(cfg, vel_n)
     if T is not None:                    # dv = [v_n x] phi + the speed's own error
-        E = np.eye(NS)
-        E[NHC_LAYOUT["dv"], a] = T
-        P = E @ P @ E.T
+        v = NHC_LAYOUT["dv"]
+        Ppp = P[a, a]
+        P[v, v] += T @ Ppp @ T.T
+        P[v, a] = T @ Ppp
+        P[a, v] = P[v, a].T
+        if "nabla" in cross:
+            nb = NHC_LAYOUT["nabla"]
+            P[v, nb] = T @ P[a, nb]
+            P[nb, v] = P[v, nb].T
     return P
 
 
