@@ -300,11 +300,14 @@ def window_error_map(inp: Inputs, level: Level, lowpass_time_constant_s=None) ->
     through the Earth-rate integral ``I_wv_b`` (which takes the assumed ``v^b`` too), ``[omega_ie^b0
     x] sum_(j <= k) C_{b(t_j)}^{b(0)} dv_j dt_j`` (``omega_ie^b0 = C^T omega_ie^n``, constant in
     the inertial frame ``b(0)``); so ``H_j = (A_j + sum_(k >= j) A_k [omega_ie^b0 x] dt_j)
-    C_{b(t_j)}^{b(0)}`` with ``A_k = M^-1 w_k [b_k x] C``. That share is small for a lateral
-    error (the mounting: 218 against 205 arcmin of heading with it, 80 s window) but is the
-    whole answer for a scale factor, whose ``dv`` lies along the velocity: without it the map
-    gave -5.72 arcmin of heading per 1000 ppm on paper 003's 85 s drive (80 s window), the
-    coarse stage run on the scaled speed +0.61 (issue 15). The sums are
+    C_{b(t_j)}^{b(0)}`` with ``A_k = M^-1 w_k [b_k x] C``. That share is small (measured,
+    issue 15, paper 003's 85 s drive, 80 s window: a 30 arcmin yaw mounting's heading 217.1
+    arcmin with it, 217.8 without, the coarse stage on the turned IMU 205.0; the 300 s
+    window's mean (e / sigma)^2 2.28 with it, 2.23 without). Not resolved: the map's forward
+    column (a scale factor's ``dv = dk s e_y``) gives -5.7 arcmin of heading per 1000 ppm
+    where the coarse stage run on the scaled speed moves +0.61 (and -11.6 against -6.6 for a
+    constant 0.01 m/s; a ramp's 10.4 against 12.5 agrees better): the ``scale`` term is
+    sized by it all the same (conservative there). The sums are
     taken over the output epochs (each standing for the intervals since the one before; the
     low-pass's settling time is skipped as in ``K``), so ``eps = sum_j H_j dv_j`` with ``dv_j``
     the mean of ``dv^b`` over epoch ``j``'s interval.
