@@ -15,6 +15,14 @@ Measured (issue 15, helper h15mux, 20 runs, seeds 200-219, band 0.48-1.71): 85 s
 / 77 / 79 / 29.8 / 6.6, sigma 157 / 67 / 111 / 19.7 / 5.8 arcmin). The 300 s window is under
 by a factor 1.5 in sigma (not resolved: the map samples the vectors once a second and leaves
 out the Earth-rate integral's share and the accelerometer bias turned by the manoeuvres).
+
+Since (issue 15, helper h16mux, same runs): the map takes the Earth-rate integral's share
+(``window_error_map``) and the accelerometer bias through the map (``J_nabla``, the
+envelope's ``imu_bias`` in place of the parked ``bias / g``, ``bias tan L / g``): full drive,
+W = 40 / 80 / 150 / 300 / 600 s: 1.13 / 1.31 / 0.54 / 0.99 / 0.68 (sigma 157 / 66 / 111 /
+29.7 / 8.0 arcmin); 85 s drive, W = 20 / 40 / 80 s: 1.42 / 0.98 / 1.14 (sigma 986 / 800 /
+228). With the Earth-rate share alone the full drive's were 1.13 / 1.31 / 0.55 / 2.28 /
+1.32: the 300 s window's missing term was the bias (``benchmarks/coarse_cross_truth.py``).
 """
 import sys
 

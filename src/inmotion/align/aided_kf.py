@@ -309,6 +309,16 @@ class NhcKfConfig(StopUpdateFields):
         description="the start velocity was made from the start attitude and the sensor's "
                     "speed (a coarse alignment's hand-over): its prior error follows the "
                     "attitude error, dv = [v x] phi, plus init_velocity_sigma_m_s")
+    init_attitude_cross: dict[str, list[list[float]]] = Field(
+        default_factory=dict,
+        description="the prior's covariance of the start attitude error phi (rows E, N, U "
+                    "[rad]) with sensor-error states (columns, SI), for a start attitude that "
+                    "was derived with those sensors (a coarse alignment's hand-over: "
+                    "multiplex.fine_config_from_coarse); keys 'nabla' (3x3, m/s^2), "
+                    "'<channel>.dk' (3x1), '<channel>.mount' (3x2), '<channel>.lever' (3x3), "
+                    "channel odometer or ldv (one the method runs); with "
+                    "init_velocity_from_attitude the start velocity takes it too. Default: "
+                    "none (independent)")
     gyro_drift_deg_h: float = cf.gyro_drift_deg_h(0.01)
     accel_bias_ug: float = cf.accel_bias_ug(100.0)
     # noise
@@ -568,14 +578,72 @@ def _sins_prior(cfg, lat, h, vel_n=None):
         "phi": np.array([tilt, tilt, head]) ** 2, "dv": cfg.init_velocity_sigma_m_s ** 2,
         "dp": np.array([pos / (r_m + h), pos / ((r_n + h) * np.cos(lat)), pos]) ** 2,
         "eps": s_eps ** 2, "nabla": s_nabla ** 2})
-    if getattr(cfg, "init_velocity_from_attitude", False) and vel_n is not None:
-        A = em.skew(np.asarray(vel_n, dtype=float))
-        a, v = NHC_LAYOUT["phi"], NHC_LAYOUT["dv"]
+    a = NHC_LAYOUT["phi"]
+    cross = _attitude_cross(cfg)
+    if "nabla" in cross:
+        P[a, NHC_LAYOUT["nabla"]] = cross["nabla"]
+        P[NHC_LAYOUT["nabla"], a] = cross["nabla"].T
+    T = _velocity_from_attitude(cfg, vel_n)
+    if T is not None:                    # dv = [v_n x] phi + the speed's own error
+        v = NHC_LAYOUT["dv"]
         Ppp = P[a, a]
-        P[v, v] += A @ Ppp @ A.T
-        P[v, a] = A @ Ppp
+        P[v, v] += T @ Ppp @ T.T
+        P[v, a] = T @ Ppp
         P[a, v] = P[v, a].T
+        if "nabla" in cross:
+            nb = NHC_LAYOUT["nabla"]
+            P[v, nb] = T @ P[a, nb]
+            P[nb, v] = P[v, nb].T
     return P
+
+
+def _velocity_from_attitude(cfg, vel_n):
+    """``A = [v_n x]`` of :func:`_sins_prior`'s ``dv = A phi`` (None without
+    ``init_velocity_from_attitude`` or a start velocity)."""
+    if getattr(cfg, "init_velocity_from_attitude", False) and vel_n is not None:
+        return em.skew(np.asarray(vel_n, dtype=float))
+    return None
+
+
+#: the blocks ``init_attitude_cross`` may name (the common ``nabla``; a channel's own)
+_CROSS_BLOCKS = ("dk", "mount", "lever")
+
+
+def _attitude_cross(cfg, sensors=None) -> dict:
+    """``cfg.init_attitude_cross`` as arrays, checked (``BadInput`` naming the key): ``nabla``
+    (3, 3) and ``<channel>.<block>`` (3, block size) for a channel of ``sensors`` (None: not
+    checked here) and a block of :data:`_CROSS_BLOCKS`."""
+    out = {}
+    for key, val in (getattr(cfg, "init_attitude_cross", None) or {}).items():
+        ch, _, blk = key.rpartition(".")
+        if key == "nabla":
+            n = 3
+        elif blk in _CROSS_BLOCKS and ch in ("odometer", "ldv"):
+            if sensors is not None and ch not in sensors:
+                raise BadInput(f"init_attitude_cross.{key}: this method runs no {ch} channel",
+                               file="config")
+            n = SUB_LAYOUT[blk].stop - SUB_LAYOUT[blk].start
+        else:
+            raise BadInput(f"init_attitude_cross.{key}: not a block it takes (nabla, "
+                           "<odometer|ldv>.<dk|mount|lever>)", file="config")
+        X = np.asarray(val, dtype=float)
+        if X.shape != (3, n) or not np.isfinite(X).all():
+            raise BadInput(f"init_attitude_cross.{key}: need a finite 3 x {n} matrix, got "
+                           f"shape {X.shape}", file="config")
+        out[key] = X
+    return out
+
+
+def _check_prior(P, what: str):
+    """``BadInput`` when the prior ``P`` (with ``init_attitude_cross``) is not positive
+    semi-definite: a cross-covariance larger than its two blocks allow."""
+    d = np.sqrt(np.clip(np.diagonal(P), 1e-300, None))
+    lam = np.linalg.eigvalsh(P / np.outer(d, d))
+    if lam[0] < -1e-9:
+        raise BadInput(f"init_attitude_cross: the {what} prior is not positive semi-definite "
+                       f"(smallest eigenvalue of its correlation matrix {lam[0]:.3g}): a "
+                       "cross-covariance larger than the attitude and state sigmas allow",
+                       file="config")
 
 
 NS = NHC_LAYOUT.n      #: the common SINS error states (fused, fed back)
@@ -591,16 +659,37 @@ def _pad(M15, n=NSUB):
     return out
 
 
-def _channel(bundle, name, cfg, beta, P15, Q15, c, C_vb0, thr, ret, t0=0.0):
+def _channel(bundle, name, cfg, beta, P15, Q15, c, C_vb0, thr, ret, t0=0.0, vel_n=None):
     """The local filter of one velocity sensor (eq. 33-35: SINS part shared by ``1 /
     beta``) and its measurement; ``t0`` the filter's start time [s] (the length row's
-    memory, :data:`LENGTH_VAR_SCALE`)."""
+    memory, :data:`LENGTH_VAR_SCALE`).
+
+    ``init_attitude_cross`` (issue 15): the channel's ``X = cov(phi, s)`` for its sensor
+    states ``s`` goes in as it is, and with ``init_velocity_from_attitude`` ``cov(dv, s) = A
+    X`` (``dv = A phi + w``, :func:`_sins_prior`), while the SINS block is ``P15 / beta``:
+    ``[[P15 / beta, X], [X^T, P_s]]`` is positive semi-definite whenever the joint ``[[P15,
+    X], [X^T, P_s]]`` is (``beta <= 1`` adds ``(1 / beta - 1) P15``), the regression of
+    ``phi`` on ``s``, ``X P_s^-1``, is the joint's, and the residual ``P15 / beta - X P_s^-1
+    X^T`` is at least the joint's ``/ beta`` (the federated bound on the shared states; the
+    sensor states are the channel's own, not fused)."""
     lever = np.asarray(bundle.meta.get("lever_arms_m", {}).get(name, [0.0, 0.0, 0.0]), float)
     short = "od" if name == "odometer" else "ldv"
     P = _pad(P15 / beta)
     P[SUB_LAYOUT["dk"], SUB_LAYOUT["dk"]] = (getattr(cfg, f"{short}_scale_sigma_ppm") * 1e-6) ** 2
     P[SUB_LAYOUT["mount"], SUB_LAYOUT["mount"]] = np.eye(2) * (cfg.mount_sigma_arcmin * ARCMIN) ** 2
     P[SUB_LAYOUT["lever"], SUB_LAYOUT["lever"]] = np.eye(3) * cfg.lever_sigma_m ** 2
+    cross = {k.rpartition(".")[2]: X for k, X in _attitude_cross(cfg).items()
+             if k.startswith(name + ".")}
+    if cross:
+        T = _velocity_from_attitude(cfg, vel_n)
+        a, v = SUB_LAYOUT["phi"], SUB_LAYOUT["dv"]
+        for blk, X in cross.items():
+            P[a, SUB_LAYOUT[blk]] = X
+            if T is not None:
+                P[v, SUB_LAYOUT[blk]] = T @ X
+        o = NS
+        P[o:, :o] = P[:o, o:].T
+        _check_prior(P, f"{name} channel's")
     second = bool(cfg.measurement == "displacement" and cfg.exact_attitude_columns
                   and cfg.second_order_length)
     kind = ms.DisplacementIncrement if cfg.measurement == "displacement" else ms.SensorVelocityNav
@@ -1583,7 +1672,9 @@ def run_aided(bundle: Bundle, cfg, init: NavState, sensors: tuple, *, method: st
     meas_every = max(1, int(round(cfg.measurement_period_s / t_ep)))
     fuse_every = max(1, int(round(cfg.main_period_s / (meas_every * t_ep)))) * meas_every
     out_every = max(1, int(round(cfg.output_interval_s / t_ep)))
+    _attitude_cross(cfg, sensors)                    # its keys checked against the channels
     P15 = _sins_prior(cfg, init.lat, init.h, init.vel_n)
+    _check_prior(P15, "SINS")
     Q15 = em.ErrorModel(NHC_LAYOUT, _noise(cfg)).Qc()
     betas = {"odometer": getattr(cfg, "beta_od", 1.0), "ldv": getattr(cfg, "beta_ldv", 1.0)}
     if len(sensors) == 1:
@@ -1603,7 +1694,7 @@ def run_aided(bundle: Bundle, cfg, init: NavState, sensors: tuple, *, method: st
     locals_, meas = [], []
     for c, s_ in enumerate(sensors):
         lf, m = _channel(bundle, s_, cfg, betas[s_], P15, Q15, c, C_vb0, thr_ch[s_], ret,
-                         float(imu.t[k0]))
+                         float(imu.t[k0]), init.vel_n)
         locals_.append(lf)
         meas.append(m)
     lay = SUB_LAYOUT if sensors else NHC_LAYOUT
@@ -1788,18 +1879,35 @@ def _smooth_bank(f, res_fwd, bundle, cfg, init, k0, sensors, use_nhc, use_baro, 
     meas = []
     for c, name in enumerate(sensors):
         lf, m = _channel(bundle, name, cfg, 1.0, P15, Q15, 0, C_vb0, 0.0, 1,
-                         float(bundle.imu.t[k0]))
+                         float(bundle.imu.t[k0]), init.vel_n)
         m.log_nis = False
         o_dk, o_m, o_l = starts[c]
         for o_sub, o_c, k in ((SUB_LAYOUT["dk"].start, o_dk, 1),
                               (SUB_LAYOUT["mount"].start, o_m, 2),
                               (SUB_LAYOUT["lever"].start, o_l, 3)):
             P0[o_c:o_c + k, o_c:o_c + k] = lf.P0[o_sub:o_sub + k, o_sub:o_sub + k]
+            P0[:NS, o_c:o_c + k] = lf.P0[:NS, o_sub:o_sub + k]     # init_attitude_cross
+            P0[o_c:o_c + k, :NS] = lf.P0[o_sub:o_sub + k, :NS]
         if c > 0:
             base = m.params()
             m.fill = _remapped_fill(m.fill, len(base))
             m.params = (lambda b=base, s=starts[c]: np.r_[b, np.asarray(s, float)])
         meas.append(m)
+    if _attitude_cross(cfg) and len(sensors) > 1:
+        # two channels' states both correlated with phi: their cross-covariance is the one
+        # phi implies, X_1^T P_phi^-1 X_2 (the least that keeps the joint prior positive
+        # semi-definite: its Schur complement on phi is then block-diagonal)
+        a = NHC_LAYOUT["phi"]
+        ix = [np.r_[starts[c][0], starts[c][1]:starts[c][1] + 2, starts[c][2]:starts[c][2] + 3]
+              for c in range(len(sensors))]
+        Pinv = np.linalg.inv(P0[a, a])
+        for i in range(len(sensors)):
+            for j in range(i + 1, len(sensors)):
+                B = P0[a][:, ix[i]].T @ Pinv @ P0[a][:, ix[j]]
+                P0[np.ix_(ix[i], ix[j])] = B
+                P0[np.ix_(ix[j], ix[i])] = B.T
+    if _attitude_cross(cfg):
+        _check_prior(P0, "central smoother's")
     if use_nhc:
         meas.append(_nhc(cfg, C_vb0, 0))
     if use_baro:

@@ -296,15 +296,35 @@ def window_error_map(inp: Inputs, level: Level, lowpass_time_constant_s=None) ->
     motion ``alpha`` holds ``C_{b(t)}^{b(0)} v^b(t)`` (:data:`obs_vectors.MODEL_VB_EARTH`), so
     an error ``dv^b`` of the assumed ``[0, s, 0]`` (a mounting angle: ``s`` times it on the
     lateral / vertical axis; a scale factor; a lever arm's ``omega x l``; the vehicle
-    constraint's violation; speed noise) gives ``da_k = C_{b(t_k)}^{b(0)} dv^b(t_k)`` (the
-    Earth-rate integral's share, ``omega_ie`` times the window, is left out). The sums are
+    constraint's violation; speed noise) gives ``da_k = C_{b(t_k)}^{b(0)} dv^b(t_k)`` plus,
+    through the Earth-rate integral ``I_wv_b`` (which takes the assumed ``v^b`` too), ``[omega_ie^b0
+    x] sum_(j <= k) C_{b(t_j)}^{b(0)} dv_j dt_j`` (``omega_ie^b0 = C^T omega_ie^n``, constant in
+    the inertial frame ``b(0)``); so ``H_j = (A_j + sum_(k >= j) A_k [omega_ie^b0 x] dt_j)
+    C_{b(t_j)}^{b(0)}`` with ``A_k = M^-1 w_k [b_k x] C``. That share is small (measured,
+    issue 15, paper 003's 85 s drive, 80 s window: a 30 arcmin yaw mounting's heading 217.1
+    arcmin with it, 217.8 without, the coarse stage on the turned IMU 205.0; the 300 s
+    window's mean (e / sigma)^2 2.28 with it, 2.23 without). Not resolved: the map's forward
+    column (a scale factor's ``dv = dk s e_y``) gives -5.7 arcmin of heading per 1000 ppm
+    where the coarse stage run on the scaled speed moves +0.61 (and -11.6 against -6.6 for a
+    constant 0.01 m/s; a ramp's 10.4 against 12.5 agrees better): the ``scale`` term is
+    sized by it all the same (conservative there). The sums are
     taken over the output epochs (each standing for the intervals since the one before; the
     low-pass's settling time is skipped as in ``K``), so ``eps = sum_j H_j dv_j`` with ``dv_j``
     the mean of ``dv^b`` over epoch ``j``'s interval.
 
+    The accelerometer bias (issue 15, the fine prior's cross-covariance). A constant bias
+    ``nabla`` in b adds ``int_0^t C_{b(tau)}^{b(0)} nabla dtau = G(t) nabla`` to ``I_f``, and
+    ``alpha = vb_b0 - v^b(0) - I_f (+ I_wv_b)``, so it acts as ``da_k = -G(t_k) nabla``, the
+    same place a velocity error ``C_{b(t_k)}^{b(0)} dv_k`` enters: ``eps = J_nabla nabla``
+    with ``J_nabla = -sum_k M^-1 w_k [b_k x] C G(t_k)`` (``G`` by the trapezoid rule over the
+    epochs from the window's first row). Parked (no turn) ``G(t) = t I`` and this is the
+    classic ``phi_E = -nabla_N / g``, ``phi_N = nabla_E / g`` with the heading's ``nabla_E
+    tan L / g``; turns average the bias's nav-frame direction over the window.
+
     Returns ``{"H": (M, 3, 3) [rad per m/s], "dt": (M,) [s], "speed": (M,) [m/s],
-    "rate_b": (M, 3) body rate over each interval [rad/s]}`` (``eps`` in ``n(0)``, ENU at the
-    window's start), or None with fewer than 3 epochs or vectors that span no plane."""
+    "rate_b": (M, 3) body rate over each interval [rad/s], "J_nabla": (3, 3) [rad per
+    m/s^2]}`` (``eps`` in ``n(0)``, ENU at the window's start), or None with fewer than 3
+    epochs or vectors that span no plane."""
     run = level.run
     t = run.t - run.t[0]
     skip = 3.0 * lowpass_time_constant_s if lowpass_time_constant_s else 0.0
@@ -323,11 +343,20 @@ def window_error_map(inp: Inputs, level: Level, lowpass_time_constant_s=None) ->
     if np.linalg.cond(M) > 1e14:       # the vectors span no plane (parked-like, no Earth
         return None                      # rate seen yet): no linear map
     Minv = np.linalg.inv(M)
-    H = Minv[None] @ (w[:, None, None] * rotations.skew(b)) @ C[None] @ Cb0b[use]
+    A = Minv[None] @ (w[:, None, None] * rotations.skew(b)) @ C[None]
+    # the Earth-rate integral's share (alpha's I_wv_b with the assumed v^b): eps_k also takes
+    # [w_ie^b0 x] sum_(j <= k) C_{b(t_j)}^{b(0)} dv_j dt_j, so H_j gains
+    # (sum_(k >= j) A_k) [w_ie^b0 x] C_{b(t_j)}^{b(0)} dt_j
+    w_b0 = C.T @ (earth.OMEGA_IE * np.array([0.0, np.cos(inp.lat0), np.sin(inp.lat0)]))
+    A_after = np.cumsum(A[::-1], axis=0)[::-1]
+    H = (A + A_after @ rotations.skew(w_b0)[None] * dt[:, None, None]) @ Cb0b[use]
     rel = np.swapaxes(Cb0b[use - 1], -1, -2) @ Cb0b[use]          # C_{b(j)}^{b(j-1)}
     rate = rotations.rotvec_from_dcm(rel) / dt[:, None]
     speed = np.linalg.norm(run.vel_n[use], axis=1)
-    return {"H": H, "dt": dt, "speed": speed, "rate_b": rate}
+    steps = 0.5 * (Cb0b[1:] + Cb0b[:-1]) * np.diff(t)[:, None, None]
+    G = np.concatenate([np.zeros((1, 3, 3)), np.cumsum(steps, axis=0)])[use]
+    J_nabla = -(A @ G).sum(0)
+    return {"H": H, "dt": dt, "speed": speed, "rate_b": rate, "J_nabla": J_nabla}
 
 
 def _markov_bin_cov_sum(u: np.ndarray, sigma: float, tau: float, dt: float) -> np.ndarray:
@@ -354,7 +383,7 @@ def _markov_bin_cov_sum(u: np.ndarray, sigma: float, tau: float, dt: float) -> n
 def window_terms(emap: dict, *, mount_sigma_rad: float, scale_sigma: float,
                  lever_m=(0.0, 0.0, 0.0), lever_sigma_m: float = 0.0,
                  constraint_violation=None, speed_noise_m_s: float = 0.0,
-                 speed_rate_hz: float = 0.0) -> dict:
+                 speed_rate_hz: float = 0.0, accel_bias_sigma: float = 0.0) -> dict:
     """The window's terms of the coarse attitude error (:func:`window_error_map`), each a
     3x3 covariance [rad^2] of ``eps`` (ENU at the window's start):
 
@@ -367,7 +396,11 @@ def window_terms(emap: dict, *, mount_sigma_rad: float, scale_sigma: float,
       ``(sigma, tau)`` pairs (``constraint_violation = ((s_lat, tau_lat), (s_vert,
       tau_vert))``) on ``dv^b_x`` / ``dv^b_z`` (:func:`_markov_bin_cov_sum`);
     * ``speed_noise``: white speed noise of ``speed_noise_m_s`` at ``speed_rate_hz`` on
-      ``dv^b_y``.
+      ``dv^b_y``;
+    * ``bias`` (with ``accel_bias_sigma`` > 0 [m/s^2] per axis, and the map's ``J_nabla``):
+      the accelerometer bias, ``J_nabla J_nabla^T sigma^2`` (the map's docstring): the
+      parked figures ``bias / g`` (level) and ``bias tan L / g`` (heading) with the
+      manoeuvres' turns, and the heading a forward bias turns over a short window.
     """
     H, dt, s, om = emap["H"], emap["dt"], emap["speed"], emap["rate_b"]
     P = {}
@@ -395,4 +428,7 @@ def window_terms(emap: dict, *, mount_sigma_rad: float, scale_sigma: float,
         P["speed_noise"] = (u.T * (speed_noise_m_s ** 2 / (speed_rate_hz * dt))) @ u
     else:
         P["speed_noise"] = np.zeros((3, 3))
+    if accel_bias_sigma > 0 and "J_nabla" in emap:
+        J = np.asarray(emap["J_nabla"])
+        P["bias"] = J @ J.T * accel_bias_sigma ** 2
     return P

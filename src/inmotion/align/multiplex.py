@@ -33,7 +33,9 @@ The coarse stage's envelope and the fine prior (issue 15)
     the IMU spec the fine filter uses: ``meta['imu']`` or its configuration): level about
     ``hypot(bias / g, drift T / 2)`` and heading about ``hypot(drift / (Omega_ie cos L),
     bias tan L / g, drift T / 2)`` (the limits of :mod:`inmotion.align.coarse_inertial`, plus
-    the drift the gyros add to the attitude over a window of ``T`` seconds). Those 1-sigma
+    the drift the gyros add to the attitude over a window of ``T`` seconds; in motion, with
+    the window's error map, the bias's part is the map's instead, :func:`window_envelope`'s
+    ``imu_bias``: the bias turned by the manoeuvres). Those 1-sigma
     become the fine filter's attitude prior (where ``fine`` does not set it), and the start
     velocity, made from the coarse attitude, carries its correlation with the attitude error
     (``init_velocity_from_attitude``). When the heading envelope exceeds
@@ -64,6 +66,22 @@ The coarse window's own terms (issue 15)
     heading 1-sigma (still resolvable) the fine filter's small-angle model no longer holds:
     the reported sigma is kept covering (:func:`linear_range_check`) and ``info['warnings']``
     names the window length to use.
+
+The coarse error's correlation with the fine filter's states (issue 15, ``prior_cross``)
+    The coarse attitude error is largely made by sensor errors the fine filter has states
+    for: the accelerometer bias (a tilt of about ``-bias / g`` in the nav frame, averaged
+    over the window's turns, and a forward bias turns a short window's heading), the IMU's
+    mounting in the vehicle (the vectors assume ``v^b = [0, s, 0]``). A prior that takes the
+    attitude error as independent of those states tells the filter that a mounting or bias
+    it estimates says nothing about its attitude, and the scalar level floor ``bias / g``
+    then had to stand in for the missing correlation (conservative: per-axis mean ``(e /
+    sigma)^2`` 0.00 / 0.00 / 1.57 at the default 600 s window). With ``prior_cross`` the
+    prior carries ``cov(phi, s) = J_s P_s`` (:func:`window_cross_maps`, :func:`attitude_cross`;
+    the fine filters' ``init_attitude_cross``), the attitude 1-sigma is the coarse envelope
+    itself (the correlated model is the error's; not raised to the fine filter's default
+    priors) and the level floor applies only where the heading is not resolved
+    (:func:`floor_attitude_sigma`). Measured (``benchmarks/fine_mux_level_floor.py``, 20 runs,
+    band 2.02-4.16): see that script's docstring.
 """
 from __future__ import annotations
 
@@ -88,7 +106,7 @@ __all__ = ["auto_fine_method", "MuxConfig", "fault_tolerant_speed", "coarse_faul
            "last_covered", "first_covered", "run_multiplexed", "run_fine_mux", "FINE_METHODS",
            "start_state", "coarse_envelope", "fine_config_from_coarse", "floor_attitude_sigma",
            "UNRESOLVED_HEADING_DEG", "UNKNOWN_HEADING_SIGMA_DEG", "window_envelope",
-           "linear_range_check", "LINEAR_HEADING_DEG"]
+           "linear_range_check", "LINEAR_HEADING_DEG", "window_cross_maps", "attitude_cross"]
 
 #: the fine alignments ``fine-mux`` can run after the coarse stage
 FINE_METHODS = {"fkf": (ak.run_fkf, ak.FkfConfig), "od-kf": (ak.run_od_kf, ak.AidedKfConfig),
@@ -97,6 +115,11 @@ FINE_METHODS = {"fkf": (ak.run_fkf, ak.FkfConfig), "od-kf": (ak.run_od_kf, ak.Ai
 _CHANNELS = ("odometer", "ldv")
 #: 1-sigma of a heading known only to lie in +-180 deg (uniform): 360 / sqrt(12) [deg]
 UNKNOWN_HEADING_SIGMA_DEG = 360.0 / np.sqrt(12.0)
+
+
+#: the accelerometer bias as a window term (``window_terms``' ``bias``, through the map's
+#: ``J_nabla``) in place of the IMU envelope's parked figures
+WINDOW_BIAS_TERM = True
 
 
 def window_envelope(emap: Optional[dict], base, meta, channel: Optional[str],
@@ -108,9 +131,15 @@ def window_envelope(emap: Optional[dict], base, meta, channel: Optional[str],
     ``lever_sigma_m``), the vehicle constraint's violation (``meta['vehicle']
     ['constraint_violation']``; without it ``nhc_noise_m_s`` with a 0.5 s correlation time)
     and the speed noise (``meta['sensors'][channel]['noise_m_s']``, else the fine
-    configuration's forward figure, at the sensor's rate). Returns ``{"terms": {name:
-    [E, N, U] 1-sigma arcmin}, "level_deg", "heading_deg", "cov_rad2"}`` or None without a
-    map (parked)."""
+    configuration's forward figure, at the sensor's rate). With :data:`WINDOW_BIAS_TERM`
+    also the accelerometer bias through the map (``window_terms``' ``bias``, the fine
+    prior's bias 1-sigma), returned apart as ``imu_bias`` (``arcmin``, ``level_deg``,
+    ``heading_deg``, ``cov_rad2``): the IMU's term, which :func:`fine_config_from_coarse`
+    puts in place of the parked ``bias / g`` and ``bias tan L / g`` (issue 15: at 300 s the
+    bias turned by the manoeuvres gave 19.8 arcmin of heading RMS, the parked figure 0.1;
+    ``benchmarks/coarse_cross_truth.py``). Returns ``{"terms": {name: [E, N, U] 1-sigma
+    arcmin}, "level_deg", "heading_deg", "cov_rad2", "imu_bias"}`` or None without a map
+    (parked)."""
     if emap is None or channel is None:
         return None
     short = "od" if channel == "odometer" else "ldv"
@@ -131,26 +160,122 @@ def window_envelope(emap: Optional[dict], base, meta, channel: Optional[str],
         emap, mount_sigma_rad=np.radians(float(getattr(base, "mount_sigma_arcmin", 30.0)) / 60),
         scale_sigma=float(getattr(base, f"{short}_scale_sigma_ppm", 3000.0)) * 1e-6,
         lever_m=[float(x) for x in lever], lever_sigma_m=float(getattr(base, "lever_sigma_m", 0.05)),
-        constraint_violation=cv, speed_noise_m_s=float(noise), speed_rate_hz=rate)
+        constraint_violation=cv, speed_noise_m_s=float(noise), speed_rate_hz=rate,
+        accel_bias_sigma=float(ak._bias_prior(base)[1]) if WINDOW_BIAS_TERM else 0.0)
+    bias = P.pop("bias", None)
     total = sum(P.values())
     arcmin = np.degrees(1.0) * 60.0
-    return {"terms": {k: (np.sqrt(np.diag(v)) * arcmin).round(3).tolist() for k, v in P.items()},
-            "level_deg": float(np.degrees(np.sqrt(max(total[0, 0], total[1, 1])))),
-            "heading_deg": float(np.degrees(np.sqrt(total[2, 2]))),
-            "cov_rad2": total.tolist(), "channel": channel}
+    out = {"terms": {k: (np.sqrt(np.diag(v)) * arcmin).round(3).tolist() for k, v in P.items()},
+           "level_deg": float(np.degrees(np.sqrt(max(total[0, 0], total[1, 1])))),
+           "heading_deg": float(np.degrees(np.sqrt(total[2, 2]))),
+           "cov_rad2": total.tolist(), "channel": channel}
+    if bias is not None:           # the IMU's term, through the window's map (not the window's)
+        out["imu_bias"] = {"arcmin": (np.sqrt(np.diag(bias)) * arcmin).round(3).tolist(),
+                           "level_deg": float(np.degrees(np.sqrt(max(bias[0, 0], bias[1, 1])))),
+                           "heading_deg": float(np.degrees(np.sqrt(bias[2, 2]))),
+                           "cov_rad2": bias.tolist()}
+    return out
+
+
+def window_cross_maps(emap: Optional[dict]) -> Optional[dict]:
+    """The coarse attitude error ``eps`` (ENU at the window's start, the fine filter's
+    ``phi`` at its start: both ``C_hat = (I - [eps x]) C``) per unit of the fine filter's
+    sensor-error states (issue 15), from the window's error map (:func:`inmotion.align.
+    attitude_determination.window_error_map`, ``eps = sum_k H_k dv_k`` with ``dv`` the error
+    of the body velocity ``[0, s, 0]`` the vectors assumed, assumed minus true):
+
+    * ``nabla`` (3, 3): the accelerometer bias in b, the map's ``J_nabla`` (its docstring);
+    * ``mount`` (3, 2): the mounting ``A = [alpha, gamma]`` of :data:`inmotion.estimation.
+      aiding_rows.SUB_LAYOUT` (``C_v^b = (I + [A x]) C_v^b0``): the vehicle moves along
+      ``(I + [A x]) e_y = e_y + [-gamma, 0, alpha]`` in b, so ``dv = s [gamma, 0, -alpha]``
+      and the columns are ``sum_k H_k s_k [0, 0, -1]`` and ``sum_k H_k s_k [1, 0, 0]``;
+    * ``dk`` (3,): the speed's scale factor (``v_measured = (1 + dk) v``): ``dv = dk s e_y``,
+      ``sum_k H_k s_k e_y``.
+
+    The IMU's mounting is one for every channel (a sensor's beam misalignment changes its
+    speed only at second order), so every channel's ``mount`` states share this map; the
+    scale factor is the coarse channel's (its column is not trusted: :func:`attitude_cross`).
+    The signs and sizes are checked against the coarse stage run on a simulated drive with
+    the bias and the mounting injected (``tests/test_multiplex_cross.py``) and against the
+    drawn bias and mounting over a Monte Carlo (``benchmarks/coarse_cross_truth.py``:
+    correlation 0.96-1.00, regression slope 0.88-1.06 at 120 / 300 / 600 s). None without a
+    map."""
+    if emap is None:
+        return None
+    H, s = emap["H"], emap["speed"]
+    col = lambda j: (H[:, :, j] * s[:, None]).sum(0)          # noqa: E731
+    return {"nabla": np.asarray(emap["J_nabla"]), "mount": np.stack([-col(2), col(0)], 1),
+            "dk": col(1)}
+
+
+def attitude_cross(maps: Optional[dict], base, sensors=()) -> dict:
+    """The fine prior's ``init_attitude_cross`` (:class:`inmotion.align.aided_kf.
+    NhcKfConfig`; issue 15): ``cov(phi, s) = J_s P_s`` for the sensor states ``s`` whose
+    error made the coarse attitude's, ``J_s`` of :func:`window_cross_maps` and ``P_s`` the
+    fine configuration's own prior of ``s`` (``base``): the accelerometer bias (``nabla``,
+    its 1-sigma :func:`inmotion.align.aided_kf._bias_prior`) and every channel of
+    ``sensors``' mounting (``mount_sigma_arcmin``: one physical mounting, one map). The
+    scale factor is left out: the map's scale column does not match the coarse stage run on
+    a scaled speed (-5.7 against +0.6 arcmin of heading per 1000 ppm, 80 s window on paper
+    003's 85 s drive: :func:`inmotion.align.attitude_determination.window_error_map`), while
+    its share of the heading is small either way. Values [rad x the state's SI unit], as lists; ``{}`` without a map."""
+    if maps is None:
+        return {}
+    s_nabla = ak._bias_prior(base)[1]
+    out = {"nabla": (maps["nabla"] * s_nabla ** 2).tolist()}
+    s_m = float(getattr(base, "mount_sigma_arcmin", 0.0)) * ak.ARCMIN
+    if s_m > 0:
+        for ch in sensors:
+            out[f"{ch}.mount"] = (maps["mount"] * s_m ** 2).tolist()
+    return out
+
+
+def _cover_cross(tilt_deg: float, head_deg: float, cross: dict, base) -> tuple:
+    """``(tilt_deg, head_deg)`` raised (by 5 % steps) until ``diag(tilt, tilt, head)^2 -
+    sum_s X_s P_s^-1 X_s^T`` is positive semi-definite for the nabla and one channel's mount
+    (each local filter holds one channel): a prior the cross-covariance fits."""
+    s_nabla = ak._bias_prior(base)[1]
+    S = np.zeros((3, 3))
+    if "nabla" in cross:
+        X = np.asarray(cross["nabla"])
+        S += X @ X.T / s_nabla ** 2
+    mounts = [np.asarray(v) for k, v in cross.items() if k.endswith(".mount")]
+    if mounts:
+        s_m = float(base.mount_sigma_arcmin) * ak.ARCMIN
+        S += mounts[0] @ mounts[0].T / s_m ** 2
+    t, h = np.radians(tilt_deg), np.radians(head_deg)
+    for _ in range(200):
+        if np.linalg.eigvalsh(np.diag([t, t, h]) ** 2 - S)[0] >= 0:
+            break
+        short_h = S[2, 2] >= 0.999 * h * h
+        short_t = max(S[0, 0], S[1, 1]) >= 0.999 * t * t
+        t, h = (t * 1.05 if short_t or not short_h else t), (h * 1.05 if short_h or not short_t else h)
+    return float(np.degrees(t)), float(np.degrees(h))
 
 
 def fine_config_from_coarse(cls, fine: dict, meta, lat: float, window_s: float,
                             emap: Optional[dict] = None, channel: Optional[str] = None,
-                            rate_hz: float = 0.0):
+                            rate_hz: float = 0.0, sensors=(), cross: bool = False):
     """``(config, envelope, warnings)``: the fine method's configuration with the coarse
     envelope as its attitude prior (fields ``fine`` does not set; module docstring).
     ``emap``: the window's error map (:func:`coarse_fault_tolerant`), whose terms
     (:func:`window_envelope` with the fine configuration's priors, ``channel``'s spec at
-    ``rate_hz``) are added in quadrature to the IMU's envelope."""
+    ``rate_hz``) are added in quadrature to the IMU's envelope. ``cross`` (with a map and a
+    resolvable heading): the prior also carries the coarse attitude error's covariance with
+    the accelerometer bias and the mounting of every channel of ``sensors``
+    (:func:`attitude_cross`, ``init_attitude_cross``), the attitude 1-sigma raised where
+    needed for it to fit (:func:`_cover_cross`)."""
     base, _ = ak.config_with_spec(ak._config(fine, cls), meta)
     env = coarse_envelope(base.gyro_drift_deg_h, base.accel_bias_ug, lat, window_s)
     window = window_envelope(emap, base, meta, channel, rate_hz)
+    if window is not None and "imu_bias" in window:
+        # the accelerometer bias through the window's map (turned with the vehicle) in place
+        # of the parked figures bias / g, bias tan L / g; the gyros' terms as they were
+        gyro = coarse_envelope(base.gyro_drift_deg_h, 0.0, lat, window_s)
+        b = window["imu_bias"]
+        env = {**gyro, "accel_bias_ug": float(base.accel_bias_ug),
+               "level_deg": float(np.hypot(gyro["level_deg"], b["level_deg"])),
+               "heading_limit_deg": float(np.hypot(gyro["heading_limit_deg"], b["heading_deg"]))}
     if window is not None:
         env["imu"] = {"level_deg": env["level_deg"], "heading_deg": env["heading_limit_deg"]}
         env["window"] = window
@@ -163,6 +288,15 @@ def fine_config_from_coarse(cls, fine: dict, meta, lat: float, window_s: float,
            "init_tilt_sigma_deg": max(env["level_deg"], base.init_tilt_sigma_deg),
            "init_heading_sigma_deg": (max(env["heading_deg"], base.init_heading_sigma_deg)
                                       if env["resolvable"] else UNKNOWN_HEADING_SIGMA_DEG)}
+    if cross and env["resolvable"] and emap is not None and "init_attitude_cross" not in (fine or {}):
+        X = attitude_cross(window_cross_maps(emap), base, sensors)
+        tilt, head = _cover_cross(env["level_deg"], env["heading_deg"], X, base)
+        if "init_tilt_sigma_deg" in (fine or {}) or "init_heading_sigma_deg" in (fine or {}):
+            tilt, head = (float(fine.get("init_tilt_sigma_deg", tilt)),
+                          float(fine.get("init_heading_sigma_deg", head)))
+        upd.update({"init_attitude_cross": X, "init_tilt_sigma_deg": tilt,
+                    "init_heading_sigma_deg": head})
+        env["attitude_cross"] = X
     upd = {k: v for k, v in upd.items() if k not in (fine or {})}
     warnings = []
     if not env["resolvable"]:
@@ -182,13 +316,22 @@ def fine_config_from_coarse(cls, fine: dict, meta, lat: float, window_s: float,
     return ak._config({**(fine or {}), **upd}, cls), env, warnings
 
 
-def floor_attitude_sigma(sol: Solution, env: dict) -> None:
+def floor_attitude_sigma(sol: Solution, env: dict, level: bool = True) -> None:
     """Keep the reported attitude 1-sigma of ``sol`` at least what the IMU allows without an
-    external attitude reference: level ``bias / g``; heading
-    :data:`UNKNOWN_HEADING_SIGMA_DEG` when the coarse stage could not resolve it."""
+    external attitude reference: level ``bias / g`` (with ``level``, or when the heading is
+    not resolved); heading :data:`UNKNOWN_HEADING_SIGMA_DEG` when the coarse stage could not
+    resolve it.
+
+    ``level=False`` (issue 15): the solution is a velocity-aided filter whose prior carries
+    the coarse tilt's correlation with the accelerometer bias (``env['attitude_cross']``),
+    started from a resolved heading. Its covariance then holds what separates the two (the
+    bias turns with the vehicle in the nav frame, the tilt does not), so its level sigma is
+    its own; ``bias / g`` is the limit only where nothing turns the bias (parked, or a
+    heading the linear filter cannot hold). Measured on paper 003's drive (600 s window, 20
+    runs) the fine level errors are 0.001-0.011 arcmin, under the 0.172 floor."""
     lvl = env["accel_bias_ug"] * 1e-6                   # bias / g [rad]
     for k in ("phi_E", "phi_N"):
-        if k in sol.sigma:
+        if k in sol.sigma and (level or not env["resolvable"]):
             sol.sigma[k] = np.maximum(sol.sigma[k], lvl)
     if not env["resolvable"] and "phi_U" in sol.sigma:
         sol.sigma["phi_U"] = np.maximum(sol.sigma["phi_U"],
@@ -273,6 +416,15 @@ class MuxConfig(BaseModel):
         "auto", description="the fine alignment method that follows the coarse stage; auto: "
                             "fkf with odometer and LDV, od-kf or ldv-kf with one of them "
                             "(info: fine_method)")
+    prior_cross: bool = Field(
+        True,
+        description="the fine prior carries the coarse attitude error's covariance with the "
+                    "accelerometer bias and the mounting (init_attitude_cross; "
+                    "multiplex.attitude_cross) and the reported level 1-sigma is the fine "
+                    "filter's own where the heading is resolved (floor_attitude_sigma's "
+                    "level=False); issue 15. False: the prior independent and the level "
+                    "floor bias / g everywhere (before issue 15's session 12: NEES 1.08 at the "
+                    "600 s window, conservative; benchmarks/fine_mux_level_floor.py)")
     fine: dict = Field(default_factory=dict, description="configuration of the fine method")
     coarse: dict = Field(default_factory=dict, description="coarse-inertial configuration")
 
@@ -436,13 +588,16 @@ def run_multiplexed(bundle: Bundle, cfg: MuxConfig, init: Optional[NavState] = N
     fine_method = auto_fine_method(bundle, cfg.fine_method)
     run, cls = FINE_METHODS[fine_method]
     channel = coarse.info.get("coarse_channel")
+    sensors = {"fkf": ("odometer", "ldv"), "od-kf": ("odometer",),
+               "ldv-kf": ("ldv",)}.get(fine_method, ())
     fcfg, env, warn = fine_config_from_coarse(cls, cfg.fine, bundle.meta, start.lat, t1 - t0,
-                                              emap, channel, _rate_hz(bundle, channel))
+                                              emap, channel, _rate_hz(bundle, channel),
+                                              sensors, cfg.prior_cross)
     w_coarse = time.perf_counter() - w0
     w1 = time.perf_counter()
     sol = run(bundle, fcfg, start, progress=progress)
     w_fine = time.perf_counter() - w1
-    floor_attitude_sigma(sol, env)
+    floor_attitude_sigma(sol, env, level=not cfg.prior_cross)
     warn += linear_range_check(sol, env, t1 - t0)
     sol.info["warnings"] = warn + list(sol.info.get("warnings", []))
     sol.info["coarse_envelope"] = env
