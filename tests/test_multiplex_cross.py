@@ -107,6 +107,25 @@ def test_scale_map_matches_coarse_stage(k):
     _close(lin, fd)
 
 
+def test_map_lowpass_is_the_stage_filter():
+    """``window_error_map``'s low-pass on the epochs (``attitude_determination._Lowpass``,
+    first-order hold): a constant passes unchanged, a ramp comes out delayed by ``tau``
+    once settled (the first-order low-pass of ``t`` is ``t - tau (1 - e^(-t / tau))``,
+    exact for an input linear between epochs), and its adjoint satisfies ``sum a . L x =
+    sum L^T a . x``."""
+    from inmotion.align.attitude_determination import _Lowpass
+    t = np.concatenate([[0.0], np.cumsum(np.random.default_rng(1).uniform(0.5, 1.5, 40))])
+    L = _Lowpass(t, 2.0)
+    np.testing.assert_allclose(L.apply(np.full((len(t), 3), 3.0)), 3.0, rtol=1e-12)
+    y = L.apply(np.stack([t, t, t], 1))[:, 0]
+    np.testing.assert_allclose(y, t - 2.0 * (1.0 - np.exp(-t / 2.0)), rtol=1e-12, atol=1e-12)
+    rng = np.random.default_rng(2)
+    x, a = rng.standard_normal((len(t), 3)), rng.standard_normal((len(t), 3, 3))
+    lhs = np.einsum("kij,kj->i", a, L.apply(x))
+    rhs = np.einsum("kij,kj->i", L.adjoint(a), x)
+    np.testing.assert_allclose(lhs, rhs, rtol=1e-12)
+
+
 def test_fine_prior_carries_cross(coarse80):
     """``fine_config_from_coarse`` with ``cross``: ``init_attitude_cross`` is ``J P_s``
     (bias, and the mounting for each channel run), the attitude prior fits it; ``fkf``'s
