@@ -71,7 +71,8 @@ The coarse error's correlation with the fine filter's states (issue 15, ``prior_
     The coarse attitude error is largely made by sensor errors the fine filter has states
     for: the accelerometer bias (a tilt of about ``-bias / g`` in the nav frame, averaged
     over the window's turns, and a forward bias turns a short window's heading), the IMU's
-    mounting in the vehicle (the vectors assume ``v^b = [0, s, 0]``). A prior that takes the
+    mounting in the vehicle (the vectors assume ``v^b = [0, s, 0]``) and the coarse
+    channel's scale factor. A prior that takes the
     attitude error as independent of those states tells the filter that a mounting or bias
     it estimates says nothing about its attitude, and the scalar level floor ``bias / g``
     then had to stand in for the missing correlation (conservative: per-axis mean ``(e /
@@ -440,7 +441,8 @@ class MuxConfig(BaseModel):
     prior_cross: bool = Field(
         True,
         description="the fine prior carries the coarse attitude error's covariance with the "
-                    "accelerometer bias and the mounting (init_attitude_cross; "
+                    "accelerometer bias, the mounting and the coarse channel's scale factor "
+                    "(init_attitude_cross; "
                     "multiplex.attitude_cross) and the reported level 1-sigma is the fine "
                     "filter's own where the heading is resolved (floor_attitude_sigma's "
                     "level=False); issue 15. False: the prior independent and the level "
