@@ -23,6 +23,15 @@ W = 40 / 80 / 150 / 300 / 600 s: 1.13 / 1.31 / 0.54 / 0.99 / 0.68 (sigma 157 / 6
 29.7 / 8.0 arcmin); 85 s drive, W = 20 / 40 / 80 s: 1.42 / 0.98 / 1.14 (sigma 986 / 800 /
 228). With the Earth-rate share alone the full drive's were 1.13 / 1.31 / 0.55 / 2.28 /
 1.32: the 300 s window's missing term was the bias (``benchmarks/coarse_cross_truth.py``).
+
+Since (issue 15, helper h16scale, same runs): the map follows the coarse stage's low-pass,
+its sum over the window (trapezoid) and the vectors' residuals (``window_error_map``; its
+scale column now matches the coarse stage run on a scaled speed): full drive, W = 40 / 80 /
+150 / 300 / 600 s: 1.05 / 0.96 / 0.67 / 0.98 / 0.67 (sigma 163 / 76 / 111 / 30.1 / 8.0
+arcmin; before 1.13 / 1.31 / 0.54 / 0.99 / 0.68); 85 s drive, W = 20 / 40 / 80 s: 0.68 /
+1.59 / 1.01 (sigma 1265 / 827 / 242; before 1.42 / 0.98 / 1.14): the 85 s drive's 40 s
+window moved toward the band's top (same errors, per-run sigmas changed; heading errors of
+12 deg RMS, beyond the small-angle map's range).
 """
 import sys
 

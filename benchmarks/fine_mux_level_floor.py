@@ -44,6 +44,12 @@ prior still raised to the fine filter's defaults (0.5 deg tilt, 2 deg heading, a
 arcmin coarse heading envelope; correlation of heading and yaw mounting -0.40) the heading
 ended +6.9 to +12.5 arcmin off on all 6 at a 5.4-6.4 sigma, NEES 5.68 (the floor off, no
 cross: 5.57); with the envelope as the prior (correlation -0.96) +0.8 to +7.5, NEES 2.54.
+
+Since (issue 15, helper h16scale, same 20 runs): the window's map follows the coarse
+stage's low-pass, trapezoid sum and residuals, and the prior's cross-covariance takes the
+coarse channel's scale factor too (``ldv.dk``): 600 s 1.04 / 0.79 / 1.27, 3.10 (unchanged);
+300 s 1.02 / 0.84 / 1.16, 3.02 (3.01); 120 s (first 194 s) 0.42 / 0.69 / 0.71, 1.82 (1.71;
+still below the band). Without ``ldv.dk`` (the map's change alone): 3.10, 3.02, 1.83.
 """
 import sys
 

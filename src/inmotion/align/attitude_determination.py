@@ -288,11 +288,16 @@ def window_error_map(inp: Inputs, level: Level, lowpass_time_constant_s=None) ->
     of the coarse attitude ``C_b^n(0)`` (issue 15: the window's own terms of the coarse
     envelope, beside the IMU's).
 
-    Derivation. The centred q-method answer minimises ``sum_k |b_k - C a_k|^2`` over the
-    centred pairs (Davenport's ``K`` is this least squares for unit weights). With ``a_k``
-    perturbed by ``da_k`` and the answer ``C_hat = (I - [eps x]) C``, the second-order
-    expansion of the objective in ``eps`` gives ``eps = M^-1 sum_k b_k x (C da_k)`` with ``M =
-    sum_k (|b_k|^2 I - b_k b_k^T)``; the centring of ``da`` drops out since ``sum b_k = 0``. In
+    Derivation. The centred q-method answer maximises ``sum_k w_k b_k^T C_hat a_k`` over the
+    centred pairs (Davenport's ``K``; ``w_k`` the weights of the sum over the intervals).
+    With ``a_k`` perturbed by ``da_k`` and the answer ``C_hat = (I - [eps x]) C``, the
+    second-order expansion in ``eps`` (``[eps x]^2 = eps eps^T - |eps|^2 I``) gives ``eps =
+    M^-1 sum_k w_k b_k x (C da_k)`` with ``M = sum_k w_k ((b_k . c_k) I - (b_k c_k^T + c_k
+    b_k^T) / 2)``, ``c_k = C a_k`` (``= b_k`` without residuals: ``M = sum w (|b|^2 I - b
+    b^T)``; the residuals ``b - C a`` of the actual vectors are kept, issue 15 helper
+    h16scale: on the 85 s drive's 40 s window the scale factor's heading 92.1 arcmin per
+    1000 ppm with them, 118.7 with ``c = b``, the coarse stage on the scaled speed 89.5);
+    the centring of ``da`` drops out since ``sum w b = 0``. In
     motion ``alpha`` holds ``C_{b(t)}^{b(0)} v^b(t)`` (:data:`obs_vectors.MODEL_VB_EARTH`), so
     an error ``dv^b`` of the assumed ``[0, s, 0]`` (a mounting angle: ``s`` times it on the
     lateral / vertical axis; a scale factor; a lever arm's ``omega x l``; the vehicle
@@ -300,23 +305,31 @@ def window_error_map(inp: Inputs, level: Level, lowpass_time_constant_s=None) ->
     through the Earth-rate integral ``I_wv_b`` (which takes the assumed ``v^b`` too), ``[omega_ie^b0
     x] sum_(j <= k) C_{b(t_j)}^{b(0)} dv_j dt_j`` (``omega_ie^b0 = C^T omega_ie^n``, constant in
     the inertial frame ``b(0)``); so ``H_j = (A_j + sum_(k >= j) A_k [omega_ie^b0 x] dt_j)
-    C_{b(t_j)}^{b(0)}`` with ``A_k = M^-1 w_k [b_k x] C``. That share is small (measured,
-    issue 15, paper 003's 85 s drive, 80 s window: a 30 arcmin yaw mounting's heading 217.1
-    arcmin with it, 217.8 without, the coarse stage on the turned IMU 205.0; the 300 s
-    window's mean (e / sigma)^2 2.28 with it, 2.23 without). Not resolved: the map's forward
-    column (a scale factor's ``dv = dk s e_y``) gives -5.7 arcmin of heading per 1000 ppm
-    where the coarse stage run on the scaled speed moves +0.61 (and -11.6 against -6.6 for a
-    constant 0.01 m/s; a ramp's 10.4 against 12.5 agrees better): the ``scale`` term is
-    sized by it all the same (conservative there). The sums are
-    taken over the output epochs (each standing for the intervals since the one before; the
-    low-pass's settling time is skipped as in ``K``), so ``eps = sum_j H_j dv_j`` with ``dv_j``
-    the mean of ``dv^b`` over epoch ``j``'s interval.
+    C_{b(t_j)}^{b(0)}`` with ``A = L^T A^f``, ``A^f_k = M^-1 w_k [b_k x] C`` and ``L`` the
+    stage's low-pass (:class:`_Lowpass`): ``K`` sums the low-passed pairs, so ``b`` and ``c``
+    are the low-passed vectors and ``da`` enters through the filter. The weights ``w`` are
+    the trapezoid rule over the output epochs from the end of the low-pass's settling time
+    (``K``'s sum over the intervals after it is that integral; the rectangle rule with each
+    epoch standing for the interval before it, used before, is half an epoch late). The
+    Earth-rate share is small (measured, issue 15, paper 003's 85 s drive, 80 s window: a
+    30 arcmin yaw mounting's heading 217.1 arcmin with it, 217.8 without, the coarse stage
+    on the turned IMU 205.0; the 300 s window's mean (e / sigma)^2 2.28 with it, 2.23
+    without). Where the first-order effect nearly cancels, the heading is sensitive to
+    timing: the scale factor's column (``dv = dk s e_y``) on that 80 s window, the 60 deg
+    turn near its middle, was -5.7 arcmin per 1000 ppm with the rectangle rule, no low-pass
+    and ``c = b``, -6.0 with the trapezoid rule, -6.5 with ``c``, -1.13 with the low-pass
+    too; the coarse stage moves -1.22 with its attitude held (``C_fixed``) and +0.61 as it
+    runs (the running answer, turned by the scaled speed early in the window, turns the
+    dead-reckoned position and through ``C_{n(t)}^{n(0)}`` the ``beta``: a path the map
+    leaves out). Elsewhere the column is within 2-7 % of the coarse stage (40, 300, 600 s:
+    :func:`inmotion.align.multiplex.window_cross_maps`). ``eps = sum_j H_j dv_j`` with
+    ``dv_j`` the value of ``dv^b`` at epoch ``j`` (1 <= j < M; between epochs linear).
 
     The accelerometer bias (issue 15, the fine prior's cross-covariance). A constant bias
     ``nabla`` in b adds ``int_0^t C_{b(tau)}^{b(0)} nabla dtau = G(t) nabla`` to ``I_f``, and
     ``alpha = vb_b0 - v^b(0) - I_f (+ I_wv_b)``, so it acts as ``da_k = -G(t_k) nabla``, the
     same place a velocity error ``C_{b(t_k)}^{b(0)} dv_k`` enters: ``eps = J_nabla nabla``
-    with ``J_nabla = -sum_k M^-1 w_k [b_k x] C G(t_k)`` (``G`` by the trapezoid rule over the
+    with ``J_nabla = -sum_k A_k G(t_k)`` (``A`` as above, through the low-pass; ``G`` by the trapezoid rule over the
     epochs from the window's first row). Parked (no turn) ``G(t) = t I`` and this is the
     classic ``phi_E = -nabla_N / g``, ``phi_N = nabla_E / g`` with the heading's ``nabla_E
     tan L / g``; turns average the bias's nav-frame direction over the window.
@@ -327,23 +340,37 @@ def window_error_map(inp: Inputs, level: Level, lowpass_time_constant_s=None) ->
     epochs or vectors that span no plane."""
     run = level.run
     t = run.t - run.t[0]
-    skip = 3.0 * lowpass_time_constant_s if lowpass_time_constant_s else 0.0
-    use = np.flatnonzero(t > max(skip, 0.0) - 1e-9)
-    use = use[use > 0]
-    if len(use) < 3:                  # too few epochs to size anything: no map
+    tau = float(lowpass_time_constant_s or 0.0)
+    skip = 3.0 * tau
+    summed = np.flatnonzero(t > skip - 1e-9)
+    summed = summed[summed > 0]
+    if len(summed) < 3:               # too few epochs to size anything: no map
         return None
-    dt = np.diff(t)[use - 1]
-    beta = run.beta[use]
-    w = dt / dt.sum()
-    b = beta - (w[:, None] * beta).sum(0)
-    M = (w[:, None, None] * (np.einsum("ki,ki->k", b, b)[:, None, None] * np.eye(3)
-                             - b[:, :, None] * b[:, None, :])).sum(0)
+    use = np.arange(1, len(t))
+    dt = np.diff(t)
+    # K's sum over the intervals after the low-pass's settling is the integral over
+    # [t_skip, t_end]: trapezoid weights on the epochs (a rectangle rule with the epoch's
+    # value standing for the interval before it is half an epoch late, O(dt))
+    wt = np.zeros(len(t))
+    seg = np.diff(t[summed])
+    np.add.at(wt, summed[:-1], 0.5 * seg)
+    np.add.at(wt, summed[1:], 0.5 * seg)
+    w = wt / wt.sum()
+    L = _Lowpass(t, tau)
     Cb0b = rotations.dcm_from_quat(run.q_b0b)
     C = level.C0
+    beta = L.apply(run.beta)
+    b = beta - (w[:, None] * beta).sum(0)
+    c = L.apply(run.alpha) @ C.T                   # C alpha: beta but for the residuals
+    c = c - (w[:, None] * c).sum(0)
+    M = (w[:, None, None] * (np.einsum("ki,ki->k", b, c)[:, None, None] * np.eye(3)
+                             - 0.5 * (b[:, :, None] * c[:, None, :]
+                                      + c[:, :, None] * b[:, None, :]))).sum(0)
     if np.linalg.cond(M) > 1e14:       # the vectors span no plane (parked-like, no Earth
         return None                      # rate seen yet): no linear map
     Minv = np.linalg.inv(M)
-    A = Minv[None] @ (w[:, None, None] * rotations.skew(b)) @ C[None]
+    # d eps / d y_k (y: the low-passed alpha) and, through the low-pass, d eps / d alpha_k
+    A = L.adjoint(Minv[None] @ (w[:, None, None] * rotations.skew(b)) @ C[None])[use]
     # the Earth-rate integral's share (alpha's I_wv_b with the assumed v^b): eps_k also takes
     # [w_ie^b0 x] sum_(j <= k) C_{b(t_j)}^{b(0)} dv_j dt_j, so H_j gains
     # (sum_(k >= j) A_k) [w_ie^b0 x] C_{b(t_j)}^{b(0)} dt_j
@@ -357,6 +384,46 @@ def window_error_map(inp: Inputs, level: Level, lowpass_time_constant_s=None) ->
     G = np.concatenate([np.zeros((1, 3, 3)), np.cumsum(steps, axis=0)])[use]
     J_nabla = -(A @ G).sum(0)
     return {"H": H, "dt": dt, "speed": speed, "rate_b": rate, "J_nabla": J_nabla}
+
+
+class _Lowpass:
+    """The coarse stage's first-order low-pass of the vectors (time constant ``tau``,
+    :func:`inmotion.align.obs_vectors.integrate_vectors`, started on the first pair) on the
+    epochs ``t``: the exact response to an input linear between the epochs (first-order
+    hold), ``y_j = rho_j y_(j-1) + c0_j x_j + c1_j x_(j-1)``, ``rho = exp(-h / tau)``, ``c0 =
+    1 - tau (1 - rho) / h``, ``c1 = tau (1 - rho) / h - rho`` (``h`` the epoch step), ``y_0 =
+    x_0``; ``tau = 0``: the identity. :meth:`adjoint` maps the weights of ``y`` onto those of
+    ``x`` (``sum_j a_j y_j = sum_i a'_i x_i``)."""
+
+    def __init__(self, t, tau: float):
+        h = np.diff(t)
+        self.on = tau > 0.0
+        if self.on:
+            self.rho = np.exp(-h / tau)
+            q = tau * (1.0 - self.rho) / h
+            self.c0, self.c1 = 1.0 - q, q - self.rho
+
+    def apply(self, x):
+        if not self.on:
+            return x
+        y = np.empty_like(x)
+        y[0] = x[0]
+        for j in range(1, len(x)):
+            y[j] = self.rho[j - 1] * y[j - 1] + self.c0[j - 1] * x[j] + self.c1[j - 1] * x[j - 1]
+        return y
+
+    def adjoint(self, a):
+        if not self.on:
+            return a
+        lam = np.empty_like(a)            # lam_j = d (sum a y) / d y_j
+        lam[-1] = a[-1]
+        for j in range(len(a) - 2, -1, -1):
+            lam[j] = a[j] + self.rho[j] * lam[j + 1]
+        out = np.empty_like(a)
+        out[0] = lam[0] + self.c1[0] * lam[1]
+        out[1:-1] = self.c0[:-1, None, None] * lam[1:-1] + self.c1[1:, None, None] * lam[2:]
+        out[-1] = self.c0[-1] * lam[-1]
+        return out
 
 
 def _markov_bin_cov_sum(u: np.ndarray, sigma: float, tau: float, dt: float) -> np.ndarray:

@@ -71,7 +71,8 @@ The coarse error's correlation with the fine filter's states (issue 15, ``prior_
     The coarse attitude error is largely made by sensor errors the fine filter has states
     for: the accelerometer bias (a tilt of about ``-bias / g`` in the nav frame, averaged
     over the window's turns, and a forward bias turns a short window's heading), the IMU's
-    mounting in the vehicle (the vectors assume ``v^b = [0, s, 0]``). A prior that takes the
+    mounting in the vehicle (the vectors assume ``v^b = [0, s, 0]``) and the coarse
+    channel's scale factor. A prior that takes the
     attitude error as independent of those states tells the filter that a mounting or bias
     it estimates says nothing about its attitude, and the scalar level floor ``bias / g``
     then had to stand in for the missing correlation (conservative: per-axis mean ``(e /
@@ -194,12 +195,21 @@ def window_cross_maps(emap: Optional[dict]) -> Optional[dict]:
 
     The IMU's mounting is one for every channel (a sensor's beam misalignment changes its
     speed only at second order), so every channel's ``mount`` states share this map; the
-    scale factor is the coarse channel's (its column is not trusted: :func:`attitude_cross`).
+    scale factor is the coarse channel's (:func:`attitude_cross`).
     The signs and sizes are checked against the coarse stage run on a simulated drive with
     the bias and the mounting injected (``tests/test_multiplex_cross.py``) and against the
     drawn bias and mounting over a Monte Carlo (``benchmarks/coarse_cross_truth.py``:
-    correlation 0.96-1.00, regression slope 0.88-1.06 at 120 / 300 / 600 s). None without a
-    map."""
+    correlation 0.96-1.00, regression slope 0.88-1.06 at 120 / 300 / 600 s). The ``dk``
+    column against the coarse stage run on the speed scaled by 1 -+ 1000 ppm (issue 15,
+    helper h16scale; arcmin of heading per +1000 ppm, coarse run / map): 85 s drive, 40 s
+    window +89.5 (-86.4 for -1000 ppm) / +92.1, 80 s window +0.61 / -1.13; paper 003's drive
+    (seed 300), 300 s -7.52 / -7.81, 600 s -0.274 / -0.269 (the map before: +147.8, -5.74,
+    -7.97, -0.255). The 80 s window is the one miss: the coarse stage with its attitude
+    held (``C_fixed``) moves -1.22, the map's -1.13; the +1.8 difference is the running
+    answer's own error from the scaled speed, which turns the dead-reckoned position and
+    through it ``C_{n(t)}^{n(0)}`` and ``beta`` (a second pass the map does not follow),
+    large only where the first-order effect nearly cancels (the 60 deg turn near the
+    window's middle). None without a map."""
     if emap is None:
         return None
     H, s = emap["H"], emap["speed"]
@@ -208,17 +218,18 @@ def window_cross_maps(emap: Optional[dict]) -> Optional[dict]:
             "dk": col(1)}
 
 
-def attitude_cross(maps: Optional[dict], base, sensors=()) -> dict:
+def attitude_cross(maps: Optional[dict], base, sensors=(), channel: Optional[str] = None) -> dict:
     """The fine prior's ``init_attitude_cross`` (:class:`inmotion.align.aided_kf.
     NhcKfConfig`; issue 15): ``cov(phi, s) = J_s P_s`` for the sensor states ``s`` whose
     error made the coarse attitude's, ``J_s`` of :func:`window_cross_maps` and ``P_s`` the
     fine configuration's own prior of ``s`` (``base``): the accelerometer bias (``nabla``,
-    its 1-sigma :func:`inmotion.align.aided_kf._bias_prior`) and every channel of
-    ``sensors``' mounting (``mount_sigma_arcmin``: one physical mounting, one map). The
-    scale factor is left out: the map's scale column does not match the coarse stage run on
-    a scaled speed (-5.7 against +0.6 arcmin of heading per 1000 ppm, 80 s window on paper
-    003's 85 s drive: :func:`inmotion.align.attitude_determination.window_error_map`), while
-    its share of the heading is small either way. Values [rad x the state's SI unit], as lists; ``{}`` without a map."""
+    its 1-sigma :func:`inmotion.align.aided_kf._bias_prior`), every channel of ``sensors``'
+    mounting (``mount_sigma_arcmin``: one physical mounting, one map) and, when ``channel``
+    (the coarse stage's speed) is one of ``sensors``, its scale factor (``<channel>.dk``,
+    ``{od,ldv}_scale_sigma_ppm``; the map's forward column, checked against the coarse stage
+    run on a scaled speed since the map follows the stage's low-pass, its sum over the
+    window and the vectors' residuals: :func:`inmotion.align.attitude_determination.
+    window_error_map`). Values [rad x the state's SI unit], as lists; ``{}`` without a map."""
     if maps is None:
         return {}
     s_nabla = ak._bias_prior(base)[1]
@@ -227,13 +238,19 @@ def attitude_cross(maps: Optional[dict], base, sensors=()) -> dict:
     if s_m > 0:
         for ch in sensors:
             out[f"{ch}.mount"] = (maps["mount"] * s_m ** 2).tolist()
+    if channel in sensors and "dk" in maps:
+        short = "od" if channel == "odometer" else "ldv"
+        s_k = float(getattr(base, f"{short}_scale_sigma_ppm", 0.0)) * 1e-6
+        if s_k > 0:
+            out[f"{channel}.dk"] = (np.asarray(maps["dk"])[:, None] * s_k ** 2).tolist()
     return out
 
 
 def _cover_cross(tilt_deg: float, head_deg: float, cross: dict, base) -> tuple:
     """``(tilt_deg, head_deg)`` raised (by 5 % steps) until ``diag(tilt, tilt, head)^2 -
-    sum_s X_s P_s^-1 X_s^T`` is positive semi-definite for the nabla and one channel's mount
-    (each local filter holds one channel): a prior the cross-covariance fits."""
+    sum_s X_s P_s^-1 X_s^T`` is positive semi-definite for the nabla, one channel's mount and
+    the coarse channel's scale factor (each local filter holds one channel; the coarse
+    channel's holds the most): a prior the cross-covariance fits."""
     s_nabla = ak._bias_prior(base)[1]
     S = np.zeros((3, 3))
     if "nabla" in cross:
@@ -243,6 +260,11 @@ def _cover_cross(tilt_deg: float, head_deg: float, cross: dict, base) -> tuple:
     if mounts:
         s_m = float(base.mount_sigma_arcmin) * ak.ARCMIN
         S += mounts[0] @ mounts[0].T / s_m ** 2
+    for k, v in cross.items():        # the coarse channel's filter also holds its scale factor
+        if k.endswith(".dk"):
+            short = "od" if k.startswith("odometer") else "ldv"
+            X = np.asarray(v)
+            S += X @ X.T / (float(getattr(base, f"{short}_scale_sigma_ppm")) * 1e-6) ** 2
     t, h = np.radians(tilt_deg), np.radians(head_deg)
     for _ in range(200):
         if np.linalg.eigvalsh(np.diag([t, t, h]) ** 2 - S)[0] >= 0:
@@ -289,7 +311,7 @@ def fine_config_from_coarse(cls, fine: dict, meta, lat: float, window_s: float,
            "init_heading_sigma_deg": (max(env["heading_deg"], base.init_heading_sigma_deg)
                                       if env["resolvable"] else UNKNOWN_HEADING_SIGMA_DEG)}
     if cross and env["resolvable"] and emap is not None and "init_attitude_cross" not in (fine or {}):
-        X = attitude_cross(window_cross_maps(emap), base, sensors)
+        X = attitude_cross(window_cross_maps(emap), base, sensors, channel)
         tilt, head = _cover_cross(env["level_deg"], env["heading_deg"], X, base)
         if "init_tilt_sigma_deg" in (fine or {}) or "init_heading_sigma_deg" in (fine or {}):
             tilt, head = (float(fine.get("init_tilt_sigma_deg", tilt)),
@@ -419,7 +441,8 @@ class MuxConfig(BaseModel):
     prior_cross: bool = Field(
         True,
         description="the fine prior carries the coarse attitude error's covariance with the "
-                    "accelerometer bias and the mounting (init_attitude_cross; "
+                    "accelerometer bias, the mounting and the coarse channel's scale factor "
+                    "(init_attitude_cross; "
                     "multiplex.attitude_cross) and the reported level 1-sigma is the fine "
                     "filter's own where the heading is resolved (floor_attitude_sigma's "
                     "level=False); issue 15. False: the prior independent and the level "
