@@ -122,7 +122,9 @@ equal to 0.1), the matched small start 9.06 (9.41; per run 21.2, 1.1, 20.2, 7.4,
 with the term given through ``od_noise_m_s``); the IMU's errors alone with the 1 um odometer
 (the matched small start) 6.66 (16.75) with the first-order rows (east, north, up 1.46, 1.01,
 4.19), under the defaults 5.23 (4.81: worse by 0.4 on the same seeds), all but the bias
-4.77 (12.07), all but the drift 7.29 (18.54), first-order rows. The
+4.77 (12.07), all but the drift 7.29 (18.54), first-order rows; paper 003's drive
+(``nees_methods.py 20 fkf,od-kf,ldv-kf``, band 2.02-4.16) fkf 2.44, od-kf 2.87, ldv-kf 2.65
+(as before: the term is 0.5 % of a 200 pulses/m odometer's forward sigma). The
 need for the 4 times does not go away: at the usual start it covers the start's heading
 error squared (above), at the small start the IMU's errors with the precise row (what of them
 is left, unexplained here; the next suspect is the rows' end-state form itself: the
