@@ -57,6 +57,13 @@ Since (issue 15, helper h15def) ``exact_attitude_columns`` and ``second_order_le
 the defaults: "the defaults" / "the default settings" in the figures above mean paper 003's
 rows, now ``'{"exact_attitude_columns": false, "second_order_length": false}'``. Under the
 new defaults ``10 20000`` gives 3.20 (per run as above at 4 times).
+Since (issue 15, helper h16perfect) the displacement rows carry the VRW integrated within
+the interval (``aided_kf.displacement_vrw_m_s``): ``10 20000`` 3.20 (per run as before to
+0.1), the matched small start 9.41 -> 9.06 (per run 21.2, 1.1, 20.2, 7.4, 15.4, 3.0, 6.8, 5.1,
+5.0, 5.2); with the inflation off (``with_length_knobs.py 0 1 '{}'``) 6.85 -> 6.70 and 14.66
+-> 14.30. What the 4 times covers: ``benchmarks/perfect_sensors.py`` (no model mismatch;
+the start's heading error squared at the usual start, the IMU's errors with the precise row
+at the small one).
 """
 import json
 import sys

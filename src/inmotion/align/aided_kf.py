@@ -696,7 +696,10 @@ def _channel(bundle, name, cfg, beta, P15, Q15, c, C_vb0, thr, ret, t0=0.0, vel_
     extra = {}
     if second:
         kind, extra = _LengthIncrement, {"start_s": float(t0)}
-    meas = kind(np.asarray(getattr(cfg, f"{short}_noise_m_s"), float), lever_arm_m=lever,
+    sig = np.asarray(getattr(cfg, f"{short}_noise_m_s"), float)
+    if cfg.measurement == "displacement" and DISPLACEMENT_VRW_ROWS:
+        sig = np.sqrt(sig * sig + displacement_vrw_m_s(cfg) ** 2)
+    meas = kind(sig, lever_arm_m=lever,
                 vehicle_mounting=C_vb0, local=c, isolate=thr > 0, return_tests=ret, gate=thr,
                 name=name, model_floor_per_m=linearization_floor_per_m(cfg),
                 exact_attitude_columns=cfg.exact_attitude_columns, **extra)
@@ -710,6 +713,42 @@ def _channel(bundle, name, cfg, beta, P15, Q15, c, C_vb0, thr, ret, t0=0.0, vel_
         i = SUB_LAYOUT["dk"].start
         Q[i, i] += (LENGTH_SCALE_WALK * 1e-6) ** 2
     return LocalFilter(P, Q, r_scale=1.0 / beta), meas
+
+
+#: the displacement rows' variance takes the accelerometers' white noise integrated within
+#: the interval (:func:`displacement_vrw_m_s`; issue 15, helper h16perfect); False: as before
+DISPLACEMENT_VRW_ROWS = True
+
+
+def displacement_vrw_m_s(cfg) -> float:
+    """The 1-sigma [m/s] (as the rows' ``*_noise_m_s``, whose row noise is ``sigma * T``) that
+    the accelerometers' velocity random walk adds to each displacement row over an interval of
+    ``T = measurement_period_s``: ``sqrt(q T / 3)``, ``q = (accel_vrw_ug_sqrt_hz g0 1e-6)^2``
+    [m^2/s^3]; added in quadrature to the sensor's row noise by :func:`_channel`.
+
+    Derivation. The rows compare ``int dv dt`` over the interval ``(t_0, t_0 + T]`` with the
+    state at its end, ``T dv_k - T^2 / 2 ([f x] phi + nabla)`` (:func:`~inmotion.estimation.
+    measurements._fill_displacement`). A white specific-force noise ``w`` (density ``q``) makes
+    ``dv(t) = dv_k - int_t^(t_0+T) w ds``, so ``int dv dt = T dv_k - int (s - t_0) w(s) ds``:
+    a residual of variance ``q int_0^T s^2 ds = q T^3 / 3`` per axis that the rows did not
+    carry (the process noise ``Q`` covers only ``dv_k``). Its correlation with the interval's
+    own process noise (``-q T^2 / 2``) is left out: conditioned on it the residual would have
+    ``q T^3 / 12``, but the filter does not see that noise apart from ``dv_k``, and measured the
+    ``T^3 / 12`` form stays overconfident (below). The gyros' angle random walk adds ``g^2
+    q_g T^5 / 20`` through the tilt, 1e-5 of this at paper 003's figures, left out.
+
+    Size: paper 003's VRW (5 ug/sqrt(Hz)) over 0.5 s, 2.0e-5 m/s, half a 20,000 pulses/m
+    odometer's forward row (4.1e-5 m/s), 0.5 % of a 200 pulses/m one's (4.1e-3) and 1.4 % of
+    the LDV's (1.4e-3 m/s). Measured (issue 15, ``benchmarks/perfect_sensors.py filter 10
+    '{"imu": "noise"}' ..``: an error-free drive but the IMU's ARW and VRW, the odometer at 1e6
+    pulses/m, the matched small start 0.02 / 0.02 / 0.1 deg, detection and barometer off, band
+    1.68-4.70): with paper 003's first-order rows (``second_order_length: false``) od-kf's NEES
+    9.94 (heading 6.15 of it), with ``q T^3 / 3`` 3.36, with ``q T^3 / 12`` 5.63; under the
+    defaults 2.98 (the length row's inflation, :data:`LENGTH_VAR_SCALE`, covered it). Figures
+    of the module's other checks with this term: ``benchmarks/perfect_sensors.py``'s
+    docstring."""
+    q = (cfg.accel_vrw_ug_sqrt_hz * UG) ** 2
+    return float(np.sqrt(q * cfg.measurement_period_s / 3.0))
 
 
 class _LengthIncrement(ms.DisplacementIncrement):
@@ -1141,6 +1180,19 @@ LENGTH_MEAN_MODE = 0
 #: (the fine odometer's own case 3.20, 2.81, 2.78, 2.71 at 4, 16, 64, 256): the error persists
 #: far longer than 5 intervals, and the fixed 4 is right only by the size of the usual start.
 #: :data:`LENGTH_MEMORY_MAX` has the form that fits both, and why it is not the code's.
+#:
+#: Since (issue 15, helper h16perfect, ``benchmarks/perfect_sensors.py``): no model mismatch is
+#: behind it. With perfect sensors (error-free IMU, a 1 um odometer pulse, no violation,
+#: mounting, lever or scale error) the simulator and the SINS agree to 7e-9 m/s, the odometer's
+#: increments to 2e-6 m per interval, and od-kf started at truth stays there (0.009' of
+#: heading). What the factor covers at the usual start is the start's heading error squared:
+#: the SINS carries ``-psi^2 / 2 (v - v0)`` (measured -1.8e-5 m/s^2 along the track in the
+#: acceleration at 0.5 deg, then a constant 4e-4 m/s), which the linear error model lacks;
+#: with perfect sensors the NEES is 134.5 with the first-order rows, 6.09 once, 4.45 at 4
+#: times, the runs out of band those started 1.0-1.2 deg off. At the matched small start
+#: (perfect sensors 1.45) it covers the IMU's errors meeting the precise length row (IMU
+#: alone 4.81, 16.75 with the first-order rows; its white noise part was the rows' missing
+#: in-interval VRW, :func:`displacement_vrw_m_s`).
 LENGTH_VAR_SCALE = 4.0
 
 #: the length row's second-order variance taken as many times as the filter has combined
