@@ -191,3 +191,19 @@ def test_sins_prior_velocity_rows_follow_the_cross():
     E[3:6, 0:3] = rotations.skew(vel)
     np.testing.assert_allclose(P, E @ P0 @ E.T, rtol=1e-12, atol=1e-18)
     np.testing.assert_allclose(P0[0:3, 12:15], X)
+
+
+@pytest.mark.parametrize("cross, message", [
+    ({"gyro": [[0.0] * 3] * 3}, r"init_attitude_cross\.gyro: not a block it takes"),
+    ({"ldv.scale": [[0.0]] * 3}, r"init_attitude_cross\.ldv\.scale: not a block it takes"),
+    ({"nabla": [[0.0, 0.0]] * 3}, r"init_attitude_cross\.nabla: need a finite 3 x 3 matrix, "
+                                  r"got shape \(3, 2\)"),
+    ({"odometer.mount": [[0.0, float("nan")]] * 3},
+     r"init_attitude_cross\.odometer\.mount: need a finite 3 x 2 matrix"),
+])
+def test_attitude_cross_bad_input(cross, message):
+    """A key ``init_attitude_cross`` does not take, a block of the wrong shape or a NaN in
+    it: one ``BadInput`` naming the key, before any run."""
+    cfg = ak.FkfConfig(init_attitude_cross=cross)
+    with pytest.raises(BadInput, match=message):
+        ak._attitude_cross(cfg)
