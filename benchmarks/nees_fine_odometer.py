@@ -3,7 +3,7 @@ start of ``tests/test_consistency_nees.py`` (paper 003's drive cut to 85 s, 0.1 
 deg start, seeds 100 ..) with the odometer at each ``pulses_per_m``, mean, 95 % band and per
 run. Usage (from the repository root)::
 
-    PYTHONPATH=src:tests OPENBLAS_NUM_THREADS=1 nice -n 10 python benchmarks/nees_fine_odometer.py [RUNS] [PULSES_PER_M,...] [CONFIG_JSON] [START_DIVISOR]
+    PYTHONPATH=src:tests OPENBLAS_NUM_THREADS=1 nice -n 10 python benchmarks/nees_fine_odometer.py [RUNS] [PULSES_PER_M,...] [CONFIG_JSON] [START_DIVISOR] [VELOCITY_SIGMA_M_S]
 
 Defaults: 10 runs, 20000,200 pulses/m; ``CONFIG_JSON`` adds to the test's prior, e.g.
 ``'{"fdi": false}'`` (the channel alone) or ``'{"gyro_markov_deg_h": 0.003,
@@ -78,8 +78,12 @@ runs = int(sys.argv[1]) if len(sys.argv) > 1 else 10
 ppms = [float(x) for x in sys.argv[2].split(",")] if len(sys.argv) > 2 else [20000.0, 200.0]
 cfg = dict(PRIOR, **(json.loads(sys.argv[3]) if len(sys.argv) > 3 else {}))
 div = float(sys.argv[4]) if len(sys.argv) > 4 else 1.0
+# the start velocity drawn per axis with this sigma [m/s] (0: the true velocity; give the
+# matching prior ``init_velocity_sigma_m_s`` in CONFIG_JSON)
+vdraw = float(sys.argv[5]) if len(sys.argv) > 5 else 0.0
 start = np.asarray(START_SIGMA_DEG) / div
 for ppm in ppms:
-    mean, (lo, hi), v = final_nees("od-kf", cfg, fine_odometer_drive(ppm), runs, start)
+    mean, (lo, hi), v = final_nees("od-kf", cfg, fine_odometer_drive(ppm), runs, start,
+                                   velocity_sigma_m_s=vdraw)
     print(f"od-kf {ppm:.0f} pulses/m {cfg} start error / {div:g} runs {runs} mean NEES {mean:.2f} band "
           f"[{lo:.2f}, {hi:.2f}] runs {np.round(v, 1).tolist()}", flush=True)
