@@ -393,6 +393,14 @@ class NhcKfConfig(StopUpdateFields):
                     "within its Monte Carlo error: the 4x keeps the along-track P wide "
                     "for the first 1-2 minutes (aided_kf.LENGTH_VAR_SCALE)")
     baro_noise_m: float = cf.baro_noise_m(10.0)
+    test_covariance: bool = Field(
+        False,
+        description="with second_order_length: the residual test takes H Pa H^T + R_test, "
+                    "Pa the covariance of the error the filter's own gains leave when the "
+                    "rows' noise is the sensor's (a second covariance propagated beside P, "
+                    "the filter's cost about doubled) and R_test the sensor's variance, the "
+                    "length row's persistent second-order error left to the states that "
+                    "absorb it (aided_kf.test_covariance_on; issue 15)")
     keep_test_statistics: bool = Field(
         False,
         description="keep the chi-square test statistics series in the result's info")
@@ -475,6 +483,15 @@ class FkfConfig(AidedKfConfig):
                     "sub-filter alone, whose error is frozen since the isolation (at 0.05 a "
                     "channel can stay isolated for good, and the odometer's false alarms "
                     "bias its scale factor)")
+    test_covariance: bool = Field(
+        True,
+        description="the residual test on the test covariance Pa (the sub-filter's error "
+                    "covariance under its own gains, the joint prior and the IMU's noise "
+                    "without 1/beta) with the sensor's variance (AidedKfConfig's "
+                    "test_covariance): the false-alarm rate at a set 0.05 on paper 003's "
+                    "drive, the start drawn from the prior, 4.91e-2 over 40 runs, 4.21e-2 "
+                    "without (issue 15; benchmarks/fdi_calibration.py); the filter's cost "
+                    "about doubles")
     return_span: bool = Field(
         True,
         description="at an isolated channel's return, apply the displacement over the whole "
@@ -543,13 +560,17 @@ def _with_gm_block(lay, locals_, cfg):
     e, g, n0 = out["eps"], out["eps_gm"], lay.n
     new = []
     for lf in locals_:
-        P = np.zeros((out.n, out.n))
-        P[:n0, :n0] = lf.P0
-        P[e, :] = 0.0
-        P[:, e] = 0.0
-        P[e, e] = np.eye(3) * lf.r_scale * (cfg.gyro_drift_deg_h * DEG_H) ** 2
-        P[g, g] = np.eye(3) * lf.r_scale * (cfg.gyro_markov_deg_h * DEG_H) ** 2
-        new.append(LocalFilter(P, lf.r_scale * Qc, r_scale=lf.r_scale, role=lf.role))
+        Ps = []
+        for P0, scale in ((lf.P0, lf.r_scale), (lf.P0_test, 1.0)):   # the test's: no 1/beta
+            P = np.zeros((out.n, out.n))
+            P[:n0, :n0] = P0
+            P[e, :] = 0.0
+            P[:, e] = 0.0
+            P[e, e] = np.eye(3) * scale * (cfg.gyro_drift_deg_h * DEG_H) ** 2
+            P[g, g] = np.eye(3) * scale * (cfg.gyro_markov_deg_h * DEG_H) ** 2
+            Ps.append(P)
+        new.append(LocalFilter(Ps[0], lf.r_scale * Qc, r_scale=lf.r_scale, role=lf.role,
+                               P0_test=Ps[1], Qc_test=Qc))
     return out, new
 
 
@@ -709,13 +730,21 @@ def _channel(bundle, name, cfg, beta, P15, Q15, c, C_vb0, thr, ret, t0=0.0, vel_
     meas.log_nis = True
     if issubclass(kind, ms.DisplacementIncrement):
         meas.fill = _length_fill(ms.DisplacementIncrement.fill, second, LENGTH_MEAN_MODE,
-                                 LENGTH_VAR_SCALE, LENGTH_MEMORY_MAX)
+                                 LENGTH_VAR_SCALE, LENGTH_MEMORY_MAX,
+                                 not test_covariance_on(cfg))
         meas.wants_state = second
     Q = _pad(Q15 / beta)
+    # the test covariance (test_covariance_on): the joint prior and the IMU's own noise,
+    # without the federated 1 / beta (the sub-filter's error is its own data's: the feedback
+    # subtracts the fused estimate from it and leaves its error unchanged)
+    P_test = P.copy()
+    P_test[:NS, :NS] = P15
+    Q_test = _pad(Q15)
     if second and LENGTH_SCALE_WALK > 0.0:
         i = SUB_LAYOUT["dk"].start
         Q[i, i] += (LENGTH_SCALE_WALK * 1e-6) ** 2
-    return LocalFilter(P, Q, r_scale=1.0 / beta), meas
+        Q_test[i, i] += (LENGTH_SCALE_WALK * 1e-6) ** 2
+    return LocalFilter(P, Q, r_scale=1.0 / beta, P0_test=P_test, Qc_test=Q_test), meas
 
 
 #: the displacement rows' variance takes the accelerometers' white noise integrated within
@@ -782,6 +811,15 @@ P_START = ms.P_EXACT + 1
 #: the sensor's distance within the rows' noise) the expansion in the angle does not hold
 #: and the first-order rows stay (at 0.1 rad the next term, ``c^4 d / 8``, is 1e-5 of ``d``)
 LENGTH_MAX_ANGLE = 0.1
+
+
+def test_covariance_on(cfg) -> bool:
+    """Whether the residual test runs on the test covariance (``test_covariance``, issue 15):
+    only where the rows' test variances differ from the update's, the length row compared in
+    length with its second order (``second_order_length`` with ``exact_attitude_columns``,
+    displacement rows); elsewhere the test covariance would be ``P`` itself."""
+    return bool(getattr(cfg, "test_covariance", False) and cfg.measurement == "displacement"
+                and cfg.exact_attitude_columns and cfg.second_order_length)
 
 
 def linearization_floor_per_m(cfg) -> float:
@@ -1329,7 +1367,8 @@ LENGTH_SCALE_WALK = 0.0
 
 
 @functools.lru_cache(maxsize=None)
-def _length_fill(fill, second_order=False, mean_mode=0, var_scale=1.0, memory_max=0.0):
+def _length_fill(fill, second_order=False, mean_mode=0, var_scale=1.0, memory_max=0.0,
+                 test_second_order=True):
     """The displacement-increment fill ``fill`` (paper 003 ref. 38, eq. 14-26's sensor rows)
     with its along-sensor row compared in length (issue 15).
 
@@ -1362,6 +1401,7 @@ def _length_fill(fill, second_order=False, mean_mode=0, var_scale=1.0, memory_ma
     mean_on = 1.0 if int(mean_mode) == 0 else 0.0
     vs = float(var_scale)
     mem = float(memory_max)
+    test_e2 = 1.0 if test_second_order else 0.0
     i_phi, i_dv = ms.PHI, ms.DV
     n_st = ms.STATE_PARAMS
     i_t, o_t, o_start = ms.AUX_T, ms.ACC_T, P_START
@@ -1404,7 +1444,7 @@ def _length_fill(fill, second_order=False, mean_mode=0, var_scale=1.0, memory_ma
                                               lp, H, offs[i_phi], offs[i_dv])
             z[1] += mean_on * dz
             if r.shape[0] >= 6:     # the test's variance (the engine's test_variance):
-                r[4] = r[1] + vt    # the single interval's, Var(e2) (_length_second_order)
+                r[4] = r[1] + test_e2 * vt    # the single interval's Var(e2), or none
             if mem > 0.0:           # the intervals the filter has combined since its start
                 r[1] += min(max(1.0, (aux[i_t] - p[o_start]) / acc[o_t]), mem) * dr
             else:
@@ -1836,7 +1876,8 @@ def run_aided(bundle: Bundle, cfg, init: NavState, sensors: tuple, *, method: st
                          return_conditioned=getattr(cfg, "return_test", "masked") == "conditioned",
                          return_span=bool(getattr(cfg, "return_span", False))
                          and cfg.measurement == "displacement",
-                         return_span_max_s=float(getattr(cfg, "return_span_max_s", 10.0)))
+                         return_span_max_s=float(getattr(cfg, "return_span_max_s", 10.0)),
+                         test_covariance=test_covariance_on(cfg))
     res = _feed(f, bundle, k0, sensors, meas_every, use_nhc, use_baro,
                 None if smooth and bank else progress,
                 ForwardRecord.for_filter(f, n_ep) if smooth and not bank else None,

@@ -310,6 +310,39 @@ honest) while a single interval's residual has its marginal variance: ``fkf`` / 
 ``ldv-kf``'s length row under ``second_order_length``
 (:class:`inmotion.align.aided_kf._LengthIncrement`).
 
+Test covariance (issue 15, ``test_covariance``). A filter whose rows' ``R`` is inflated for
+the gain (above) or whose locals carry the federated ``1 / beta`` on their prior and process
+noise (eq. 33-35) keeps a ``P`` that over-bounds its error, so ``H P H^T`` over-states the
+residual's spread and the test is deflated (fkf's false-alarm rate at a set 0.05 was 4.2e-2,
+the first minute's statistic a third of its model's). With ``test_covariance`` each local
+filter carries a second covariance ``Pa``, the covariance of the error its own gains leave
+when the rows' noise is ``R_test`` (the covariance analysis of a suboptimal filter: Gelb,
+*Applied Optimal Estimation*, 1974, sec. 7.2; Maybeck, *Stochastic Models, Estimation and
+Control* 1, 1979, sec. 6.8):
+
+* it starts at :class:`LocalFilter`'s ``P0_test`` and is predicted with the same ``Phi`` and
+  ``Qc_test`` (the true prior and the IMU's own noise where the local's carry ``1 / beta``):
+  ``Pa <- Phi Pa Phi^T + Qd_test``;
+* every update applied to ``P`` is applied to ``Pa`` with ``P``'s gain ``k = P h^T / (h P
+  h^T + r_i)`` and the row's test variance (a shared row's unscaled one), in the Joseph form
+  of a given gain, ``Pa <- (I - k h) Pa (I - k h)^T + r_test,i k k^T``
+  (:func:`~inmotion.estimation.kalman.sequential_joseph_pair`); the feedback subtracts the
+  global estimate from each local and leaves its error, so ``Pa`` too;
+* the statistic of the local's own test (the gate, NIS log and sums, isolation) is ``nu^T (H
+  Pa H^T + R_test)^-1 nu``. The tests of an isolated channel on a copy (its return, the
+  conditioned copy, the return span) keep ``P``: it bounds ``Pa`` from above (``R >=
+  R_test``, ``1 / beta >= 1``), so those tests are conservative, a return later, never
+  earlier.
+
+``P``, the estimates and the outputs are untouched: with the detection off the filter is bit
+for bit the one without (``tests/test_test_covariance.py``). Cost: a second predict and a
+second rank-one update per row, about the filter's own again. ``fkf``'s default
+(:func:`inmotion.align.aided_kf.test_covariance_on`), where the length row's test variance is
+then the sensor's alone: the row's second-order error persists over the intervals and the
+along-track states absorb it (measured: the statistic's first-minute windows with its
+single-interval variance 0.60 / 0.63 of 1.50, with the sensor's 1.42 / 1.19), see
+``benchmarks/fdi_calibration.py`` for the false-alarm rates.
+
 Row accumulators: a measurement over an interval (paper 003's displacement increment) has an
 accumulator function called on every IMU row with the row's data (e.g. the odometer's
 distance), reset when its sample is applied; the engine then also forms the body rate with
@@ -435,7 +468,7 @@ from ..core.mechanization import _state_vector
 from ..core.solution import NavState
 from . import error_model as em
 from .federated import fuse_kernel
-from .kalman import sequential_joseph
+from .kalman import sequential_joseph, sequential_joseph_pair
 from .layout import DP, DP_D, DV, EPS, NABLA, PHI, PHI_D, Layout
 from .measurements import (ACC_BAD, ACC_D, ACC_DP, ACC_FN, ACC_SIZE, ACC_T, ACC_W, STATE_PARAMS,
                            AUX_FB, AUX_SIZE, AUX_T, AUX_WIB, AUX_WNB, Measurement,
@@ -473,13 +506,13 @@ _I_EPOCHS, _I_UPDATES, _I_MODE, _I_EV, _I_NIS = 0, 1, 2, 3, 4
 #: the filter's mutable state, arrays only (updated in place by the numba loop)
 _State = namedtuple("_State", "xs ms xd md X P fed_back bias_g bias_a acc ints used rejected "
                               "nis_sum dof_sum t_end healthy normal_run tests exceed macc "
-                              "ev nis_log phc ppred")
+                              "ev nis_log phc ppred Pa")
 #: the filter's constants
 _Const = namedtuple("_Const", "offs offs9 Qc q_dr_m2_s inv_tau_dk inv_tau_b dr_eps grav_grad "
                               "with_dr step out_every fb_mask fb_states feedback_every C_bm l_b gates "
                               "params dofs local r_scale isolate return_tests primary fallback "
                               "n_common need_nb has_acc log_nis ws record fuse_isolated pstate "
-                              "return_conditioned test_r")
+                              "return_conditioned test_r Qa")
 #: the output buffers of one call
 _Out = namedtuple("_Out", "t xs sigma states cov_phi mode local_x local_sig n rec_t rec_phi "
                           "rec_ppred rec_x rec_p rec_fed rec_xs rec_epoch nrec")
@@ -740,13 +773,30 @@ def _test_statistic(x, P, z, H, rt, m):
 
 
 @njit(cache=True)
-def _gated(x, P, z, H, rl, rt, m, gate, xw, Pw, split):
+def _update(x, P, Pa, z, H, rl, ra, m, xw, Pw):
+    """The ungated update of ``x``, ``P`` with the rows ``0:m`` and noise ``rl``, and, with a
+    test covariance (``Pa`` not empty), of ``Pa`` with the same gains and the noise ``ra``
+    (:func:`~inmotion.estimation.kalman.sequential_joseph_pair`)."""
+    if Pa.shape[0] == 0:
+        sequential_joseph(x, P, z, H, rl, 0, m, 0.0, xw, Pw)
+    else:
+        sequential_joseph_pair(x, P, Pa, z, H, rl, ra, 0, m, xw, Pw[0])
+
+
+@njit(cache=True)
+def _gated(x, P, z, H, rl, rt, m, gate, xw, Pw, split, Pa):
     """A gated update of ``x``, ``P`` with the rows ``0:m``: without ``split``
     :func:`~inmotion.estimation.kalman.sequential_joseph` with the noise ``rl`` (its
     statistic from the same variances); with it, the statistic with the test's variances
     ``rt`` (:func:`_test_statistic`), then, accepted (``gate`` 0 or the statistic at most
     ``gate``), the same ungated update with ``rl`` (bit for bit the update the rows get
     without ``split``). Returns ``(accepted, statistic)``."""
+    if Pa.shape[0] > 0:                # the test on the test covariance (issue 15)
+        nis = _test_statistic(x, Pa, z, H, rt, m)
+        if gate > 0.0 and nis > gate:
+            return False, nis
+        _update(x, P, Pa, z, H, rl, rt, m, xw, Pw)
+        return True, nis
     if not split:
         return sequential_joseph(x, P, z, H, rl, 0, m, gate, xw, Pw)
     nis = _test_statistic(x, P, z, H, rt, m)
@@ -780,7 +830,15 @@ def _test_copy(S, C, l, z, H, rl, rt, m, gate, xw, Pw, split, conditioned):
     Pc = S.P[l].copy()
     if conditioned:
         _condition_on_healthy(S, C, l, Xc, Pc)
-    return _gated(Xc, Pc, z, H, rl, rt, m, gate, xw, Pw, split)
+    return _gated(Xc, Pc, z, H, rl, rt, m, gate, xw, Pw, split, np.empty((0, 0)))
+
+
+@njit(cache=True)
+def _pa(S, l):
+    """Local ``l``'s test covariance, or an empty array without one."""
+    if S.Pa.shape[0] == 0:
+        return np.empty((0, 0))
+    return S.Pa[l]
 
 
 @njit(cache=True)
@@ -791,6 +849,9 @@ def _apply(S, C, fills, j, l, z, H, r, m, xw, Pw, t_now, first):
     updated with ``r`` (:func:`_gated`)."""
     split = C.test_r[j]
     rl, rt = _noise_rows(r, C.dofs[j], m, C.r_scale[l] if C.local[j] < 0 else 1.0, split)
+    Pa = _pa(S, l)
+    if Pa.shape[0] > 0 and C.local[j] < 0:     # the test covariance: the row's own noise
+        rt = _noise_rows(r, C.dofs[j], m, 1.0, split)[1]
     if C.isolate[j]:
         S.tests[j] += 1
         if S.healthy[j] and S.normal_run[j] < 0:
@@ -799,20 +860,22 @@ def _apply(S, C, fills, j, l, z, H, r, m, xw, Pw, t_now, first):
             # conditioned copy, and if it passes there it is applied to the sub-filter itself
             # (its masked prediction's error is frozen since the isolation: the own test
             # would isolate the channel again on that alone)
-            ok, nis = _gated(S.X[l], S.P[l], z, H, rl, rt, m, C.gates[j], xw, Pw, split)
+            ok, nis = _gated(S.X[l], S.P[l], z, H, rl, rt, m, C.gates[j], xw, Pw, split,
+                             Pa)
             if ok:
                 S.normal_run[j] = 0
             else:
                 ok, nis = _test_copy(S, C, l, z, H, rl, rt, m, C.gates[j], xw, Pw, split, True)
                 if ok:
-                    sequential_joseph(S.X[l], S.P[l], z, H, rl, 0, m, 0.0, xw, Pw)
+                    _update(S.X[l], S.P[l], Pa, z, H, rl, rt, m, xw, Pw)
             if not ok:
                 S.exceed[j] += 1
                 S.healthy[j] = False
                 S.normal_run[j] = 0
                 _log_event(S, t_now, j, EVENT_DETECTED, nis)
         elif S.healthy[j]:
-            ok, nis = _gated(S.X[l], S.P[l], z, H, rl, rt, m, C.gates[j], xw, Pw, split)
+            ok, nis = _gated(S.X[l], S.P[l], z, H, rl, rt, m, C.gates[j], xw, Pw, split,
+                             Pa)
             if not ok:
                 S.exceed[j] += 1
                 S.healthy[j] = False
@@ -832,7 +895,8 @@ def _apply(S, C, fills, j, l, z, H, r, m, xw, Pw, t_now, first):
                 S.normal_run[j] = 0
             ok = False
     else:
-        ok, nis = _gated(S.X[l], S.P[l], z, H, rl, rt, m, C.gates[j], xw, Pw, split)
+        ok, nis = _gated(S.X[l], S.P[l], z, H, rl, rt, m, C.gates[j], xw, Pw, split,
+                             Pa)
     if C.log_nis[j] and first:
         _log_nis(S, t_now, j, nis)
     if first:
@@ -876,7 +940,7 @@ def _span_sample(S, C, fills, j, l, aux, data, t_now, was_isolated, used_before,
                 ok, nis = _test_copy(S, C, l, z, H, rl, rt, m, C.gates[j], xw, Pw, split,
                                      C.return_conditioned)
                 if ok:
-                    sequential_joseph(S.X[l], S.P[l], z, H, rl, 0, m, 0.0, xw, Pw)
+                    _update(S.X[l], S.P[l], _pa(S, l), z, H, rl, rt, m, xw, Pw)
                     mj[_SPAN_OK] += 1.0
                     mj[_SPAN_LONGEST] = max(mj[_SPAN_LONGEST], T_sp)
                 else:
@@ -1034,6 +1098,7 @@ def _advance(S, C, fills, accs, t, dtheta, dvel, dt, ds, v, dth_dr, rows, qt, qj
     H_own = np.zeros((dmax, n))
     r_own = np.zeros(2 * dmax)        # r, then a measurement's test variances (test_r)
     xw_own = np.empty(n)
+    xa_own = np.zeros(n)              # the test covariance's predict: its x is not used
     Pw_own = np.empty((n, n))
     xg_own = np.zeros(n)
     Pg_own = np.zeros((n, n))
@@ -1074,6 +1139,7 @@ def _advance(S, C, fills, accs, t, dtheta, dvel, dt, ds, v, dth_dr, rows, qt, qj
     # the fills' and the scalar update's arguments)
     z, H, r, xw, Pw = (borrowed(z_own), borrowed(H_own), borrowed(r_own), borrowed(xw_own),
                        borrowed(Pw_own))
+    Pa, xa, Qa = borrowed(S.Pa), borrowed(xa_own), borrowed(C.Qa)
     aux_own = aux
     aux, macc, qd, rows = borrowed(aux_own), borrowed(macc), borrowed(qd), borrowed(rows)
     isolate, log_nis, fb_mask, fb_states = C.isolate, C.log_nis, C.fb_mask, C.fb_states
@@ -1154,6 +1220,12 @@ def _advance(S, C, fills, accs, t, dtheta, dvel, dt, ds, v, dth_dr, rows, qt, qj
         # F was zeroed once: _fill_F overwrites its structural entries (error_model.F_pattern)
         em._fill_F(F, offs9, xs[K.LAT], xs[K.H], vel, C_S, f_n, inv_tau_dk, dr_eps,
                    grav_grad, itau_g, itau_a)
+        for l in range(Pa.shape[0]):       # the test covariance first (the same Phi)
+            if with_dr:
+                _dr_position_noise(Q[l], Qa[l], o_dpD, xs[K.LAT], xs[K.H], q_dr_m2_s)
+                predict_kernel_call(k_addr, xa, Pa[l], F, Q[l], sum_dt, k_buf)
+            else:
+                predict_kernel_call(k_addr, xa, Pa[l], F, Qa[l], sum_dt, k_buf)
         for l in range(X.shape[0]):
             if with_dr:
                 _dr_position_noise(Q[l], Qc[l], o_dpD, xs[K.LAT], xs[K.H], q_dr_m2_s)
@@ -1191,7 +1263,8 @@ def _advance(S, C, fills, accs, t, dtheta, dvel, dt, ds, v, dth_dr, rows, qt, qj
                 applied = True
                 if m > 0:
                     l = local[j]
-                    if l >= 0 and not isolate[j] and not log_nis[j] and not test_r[j]:
+                    if (l >= 0 and not isolate[j] and not log_nis[j] and not test_r[j]
+                            and Pa.shape[0] == 0):
                         ok, nis = sequential_joseph(X[l], P[l], z, H, r, 0, m, gates[j], xw,
                                                     Pw)
                         if ok:
@@ -1241,7 +1314,7 @@ def _advance(S, C, fills, accs, t, dtheta, dvel, dt, ds, v, dth_dr, rows, qt, qj
             acc[i] = 0.0
     # the borrowed views' memory
     _keep_alive(F_own, Q_own, C_own, fn_own, vel_own, z_own, H_own, r_own, xw_own, Pw_own,
-                aux_own, xg_own, Pg_own)
+                aux_own, xg_own, Pg_own, xa_own)
     return qi
 
 
@@ -1281,13 +1354,19 @@ class LocalFilter:
     r_scale : float, noise scale of shared measurements on this filter (``1 / beta``)
     role : ``"primary"`` (fused when healthy) or ``"fallback"`` (the global estimate only
         when no primary is healthy)
+    P0_test, Qc_test : (n, n) the test covariance's start and process noise (the engine's
+        "Test covariance"; default ``P0``, ``Qc``): the true prior and the IMU's own noise
+        where a bank's sub-filter carries ``1 / beta`` on both (paper 003 eq. 33-35)
     """
 
-    def __init__(self, P0, Qc=None, *, r_scale: float = 1.0, role: str = "primary"):
+    def __init__(self, P0, Qc=None, *, r_scale: float = 1.0, role: str = "primary",
+                 P0_test=None, Qc_test=None):
         if role not in ("primary", "fallback"):
             raise ValueError(f"role must be 'primary' or 'fallback', got {role!r}")
         self.P0 = np.array(P0, dtype=float)
         self.Qc = None if Qc is None else np.array(Qc, dtype=float)
+        self.P0_test = self.P0 if P0_test is None else np.array(P0_test, dtype=float)
+        self.Qc_test = self.Qc if Qc_test is None else np.array(Qc_test, dtype=float)
         self.r_scale = float(r_scale)
         self.role = role
 
@@ -1360,7 +1439,7 @@ class ErrorStateFilter:
                  max_events: int = 100000, max_nis: int = 0, record: bool = False,
                  fuse_isolated: bool = False, phi_order: int = 2,
                  return_conditioned: bool = False, return_span: bool = False,
-                 return_span_max_s: float = math.inf):
+                 return_span_max_s: float = math.inf, test_covariance: bool = False):
         if phi_order not in (1, 2):
             raise ValueError(f"phi_order must be 1 or 2, got {phi_order!r}")
         for name in ("phi", "dv", "dp"):
@@ -1385,8 +1464,9 @@ class ErrorStateFilter:
         if record and L > 1:
             raise ValueError("smoother records are kept for one local filter only")
         for lf in locals_:
-            if lf.P0.shape != (n, n):
-                raise ValueError(f"P0 must be ({n}, {n}) for {layout!r}, got {lf.P0.shape}")
+            if lf.P0.shape != (n, n) or lf.P0_test.shape != (n, n):
+                raise ValueError(f"P0 and P0_test must be ({n}, {n}) for {layout!r}, got "
+                                 f"{lf.P0.shape}, {lf.P0_test.shape}")
         for m in measurements:
             if not isinstance(m, Measurement):
                 raise TypeError(f"not a Measurement: {m!r}")
@@ -1465,7 +1545,9 @@ class ErrorStateFilter:
             pstate=per_meas(lambda m: n_par - STATE_PARAMS if getattr(m, "wants_state", False)
                             else -1, -1, np.int64),
             return_conditioned=bool(return_conditioned),
-            test_r=per_meas(lambda m: getattr(m, "test_variance", False), False, np.bool_))
+            test_r=per_meas(lambda m: getattr(m, "test_variance", False), False, np.bool_),
+            Qa=(np.stack([np.ascontiguousarray(model.Qc() if lf.Qc_test is None else lf.Qc_test)
+                          for lf in locals_]) if test_covariance else np.zeros((0, n, n))))
         # the fill and accumulator functions (numba functions, compiled or loaded at first use
         # by the JIT path: _fills, _accs)
         self._fill_objs = tuple([m.fill for m in measurements]
@@ -1485,7 +1567,9 @@ class ErrorStateFilter:
             macc=np.zeros((M, _SPAN_COLS if return_span else ACC_SIZE)),
             ev=np.zeros((int(max_events), 4)), nis_log=np.zeros((int(max_nis), 3)),
             phc=np.eye(n) if record else np.zeros((0, 0)),
-            ppred=np.zeros((n, n) if record else (0, 0)))
+            ppred=np.zeros((n, n) if record else (0, 0)),
+            Pa=(np.stack([lf.P0_test for lf in locals_]) if test_covariance
+                else np.zeros((0, n, n))))
         if return_span:
             if not return_span_max_s > 0.0:
                 raise ValueError(f"return_span_max_s must be > 0, got {return_span_max_s!r}")

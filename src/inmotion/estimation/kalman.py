@@ -374,3 +374,60 @@ def sequential_joseph(x, P, z, H, r, a, b, threshold, xw, Pw):
         if P[p, p] < 0.0:
             P[p, p] = 0.0
     return True, nis
+
+
+@njit(cache=True)
+def sequential_joseph_pair(x, P, Pa, z, H, rl, ra, a, b, Ph, Pah):
+    """Ungated sequential scalar updates of ``x``, ``P`` with the rows ``a:b`` and noise
+    ``rl`` (as :func:`sequential_joseph`), and of a second covariance ``Pa`` with the same
+    gains and the noise ``ra`` (issue 15, the residual test's covariance): for each row
+    ``h``, ``k = P h^T / (h P h^T + rl_i)`` and the Joseph form of a given gain,
+    ``Pa <- (I - k h) Pa (I - k h)^T + ra_i k k^T``
+    ``= Pa - k (Pa h^T)^T - (Pa h^T) k^T + (h Pa h^T + ra_i) k k^T``.
+
+    ``Pa`` is then the covariance of the error of the estimate the filter makes when the rows'
+    noise is ``ra`` while the filter's gain takes ``rl`` (the covariance analysis of a
+    suboptimal filter: Gelb, Applied Optimal Estimation, 1974, sec. 7.2; Maybeck, Stochastic
+    Models, Estimation and Control 1, 1979, sec. 6.8). With ``ra == rl`` and ``Pa == P`` it is
+    ``P``'s own update. ``Ph``, ``Pah``: (n,) work arrays. Kept exactly symmetric (each entry
+    a sum of commuting products)."""
+    n = x.shape[0]
+    for i in range(a, b):
+        innov = z[i]
+        for p in range(n):
+            Ph[p] = 0.0
+            Pah[p] = 0.0
+        for q in range(n):
+            hq = H[i, q]
+            if hq != 0.0:
+                innov -= hq * x[q]
+                for p in range(n):
+                    Ph[p] += P[q, p] * hq
+                    Pah[p] += Pa[q, p] * hq
+        s = rl[i]
+        sa = ra[i]
+        for q in range(n):
+            hq = H[i, q]
+            if hq != 0.0:
+                s += hq * Ph[q]
+                sa += hq * Pah[q]
+        g = innov / s           # x and P as sequential_joseph, bit for bit
+        inv_s = 1.0 / s
+        for p in range(n):
+            x[p] += Ph[p] * g
+        # k = Ph / s: Pa -= (Ph Pah^T + Pah Ph^T) / s - sa Ph Ph^T / s^2
+        c2 = sa * inv_s * inv_s
+        for p in range(n):
+            php = Ph[p]
+            pap = Pah[p]
+            for q in range(n):
+                Pa[p, q] += c2 * (php * Ph[q]) - (php * Pah[q] + pap * Ph[q]) * inv_s
+        for p in range(n):
+            php = Ph[p]
+            for q in range(n):
+                P[p, q] -= (php * Ph[q]) * inv_s
+    for p in range(n):
+        if P[p, p] < 0.0:
+            P[p, p] = 0.0
+        if Pa[p, p] < 0.0:
+            Pa[p, p] = 0.0
