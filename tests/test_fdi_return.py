@@ -54,6 +54,14 @@ def test_fusion_keeps_the_masked_sub_filter(runs):
     assert during.sum() >= 5
     assert np.all(s_on[during] < s_off[during]), (s_on[during], s_off[during])
     # and the Table 1 run's mode names the healthy channel alone, the fused run's too (the
-    # mode is which sub-filters take measurements; only the output differs)
-    modes = [e["mode"] for e in on.info["events"] if e["event"] == "mode"]
-    assert modes == [e["mode"] for e in off.info["events"] if e["event"] == "mode"][:len(modes)]
+    # mode is which sub-filters take measurements; only the output differs), up to where the two runs' decisions part (a test at its threshold flips with the
+    # second-order difference of the feedbacks' linearization points, the premise's limit:
+    # with fkf's test covariance, issue 15, at the 47th decision, 84.0 s)
+    dec = [[(e["t_s"], e["event"]) for e in r.info["events"] if e["event"] in
+            ("detected", "returned")] for r in (on, off)]
+    k = next((i for i, (a, b) in enumerate(zip(*dec)) if a != b), min(map(len, dec)))
+    assert k >= 10, dec
+    t_part = min(dec[0][k][0], dec[1][k][0]) if k < min(map(len, dec)) else np.inf
+    modes = [[e["mode"] for e in r.info["events"] if e["event"] == "mode" and e["t_s"] < t_part]
+             for r in (on, off)]
+    assert modes[0] == modes[1] and len(modes[0]) >= 10

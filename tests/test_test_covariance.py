@@ -94,3 +94,56 @@ def test_pa_is_the_error_covariance_of_a_filter_told_its_rows_are_worse():
         got = h @ emp @ h
         assert got == pytest.approx(h @ Pa @ h, rel=0.08)
         assert h @ P @ h > 1.3 * got          # the filter's own P over-bounds it
+
+
+def test_the_gated_test_takes_pa_and_leaves_the_filter_as_without_it():
+    """The engine's gated update with a test covariance: the statistic is the batch ``nu^T (H
+    Pa H^T + diag(r_test))^-1 nu``, ``x`` and ``P`` are what the update without ``Pa`` makes,
+    bit for bit, and ``Pa`` takes the Joseph form of ``P``'s gains with ``r_test``."""
+    from inmotion.estimation import engine as eng
+    rng = np.random.default_rng(6)
+    n, m = 9, 3
+    P = _spd(rng, n)
+    Pa = 0.3 * _spd(rng, n)
+    x = rng.standard_normal(n)
+    H = np.zeros((4, n))
+    H[:m] = rng.standard_normal((m, n)) * (rng.random((m, n)) < 0.6)
+    z = rng.standard_normal(4)
+    rl = np.array([0.5, 2.0, 0.3])
+    rt = np.array([0.5, 0.6, 0.3])
+    nu = z[:m] - H[:m] @ x
+    want = nu @ np.linalg.solve(H[:m] @ Pa @ H[:m].T + np.diag(rt), nu)
+    xw, Pw = np.empty(n), np.empty((n, n))
+    x1, P1 = x.copy(), P.copy()
+    eng._gated(x1, P1, z, H, rl, rt, m, 0.0, xw, Pw, True, np.empty((0, 0)))
+    x2, P2, Pa2 = x.copy(), P.copy(), Pa.copy()
+    ok, nis = eng._gated(x2, P2, z, H, rl, rt, m, 0.0, xw, Pw, True, Pa2)
+    assert ok and nis == pytest.approx(want, rel=1e-10)
+    assert np.array_equal(x1, x2) and np.array_equal(P1, P2)
+    x3, P3, Pa3 = x.copy(), P.copy(), Pa.copy()
+    sequential_joseph_pair(x3, P3, Pa3, z, H, rl, rt, 0, m, np.empty(n), np.empty(n))
+    np.testing.assert_array_equal(Pa2, Pa3)
+    # over the gate: nothing changes
+    x4, P4, Pa4 = x.copy(), P.copy(), Pa.copy()
+    ok, nis = eng._gated(x4, P4, z, H, rl, rt, m, 0.99 * want, xw, Pw, True, Pa4)
+    assert not ok and np.array_equal(x4, x) and np.array_equal(P4, P) and np.array_equal(Pa4, Pa)
+
+
+def test_fkf_with_the_detection_off_is_the_filter_without_the_test_covariance():
+    """The option changes the test alone: with the detection off fkf's outputs are bit for bit
+    those without it, and its test statistics differ."""
+    from consistency_mc import drive_003
+    from inmotion.align import aided_kf as ak
+    from inmotion.core.solution import NavState
+    from inmotion.sim import simulate
+    rng = np.random.default_rng(8)
+    b = simulate(drive_003(), rng)
+    init = NavState.from_truth(b.truth, euler_error=np.radians([0.1, 0.1, 0.5]))
+    cfg = {"fdi": False, "keep_test_statistics": True}
+    on = ak.run_fkf(b, dict(cfg, test_covariance=True), init)
+    off = ak.run_fkf(b, dict(cfg, test_covariance=False), init)
+    for k in off.states:
+        assert np.array_equal(on.states[k], off.states[k]), k
+    assert np.array_equal(on.vel_n, off.vel_n) and np.array_equal(on.lat, off.lat)
+    lam_on, lam_off = on.info["test_statistics"]["lambda"], off.info["test_statistics"]["lambda"]
+    assert lam_on.shape == lam_off.shape and not np.allclose(lam_on, lam_off, equal_nan=True)

@@ -1464,9 +1464,11 @@ class ErrorStateFilter:
         if record and L > 1:
             raise ValueError("smoother records are kept for one local filter only")
         for lf in locals_:
-            if lf.P0.shape != (n, n) or lf.P0_test.shape != (n, n):
-                raise ValueError(f"P0 and P0_test must be ({n}, {n}) for {layout!r}, got "
-                                 f"{lf.P0.shape}, {lf.P0_test.shape}")
+            if lf.P0.shape != (n, n):
+                raise ValueError(f"P0 must be ({n}, {n}) for {layout!r}, got {lf.P0.shape}")
+            if lf.P0_test.shape != (n, n):
+                raise ValueError(f"P0_test must be ({n}, {n}) for {layout!r}, got "
+                                 f"{lf.P0_test.shape}")
         for m in measurements:
             if not isinstance(m, Measurement):
                 raise TypeError(f"not a Measurement: {m!r}")
