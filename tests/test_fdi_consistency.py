@@ -9,6 +9,7 @@ import pytest
 from consistency_mc import drive_003, pooled_fkf_nis
 from inmotion.align import aided_kf as ak
 from inmotion.core.solution import NavState
+from inmotion.estimation import chi2
 from inmotion.sim import simulate
 
 RUNS = 3
@@ -72,8 +73,42 @@ def test_nis_per_measurement_kind_in_summary_and_report(tmp_path):
     assert set(s["nis"]) == {"odometer", "ldv", "nhc", "height"}
     od = s["nis"]["odometer"]
     assert od["samples"] > 100 and od["dof"] == 3 * od["samples"]
-    assert od["band_95"][0] < 1.0 < od["band_95"][1]
+    # judged against the residual test's model (the rows weighted by the vehicle's
+    # constraint violation, issue 15), not chi2's 1; the other kinds against chi2
+    w = sol.info["residual_test_weights"]["odometer"]["weights"]
+    assert od["model"].startswith("weighted rows")
+    assert od["expected_mean_per_dof"] == pytest.approx(sum(w) / 3)
+    assert od["band_95"][0] < od["expected_mean_per_dof"] < od["band_95"][1] < 1.0
+    assert s["nis"]["nhc"]["model"] == "chi2"
+    assert s["nis"]["nhc"]["band_95"][0] < 1.0 < s["nis"]["nhc"]["band_95"][1]
     assert "attitude" in s["errors"]["consistency"]
     # the report's table (the section _result_section adds; whole pages are test_report's)
     text = _consistency_section(s["errors"]["consistency"], s["nis"])
     assert "Consistency" in text and "NIS odometer" in text and "NEES attitude" in text
+
+
+@pytest.mark.parametrize("weights, g", [([0.186, 1.0, 0.318], 0.0), ([0.184, 1.0, 0.317], 1.0)])
+def test_the_nis_band_of_the_weighted_model_covers_its_mean(weights, g):
+    """``residual_test_nis``'s band: over 2000 sets of 400 samples drawn from the statistic's
+    model (weighted rows, the forward row Gaussian or a triangular quantization difference),
+    the mean per degree of freedom falls inside in at least 95 % of the sets (the forward
+    row's spread taken at the Gaussian's, wide for the quantization), and unit weights keep
+    chi2's block."""
+    rng = np.random.default_rng(12)
+    sets, n = 2000, 400
+    lat, vert = rng.standard_normal((2, sets, n))
+    tri = (rng.random((sets, n)) - rng.random((sets, n))) * np.sqrt(6.0)
+    fwd = np.sqrt(g) * rng.standard_normal((sets, n)) + np.sqrt(1.0 - g) * tri
+    stat = weights[0] * lat ** 2 + weights[1] * fwd ** 2 + weights[2] * vert ** 2
+    w = {"weights": weights, "gauss_fraction": g}
+    inside = 0
+    for k in range(sets):
+        block = chi2.nis_summary(float(stat[k].sum()), 3 * n, n)
+        out = ak.residual_test_nis(block, w)
+        inside += out["in_band"]
+    assert out["expected_mean_per_dof"] == pytest.approx(sum(weights) / 3)
+    frac = inside / sets
+    assert 0.95 <= frac <= (0.995 if g == 1.0 else 1.0), frac
+    unit = chi2.nis_summary(1500.0, 1500, 500)
+    assert ak.residual_test_nis(unit, {"weights": [1.0, 1.0, 1.0], "gauss_fraction": 1.0}) \
+        == unit

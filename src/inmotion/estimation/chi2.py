@@ -269,12 +269,16 @@ def nis_summary(nis_sum: float, dof: int, samples: int) -> dict:
     (``nu^T S^-1 nu`` each), ``mean_per_dof`` (1 for a consistent filter: the sum is
     ``chi2(dof)`` when the innovations are white and ``S`` is their covariance) and
     ``band_95``, the 95 % band of that mean, ``[isf(0.975, dof), isf(0.025, dof)] / dof``
-    (a loose check where innovations are correlated in time); ``None`` values before any
+    (a loose check where innovations are correlated in time); ``expected_mean_per_dof`` 1 and
+    ``model`` ``"chi2"`` (a caller whose statistic follows another model replaces the three,
+    e.g. :func:`inmotion.align.aided_kf.residual_test_nis`); ``None`` values before any
     sample."""
     if dof <= 0:
-        return {"samples": int(samples), "dof": 0, "mean_per_dof": None, "band_95": None,
+        return {"samples": int(samples), "dof": 0, "mean_per_dof": None,
+                "expected_mean_per_dof": 1.0, "model": "chi2", "band_95": None,
                 "in_band": None}
     m = float(nis_sum) / dof
     lo, hi = isf(0.975, dof) / dof, isf(0.025, dof) / dof
     return {"samples": int(samples), "dof": int(dof), "mean_per_dof": m,
+            "expected_mean_per_dof": 1.0, "model": "chi2",
             "band_95": [float(lo), float(hi)], "in_band": bool(lo <= m <= hi)}

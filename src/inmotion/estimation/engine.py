@@ -1421,6 +1421,11 @@ class ErrorStateFilter:
         span"); spans longer than ``return_span_max_s`` are not applied, nor those of a
         measurement whose ``spans`` is False (e.g. a velocity). Default False: the returning
         sample is not applied, the isolation's intervals are lost.
+    test_covariance : bool
+        Each local filter carries the test covariance ``Pa`` (from its ``P0_test``, with its
+        ``Qc_test``; module docstring, "Test covariance"), and its own residual tests take
+        ``H Pa H^T`` with the rows' test variances; ``P`` and the estimates are unchanged, the
+        predict and update cost about doubles. Default False.
     record : keep what a Rauch-Tung-Striebel smoother needs
         (:mod:`inmotion.estimation.smoother`; one local filter only), at every epoch that
         applied samples, every output epoch and the last one, with the transition composed

@@ -290,20 +290,22 @@ def _consistency_section(cons: dict, nis: dict) -> str:
     rows = []
     for name, c in cons.items():
         band = c.get("band_95") or [None, None]
-        rows.append([f"NEES {name}", c.get("mean"), c.get("dof"), band[0], band[1],
+        rows.append([f"NEES {name}", c.get("mean"), 3.0, c.get("dof"), band[0], band[1],
                      c.get("rows"), "yes" if c.get("in_band") else "no"])
     for kind, c in nis.items():
         band = c.get("band_95") or [None, None]
-        rows.append([f"NIS {kind} (per dof)", c.get("mean_per_dof"), c.get("dof"), band[0],
+        rows.append([f"NIS {kind} (per dof)", c.get("mean_per_dof"),
+                     c.get("expected_mean_per_dof", 1.0), c.get("dof"), band[0],
                      band[1], c.get("samples"),
                      "-" if c.get("in_band") is None else "yes" if c["in_band"] else "no"])
     return ("<h3>Consistency</h3><p>NEES: the mean of (error / sigma)² summed over a group's "
             "three axes (3 for a filter whose sigma is honest); NIS: the mean innovation "
             "chi-square per degree of freedom of each measurement kind (1 when the "
-            "innovations fit their covariance). The 95 % bands assume independent rows, "
-            "a loose check.</p>"
-            + _table(["statistic", "mean", "dof", "95 % band low", "95 % band high",
-                      "rows / samples", "in band"], rows, left=1))
+            "innovations fit their covariance, or the residual test's model's mean where "
+            "its rows' noise is weighted, e.g. fkf's channels with the vehicle's constraint "
+            "violation). The 95 % bands assume independent rows, a loose check.</p>"
+            + _table(["statistic", "mean", "expected", "dof", "95 % band low",
+                      "95 % band high", "rows / samples", "in band"], rows, left=1))
 
 
 #: the errors block's statistics in words
