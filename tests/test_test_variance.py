@@ -12,6 +12,7 @@ from inmotion.estimation import engine as eng
 from inmotion.estimation import error_model as em
 from inmotion.estimation import measurements as ms
 from inmotion.estimation.kalman import sequential_joseph
+from update_problems import random_rows_problem
 from inmotion.estimation.layout import PHI, Layout
 from inmotion.core.solution import NavState
 from inmotion.sim import simulate
@@ -108,16 +109,8 @@ def test_the_gated_kernel_is_the_batch_statistic_and_the_plain_update():
     """On a random 3-row problem: ``_gated`` with the split returns the batch ``nu^T (H P H^T
     + diag(r_test))^-1 nu`` (numpy) and leaves ``x``, ``P`` as ``sequential_joseph`` with
     ``r`` makes them, bit for bit; over the gate it leaves them untouched."""
-    rng = np.random.default_rng(3)
     n, m = 9, 3
-    A = rng.standard_normal((n, n))
-    P = A @ A.T + n * np.eye(n)
-    x = rng.standard_normal(n)
-    H = np.zeros((4, n))
-    H[:m] = rng.standard_normal((m, n)) * (rng.random((m, n)) < 0.5)
-    z = rng.standard_normal(4)
-    rl = np.array([0.5, 2.0, 0.3])
-    rt = np.array([0.5, 0.6, 0.3])
+    P, x, H, z, rl, rt = random_rows_problem(np.random.default_rng(3), n, m, 0.5)
     S = H[:m] @ P @ H[:m].T + np.diag(rt)
     nu = z[:m] - H[:m] @ x
     want = nu @ np.linalg.solve(S, nu)

@@ -393,24 +393,11 @@ def sequential_joseph_pair(x, P, Pa, z, H, rl, ra, a, b, Ph, Pah):
     a sum of commuting products)."""
     n = x.shape[0]
     for i in range(a, b):
+        s = rl[i] + _h_times_sym(P, H, i, Ph)
+        sa = ra[i] + _h_times_sym(Pa, H, i, Pah)
         innov = z[i]
-        for p in range(n):
-            Ph[p] = 0.0
-            Pah[p] = 0.0
         for q in range(n):
-            hq = H[i, q]
-            if hq != 0.0:
-                innov -= hq * x[q]
-                for p in range(n):
-                    Ph[p] += P[q, p] * hq
-                    Pah[p] += Pa[q, p] * hq
-        s = rl[i]
-        sa = ra[i]
-        for q in range(n):
-            hq = H[i, q]
-            if hq != 0.0:
-                s += hq * Ph[q]
-                sa += hq * Pah[q]
+            innov -= H[i, q] * x[q]
         g = innov / s           # x and P as sequential_joseph, bit for bit
         inv_s = 1.0 / s
         for p in range(n):
@@ -431,3 +418,23 @@ def sequential_joseph_pair(x, P, Pa, z, H, rl, ra, a, b, Ph, Pah):
             P[p, p] = 0.0
         if Pa[p, p] < 0.0:
             Pa[p, p] = 0.0
+
+
+@njit(cache=True, inline="always")
+def _h_times_sym(M, H, i, out):
+    """``out = M h^T`` for row ``h = H[i]`` of a symmetric ``M`` (from ``M``'s rows at ``h``'s
+    nonzero columns); returns ``h M h^T``."""
+    n = out.shape[0]
+    for p in range(n):
+        out[p] = 0.0
+    for q in range(n):
+        hq = H[i, q]
+        if hq != 0.0:
+            for p in range(n):
+                out[p] += M[q, p] * hq
+    hmh = 0.0
+    for q in range(n):
+        hq = H[i, q]
+        if hq != 0.0:
+            hmh += hq * out[q]
+    return hmh
