@@ -30,7 +30,7 @@ def test_pair_update_with_equal_noise_is_the_filters_own():
     x1, P1 = x.copy(), P.copy()
     sequential_joseph(x1, P1, z, H, r, 0, m, 0.0, np.empty(n), np.empty((n, n)))
     x2, P2, Pa = x.copy(), P.copy(), P.copy()
-    sequential_joseph_pair(x2, P2, Pa, z, H, r, r, 0, m, np.empty(n), np.empty(n))
+    sequential_joseph_pair(x2, P2, Pa, z, H, r, r, 0, m, np.empty((n, n)))
     assert np.array_equal(x1, x2) and np.array_equal(P1, P2)      # bit for bit
     np.testing.assert_allclose(Pa, P1, rtol=1e-10, atol=1e-12)
     assert np.array_equal(Pa, Pa.T)
@@ -52,7 +52,7 @@ def test_pair_update_is_the_joseph_form_of_the_filters_gain():
         Pe = A @ Pe @ A.T + rl[i] * np.outer(k, k)
         Pae = A @ Pae @ A.T + ra[i] * np.outer(k, k)
     x = np.zeros(n)
-    sequential_joseph_pair(x, P, Pa, np.zeros(m), H, rl, ra, 0, m, np.empty(n), np.empty(n))
+    sequential_joseph_pair(x, P, Pa, np.zeros(m), H, rl, ra, 0, m, np.empty((n, n)))
     np.testing.assert_allclose(P, Pe, rtol=1e-9, atol=1e-12)
     np.testing.assert_allclose(Pa, Pae, rtol=1e-9, atol=1e-12)
 
@@ -86,7 +86,7 @@ def test_pa_is_the_error_covariance_of_a_filter_told_its_rows_are_worse():
             P = Phi @ P @ Phi.T + Qd
             Pa = Phi @ Pa @ Phi.T + Qd
             z = H @ e + np.sqrt(ra) * rng.standard_normal(1)
-            sequential_joseph_pair(x, P, Pa, z, H, rl, ra, 0, 1, np.empty(3), np.empty(3))
+            sequential_joseph_pair(x, P, Pa, z, H, rl, ra, 0, 1, np.empty((3, 3)))
         e_end[k] = e - x
     emp = np.cov(e_end.T)
     # the variances the row sees (velocity, the velocity-scale combination): sampling error
@@ -116,7 +116,7 @@ def test_the_gated_test_takes_pa_and_leaves_the_filter_as_without_it():
     assert ok and nis == pytest.approx(want, rel=1e-10)
     assert np.array_equal(x1, x2) and np.array_equal(P1, P2)
     x3, P3, Pa3 = x.copy(), P.copy(), Pa.copy()
-    sequential_joseph_pair(x3, P3, Pa3, z, H, rl, rt, 0, m, np.empty(n), np.empty(n))
+    sequential_joseph_pair(x3, P3, Pa3, z, H, rl, rt, 0, m, np.empty((n, n)))
     # (compiled in another context, LLVM may fuse a product differently: the last bits)
     np.testing.assert_allclose(Pa2, Pa3, rtol=1e-12, atol=1e-13)
     # over the gate: nothing changes

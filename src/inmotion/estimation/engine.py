@@ -780,7 +780,7 @@ def _update(x, P, Pa, z, H, rl, ra, m, xw, Pw):
     if Pa.shape[0] == 0:
         sequential_joseph(x, P, z, H, rl, 0, m, 0.0, xw, Pw)
     else:
-        sequential_joseph_pair(x, P, Pa, z, H, rl, ra, 0, m, xw, Pw[0])
+        sequential_joseph_pair(x, P, Pa, z, H, rl, ra, 0, m, Pw)
 
 
 @njit(cache=True)

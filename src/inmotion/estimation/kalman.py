@@ -377,31 +377,31 @@ def sequential_joseph(x, P, z, H, r, a, b, threshold, xw, Pw):
 
 
 @njit(cache=True)
-def sequential_joseph_pair(x, P, Pa, z, H, rl, ra, a, b, Ph, Pah):
+def sequential_joseph_pair(x, P, Pa, z, H, rl, ra, a, b, Pw):
     """Ungated sequential scalar updates of ``x``, ``P`` with the rows ``a:b`` and noise
-    ``rl`` (as :func:`sequential_joseph`), and of a second covariance ``Pa`` with the same
-    gains and the noise ``ra`` (issue 15, the residual test's covariance): for each row
-    ``h``, ``k = P h^T / (h P h^T + rl_i)`` and the Joseph form of a given gain,
-    ``Pa <- (I - k h) Pa (I - k h)^T + ra_i k k^T``
+    ``rl`` (by :func:`sequential_joseph` itself, one row at a time), and of a second
+    covariance ``Pa`` with the same gains and the noise ``ra`` (issue 15, the residual test's
+    covariance): for each row ``h``, ``k = P h^T / (h P h^T + rl_i)`` and the Joseph form of a
+    given gain, ``Pa <- (I - k h) Pa (I - k h)^T + ra_i k k^T``
     ``= Pa - k (Pa h^T)^T - (Pa h^T) k^T + (h Pa h^T + ra_i) k k^T``.
 
     ``Pa`` is then the covariance of the error of the estimate the filter makes when the rows'
     noise is ``ra`` while the filter's gain takes ``rl`` (the covariance analysis of a
     suboptimal filter: Gelb, Applied Optimal Estimation, 1974, sec. 7.2; Maybeck, Stochastic
     Models, Estimation and Control 1, 1979, sec. 6.8). With ``ra == rl`` and ``Pa == P`` it is
-    ``P``'s own update. ``Ph``, ``Pah``: (n,) work arrays. Kept exactly symmetric (each entry
-    a sum of commuting products)."""
+    ``P``'s own update. ``x`` and ``P`` are :func:`sequential_joseph`'s, bit for bit (it
+    updates them), but for the diagonal's floor at 0, applied after each row here and after
+    the group there (a diagonal below 0 within a group, which a positive definite ``P`` does
+    not reach). ``Pw``: (n, n) work array (rows 0-2: :func:`sequential_joseph`'s buffer,
+    ``P h^T``, ``Pa h^T``). ``Pa`` is kept exactly symmetric (each entry a sum of commuting
+    products)."""
     n = x.shape[0]
+    Ph = Pw[1]
+    Pah = Pw[2]
     for i in range(a, b):
         s = rl[i] + _h_times_sym(P, H, i, Ph)
         sa = ra[i] + _h_times_sym(Pa, H, i, Pah)
-        innov = z[i]
-        for q in range(n):
-            innov -= H[i, q] * x[q]
-        g = innov / s           # x and P as sequential_joseph, bit for bit
         inv_s = 1.0 / s
-        for p in range(n):
-            x[p] += Ph[p] * g
         # k = Ph / s: Pa -= (Ph Pah^T + Pah Ph^T) / s - sa Ph Ph^T / s^2
         c2 = sa * inv_s * inv_s
         for p in range(n):
@@ -409,13 +409,8 @@ def sequential_joseph_pair(x, P, Pa, z, H, rl, ra, a, b, Ph, Pah):
             pap = Pah[p]
             for q in range(n):
                 Pa[p, q] += c2 * (php * Ph[q]) - (php * Pah[q] + pap * Ph[q]) * inv_s
-        for p in range(n):
-            php = Ph[p]
-            for q in range(n):
-                P[p, q] -= (php * Ph[q]) * inv_s
+        sequential_joseph(x, P, z, H, rl, i, i + 1, 0.0, x, Pw)
     for p in range(n):
-        if P[p, p] < 0.0:
-            P[p, p] = 0.0
         if Pa[p, p] < 0.0:
             Pa[p, p] = 0.0
 
