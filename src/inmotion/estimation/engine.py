@@ -1519,8 +1519,11 @@ class ErrorStateFilter:
                             dtype=dtype)
 
         has_acc = per_meas(lambda m: m.accumulate is not None, False, np.bool_)
-        Qc = np.stack([np.ascontiguousarray(model.Qc() if lf.Qc is None else lf.Qc)
-                       for lf in locals_])
+        def stack_qc(attr):       # each local's process noise (None: the model's)
+            return np.stack([np.ascontiguousarray(model.Qc() if getattr(lf, attr) is None
+                                                  else getattr(lf, attr)) for lf in locals_])
+
+        Qc = stack_qc("Qc")
         offs = layout.offsets()
         offs9 = tuple(int(o) for o in em._offsets(layout))
         q_pattern = (Qc != 0).any(axis=0)
@@ -1553,8 +1556,7 @@ class ErrorStateFilter:
                             else -1, -1, np.int64),
             return_conditioned=bool(return_conditioned),
             test_r=per_meas(lambda m: getattr(m, "test_variance", False), False, np.bool_),
-            Qa=(np.stack([np.ascontiguousarray(model.Qc() if lf.Qc_test is None else lf.Qc_test)
-                          for lf in locals_]) if test_covariance else np.zeros((0, n, n))))
+            Qa=stack_qc("Qc_test") if test_covariance else np.zeros((0, n, n)))
         # the fill and accumulator functions (numba functions, compiled or loaded at first use
         # by the JIT path: _fills, _accs)
         self._fill_objs = tuple([m.fill for m in measurements]
