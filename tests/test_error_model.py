@@ -112,6 +112,34 @@ def test_nhc_rows_match_the_nonlinear_projection(with_mount):
         assert np.max(np.abs(J[:, 6:9])) > 0.5 * V
 
 
+def test_nhc_rows_with_the_two_angle_mounting_match_the_nonlinear_projection():
+    """Paper 003's sensor channels carry the mounting as two angles (pitch x, yaw z:
+    ``aided_kf.SUB_LAYOUT``'s ``mount``); the NHC fallback of od-kf / ldv-kf / fkf takes their
+    columns (``mount_axes="xz"``, issue 15, session 15): against the nonlinear projection with
+    ``C_v^b = exp([A x])``, ``A = (a_x, 0, a_z)``, the same convention as the 3-angle block's."""
+    from inmotion.align.aided_kf import SUB_LAYOUT
+    from inmotion.core.rotations import quat_from_dcm
+    from inmotion.estimation.measurements import AUX_SIZE, Nhc
+
+    pt, C, V = _pt()
+
+    def z(x):
+        phi, dv, a = x[:3], x[3:6], x[6:8]
+        A = np.array([a[0], 0.0, a[1]])
+        v_n = C @ dcm_from_rotvec(A) @ np.array([0.0, V, 0.0])
+        C_hat = dcm_from_rotvec(-phi) @ C
+        return (C_hat.T @ (v_n + dv))[[0, 2]]
+
+    J = _numjac(z, 8)
+    xs = np.r_[pt.lat, 0.0, pt.h, C @ np.array([0.0, V, 0.0]), quat_from_dcm(C)]
+    H = Nhc(1.0, mount_axes="xz").rows((xs, xs, np.zeros(AUX_SIZE)), None, SUB_LAYOUT)[1]
+    assert np.allclose(H[:, SUB_LAYOUT["phi"]], J[:, 0:3], atol=1e-6)
+    assert np.allclose(H[:, SUB_LAYOUT["mount"]], J[:, 6:8], atol=1e-6)
+    assert np.max(np.abs(J[:, 6:8])) > 0.5 * V
+    with pytest.raises(ValueError, match="2-angle 'mount' block"):
+        Nhc(1.0, mount_axes="xz").check(LAY25)
+
+
 # -- the printed SINS F of paper 000 -----------------------------------------------------
 
 def test_sins_rows_equal_paper_000_printed_entries():

@@ -1901,9 +1901,13 @@ def run_aided(bundle: Bundle, cfg, init: NavState, sensors: tuple, *, method: st
     lay = SUB_LAYOUT if sensors else NHC_LAYOUT
     pad = _pad if sensors else (lambda M: M)
     if use_nhc:
-        locals_.append(LocalFilter(pad(P15), pad(Q15), role="primary" if nhc_only
+        P_nhc = pad(P15)
+        if sensors:     # the fallback estimates the mounting its rows see (_nhc)
+            P_nhc[SUB_LAYOUT["mount"], SUB_LAYOUT["mount"]] = (np.eye(2) * (
+                cfg.mount_sigma_arcmin * ARCMIN) ** 2)
+        locals_.append(LocalFilter(P_nhc, pad(Q15), role="primary" if nhc_only
                                    else "fallback"))
-        meas.append(_nhc(cfg, C_vb0, len(locals_) - 1))
+        meas.append(_nhc(cfg, C_vb0, len(locals_) - 1, mount=bool(sensors)))
     if two_part_gyro_bias(cfg):         # constant + Gauss-Markov gyro bias (issue 15)
         lay, locals_ = _with_gm_block(lay, locals_, cfg)
     use_baro = cfg.use_baro and bundle.baro is not None
@@ -1973,8 +1977,22 @@ def _stop_measurements(cfg, t_ep, local):
             ms.ZeroAngularRate(np.full(3, rate), local=local)]
 
 
-def _nhc(cfg, C_vb0, local):
-    return ms.Nhc(cfg.nhc_noise_m_s, mount_terms=False, vehicle_mounting=C_vb0, local=local)
+def _nhc(cfg, C_vb0, local, mount=False):
+    """The vehicle-constraint rows in the frame ``C_vb0``; ``mount``: with the columns of the
+    layout's 2-angle ``mount`` block (pitch, yaw), the sensor channels' (one ``C_v^b`` for the
+    vehicle and its sensors, ``docs/ARCHITECTURE.md``).
+
+    Why the fallback takes them (issue 15, session 15): with ``mounting_from_meta`` false (the
+    sensor filters' default, which estimate the mounting) ``C_vb0`` is the identity, and
+    without mounting columns the fallback read the vehicle's mounting (paper 003's drive: 10'
+    pitch, 15' yaw) as a constant lateral and vertical velocity of ``v`` times it, which went
+    into its heading and tilt: on the drive's first 194 s (``consistency_mc.drive_003_start``,
+    seed 104, detection off) its heading drifted 57' from the primary's at a 14.6' sigma,
+    ``nhc-kf`` alone (the mounting from meta) 14.6' off at 10.9'; od-kf at the paper's 0.05,
+    3 of 10 runs ending on the fallback, 25-49' off at 11-13' (final NEES 5.93, band
+    1.68-4.70)."""
+    return ms.Nhc(cfg.nhc_noise_m_s, mount_terms=mount, mount_axes="xz",
+                  vehicle_mounting=C_vb0, local=local)
 
 
 @functools.lru_cache(maxsize=None)
@@ -2112,7 +2130,7 @@ def _smooth_bank(f, res_fwd, bundle, cfg, init, k0, sensors, use_nhc, use_baro, 
     if _attitude_cross(cfg):
         _check_prior(P0, "central smoother's")
     if use_nhc:
-        meas.append(_nhc(cfg, C_vb0, 0))
+        meas.append(_nhc(cfg, C_vb0, 0, mount=True))
     if use_baro:
         meas.append(ms.Height(cfg.baro_noise_m, local=0))
     if len(stops):

@@ -512,7 +512,9 @@ def _cvn_row(p, k, c0, c1, c2):
 
 @njit(cache=True)
 def _nhc_row(z, H, r, i, cv, v, vb_row, p0, o_dv, o_phi, o_mount, with_mount):
-    """Row ``i`` of the NHC: ``C_vn``'s row ``cv``, ``[v_b x]``'s row ``vb_row``."""
+    """Row ``i`` of the NHC: ``C_vn``'s row ``cv``, ``[v_b x]``'s row ``vb_row``;
+    ``with_mount`` 3: the columns of the 3-angle ``mount`` block, 2: of the 2-angle (x, z)
+    block (the pitch and yaw of paper 003's sensor mounting), 0: none."""
     z[i] = cv[0] * v[0] + cv[1] * v[1] + cv[2] * v[2]
     r[i] = p0
     # C_vn [v x], [v x] = [[0, -v2, v1], [v2, 0, -v0], [-v1, v0, 0]]
@@ -521,14 +523,16 @@ def _nhc_row(z, H, r, i, cv, v, vb_row, p0, o_dv, o_phi, o_mount, with_mount):
     for j in range(3):
         H[i, o_dv + j] = cv[j]
         H[i, o_phi + j] = -cx[j]
-        if with_mount:
+        if with_mount == 3:
             H[i, o_mount + j] = -vb_row[j]
+        elif with_mount == 2 and j != 1:
+            H[i, o_mount + j // 2] = -vb_row[j]
 
 
 @fill_function
 def _fill_nhc(xs, xd, aux, acc, data, p, offs, z, H, r):
     # z = [v_x, v_z] of C_v^b0^T C_n^b v (SINS, vehicle frame); H: C_vn on dv, -C_vn [v x]
-    # on phi, and with the mounting terms (p[1] = 1) -[v_b x] on the mounting angles
+    # on phi, and with the mounting terms (p[1] = 3 or 2 angles) -[v_b x] on the mounting angles
     # (error_model.nhc_rows); p[2:11] is C_v^b0 row by row (identity: the IMU is the vehicle);
     # scalar code (no allocation)
     c0, c1, c2 = dcm_columns(xs)                   # the rows of C_n^b
@@ -539,7 +543,7 @@ def _fill_nhc(xs, xd, aux, acc, data, p, offs, z, H, r):
     vb1 = r1[0] * v[0] + r1[1] * v[1] + r1[2] * v[2]
     vb2 = r2[0] * v[0] + r2[1] * v[1] + r2[2] * v[2]
     o_dv, o_phi, o_mount = offs[DV], offs[PHI], offs[MOUNT]
-    with_mount = p[1] != 0.0 and o_mount >= 0
+    with_mount = int(p[1]) if o_mount >= 0 else 0
     _nhc_row(z, H, r, 0, r0, v, (0.0, -vb2, vb1), p[0], o_dv, o_phi, o_mount, with_mount)
     _nhc_row(z, H, r, 1, r2, v, (-vb1, vb0, 0.0), p[0], o_dv, o_phi, o_mount, with_mount)
     return 2
@@ -558,7 +562,9 @@ class Nhc(Measurement):
     Parameters
     ----------
     sigma_m_s : 1-sigma of each row [m/s]
-    mount_terms : bool, carry the mounting columns (the 3-angle ``mount`` block)
+    mount_terms : bool, carry the mounting columns
+    mount_axes : ``"xyz"`` (the 3-angle ``mount`` block, paper 000's) or ``"xz"`` (the
+        2-angle block of paper 003's sensor channels, pitch and yaw: the columns of x and z)
     vehicle_mounting : (3, 3) nominal ``C_v^b0`` (identity by default)
     """
 
@@ -566,21 +572,26 @@ class Nhc(Measurement):
     fill = staticmethod(_fill_nhc)
 
     def __init__(self, sigma_m_s: float, mount_terms: bool = True, vehicle_mounting=None,
-                 **kw):
+                 mount_axes: str = "xyz", **kw):
         super().__init__(**kw)
         self.sigma_m_s = _noise1(sigma_m_s, "NHC sigma_m_s")
         self.mount_terms = bool(mount_terms)
+        if mount_axes not in ("xyz", "xz"):
+            raise ValueError(f"NHC mount_axes must be 'xyz' or 'xz', got {mount_axes!r}")
+        self.mount_axes = mount_axes
         self.C_vb0 = _mounting(vehicle_mounting)
 
     def params(self):
-        return np.r_[self.sigma_m_s ** 2, 1.0 if self.mount_terms else 0.0,
+        return np.r_[self.sigma_m_s ** 2,
+                     float(len(self.mount_axes)) if self.mount_terms else 0.0,
                      self.C_vb0.ravel()]
 
     def check(self, layout):
         _need(layout, self, "phi", "dv")
         if self.mount_terms and "mount" in layout and layout["mount"].stop - \
-                layout["mount"].start != 3:
-            raise ValueError("NHC mount_terms need the 3-angle 'mount' block")
+                layout["mount"].start != len(self.mount_axes):
+            raise ValueError(f"NHC mount_terms with mount_axes {self.mount_axes!r} need a "
+                             f"{len(self.mount_axes)}-angle 'mount' block")
 
 
 @fill_function
