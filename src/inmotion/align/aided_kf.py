@@ -457,7 +457,9 @@ class AidedKfConfig(NhcKfConfig):
         description="an isolated channel returns after its test passes for this long [s]")
     nhc_fallback: bool = Field(
         True,
-        description="the vehicle-constraint filter takes over while the channel is isolated")
+        description="the vehicle-constraint filter takes over while the channel is isolated "
+                    "(its rows with the channels' mounting columns, its own mounting states at "
+                    "mount_sigma_arcmin: aided_kf._nhc)")
 
 
 class FkfConfig(AidedKfConfig):
