@@ -20,7 +20,9 @@ Measured (10 runs, at 193 s):
   from the primary's (seed 104, detection off: 57' apart at 193 s at a 14.6' sigma). At the
   paper's false-alarm rate, ``od-kf '{"false_alarm_rate": 0.05}'``, 3 runs ended on the
   fallback 38', 49', 25' off at 11-13' sigma: NEES 5.93. With the mounting columns
-  (``aided_kf._nhc``): 1.48, those runs 5.6', 17.3', 13.4' off at 14-17'.
+  (``aided_kf._nhc``): 1.48, those runs 5.6', 17.3', 13.4' off at 14-17'. ``fkf`` at 0.05
+  (the fallback when both channels are isolated) 3.15 -> 1.47 (heading 15.1' RMS at a 6.0'
+  sigma -> 2.9' at 7.0'), ``ldv-kf`` 2.34 -> 2.25.
 - Conservative after the turn, detection at its default: ``od-kf`` 0.80 (heading 0.12:
   error 2.3' RMS against a 6.6' sigma; at 85 s 2.83), the paper's rows 1.07; without the
   vehicle's constraint violation 4.53 (heading 3.0' against 2.3'); with only its vertical part
