@@ -683,6 +683,12 @@ def _pad(M15, n=NSUB):
     return out
 
 
+def _mount_prior(cfg) -> np.ndarray:
+    """The 2-angle mounting block's prior covariance (pitch, yaw) [rad^2]: a sensor channel's
+    and the NHC fallback's."""
+    return np.eye(2) * (cfg.mount_sigma_arcmin * ARCMIN) ** 2
+
+
 def _channel(bundle, name, cfg, beta, P15, Q15, c, C_vb0, thr, ret, t0=0.0, vel_n=None):
     """The local filter of one velocity sensor (eq. 33-35: SINS part shared by ``1 /
     beta``) and its measurement; ``t0`` the filter's start time [s] (the length row's
@@ -700,7 +706,7 @@ def _channel(bundle, name, cfg, beta, P15, Q15, c, C_vb0, thr, ret, t0=0.0, vel_
     short = "od" if name == "odometer" else "ldv"
     P = _pad(P15 / beta)
     P[SUB_LAYOUT["dk"], SUB_LAYOUT["dk"]] = (getattr(cfg, f"{short}_scale_sigma_ppm") * 1e-6) ** 2
-    P[SUB_LAYOUT["mount"], SUB_LAYOUT["mount"]] = np.eye(2) * (cfg.mount_sigma_arcmin * ARCMIN) ** 2
+    P[SUB_LAYOUT["mount"], SUB_LAYOUT["mount"]] = _mount_prior(cfg)
     P[SUB_LAYOUT["lever"], SUB_LAYOUT["lever"]] = np.eye(3) * cfg.lever_sigma_m ** 2
     cross = {k.rpartition(".")[2]: X for k, X in _attitude_cross(cfg).items()
              if k.startswith(name + ".")}
@@ -1905,8 +1911,7 @@ def run_aided(bundle: Bundle, cfg, init: NavState, sensors: tuple, *, method: st
     if use_nhc:
         P_nhc = pad(P15)
         if sensors:     # the fallback estimates the mounting its rows see (_nhc)
-            P_nhc[SUB_LAYOUT["mount"], SUB_LAYOUT["mount"]] = (np.eye(2) * (
-                cfg.mount_sigma_arcmin * ARCMIN) ** 2)
+            P_nhc[SUB_LAYOUT["mount"], SUB_LAYOUT["mount"]] = _mount_prior(cfg)
         locals_.append(LocalFilter(P_nhc, pad(Q15), role="primary" if nhc_only
                                    else "fallback"))
         meas.append(_nhc(cfg, C_vb0, len(locals_) - 1, mount=bool(sensors)))

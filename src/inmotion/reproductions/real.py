@@ -365,8 +365,7 @@ def turned_imu_yaw(bundle: Bundle, init: NavState, deltas_deg) -> list:
 def turned_imu(bundle: Bundle, delta_deg: float) -> Bundle:
     """A shallow copy of ``bundle`` with the IMU's increments turned by ``delta_deg`` about b's
     z (:func:`turned_imu_yaw`)."""
-    a = np.radians(delta_deg)
-    R = np.array([[np.cos(a), -np.sin(a), 0.0], [np.sin(a), np.cos(a), 0.0], [0.0, 0.0, 1.0]])
+    R = rotations.dcm_from_rotvec([0.0, 0.0, np.radians(delta_deg)])
     b = bundle.window()
     b.imu = ImuData(bundle.imu.t, bundle.imu.dtheta @ R.T, bundle.imu.dvel @ R.T)
     return b
