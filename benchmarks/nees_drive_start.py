@@ -154,21 +154,19 @@ def scenario(changes: dict):
     return load_scenario(d)
 
 
-def drawn_truth(changes: dict, rng, Config, config: dict):
-    """``(bundle, config)`` of one run with ``prior_drawn`` (module docstring)."""
+def drawn_truth(sc, mode, rng, Config, config: dict):
+    """``(bundle, config)`` of one run of the scenario ``sc`` with ``prior_drawn = mode``
+    (module docstring). The draws, in this order: the mounting, the drive, the lever arms."""
     import copy
-    d = yaml.safe_load(open(find_scenario("paper003_drive")).read())
     defaults = Config()
     mount = float(config.get("mount_sigma_arcmin", defaults.mount_sigma_arcmin))
     lever = float(config.get("lever_sigma_m", defaults.lever_sigma_m))
     drawn = [mount * rng.standard_normal(), 0.0, mount * rng.standard_normal()]
-    if changes.get("prior_drawn") == "lever":          # the lever arms only
-        drawn = list(d["vehicle_mounting_arcmin"])
-    if changes.get("prior_drawn") == "mount":          # the mounting only
+    if mode == "lever":                  # the lever arms only
+        drawn = list(sc.vehicle_mounting_arcmin)
+    if mode == "mount":                  # the mounting only
         lever = 0.0
-    sc = scenario(changes)
-    sc = sc.model_copy(update={"vehicle_mounting_arcmin": drawn})
-    b = simulate(sc, rng)
+    b = simulate(sc.model_copy(update={"vehicle_mounting_arcmin": drawn}), rng)
     b.meta = copy.deepcopy(b.meta)
     for name, arm in b.meta.get("lever_arms_m", {}).items():
         b.meta["lever_arms_m"][name] = list(np.asarray(arm, float)
@@ -176,7 +174,7 @@ def drawn_truth(changes: dict, rng, Config, config: dict):
     cfg = dict(config)
     for short, name in (("od", "odometer"), ("ldv", "ldv")):
         cfg.setdefault(f"{short}_scale_sigma_ppm",
-                       float(d["sensors"][name]["scale_factor_sigma_ppm"]))
+                       float(getattr(sc.sensors, name).scale_factor_sigma_ppm))
     return b, cfg
 
 
@@ -194,7 +192,7 @@ def main(method, runs=10, config=None, changes=None, seed0=100):
         cfg = dict(init_tilt_sigma_deg=START_SIGMA_DEG[0], init_heading_sigma_deg=START_SIGMA_DEG[2],
                    **(config or {}))
         if prior_drawn:
-            b, cfg = drawn_truth(changes, rng, Config, cfg)
+            b, cfg = drawn_truth(sc, prior_drawn, rng, Config, cfg)
         else:
             b = simulate(sc, rng)
         err = np.radians(START_SIGMA_DEG) * rng.standard_normal(3)
