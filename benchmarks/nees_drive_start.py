@@ -128,6 +128,7 @@ import sys
 import numpy as np
 import yaml
 
+import consistency_mc
 from inmotion import registry
 from inmotion.core.metrics import error_series
 from inmotion.core.solution import NavState
@@ -154,30 +155,6 @@ def scenario(changes: dict):
     return load_scenario(d)
 
 
-def drawn_truth(sc, mode, rng, Config, config: dict):
-    """``(bundle, config)`` of one run of the scenario ``sc`` with ``prior_drawn = mode``
-    (module docstring). The draws, in this order: the mounting, the drive, the lever arms."""
-    import copy
-    defaults = Config()
-    mount = float(config.get("mount_sigma_arcmin", defaults.mount_sigma_arcmin))
-    lever = float(config.get("lever_sigma_m", defaults.lever_sigma_m))
-    drawn = [mount * rng.standard_normal(), 0.0, mount * rng.standard_normal()]
-    if mode == "lever":                  # the lever arms only
-        drawn = list(sc.vehicle_mounting_arcmin)
-    if mode == "mount":                  # the mounting only
-        lever = 0.0
-    b = simulate(sc.model_copy(update={"vehicle_mounting_arcmin": drawn}), rng)
-    b.meta = copy.deepcopy(b.meta)
-    for name, arm in b.meta.get("lever_arms_m", {}).items():
-        b.meta["lever_arms_m"][name] = list(np.asarray(arm, float)
-                                            + lever * rng.standard_normal(3))
-    cfg = dict(config)
-    for short, name in (("od", "odometer"), ("ldv", "ldv")):
-        cfg.setdefault(f"{short}_scale_sigma_ppm",
-                       float(getattr(sc.sensors, name).scale_factor_sigma_ppm))
-    return b, cfg
-
-
 def main(method, runs=10, config=None, changes=None, seed0=100):
     run, Config = registry.get(method).load()
     changes = dict(changes or {})
@@ -192,7 +169,7 @@ def main(method, runs=10, config=None, changes=None, seed0=100):
         cfg = dict(init_tilt_sigma_deg=START_SIGMA_DEG[0], init_heading_sigma_deg=START_SIGMA_DEG[2],
                    **(config or {}))
         if prior_drawn:
-            b, cfg = drawn_truth(sc, prior_drawn, rng, Config, cfg)
+            b, cfg = consistency_mc.drawn_truth(sc, prior_drawn, rng, Config, cfg)
         else:
             b = simulate(sc, rng)
         err = np.radians(START_SIGMA_DEG) * rng.standard_normal(3)

@@ -2,12 +2,15 @@
 ``tests/test_consistency_nees*.py`` with their means, 95 % bands and per-run values printed,
 plus the overconfident settings. Usage (from the repository root)::
 
-    PYTHONPATH=src:tests OPENBLAS_NUM_THREADS=1 nice -n 10 python benchmarks/nees_methods.py [RUNS] [METHOD,...] [VELOCITY_SIGMA_M_S]
+    PYTHONPATH=src:tests OPENBLAS_NUM_THREADS=1 nice -n 10 python benchmarks/nees_methods.py [RUNS] [METHOD,...] [VELOCITY_SIGMA_M_S] [PRIOR_DRAWN] [SEED0]
 
 ``RUNS`` (default 6, the tests' count) runs per case; ``METHOD,...`` keeps only those methods'
 cases (``all``: every case); ``VELOCITY_SIGMA_M_S`` (default 0: the true start velocity) draws
 the start velocity of the cases that start at the true one per axis with this sigma and sets
-their prior ``init_velocity_sigma_m_s`` to it (a start whose velocity prior is honest). About 90 s on one core at 6 runs. ``nhc-kf`` runs twice: with its rows' noise from the
+their prior ``init_velocity_sigma_m_s`` to it (a start whose velocity prior is honest);
+``PRIOR_DRAWN`` (``1``, ``mount``, ``lever``; default ``0``): the paper 003 sensor filters'
+cases (those with a mounting and lever-arm prior) draw their truth from those priors
+(``consistency_mc.drawn_truth``); ``SEED0`` (default 100) the first seed. About 90 s on one core at 6 runs. ``nhc-kf`` runs twice: with its rows' noise from the
 drive's constraint violation (the default, ``aided_kf.nhc_noise_from_meta``) and with the
 0.01 m/s the test set before (overconfident: 6.18 over 20 runs, issue 15). Paper 001's USQUE family (its own drive, 100 Hz, both
 noise presets): ``benchmarks/nees_usque.py``.
@@ -49,6 +52,8 @@ from consistency_mc import IMU_003, drive_003, final_nees, parked_003  # noqa: E
 runs = int(sys.argv[1]) if len(sys.argv) > 1 else 6
 only = set(sys.argv[2].split(",")) if len(sys.argv) > 2 and sys.argv[2] != "all" else None
 vdraw = float(sys.argv[3]) if len(sys.argv) > 3 else 0.0
+drawn = {"0": False, "1": True}.get(sys.argv[4], sys.argv[4]) if len(sys.argv) > 4 else False
+seed0 = int(sys.argv[5]) if len(sys.argv) > 5 else 100
 d, p = drive_003(), parked_003()
 sd = A.START_SIGMA_DEG
 cases = [(m, c, d, sd, 0.0) for m, c in [
@@ -72,7 +77,9 @@ for m, c, sc, sd_, vs in cases:
         continue
     if vdraw > 0.0 and vs == 0.0:
         c, vs = dict(c, init_velocity_sigma_m_s=vdraw), vdraw
-    mean, band, v = final_nees(m, c, sc, runs, sd_, velocity_sigma_m_s=vs)
+    pd = drawn if m in ("fkf", "od-kf", "ldv-kf") else False
+    mean, band, v = final_nees(m, c, sc, runs, sd_, seed0=seed0, velocity_sigma_m_s=vs,
+                               prior_drawn=pd)
     extra = {k: c[k] for k in c if k in ("noise_preset", "zero_velocity_noise_m_s", "od_noise_m_s",
                                          "nhc_noise_m_s", "velocity_noise_m_s")}
     print(f"{m:15s} {extra} runs {runs} mean NEES {mean:.2f} band [{band[0]:.2f}, {band[1]:.2f}] "
