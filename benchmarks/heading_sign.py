@@ -15,18 +15,26 @@ the repository root)::
 ``CONFIG``: JSON added to the configuration; ``PULSES_PER_M``: the odometer's (200, the
 scenario's; 20,000 the fine one of ``tests/test_consistency_nees.py``).
 
-Measured (10 runs, seeds 100-109, session 17; about 1 min each):
+Measured (10 runs, seeds 100-109, so 20 runs per case; session 17; about 1 min each; the
+heading NEES's band for 20 runs of one component 0.48-1.71):
 
-=====================================  =====================  =====================
-case                                   mean abs ln(s+ / s-)   heading NEES (pairs)
-=====================================  =====================  =====================
-od-kf, 200 pulses/m                    see the note           see the note
-=====================================  =====================  =====================
+==================================================  =====================  ============
+case                                                mean |ln(s+ / s-)|     heading NEES
+==================================================  =====================  ============
+``od-kf 10 '{}' 200`` (the usual odometer)          0.011                  1.46
+``ldv-kf 10 '{}' 200``                              0.093                  1.73
+``od-kf 10 '{"linearization_floor": false}' 20000`` 0.460                  2.78
+``od-kf 10 '{"linearization_floor": true}' 20000``  0.170                  1.55
+==================================================  =====================  ============
+
+(measured before ``linearization_floor: auto`` became the default, which turns the floor on
+for the 20,000 pulses/m odometer alone: the third row was then the default and is now
+``false``).
 
 One seed in detail (seed 106: the start heading -84.9', a 2.8-sigma draw; mounting 26.5' /
 9.7'), final heading error / sigma [arcmin] at 85 s, the start as drawn / flipped:
 od-kf at 200 pulses/m -47.8 / 21.4, +58.4 / 22.5; ldv-kf -36.8 / 16.8, +55.1 / 20.2; od-kf
-at 20,000 pulses/m (defaults) -24.7 / 5.8, +43.6 / 15.7; the same with the start scaled by
+at 20,000 pulses/m (the floor off, the default then) -24.7 / 5.8, +43.6 / 15.7; the same with the start scaled by
 0.5, 0.25, 0, -0.5: sigma 7.1, 8.2, 9.7, 13.0 (monotonic in the signed start error); with
 ``linearization_floor`` -32.3 / 10.6, +47.0 / 17.4; without the length row's second order
 (``second_order_length: false``) the flipped run's heading collapses to a 1.2' sigma at a

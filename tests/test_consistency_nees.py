@@ -43,7 +43,8 @@ def drive():
 #: order the default: consistent on paper 003's own sensors (fkf 2.94 over 20 runs, band
 #: 2.02-4.16, ``benchmarks/nees_methods.py``), overconfident on a fine odometer
 #: (:func:`test_paper_rows_are_overconfident_with_a_fine_odometer`)
-PAPER_FORM = dict(PRIOR, exact_attitude_columns=False, second_order_length=False)
+PAPER_FORM = dict(PRIOR, exact_attitude_columns=False, second_order_length=False,
+                  linearization_floor=False)
 
 
 #: runs of :func:`test_drawn_truth_nees_in_band`
@@ -88,7 +89,8 @@ def test_final_attitude_nees_in_band(drive, method, config):
 #: with its variance taken ``aided_kf.LENGTH_VAR_SCALE`` = 4 times, helper h15nees5: 2.44,
 #: 2.65, od-kf 2.88). The defaults since (helper h15def); set explicitly here so that these
 #: tests keep checking this form whatever the defaults become
-SECOND_ORDER = dict(PRIOR, exact_attitude_columns=True, second_order_length=True)
+SECOND_ORDER = dict(PRIOR, exact_attitude_columns=True, second_order_length=True,
+                    linearization_floor=False)
 
 
 @pytest.mark.slow
@@ -168,7 +170,8 @@ def test_od_kf_with_a_fine_odometer_stays_consistent():
     Since session 17 on the truth drawn from the priors (:func:`test_drawn_truth_nees_in_band`),
     20 runs: measured 3.22 (seeds 100-119; 120-139: 2.28; band 2.02-4.16) where the defaults
     alone give 4.94 and 3.52 (4.23 over the 40, band 2.29-3.80: overconfident, so the summary
-    warns, :func:`test_fine_odometer_without_the_floor_warns`)."""
+    warns when the floor is set false, :func:`test_fine_odometer_gets_the_floor_or_a_warning`;
+    the floor is the default for this sensor since: ``linearization_floor: auto``)."""
     m, (lo, hi), per_run = final_nees("od-kf", dict(PRIOR, linearization_floor=True),
                                       fine_odometer_drive(), DRAWN_RUNS, START_SIGMA_DEG,
                                       prior_drawn=True)
@@ -187,14 +190,17 @@ def test_fine_sensor_ratio_closed_form():
     assert fine_sensor_ratio(cfg2, "od", 14.0) == fine_sensor_ratio(cfg, "od", 14.0)
 
 
-@pytest.mark.parametrize("pulses_per_m, config, warns", [
-    (20000.0, {}, True), (20000.0, {"linearization_floor": True}, False), (200.0, {}, False)])
-def test_fine_odometer_without_the_floor_warns(pulses_per_m, config, warns):
+@pytest.mark.parametrize("pulses_per_m, config, floor, warns", [
+    (20000.0, {}, True, False), (20000.0, {"linearization_floor": False}, False, True),
+    (20000.0, {"linearization_floor": True}, True, False), (200.0, {}, False, False),
+    (200.0, {"linearization_floor": False}, False, False)])
+def test_fine_odometer_gets_the_floor_or_a_warning(pulses_per_m, config, floor, warns):
     """A distance sensor fine enough that its rows' second order sets what they tell
     (``aided_kf.FINE_SENSOR_WARN_RATIO``: the 20,000 pulses/m odometer measured overconfident
-    on the drawn truth, 4.23 over 40 runs against a band of 2.29-3.80) is named in the
-    summary's warnings unless ``linearization_floor`` is set; the usual 200 pulses/m one is
-    not (measured consistent)."""
+    on the drawn truth without the floor, 4.23 over 40 runs against a band of 2.29-3.80) gets
+    the floor under the default ``linearization_floor: auto``, and with the floor set false it
+    is named in the summary's warnings; the usual 200 pulses/m one gets neither (measured
+    consistent without it). ``info['linearization_floor']`` says per sensor which applied."""
     import numpy as np
 
     from inmotion.align.aided_kf import run_od_kf
@@ -204,3 +210,4 @@ def test_fine_odometer_without_the_floor_warns(pulses_per_m, config, warns):
     sol = run_od_kf(b, dict(PRIOR, **config), NavState.from_truth(b.truth))
     hit = [w for w in sol.info["warnings"] if w.startswith("odometer:") and "finer" in w]
     assert bool(hit) == warns, sol.info["warnings"]
+    assert sol.info["linearization_floor"] == {"odometer": floor}

@@ -54,6 +54,7 @@ def test_od_kf_with_perfect_sensors_stays_at_truth():
     along the row's blind direction (74 ppm, 7e-4 m/s at most)."""
     b = simulate(_drive(), np.random.default_rng(100))
     sol = ak.run_od_kf(b, {"fdi": False, "use_baro": False, "second_order_length": False,
+                           "linearization_floor": False,
                            "init_tilt_sigma_deg": 0.1, "init_heading_sigma_deg": 0.5},
                        NavState.from_truth(b.truth))
     e = error_series(sol, b.truth)

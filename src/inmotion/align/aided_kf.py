@@ -245,7 +245,7 @@ from __future__ import annotations
 
 import functools
 import time
-from typing import Callable, Literal, Optional
+from typing import Callable, Literal, Optional, Union
 
 import numpy as np
 from pydantic import ConfigDict, Field, ValidationError
@@ -342,14 +342,16 @@ class NhcKfConfig(StopUpdateFields):
         description="correlation time of the Gauss-Markov accelerometer bias [s]; null: "
                     "a random constant")
     nhc_noise_m_s: float = cf.nhc_noise_m_s(0.1)
-    linearization_floor: bool = Field(
-        False,
+    linearization_floor: Union[bool, Literal["auto"]] = Field(
+        "auto",
         description="add the displacement rows' model-error floor for an unresolved heading, "
                     "(sqrt(3)/2 s^2 d)^2 with s = init_heading_sigma_deg, to every row's "
-                    "variance (linearization_floor_per_m); for a very fine distance sensor "
-                    "(a 20,000 pulses/m odometer) started near its heading. Off by default: it "
-                    "keeps s for the whole run, which costs accuracy wherever the heading prior "
-                    "is large (see linearization_floor_per_m)")
+                    "variance (linearization_floor_per_m). auto (the default): per distance "
+                    "sensor, on where its forward row is finer than that second order at a "
+                    "0.5 deg heading error by more than FINE_SENSOR_WARN_RATIO (3; a 20,000 "
+                    "pulses/m odometer, measured overconfident without it), off elsewhere (it "
+                    "keeps s for the whole run, which costs a coarser sensor accuracy wherever "
+                    "the heading prior is large); true / false: on / off for every sensor")
     exact_attitude_columns: bool = Field(
         True,
         description="the displacement rows' attitude columns from the SINS's own displacement "
@@ -731,7 +733,8 @@ def _channel(bundle, name, cfg, beta, P15, Q15, c, C_vb0, thr, ret, t0=0.0, vel_
         sig = np.sqrt(sig * sig + displacement_vrw_m_s(cfg) ** 2)
     meas = kind(sig, lever_arm_m=lever,
                 vehicle_mounting=C_vb0, local=c, isolate=thr > 0, return_tests=ret, gate=thr,
-                name=name, model_floor_per_m=linearization_floor_per_m(cfg),
+                name=name, model_floor_per_m=linearization_floor_per_m(
+                    cfg, floor_on(cfg, short, _typical_speed(getattr(bundle, name)))),
                 exact_attitude_columns=cfg.exact_attitude_columns, **extra)
     meas.log_nis = True
     if issubclass(kind, ms.DisplacementIncrement):
@@ -830,12 +833,23 @@ def test_covariance_on(cfg) -> bool:
                 and getattr(cfg, "second_order_length", False))
 
 
-def linearization_floor_per_m(cfg) -> float:
+def linearization_floor_per_m(cfg, on=None) -> float:
     """The displacement rows' model-error floor per metre of the interval's distance
     (issue 15): ``sqrt(3) / 2 * s^2``, ``s`` the heading prior ``init_heading_sigma_deg``
     [rad]; each row's variance gets ``(floor * d)^2``, ``d`` the sensor's distance over the
     interval (:class:`~inmotion.estimation.measurements.DisplacementIncrement`'s
-    ``model_floor_per_m``; the velocity form has none).
+    ``model_floor_per_m``; the velocity form has none). ``on``: whether the floor applies
+    (:func:`floor_on` for one sensor); None: ``cfg.linearization_floor``, which must then be
+    a bool.
+
+    Since session 17 (issue 15) the default is ``linearization_floor: auto`` (:func:`floor_on`):
+    the floor is on for a distance sensor whose forward row is finer than this second order
+    at a 0.5 deg heading error by more than :data:`FINE_SENSOR_WARN_RATIO` (the fine odometer,
+    measured overconfident without it on the truth drawn from the priors: 4.23 over 40 runs on
+    the 85 s drive, band 2.29-3.80, 10.46 over 10 on the 194 s drive, band 1.68-4.70; with it
+    2.75 and 3.81), off for every sensor whose results below were measured (the usual
+    odometer, the LDV, the PSINS MEMS log's pseudo-odometer), so "off by default" below means
+    off for those.
 
     Derivation. A heading error ``psi`` the filter has not resolved (od-kf's heading sigma
     stays near its prior over a short drive: the rows see the heading only against the
@@ -984,10 +998,23 @@ def linearization_floor_per_m(cfg) -> float:
     row; with the prior matched the rate is 4.76e-2 (``benchmarks/fdi_calibration.py``'s
     docstring).
     """
-    if not cfg.linearization_floor:
+    on = cfg.linearization_floor if on is None else on
+    if not isinstance(on, (bool, np.bool_)):
+        raise ValueError(f"linearization_floor_per_m needs on as a bool, got {on!r} "
+                         "(resolve 'auto' per sensor with floor_on)")
+    if not on:
         return 0.0
     s = np.deg2rad(cfg.init_heading_sigma_deg)
     return float(np.sqrt(3.0) / 2.0 * s * s)
+
+
+def floor_on(cfg, short: str, speed_m_s: float) -> bool:
+    """Whether :func:`linearization_floor_per_m` applies to the sensor ``short`` (``od`` /
+    ``ldv``) of typical speed ``speed_m_s``: ``linearization_floor`` as set, or for ``auto``
+    whether :func:`fine_sensor_ratio` exceeds :data:`FINE_SENSOR_WARN_RATIO`."""
+    if cfg.linearization_floor == "auto":
+        return bool(fine_sensor_ratio(cfg, short, speed_m_s) > FINE_SENSOR_WARN_RATIO)
+    return bool(cfg.linearization_floor)
 
 
 #: the displacement rows taken in the frame of the sensor's displacement over the interval
@@ -1510,7 +1537,8 @@ ISOLATED_WARN_FRACTION = 0.5
 PRIOR_WARN_SIGMAS = 4.0
 #: a distance sensor whose forward displacement row is this many times finer than the rows'
 #: second order in a heading error of :data:`FINE_SENSOR_HEADING_DEG` (:func:`fine_sensor_ratio`)
-#: triggers a warning when ``linearization_floor`` is off (issue 15, session 17). Measured on
+#: gets the floor under ``linearization_floor: auto`` (the default, :func:`floor_on`) and a
+#: warning when it is set false (issue 15, session 17). Measured on
 #: paper 003's drive with the truth drawn from the priors (``tests/consistency_mc.drawn_truth``),
 #: 0.1 / 0.1 / 0.5 deg start, NEES band of the mean for 20 runs 2.02-4.16, for 40 runs
 #: 2.29-3.80: the 20,000 pulses/m odometer (ratio about 20 at the drive's 14 m/s) 4.94 and
@@ -1835,11 +1863,11 @@ def _warnings(f, sensors, cfg, cfg_source, meta, res, speeds=None) -> list:
     """Plain-language warnings for ``summary.json``: noise settings not backed by a sensor
     spec on a real log, a velocity channel isolated for most of the run, residuals larger than
     the noise model (the reported sigma then understates the error), a distance sensor fine
-    enough that the rows' second order matters without ``linearization_floor``
+    enough that the rows' second order matters with ``linearization_floor`` set false
     (``speeds``: the sensors' typical speeds, :func:`fine_sensor_ratio`)."""
     out = []
     if (getattr(cfg, "measurement", None) == "displacement"
-            and not getattr(cfg, "linearization_floor", True)):
+            and getattr(cfg, "linearization_floor", True) is False):
         for name, v in (speeds or {}).items():
             short = "od" if name == "odometer" else "ldv"
             ratio = fine_sensor_ratio(cfg, short, v)
@@ -1848,8 +1876,8 @@ def _warnings(f, sensors, cfg, cfg_source, meta, res, speeds=None) -> list:
                     f"{name}: its forward row ({getattr(cfg, f'{short}_noise_m_s')[1]:.2g} m/s) "
                     f"is {ratio:.0f} times finer than the displacement rows' second order in a "
                     f"{FINE_SENSOR_HEADING_DEG:g} deg heading error at {v:.1f} m/s: on such a "
-                    "sensor the sigma has been measured overconfident after turns; set "
-                    "linearization_floor: true")
+                    "sensor the sigma has been measured overconfident after turns; "
+                    "linearization_floor: auto (the default) or true adds the floor")
     simulated = bool((meta or {}).get("simulated"))
     dflt = [k for k in ("gyro_drift_deg_h", "accel_bias_ug", "gyro_arw_deg_sqrt_h",
                         "accel_vrw_ug_sqrt_hz") if cfg_source.get(k) == "default"]
@@ -2020,9 +2048,11 @@ def run_aided(bundle: Bundle, cfg, init: NavState, sensors: tuple, *, method: st
     sol.info["residual_test_weights"] = weights
     sol.info["nis"] = {k: residual_test_nis(v, weights.get(k)) if k in weights else v
                        for k, v in f.nis_summary().items()}
-    sol.info["warnings"] = _warnings(
-        f, sensors, cfg, cfg_source, bundle.meta, res,
-        {s_: _typical_speed(getattr(bundle, s_)) for s_ in sensors})
+    speeds = {s_: _typical_speed(getattr(bundle, s_)) for s_ in sensors}
+    sol.info["warnings"] = _warnings(f, sensors, cfg, cfg_source, bundle.meta, res, speeds)
+    if getattr(cfg, "measurement", None) == "displacement" and sensors:   # the floor per sensor
+        sol.info["linearization_floor"] = {
+            s_: floor_on(cfg, "od" if s_ == "odometer" else "ldv", v) for s_, v in speeds.items()}
     if extra is not None:
         sol.info["smoothing"] = extra
     return sol

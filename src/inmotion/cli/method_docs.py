@@ -140,8 +140,10 @@ def _type_text(ann) -> tuple[str, str, bool]:
     args = typing.get_args(ann)
     if origin is typing.Union:
         rest = [a for a in args if a is not type(None)]
-        t, allowed, _ = _type_text(rest[0]) if len(rest) == 1 else ("any", "", False)
-        return t, allowed, True
+        parts = [_type_text(a) for a in rest]
+        t = " or ".join(p[0] for p in parts)
+        allowed = " | ".join(p[1] or p[0] for p in parts) if len(parts) > 1 else parts[0][1]
+        return t, allowed, len(rest) < len(args)
     if origin is typing.Literal:
         return "choice", " | ".join(str(a) for a in args), False
     if origin in (tuple, list):
