@@ -71,7 +71,10 @@ def drawn_truth(sc, mode, rng, Config, config: dict):
     spread below its prior make a consistent filter look conservative (od-kf's 0.80 on the
     194 s drive, 1.55 with the truth drawn: ``benchmarks/nees_drive_start.py``). The draws,
     in this order: the mounting, the drive, the lever arms."""
+    from inmotion.align.aided_kf import AidedKfConfig
     defaults = Config()
+    if not hasattr(defaults, "mount_sigma_arcmin"):    # a two-stage method: its fine filter's
+        defaults = AidedKfConfig()
     mount = float(config.get("mount_sigma_arcmin", defaults.mount_sigma_arcmin))
     lever = float(config.get("lever_sigma_m", defaults.lever_sigma_m))
     drawn = [mount * rng.standard_normal(), 0.0, mount * rng.standard_normal()]
@@ -85,9 +88,16 @@ def drawn_truth(sc, mode, rng, Config, config: dict):
         b.meta["lever_arms_m"][name] = list(np.asarray(arm, float)
                                             + lever * rng.standard_normal(3))
     cfg = dict(config)
+    target = cfg               # where the method takes the fine filter's settings
+    if "od_scale_sigma_ppm" not in Config.model_fields:
+        if "fine" in Config.model_fields:                  # fine-mux
+            target = cfg["fine"] = dict(cfg.get("fine", {}))
+        elif "mux" in Config.model_fields:                 # adaptive
+            cfg["mux"] = dict(cfg.get("mux", {}))
+            target = cfg["mux"]["fine"] = dict(cfg["mux"].get("fine", {}))
     for short, name in (("od", "odometer"), ("ldv", "ldv")):
-        cfg.setdefault(f"{short}_scale_sigma_ppm",
-                       float(getattr(sc.sensors, name).scale_factor_sigma_ppm))
+        target.setdefault(f"{short}_scale_sigma_ppm",
+                          float(getattr(sc.sensors, name).scale_factor_sigma_ppm))
     return b, cfg
 
 
