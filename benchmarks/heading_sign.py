@@ -52,41 +52,18 @@ import sys
 import numpy as np
 
 import consistency_mc as C
-from inmotion import registry
-from inmotion.core.metrics import error_series
-from inmotion.core.solution import NavState
-from inmotion.sim.scenario import load_scenario
-
-START_SIGMA_DEG = (0.1, 0.1, 0.5)
-PRIOR = {"init_tilt_sigma_deg": 0.1, "init_heading_sigma_deg": 0.5}
-
-
-def drive(pulses_per_m: float):
-    d = C.drive_003().model_dump(mode="json", exclude_none=True)
-    d["sensors"]["odometer"]["pulses_per_m"] = float(pulses_per_m)
-    return load_scenario(d)
-
-
-def final_heading(run, Config, b, cfg, err):
-    sol = run(b, Config(**cfg), NavState.from_truth(b.truth, euler_error=err))
-    e = error_series(sol, b.truth)
-    return float(e["phi_U_arcmin"].to_numpy()[-1]), float(sol.sigma["phi_U"][-1] * C.ARCMIN)
+from test_consistency_nees import PRIOR, START_SIGMA_DEG, fine_odometer_drive
 
 
 def main(method, runs=10, config=None, pulses_per_m=200.0, seed0=100):
-    run, Config = registry.get(method).load()
-    sc = drive(pulses_per_m)
+    sc = fine_odometer_drive(pulses_per_m)
     logs, nees = [], []
     for k in range(runs):
-        rng = np.random.default_rng(seed0 + k)
-        b, cfg = C.drawn_truth(sc, True, rng, Config, dict(PRIOR, **(config or {})))
-        err = np.radians(START_SIGMA_DEG) * rng.standard_normal(3)
-        flip = err.copy()
-        flip[2] = -flip[2]
-        (ea, sa), (eb, sb) = (final_heading(run, Config, b, cfg, e) for e in (err, flip))
+        psi0, ((ea, sa), (eb, sb)) = C.sign_flipped_headings(
+            method, dict(PRIOR, **(config or {})), sc, seed0 + k, START_SIGMA_DEG)
         logs.append(abs(np.log(sa / sb)))
         nees += [(ea / sa) ** 2, (eb / sb) ** 2]
-        print(f"seed {seed0 + k}: start {np.degrees(err[2]) * 60:7.1f}'  as drawn {ea:7.2f} / "
+        print(f"seed {seed0 + k}: start {psi0:7.1f}'  as drawn {ea:7.2f} / "
               f"{sa:5.2f}  flipped {eb:7.2f} / {sb:5.2f} arcmin", flush=True)
     print(f"mean |ln(sigma+ / sigma-)| {np.mean(logs):.3f}  heading NEES over the {2 * runs} "
           f"runs {np.mean(nees):.2f}")

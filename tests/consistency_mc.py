@@ -101,6 +101,25 @@ def drawn_truth(sc, mode, rng, Config, config: dict):
     return b, cfg
 
 
+def sign_flipped_headings(method, config, scenario, seed, start_sigma_deg):
+    """``(start_heading, [(error, sigma) as drawn, (error, sigma) with the start heading's sign
+    flipped])`` [arcmin] of the final heading, one run of ``method`` on :func:`drawn_truth`'s
+    truth (seed ``seed``), the flipped run otherwise the same (drive, sensors, draws, tilt
+    errors). A linear filter's sigma would not depend on the sign
+    (``benchmarks/heading_sign.py``, issue 15 session 17)."""
+    run, Config = registry.get(method).load()
+    rng = np.random.default_rng(seed)
+    b, cfg = drawn_truth(scenario, True, rng, Config, dict(config))
+    err = np.radians(np.asarray(start_sigma_deg, float)) * rng.standard_normal(3)
+    out = []
+    for sign in (1.0, -1.0):
+        e = err * np.array([1.0, 1.0, sign])
+        sol = run(b, Config(**cfg), NavState.from_truth(b.truth, euler_error=e))
+        phi = error_series(sol, b.truth)["phi_U_arcmin"].to_numpy()[-1]
+        out.append((float(phi), float(sol.sigma["phi_U"][-1] * ARCMIN)))
+    return float(err[2] * ARCMIN), out
+
+
 def final_nees(method, config, scenario, runs, start_sigma_deg, seed0=100,
                velocity_sigma_m_s=0.0, prior_drawn=False):
     """``(mean, (lo, hi), per_run)``: the final-attitude NEES over ``runs`` runs and the 95 %

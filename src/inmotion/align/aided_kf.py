@@ -691,6 +691,12 @@ def _mount_prior(cfg) -> np.ndarray:
     return np.eye(2) * (cfg.mount_sigma_arcmin * ARCMIN) ** 2
 
 
+def sensor_short(name: str) -> str:
+    """The configuration's prefix of a velocity sensor: ``od`` for ``odometer``, else
+    ``ldv`` (``od_noise_m_s``, ``ldv_scale_sigma_ppm``, ...)."""
+    return "od" if name == "odometer" else "ldv"
+
+
 def _channel(bundle, name, cfg, beta, P15, Q15, c, C_vb0, thr, ret, t0=0.0, vel_n=None):
     """The local filter of one velocity sensor (eq. 33-35: SINS part shared by ``1 /
     beta``) and its measurement; ``t0`` the filter's start time [s] (the length row's
@@ -705,7 +711,7 @@ def _channel(bundle, name, cfg, beta, P15, Q15, c, C_vb0, thr, ret, t0=0.0, vel_
     X^T`` is at least the joint's ``/ beta`` (the federated bound on the shared states; the
     sensor states are the channel's own, not fused)."""
     lever = np.asarray(bundle.meta.get("lever_arms_m", {}).get(name, [0.0, 0.0, 0.0]), float)
-    short = "od" if name == "odometer" else "ldv"
+    short = sensor_short(name)
     P = _pad(P15 / beta)
     P[SUB_LAYOUT["dk"], SUB_LAYOUT["dk"]] = (getattr(cfg, f"{short}_scale_sigma_ppm") * 1e-6) ** 2
     P[SUB_LAYOUT["mount"], SUB_LAYOUT["mount"]] = _mount_prior(cfg)
@@ -1869,7 +1875,7 @@ def _warnings(f, sensors, cfg, cfg_source, meta, res, speeds=None) -> list:
     if (getattr(cfg, "measurement", None) == "displacement"
             and getattr(cfg, "linearization_floor", True) is False):
         for name, v in (speeds or {}).items():
-            short = "od" if name == "odometer" else "ldv"
+            short = sensor_short(name)
             ratio = fine_sensor_ratio(cfg, short, v)
             if ratio > FINE_SENSOR_WARN_RATIO:
                 out.append(
@@ -1899,7 +1905,7 @@ def _warnings(f, sensors, cfg, cfg_source, meta, res, speeds=None) -> list:
              "mount_x": lambda short: cfg.mount_sigma_arcmin * ARCMIN,
              "mount_z": lambda short: cfg.mount_sigma_arcmin * ARCMIN}
     for c, name in enumerate(sensors):
-        short = "od" if name == "odometer" else "ldv"
+        short = sensor_short(name)
         for i, st in enumerate(_SENSOR_STATES):
             if st not in prior:
                 continue
@@ -2050,9 +2056,9 @@ def run_aided(bundle: Bundle, cfg, init: NavState, sensors: tuple, *, method: st
                        for k, v in f.nis_summary().items()}
     speeds = {s_: _typical_speed(getattr(bundle, s_)) for s_ in sensors}
     sol.info["warnings"] = _warnings(f, sensors, cfg, cfg_source, bundle.meta, res, speeds)
-    if getattr(cfg, "measurement", None) == "displacement" and sensors:   # the floor per sensor
-        sol.info["linearization_floor"] = {
-            s_: floor_on(cfg, "od" if s_ == "odometer" else "ldv", v) for s_, v in speeds.items()}
+    if getattr(cfg, "measurement", None) == "displacement" and sensors:   # as _channel set it
+        sol.info["linearization_floor"] = {m.name: m.model_floor_per_m > 0.0
+                                           for m in meas[:len(sensors)]}
     if extra is not None:
         sol.info["smoothing"] = extra
     return sol
@@ -2119,13 +2125,13 @@ def _central_layout(sensors):
     channel])``."""
     blocks = list(SUB_LAYOUT.blocks)
     for name in sensors[1:]:
-        short = "od" if name == "odometer" else "ldv"
+        short = sensor_short(name)
         blocks += [Block(f"{short}_{b.name}", b.elements, b.units)
                    for b in SUB_LAYOUT.blocks[5:]]
     lay = Layout(blocks)
     starts = [(lay["dk"].start, lay["mount"].start, lay["lever"].start)]
     for name in sensors[1:]:
-        short = "od" if name == "odometer" else "ldv"
+        short = sensor_short(name)
         starts.append(tuple(lay[f"{short}_{b}"].start for b in ("dk", "mount", "lever")))
     return lay, starts
 
@@ -2422,7 +2428,7 @@ def _solution(res, f, init, cfg, method, sensors, thr, wall, P15):
     lx = res.get("local_x", res["states"][:, None, :])
     ls = res.get("local_sigma", res["sigma"][:, None, :])
     for c, name in enumerate(sensors):
-        short = "od" if name == "odometer" else "ldv"
+        short = sensor_short(name)
         for i, (st, u) in enumerate(zip(_SENSOR_STATES, _SENSOR_UNITS)):
             states[f"{short}_{st}"] = np.concatenate([[0.0], lx[:, c, NS + i]])
             states[f"sigma_{short}_{st}"] = np.concatenate([[np.sqrt(f.locals[c].P0[

@@ -143,7 +143,7 @@ def window_envelope(emap: Optional[dict], base, meta, channel: Optional[str],
     (parked)."""
     if emap is None or channel is None:
         return None
-    short = "od" if channel == "odometer" else "ldv"
+    short = ak.sensor_short(channel)
     meta = meta if isinstance(meta, dict) else {}
     sig = _constraint_violation_sigmas(meta, lambda sg, tau, _: sg, 0.0)
     cv = None if sig is None else tuple(zip(sig, _constraint_violation_sigmas(
@@ -239,7 +239,7 @@ def attitude_cross(maps: Optional[dict], base, sensors=(), channel: Optional[str
         for ch in sensors:
             out[f"{ch}.mount"] = (maps["mount"] * s_m ** 2).tolist()
     if channel in sensors and "dk" in maps:
-        short = "od" if channel == "odometer" else "ldv"
+        short = ak.sensor_short(channel)
         s_k = float(getattr(base, f"{short}_scale_sigma_ppm", 0.0)) * 1e-6
         if s_k > 0:
             out[f"{channel}.dk"] = (np.asarray(maps["dk"])[:, None] * s_k ** 2).tolist()
