@@ -446,6 +446,14 @@ def test_bad_config_inputs(bundle, tmp_path):
                "'sins' is a navigate method", "inmotion navigate")
 
 
+def test_bad_linearization_floor_value(bundle, tmp_path):
+    """``linearization_floor`` takes true, false or auto (issue 15, session 17): anything else
+    is one message naming the method, the field and what it takes, exit status 2."""
+    expect_bad(["align", bundle, "-m", "od-kf", "--init", "truth", "--set",
+                "linearization_floor=maybe", "-o", tmp_path / "r"],
+               "configuration of 'od-kf'", "linearization_floor", "'auto'")
+
+
 def test_bad_start_outside_previous_result(bundle, tmp_path):
     run_json("navigate", bundle, "-m", "sins", "--end", 10, "-o", tmp_path / "r1")
     expect_bad(nav(bundle, tmp_path, "--init", tmp_path / "r1", "--start", 15),
