@@ -131,9 +131,14 @@ Measured (10 runs, at 193 s):
   ``ldv-kf`` with the floor (``'{"linearization_floor": true}' '{"prior_drawn": true}'``, not
   its default: its ratio is 0.65): 3.72, 1.21, 5.10 over the three groups, so 3.34 against
   the default's 3.87 (heading 2.00, 0.26, 1.68: 1.31 against 1.62, band 0.56-1.57). It
-  moves the LDV's heading off its band's edge; not made the LDV's default this session (every
-  figure of paper 003's reproduction and the process drives would move and were not
-  re-measured).
+  moves the LDV's heading off its band's edge; not made the LDV's default (every figure of
+  paper 003's reproduction and the process drives would move).
+
+  Forty more runs under the default (session 18, ``SEED0`` 130, 140, 150, 160): 2.41, 2.30,
+  2.34, 3.96 (heading 0.91, 0.84, 1.06, 1.50: 1.08, band for 40 runs 0.61-1.48). Over the 70
+  runs (100-169) ldv-kf is 3.23 (band of the sum 2.45-3.60) and its heading 1.31 (band
+  0.70-1.36): in band, in its upper part. The 30 runs' 1.62 was its first three groups' Monte
+  Carlo spread (the heavy tail above), not a shifted mean.
 """
 import json
 import sys
