@@ -141,6 +141,9 @@ def test_compiled_cycle_equals_reference(clean_drive):
         assert np.abs(fast.euler - ref.euler).max() < 1e-9
         for k in ("R_y", "nabla_x", "dk", "dv0"):
             assert np.allclose(fast.states[k], ref.states[k], rtol=1e-6, atol=1e-12)
+        nf, nr = fast.info["nis"]["ldv"], ref.info["nis"]["ldv"]
+        assert nf["samples"] == nr["samples"] == 600 and nr["mean_per_dof"] > 0
+        assert nf["mean_per_dof"] == pytest.approx(nr["mean_per_dof"], rel=1e-6)
 
 
 def test_extra_states_estimate_a_known_bias_and_scale(clean_drive):

@@ -10,7 +10,8 @@ validated model (nested mappings and lists too) and refuses, naming the field:
   later (``baro_tau_s=1e-300``, ``lever_arm_m=[1e308, 1e308, 0]``);
 - a negative noise, sigma, random walk, rate or time constant (names containing ``noise``,
   ``sigma``, ``arw``, ``vrw``, ``_rw_``; names ending ``_hz``, ``_s``);
-- a time [s] between 0 and 1 ms, exclusive (shorter than any IMU period) or above 30 years,
+- a time [s] (a name ending ``_s``, not ``_m_s`` nor ``sqrt_s``) between 0 and 1 ms,
+  exclusive (shorter than any IMU period) or above 30 years,
   a rate above 100 kHz or below 1e-6 Hz, a lever arm beyond 100 m, a mounting angle beyond
   30 deg, an angle in degrees beyond 360, a length beyond 1e7 m (the Earth), a speed beyond
   1e4 m/s, a ppm beyond 1e6, arcmin / arcsec beyond a full turn.
@@ -47,9 +48,10 @@ def _rules(name: str, x: float):
     low = name.lower()
     if x < 0 and (any(k in low for k in _NONNEG) or low.endswith(("_hz", "_s"))):
         return f"{x:g} must not be negative"
-    if low.endswith("_s") and 0 < x < 1e-3:
+    time = low.endswith("_s") and not low.endswith(("_m_s", "sqrt_s"))   # not m/s, sqrt(s)
+    if time and 0 < x < 1e-3:
         return f"{x:g} s is shorter than any IMU period (1 ms)"
-    if low.endswith("_s") and x > 1e9:
+    if time and x > 1e9:
         return f"{x:g} s is longer than 30 years"
     rate = low.endswith("_hz") and not low.endswith("sqrt_hz")     # not a noise density
     if rate and x > 1e5:

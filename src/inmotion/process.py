@@ -625,6 +625,11 @@ def run_process(bundle: Bundle, config: ProcessConfig | dict | None = None,
             e["attitude_end_deg"] = _attitude_deg(st)
             e["sigma_end_arcmin"] = {k: float(np.degrees(sol.sigma[k][-1]) * 60)
                                      for k in ("phi_E", "phi_N", "phi_U") if k in sol.sigma}
+        if sol is not None:         # the stage's method's NIS and warnings (issue 15)
+            registry.add_nis_warnings(sol.info)
+            for key in ("nis", "warnings"):
+                if sol.info.get(key):
+                    e[key] = sol.info[key]
         stages.append(e)
 
     # ---- 1-2: sensors, parked / moving
@@ -799,6 +804,11 @@ def run_process(bundle: Bundle, config: ProcessConfig | dict | None = None,
         "config_source": {e["method"]: e["config_source"] for e in stages
                           if "config_source" in e},
         "init": ii.model_dump(), "wall_time_s": time.perf_counter() - w0})
+    stage_warnings = [f"{e['stage']} ({e['method']}): {w}" for e in stages
+                      for w in e.get("warnings", [])]
+    sol.info["warnings"] = stage_warnings or None
+    if not stage_warnings:
+        sol.info.pop("warnings")
     if from_init and "phi_U" in sol.sigma:
         # the heading is not observable: its sigma cannot fall below the init's, grown by the
         # gyro drift over the time since (the filters' linear models, far from their operating

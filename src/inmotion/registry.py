@@ -20,7 +20,8 @@ from dataclasses import dataclass
 from typing import Any, Callable
 
 __all__ = ["MethodSpec", "methods", "get", "register", "SPEED_SENSORS", "REQUIRES",
-           "present_sensors", "missing_sensors", "runnable", "check_sensors", "sensors_used"]
+           "present_sensors", "missing_sensors", "runnable", "check_sensors", "sensors_used",
+           "add_nis_warnings"]
 
 
 @dataclass(frozen=True)
@@ -51,8 +52,20 @@ class MethodSpec:
             if isinstance(info, dict):
                 info.setdefault("sensors_present", present_sensors(bundle))
                 info.setdefault("sensors_used", sensors_used(info))
+                add_nis_warnings(info)
             return sol
         return checked, _resolve(self.config)
+
+
+def add_nis_warnings(info: dict) -> None:
+    """Append to ``info['warnings']`` :func:`inmotion.estimation.chi2.nis_warnings` of
+    ``info['nis']``: every Kalman-type method's summary warns where a measurement kind's
+    residuals are larger than its noise model (issue 15). ``info['warnings']`` is created only
+    when there is one."""
+    from .estimation.chi2 import nis_warnings
+    new = [w for w in nis_warnings(info.get("nis")) if w not in (info.get("warnings") or [])]
+    if new:
+        info["warnings"] = list(info.get("warnings") or []) + new
 
 
 def _resolve(path):

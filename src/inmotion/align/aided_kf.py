@@ -1534,9 +1534,6 @@ def _check_init(init, bundle):
 SPEC_FIELDS = ("gyro_drift_deg_h", "gyro_arw_deg_sqrt_h", "accel_bias_ug",
                "accel_vrw_ug_sqrt_hz", "gyro_markov_deg_h", "gyro_markov_tau_s",
                "accel_markov_ug", "accel_markov_tau_s")
-#: mean NIS per degree of freedom above which the summary warns that the residuals are larger
-#: than the noise model (its sigma then understates the error)
-NIS_WARN_PER_DOF = 3.0
 #: fraction of a channel's tests isolated above which the summary warns
 ISOLATED_WARN_FRACTION = 0.5
 #: a sensor state (scale, mounting) ending beyond this many prior 1-sigma triggers a warning
@@ -1867,10 +1864,11 @@ def residual_test_weights(cfg, meta, name: str, cfg_source, alpha: float = 0.0) 
 
 def _warnings(f, sensors, cfg, cfg_source, meta, res, speeds=None) -> list:
     """Plain-language warnings for ``summary.json``: noise settings not backed by a sensor
-    spec on a real log, a velocity channel isolated for most of the run, residuals larger than
-    the noise model (the reported sigma then understates the error), a distance sensor fine
+    spec on a real log, a velocity channel isolated for most of the run, a distance sensor fine
     enough that the rows' second order matters with ``linearization_floor`` set false
-    (``speeds``: the sensors' typical speeds, :func:`fine_sensor_ratio`)."""
+    (``speeds``: the sensors' typical speeds, :func:`fine_sensor_ratio`). Residuals larger
+    than the noise model are every method's warning (:func:`inmotion.registry.add_nis_warnings`,
+    from ``info['nis']``)."""
     out = []
     if (getattr(cfg, "measurement", None) == "displacement"
             and getattr(cfg, "linearization_floor", True) is False):
@@ -1918,11 +1916,6 @@ def _warnings(f, sensors, cfg, cfg_source, meta, res, speeds=None) -> list:
                            f"({sig0 * u.scale:.4g} {u.unit}): the prior is too tight for this "
                            "sensor and the filter's sigma understates its error; widen it "
                            f"({'mount_sigma_arcmin' if 'mount' in st else short + '_scale_sigma_ppm'})")
-    for name, (s_, d_) in f.nis_sums().items():
-        if d_ > 0 and s_ / d_ > NIS_WARN_PER_DOF:
-            out.append(f"{name}: mean NIS per degree of freedom {s_ / d_:.1f} (1 expected): "
-                       "the residuals are larger than the noise model, so the reported sigma "
-                       "understates the error")
     return out
 
 

@@ -600,6 +600,7 @@ class _Filter:
         self.hinf_weights = np.zeros(self.layout.n)
         self.hinf_weights[self.att] = 1.0
         self.floor_hits = 0
+        self.nis_sum, self.updates = 0.0, 0        # the updates' NIS (3 dof each) and count
         self.dt_update_s = 1.0 / cfg.update_rate_hz    # set by run() from the IMU rate
         # integrated-noise state w: its index and the noise densities (rad^2/s, (m/s)^2/s)
         self.i_w = self.layout["w"].start if "w" in self.layout else -1
@@ -666,6 +667,8 @@ class _Filter:
         R = np.diag(self.R)
         Py = Py0 + R
         K = np.linalg.solve(Py, Pxy.T).T
+        self.nis_sum += float(e @ np.linalg.solve(Py, e))
+        self.updates += 1
         x = self.x + K @ e
         self.P = self._covariance(Pxy, Py, R, e)
         q_star = quat_average(chi_q, Wm)
@@ -776,9 +779,19 @@ def run(bundle: Bundle, config: UsqueConfig, init: Optional[NavState] = None,
     info = {"method": method, "config": config.model_dump(), "sensor": config.sensor,
             "timing_s": time.perf_counter() - t_start, "update_stride_rows": stride,
             "final_R_m_s": out.R[-1].tolist(), "hinf_floor_hits": int(flt.floor_hits),
+            "nis": _nis(flt),
             "start_attitude": "q = [1 0 0 0] (C_b^n = I), the paper's start",
             "noise_preset": config.noise_preset, "config_source": cfg_source}
     return out.solution(t_out, speed_out, flt, info)
+
+
+def _nis(flt) -> dict:
+    """``info['nis']``: the updates' NIS under the sensor's name (3 degrees of freedom each:
+    the vector observation of eq. 34; :func:`inmotion.estimation.chi2.nis_summary`), issue 15.
+    With ``adaptive_r`` the R is the adapted one, with an H-infinity update ``Py`` is still
+    the Kalman form of eq. 37 taken with the (H-infinity) prediction's covariance."""
+    from ..estimation.chi2 import nis_summary
+    return {flt.cfg.sensor: nis_summary(flt.nis_sum, 3 * flt.updates, flt.updates)}
 
 
 def _output_rows(n_epochs: int, out_every: int) -> np.ndarray:
@@ -853,7 +866,7 @@ def _run_obs_vectors(bundle, config, init, method, t_start):
         beta_n = np.einsum("kji,kj->ki", rotations.dcm_from_quat(q_n0n), both[:, ov.OUT_BETA])
         slot = _slots(done, len(rows), n_epochs, out_every)
         rel, P_out, q_in, _, _, R_out, gamma_out, x_out = out.block(slot)
-        h_b, x, P, q, R, eta = kernel.run_vector_epochs(
+        h_b, nis_b, x, P, q, R, eta = kernel.run_vector_epochs(
             np.ascontiguousarray(both[:, ov.OUT_ALPHA]), np.ascontiguousarray(beta_n), q_n0n,
             rel, x, P, q, flt.Q, flt.scheme.Wm, flt.scheme.Wc, flt.scheme.n + flt.scheme.lam,
             flt.a, flt.f, R, eta, config.adaptive_r, config.fading_factor, flt.R_min,
@@ -862,6 +875,8 @@ def _run_obs_vectors(bundle, config, init, method, t_start):
             P_out, R_out, gamma_out, x_out)
         out.commit()
         hits += h_b
+        flt.nis_sum += nis_b
+        flt.updates += len(rows)
         w = slot >= 0
         out.q_ib[slot[w]] = rows[w][:, ov.OUT_QB]
         out.lla[slot[w]] = rows[w][:, lla]
@@ -871,6 +886,7 @@ def _run_obs_vectors(bundle, config, init, method, t_start):
     info = {"method": method, "config": config.model_dump(), "sensor": config.sensor,
             "timing_s": time.perf_counter() - t_start, "update_stride_rows": 2,
             "final_R_m_s": out.R[-1].tolist(), "hinf_floor_hits": int(hits),
+            "nis": _nis(flt),
             "vectors": "inmotion.align.obs_vectors (MODEL_VB_EARTH)",
             "start_attitude": "q = [1 0 0 0] (C_b^n = I), the paper's start",
             "noise_preset": config.noise_preset, "config_source": cfg_source}
@@ -936,7 +952,7 @@ def _run_compiled(flt, acc, bundle, t_first, samples, stride, n_epochs, out_ever
         epochs = np.arange(stride, m * stride + 1, stride)
         slot = _slots(done, m, n_epochs, out_every)
         rel, P_out, q_in, q_ib, lla, R_out, gamma_out, x_out = out.block(slot)
-        h, x, P, q, R, eta = kernel.run_epochs(
+        h, nis, x, P, q, R, eta = kernel.run_epochs(
             acc, dth, dvl, np.diff(t), speed, epochs, rel, x, P, q, flt.Q, flt.scheme.Wm,
             flt.scheme.Wc, flt.scheme.n + flt.scheme.lam, flt.a, flt.f, R, eta,
             cfg.adaptive_r, cfg.fading_factor, flt.R_min, flt.R_max, mode, flt.gamma_fixed(),
@@ -946,6 +962,8 @@ def _run_compiled(flt, acc, bundle, t_first, samples, stride, n_epochs, out_ever
             flt.vrw2 * flt.dt_update_s, q_in, q_ib, lla, P_out, R_out, gamma_out, x_out)
         out.commit()
         hits += h
+        flt.nis_sum += nis
+        flt.updates += m
         w = slot >= 0
         t_out[slot[w]], speed_out[slot[w]] = t[epochs[w]], speed[epochs[w]]
         done += m

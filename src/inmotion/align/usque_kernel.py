@@ -176,7 +176,8 @@ def _observation(acc, has_dk, has_nabla, has_eps, has_dv0, has_w):
 def _update(x, P, q, obs_y, beta_n, wie_n, D_i, S, Wm, Wc, scale, a, f, R, eta,
             adaptive_r, c_fade, R_min, R_max, hinf_mode, gamma_fixed, k0, gamma_min,
             gamma_max, margin, hinf_w):
-    """Measurement update (eq. 34-38, 42-45, 50-59)."""
+    """Measurement update (eq. 34-38, 42-45, 50-59). Also returns the innovation ``e`` and
+    its NIS ``e^T Py^-1 e`` (``Py`` with the R the update used)."""
     chi = _sigma(x, P, scale)
     chi_q = _quats(chi, q, a, f)
     Z = _h(chi_q, chi, beta_n, wie_n, D_i, S)
@@ -191,6 +192,7 @@ def _update(x, P, q, obs_y, beta_n, wie_n, D_i, S, Wm, Wc, scale, a, f, R, eta,
     Rm = np.diag(R)
     Py = Py0 + Rm
     K = np.linalg.solve(Py, Pxy.T).T
+    nis = e @ np.linalg.solve(Py, e)
     x_new = x + K @ e
     gamma = np.inf
     floor_hit = 0
@@ -214,7 +216,7 @@ def _update(x, P, q, obs_y, beta_n, wie_n, D_i, S, Wm, Wc, scale, a, f, R, eta,
     q_star = _quat_average(chi_q, Wm)
     q_new = _qcanon(_qmul(grp_to_quat(x_new[:3], a, f), q_star))
     x_new[:3] = 0.0
-    return x_new, P_new, q_new, R, eta, gamma, floor_hit, e
+    return x_new, P_new, q_new, R, eta, gamma, floor_hit, e, nis
 
 
 @numba.njit(cache=True)
@@ -230,13 +232,15 @@ def run_epochs(acc, dtheta, dvel, dt_rows, speed, epochs, slot, x, P, q, Q, Wm, 
     quaternions of ``C_n^i`` and ``C_b^i``, DR position, covariance, sqrt(R), gamma, state.
     With ``has_w`` the integrated-noise state ``w`` is the last block and each update's
     process noise is :func:`inmotion.align.usque_model.add_integrated_noise` of ``Q``.
-    Returns ``(floor hits, x, P, q, R, eta)``: the hits and the filter after the last epoch,
-    from which the next block goes on (the same operations as one block of all rows).
+    Returns ``(floor hits, NIS sum, x, P, q, R, eta)``: the hits, the sum of the updates'
+    NIS (3 degrees of freedom each) and the filter after the last epoch, from which the next
+    block goes on (the same operations as one block of all rows).
     """
     k_prev = 0
     i_w = x.shape[0] - 3
     q_n0n_prev = acc[model.Q_N0N:model.Q_N0N + 4].copy()
     hits = 0
+    nis_sum = 0.0
     for j in range(len(epochs)):
         k = epochs[j]
         q_bn = _qmul(_qconj(q), acc[model.Q_IB:model.Q_IB + 4])
@@ -247,10 +251,11 @@ def run_epochs(acc, dtheta, dvel, dt_rows, speed, epochs, slot, x, P, q, Q, Wm, 
         dq_n = _qmul(_qconj(q_n0n_prev), q_n0n)
         Qk = model.add_integrated_noise(Q, acc, i_w, arw2_dt, vrw2_dt) if has_w else Q
         x, P, q = _predict(x, P, q, dq_n, Wm, Wc, scale, Qk, a, f)
-        x, P, q, R, eta, gamma, hit, e = _update(
+        x, P, q, R, eta, gamma, hit, e, nis = _update(
             x, P, q, y, beta_n, wie_n, D_i, S, Wm, Wc, scale, a, f, R, eta, adaptive_r,
             c_fade, R_min, R_max, hinf_mode, gamma_fixed, k0, gamma_min, gamma_max, margin, hinf_w)
         hits += hit
+        nis_sum += nis
         r = slot[j]
         if r >= 0:
             out_q_in[r] = q
@@ -264,7 +269,7 @@ def run_epochs(acc, dtheta, dvel, dt_rows, speed, epochs, slot, x, P, q, Q, Wm, 
             out_x[r] = x
         q_n0n_prev = q_n0n
         k_prev = k
-    return hits, x, P, q, R, eta
+    return hits, nis_sum, x, P, q, R, eta
 
 
 @numba.njit(cache=True)
@@ -275,18 +280,20 @@ def run_vector_epochs(y, beta_n, q_n0n, slot, x, P, q, Q, Wm, Wc, scale, a, f, R
     ``q_n0n``: (M, 4), row 0 the start or the previous block's last epoch), attitude state
     only: the Earth-rate term is already in ``y`` (``inmotion.align.obs_vectors``, model
     ``MODEL_VB_EARTH``). Epoch ``j`` (row ``j >= 1``) is written to output row
-    ``slot[j - 1]`` (none when negative). Returns ``(floor hits, x, P, q, R, eta)``: the
-    filter after the last epoch, from which the next block goes on."""
+    ``slot[j - 1]`` (none when negative). Returns ``(floor hits, NIS sum, x, P, q, R,
+    eta)``: as :func:`run_epochs`."""
     zero3 = np.zeros(3)
     S = np.zeros((3, 0))
     hits = 0
+    nis_sum = 0.0
     for j in range(1, y.shape[0]):
         dq_n = _qmul(_qconj(q_n0n[j - 1]), q_n0n[j])
         x, P, q = _predict(x, P, q, dq_n, Wm, Wc, scale, Q, a, f)
-        x, P, q, R, eta, gamma, hit, e = _update(
+        x, P, q, R, eta, gamma, hit, e, nis = _update(
             x, P, q, y[j], beta_n[j], zero3, zero3, S, Wm, Wc, scale, a, f, R, eta, adaptive_r,
             c_fade, R_min, R_max, hinf_mode, gamma_fixed, k0, gamma_min, gamma_max, margin, hinf_w)
         hits += hit
+        nis_sum += nis
         r = slot[j - 1]
         if r >= 0:
             out_q_in[r] = q
@@ -294,4 +301,4 @@ def run_vector_epochs(y, beta_n, q_n0n, slot, x, P, q, Q, Wm, Wc, scale, a, f, R
             out_R[r] = np.sqrt(R)
             out_gamma[r] = gamma
             out_x[r] = x
-    return hits, x, P, q, R, eta
+    return hits, nis_sum, x, P, q, R, eta

@@ -34,7 +34,8 @@ import math
 
 import numpy as np
 
-__all__ = ["ppf", "isf", "threshold", "statistic", "exceeds", "nis_summary"]
+__all__ = ["ppf", "isf", "threshold", "statistic", "exceeds", "nis_summary", "nis_warnings",
+           "NIS_WARN_FACTOR"]
 
 
 _LN_SQRT_2PI = 0.9189385332046727418       # ln sqrt(2 pi)
@@ -282,3 +283,30 @@ def nis_summary(nis_sum: float, dof: int, samples: int) -> dict:
     return {"samples": int(samples), "dof": int(dof), "mean_per_dof": m,
             "expected_mean_per_dof": 1.0, "model": "chi2",
             "band_95": [float(lo), float(hi)], "in_band": bool(lo <= m <= hi)}
+
+
+#: a measurement kind whose mean NIS per degree of freedom exceeds this many times its model's
+#: mean (``expected_mean_per_dof``) gets a warning (:func:`nis_warnings`)
+NIS_WARN_FACTOR = 3.0
+#: what a kind's large NIS most likely means, where it says more than the noise model
+_NIS_HINTS = {"zero_velocity": " (a zero-velocity filter: was the vehicle still?)"}
+
+
+def nis_warnings(nis) -> list:
+    """One warning per measurement kind of a ``nis`` block (``{kind: nis_summary block}``,
+    :func:`nis_summary`, as ``summary.json`` holds it) whose mean NIS per degree of freedom is
+    above :data:`NIS_WARN_FACTOR` times its model's mean: the residuals are larger than the
+    filter's own innovation covariance says, so its sigma understates its error (issue 15: a
+    method outside its envelope says so). Kinds without samples are skipped; ``None`` or an
+    empty block gives ``[]``."""
+    out = []
+    for kind, b in (nis or {}).items():
+        if not isinstance(b, dict):
+            continue
+        m, e = b.get("mean_per_dof"), b.get("expected_mean_per_dof") or 1.0
+        if m is None or not m > NIS_WARN_FACTOR * e:
+            continue
+        out.append(f"{kind}: mean NIS per degree of freedom {m:.3g} ({e:.2g} expected)"
+                   f"{_NIS_HINTS.get(kind, '')}: the residuals are larger than the noise model, so the reported sigma "
+                   "understates the error")
+    return out
