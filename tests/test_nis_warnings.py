@@ -43,26 +43,18 @@ def test_the_warning_follows_the_models_mean():
 
 
 def _parked_then_drive():
-    sc = {"name": "parked-then-drive", "start": {"lat_deg": 39.9, "lon_deg": 116.4,
-                                                 "h_m": 50.0, "heading_deg": 60.0},
-          "segments": [{"kind": "rest", "duration_s": 60.0},
-                       {"kind": "accelerate", "to_speed_m_s": 10.0, "accel_m_s2": 1.0},
-                       {"kind": "cruise", "duration_s": 30.0},
-                       {"kind": "turn", "angle_deg": 90, "rate_deg_s": 5},
-                       {"kind": "cruise", "duration_s": 20.0}],
-          "imu": {"rate_hz": 100.0, "gyro": {"drift_deg_h": 0.01, "arw_deg_sqrt_h": 0.001},
-                  "accel": {"bias_ug": 100.0, "vrw_ug_sqrt_hz": 10.0}},
-          "sensors": {"odometer": {"rate_hz": 10.0, "pulses_per_m": 200.0}}}
-    return simulate(load_scenario(sc), np.random.default_rng(3))
+    """test_align_stream's drive: parked 40 s, then 10 m/s and a 90 deg turn."""
+    from test_align_stream import DRIVE
+    return simulate(load_scenario(DRIVE), np.random.default_rng(3))
 
 
 def test_parked_kf_on_a_moving_vehicle_says_so():
     b = _parked_then_drive()
     run, Config = registry.get("parked-kf").load()
-    still = run(b.window(0.0, 55.0), Config(), NavState.from_truth(b.truth.window(0.0, 55.0)))
+    still = run(b.window(0.0, 35.0), Config(), NavState.from_truth(b.truth.window(0.0, 35.0)))
     assert not still.info.get("warnings"), still.info.get("warnings")
     assert still.info["nis"]["zero_velocity"]["mean_per_dof"] < NIS_WARN_FACTOR
-    w = b.window(70.0, 120.0)           # moving at 10 m/s, then turning
+    w = b.window(55.0, 100.0)           # moving at 10 m/s, then turning
     moving = run(w, Config(), NavState.from_truth(w.truth))
     assert moving.info["nis"]["zero_velocity"]["mean_per_dof"] > 100.0
     assert any(x.startswith("zero_velocity: mean NIS") and "was the vehicle still?" in x
