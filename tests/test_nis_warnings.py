@@ -104,3 +104,65 @@ def test_process_carries_its_stages_nis_and_warnings():
     w = run_process(b, {"methods": {"od-kf": {**tight, "fdi": False}}},
                     init=init).info["warnings"]
     assert any(x.startswith("fine + navigate (od-kf): odometer: mean NIS") for x in w), w
+
+
+# ------------------------------------------------------------------ nhc-kf without a speed
+def _constant_speed_solution(speed_m_s, duration_s):
+    from inmotion.core.solution import Solution
+    t = np.linspace(0.0, duration_s, 11)
+    vel = np.tile([0.0, speed_m_s, 0.0], (len(t), 1))
+    return Solution(t, np.full(len(t), 0.7), np.full(len(t), 2.0), np.zeros(len(t)), vel,
+                    np.zeros((len(t), 3)))
+
+
+def test_nhc_forward_drift_warning_closed_form():
+    from inmotion.align.aided_kf import (NHC_DRIFT_WARN_FRACTION, NhcKfConfig,
+                                         nhc_forward_drift_warning)
+    assert NHC_DRIFT_WARN_FRACTION == 0.1
+    sol = _constant_speed_solution(10.0, 200.0)
+    # b T = 1000e-6 * 9.80665 * 200 = 1.96 m/s, above 0.1 * 10 m/s
+    w = nhc_forward_drift_warning(NhcKfConfig(accel_bias_ug=1000.0), sol)
+    assert w is not None and "drift by up to 2 m/s over the 200 s, 20% of" in w
+    # 400 ug: 0.78 m/s, below 1 m/s
+    assert nhc_forward_drift_warning(NhcKfConfig(accel_bias_ug=400.0), sol) is None
+    # a Gauss-Markov part counts too: hypot(400, 900) ug = 985 ug, 1.93 m/s
+    assert nhc_forward_drift_warning(NhcKfConfig(accel_bias_ug=400.0, accel_markov_ug=900.0,
+                                                 accel_markov_tau_s=60.0), sol) is not None
+    # a parked run (median speed below 1 m/s) is another method's matter
+    assert nhc_forward_drift_warning(NhcKfConfig(accel_bias_ug=1e4),
+                                     _constant_speed_solution(0.5, 200.0)) is None
+
+
+def test_nhc_kf_warns_on_the_mems_log_not_on_a_navigation_grade_drive():
+    from test_psins import MEMS
+    from inmotion.io.importers import import_log
+    run, Config = registry.get("nhc-kf").load()
+    sim = process_bundle([], speed0=10.0, cruise_s=60.0)      # navigation-grade, 50 ug
+    ok = run(sim, Config(), NavState.from_truth(sim.truth))
+    assert not any("no forward-velocity sensor" in w for w in ok.info.get("warnings") or [])
+    if not MEMS.is_file():
+        pytest.skip(f"real PSINS MEMS log not found at {MEMS}")
+    b = import_log("psins", MEMS)
+    sol = run(b, Config(), NavState.from_truth(b.truth))
+    w = [x for x in sol.info["warnings"] if x.startswith("no forward-velocity sensor")]
+    assert len(w) == 1, sol.info["warnings"]
+
+
+# ------------------------------------------------------------------ USQUE's envelope
+def test_usque_outside_its_envelope_says_so_and_widens_its_sigma(noisy_ldv_drive):
+    import copy
+    from inmotion.align.multiplex import UNKNOWN_HEADING_SIGMA_DEG
+    run, Config = registry.get("usque").load()
+    cfg = Config(update_rate_hz=10.0, meas_noise_m_s=0.05)
+    nav = run(noisy_ldv_drive, cfg, None)          # the simulator's navigation-grade spec
+    assert nav.info["envelope"]["resolvable"] and not nav.info.get("warnings")
+    meta = copy.deepcopy(noisy_ldv_drive.meta)     # the same increments said to be a MEMS's
+    meta["imu"]["gyro"]["drift_deg_h"] = 150.0
+    meta["imu"]["accel"]["bias_ug"] = 10000.0
+    mems = run(Bundle(noisy_ldv_drive.imu, meta, ldv=noisy_ldv_drive.ldv,
+                      truth=noisy_ldv_drive.truth), cfg, None)
+    assert not mems.info["envelope"]["resolvable"]
+    assert any(w.startswith("outside its envelope") for w in mems.info["warnings"])
+    assert np.all(np.degrees(mems.sigma["phi_U"]) >= UNKNOWN_HEADING_SIGMA_DEG - 1e-9)
+    for k in ("phi_E", "phi_N"):                    # bias / g = 0.01 rad
+        assert np.all(mems.sigma[k] >= 0.01 - 1e-12)

@@ -1919,6 +1919,42 @@ def _warnings(f, sensors, cfg, cfg_source, meta, res, speeds=None) -> list:
     return out
 
 
+#: ``nhc-kf`` warns where the forward-velocity drift its accelerometer bias allows over the run
+#: (:func:`nhc_forward_drift_warning`) exceeds this fraction of the run's median speed
+NHC_DRIFT_WARN_FRACTION = 0.1
+
+
+def nhc_forward_drift_warning(cfg, sol) -> Optional[str]:
+    """``nhc-kf``'s warning where its sigma cannot be trusted (issue 15, session 18): the NHC
+    rows observe the lateral and vertical velocity only, so the forward velocity is not
+    observed and drifts with the accelerometer bias, ``b T`` over a run of ``T`` s
+    (``accel_bias_ug`` and ``accel_markov_ug``, from ``meta.imu`` under the matched preset);
+    the rows' speed-dependent columns (``v x`` terms) are then taken at a speed that is off by
+    up to that, and the linearized filter reads tilt and heading information that is not
+    there. Above :data:`NHC_DRIFT_WARN_FRACTION` of the run's median estimated speed: a
+    warning. Measured (``inmotion align -m nhc-kf --init truth``, session 18): comma2k19
+    (phone, 10 mg assumed: 5.8 m/s over 59 s, 0.27 of its estimated median speed) ended 358
+    arcmin off in level at a 20 arcmin sigma and 10 m/s off in forward velocity at 1.2 m/s;
+    the PSINS MEMS log (7.3 mg documented: 7 m/s over 99 s, 0.51) 233 arcmin off in heading
+    at 57; paper 003's navigation-grade drive (100 ug, 600 s at 14 m/s: 0.04) has its
+    final-attitude NEES in band (3.57 over 20 runs, ``benchmarks/nees_methods.py``). A
+    heuristic threshold between those."""
+    if len(sol.t) < 2:
+        return None
+    b = np.hypot(cfg.accel_bias_ug, cfg.accel_markov_ug) * UG
+    T = float(sol.t[-1] - sol.t[0])
+    v = float(np.median(np.hypot(sol.vel_n[:, 0], sol.vel_n[:, 1])))
+    if v <= 1.0 or b * T <= NHC_DRIFT_WARN_FRACTION * v:
+        return None
+    return (f"no forward-velocity sensor: the forward velocity is not observed and the "
+            f"accelerometer bias ({np.hypot(cfg.accel_bias_ug, cfg.accel_markov_ug):.3g} ug) "
+            f"lets it drift by up to {b * T:.2g} m/s over the {T:.0f} s, "
+            f"{b * T / v:.0%} of the median speed {v:.1f} m/s: the NHC rows are then taken "
+            "at a wrong speed and the reported attitude and velocity sigma understate the "
+            "error (measured up to 18 times on a phone IMU); use a speed sensor (od-kf, "
+            "ldv-kf, fkf)")
+
+
 def _interval_end_alphas(bundle, cfg, k0, sensors) -> dict:
     """Per distance-output sensor of ``sensors``, where the displacement intervals' ends fall
     between its samples (:func:`interval_end_alpha`), the ends placed as :func:`_feed` places
@@ -2049,6 +2085,10 @@ def run_aided(bundle: Bundle, cfg, init: NavState, sensors: tuple, *, method: st
                        for k, v in f.nis_summary().items()}
     speeds = {s_: _typical_speed(getattr(bundle, s_)) for s_ in sensors}
     sol.info["warnings"] = _warnings(f, sensors, cfg, cfg_source, bundle.meta, res, speeds)
+    if nhc_only:
+        w = nhc_forward_drift_warning(cfg, sol)
+        if w is not None:
+            sol.info["warnings"].append(w)
     if getattr(cfg, "measurement", None) == "displacement" and sensors:   # as _channel set it
         sol.info["linearization_floor"] = {m.name: m.model_floor_per_m > 0.0
                                            for m in meas[:len(sensors)]}
