@@ -18,7 +18,9 @@ from inmotion.process import run_process
 from inmotion.sim import simulate
 from inmotion.sim.scenario import load_scenario
 
+from inmotion.core.metrics import error_series
 from test_process import bundle as process_bundle
+from test_real_defaults import COMMA, needs_comma
 
 
 def _block(mean, expected=1.0, samples=100):
@@ -106,46 +108,38 @@ def test_process_carries_its_stages_nis_and_warnings():
     assert any(x.startswith("fine + navigate (od-kf): odometer: mean NIS") for x in w), w
 
 
-# ------------------------------------------------------------------ nhc-kf without a speed
-def _constant_speed_solution(speed_m_s, duration_s):
-    from inmotion.core.solution import Solution
-    t = np.linspace(0.0, duration_s, 11)
-    vel = np.tile([0.0, speed_m_s, 0.0], (len(t), 1))
-    return Solution(t, np.full(len(t), 0.7), np.full(len(t), 2.0), np.zeros(len(t)), vel,
-                    np.zeros((len(t), 3)))
+# ------------------------------------------------------------------ nhc-kf's mounting
+def test_nhc_mounting_warning_needs_the_mounting_from_meta():
+    from inmotion.align.aided_kf import NhcKfConfig, nhc_mounting_warning
+    cfg = NhcKfConfig()
+    assert cfg.mounting_from_meta
+    assert nhc_mounting_warning(cfg, {"vehicle_mounting_arcmin": [0.0, 0.0, 0.0]}) is None
+    w = nhc_mounting_warning(cfg, {})
+    assert w is not None and w.startswith("the vehicle's mounting is not given")
+    off = NhcKfConfig(mounting_from_meta=False)
+    assert "mounting_from_meta false" in nhc_mounting_warning(
+        off, {"vehicle_mounting_arcmin": [10.0, 0.0, 15.0]})
 
 
-def test_nhc_forward_drift_warning_closed_form():
-    from inmotion.align.aided_kf import (NHC_DRIFT_WARN_FRACTION, NhcKfConfig,
-                                         nhc_forward_drift_warning)
-    assert NHC_DRIFT_WARN_FRACTION == 0.1
-    sol = _constant_speed_solution(10.0, 200.0)
-    # b T = 1000e-6 * 9.80665 * 200 = 1.96 m/s, above 0.1 * 10 m/s
-    w = nhc_forward_drift_warning(NhcKfConfig(accel_bias_ug=1000.0), sol)
-    assert w is not None and "drift by up to 2 m/s over the 200 s, 20% of" in w
-    # 400 ug: 0.78 m/s, below 1 m/s
-    assert nhc_forward_drift_warning(NhcKfConfig(accel_bias_ug=400.0), sol) is None
-    # a Gauss-Markov part counts too: hypot(400, 900) ug = 985 ug, 1.93 m/s
-    assert nhc_forward_drift_warning(NhcKfConfig(accel_bias_ug=400.0, accel_markov_ug=900.0,
-                                                 accel_markov_tau_s=60.0), sol) is not None
-    # a parked run (median speed below 1 m/s) is another method's matter
-    assert nhc_forward_drift_warning(NhcKfConfig(accel_bias_ug=1e4),
-                                     _constant_speed_solution(0.5, 200.0)) is None
-
-
-def test_nhc_kf_warns_on_the_mems_log_not_on_a_navigation_grade_drive():
-    from test_psins import MEMS
+@needs_comma
+def test_nhc_kf_on_comma2k19_without_its_mounting_says_so():
+    """The phone's 3.8 deg pitch mounting, unknown to nhc-kf, put 358 arcmin into its level at
+    a 20 arcmin sigma with no warning (session 18); given the reference's mounting the error
+    is covered."""
     from inmotion.io.importers import import_log
+    from inmotion.reproductions import real
+    b = import_log("comma2k19", COMMA)
     run, Config = registry.get("nhc-kf").load()
-    sim = process_bundle([], speed0=10.0, cruise_s=60.0)      # navigation-grade, 50 ug
-    ok = run(sim, Config(), NavState.from_truth(sim.truth))
-    assert not any("no forward-velocity sensor" in w for w in ok.info.get("warnings") or [])
-    if not MEMS.is_file():
-        pytest.skip(f"real PSINS MEMS log not found at {MEMS}")
-    b = import_log("psins", MEMS)
-    sol = run(b, Config(), NavState.from_truth(b.truth))
-    w = [x for x in sol.info["warnings"] if x.startswith("no forward-velocity sensor")]
-    assert len(w) == 1, sol.info["warnings"]
+    bare = run(b, Config(), NavState.from_truth(b.truth))
+    assert any(w.startswith("the vehicle's mounting is not given")
+               for w in bare.info["warnings"]), bare.info["warnings"]
+    mounted = real._with_mounting(b, real.reference_calibration(b))
+    sol = run(mounted, Config(), NavState.from_truth(b.truth))
+    assert not any("mounting is not given" in w for w in sol.info.get("warnings") or [])
+    e = error_series(sol, b.truth)
+    phi = e[["phi_E_arcmin", "phi_N_arcmin"]].to_numpy()[-1]
+    sig = np.degrees([sol.sigma["phi_E"][-1], sol.sigma["phi_N"][-1]]) * 60.0
+    assert np.all(np.abs(phi) < 3.0 * sig), (phi, sig)
 
 
 # ------------------------------------------------------------------ USQUE's envelope
