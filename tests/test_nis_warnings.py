@@ -109,20 +109,18 @@ def test_process_carries_its_stages_nis_and_warnings():
 
 
 # ------------------------------------------------------------------ nhc-kf's mounting
-def test_nhc_mounting_warning_needs_the_mounting_from_meta():
-    from inmotion.align.aided_kf import NhcKfConfig, nhc_mounting_warning
-    cfg = NhcKfConfig()
-    assert cfg.mounting_from_meta
-    assert nhc_mounting_warning(cfg, {"vehicle_mounting_arcmin": [0.0, 0.0, 0.0]}) is None
-    w = nhc_mounting_warning(cfg, {})
-    assert w is not None and w.startswith("the vehicle's mounting is not given")
-    off = NhcKfConfig(mounting_from_meta=False)
-    assert "mounting_from_meta false" in nhc_mounting_warning(
-        off, {"vehicle_mounting_arcmin": [10.0, 0.0, 15.0]})
+def test_unknown_mounting_warning_needs_the_mounting_given():
+    from inmotion.align.meta_spec import unknown_mounting_warning as w
+    assert w("nhc-kf", {"vehicle_mounting_arcmin": [0.0, 0.0, 0.0]}) is None
+    assert w("sins-dr", {}, configured=(0.0, 0.0, 0.0)) is None
+    msg = w("nhc-kf", {})
+    assert msg.startswith("the vehicle's mounting is not given") and "nhc-kf takes" in msg
+    assert "mounting_from_meta false" in w("nhc-kf", {"vehicle_mounting_arcmin": [1, 0, 1]},
+                                             mounting_from_meta=False)
 
 
 @needs_comma
-def test_nhc_kf_on_comma2k19_without_its_mounting_says_so():
+def test_nhc_kf_and_sins_dr_on_comma2k19_without_its_mounting_say_so():
     """The phone's 3.8 deg pitch mounting, unknown to nhc-kf, put 358 arcmin into its level at
     a 20 arcmin sigma with no warning (session 18); given the reference's mounting the error
     is covered."""
@@ -133,6 +131,10 @@ def test_nhc_kf_on_comma2k19_without_its_mounting_says_so():
     bare = run(b, Config(), NavState.from_truth(b.truth))
     assert any(w.startswith("the vehicle's mounting is not given")
                for w in bare.info["warnings"]), bare.info["warnings"]
+    run_dr, ConfigDr = registry.get("sins-dr").load()
+    dr = run_dr(b, ConfigDr(), NavState.from_truth(b.truth))
+    assert any(w.startswith("the vehicle's mounting is not given") and "sins-dr takes" in w
+               for w in dr.info["warnings"]), dr.info.get("warnings")
     mounted = real._with_mounting(b, real.reference_calibration(b))
     sol = run(mounted, Config(), NavState.from_truth(b.truth))
     assert not any("mounting is not given" in w for w in sol.info.get("warnings") or [])

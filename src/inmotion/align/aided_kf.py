@@ -524,7 +524,7 @@ from .meta_spec import (SIM_CONSTRAINT_MAX_DRIFT_DEG_H, SIM_CONSTRAINT_PER_FORWA
                         markov_mean_sigma, markov_sample_white_equivalent_sigma,
                         markov_white_equivalent_sigma, nhc_noise_from_meta,
                         quantization_end_factor, sensor_noise_from_meta,
-                        vehicle_constraint_noise)
+                        unknown_mounting_warning, vehicle_constraint_noise)
 
 
 def _noise(cfg) -> em.ProcessNoise:
@@ -1919,31 +1919,6 @@ def _warnings(f, sensors, cfg, cfg_source, meta, res, speeds=None) -> list:
     return out
 
 
-def nhc_mounting_warning(cfg, meta) -> Optional[str]:
-    """``nhc-kf``'s warning where the vehicle's mounting is not known (issue 15, session 18):
-    its NHC rows are in the vehicle frame of the nominal mounting (``meta.yaml``'s
-    ``vehicle_mounting_arcmin`` with ``mounting_from_meta``, else the IMU's own axes) and it
-    has no mounting states (the NHC alone cannot separate them from the tilt and the
-    heading), so a mounting it is not given goes into the level and the velocity. Measured
-    (``inmotion align -m nhc-kf --init truth`` on comma2k19, whose phone is mounted 3.8 deg
-    in pitch, 0.8 in yaw; ``reproductions.real.reference_calibration``): without it 358
-    arcmin off in level at a 20 arcmin sigma and 10.9 m/s off in velocity, NHC NIS 1.26 per
-    degree of freedom (within the warning's factor); with the reference's mounting in
-    ``meta`` 33 arcmin at 42 and 0.17 m/s, NIS 0.15. On a simulated phone-grade drive with
-    its mounting in ``meta`` (``reproductions.real.comma_like_scenario``, 5 runs) its final
-    NEES is 3.82 (band 1.25-5.49). None where the mounting comes from ``meta``."""
-    given = isinstance(meta, dict) and meta.get("vehicle_mounting_arcmin") is not None
-    if cfg.mounting_from_meta and given:
-        return None
-    return ("the vehicle's mounting is not given (meta.yaml vehicle_mounting_arcmin"
-            + ("" if cfg.mounting_from_meta else ", mounting_from_meta false")
-            + "): nhc-kf takes the IMU's axes as the vehicle's and has no mounting states, so "
-            "a mounting of a few degrees goes into the level and the velocity and the sigma "
-            "does not cover it (comma2k19's 3.8 deg pitch: 358 arcmin level error at a 20 "
-            "arcmin sigma); give the mounting in meta.yaml, or estimate it with a speed "
-            "sensor (od-kf, ldv-kf, fkf)")
-
-
 def _interval_end_alphas(bundle, cfg, k0, sensors) -> dict:
     """Per distance-output sensor of ``sensors``, where the displacement intervals' ends fall
     between its samples (:func:`interval_end_alpha`), the ends placed as :func:`_feed` places
@@ -2075,7 +2050,8 @@ def run_aided(bundle: Bundle, cfg, init: NavState, sensors: tuple, *, method: st
     speeds = {s_: _typical_speed(getattr(bundle, s_)) for s_ in sensors}
     sol.info["warnings"] = _warnings(f, sensors, cfg, cfg_source, bundle.meta, res, speeds)
     if nhc_only:
-        w = nhc_mounting_warning(cfg, bundle.meta)
+        w = unknown_mounting_warning("nhc-kf", bundle.meta,
+                                     mounting_from_meta=cfg.mounting_from_meta)
         if w is not None:
             sol.info["warnings"].append(w)
     if getattr(cfg, "measurement", None) == "displacement" and sensors:   # as _channel set it

@@ -25,7 +25,8 @@ __all__ = ["SPEC_FIELDS", "IMU_SPEC_FIELDS", "spec_from_meta", "config_with_spec
            "vehicle_constraint_noise", "nhc_noise_from_meta", "markov_mean_sigma",
            "markov_white_equivalent_sigma", "markov_sample_white_equivalent_sigma",
            "quantization_end_factor", "interval_end_alpha", "SIM_CONSTRAINT_PER_FORWARD",
-           "SIM_CONSTRAINT_MAX_DRIFT_DEG_H", "MARKOV_RW_FIELDS", "markov_as_random_walk"]
+           "SIM_CONSTRAINT_MAX_DRIFT_DEG_H", "MARKOV_RW_FIELDS", "markov_as_random_walk",
+           "unknown_mounting_warning"]
 
 UG = earth.G0 * 1e-6
 
@@ -337,6 +338,33 @@ IMU_SPEC_FIELDS = ("gyro_drift_deg_h", "gyro_arw_deg_sqrt_h", "accel_bias_ug",
 #: the bias random walks a filter with random-constant biases takes from a Gauss-Markov spec
 #: (:func:`markov_as_random_walk`)
 MARKOV_RW_FIELDS = ("gyro_bias_rw_deg_h_sqrt_h", "accel_bias_rw_ug_sqrt_h")
+
+
+def unknown_mounting_warning(method: str, meta, configured=None,
+                             mounting_from_meta: bool = True) -> "str | None":
+    """The warning of a method without mounting states (``nhc-kf``, ``sins-dr``) run where the
+    IMU's mounting in the vehicle is given neither in the configuration (``configured``, None
+    when not set) nor in ``meta.yaml`` (``vehicle_mounting_arcmin``, read with
+    ``mounting_from_meta``): it then takes the IMU's axes as the vehicle's, so a mounting of a
+    few degrees goes into its level, heading and velocity, and its sigma does not cover that
+    (issue 15, session 18). Measured with ``--init truth`` on comma2k19 (a phone mounted 3.8
+    deg in pitch, 0.8 in yaw, ``reproductions.real.reference_calibration``): ``nhc-kf`` 358
+    arcmin off in level at a 20 arcmin sigma and 10.9 m/s in velocity (with the reference's
+    mounting in ``meta``: 33 arcmin at 42, 0.17 m/s; its NHC NIS 1.26 and 0.15 per degree of
+    freedom, so the NIS warning does not see it); ``sins-dr`` 1247 arcmin off in heading at
+    71 and 182 m after 1 km at 23 m. None where the mounting is given."""
+    if configured is not None:
+        return None
+    given = isinstance(meta, dict) and meta.get("vehicle_mounting_arcmin") is not None
+    if mounting_from_meta and given:
+        return None
+    return (f"the vehicle's mounting is not given (meta.yaml vehicle_mounting_arcmin"
+            + ("" if mounting_from_meta else ", mounting_from_meta false")
+            + f"): {method} takes the IMU's axes as the vehicle's and has no mounting states, "
+            "so a mounting of a few degrees goes into the level, the heading and the velocity "
+            "and the sigma does not cover it (comma2k19's 3.8 deg pitch: nhc-kf 358 arcmin "
+            "off in level at a 20 arcmin sigma); give the mounting (meta.yaml or the "
+            "configuration), or estimate it with a speed sensor (od-kf, ldv-kf, fkf, dr-kf)")
 
 
 def markov_as_random_walk(meta) -> tuple[dict, str]:
