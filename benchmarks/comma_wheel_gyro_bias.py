@@ -7,7 +7,7 @@ radius mismatch ``eps`` between the two wheels adds ``eps v / track``, proportio
 speed, while a gyro bias is constant; the segment's speed spans 9.8-19.8 m/s, so the least
 squares fit ``omega_gyro,z - omega_w = b + e v`` over the reference intervals separates them.
 Printed: ``b`` over the whole segment against the gyro's error measured from the reference
-(:func:`inmotion.reproductions.real.gyro_minus_reference`'s rates), its sensitivity to the
+(:func:`inmotion.reproductions.real.gyro_and_reference_rates`), its sensitivity to the
 track, and per window (the fitted ``e`` kept) the two side by side: the windows' scatter is
 the wheel estimate's own error.
 
@@ -24,7 +24,6 @@ from __future__ import annotations
 
 import numpy as np
 
-from inmotion.core import earth, rotations
 from inmotion.io.importers import import_log
 from inmotion.io.importers.comma2k19 import read_signal
 from inmotion.reproductions import real as rr
@@ -46,13 +45,9 @@ def rates(root):
     """``(t_mid, gyro_z, reference_z, wheel_speeds (n, 4), speed)`` on the reference
     intervals [s, rad/s, m/s], b's z up, inside the span every signal covers (1 s margin)."""
     b = import_log("comma2k19", root)
-    tr, imu = b.truth, b.imu
-    t = tr.t
-    dC = np.einsum("kji,kjl->kil", tr.C_nb[:-1], tr.C_nb[1:])
-    w_ref = rotations.rotvec_from_dcm(dC) / np.diff(t)[:, None]
-    w_ref += np.einsum("kji,j->ki", tr.C_nb[:-1], earth.omega_ie_n(tr.lat[0]))
-    theta = np.concatenate([[0.0], np.cumsum(imu.dtheta[1:, 2])])
-    w_gyro = np.diff(np.interp(t, imu.t, theta)) / np.diff(t)
+    imu = b.imu
+    t, w_imu, w_ref = rr.gyro_and_reference_rates(b)
+    w_gyro = w_imu[:, 2]
     tw, wheels = read_signal(root / "processed_log" / "CAN" / "wheel_speed", 4)
     ts, speed = read_signal(root / "processed_log" / "CAN" / "speed", 1)
     wm = np.column_stack([interval_means(t, tw, wheels[:, i]) for i in range(4)])

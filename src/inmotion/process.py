@@ -806,9 +806,10 @@ def run_process(bundle: Bundle, config: ProcessConfig | dict | None = None,
         "init": ii.model_dump(), "wall_time_s": time.perf_counter() - w0})
     stage_warnings = [f"{e['stage']} ({e['method']}): {w}" for e in stages
                       for w in e.get("warnings", [])]
-    sol.info["warnings"] = stage_warnings or None
-    if not stage_warnings:
-        sol.info.pop("warnings")
+    if stage_warnings:
+        sol.info["warnings"] = stage_warnings
+    else:
+        sol.info.pop("warnings", None)
     if from_init and "phi_U" in sol.sigma:
         # the heading is not observable: its sigma cannot fall below the init's, grown by the
         # gyro drift over the time since (the filters' linear models, far from their operating

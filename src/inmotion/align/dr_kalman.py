@@ -237,15 +237,10 @@ def config_with_spec(cfg, meta, sensor: str) -> tuple:
     field as configured. ``{field: origin}`` says where each value came from (``config``,
     ``meta.imu (simulated)``, ``meta.sensors ...``, ``default``). A Gauss-Markov bias in the
     spec becomes the bias random walks (:func:`inmotion.align.meta_spec.markov_as_random_walk`)."""
-    from .meta_spec import MARKOV_RW_FIELDS, markov_as_random_walk
-    from .parked_kf import config_with_spec as imu_with_spec
+    from .meta_spec import constant_bias_imu_spec
     from .parked_kf import fields_not_set
     matched = cfg.noise_preset == "matched"
-    cfg, src = imu_with_spec(cfg, _imu_spec_meta(meta) if matched else {}, IMU_SPEC_FIELDS)
-    u0, s0 = fields_not_set(cfg, MARKOV_RW_FIELDS,
-                            *(markov_as_random_walk(meta) if matched else ({}, "")))
-    cfg = cfg.model_copy(update=u0) if u0 else cfg
-    src.update(s0)
+    cfg, src = constant_bias_imu_spec(cfg, meta, matched)
     spec, origin = sensor_spec_fields(meta, sensor) if matched else ({}, "")
     upd, s1 = fields_not_set(cfg, ("velocity_noise_m_s", "dk_sigma_ppm", "dk_tau_s"), spec,
                              origin)

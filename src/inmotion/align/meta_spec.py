@@ -26,7 +26,7 @@ __all__ = ["SPEC_FIELDS", "IMU_SPEC_FIELDS", "spec_from_meta", "config_with_spec
            "markov_white_equivalent_sigma", "markov_sample_white_equivalent_sigma",
            "quantization_end_factor", "interval_end_alpha", "SIM_CONSTRAINT_PER_FORWARD",
            "SIM_CONSTRAINT_MAX_DRIFT_DEG_H", "MARKOV_RW_FIELDS", "markov_as_random_walk",
-           "unknown_mounting_warning"]
+           "unknown_mounting_warning", "constant_bias_imu_spec"]
 
 UG = earth.G0 * 1e-6
 
@@ -338,6 +338,19 @@ IMU_SPEC_FIELDS = ("gyro_drift_deg_h", "gyro_arw_deg_sqrt_h", "accel_bias_ug",
 #: the bias random walks a filter with random-constant biases takes from a Gauss-Markov spec
 #: (:func:`markov_as_random_walk`)
 MARKOV_RW_FIELDS = ("gyro_bias_rw_deg_h_sqrt_h", "accel_bias_rw_ug_sqrt_h")
+
+
+def constant_bias_imu_spec(cfg, meta, matched: bool) -> tuple:
+    """``(cfg, config_source)`` of a filter whose biases are random constants plus a random walk
+    (``dr-kf``, ``od-velocity-kf``, ``sins-dr``: one rule for all three): with ``matched``, the
+    :data:`IMU_SPEC_FIELDS` it does not set from ``meta['imu']`` (:func:`_imu_spec_meta`,
+    :func:`config_with_spec`) and the :data:`MARKOV_RW_FIELDS` from the spec's Gauss-Markov
+    parts (:func:`markov_as_random_walk`); without, every field as configured."""
+    cfg, src = config_with_spec(cfg, _imu_spec_meta(meta) if matched else {}, IMU_SPEC_FIELDS)
+    upd, s_rw = fields_not_set(cfg, MARKOV_RW_FIELDS,
+                               *(markov_as_random_walk(meta) if matched else ({}, "")))
+    src.update(s_rw)
+    return (cfg.model_copy(update=upd) if upd else cfg), src
 
 
 def unknown_mounting_warning(method: str, meta, configured=None,

@@ -191,8 +191,13 @@ def _update(x, P, q, obs_y, beta_n, wie_n, D_i, S, Wm, Wc, scale, a, f, R, eta,
         R, eta = _adapt_noise(R, eta, e, np.diag(Py0) + R, c_fade, R_min, R_max)
     Rm = np.diag(R)
     Py = Py0 + Rm
-    K = np.linalg.solve(Py, Pxy.T).T
-    nis = e @ np.linalg.solve(Py, e)
+    n = Pxy.shape[0]
+    rhs = np.empty((Py.shape[0], n + 1))          # one solve for the gain and the NIS
+    rhs[:, :n] = Pxy.T
+    rhs[:, n] = e
+    sol = np.linalg.solve(Py, rhs)
+    K = sol[:, :n].T.copy()
+    nis = e @ sol[:, n]
     x_new = x + K @ e
     gamma = np.inf
     floor_hit = 0

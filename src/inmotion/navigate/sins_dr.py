@@ -206,16 +206,10 @@ def config_with_spec(cfg: SinsDrConfig, meta, sensor: str) -> tuple:
     ``{field: origin}`` says where each value came from (``config``, ``meta.imu (simulated)``,
     ``meta.sensors ...``, ``default``). A Gauss-Markov bias in the spec becomes the bias
     random walks (:func:`inmotion.align.meta_spec.markov_as_random_walk`)."""
-    from ..align.meta_spec import (IMU_SPEC_FIELDS, MARKOV_RW_FIELDS, _imu_spec_meta,
-                                   fields_not_set, markov_as_random_walk, sensor_spec_fields,
+    from ..align.meta_spec import (constant_bias_imu_spec, fields_not_set, sensor_spec_fields,
                                    vehicle_constraint_noise)
-    from ..align.meta_spec import config_with_spec as imu_with_spec
     matched = cfg.noise_preset == "matched"
-    cfg, src = imu_with_spec(cfg, _imu_spec_meta(meta) if matched else {}, IMU_SPEC_FIELDS)
-    u0, s0 = fields_not_set(cfg, MARKOV_RW_FIELDS,
-                            *(markov_as_random_walk(meta) if matched else ({}, "")))
-    cfg = cfg.model_copy(update=u0) if u0 else cfg
-    src.update(s0)
+    cfg, src = constant_bias_imu_spec(cfg, meta, matched)
     spec, origin = sensor_spec_fields(meta, sensor) if matched else ({}, "")
     sp = ((meta.get("sensors") or {}).get(sensor) if matched and isinstance(meta, dict)
           and isinstance(meta.get("sensors"), dict) else None)

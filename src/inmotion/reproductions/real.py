@@ -79,6 +79,7 @@ from ..core.metrics import error_series, interpolate_truth
 __all__ = ["default_data_root", "reference_calibration", "estimated_sensor",
            "coarse_alignment", "level_error", "gyro_minus_reference", "od_kf_iterated",
            "run_comma2k19", "run_ems", "od_kf_single_pass", "calibrated_dr",
+           "gyro_and_reference_rates",
            "reference_gyro_bias", "oracle_calibration", "speed_lag_s", "split_check",
            "imu_reference_yaw_from_accel", "turned_imu_yaw", "turned_imu", "ems_pseudo_odometer",
            "still_period_end", "still_gyro_bias", "result_rows", "reproduce", "reproduce_real",
@@ -274,6 +275,23 @@ def reference_calibration(bundle: Bundle, min_speed=3.0) -> dict:
             "yaw_mount_deg": float(np.degrees(gamma))}
 
 
+def gyro_and_reference_rates(bundle: Bundle):
+    """``(t, w_imu, w_ref)``: the reference epochs ``t`` inside the IMU's span and, over each
+    interval ``(t_k, t_k+1]``, the gyro's mean rate and the reference's body rate (b axes,
+    rad/s; :func:`gyro_minus_reference`'s docstring)."""
+    imu, tr = bundle.imu, bundle.truth
+    inside = (tr.t >= imu.t[0]) & (tr.t <= imu.t[-1])
+    t, C = tr.t[inside], tr.C_nb[inside]
+    theta = np.vstack([np.zeros(3), np.cumsum(imu.dtheta[1:], axis=0)])
+    th = np.column_stack([np.interp(t, imu.t, theta[:, i]) for i in range(3)])
+    dt = np.diff(t)[:, None]
+    w_imu = np.diff(th, axis=0) / dt
+    dC = np.einsum("kji,kjl->kil", C[:-1], C[1:])
+    w_ref = rotations.rotvec_from_dcm(dC) / dt
+    w_ref += np.einsum("kji,j->ki", C[:-1], earth.omega_ie_n(tr.lat[0]))
+    return t, w_imu, w_ref
+
+
 def gyro_minus_reference(bundle: Bundle, window_s: float = 10.0) -> dict:
     """Gyro error against the reference attitude, averaged over windows of ``window_s``.
 
@@ -289,16 +307,7 @@ def gyro_minus_reference(bundle: Bundle, window_s: float = 10.0) -> dict:
     dict with ``t_start_s`` (window starts, from the first reference epoch) and
     ``mean_deg_h`` (windows x 3, b axes).
     """
-    imu, tr = bundle.imu, bundle.truth
-    inside = (tr.t >= imu.t[0]) & (tr.t <= imu.t[-1])
-    t, C = tr.t[inside], tr.C_nb[inside]
-    theta = np.vstack([np.zeros(3), np.cumsum(imu.dtheta[1:], axis=0)])
-    th = np.column_stack([np.interp(t, imu.t, theta[:, i]) for i in range(3)])
-    dt = np.diff(t)[:, None]
-    w_imu = np.diff(th, axis=0) / dt
-    dC = np.einsum("kji,kjl->kil", C[:-1], C[1:])
-    w_ref = rotations.rotvec_from_dcm(dC) / dt
-    w_ref += np.einsum("kji,j->ki", C[:-1], earth.omega_ie_n(tr.lat[0]))
+    t, w_imu, w_ref = gyro_and_reference_rates(bundle)
     k = ((t[:-1] - t[0]) // window_s).astype(int)
     n = int(k.max()) + 1
     diff = w_imu - w_ref
