@@ -157,4 +157,6 @@ def test_config_with_spec_keeps_what_the_config_sets():
     assert cfg.gyro_markov_deg_h == 100.0 and src["gyro_markov_deg_h"] == "meta.imu (simulated)"
     assert cfg.gyro_drift_deg_h == 0.0                 # the constant alone, not folded
     cfg, src = config_with_spec(AidedKfConfig(), {"name": "no spec"})
+    # without a mounting in meta the mounting prior is an unknown installation's (session 19)
+    assert src.pop("mount_sigma_arcmin") == "meta.yaml has no vehicle_mounting_arcmin"
     assert set(src.values()) == {"default"} and cfg.gyro_markov_tau_s is None

@@ -77,6 +77,7 @@ from pydantic import BaseModel, ConfigDict, Field
 from . import config_fields as cf
 from . import registry
 from .core import earth, rotations
+from .align import meta_spec
 from .core.bundle import Bundle
 from .core.solution import NavState, Solution
 from .errors import BadInput
@@ -94,8 +95,9 @@ MEMS_CLASS = {"gyro_drift_deg_h": 150.0, "accel_bias_ug": 10000.0, "gyro_arw_deg
               "accel_vrw_ug_sqrt_hz": 300.0, "nhc_noise_m_s": 0.3}
 #: priors of the sensor mounting when meta.yaml has no vehicle_mounting_arcmin (a real log:
 #: the IMU may sit degrees off the direction of travel, comma2k19 3.8 deg in pitch)
-UNKNOWN_MOUNTING = {"mount_sigma_arcmin": 300.0, "od_scale_sigma_ppm": 10000.0,
-                    "ldv_scale_sigma_ppm": 10000.0}
+UNKNOWN_MOUNTING = {"mount_sigma_arcmin": meta_spec.UNKNOWN_MOUNTING_SIGMA_ARCMIN,
+                    "od_scale_sigma_ppm": meta_spec.UNKNOWN_SCALE_SIGMA_PPM,
+                    "ldv_scale_sigma_ppm": meta_spec.UNKNOWN_SCALE_SIGMA_PPM}
 
 
 class ProcessConfig(BaseModel):

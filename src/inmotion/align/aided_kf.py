@@ -520,11 +520,12 @@ def _config(config, cls):
 
 
 from .meta_spec import (SIM_CONSTRAINT_MAX_DRIFT_DEG_H, SIM_CONSTRAINT_PER_FORWARD,  # noqa: F401
-                        _constraint_violation_sigmas, interval_end_alpha,
+                        UNKNOWN_SCALE_SIGMA_PPM, _constraint_violation_sigmas, interval_end_alpha,
                         markov_mean_sigma, markov_sample_white_equivalent_sigma,
                         markov_white_equivalent_sigma, nhc_noise_from_meta,
                         quantization_end_factor, sensor_noise_from_meta,
-                        unknown_mounting_warning, vehicle_constraint_noise)
+                        unknown_installation_priors, unknown_mounting_warning,
+                        vehicle_constraint_noise)
 
 
 def _noise(cfg) -> em.ProcessNoise:
@@ -1600,7 +1601,10 @@ def config_with_spec(cfg, meta, sensors=(), alphas=None):
     the scale-factor priors ``*_scale_sigma_ppm`` keep their defaults (the sensor spec's own
     1-sigma, tried as the matched value: ldv-kf's 20-run NEES 3.25 against 3.28, but 5.35 on
     the 6 runs of ``tests/test_consistency_nees.py`` against its band's 5.25, issue 15);
-    ``conservative`` leaves every field as configured.
+    ``conservative`` leaves every field as configured. An installation ``meta.yaml`` does not
+    describe gets wide priors (:func:`inmotion.align.meta_spec.unknown_installation_priors`:
+    ``mount_sigma_arcmin`` 300 without ``vehicle_mounting_arcmin``, ``*_scale_sigma_ppm``
+    10000 where the sensor's spec states no scale factor).
     ``{field: origin}`` says where each value came from."""
     from .parked_kf import config_with_spec as _with_spec   # parked_kf imports this module
     from .parked_kf import fields_not_set
@@ -1648,6 +1652,14 @@ def config_with_spec(cfg, meta, sensors=(), alphas=None):
             src[field] = org + ("" if len(parts) == 2 else f" ({parts[0]}; rest default)")
         else:
             src[field] = "default"
+    if matched:
+        u_i, s_i = unknown_installation_priors(
+            cfg, meta, {name: {f"{'od' if name == 'odometer' else 'ldv'}_scale_sigma_ppm":
+                               UNKNOWN_SCALE_SIGMA_PPM}
+                        for name in sensors
+                        if hasattr(cfg, f"{'od' if name == 'odometer' else 'ldv'}_scale_sigma_ppm")})
+        upd.update(u_i)
+        src.update(s_i)
     return (cfg.model_copy(update=upd) if upd else cfg), src
 
 

@@ -236,14 +236,24 @@ def config_with_spec(cfg, meta, sensor: str) -> tuple:
     ``paper`` keeps every
     field as configured. ``{field: origin}`` says where each value came from (``config``,
     ``meta.imu (simulated)``, ``meta.sensors ...``, ``default``). A Gauss-Markov bias in the
-    spec becomes the bias random walks (:func:`inmotion.align.meta_spec.markov_as_random_walk`)."""
-    from .meta_spec import constant_bias_imu_spec
+    spec becomes the bias random walks (:func:`inmotion.align.meta_spec.markov_as_random_walk`).
+    An installation ``meta.yaml`` does not describe gets wide priors
+    (:func:`inmotion.align.meta_spec.unknown_installation_priors`): the mounting 300 arcmin
+    without ``vehicle_mounting_arcmin``, the scale factor a 10000 ppm constant where the
+    sensor's spec states none."""
+    from .meta_spec import (UNKNOWN_SCALE_SIGMA_PPM, constant_bias_imu_spec,
+                            unknown_installation_priors)
     from .parked_kf import fields_not_set
     matched = cfg.noise_preset == "matched"
     cfg, src = constant_bias_imu_spec(cfg, meta, matched)
     spec, origin = sensor_spec_fields(meta, sensor) if matched else ({}, "")
     upd, s1 = fields_not_set(cfg, ("velocity_noise_m_s", "dk_sigma_ppm", "dk_tau_s"), spec,
                              origin)
+    if matched:
+        u1, s1u = unknown_installation_priors(
+            cfg, meta, {sensor: {"dk_sigma_ppm": UNKNOWN_SCALE_SIGMA_PPM, "dk_tau_s": float("inf")}})
+        upd.update(u1)
+        s1.update(s1u)
     cons = constraint_noise_from_meta(cfg, meta) if matched else {}
     u2, s2 = fields_not_set(cfg, ("lateral_noise_m_s", "nhc_noise_m_s"), cons,
                             "meta.vehicle.constraint_violation")

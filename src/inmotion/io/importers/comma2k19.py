@@ -37,6 +37,7 @@ from ...errors import BadInput
 from ..resample import check_times, find_gaps, interpolate_at, rates_to_increments
 from .axes import C_b_src, FRD
 from .tables import as_float, check_finite, check_order, existing_dir
+from .vehicle import road_vehicle
 
 __all__ = ["IMU_AXES", "CAMERA_AXES", "import_comma2k19", "read_signal"]
 
@@ -194,6 +195,7 @@ def import_comma2k19(source, *, gyro="gyro", order=2, name=None) -> Bundle:
         "initial_position": {"lat_deg": float(np.rad2deg(truth.lat[0])),
                              "lon_deg": float(np.rad2deg(truth.lon[0])), "h_m": float(truth.h[0])},
         "imu": _imu_spec(imu, gyro),
+        "vehicle": road_vehicle(),
         "odometer": {"signal": "CAN speed", "note": "reads about 0.6 % low against the "
                      "reference; not corrected"},
         "truth": {"source": "global_pose (offline INS/GNSS/vision fusion by the dataset "

@@ -29,6 +29,7 @@ from ...errors import BadInput
 from ..resample import check_times, find_gaps, rates_to_increments
 from .axes import C_b_src, FRD, design_euler_from_ned_rpy
 from .tables import as_float, check_finite, check_order, existing_file
+from .vehicle import road_vehicle
 
 __all__ = ["IMU_AXES", "import_ems"]
 
@@ -108,6 +109,7 @@ def import_ems(source, *, var="ems_data", order=2, name=None) -> Bundle:
         "truth": {"h": "placeholder constant, not a measured height",
                   "vU": "identically 0 in the source"},
         "license": "LGPL-3.0 (EMS-SymINSGNSS)",
+        "vehicle": road_vehicle(),
     }
     if len(gaps):
         meta["gaps"] = {"imu": gaps.as_list(), "threshold_s": gaps.threshold_s}
