@@ -121,3 +121,18 @@ def test_default_noise_on_a_real_log_without_spec_warns():
     w = _warnings(_F(), ("odometer",), cfg, src, {"name": "x"}, res)
     assert len(w) == 1 and "navigation-grade" in w[0]
     assert _warnings(_F(), ("odometer",), cfg, src, {"simulated": True}, res) == []
+
+
+@needs_comma
+def test_fine_mux_with_an_unresolved_heading_covers_its_position_error(comma_bundle, tmp_path):
+    """The phone cannot gyrocompass: ``fine-mux``'s heading is unresolved (the summary warns,
+    heading sigma 104 deg). Before session 19 its horizontal position sigma was the linear
+    filter's, 32 m, for a 1.8 km error (55x); the floor of
+    ``multiplex.floor_unresolved_horizontal_sigma`` gives 1410 m (1.3x)."""
+    out = tmp_path / "r"
+    r = _run("--json", "align", comma_bundle, "-m", "fine-mux", "--init", "truth", "-o", out)
+    assert r.exit_code == 0, r.output
+    s = json.loads((out / "summary.json").read_text())
+    assert any("envelope" in w for w in s["info"]["warnings"])
+    ratios = _final_ratios(out)
+    assert ratios["horizontal"] < 2.0, ratios

@@ -106,6 +106,7 @@ from .velocity_source import initial_speed, speed_on_imu_times
 __all__ = ["auto_fine_method", "MuxConfig", "fault_tolerant_speed", "coarse_fault_tolerant",
            "last_covered", "first_covered", "run_multiplexed", "run_fine_mux", "FINE_METHODS",
            "start_state", "coarse_envelope", "fine_config_from_coarse", "floor_attitude_sigma",
+           "floor_unresolved_horizontal_sigma",
            "UNRESOLVED_HEADING_DEG", "UNKNOWN_HEADING_SIGMA_DEG", "window_envelope",
            "linear_range_check", "LINEAR_HEADING_DEG", "window_cross_maps", "attitude_cross"]
 
@@ -342,7 +343,8 @@ def floor_attitude_sigma(sol: Solution, env: dict, level: bool = True) -> None:
     """Keep the reported attitude 1-sigma of ``sol`` at least what the IMU allows without an
     external attitude reference: level ``bias / g`` (with ``level``, or when the heading is
     not resolved); heading :data:`UNKNOWN_HEADING_SIGMA_DEG` when the coarse stage could not
-    resolve it.
+    resolve it, and then the horizontal position and velocity too
+    (:func:`floor_unresolved_horizontal_sigma`).
 
     ``level=False`` (issue 15): the solution is a velocity-aided filter whose prior carries
     the coarse tilt's correlation with the accelerometer bias (``env['attitude_cross']``),
@@ -358,6 +360,35 @@ def floor_attitude_sigma(sol: Solution, env: dict, level: bool = True) -> None:
     if not env["resolvable"] and "phi_U" in sol.sigma:
         sol.sigma["phi_U"] = np.maximum(sol.sigma["phi_U"],
                                         np.radians(UNKNOWN_HEADING_SIGMA_DEG))
+    if not env["resolvable"]:
+        floor_unresolved_horizontal_sigma(sol)
+
+
+def floor_unresolved_horizontal_sigma(sol: Solution) -> None:
+    """Keep the horizontal position and velocity 1-sigma of ``sol`` per axis at least what a
+    heading known only to lie in +-180 deg leaves of them (issue 15, session 19).
+
+    A start heading error ``psi`` turns the whole horizontal track about its first point: the
+    position error is ``(R(psi) - I) d``, ``d = [d_N, d_E]`` the displacement from the start
+    (its length is the same in the solution as in truth: a rotation keeps it). For ``psi``
+    uniform on +-180 deg (``E cos psi = E sin psi cos psi = 0``, ``E cos^2 = E sin^2 = 1/2``)
+    its north component ``(cos psi - 1) d_N - sin psi d_E`` has mean square
+    ``1.5 d_N^2 + 0.5 d_E^2``, the east ``0.5 d_N^2 + 1.5 d_E^2`` (radially 1.5 ``|d|^2``, across
+    0.5). The velocity likewise with ``v = [v_N, v_E]``. The linear filter's own sigma knows
+    nothing of this: on comma2k19 ``fine-mux`` (heading unresolved, reported heading sigma
+    104 deg) ended 1.8 km off at a 32 m horizontal sigma."""
+    lat0, h0 = sol.lat[0], sol.h[0]
+    r_m, r_n = earth.radii(lat0)
+    d_n = (sol.lat - lat0) * (r_m + h0)
+    d_e = (sol.lon - sol.lon[0]) * (r_n + h0) * np.cos(lat0)
+    v_n, v_e = sol.vel_n[:, 1], sol.vel_n[:, 0]
+    floors = {"north": np.sqrt(1.5 * d_n ** 2 + 0.5 * d_e ** 2),
+              "east": np.sqrt(0.5 * d_n ** 2 + 1.5 * d_e ** 2),
+              "vN": np.sqrt(1.5 * v_n ** 2 + 0.5 * v_e ** 2),
+              "vE": np.sqrt(0.5 * v_n ** 2 + 1.5 * v_e ** 2)}
+    for k, floor in floors.items():
+        if k in sol.sigma:
+            sol.sigma[k] = np.maximum(sol.sigma[k], floor)
 
 
 #: the largest coarse heading 1-sigma [deg] the fine (linear, small-angle) filter is trusted
