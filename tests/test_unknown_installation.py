@@ -48,7 +48,7 @@ def test_the_vehicle_violation_sets_the_cross_rows_without_a_sensor_spec():
     fwd, lat, origin = meta_spec.sensor_noise_from_meta(meta, "odometer", T, "displacement")
     want = np.sqrt(2 * cv["lateral_sigma_m_s"] ** 2 * cv["lateral_tau_s"] / T)
     assert fwd is None and np.allclose(lat, (want, want))
-    assert origin == "meta.vehicle.constraint_violation (lateral/vertical)"
+    assert origin == "meta.vehicle.constraint_violation"
     # the velocity form keeps the configured values, and nothing without a vehicle spec
     assert meta_spec.sensor_noise_from_meta(meta, "odometer", T, "velocity") == (None, None, "")
     assert meta_spec.sensor_noise_from_meta({}, "odometer", T, "displacement") == (None, None, "")

@@ -252,8 +252,8 @@ def sensor_noise_from_meta(meta, name: str, interval_s: float, measurement: str,
     origin = ("meta.sensors (documented)" if spec.get("source") == "documented"
               else "meta.sensors (simulated)" if meta.get("simulated") else "meta.sensors")
     if from_vehicle:
-        origin = ((origin + " + ") if has_spec else "") + \
-            "meta.vehicle.constraint_violation (lateral/vertical)"
+        origin = (origin + " + meta.vehicle.constraint_violation (lateral/vertical)" if has_spec
+                  else "meta.vehicle.constraint_violation")
     if isinstance(lat, tuple):
         return fwd, lat, origin
     return fwd, (None if lat is None else float(lat)), origin
