@@ -27,6 +27,14 @@ def comma_bundle(tmp_path_factory):
     return out
 
 
+def _align(bundle, out, method, *extra):
+    """``(summary, ratios)`` of ``inmotion align -m METHOD --init truth`` on ``bundle``
+    (:func:`_final_ratios`), the run asserted to exit 0."""
+    r = _run("--json", "align", bundle, "-m", method, "--init", "truth", "-o", out, *extra)
+    assert r.exit_code == 0, r.output
+    return json.loads((out / "summary.json").read_text()), _final_ratios(out)
+
+
 def _final_ratios(out):
     """``{component: |final error| / final sigma}`` of a result folder: the three attitude
     components and the horizontal position (``solution.csv``'s sigma columns are degrees and
@@ -96,10 +104,7 @@ def test_filters_with_mounting_states_cover_their_error_on_comma2k19(comma_bundl
     rejected; dr-kf 2.4x in heading; od-kf 3.5x in the East tilt. Measured after: od-kf
     0.9x / 0.0x / 0.4x and 26 m at 37 m; od-velocity-kf 0.3x / 0.4x / 0.4x and 28 m at 44 m;
     dr-kf 0.2x / 0.4x / 0.4x and 26 m at 43 m."""
-    out = tmp_path / "r"
-    r = _run("--json", "align", comma_bundle, "-m", method, "--init", "truth", "-o", out)
-    assert r.exit_code == 0, r.output
-    ratios = _final_ratios(out)
+    _, ratios = _align(comma_bundle, tmp_path / "r", method)
     assert max(ratios.values()) < 2.0, ratios
 
 
@@ -131,12 +136,8 @@ def test_fine_mux_with_an_unresolved_heading_covers_its_position_error(comma_bun
     heading sigma 104 deg). Before session 19 its horizontal position sigma was the linear
     filter's, 32 m, for a 1.8 km error (55x); the floor of
     ``multiplex.floor_unresolved_horizontal_sigma`` gives 1410 m (1.3x)."""
-    out = tmp_path / "r"
-    r = _run("--json", "align", comma_bundle, "-m", "fine-mux", "--init", "truth", "-o", out)
-    assert r.exit_code == 0, r.output
-    s = json.loads((out / "summary.json").read_text())
+    s, ratios = _align(comma_bundle, tmp_path / "r", "fine-mux")
     assert any("envelope" in w for w in s["info"]["warnings"])
-    ratios = _final_ratios(out)
     assert ratios["horizontal"] < 2.0, ratios
 
 
@@ -146,10 +147,6 @@ def test_usque_without_a_mounting_says_so_and_covers_its_level(comma_bundle, tmp
     pitched 3.8 deg in the car. Before session 19: 405 arcmin off in the East tilt at a 34
     arcmin sigma (11.8x). Now a warning names the mounting and the attitude sigma is at
     least the unknown mounting's 300 arcmin prior (1.4x)."""
-    out = tmp_path / "r"
-    r = _run("--json", "align", comma_bundle, "-m", "usque", "--init", "truth", "-o", out)
-    assert r.exit_code == 0, r.output
-    s = json.loads((out / "summary.json").read_text())
+    s, ratios = _align(comma_bundle, tmp_path / "r", "usque")
     assert any("mounting is not given" in w for w in s["info"]["warnings"])
-    ratios = _final_ratios(out)
     assert max(ratios[k] for k in "ENU") < 2.0, ratios
