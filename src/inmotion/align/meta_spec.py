@@ -27,7 +27,8 @@ __all__ = ["SPEC_FIELDS", "IMU_SPEC_FIELDS", "spec_from_meta", "config_with_spec
            "quantization_end_factor", "interval_end_alpha", "SIM_CONSTRAINT_PER_FORWARD",
            "SIM_CONSTRAINT_MAX_DRIFT_DEG_H", "MARKOV_RW_FIELDS", "markov_as_random_walk",
            "unknown_mounting_warning", "constant_bias_imu_spec", "UNKNOWN_MOUNTING_SIGMA_ARCMIN",
-           "UNKNOWN_SCALE_SIGMA_PPM", "unknown_installation_priors"]
+           "UNKNOWN_SCALE_SIGMA_PPM", "unknown_installation_priors",
+           "floor_unknown_mounting"]
 
 UG = earth.G0 * 1e-6
 
@@ -432,9 +433,24 @@ def unknown_mounting_warning(method: str, meta, configured=None,
             + ("" if mounting_from_meta else ", mounting_from_meta false")
             + f"): {method} takes the IMU's axes as the vehicle's and has no mounting states, "
             "so a mounting of a few degrees goes into the level, the heading and the velocity "
-            "and the sigma does not cover it (comma2k19's 3.8 deg pitch: nhc-kf 358 arcmin "
-            "off in level at a 20 arcmin sigma); give the mounting (meta.yaml or the "
+            "(comma2k19's 3.8 deg pitch: nhc-kf 358 arcmin off in level at a 20 arcmin sigma); "
+            f"the attitude 1-sigma is kept at least {UNKNOWN_MOUNTING_SIGMA_ARCMIN:.0f} arcmin, "
+            "the unknown mounting's prior; give the mounting (meta.yaml or the "
             "configuration), or estimate it with a speed sensor (od-kf, ldv-kf, fkf, dr-kf)")
+
+
+def floor_unknown_mounting(sol, floor_arcmin: float = UNKNOWN_MOUNTING_SIGMA_ARCMIN) -> None:
+    """Keep the reported attitude 1-sigma of ``sol`` (``phi_E``, ``phi_N``, ``phi_U``) at least
+    the unknown mounting's prior: for a method without mounting states run where the
+    mounting is not given (:func:`unknown_mounting_warning` fired). Its vehicle constraint or
+    forward speed is taken in the IMU's axes, so the mounting's pitch and yaw go one to one
+    into the level and heading it finds, and nothing in its filter sees them (issue 15,
+    session 19: comma2k19, the phone pitched 3.8 deg, ``nhc-kf`` 271 arcmin off in the East
+    tilt at a 31 arcmin sigma, ``usque`` 405 at 34)."""
+    floor = np.radians(floor_arcmin / 60.0)
+    for k in ("phi_E", "phi_N", "phi_U"):
+        if k in sol.sigma:
+            sol.sigma[k] = np.maximum(sol.sigma[k], floor)
 
 
 def markov_as_random_walk(meta) -> tuple[dict, str]:

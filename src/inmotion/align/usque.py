@@ -823,13 +823,10 @@ def _unknown_mounting(sol: Solution, meta) -> None:
     sigma). On the papers' simulated bundles the mounting is given (zero for paper 001's) and
     nothing changes. A mounting that is given but not zero is not applied either (the kernel
     integrates the speed along the forward axis); not covered here."""
-    from .meta_spec import UNKNOWN_MOUNTING_SIGMA_ARCMIN
+    from .meta_spec import UNKNOWN_MOUNTING_SIGMA_ARCMIN, floor_unknown_mounting
     if isinstance(meta, dict) and meta.get("vehicle_mounting_arcmin") is not None:
         return
-    floor = np.radians(UNKNOWN_MOUNTING_SIGMA_ARCMIN / 60.0)
-    for k in ("phi_E", "phi_N", "phi_U"):
-        if k in sol.sigma:
-            sol.sigma[k] = np.maximum(sol.sigma[k], floor)
+    floor_unknown_mounting(sol)
     method = sol.info.get("method", "the USQUE family")
     sol.info["warnings"] = [*(sol.info.get("warnings") or []), (
         f"the vehicle's mounting is not given (meta.yaml vehicle_mounting_arcmin): {method} "

@@ -429,8 +429,9 @@ def run_sins_dr(bundle: Bundle, config: SinsDrConfig | dict | None = None,
                           progress=progress, select=select, output_times=output_times)
     sol = _solution(filt, out, cfg, name, time.perf_counter() - t0)
     sol.info["config_source"] = cfg_source
-    from ..align.meta_spec import unknown_mounting_warning
+    from ..align.meta_spec import floor_unknown_mounting, unknown_mounting_warning
     w = unknown_mounting_warning("sins-dr", bundle.meta, cfg.mounting_arcmin)
     if w is not None:
         sol.info["warnings"] = [*(sol.info.get("warnings") or []), w]
+        floor_unknown_mounting(sol)
     return sol
