@@ -1654,11 +1654,11 @@ def config_with_spec(cfg, meta, sensors=(), alphas=None):
         else:
             src[field] = "default"
     if matched:
+        scale_fields = {name: f"{'od' if name == 'odometer' else 'ldv'}_scale_sigma_ppm"
+                        for name in sensors}
         u_i, s_i = unknown_installation_priors(
-            cfg, meta, {name: {f"{'od' if name == 'odometer' else 'ldv'}_scale_sigma_ppm":
-                               UNKNOWN_SCALE_SIGMA_PPM}
-                        for name in sensors
-                        if hasattr(cfg, f"{'od' if name == 'odometer' else 'ldv'}_scale_sigma_ppm")})
+            cfg, meta, {name: {f: UNKNOWN_SCALE_SIGMA_PPM}
+                        for name, f in scale_fields.items() if hasattr(cfg, f)})
         upd.update(u_i)
         src.update(s_i)
     return (cfg.model_copy(update=upd) if upd else cfg), src
