@@ -23,6 +23,11 @@ def test_no_mounting_and_no_scale_in_meta_give_the_unknown_priors():
     cfg, src = aided_with_spec(AidedKfConfig(), {"name": "real"}, ("odometer",))
     assert cfg.mount_sigma_arcmin == 300.0 and cfg.od_scale_sigma_ppm == 10000.0
     assert cfg.ldv_scale_sigma_ppm == AidedKfConfig().ldv_scale_sigma_ppm   # not a sensor here
+    from inmotion.navigate.sins_dr import SinsDrConfig
+    from inmotion.navigate.sins_dr import config_with_spec as sins_dr_with_spec
+    cfg, src = sins_dr_with_spec(SinsDrConfig(), {"name": "real"}, "odometer")
+    assert cfg.dk_sigma_ppm == 10000.0 and np.isinf(cfg.dk_tau_s)
+    assert src["dk_sigma_ppm"] == "meta.sensors.odometer states no scale factor"
 
 
 def test_a_described_installation_keeps_the_defaults_and_the_config_wins():

@@ -205,9 +205,12 @@ def config_with_spec(cfg: SinsDrConfig, meta, sensor: str) -> tuple:
     field as configured.
     ``{field: origin}`` says where each value came from (``config``, ``meta.imu (simulated)``,
     ``meta.sensors ...``, ``default``). A Gauss-Markov bias in the spec becomes the bias
-    random walks (:func:`inmotion.align.meta_spec.markov_as_random_walk`)."""
-    from ..align.meta_spec import (constant_bias_imu_spec, fields_not_set, sensor_spec_fields,
-                                   vehicle_constraint_noise)
+    random walks (:func:`inmotion.align.meta_spec.markov_as_random_walk`). A sensor whose
+    spec states no scale factor gets a 10000 ppm constant, as ``dr-kf``
+    (:func:`inmotion.align.meta_spec.unknown_installation_priors`)."""
+    from ..align.meta_spec import (UNKNOWN_SCALE_SIGMA_PPM, constant_bias_imu_spec,
+                                   fields_not_set, sensor_spec_fields,
+                                   unknown_installation_priors, vehicle_constraint_noise)
     matched = cfg.noise_preset == "matched"
     cfg, src = constant_bias_imu_spec(cfg, meta, matched)
     spec, origin = sensor_spec_fields(meta, sensor) if matched else ({}, "")
@@ -219,6 +222,11 @@ def config_with_spec(cfg: SinsDrConfig, meta, sensor: str) -> tuple:
         spec["speed_noise_m_s"] = float(sp["noise_m_s"])
     upd, s1 = fields_not_set(cfg, ("velocity_noise_m_s", "speed_noise_m_s", "dk_sigma_ppm",
                                    "dk_tau_s"), spec, origin)
+    if matched:                    # a speed whose scale nobody stated: dr-kf's rule
+        u1, s1u = unknown_installation_priors(
+            cfg, meta, {sensor: {"dk_sigma_ppm": UNKNOWN_SCALE_SIGMA_PPM, "dk_tau_s": float("inf")}})
+        upd.update(u1)
+        s1.update(s1u)
     cv = vehicle_constraint_noise(meta, 1.0 / cfg.measurement_rate_hz) if matched else None
     u2, s2 = fields_not_set(cfg, ("velocity_cross_noise_m_s",),
                             {} if cv is None else {"velocity_cross_noise_m_s": max(cv)},
