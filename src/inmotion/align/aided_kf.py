@@ -521,7 +521,7 @@ def _config(config, cls):
 
 from .meta_spec import (SIM_CONSTRAINT_MAX_DRIFT_DEG_H, SIM_CONSTRAINT_PER_FORWARD,  # noqa: F401
                         UNKNOWN_SCALE_SIGMA_PPM, _constraint_violation_sigmas,
-                        floor_unknown_mounting, interval_end_alpha,
+                        interval_end_alpha, note_unknown_mounting,
                         markov_mean_sigma, markov_sample_white_equivalent_sigma,
                         markov_white_equivalent_sigma, nhc_noise_from_meta,
                         quantization_end_factor, sensor_noise_from_meta,
@@ -2063,11 +2063,8 @@ def run_aided(bundle: Bundle, cfg, init: NavState, sensors: tuple, *, method: st
     speeds = {s_: _typical_speed(getattr(bundle, s_)) for s_ in sensors}
     sol.info["warnings"] = _warnings(f, sensors, cfg, cfg_source, bundle.meta, res, speeds)
     if nhc_only:
-        w = unknown_mounting_warning("nhc-kf", bundle.meta,
-                                     mounting_from_meta=cfg.mounting_from_meta)
-        if w is not None:
-            sol.info["warnings"].append(w)
-            floor_unknown_mounting(sol)
+        note_unknown_mounting(sol, "nhc-kf", bundle.meta,
+                              mounting_from_meta=cfg.mounting_from_meta)
     if getattr(cfg, "measurement", None) == "displacement" and sensors:   # as _channel set it
         sol.info["linearization_floor"] = {m.name: m.model_floor_per_m > 0.0
                                            for m in meas[:len(sensors)]}

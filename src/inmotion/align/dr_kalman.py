@@ -241,8 +241,7 @@ def config_with_spec(cfg, meta, sensor: str) -> tuple:
     (:func:`inmotion.align.meta_spec.unknown_installation_priors`): the mounting 300 arcmin
     without ``vehicle_mounting_arcmin``, the scale factor a 10000 ppm constant where the
     sensor's spec states none."""
-    from .meta_spec import (UNKNOWN_SCALE_SIGMA_PPM, constant_bias_imu_spec,
-                            unknown_installation_priors)
+    from .meta_spec import constant_bias_imu_spec, unknown_dk_prior
     from .parked_kf import fields_not_set
     matched = cfg.noise_preset == "matched"
     cfg, src = constant_bias_imu_spec(cfg, meta, matched)
@@ -250,8 +249,7 @@ def config_with_spec(cfg, meta, sensor: str) -> tuple:
     upd, s1 = fields_not_set(cfg, ("velocity_noise_m_s", "dk_sigma_ppm", "dk_tau_s"), spec,
                              origin)
     if matched:
-        u1, s1u = unknown_installation_priors(
-            cfg, meta, {sensor: {"dk_sigma_ppm": UNKNOWN_SCALE_SIGMA_PPM, "dk_tau_s": float("inf")}})
+        u1, s1u = unknown_dk_prior(cfg, meta, sensor)
         upd.update(u1)
         s1.update(s1u)
     cons = constraint_noise_from_meta(cfg, meta) if matched else {}

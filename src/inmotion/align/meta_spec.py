@@ -28,7 +28,7 @@ __all__ = ["SPEC_FIELDS", "IMU_SPEC_FIELDS", "spec_from_meta", "config_with_spec
            "SIM_CONSTRAINT_MAX_DRIFT_DEG_H", "MARKOV_RW_FIELDS", "markov_as_random_walk",
            "unknown_mounting_warning", "constant_bias_imu_spec", "UNKNOWN_MOUNTING_SIGMA_ARCMIN",
            "UNKNOWN_SCALE_SIGMA_PPM", "unknown_installation_priors",
-           "floor_unknown_mounting"]
+           "floor_unknown_mounting", "note_unknown_mounting", "unknown_dk_prior"]
 
 UG = earth.G0 * 1e-6
 
@@ -411,8 +411,24 @@ def unknown_installation_priors(cfg, meta, scale=None) -> tuple:
     return upd, src
 
 
+def unknown_dk_prior(cfg, meta, sensor: str) -> tuple:
+    """``(update, source)`` of :func:`unknown_installation_priors` for a filter whose scale
+    state is ``dk`` (``dr-kf``, ``od-velocity-kf``, ``sins-dr``: one rule): a
+    :data:`UNKNOWN_SCALE_SIGMA_PPM` random constant where ``sensor``'s spec states no scale
+    factor (and the mounting prior where the filter has one)."""
+    return unknown_installation_priors(
+        cfg, meta, {sensor: {"dk_sigma_ppm": UNKNOWN_SCALE_SIGMA_PPM, "dk_tau_s": float("inf")}})
+
+
+#: what a method without mounting states does with the mounting, and what the user can do
+MOUNTING_IGNORED = "takes the IMU's axes as the vehicle's and has no mounting states"
+MOUNTING_ADVICE = ("give the mounting (meta.yaml or the configuration), or estimate it with a "
+                   "speed sensor (od-kf, ldv-kf, fkf, dr-kf)")
+
+
 def unknown_mounting_warning(method: str, meta, configured=None,
-                             mounting_from_meta: bool = True) -> "str | None":
+                             mounting_from_meta: bool = True, ignored: str = MOUNTING_IGNORED,
+                             advice: str = MOUNTING_ADVICE) -> "str | None":
     """The warning of a method without mounting states (``nhc-kf``, ``sins-dr``) run where the
     IMU's mounting in the vehicle is given neither in the configuration (``configured``, None
     when not set) nor in ``meta.yaml`` (``vehicle_mounting_arcmin``, read with
@@ -431,12 +447,11 @@ def unknown_mounting_warning(method: str, meta, configured=None,
         return None
     return (f"the vehicle's mounting is not given (meta.yaml vehicle_mounting_arcmin"
             + ("" if mounting_from_meta else ", mounting_from_meta false")
-            + f"): {method} takes the IMU's axes as the vehicle's and has no mounting states, "
+            + f"): {method} {ignored}, "
             "so a mounting of a few degrees goes into the level, the heading and the velocity "
             "(comma2k19's 3.8 deg pitch: nhc-kf 358 arcmin off in level at a 20 arcmin sigma); "
             f"the attitude 1-sigma is kept at least {UNKNOWN_MOUNTING_SIGMA_ARCMIN:.0f} arcmin, "
-            "the unknown mounting's prior; give the mounting (meta.yaml or the "
-            "configuration), or estimate it with a speed sensor (od-kf, ldv-kf, fkf, dr-kf)")
+            f"the unknown mounting's prior; {advice}")
 
 
 def floor_unknown_mounting(sol, floor_arcmin: float = UNKNOWN_MOUNTING_SIGMA_ARCMIN) -> None:
@@ -451,6 +466,18 @@ def floor_unknown_mounting(sol, floor_arcmin: float = UNKNOWN_MOUNTING_SIGMA_ARC
     for k in ("phi_E", "phi_N", "phi_U"):
         if k in sol.sigma:
             sol.sigma[k] = np.maximum(sol.sigma[k], floor)
+
+
+def note_unknown_mounting(sol, method: str, meta, configured=None,
+                          mounting_from_meta: bool = True, **wording) -> None:
+    """Where the mounting is not given (:func:`unknown_mounting_warning`, ``wording`` its
+    ``ignored`` / ``advice``): the warning added to ``sol.info['warnings']`` and the attitude
+    sigma floored (:func:`floor_unknown_mounting`). The one rule of ``nhc-kf``, ``sins-dr``
+    and the USQUE family."""
+    w = unknown_mounting_warning(method, meta, configured, mounting_from_meta, **wording)
+    if w is not None:
+        sol.info["warnings"] = [*(sol.info.get("warnings") or []), w]
+        floor_unknown_mounting(sol)
 
 
 def markov_as_random_walk(meta) -> tuple[dict, str]:

@@ -377,10 +377,7 @@ def floor_unresolved_horizontal_sigma(sol: Solution) -> None:
     0.5). The velocity likewise with ``v = [v_N, v_E]``. The linear filter's own sigma knows
     nothing of this: on comma2k19 ``fine-mux`` (heading unresolved, reported heading sigma
     104 deg) ended 1.8 km off at a 32 m horizontal sigma."""
-    lat0, h0 = sol.lat[0], sol.h[0]
-    r_m, r_n = earth.radii(lat0)
-    d_n = (sol.lat - lat0) * (r_m + h0)
-    d_e = (sol.lon - sol.lon[0]) * (r_n + h0) * np.cos(lat0)
+    d_n, d_e = earth.local_ne_offsets(sol.lat, sol.lon, sol.lat[0], sol.lon[0], sol.h[0])
     v_n, v_e = sol.vel_n[:, 1], sol.vel_n[:, 0]
     floors = {"north": np.sqrt(1.5 * d_n ** 2 + 0.5 * d_e ** 2),
               "east": np.sqrt(0.5 * d_n ** 2 + 1.5 * d_e ** 2),

@@ -823,18 +823,12 @@ def _unknown_mounting(sol: Solution, meta) -> None:
     sigma). On the papers' simulated bundles the mounting is given (zero for paper 001's) and
     nothing changes. A mounting that is given but not zero is not applied either (the kernel
     integrates the speed along the forward axis); not covered here."""
-    from .meta_spec import UNKNOWN_MOUNTING_SIGMA_ARCMIN, floor_unknown_mounting
-    if isinstance(meta, dict) and meta.get("vehicle_mounting_arcmin") is not None:
-        return
-    floor_unknown_mounting(sol)
-    method = sol.info.get("method", "the USQUE family")
-    sol.info["warnings"] = [*(sol.info.get("warnings") or []), (
-        f"the vehicle's mounting is not given (meta.yaml vehicle_mounting_arcmin): {method} "
-        "takes the sensor's speed along the IMU's forward axis, so the mounting's pitch and "
-        "yaw go into the attitude it finds (comma2k19's 3.8 deg pitch: 405 arcmin in level); "
-        f"the reported attitude 1-sigma is kept at least {UNKNOWN_MOUNTING_SIGMA_ARCMIN:.0f} "
-        "arcmin, the unknown mounting's prior. Align the IMU with the vehicle, or use a method "
-        "with mounting states (od-kf, dr-kf, od-velocity-kf)")]
+    from .meta_spec import note_unknown_mounting
+    note_unknown_mounting(
+        sol, sol.info.get("method", "the USQUE family"), meta,
+        ignored="takes the sensor's speed along the IMU's forward axis",
+        advice="align the IMU with the vehicle, or use a method with mounting states (od-kf, "
+               "dr-kf, od-velocity-kf)")
 
 
 def _nis(flt) -> dict:

@@ -208,9 +208,8 @@ def config_with_spec(cfg: SinsDrConfig, meta, sensor: str) -> tuple:
     random walks (:func:`inmotion.align.meta_spec.markov_as_random_walk`). A sensor whose
     spec states no scale factor gets a 10000 ppm constant, as ``dr-kf``
     (:func:`inmotion.align.meta_spec.unknown_installation_priors`)."""
-    from ..align.meta_spec import (UNKNOWN_SCALE_SIGMA_PPM, constant_bias_imu_spec,
-                                   fields_not_set, sensor_spec_fields,
-                                   unknown_installation_priors, vehicle_constraint_noise)
+    from ..align.meta_spec import (constant_bias_imu_spec, fields_not_set, sensor_spec_fields,
+                                   unknown_dk_prior, vehicle_constraint_noise)
     matched = cfg.noise_preset == "matched"
     cfg, src = constant_bias_imu_spec(cfg, meta, matched)
     spec, origin = sensor_spec_fields(meta, sensor) if matched else ({}, "")
@@ -223,8 +222,7 @@ def config_with_spec(cfg: SinsDrConfig, meta, sensor: str) -> tuple:
     upd, s1 = fields_not_set(cfg, ("velocity_noise_m_s", "speed_noise_m_s", "dk_sigma_ppm",
                                    "dk_tau_s"), spec, origin)
     if matched:                    # a speed whose scale nobody stated: dr-kf's rule
-        u1, s1u = unknown_installation_priors(
-            cfg, meta, {sensor: {"dk_sigma_ppm": UNKNOWN_SCALE_SIGMA_PPM, "dk_tau_s": float("inf")}})
+        u1, s1u = unknown_dk_prior(cfg, meta, sensor)
         upd.update(u1)
         s1.update(s1u)
     cv = vehicle_constraint_noise(meta, 1.0 / cfg.measurement_rate_hz) if matched else None
@@ -437,9 +435,6 @@ def run_sins_dr(bundle: Bundle, config: SinsDrConfig | dict | None = None,
                           progress=progress, select=select, output_times=output_times)
     sol = _solution(filt, out, cfg, name, time.perf_counter() - t0)
     sol.info["config_source"] = cfg_source
-    from ..align.meta_spec import floor_unknown_mounting, unknown_mounting_warning
-    w = unknown_mounting_warning("sins-dr", bundle.meta, cfg.mounting_arcmin)
-    if w is not None:
-        sol.info["warnings"] = [*(sol.info.get("warnings") or []), w]
-        floor_unknown_mounting(sol)
+    from ..align.meta_spec import note_unknown_mounting
+    note_unknown_mounting(sol, "sins-dr", bundle.meta, cfg.mounting_arcmin)
     return sol
