@@ -64,3 +64,31 @@ def test_road_vehicle_is_a_fresh_copy_marked_assumed():
     a["constraint_violation"]["lateral_sigma_m_s"] = 1.0
     assert ROAD_VEHICLE["constraint_violation"]["lateral_sigma_m_s"] == 0.06
     assert a["source"] == "assumed"
+
+
+def test_sins_dr_takes_the_vehicle_motion_and_the_accelerometer_level_from_meta():
+    """Session 20: the DR takes the vehicle's lateral and vertical velocity as zero, so its
+    position walks with the constraint violation, ``2 sigma^2 tau`` [m^2/s] (the larger of the
+    two axes: the engine's DR walk is isotropic); and a start from an alignment of a phone's
+    accelerometer (10000 ug) is level to ``b / g`` = 34.4 arcmin, not the navigation-grade 1
+    arcmin. Neither applies with ``noise_preset: paper`` or when the user set the field."""
+    from inmotion.navigate.sins_dr import SinsDrConfig
+    from inmotion.navigate.sins_dr import config_with_spec as sins_dr_with_spec
+    meta = {"vehicle": road_vehicle(), "imu": {"accel": {"bias_ug": 10000.0},
+                                               "source": "assumed"}}
+    cv = ROAD_VEHICLE["constraint_violation"]
+    want = 2.0 * max(cv["lateral_sigma_m_s"] ** 2 * cv["lateral_tau_s"],
+                     cv["vertical_sigma_m_s"] ** 2 * cv["vertical_tau_s"])
+    cfg, src = sins_dr_with_spec(SinsDrConfig(), meta, "odometer")
+    assert np.isclose(cfg.dr_violation_rw_m2_s, want) and np.isclose(want, 0.0144)
+    assert src["dr_violation_rw_m2_s"] == "meta.vehicle.constraint_violation"
+    assert cfg.accel_bias_ug == 10000.0
+    assert np.isclose(cfg.init_tilt_sigma_arcmin, np.degrees(np.arctan(0.01)) * 60.0)
+    assert src["init_tilt_sigma_arcmin"].startswith("accel_bias_ug / g")
+    paper, _ = sins_dr_with_spec(SinsDrConfig(noise_preset="paper"), meta, "odometer")
+    assert paper.dr_violation_rw_m2_s == 0.0 and paper.init_tilt_sigma_arcmin == 1.0
+    own, src = sins_dr_with_spec(SinsDrConfig(init_tilt_sigma_arcmin=3.0), meta, "odometer")
+    assert own.init_tilt_sigma_arcmin == 3.0 and src["init_tilt_sigma_arcmin"] == "config"
+    fine, _ = sins_dr_with_spec(SinsDrConfig(), {"imu": {"accel": {"bias_ug": 100.0},
+                                                         "source": "documented"}}, "odometer")
+    assert fine.init_tilt_sigma_arcmin == 1.0          # 0.34 arcmin: the default stays

@@ -355,10 +355,16 @@ def _fill_sins_dr_velocity(xs, xd, aux, acc, data, p, offs, z, H, r):
     C_D = dcm_of_q(xd[K.Q0:K.Q3 + 1])
     C_bn = C_D.T
     V = em.skew(v)
-    # dv_D on the mounting angles (eq. 11), formed only with a mount block (sins-dr has none):
-    # a matrix product is a BLAS call in numba, whose first use imports scipy.linalg (0.17 s
-    # of a command-line run ahead of time, issue 13); without the block VM is never read
-    VC = V @ C_D if offs[MOUNT] >= 0 else V
+    # dv_D on the mounting angles (eq. 11), formed only with a mount block (sins-dr's where
+    # the mounting is not given), column by column, [v x] C_D = [v x C_D[:, j]]: a matrix
+    # product is a BLAS call in numba, whose first use imports scipy.linalg (0.17 s of a
+    # command-line run ahead of time, issue 13); without the block VC is never read
+    VC = V
+    if offs[MOUNT] >= 0:
+        VC = np.empty((3, 3))
+        for j in range(3):
+            c = K.cross(v, C_D[:, j])
+            VC[0, j], VC[1, j], VC[2, j] = c[0], c[1], c[2]
     body_velocity_rows(z, H, r, 0, C_bn, xs[K.VE:K.VU + 1] - xd[K.VE:K.VU + 1], p,
                        offs[DV], offs[PHI_D], V, offs[DK], v, offs[MOUNT], VC)
     return 3
