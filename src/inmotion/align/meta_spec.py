@@ -429,7 +429,8 @@ MOUNTING_ADVICE = ("give the mounting (meta.yaml or the configuration), or estim
 def unknown_mounting_warning(method: str, meta, configured=None,
                              mounting_from_meta: bool = True, ignored: str = MOUNTING_IGNORED,
                              advice: str = MOUNTING_ADVICE) -> "str | None":
-    """The warning of a method without mounting states (``nhc-kf``, ``sins-dr``) run where the
+    """The warning of a method without mounting states (``nhc-kf``; ``sins-dr`` with
+    ``estimate_mounting: false``, whose default adds them there since session 20) run where the
     IMU's mounting in the vehicle is given neither in the configuration (``configured``, None
     when not set) nor in ``meta.yaml`` (``vehicle_mounting_arcmin``, read with
     ``mounting_from_meta``): it then takes the IMU's axes as the vehicle's, so a mounting of a

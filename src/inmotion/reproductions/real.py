@@ -1402,12 +1402,12 @@ def _honesty_lines(rows) -> list:
                     "given; the USQUE family and fine-mux / adaptive warn that the phone "
                     "cannot find the heading (and the USQUE family that the mounting is not "
                     "given), and their sigma is floored accordingly. sins-dr (paper 002's "
-                    "navigator, no mounting states) warns too, but is not honest here: its DR "
-                    "climbs with the phone's 3.8 deg pitch, and 50 s in its heading leaves by "
-                    "about 20 deg within 5 s while its position NIS stays below 1; its "
-                    "attitude floor does not cover that, nor its position (with the "
-                    "reference's mounting given: 31 m at a 36 m sigma, East tilt 4x). Not "
-                    "fixed.", ""]
+                    "navigator) estimates the mounting where it is not given (paper 000 eq. "
+                    "11's block; paper 002 assumes it calibrated), its DR position walks with "
+                    "the vehicle's lateral and vertical motion, and its start is level to the "
+                    "accelerometer bias over g (session 20). Before: paper 002's 22 states, "
+                    "its DR climbing with the phone's 3.8 deg pitch, heading 1309 arcmin off at "
+                    "a 300 arcmin floor and 192 m off at 24 m (8.1x).", ""]
 
 
 def report_markdown(results: dict, rows: list) -> str:
