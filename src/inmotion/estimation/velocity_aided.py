@@ -43,6 +43,13 @@ __all__ = ["StopUpdateFields", "imu_point_speed", "check_stops", "dr_gyro_rows",
 #: the measurement groups, in the order they are applied within an epoch
 GROUPS = ("attitude", "velocity", "sensor_velocity", "nhc", "position", "height",
           "zero_velocity")
+#: the groups whose sample reads the velocity sensor: the sensor's speed
+#: (``sensor_velocity``), the DR's velocity and position (``velocity``, ``position``; the
+#: DR's distance across a sensor gap is interpolated, so a sample there would be made up).
+#: They are skipped at epochs inside a gap or outside the sensor's span (issue 15, session
+#: 20: on the PSINS MEMS log with its pseudo-odometer cut for 46 s, sins-dr's samples in the
+#: gap took it 1519 arcmin off in heading at a 25 arcmin sigma)
+READS_SPEED = ("velocity", "sensor_velocity", "position")
 #: rows per group
 GROUP_SIZES = {"attitude": 3, "velocity": 3, "sensor_velocity": 3, "nhc": 2, "position": 3,
                "height": 1, "zero_velocity": 3}
@@ -286,6 +293,9 @@ class VelocityAidedRun:
         #: sensor gaps (distance interpolated across), as :func:`dead_reckon` counts them
         self.rows_without_speed = 0
         self.rows_in_speed_gaps = 0
+        #: measurement epochs whose speed-reading groups (:data:`READS_SPEED`) were skipped,
+        #: the epoch's interval lying in a sensor gap or outside the sensor's span
+        self.samples_skipped_blind = 0
 
     def run(self, t, dtheta, dvel, speed: SpeedData, h_baro=None, sensor="speed",
             progress=None, dtheta_dr=None) -> dict:
@@ -388,6 +398,9 @@ class VelocityAidedRun:
             t_meas = tc[rows]
             hb = (h_baro(t_meas) if h_baro is not None and self.use["height"]
                   else np.full(len(rows), np.nan))
+            # no sensor sample behind the speed there: the rows that read it are skipped
+            blind = in_gap[rows] | uncovered[rows]
+            self.samples_skipped_blind += int(blind.sum())
             for g in groups:
                 if g == "zero_velocity":
                     inside = np.any((t_meas[:, None] >= self.stops_s[:, 0])
@@ -398,6 +411,12 @@ class VelocityAidedRun:
                 data = (imu_point_speed(v[rows], dth[rows], np.diff(edges)[rows],
                                         self.forward_b, self.lever_arm_b)
                         if g == "sensor_velocity" else hb if g == "height" else None)
+                if g in READS_SPEED and blind.any():
+                    if blind.all():
+                        continue
+                    f.add_measurement(g, t_meas[~blind],
+                                      None if data is None else data[~blind])
+                    continue
                 f.add_measurement(g, t_meas, data)
             d_dr = block[3] if len(block) > 3 else None
             o = f.add_imu(tc, dth, dvl, ds=ds, speed=v, dtheta_dr=d_dr, flush=b == n_rows)

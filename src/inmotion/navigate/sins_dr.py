@@ -445,7 +445,8 @@ def _solution(filt: VelocityAidedRun, out: dict, cfg: SinsDrConfig, sensor: str,
             "measurements": filt.counts(), "nis": filt.filter.nis_summary(),
             "timing": {"run_s": wall},
             "rows_without_speed": filt.rows_without_speed,
-            "rows_in_speed_gaps": filt.rows_in_speed_gaps, "smoothed": bool(cfg.smooth)}
+            "rows_in_speed_gaps": filt.rows_in_speed_gaps,
+            "samples_skipped_blind": filt.samples_skipped_blind, "smoothed": bool(cfg.smooth)}
     states = lay.as_dict(out["states"])
     units = lay.unit_map(position_units(filt.init.lat, filt.init.h))
     for name in ("mount_x", "mount_y", "mount_z"):      # estimated where not given
@@ -492,7 +493,8 @@ def run_sins_dr(bundle: Bundle, config: SinsDrConfig | dict | None = None,
     counts and mean NIS per degree of freedom, timing, and the IMU rows the velocity sensor
     did not cover (``rows_without_speed``: the DR holds its position there, so a log whose
     sensor starts late or stops early should be cut to the sensor's span with ``--start`` /
-    ``--end``) or covered across a gap (``rows_in_speed_gaps``).
+    ``--end``) or covered across a gap (``rows_in_speed_gaps``; the measurement epochs there
+    apply no sample that reads the speed, ``samples_skipped_blind``).
     """
     if init is None:
         raise BadInput("method 'sins-dr' needs an initial state with attitude (--init truth, "
