@@ -301,3 +301,26 @@ def test_real_mems_no_method_claims_a_sigma_far_below_its_error():
         r = rows[name]
         assert any("outside its envelope" in w for w in r["warnings"]), r["warnings"]
         assert r["level_err_arcmin"] < coarse_level
+
+
+@needs_mems
+def test_real_mems_nhc_kf_without_a_mounting_covers_its_track():
+    """The one Kalman method a user can run on the MEMS log as imported (no speed sensor):
+    ``nhc-kf`` with its defaults from the reference. The MEMS sits about 4.8 deg off the
+    direction of travel (the reference velocity in its axes), which ``meta.yaml`` does not
+    give, so the NHC holds the velocity along the wrong axis and the track turns with it.
+    Before session 20 the attitude sigma was floored but not the track: 216 m off at a 50 m
+    horizontal sigma (4.4x); :func:`inmotion.align.meta_spec.floor_unknown_mounting` now
+    keeps position and velocity at what the unknown mounting leaves (1.9x)."""
+    from inmotion.core.metrics import error_series
+    from inmotion.reproductions.real import _init_from_truth
+    b = import_log("psins", MEMS)
+    run, Config = registry.get("nhc-kf").load()
+    sol = run(b, Config(), _init_from_truth(b, b.imu.t[0]))   # as reproduce real's tables
+    assert any("mounting is not given" in w for w in sol.info["warnings"])
+    e = error_series(sol, b.truth).iloc[-1]
+    sig_h = float(np.hypot(sol.sigma["north"][-1], sol.sigma["east"][-1]))
+    assert e.horizontal_m > 100.0                       # the track did turn
+    assert e.horizontal_m < 3.0 * sig_h, (e.horizontal_m, sig_h)
+    for k in "ENU":
+        assert abs(e[f"phi_{k}_arcmin"]) < 3.0 * np.degrees(sol.sigma[f"phi_{k}"][-1]) * 60.0

@@ -92,3 +92,31 @@ def test_sins_dr_takes_the_vehicle_motion_and_the_accelerometer_level_from_meta(
     fine, _ = sins_dr_with_spec(SinsDrConfig(), {"imu": {"accel": {"bias_ug": 100.0},
                                                          "source": "documented"}}, "odometer")
     assert fine.init_tilt_sigma_arcmin == 1.0          # 0.34 arcmin: the default stays
+
+
+def test_the_unknown_mounting_floor_turns_the_track_by_its_prior():
+    """``floor_unknown_mounting``: a track run along the IMU's axis while the mounting is
+    unknown to ``m`` turns by up to ``m``: north sigma ``>= m |d_E|``, east ``>= m |d_N|``,
+    velocity likewise, height ``>= m`` times the path; a tighter filter sigma is raised, a
+    wider one kept. Checked on a straight 1 km drive to the north-east at 10 m/s."""
+    from inmotion.core import earth
+    from inmotion.core.solution import Solution
+    t = np.arange(0.0, 101.0)
+    lat0, lon0 = np.radians(34.0), np.radians(108.0)
+    r_m, r_n = earth.radii(lat0)
+    v = 10.0 / np.sqrt(2.0)
+    lat = lat0 + v * t / r_m
+    lon = lon0 + v * t / (r_n * np.cos(lat0))
+    vel = np.column_stack([np.full_like(t, v), np.full_like(t, v), np.zeros_like(t)])
+    small, big = np.full_like(t, 0.1), np.full_like(t, 1e4)
+    sol = Solution.from_arrays(t, np.column_stack([lat, lon, np.zeros_like(t)]), vel,
+                               np.tile([1.0, 0, 0, 0], (len(t), 1)),
+                               sigma={"north": small, "east": big, "vN": small, "h": small,
+                                      "phi_U": np.full_like(t, 0.01)})
+    meta_spec.floor_unknown_mounting(sol)
+    m = np.radians(meta_spec.UNKNOWN_MOUNTING_SIGMA_ARCMIN / 60.0)
+    assert np.isclose(sol.sigma["north"][-1], m * v * 100.0, rtol=1e-3)
+    assert np.all(sol.sigma["east"] == 1e4)
+    assert np.allclose(sol.sigma["vN"][1:], m * v)
+    assert np.isclose(sol.sigma["h"][-1], m * 1000.0, rtol=1e-9)
+    assert np.all(sol.sigma["phi_U"] == m)

@@ -456,15 +456,36 @@ def unknown_mounting_warning(method: str, meta, configured=None,
 
 
 def floor_unknown_mounting(sol, floor_arcmin: float = UNKNOWN_MOUNTING_SIGMA_ARCMIN) -> None:
-    """Keep the reported attitude 1-sigma of ``sol`` (``phi_E``, ``phi_N``, ``phi_U``) at least
-    the unknown mounting's prior: for a method without mounting states run where the
+    """Keep the reported 1-sigma of ``sol`` at least what the unknown mounting's prior
+    ``m`` (``floor_arcmin``) leaves: for a method without mounting states run where the
     mounting is not given (:func:`unknown_mounting_warning` fired). Its vehicle constraint or
     forward speed is taken in the IMU's axes, so the mounting's pitch and yaw go one to one
-    into the level and heading it finds, and nothing in its filter sees them (issue 15,
-    session 19: comma2k19, the phone pitched 3.8 deg, ``nhc-kf`` 271 arcmin off in the East
-    tilt at a 31 arcmin sigma, ``usque`` 405 at 34)."""
-    floor = np.radians(floor_arcmin / 60.0)
-    for k in ("phi_E", "phi_N", "phi_U"):
+    into what it finds, and nothing in its filter sees them:
+
+    * attitude (``phi_E``, ``phi_N``, ``phi_U``): ``m`` (session 19: comma2k19, the phone
+      pitched 3.8 deg, ``nhc-kf`` 271 arcmin off in the East tilt at a 31 arcmin sigma,
+      ``usque`` 405 at 34);
+    * velocity and position (session 20): the velocity is held along the IMU's forward axis,
+      a yaw mounting ``gamma`` off the direction of travel, so the horizontal velocity and the
+      track turn by ``gamma`` (first order: the error is ``gamma`` times the velocity, and the
+      displacement from the start ``d = [d_N, d_E]``, turned by 90 deg): ``vN >= m |v_E|``,
+      ``vE >= m |v_N|``, ``north >= m |d_E|``, ``east >= m |d_N|``; the pitch mounting tilts
+      the velocity out of the level the same way, ``vU >= m |v|`` and ``h >= m s`` (``s``
+      the path length). Measured on the PSINS MEMS log (the MEMS about 4.8 deg off the
+      direction of travel, ``nhc-kf`` with its defaults from the reference): 216 m off at a
+      50 m sigma (4.4x) before."""
+    m = np.radians(floor_arcmin / 60.0)
+    floors = {k: m for k in ("phi_E", "phi_N", "phi_U")}
+    if len(sol.t):
+        d_n, d_e = earth.local_ne_offsets(sol.lat, sol.lon, sol.lat[0], sol.lon[0], sol.h[0])
+        v = np.asarray(sol.vel_n, dtype=float)          # [vE, vN, vU]
+        speed = np.linalg.norm(v, axis=1)
+        path = np.concatenate([[0.0], np.cumsum(0.5 * (speed[1:] + speed[:-1])
+                                                * np.diff(sol.t))])
+        floors.update({"vN": m * np.abs(v[:, 0]), "vE": m * np.abs(v[:, 1]),
+                       "vU": m * speed, "north": m * np.abs(d_e), "east": m * np.abs(d_n),
+                       "h": m * path})
+    for k, floor in floors.items():
         if k in sol.sigma:
             sol.sigma[k] = np.maximum(sol.sigma[k], floor)
 
