@@ -324,3 +324,16 @@ def test_real_mems_nhc_kf_without_a_mounting_covers_its_track():
     assert e.horizontal_m < 3.0 * sig_h, (e.horizontal_m, sig_h)
     for k in "ENU":
         assert abs(e[f"phi_{k}_arcmin"]) < 3.0 * np.degrees(sol.sigma[f"phi_{k}"][-1]) * 60.0
+
+
+@needs_mems
+def test_real_mems_rolling_window_matches_the_data_readme():
+    """The README: the MEMS platform rolls by about +-32 deg between 33 and 73 s; the window
+    the reproduction cuts (``real.rolling_window``, roll more than 2 deg off its start, 1 s
+    padding) spans it."""
+    from inmotion.reproductions.real import rolling_window
+    b = import_log("psins", MEMS)
+    t0, t1 = (w - b.imu.t[0] for w in rolling_window(b))
+    assert 28.0 < t0 < 34.0 and 72.0 < t1 < 79.0, (t0, t1)
+    roll = np.degrees(b.truth.euler[:, 1])
+    assert roll.max() - roll.min() > 60.0

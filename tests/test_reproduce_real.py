@@ -56,6 +56,20 @@ def test_still_gyro_bias_is_mean_rate_minus_earth_rate():
     np.testing.assert_allclose(rr.still_gyro_bias(b, b.imu.t[-1]), bias, atol=1e-15)
 
 
+def test_rolling_window_is_where_the_roll_leaves_its_start():
+    """``rolling_window``: the span where the reference roll is more than 2 deg off its first
+    value, padded by 1 s; None on a drive that does not roll."""
+    b = synthetic_bundle(np.zeros(3), 1.0, n=200)          # 0.05 s steps, roll -1 deg
+    assert rr.rolling_window(b) is None
+    t = b.truth.t
+    b.truth.euler[:, 1] += np.where((t > 3.0) & (t < 6.0), 30 * D * np.sin(np.pi * (t - 3) / 3),
+                                    0.0)
+    roll = b.truth.euler[:, 1] / D + 1.0                    # away from the start value
+    away = np.flatnonzero(np.abs(roll) > 2.0)
+    assert rr.rolling_window(b) == pytest.approx((t[away[0]] - 1.0, t[away[-1]] + 1.0))
+    assert 3.0 - 1.0 < rr.rolling_window(b)[0] < 3.1 - 1.0 + 0.05
+
+
 def test_gyro_minus_reference_recovers_a_bias_per_window():
     """Constant attitude, gyro = Earth rate in b + a bias that steps after 1 s (row k holds the
     interval ending at t_k): the window means are the bias of each window (the transport rate
