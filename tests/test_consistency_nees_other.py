@@ -128,10 +128,12 @@ def test_dr_kf_on_a_phone_imu_with_a_prior_that_covers_its_mounting(phone_drive)
     the paper's 20 arcmin, and the East tilt ended -28 arcmin off on average (10 runs, seeds
     100-109: 7.02). With the prior a bundle without a mounting gets
     (``meta_spec.UNKNOWN_MOUNTING_SIGMA_ARCMIN``, as the real comma2k19 does) it is in band
-    (``benchmarks/nees_phone.py``: 20 runs 2.65; od-velocity-kf 2.12)."""
-    from inmotion.align.meta_spec import UNKNOWN_MOUNTING_SIGMA_ARCMIN
-    wide = {"mount_sigma_arcmin": UNKNOWN_MOUNTING_SIGMA_ARCMIN}
-    m, (lo, hi), v = final_nees("dr-kf", wide, phone_drive, 10, (0.0, 0.0, 0.0))
-    assert lo <= m <= hi, (m, (lo, hi), v)
+    (``benchmarks/nees_phone.py``: 20 runs 2.65; od-velocity-kf 2.12). Since session 20 the
+    default prior covers the mounting ``meta.yaml`` gives and dr-kf estimates from zero
+    (``meta_spec.unknown_installation_priors``: 228 arcmin here); the paper's 20 arcmin, set,
+    is still above the band."""
     m, (lo, hi), v = final_nees("dr-kf", {}, phone_drive, 10, (0.0, 0.0, 0.0))
+    assert lo <= m <= hi, (m, (lo, hi), v)
+    m, (lo, hi), v = final_nees("dr-kf", {"mount_sigma_arcmin": 20.0}, phone_drive, 10,
+                                (0.0, 0.0, 0.0))
     assert m > hi, (m, (lo, hi), v)

@@ -120,3 +120,30 @@ def test_the_unknown_mounting_floor_turns_the_track_by_its_prior():
     assert np.allclose(sol.sigma["vN"][1:], m * v)
     assert np.isclose(sol.sigma["h"][-1], m * 1000.0, rtol=1e-9)
     assert np.all(sol.sigma["phi_U"] == m)
+
+
+def test_a_given_mounting_the_filter_estimates_from_zero_sets_the_prior():
+    """dr-kf and od-velocity-kf estimate the whole mounting from zero (paper 000); where
+    meta.yaml gives one beyond their 20 arcmin default (a phone pitched 228 arcmin in the
+    car) the default prior covers its largest angle; within the default (paper 000's 3, 10,
+    5 arcmin) nothing changes; a filter that takes the given mounting as its nominal
+    (``mounting_from_meta``) keeps its default; the user's setting wins; a mounting that is
+    not three numbers is bad input."""
+    import pytest
+    from inmotion.errors import BadInput
+    cfg, src = dr_with_spec(DrKfConfig(), {"vehicle_mounting_arcmin": [228.0, 0.0, -48.0]},
+                            "odometer")
+    assert cfg.mount_sigma_arcmin == 228.0
+    assert src["mount_sigma_arcmin"].startswith("covers meta.yaml vehicle_mounting_arcmin")
+    cfg, src = dr_with_spec(DrKfConfig(), {"vehicle_mounting_arcmin": [3.0, 10.0, -5.0]},
+                            "odometer")
+    assert cfg.mount_sigma_arcmin == 20.0 and src["mount_sigma_arcmin"] == "default"
+    meta = {"vehicle_mounting_arcmin": [228.0, 0.0, -48.0]}
+    cfg, _ = aided_with_spec(AidedKfConfig(mounting_from_meta=True), meta, ("odometer",))
+    assert cfg.mount_sigma_arcmin == AidedKfConfig().mount_sigma_arcmin
+    cfg, _ = aided_with_spec(AidedKfConfig(), meta, ("odometer",))
+    assert cfg.mount_sigma_arcmin == 228.0
+    cfg, src = dr_with_spec(DrKfConfig(mount_sigma_arcmin=45.0), meta, "odometer")
+    assert cfg.mount_sigma_arcmin == 45.0 and src["mount_sigma_arcmin"] == "config"
+    with pytest.raises(BadInput, match="vehicle_mounting_arcmin"):
+        dr_with_spec(DrKfConfig(), {"vehicle_mounting_arcmin": [1.0, "x", 2.0]}, "odometer")

@@ -158,13 +158,15 @@ NOT_DONE = [
     "gyro scale-factor and axis errors that 32 deg swings expose (the heading of od-kf and "
     "dr-kf jumps by 2-3 deg within 10 s of the roll starting while its sigma falls), and "
     "meta.yaml cannot say when the IMU is not fixed",
-    "dr-kf and od-velocity-kf coasting without their speed sensor (NHC only): with the "
-    "pseudo-odometer left out for the 47 s of rolling, 14x and 37x (level); on the simulated "
-    "phone drive with the odometer out for 35 s (seeds 0-2) 7-11x, 420-760 m off, and once the "
-    "speed returns the 0.9999 gate rejects it (9 samples accepted in 60 s: the velocity error "
-    "had grown to 9 m/s at a 1.4 m/s sigma). sins-dr, whose DR bridges the gap, stays within 3 "
-    "sigma there (tests/test_sins_dr.py). Before session 20 the samples in a gap were made up "
-    "from the interpolated distance, which did not help either (the same phone runs 5-10x)",
+    "dr-kf and od-velocity-kf coasting without their speed sensor (NHC only) through the "
+    "PSINS MEMS platform's roll (pseudo-odometer left out for those 47 s): 14x and 37x in "
+    "level; the NHC rows, too, assume the IMU fixed in the vehicle. On the simulated phone "
+    "drive with the odometer out for 35 s (seeds 0-2, no roll) they end within 2.1-3.7x "
+    "(level; 10-23 m, within 1x in position) since session 20, when the default mounting prior "
+    "began to cover the mounting meta.yaml gives (228 arcmin there; before, the 20 arcmin "
+    "default: 7-11x and 420-760 m, and once the speed returned the 0.9999 gate rejected it); "
+    "the 3.7x is the tilt the first samples after the gap take the velocity error for. sins-dr, "
+    "whose DR bridges the gap, stays within 3 sigma there (tests/test_sins_dr.py)",
 ]
 OBSERVABILITY = {
     "level attitude (pitch, roll)": "observable from gravity: the specific force minus the "
