@@ -29,6 +29,12 @@ gets (``meta_spec.UNKNOWN_MOUNTING_SIGMA_ARCMIN``, what the real comma2k19 now g
 
 - ``od-velocity-kf,dr-kf 20 '{"mount_sigma_arcmin": 300}'``: 2.12, 2.65 (band 2.02-4.16).
 
+Session 20: the default prior of a filter that estimates the whole mounting from zero now
+covers the mounting ``meta.yaml`` gives (``meta_spec.unknown_installation_priors``: 228 arcmin
+here), so with the defaults:
+
+- ``od-velocity-kf,dr-kf 20``: 2.13, 2.67 (band 2.02-4.16; before, 3.19, 6.87).
+
 Position (``od-velocity-kf``, 20 runs):
 final horizontal error RMS 40.1 m at a median 26.3 m sigma without the walk, 17.5 m at 30.2 m
 with it.
