@@ -167,6 +167,14 @@ NOT_DONE = [
     "default: 7-11x and 420-760 m, and once the speed returned the 0.9999 gate rejected it); "
     "the 3.7x is the tilt the first samples after the gap take the velocity error for. sins-dr, "
     "whose DR bridges the gap, stays within 3 sigma there (tests/test_sins_dr.py)",
+    "EMS as imported (no IMU spec: the navigation-grade defaults, warned): nhc-kf with its "
+    "defaults from the reference ends 167 deg off in heading at a 5 deg (floored) sigma, 33x; "
+    "with an assumed 1000 deg/h spec 28 deg off, 5.5x. Its own heading sigma grows to 313 "
+    "arcmin by 20 s, beyond the small-angle model's range, and then falls to 20-56 arcmin "
+    "while the error grows to 1636: information the NHC rows do not carry (the estimate's "
+    "linearization, not the data). The importer writes no assumed spec (the dataset states "
+    "only 'gyro biases of hundreds of deg/h') and no method floors a heading that left its "
+    "linear range",
 ]
 OBSERVABILITY = {
     "level attitude (pitch, roll)": "observable from gravity: the specific force minus the "
