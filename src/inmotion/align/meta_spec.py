@@ -384,9 +384,9 @@ def unknown_installation_priors(cfg, meta, scale=None) -> tuple:
       ``mounting_from_meta``), at least its largest angle, so the prior covers what the
       filter must find (session 20: the simulated phone drive, the IMU pitched 228 arcmin,
       ran ``dr-kf`` and ``od-velocity-kf`` from the 20 arcmin default; across a 35 s speed
-      gap they ended 7-11 times their sigma, 420-760 m off; with the prior covering it, within
-      3.3x and 22 m; every shipped scenario's mounting is within the defaults, 15 arcmin at
-      most);
+      gap, seeds 0-2, they ended 12-21 times their sigma, 424-757 m off; with the prior
+      covering it, 2.6-3.7x and 10-23 m; every shipped scenario's mounting is within the
+      defaults, 15 arcmin at most);
     * ``scale``: ``{sensor: {field: value}}``, each sensor's scale-factor fields set to the
       values given when its spec ``meta['sensors'][sensor]`` states no scale factor
       (:data:`SCALE_SPEC_KEYS`; no spec at all counts as none).

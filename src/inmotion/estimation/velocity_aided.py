@@ -47,8 +47,9 @@ GROUPS = ("attitude", "velocity", "sensor_velocity", "nhc", "position", "height"
 #: (``sensor_velocity``), the DR's velocity and position (``velocity``, ``position``; the
 #: DR's distance across a sensor gap is interpolated, so a sample there would be made up).
 #: They are skipped at epochs inside a gap or outside the sensor's span (issue 15, session
-#: 20: on the PSINS MEMS log with its pseudo-odometer cut for 46 s, sins-dr's samples in the
-#: gap took it 1519 arcmin off in heading at a 25 arcmin sigma)
+#: 20: on the simulated phone drive with the odometer out for 35 s, seeds 0-2, sins-dr's
+#: samples in the gap left its level up to 35 times its sigma and 230 m off at 23 m; skipped,
+#: within 3 sigma, ``tests/test_sins_dr.py``)
 READS_SPEED = ("velocity", "sensor_velocity", "position")
 #: rows per group
 GROUP_SIZES = {"attitude": 3, "velocity": 3, "sensor_velocity": 3, "nhc": 2, "position": 3,

@@ -161,10 +161,10 @@ NOT_DONE = [
     "dr-kf and od-velocity-kf coasting without their speed sensor (NHC only) through the "
     "PSINS MEMS platform's roll (pseudo-odometer left out for those 47 s): 14x and 37x in "
     "level; the NHC rows, too, assume the IMU fixed in the vehicle. On the simulated phone "
-    "drive with the odometer out for 35 s (seeds 0-2, no roll) they end within 2.1-3.7x "
+    "drive with the odometer out for 35 s (seeds 0-2, no roll) they end within 2.6-3.7x "
     "(level; 10-23 m, within 1x in position) since session 20, when the default mounting prior "
     "began to cover the mounting meta.yaml gives (228 arcmin there; before, the 20 arcmin "
-    "default: 7-11x and 420-760 m, and once the speed returned the 0.9999 gate rejected it); "
+    "default: 12-21x and 424-757 m, and once the speed returned the 0.9999 gate rejected it); "
     "the 3.7x is the tilt the first samples after the gap take the velocity error for. sins-dr, "
     "whose DR bridges the gap, stays within 3 sigma there (tests/test_sins_dr.py)",
     "EMS as imported (no IMU spec: the navigation-grade defaults, warned): nhc-kf with its "
