@@ -8,12 +8,13 @@ started from the truth; seeds 100 onwards. The same statistic as the consistency
 mean over runs of the final ``phi^T P^-1 phi`` (3 degrees of freedom), against the chi-square
 band of that mean. Usage (from the repository root)::
 
-    PYTHONPATH=src:tests OPENBLAS_NUM_THREADS=1 python benchmarks/nees_speed_gap.py METHOD[,METHOD...] [RUNS] [GAP_START GAP_END] [--made-up-samples] [--config JSON]
+    PYTHONPATH=src:tests OPENBLAS_NUM_THREADS=1 python benchmarks/nees_speed_gap.py METHOD[,METHOD...] [RUNS] [GAP_START GAP_END] [--made-up-samples] [--config JSON] [--at T,T,...]
 
 ``RUNS`` default 20; gap default 5-40 s (the car speeds up and slows down inside);
 ``--made-up-samples`` applies the samples inside the gap as before session 20 (the speed
 interpolated across it; ``velocity_aided.READS_SPEED`` emptied); ``--config`` JSON added to
-every method's configuration. About 3 s per run and method.
+every method's configuration; ``--at`` also prints the NEES (and its East / North / up parts)
+at these times [s from the start]. About 3 s per run and method.
 
 Measured (session 20, 20 runs, seeds 100-119, gap 5-40 s; band 2.02-4.16):
 
@@ -23,6 +24,10 @@ Measured (session 20, 20 runs, seeds 100-119, gap 5-40 s; band 2.02-4.16):
   exactly 5 and 40 s also left out gave 7.97, 22.44, 21.20 (dr-kf's seed 103: 0.94 against
   13.43), so what the first samples after the gap do is part of what is open;
 - the same with no gap (``0 0``): 0.66, 2.40, 1.51;
+- when it goes wrong, ``sins-dr 20 --at 39.9,40.5,42,45,50,59``: 2.83 at the gap's end (in
+  band), 0.70 and 0.79 just after (the first position samples correct it), then 3.83 at 45 s
+  and 6.87 at 50 s, level and heading: the filter grows confident faster than right in the
+  seconds after a long coast (without the gap 0.68-0.76 throughout);
 - before session 20: ``sins-dr 20 --made-up-samples`` 1083.7; ``dr-kf,od-velocity-kf 20
   --made-up-samples --config '{"mount_sigma_arcmin": 20}'`` 82.0, 129.6.
 """
@@ -55,13 +60,21 @@ def cut(speed: SpeedData, t0: float, t1: float) -> SpeedData:
     return SpeedData(speed.t[keep], ds=np.concatenate([d[:1], np.diff(d)]))
 
 
-def final_nees(name: str, bundle: Bundle, config: dict) -> float:
+def nees_parts(name: str, bundle: Bundle, config: dict, at=()) -> np.ndarray:
+    """``(1 + len(at), 3)``: the normalized squared attitude error per axis (East, North, up)
+    at the end and at the times ``at`` [s from the bundle's first IMU row]."""
     run, Config = registry.get(name).load()
     sol = run(bundle, Config(**config), NavState.from_truth(bundle.truth))
-    e = error_series(sol, bundle.truth).iloc[-1]
-    phi = np.radians([e[f"phi_{k}_arcmin"] / 60.0 for k in "ENU"])
-    sig = np.array([sol.sigma[f"phi_{k}"][-1] for k in "ENU"])
-    return float(np.sum((phi / sig) ** 2))
+    err = error_series(sol, bundle.truth)
+    t_err = err.t.to_numpy()
+    rows = [len(err) - 1] + [int(np.argmin(np.abs(t_err - (bundle.imu.t[0] + a)))) for a in at]
+    out = []
+    for i in rows:
+        j = int(np.argmin(np.abs(sol.t - t_err[i])))
+        phi = np.radians([err[f"phi_{k}_arcmin"].iloc[i] / 60.0 for k in "ENU"])
+        sig = np.array([sol.sigma[f"phi_{k}"][j] for k in "ENU"])
+        out.append((phi / sig) ** 2)
+    return np.array(out)
 
 
 def main(argv):
@@ -69,6 +82,11 @@ def main(argv):
     if "--config" in argv:
         i = argv.index("--config")
         config = json.loads(argv[i + 1])
+        argv = argv[:i] + argv[i + 2:]
+    at = ()
+    if "--at" in argv:
+        i = argv.index("--at")
+        at = tuple(float(x) for x in argv[i + 1].split(","))
         argv = argv[:i] + argv[i + 2:]
     if "--made-up-samples" in argv:
         argv = [a for a in argv if a != "--made-up-samples"]
@@ -85,11 +103,17 @@ def main(argv):
         odo = cut(bun.odometer, t0 + a, t0 + b) if b > a else bun.odometer
         gapped = Bundle(bun.imu, bun.meta, odometer=odo, truth=bun.truth)
         for m in methods:
-            vals[m].append(final_nees(m, gapped, config))
+            vals[m].append(nees_parts(m, gapped, config, at))
     lo, hi = chi2.ppf(0.025, 3 * runs) / runs, chi2.ppf(0.975, 3 * runs) / runs
     for m, v in vals.items():
-        print(f"{m}: NEES {np.mean(v):.2f} (band {lo:.2f}-{hi:.2f}) over {runs} runs, gap "
-              f"{a:g}-{b:g} s; per run {np.round(v, 2).tolist()}", flush=True)
+        v = np.array(v)                               # runs x (1 + len(at)) x 3
+        final = v[:, 0].sum(axis=1)
+        print(f"{m}: NEES {final.mean():.2f} (band {lo:.2f}-{hi:.2f}) over {runs} runs, gap "
+              f"{a:g}-{b:g} s; per run {np.round(final, 2).tolist()}", flush=True)
+        for k, t in enumerate(at, start=1):
+            part = v[:, k].mean(axis=0)
+            print(f"  at {t:g} s: NEES {part.sum():.2f} (East / North / up "
+                  f"{' / '.join(f'{x:.2f}' for x in part)})", flush=True)
 
 
 if __name__ == "__main__":
