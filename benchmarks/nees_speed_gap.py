@@ -28,6 +28,10 @@ Measured (session 20, 20 runs, seeds 100-119, gap 5-40 s; band 2.02-4.16):
   band), 0.70 and 0.79 just after (the first position samples correct it), then 3.83 at 45 s
   and 6.87 at 50 s, level and heading: the filter grows confident faster than right in the
   seconds after a long coast (without the gap 0.68-0.76 throughout);
+- which gaps: ``sins-dr 20 11 24`` (13 s of cruise) 0.64, ``25 38`` (13 s over the slow-down
+  and the curve) 0.65, ``5 18`` 0.73, ``10 45`` (35 s, ending in cruise) 1.83: only the long
+  coast that ends as the car speeds up again (5-40 s; the speed-up runs 38.5-45 s) is
+  overconfident;
 - before session 20: ``sins-dr 20 --made-up-samples`` 1083.7; ``dr-kf,od-velocity-kf 20
   --made-up-samples --config '{"mount_sigma_arcmin": 20}'`` 82.0, 129.6.
 """
