@@ -3,7 +3,7 @@
 The simulated phone drive of ``benchmarks/nees_phone.py``
 (``reproductions.real.comma_like_scenario``, the importer's assumed phone spec in
 ``meta.yaml``), its odometer cut from ``GAP_START`` to ``GAP_END`` seconds after the start (the
-first sample after the gap carries the distance over it), each method with its defaults,
+first sample after the gap carries the distance over it: ``SpeedData.dropout``), each method with its defaults,
 started from the truth; seeds 100 onwards. The same statistic as the consistency tests: the
 mean over runs of the final ``phi^T P^-1 phi`` (3 degrees of freedom), against the chi-square
 band of that mean. Usage (from the repository root)::
@@ -44,7 +44,7 @@ import numpy as np
 from scipy.stats import chi2
 
 from inmotion import registry
-from inmotion.core.bundle import Bundle, SpeedData
+from inmotion.core.bundle import Bundle
 from inmotion.core.metrics import error_series
 from inmotion.core.solution import NavState
 from inmotion.estimation import velocity_aided
@@ -52,16 +52,6 @@ from inmotion.io.importers.comma2k19 import PHONE_IMU_SPEC
 from inmotion.reproductions.real import comma_like_scenario
 from inmotion.sim.scenario import load_scenario
 from inmotion.sim.simulate import simulate
-
-
-def cut(speed: SpeedData, t0: float, t1: float) -> SpeedData:
-    """``speed`` without its samples strictly inside ``(t0, t1)``; a distance sensor's first
-    sample after the gap carries the distance over it."""
-    keep = (speed.t <= t0) | (speed.t >= t1)
-    if speed.ds is None:
-        return SpeedData(speed.t[keep], v=speed.v[keep])
-    d = np.cumsum(speed.ds)[keep]
-    return SpeedData(speed.t[keep], ds=np.concatenate([d[:1], np.diff(d)]))
 
 
 def nees_parts(name: str, bundle: Bundle, config: dict, at=()) -> np.ndarray:
@@ -104,7 +94,7 @@ def main(argv):
         bun = simulate(load_scenario(comma_like_scenario()), np.random.default_rng(seed))
         bun.meta = {**bun.meta, "imu": {"rate_hz": 100.0, **PHONE_IMU_SPEC}}
         t0 = float(bun.imu.t[0])
-        odo = cut(bun.odometer, t0 + a, t0 + b) if b > a else bun.odometer
+        odo = bun.odometer.dropout(t0 + a, t0 + b) if b > a else bun.odometer
         gapped = Bundle(bun.imu, bun.meta, odometer=odo, truth=bun.truth)
         for m in methods:
             vals[m].append(nees_parts(m, gapped, config, at))

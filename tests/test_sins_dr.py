@@ -516,16 +516,6 @@ def test_sins_dr_estimates_a_mounting_nobody_gave(seed):
     assert _final_ratios(paper, b.truth).max() > 3.0
 
 
-def _cut(speed: SpeedData, t0: float, t1: float) -> SpeedData:
-    """``speed`` without its samples in ``(t0, t1)``: a sensor that drops out (the first
-    sample after the gap carries the distance over it)."""
-    keep = (speed.t <= t0) | (speed.t >= t1)
-    if speed.ds is None:
-        return SpeedData(speed.t[keep], v=speed.v[keep])
-    d = np.cumsum(speed.ds)[keep]
-    return SpeedData(speed.t[keep], ds=np.concatenate([d[:1], np.diff(d)]))
-
-
 @pytest.mark.parametrize("seed", [0, 1, 2])
 def test_sins_dr_across_a_speed_gap_reads_no_made_up_speed(seed):
     """Across a gap in the speed sensor the DR's distance is interpolated; the samples that
@@ -542,7 +532,21 @@ def test_sins_dr_across_a_speed_gap_reads_no_made_up_speed(seed):
     b = simulate(load_scenario(real.comma_like_scenario()), np.random.default_rng(seed))
     b.meta = {**b.meta, "imu": {"rate_hz": 100.0, **PHONE_IMU_SPEC}}
     t0 = float(b.imu.t[0])
-    cut = type(b)(b.imu, b.meta, odometer=_cut(b.odometer, t0 + 5.0, t0 + 40.0), truth=b.truth)
+    cut = type(b)(b.imu, b.meta, odometer=b.odometer.dropout(t0 + 5.0, t0 + 40.0), truth=b.truth)
     sol = run_sins_dr(cut, {}, NavState.from_truth(b.truth))
     assert sol.info["rows_in_speed_gaps"] > 3000 and sol.info["samples_skipped_blind"] > 300
     assert np.all(_final_ratios(sol, b.truth) < 3.0), _final_ratios(sol, b.truth)
+
+
+def test_speed_dropout_keeps_the_distance_and_removes_the_samples():
+    """``SpeedData.dropout``: the samples strictly inside the window go; a distance sensor's
+    total is kept (the first sample after carries the gap's distance), a speed sensor's
+    values stay as they were."""
+    t = np.arange(0.0, 10.01, 0.5)
+    ds = np.full(len(t), 0.25)
+    out = SpeedData(t, ds=ds).dropout(2.0, 5.0)
+    assert np.array_equal(out.t, t[(t <= 2.0) | (t >= 5.0)])
+    assert out.ds.sum() == pytest.approx(ds.sum())
+    assert out.ds[out.t == 5.0][0] == pytest.approx(0.25 * 6)       # 2.5 .. 5.0 s
+    v = SpeedData(t, v=t * 2.0).dropout(2.0, 5.0)
+    assert np.array_equal(v.v, 2.0 * v.t) and v.ds is None

@@ -523,8 +523,8 @@ def floor_unknown_mounting(sol, floor_arcmin: float = UNKNOWN_MOUNTING_SIGMA_ARC
 def note_unknown_mounting(sol, method: str, meta, configured=None,
                           mounting_from_meta: bool = True, **wording) -> None:
     """Where the mounting is not given (:func:`unknown_mounting_warning`, ``wording`` its
-    ``ignored`` / ``advice``): the warning added to ``sol.info['warnings']`` and the attitude
-    sigma floored (:func:`floor_unknown_mounting`). The one rule of ``nhc-kf``, ``sins-dr``
+    ``ignored`` / ``advice``): the warning added to ``sol.info['warnings']`` and the sigma
+    floored (:func:`floor_unknown_mounting`: attitude, velocity, position). The one rule of ``nhc-kf``, ``sins-dr``
     and the USQUE family."""
     w = unknown_mounting_warning(method, meta, configured, mounting_from_meta, **wording)
     if w is not None:

@@ -91,6 +91,18 @@ class SpeedData:
         return SpeedData(self.t[m], None if self.v is None else self.v[m],
                          None if self.ds is None else self.ds[m])
 
+    def dropout(self, start: float, end: float) -> "SpeedData":
+        """The sensor without its samples strictly between ``start`` and ``end`` [s]: a
+        dropout, as a gap the methods see (``velocity_aided.READS_SPEED``). Speeds are kept
+        as they are; for distance increments the first sample after the gap carries the
+        distance over it (a pulse counter keeps counting)."""
+        keep = (self.t <= start) | (self.t >= end)
+        if self.ds is None:
+            return SpeedData(self.t[keep], v=self.v[keep])
+        d = np.cumsum(self.ds)[keep]
+        return SpeedData(self.t[keep], None if self.v is None else self.v[keep],
+                         np.concatenate([d[:1], np.diff(d)]))
+
 
 @dataclass
 class BaroData:

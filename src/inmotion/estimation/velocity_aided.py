@@ -415,10 +415,10 @@ class VelocityAidedRun:
                 if g in READS_SPEED and blind.any():
                     if blind.all():
                         continue
-                    f.add_measurement(g, t_meas[~blind],
-                                      None if data is None else data[~blind])
-                    continue
-                f.add_measurement(g, t_meas, data)
+                    t_g, data = t_meas[~blind], None if data is None else data[~blind]
+                else:
+                    t_g = t_meas
+                f.add_measurement(g, t_g, data)
             d_dr = block[3] if len(block) > 3 else None
             o = f.add_imu(tc, dth, dvl, ds=ds, speed=v, dtheta_dr=d_dr, flush=b == n_rows)
             if rec is not None:

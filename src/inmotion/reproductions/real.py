@@ -975,9 +975,8 @@ def psins_mems_defaults(bundle: Bundle) -> dict:
     odo = rp.mems_pseudo_odometer(bundle)
     win = rolling_window(bundle)
     out = {"window_s": None if win is None else [w - float(bundle.imu.t[0]) for w in win]}
-    keep = np.ones(len(odo.t), bool) if win is None else (odo.t <= win[0]) | (odo.t >= win[1])
     for label, o in (("throughout", odo),
-                     ("out while rolling", SpeedData(odo.t[keep], v=odo.v[keep]))):
+                     ("out while rolling", odo if win is None else odo.dropout(*win))):
         out[label] = defaults_honesty(Bundle(bundle.imu, dict(bundle.meta), odometer=o,
                                              truth=bundle.truth), MEMS_DEFAULT_METHODS)
     return out
