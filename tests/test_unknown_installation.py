@@ -145,5 +145,10 @@ def test_a_given_mounting_the_filter_estimates_from_zero_sets_the_prior():
     assert cfg.mount_sigma_arcmin == 228.0
     cfg, src = dr_with_spec(DrKfConfig(mount_sigma_arcmin=45.0), meta, "odometer")
     assert cfg.mount_sigma_arcmin == 45.0 and src["mount_sigma_arcmin"] == "config"
-    with pytest.raises(BadInput, match="vehicle_mounting_arcmin"):
+    with pytest.raises(BadInput, match="vehicle_mounting_arcmin: three numbers"):
         dr_with_spec(DrKfConfig(), {"vehicle_mounting_arcmin": [1.0, "x", 2.0]}, "odometer")
+    with pytest.raises(BadInput, match="vehicle_mounting_arcmin: three numbers"):
+        dr_with_spec(DrKfConfig(), {"vehicle_mounting_arcmin": [1.0, 2.0]}, "odometer")
+    with pytest.raises(BadInput, match="vehicle_mounting_arcmin: not finite"):
+        dr_with_spec(DrKfConfig(), {"vehicle_mounting_arcmin": [1.0, float("nan"), 2.0]},
+                     "odometer")
