@@ -43,17 +43,20 @@ def traj1():
     return simulate(load_scenario(find_scenario("paper000_traj1")), np.random.default_rng(5))
 
 
+#: the references were made with the first-order rows (``second_order_rows: false``, the
+#: body-frame velocity rows before issue 15's session 21)
+FIRST = {"second_order_rows": False}
 CASES = {
-    "dr-kf": (dr_kalman.run_dr_kf, {}, {}),
-    "dr-kf-open": (dr_kalman.run_dr_kf, {"closed_loop": False}, {}),
-    "dr-kf-paper-world": (dr_kalman.run_dr_kf, {"dr_sees_gyro_drift": False},
+    "dr-kf": (dr_kalman.run_dr_kf, FIRST, {}),
+    "dr-kf-open": (dr_kalman.run_dr_kf, {"closed_loop": False, **FIRST}, {}),
+    "dr-kf-paper-world": (dr_kalman.run_dr_kf, {"dr_sees_gyro_drift": False, **FIRST},
                           lambda b: {"dtheta_dr": drift_free_dr_gyro(
                               b.imu, -np.array([1e-7, -2e-7, 3e-7]))}),
-    "od-velocity-kf": (dr_kalman.run_od_velocity_kf, {}, {}),
+    "od-velocity-kf": (dr_kalman.run_od_velocity_kf, FIRST, {}),
     # sins-dr's references were made with its field defaults (before its matched preset)
-    "sins-dr": (sins_dr.run_sins_dr, {"noise_preset": "paper"}, {}),
+    "sins-dr": (sins_dr.run_sins_dr, {"noise_preset": "paper", **FIRST}, {}),
     "sins-dr-vp-baro": (sins_dr.run_sins_dr, {"mode": "velocity-position", "use_baro": True,
-                                              "noise_preset": "paper"}, {}),
+                                              "noise_preset": "paper", **FIRST}, {}),
 }
 
 
@@ -409,7 +412,7 @@ def test_parked_kf_on_the_engine_gives_the_former_filters_result():
 #: so od-kf, ldv-kf and fkf left the former loop's reference on purpose (their port was
 #: checked against it until then, commit 6acb97a). nhc-kf keeps its model; with the former
 #: fixed noise (``conservative``) it must still give the former loop's result.
-AIDED = {"nhc-kf": {"noise_preset": "conservative"}}
+AIDED = {"nhc-kf": {"noise_preset": "conservative", "second_order_rows": False}}
 
 
 @pytest.mark.parametrize("scenario", ["paper003_drive", "paper003_faults"])

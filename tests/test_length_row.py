@@ -188,7 +188,7 @@ def _fills(P6, d, T, var_scale, n_r):
     times) on :func:`_straight_interval`, handed ``n_r`` noise entries: ``[(z, r, H)] * 2``."""
     dD, xs, acc = _straight_interval(d, T)
     m = ms.DisplacementIncrement(np.array([0.01, 4e-5, 0.02]), exact_attitude_columns=True)
-    p = np.r_[m.params(), np.zeros(6), P6.ravel()]
+    p = np.r_[m.params(), np.zeros(6), P6.ravel(), np.zeros(ms.STATE_PARAMS - 42)]
     out = []
     for second in (False, True):
         z, H, r = np.zeros(3), np.zeros((3, SUB_LAYOUT.n)), np.zeros(n_r)
@@ -261,7 +261,7 @@ def test_length_memory_takes_the_second_order_variance_n_times(t, memory_max, n)
     aux[ms.AUX_T] = t0 + t
     m = ak._LengthIncrement(np.array([0.01, 4e-5, 0.02]), exact_attitude_columns=True,
                             start_s=t0)
-    p = np.r_[m.params(), np.zeros(6), P6.ravel()]
+    p = np.r_[m.params(), np.zeros(6), P6.ravel(), np.zeros(ms.STATE_PARAMS - 42)]
     assert p[ak.P_START] == t0
     out = []
     for fill in (ak._length_fill(ms.DisplacementIncrement.fill, False),

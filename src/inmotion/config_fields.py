@@ -232,6 +232,18 @@ def smooth(default):
     )
 
 
+def second_order_rows(default=True):
+    """``second_order_rows`` (bool)."""
+    return Field(
+        default,
+        description="the body-frame velocity rows (NHC, the sensor's or the DR's velocity) "
+        "taken at the mounting estimate and with their bilinear term in the attitude and "
+        "velocity errors, its mean and variance from the filter's own covariance "
+        "(estimation.second_order; false: the first-order rows, as before issue 15's session "
+        "21)",
+    )
+
+
 def use_baro(default):
     """``use_baro`` (bool)."""
     return Field(

@@ -259,6 +259,7 @@ from ..core.deadreckoning import speed_resampler
 from ..core.mechanization import _baro_on_imu, start_row
 from ..core.solution import NavState, Solution, StateUnit
 from ..errors import BadInput
+from ..estimation.second_order import bilinear_rows
 from ..estimation import chi2
 from ..estimation import error_model as em
 from ..estimation import measurements as ms
@@ -297,6 +298,7 @@ class NhcKfConfig(StopUpdateFields):
                     "keeps its FDI: the forward bank decides which samples are accepted and a "
                     "central filter over exactly those is smoothed")
     use_baro: bool = cf.use_baro(True)
+    second_order_rows: bool = cf.second_order_rows()
     mounting_from_meta: bool = Field(True, description="nominal IMU-to-vehicle mounting from "
                                      "meta vehicle_mounting_arcmin (else zero)")
     # priors (1-sigma)
@@ -1099,64 +1101,6 @@ def _rows_to_displacement_frame(z, H, e, d, fwd):
 
 
 @njit(cache=True)
-def bilinear_moments(st, h):
-    """``(mean, variance)`` of a row's bilinear term ``h . (phi x dv)`` in the attitude and
-    velocity errors under the filter's Gaussian ``[phi, dv] ~ N(m, P)`` (``st``: the mean and
-    6 x 6 covariance, :data:`~inmotion.estimation.measurements.STATE_PARAMS`), for a row whose
-    velocity columns are ``h`` (its ``dv`` columns of ``H``: a row of ``C_n^b``, times the
-    interval for a displacement).
-
-    Derivation: the SINS's body-frame velocity ``C_n^b (I + [phi x]) (v + dv)`` holds, beyond
-    the first-order rows, ``C_n^b [phi x] dv``, whose row is ``h . (phi x dv) = phi^T A dv``
-    with ``A = -[h x]``. For a Gaussian (Isserlis): mean ``m_phi^T A m_v + tr(A P_vp)``,
-    variance ``tr(A^T P_pp A P_vv) + tr(A P_vp A P_vp)`` plus the mean's cross terms
-    ``m_v^T A^T P_pp A m_v + m_phi^T A P_vv A^T m_phi + 2 m_phi^T A P_vp A m_v`` (``P_vp =
-    Cov(dv, phi)``; ``tests/test_aided_kf_second_order.py`` checks both against sampling).
-
-    With a small velocity error it is nothing (cm/s times arc-minutes). After a long coast (a
-    speed-sensor gap) it is not: metres per second times a degree, and its mean is systematic,
-    since a coast makes the velocity error of the tilt (``dv ~ -[f x] phi t``): the vertical
-    row's mean is about ``-g t sigma_tilt^2``, tenths of a metre per second after 35 s of a
-    phone IMU's coast. Taken at their first-order noise, the first samples after the gap put
-    it into the tilt and heading (issue 15, session 21).
-    """
-    P = np.empty((6, 6))
-    for a in range(6):
-        for b in range(6):
-            P[a, b] = st[6 + 6 * a + b]
-    mp = st[0:3].copy()
-    mv = st[3:6].copy()
-    A = np.zeros((3, 3))          # -[h x]
-    A[0, 1], A[0, 2] = h[2], -h[1]
-    A[1, 0], A[1, 2] = -h[2], h[0]
-    A[2, 0], A[2, 1] = h[1], -h[0]
-    Ppp = P[:3, :3].copy()
-    Pvv = P[3:, 3:].copy()
-    Pvp = P[3:, :3].copy()
-    AP = A @ Pvp
-    mean = mp @ (A @ mv) + AP[0, 0] + AP[1, 1] + AP[2, 2]
-    t1 = A.T @ Ppp @ A @ Pvv
-    t2 = AP @ AP
-    Am = A @ mv
-    var = (t1[0, 0] + t1[1, 1] + t1[2, 2] + t2[0, 0] + t2[1, 1] + t2[2, 2]
-           + Am @ (Ppp @ Am) + mp @ (A @ Pvv @ A.T @ mp) + 2.0 * mp @ (AP @ Am))
-    return mean, max(0.0, var)
-
-
-@njit(cache=True)
-def _bilinear_rows(z, H, r, st, o_dv, rows):
-    """Rows ``rows`` of ``z``, ``r`` with their bilinear term (:func:`bilinear_moments`): its
-    mean out of the innovation, its variance into the noise."""
-    h = np.empty(3)
-    for i in rows:
-        for c in range(3):
-            h[c] = H[i, o_dv + c]
-        mean, var = bilinear_moments(st, h)
-        z[i] -= mean
-        r[i] += var
-
-
-@njit(cache=True)
 def _length_second_order(st, C_nb, u0, u1, u2, lp, H, o_phi, o_dv):
     """``(dz, dr, vt)``: the length row's second order in the SINS's errors, its mean moved
     into the innovation (``z += dz``) and its spread into the row's variance (``r += dr``;
@@ -1486,8 +1430,9 @@ LENGTH_MEMORY_MAX = 0.0
 #: velocity's share of the row's second-order mean (:func:`_length_second_order`'s notes,
 #: helper h17small).
 LENGTH_SCALE_WALK = 0.0
-#: the lateral and vertical displacement rows get their bilinear term's variance
-#: (:func:`bilinear_moments`) with ``second_order_length`` (issue 15, session 21)
+#: with ``second_order_length``, the lateral and vertical displacement rows (all three where
+#: the length row stays first order) take their bilinear term in the attitude and velocity
+#: errors (:func:`inmotion.estimation.second_order.bilinear_rows`; issue 15, session 21)
 CROSS_ROWS_SECOND_ORDER = True
 
 
@@ -1552,9 +1497,9 @@ def _length_fill(fill, second_order=False, mean_mode=0, var_scale=1.0, memory_ma
             zz += z[i] * z[i]
         if zz - along * along > (LENGTH_MAX_ANGLE * d) ** 2:
             # slow or stopped, or the first interval after a long coast: no small angle, the
-            # first-order rows stay, each with its bilinear term's variance
+            # first-order rows stay, each with its bilinear term
             if second and cross_on:
-                _bilinear_rows(z, H, r, p[p.shape[0] - n_st:], offs[i_dv], (0, 1, 2))
+                bilinear_rows(z, H, r, p[p.shape[0] - n_st:], offs[i_dv], 0, 3)
             return m
         dl = np.sqrt(q) - d - along
         lp = np.sqrt(q)
@@ -1579,8 +1524,9 @@ def _length_fill(fill, second_order=False, mean_mode=0, var_scale=1.0, memory_ma
                 r[1] += min(max(1.0, (aux[i_t] - p[o_start]) / acc[o_t]), mem) * dr
             else:
                 r[1] += vs * dr
-            if cross_on:     # the cross rows' bilinear term (bilinear_moments)
-                _bilinear_rows(z, H, r, p[p.shape[0] - n_st:], offs[i_dv], (0, 2))
+            if cross_on:     # the cross rows' bilinear term
+                bilinear_rows(z, H, r, p[p.shape[0] - n_st:], offs[i_dv], 0, 1)
+                bilinear_rows(z, H, r, p[p.shape[0] - n_st:], offs[i_dv], 2, 3)
         if sins_along:
             od, om, ol = offs[i_dk], offs[i_mount], offs[i_lever]
             for c in range(H.shape[1]):
@@ -2172,7 +2118,7 @@ def _nhc(cfg, C_vb0, local, mount=False):
     3 of 10 runs ending on the fallback, 25-49' off at 11-13' (final NEES 5.93, band
     1.68-4.70)."""
     return ms.Nhc(cfg.nhc_noise_m_s, mount_terms=mount, mount_axes="xz",
-                  vehicle_mounting=C_vb0, local=local)
+                  vehicle_mounting=C_vb0, local=local, second_order=cfg.second_order_rows)
 
 
 @functools.lru_cache(maxsize=None)

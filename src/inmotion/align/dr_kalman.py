@@ -154,6 +154,7 @@ class OdVelocityKfConfig(StopUpdateFields):
         description="add the non-holonomic constraint (zero lateral and vertical velocity in the "
                     "vehicle frame)")
     use_baro: bool = cf.use_baro(True)
+    second_order_rows: bool = cf.second_order_rows()
     nhc_mount_terms: bool = Field(
         True,
         description="NHC rows with the mounting-angle columns (False: paper 000 eq. 37 as "
@@ -412,6 +413,7 @@ def _engine_filter(bundle: Bundle, cfg, init: NavState, with_dr: bool):
                         use=use, noise=noise, gates=_gates(cfg.gate_probability),
                         step_rows=step, meas_every=meas_every, out_every=out_every,
                         nhc_mount=cfg.nhc_mount_terms, closed_loop=cfg.closed_loop,
+                        second_order=cfg.second_order_rows,
                         feedback_every=feedback_every, smooth=cfg.smooth,
                         lever_arm_b=None if lever is None else np.asarray(lever, float),
                         stops_s=cfg.stops_s)
@@ -438,6 +440,8 @@ def _engine_solution(filt: VelocityAidedRun, out: dict, cfg, method: str, sensor
             "nis_mean_per_dof": nis / max(dof, 1), "nis": filt.filter.nis_summary(),
             "wall_time_s": wall}
     info["smoothed"] = bool(cfg.smooth)
+    info["samples_skipped_blind"] = filt.samples_skipped_blind
+    info["dr_reseeds"] = filt.dr_reseeds
     sol = _pack(filt.layout, filt.init, cfg, info, out["t"], xs[:, 0:3], xs[:, 3:6],
                 xs[:, 6:10], out["sigma"], out["states"], out["cov_phi"])
     if "sigma_forward" in out:          # the forward filter's sigma beside the smoothed one

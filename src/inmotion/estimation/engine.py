@@ -469,9 +469,9 @@ from ..core.solution import NavState
 from . import error_model as em
 from .federated import fuse_kernel
 from .kalman import sequential_joseph, sequential_joseph_pair
-from .layout import DP, DP_D, DV, EPS, NABLA, PHI, PHI_D, Layout
-from .measurements import (ACC_BAD, ACC_D, ACC_DP, ACC_FN, ACC_SIZE, ACC_T, ACC_W, STATE_PARAMS,
-                           AUX_FB, AUX_SIZE, AUX_T, AUX_WIB, AUX_WNB, Measurement,
+from .layout import DP, DP_D, DV, EPS, KERNEL_BLOCKS, NABLA, PHI, PHI_D, Layout
+from .measurements import (ACC_BAD, ACC_D, ACC_DP, ACC_FN, ACC_SIZE, ACC_T, ACC_W, ST_MOUNT,
+                           ST_MOUNT_COV, STATE_PARAMS, AUX_FB, AUX_SIZE, AUX_T, AUX_WIB, AUX_WNB, Measurement,
                            accumulator_function, dispatcher, fill_function)
 from .nav_ops import compensated_row, correct_nav, dcm_of_q
 from .predict import borrowed, make_workspace, predict_kernel_call
@@ -512,7 +512,7 @@ _Const = namedtuple("_Const", "offs offs9 Qc q_dr_m2_s inv_tau_dk inv_tau_b dr_e
                               "with_dr step out_every fb_mask fb_states feedback_every C_bm l_b gates "
                               "params dofs local r_scale isolate return_tests primary fallback "
                               "n_common need_nb has_acc log_nis ws record fuse_isolated pstate "
-                              "return_conditioned test_r Qa")
+                              "pstate_att o_mount3 return_conditioned test_r Qa")
 #: the output buffers of one call
 _Out = namedtuple("_Out", "t xs sigma states cov_phi mode local_x local_sig n rec_t rec_phi "
                           "rec_ppred rec_x rec_p rec_fed rec_xs rec_epoch nrec")
@@ -988,21 +988,29 @@ def _span_feedback(macc, isolate, has_acc, x_g, offs, m):
 
 
 @njit(cache=True)
-def _state_to_params(p, s, X, P, l, offs):
-    """Write the local filter ``l``'s (0 for a shared measurement) estimate of ``[phi, dv]``
-    and its 6 x 6 covariance into ``p[s:s + STATE_PARAMS]``, for a measurement whose rows
-    depend on the filter's own uncertainty (:attr:`Measurement.wants_state`: a second-order,
-    Gaussian-filter correction of a row, issue 15); ``s`` is the parameter row's last
-    :data:`~inmotion.estimation.measurements.STATE_PARAMS` values."""
+def _state_to_params(p, s, X, P, l, o_a, o_v, o_m):
+    """Write the local filter ``l``'s (0 for a shared measurement) estimate of ``[a, dv]`` and
+    its 6 x 6 covariance into ``p[s:s + STATE_PARAMS]``, for a measurement whose rows depend
+    on the filter's own uncertainty (:attr:`Measurement.wants_state`: a second-order,
+    Gaussian-filter correction of a row, issue 15); ``a`` is the attitude block at ``o_a``
+    (the SINS's ``phi``, or the DR's ``phi_D`` for rows resolved with the DR's attitude,
+    :attr:`Measurement.state_attitude`), ``dv`` at ``o_v``; ``s`` is the parameter row's last
+    :data:`~inmotion.estimation.measurements.STATE_PARAMS` values; after them the estimate
+    of the 3-angle ``mount`` block at ``o_m`` and its covariance with ``[a, dv, mount]``
+    (zeros for ``o_m`` < 0)."""
     if l < 0:
         l = 0
-    o_a, o_v = offs[PHI], offs[DV]
     for a in range(6):
         ia = o_a + a if a < 3 else o_v + a - 3
         p[s + a] = X[l, ia]
         for b in range(6):
             ib = o_a + b if b < 3 else o_v + b - 3
             p[s + 6 + 6 * a + b] = P[l, ia, ib]
+    for a in range(3):
+        p[s + ST_MOUNT + a] = X[l, o_m + a] if o_m >= 0 else 0.0
+        for b in range(9):
+            ib = o_a + b if b < 3 else o_v + b - 3 if b < 6 else o_m + b - 6
+            p[s + ST_MOUNT_COV + 9 * a + b] = P[l, o_m + a, ib] if o_m >= 0 else 0.0
 
 
 @njit(cache=True)
@@ -1143,7 +1151,7 @@ def _advance(S, C, fills, accs, t, dtheta, dvel, dt, ds, v, dth_dr, rows, qt, qj
     aux_own = aux
     aux, macc, qd, rows = borrowed(aux_own), borrowed(macc), borrowed(qd), borrowed(rows)
     isolate, log_nis, fb_mask, fb_states = C.isolate, C.log_nis, C.fb_mask, C.fb_states
-    pstate, test_r = C.pstate, C.test_r
+    pstate, pstate_att, test_r = C.pstate, C.pstate_att, C.test_r
     x_g, P_g, fed_back, fb_mask, fb_states = (borrowed(xg_own), borrowed(Pg_own),
                                               borrowed(fed_back), borrowed(fb_mask),
                                               borrowed(fb_states))
@@ -1258,7 +1266,8 @@ def _advance(S, C, fills, accs, t, dtheta, dvel, dt, ds, v, dth_dr, rows, qt, qj
                 j = qj[qi]
                 _clear_rows(z, H, r, dofs[j], test_r[j])
                 if pstate[j] >= 0:       # the filter's own phi, dv estimate and covariance
-                    _state_to_params(params[j], pstate[j], X, P, local[j], offs)
+                    _state_to_params(params[j], pstate[j], X, P, local[j],
+                                     offs[pstate_att[j]], offs[DV], C.o_mount3)
                 m = fills[j](xs, xd, aux, macc[j], qd[qi], params[j], offs, z, H, r)
                 applied = True
                 if m > 0:
@@ -1554,6 +1563,10 @@ class ErrorStateFilter:
             fuse_isolated=bool(fuse_isolated),
             pstate=per_meas(lambda m: n_par - STATE_PARAMS if getattr(m, "wants_state", False)
                             else -1, -1, np.int64),
+            pstate_att=per_meas(lambda m: KERNEL_BLOCKS.index(m.state_attitude), PHI,
+                                np.int64),
+            o_mount3=(int(layout["mount"].start) if "mount" in layout
+                      and layout["mount"].stop - layout["mount"].start == 3 else -1),
             return_conditioned=bool(return_conditioned),
             test_r=per_meas(lambda m: getattr(m, "test_variance", False), False, np.bool_),
             Qa=stack_qc("Qc_test") if test_covariance else np.zeros((0, n, n)))
@@ -1789,6 +1802,30 @@ class ErrorStateFilter:
                             ds=np.zeros(0), speed=np.zeros(0), flush=True)
 
     # -- output --------------------------------------------------------------------------
+    def reseed_dr_position(self) -> None:
+        """Put the dead reckoner's position on the SINS's and its position error on the
+        SINS's: ``[lat, lon, h]_D := [lat, lon, h]_S`` and ``dp_D := dp`` (``x' = T x``, ``P' = T
+        P T^T`` with ``T`` copying the ``dp`` rows onto ``dp_D``'s; in every local filter, the
+        test covariance and a smoother's transition since its last record).
+
+        For the end of a gap in the DR's distance sensor (issue 15, session 21): across it
+        the DR's distance is interpolated, so its position afterwards holds an error no state
+        describes (on the simulated phone drive with the odometer out for 35 s, tens of
+        metres). Reseeded, its error is exactly the SINS's, and the SINS-minus-DR position
+        rows measure the DR's motion from there on."""
+        S, C = self._S, self._C
+        if not C.with_dr or "dp_D" not in self.layout:
+            raise ValueError("reseed_dr_position needs a filter with a DR and a dp_D block")
+        o, od = self.layout["dp"], self.layout["dp_D"]
+        S.xd[K.LAT:K.H + 1] = S.xs[K.LAT:K.H + 1]
+        for X in S.X:
+            X[od] = X[o]
+        for P in (*S.P, *S.Pa):
+            P[od, :] = P[o, :]
+            P[:, od] = P[:, o]
+        if S.phc.shape[0]:
+            S.phc[od, :] = S.phc[o, :]
+
     def output_now(self) -> dict:
         """One output row of the current state (the same fields as :meth:`add_imu`'s)."""
         O = self._out(1)

@@ -57,6 +57,7 @@ from . import error_model as em
 from .aiding_rows import _displacement_rows, _velocity_rows
 from .layout import DK, DP, DP_D, DV, EPS, LEVER, MOUNT, NABLA, PHI, PHI_D, Layout
 from .nav_ops import dcm_columns, dcm_of_q, euler_ypr, wrap_pi
+from .second_order import bilinear_rows
 
 __all__ = ["ACC_SIZE", "accumulator_function", "Compiled", "dispatcher",
            "Measurement", "SinsDrAttitude", "SinsDrVelocity", "SinsDrPosition",
@@ -99,9 +100,13 @@ ACC_T, ACC_DP, ACC_TH, ACC_D, ACC_W, ACC_BAD, ACC_FN = 0, 1, 4, 7, 10, 13, 14
 P_SIG, P_LEVER, P_FWD, P_FLOOR, P_EXACT = 0, 3, 6, 9, 10
 #: values the engine writes at the end of the parameter row of a measurement that
 #: :attr:`Measurement.wants_state`, before each fill: the fill's local filter's estimate of
-#: ``[phi, dv]`` (6), then their 6 x 6 covariance row by row (36)
+#: ``[phi, dv]`` (6), then their 6 x 6 covariance row by row (36), then for a 3-angle
+#: ``mount`` block its estimate (3, at :data:`ST_MOUNT`) and its covariance with ``[phi, dv,
+#: mount]`` (3 x 9 row by row, at :data:`ST_MOUNT_COV`), zeros without one
 #: (:func:`inmotion.estimation.engine._state_to_params`)
-STATE_PARAMS = 42
+STATE_PARAMS = 72
+#: where the mounting estimate and its covariance rows start within those values
+ST_MOUNT, ST_MOUNT_COV = 42, 45
 
 
 class Compiled:
@@ -185,6 +190,9 @@ class Measurement:
     #: the engine writes the local filter's ``[phi, dv]`` estimate and covariance at the end
     #: of the parameter row before each fill (:data:`STATE_PARAMS`)
     wants_state = False
+    #: the attitude block of that estimate: ``phi`` (the SINS's), or ``phi_D`` for rows
+    #: resolved with the DR's attitude
+    state_attitude = "phi"
     #: its fill over the sums of several intervals' accumulators is the measurement over
     #: their span (the engine's ``return_span``, issue 15: a displacement, not a velocity)
     spans = False
@@ -210,13 +218,15 @@ class Measurement:
         """The parameter vector ``p`` handed to the fill function (SI)."""
         return np.zeros(0)
 
-    def rows(self, nav, data=None, layout: Layout | None = None):
+    def rows(self, nav, data=None, layout: Layout | None = None, state=None):
         """The Python form: ``(z, H, R)`` at the navigation state ``nav``.
 
         ``nav`` is an :class:`~inmotion.estimation.engine.ErrorStateFilter` (its current SINS,
         DR and last row's rates) or a tuple ``(xs, xd, aux[, acc])`` of kernel arrays;
-        ``layout`` defaults to the filter's. Returns ``z`` (m,), ``H`` (m, n), ``R`` (m, m) diagonal; ``m = 0``
-        when the sample gives no measurement.
+        ``layout`` defaults to the filter's. ``state``: for a measurement that
+        :attr:`wants_state`, the :data:`STATE_PARAMS` values the engine would hand it (its
+        filter's estimate and covariance; zeros by default). Returns ``z`` (m,), ``H`` (m,
+        n), ``R`` (m, m) diagonal; ``m = 0`` when the sample gives no measurement.
         """
         if isinstance(nav, tuple):
             nav = tuple(np.ascontiguousarray(a, dtype=float) for a in nav)
@@ -239,7 +249,11 @@ class Measurement:
         r = np.zeros(2 * self.dof)      # r, then the test's variances (test_variance)
         p = np.asarray(self.params(), dtype=float)
         if self.wants_state:             # no filter here: a zero estimate and covariance
-            p = np.r_[p, np.zeros(STATE_PARAMS)]
+            st = np.zeros(STATE_PARAMS) if state is None else np.asarray(state, float)
+            if st.shape != (STATE_PARAMS,):
+                raise ValueError(f"{self.name}: state holds {STATE_PARAMS} values, got shape "
+                                 f"{st.shape}")
+            p = np.r_[p, st]
         m = self.fill(xs, xd, aux, acc, d, np.ascontiguousarray(p), layout.offsets(), z, H, r)
         return z[:m], H[:m], np.diag(r[:m])
 
@@ -354,6 +368,17 @@ def _fill_sins_dr_velocity(xs, xd, aux, acc, data, p, offs, z, H, r):
     v = xd[K.VE:K.VU + 1]
     C_D = dcm_of_q(xd[K.Q0:K.Q3 + 1])
     C_bn = C_D.T
+    st = p[p.shape[0] - STATE_PARAMS:]
+    mounted = p[3] != 0.0 and offs[MOUNT] >= 0
+    if mounted:
+        # at the mounting estimate (issue 15, session 21; it stays in the state, never fed
+        # back): the DR's velocity turned by it, exp([(C_D a) x]) v_D, and z below keeps the
+        # innovation the engine forms, z - H x, equal to the prediction there
+        a_n = np.zeros(3)
+        for i in range(3):
+            for j in range(3):
+                a_n[i] += C_D[i, j] * st[ST_MOUNT + j]
+        v = _rotate_vector(a_n, v.copy())
     V = em.skew(v)
     # dv_D on the mounting angles (eq. 11), formed only with a mount block (sins-dr's where
     # the mounting is not given), column by column, [v x] C_D = [v x C_D[:, j]]: a matrix
@@ -365,9 +390,32 @@ def _fill_sins_dr_velocity(xs, xd, aux, acc, data, p, offs, z, H, r):
         for j in range(3):
             c = K.cross(v, C_D[:, j])
             VC[0, j], VC[1, j], VC[2, j] = c[0], c[1], c[2]
-    body_velocity_rows(z, H, r, 0, C_bn, xs[K.VE:K.VU + 1] - xd[K.VE:K.VU + 1], p,
+    body_velocity_rows(z, H, r, 0, C_bn, xs[K.VE:K.VU + 1] - v, p,
                        offs[DV], offs[PHI_D], V, offs[DK], v, offs[MOUNT], VC)
+    if mounted:
+        o_m = offs[MOUNT]
+        for i in range(3):
+            for j in range(3):
+                z[i] += H[i, o_m + j] * st[ST_MOUNT + j]
+    if p[3] != 0.0:          # second order: the filter's [phi_D, dv] at the row's end
+        bilinear_rows(z, H, r, st, offs[DV], 0, 3)
     return 3
+
+
+@njit(cache=True)
+def _rotate_vector(a, v):
+    """``exp([a x]) v`` (Rodrigues)."""
+    th = math.sqrt(a[0] * a[0] + a[1] * a[1] + a[2] * a[2])
+    if th < 1e-12:
+        return v
+    k = a / th
+    kv = K.cross((k[0], k[1], k[2]), (v[0], v[1], v[2]))
+    kd = k[0] * v[0] + k[1] * v[1] + k[2] * v[2]
+    c, s_ = math.cos(th), math.sin(th)
+    out = np.empty(3)
+    for i in range(3):
+        out[i] = v[i] * c + kv[i] * s_ + k[i] * kd * (1.0 - c)
+    return out
 
 
 class SinsDrVelocity(Measurement):
@@ -378,17 +426,22 @@ class SinsDrVelocity(Measurement):
     Parameters
     ----------
     sigma_m_s : (3,) 1-sigma of the rows in body axes (lateral, forward, vertical) [m/s]
+    second_order : the rows' bilinear term in the DR's attitude error and the SINS's velocity
+        error (:mod:`~inmotion.estimation.second_order`, the DR's ``phi_D`` in place of
+        ``phi``: the rows are resolved with the DR's attitude; default on)
     """
 
     name, dof, needs_dr = "velocity", 3, True
     fill = staticmethod(_fill_sins_dr_velocity)
+    state_attitude = "phi_D"
 
-    def __init__(self, sigma_m_s, **kw):
+    def __init__(self, sigma_m_s, second_order: bool = True, **kw):
         super().__init__(**kw)
         self.sigma_m_s = _noise3(sigma_m_s, "velocity sigma_m_s")
+        self.wants_state = bool(second_order)
 
     def params(self):
-        return self.sigma_m_s ** 2
+        return np.r_[self.sigma_m_s ** 2, 1.0 if self.wants_state else 0.0]
 
     def check(self, layout):
         _need(layout, self, "dv", "phi_D")
@@ -478,6 +531,8 @@ def _fill_forward_velocity(xs, xd, aux, acc, data, p, offs, z, H, r):
                        vm2)
     _body_velocity_row(z, H, r, 2, c2, dv, p[2], o_dv, o_phi, v, o_dk, v_s, o_mount, vm0, vm1,
                        vm2)
+    if p[3] != 0.0:          # second order: the filter's [phi, dv] at the row's end
+        bilinear_rows(z, H, r, p[p.shape[0] - STATE_PARAMS:], o_dv, 0, 3)
     return 3
 
 
@@ -491,17 +546,21 @@ class ForwardVelocity(Measurement):
     Parameters
     ----------
     sigma_m_s : (3,) 1-sigma of the rows in body axes (lateral, forward, vertical) [m/s]
+    second_order : the rows' bilinear term in the attitude and velocity errors, its variance
+        into the noise and its value at the estimate out of the innovation, from the filter's
+        own estimate and covariance (:mod:`~inmotion.estimation.second_order`; default on)
     """
 
     name, dof, data_size = "sensor_velocity", 3, 1
     fill = staticmethod(_fill_forward_velocity)
 
-    def __init__(self, sigma_m_s, **kw):
+    def __init__(self, sigma_m_s, second_order: bool = True, **kw):
         super().__init__(**kw)
         self.sigma_m_s = _noise3(sigma_m_s, "forward velocity sigma_m_s")
+        self.wants_state = bool(second_order)
 
     def params(self):
-        return self.sigma_m_s ** 2
+        return np.r_[self.sigma_m_s ** 2, 1.0 if self.wants_state else 0.0]
 
     def check(self, layout):
         _need(layout, self, "phi", "dv")
@@ -545,14 +604,93 @@ def _fill_nhc(xs, xd, aux, acc, data, p, offs, z, H, r):
     v = (xs[K.VE], xs[K.VN], xs[K.VU])
     r0, r1, r2 = _cvn_row(p, 0, c0, c1, c2), _cvn_row(p, 1, c0, c1, c2), _cvn_row(p, 2, c0, c1,
                                                                                   c2)
+    o_dv, o_phi, o_mount = offs[DV], offs[PHI], offs[MOUNT]
+    with_mount = int(p[1]) if o_mount >= 0 else 0
+    second = p[11] != 0.0
+    st = p[p.shape[0] - STATE_PARAMS:]
+    if second and with_mount == 3:
+        # at the mounting estimate (issue 15, session 21): the estimate stays in the state
+        # (never fed back), so the rows are those of the vehicle frame it gives,
+        # C_vn(a) = exp(-[a x]) C_vn (first order: the rows' own -[v_b x] a), and z keeps the
+        # innovation the engine forms, z - H x, equal to the prediction there
+        r0, r1, r2 = _rotated_rows(st[ST_MOUNT], st[ST_MOUNT + 1], st[ST_MOUNT + 2], r0, r1, r2)
     vb0 = r0[0] * v[0] + r0[1] * v[1] + r0[2] * v[2]
     vb1 = r1[0] * v[0] + r1[1] * v[1] + r1[2] * v[2]
     vb2 = r2[0] * v[0] + r2[1] * v[1] + r2[2] * v[2]
-    o_dv, o_phi, o_mount = offs[DV], offs[PHI], offs[MOUNT]
-    with_mount = int(p[1]) if o_mount >= 0 else 0
     _nhc_row(z, H, r, 0, r0, v, (0.0, -vb2, vb1), p[0], o_dv, o_phi, o_mount, with_mount)
     _nhc_row(z, H, r, 1, r2, v, (-vb1, vb0, 0.0), p[0], o_dv, o_phi, o_mount, with_mount)
+    if second:               # second order: the filter's [phi, dv] at the row's end
+        if with_mount == 3:
+            for i in range(2):
+                for j in range(3):
+                    z[i] += H[i, o_mount + j] * st[ST_MOUNT + j]
+            st = _with_mount_spread(st, r0, r1, r2)
+        bilinear_rows(z, H, r, st, o_dv, 0, 2)
     return 2
+
+
+@njit(cache=True)
+def _with_mount_spread(st, r0, r1, r2):
+    """The state values of :func:`~inmotion.estimation.second_order.bilinear_rows` for the NHC
+    rows at the mounting estimate: the vehicle frame's rows ``e . exp(-[a x]) C_vn (v + dv)``
+    hold ``-e . ((C_vn^T a) x dv)`` besides ``e . (phi x dv)``, so the angle of the bilinear
+    term is ``psi = phi - C_vn^T a`` (``C_vn``'s rows ``r0, r1, r2`` as n-frame vectors): its
+    covariance with itself and with ``dv`` from the filter's ``[phi, dv, mount]`` covariance,
+    its mean ``phi``'s (the mounting's mean is where the rows are taken)."""
+    out = st[:42].copy()
+    M = np.empty((3, 3))                 # C_vn^T: column k is row k of C_vn
+    rows = (r0, r1, r2)
+    for k in range(3):
+        for i in range(3):
+            M[i, k] = rows[k][i]
+    Pam = np.empty((3, 9))               # Cov(mount, [phi, dv, mount])
+    for a in range(3):
+        for b in range(9):
+            Pam[a, b] = st[ST_MOUNT_COV + 9 * a + b]
+    A = np.zeros((3, 9))                 # Cov(C^T mount, [phi, dv, mount]), by loops (no BLAS)
+    for i in range(3):
+        for b in range(9):
+            for k in range(3):
+                A[i, b] += M[i, k] * Pam[k, b]
+    Pmm = np.zeros((3, 3))               # Cov(C^T mount)
+    for i in range(3):
+        for j in range(3):
+            for k in range(3):
+                Pmm[i, j] += A[i, 6 + k] * M[j, k]
+    for i in range(3):
+        for j in range(3):
+            # psi-psi: P_pp - P_p,Cm - P_Cm,p + P_Cm,Cm
+            out[6 + 6 * i + j] = (st[6 + 6 * i + j] - A[j, i] - A[i, j] + Pmm[i, j])
+            # psi-dv and dv-psi: P_pv - P_Cm,v
+            pv = st[6 + 6 * i + 3 + j] - A[i, 3 + j]
+            out[6 + 6 * i + 3 + j] = pv
+            out[6 + 6 * (3 + j) + i] = pv
+    return out
+
+
+@njit(cache=True)
+def _rotated_rows(a0, a1, a2, r0, r1, r2):
+    """The rows of ``exp(-[a x]) R`` for ``R``'s rows ``r0, r1, r2`` (Rodrigues)."""
+    th = math.sqrt(a0 * a0 + a1 * a1 + a2 * a2)
+    if th < 1e-12:
+        return r0, r1, r2
+    s_, c_ = math.sin(th) / th, (1.0 - math.cos(th)) / (th * th)
+    # E = exp(-[a x]) = I - s [a x] + c [a x]^2
+    ax = ((0.0, -a2, a1), (a2, 0.0, -a0), (-a1, a0, 0.0))
+    E = np.empty((3, 3))
+    for i in range(3):
+        for j in range(3):
+            sq = 0.0
+            for k in range(3):
+                sq += ax[i][k] * ax[k][j]
+            E[i, j] = (1.0 if i == j else 0.0) - s_ * ax[i][j] + c_ * sq
+    rows = (r0, r1, r2)
+    out = np.empty((3, 3))
+    for i in range(3):
+        for j in range(3):
+            out[i, j] = E[i, 0] * rows[0][j] + E[i, 1] * rows[1][j] + E[i, 2] * rows[2][j]
+    return ((out[0, 0], out[0, 1], out[0, 2]), (out[1, 0], out[1, 1], out[1, 2]),
+            (out[2, 0], out[2, 1], out[2, 2]))
 
 
 class Nhc(Measurement):
@@ -572,14 +710,16 @@ class Nhc(Measurement):
     mount_axes : ``"xyz"`` (the 3-angle ``mount`` block, paper 000's) or ``"xz"`` (the
         2-angle block of paper 003's sensor channels, pitch and yaw: the columns of x and z)
     vehicle_mounting : (3, 3) nominal ``C_v^b0`` (identity by default)
+    second_order : as :class:`ForwardVelocity`'s (default on)
     """
 
     name, dof = "nhc", 2
     fill = staticmethod(_fill_nhc)
 
     def __init__(self, sigma_m_s: float, mount_terms: bool = True, vehicle_mounting=None,
-                 mount_axes: str = "xyz", **kw):
+                 mount_axes: str = "xyz", second_order: bool = True, **kw):
         super().__init__(**kw)
+        self.wants_state = bool(second_order)
         self.sigma_m_s = _noise1(sigma_m_s, "NHC sigma_m_s")
         self.mount_terms = bool(mount_terms)
         if mount_axes not in ("xyz", "xz"):
@@ -590,7 +730,7 @@ class Nhc(Measurement):
     def params(self):
         return np.r_[self.sigma_m_s ** 2,
                      float(len(self.mount_axes)) if self.mount_terms else 0.0,
-                     self.C_vb0.ravel()]
+                     self.C_vb0.ravel(), 1.0 if self.wants_state else 0.0]
 
     def check(self, layout):
         _need(layout, self, "phi", "dv")

@@ -60,13 +60,19 @@ CHUNK_ROWS = 16384
 GAP_SAMPLES = 10001
 
 
-def _measurements(use, noise, gates, nhc_mount):
-    """The measurement plug-ins of the groups in ``use``, in :data:`GROUPS` order."""
+def _measurements(use, noise, gates, nhc_mount, second_order=True):
+    """The measurement plug-ins of the groups in ``use``, in :data:`GROUPS` order
+    (``second_order``: the body-frame velocity rows' second order,
+    :mod:`~inmotion.estimation.second_order`)."""
+    so = bool(second_order)
     make = {
         "attitude": lambda g: ms.SinsDrAttitude(noise["attitude_rad"], gate=g),
-        "velocity": lambda g: ms.SinsDrVelocity(noise["velocity_b_m_s"], gate=g),
-        "sensor_velocity": lambda g: ms.ForwardVelocity(noise["velocity_b_m_s"], gate=g),
-        "nhc": lambda g: ms.Nhc(noise.get("nhc_m_s", 1.0), mount_terms=nhc_mount, gate=g),
+        "velocity": lambda g: ms.SinsDrVelocity(noise["velocity_b_m_s"], second_order=so,
+                                                gate=g),
+        "sensor_velocity": lambda g: ms.ForwardVelocity(noise["velocity_b_m_s"],
+                                                        second_order=so, gate=g),
+        "nhc": lambda g: ms.Nhc(noise.get("nhc_m_s", 1.0), mount_terms=nhc_mount,
+                                second_order=so, gate=g),
         "position": lambda g: ms.SinsDrPosition(noise["position_m"], gate=g),
         "height": lambda g: ms.Height(noise["height_m"], gate=g),
         "zero_velocity": lambda g: ms.ZeroVelocity(np.full(3, noise.get("zupt_m_s", 0.02)),
@@ -94,6 +100,28 @@ def _speed_on_chunk(speed: SpeedData, edges, max_gap: float, sensor: str):
     except BadInput as e:
         raise BadInput(e.what, file=e.file, row=None if e.row is None else e.row + i0,
                        time=e.time) from None
+
+
+def _dr_reseeds(blind, ends, was_blind: bool, with_dr: bool):
+    """``(cuts, last_blind)``: where a chunk's rows are split to put the DR's position back on
+    the SINS's (:meth:`~inmotion.estimation.engine.ErrorStateFilter.reseed_dr_position`), and
+    whether its last row is blind. ``blind`` marks the chunk's IMU rows without the speed
+    sensor (in a gap, or outside its span), ``ends`` the row counts at which its filter epochs
+    end, ``was_blind`` the previous chunk's last row. At every return of the speed the cut is
+    the last epoch end at or before the first row with the speed back, so the reseed precedes
+    every sample that reads it again; the DR's distance over the remaining blind rows (less
+    than one epoch) is interpolated. Without a DR (``with_dr`` false), none."""
+    if not with_dr or not len(blind):
+        return [], bool(blind[-1]) if len(blind) else was_blind
+    prev = np.r_[was_blind, blind[:-1]]
+    back = np.flatnonzero(prev & ~blind)          # first rows with the speed back
+    cuts = []
+    for r0 in back:
+        k = int(np.searchsorted(ends, r0, side="right")) - 1
+        cut = int(ends[k]) if k >= 0 else 0
+        if not cuts or cut > cuts[-1]:
+            cuts.append(cut)
+    return cuts, bool(blind[-1])
 
 
 def dr_gyro_rows(imu, dtheta_dr, rows):
@@ -264,7 +292,7 @@ class VelocityAidedRun:
                  noise: dict, gates: dict, step_rows: int, meas_every: int = 1,
                  out_every: int = 1, C_bm=None, lever_arm_b=None, nhc_mount: bool = True,
                  closed_loop: bool = True, feedback_every: int = 1, smooth: bool = False,
-                 stops_s=()):
+                 stops_s=(), second_order: bool = True):
         for name in ("phi", "dv", "dp", "eps", "nabla"):
             if name not in layout:
                 raise ValueError(f"the velocity-aided filter needs block {name!r} in the layout")
@@ -273,7 +301,8 @@ class VelocityAidedRun:
         #: at every measurement epoch inside one (group ``zero_velocity``, when used)
         self.stops_s = check_stops(list(stops_s))
         self.filter = ErrorStateFilter(
-            init, layout, model, P0, _measurements(self.use, noise, gates, nhc_mount),
+            init, layout, model, P0,
+            _measurements(self.use, noise, gates, nhc_mount, second_order),
             step_rows=step_rows, feedback="closed" if closed_loop else "open",
             feedback_every=feedback_every, out_every=out_every, dr_mounting=C_bm,
             dr_lever_arm_m=lever_arm_b,
@@ -286,6 +315,7 @@ class VelocityAidedRun:
         self.lever_arm_b = (np.zeros(3) if lever_arm_b is None
                             else np.asarray(lever_arm_b, dtype=float).reshape(3))
         self.layout = layout
+        self.with_dr = "dp_D" in layout
         self.init = init
         self.step = int(step_rows)
         self.meas_every = int(meas_every)
@@ -297,6 +327,9 @@ class VelocityAidedRun:
         #: measurement epochs whose speed-reading groups (:data:`READS_SPEED`) were skipped,
         #: the epoch's interval lying in a sensor gap or outside the sensor's span
         self.samples_skipped_blind = 0
+        #: times the DR's position was put back on the SINS's as the speed came back after a
+        #: gap or at the sensor's first sample (:func:`_dr_reseeds`)
+        self.dr_reseeds = 0
 
     def run(self, t, dtheta, dvel, speed: SpeedData, h_baro=None, sensor="speed",
             progress=None, dtheta_dr=None) -> dict:
@@ -382,6 +415,7 @@ class VelocityAidedRun:
         max_gap = 5.0 * float(np.median(np.diff(speed.t[:GAP_SAMPLES])))
         groups = [g for g in GROUPS if self.use[g]]
         a = 0
+        was_blind = False
         for block in regroup(pieces, chunk):
             tc, dth, dvl = block[0], block[1], block[2]
             b = a + len(tc)
@@ -420,11 +454,24 @@ class VelocityAidedRun:
                     t_g = t_meas
                 f.add_measurement(g, t_g, data)
             d_dr = block[3] if len(block) > 3 else None
-            o = f.add_imu(tc, dth, dvl, ds=ds, speed=v, dtheta_dr=d_dr, flush=b == n_rows)
-            if rec is not None:
-                rec.append(o.pop("record"))
-            o, stopped = take(o)
-            outs.append(o)
+            cuts, was_blind = _dr_reseeds(in_gap | uncovered, ends, was_blind, self.with_dr)
+            s0 = 0
+            for s1 in cuts + [b - a]:
+                if s1 > s0:
+                    o = f.add_imu(tc[s0:s1], dth[s0:s1], dvl[s0:s1], ds=ds[s0:s1],
+                                  speed=v[s0:s1],
+                                  dtheta_dr=None if d_dr is None else d_dr[s0:s1],
+                                  flush=b == n_rows and s1 == b - a)
+                    if rec is not None:
+                        rec.append(o.pop("record"))
+                    o, stopped = take(o)
+                    outs.append(o)
+                    if stopped:
+                        break
+                if s1 < b - a:              # the speed is back: the DR restarts at the SINS
+                    f.reseed_dr_position()
+                    self.dr_reseeds += 1
+                s0 = s1
             if progress is not None:
                 progress(b / n_rows)
             a = b

@@ -172,6 +172,7 @@ class SinsDrConfig(StopUpdateFields):
     use_baro: bool = cf.use_baro(False)
     gate_probability: float = cf.gate_probability(1.0)
     smooth: bool = cf.smooth(False)
+    second_order_rows: bool = cf.second_order_rows()
     dr_sees_gyro_drift: bool = cf.dr_sees_gyro_drift(True)
     mounting_arcmin: Optional[tuple[float, float, float]] = cf.mounting_arcmin(None)
     lever_arm_m: Optional[tuple[float, float, float]] = cf.lever_arm_m(None)
@@ -417,7 +418,8 @@ def _make_filter(bundle, cfg: SinsDrConfig, init: NavState, sensor, imu_dt: floa
     return VelocityAidedRun(init, lay, model, initial_covariance(lay, cfg, init.lat, init.h),
                             use=use, noise=noise, gates=gates, step_rows=step,
                             meas_every=meas_every, out_every=out_every, C_bm=C_bm,
-                            lever_arm_b=l_b, smooth=cfg.smooth, stops_s=cfg.stops_s)
+                            lever_arm_b=l_b, smooth=cfg.smooth, stops_s=cfg.stops_s,
+                            second_order=cfg.second_order_rows)
 
 
 def _baro_source(bundle: Bundle, cfg: SinsDrConfig):
@@ -446,7 +448,8 @@ def _solution(filt: VelocityAidedRun, out: dict, cfg: SinsDrConfig, sensor: str,
             "timing": {"run_s": wall},
             "rows_without_speed": filt.rows_without_speed,
             "rows_in_speed_gaps": filt.rows_in_speed_gaps,
-            "samples_skipped_blind": filt.samples_skipped_blind, "smoothed": bool(cfg.smooth)}
+            "samples_skipped_blind": filt.samples_skipped_blind,
+            "dr_reseeds": filt.dr_reseeds, "smoothed": bool(cfg.smooth)}
     states = lay.as_dict(out["states"])
     units = lay.unit_map(position_units(filt.init.lat, filt.init.h))
     for name in ("mount_x", "mount_y", "mount_z"):      # estimated where not given
@@ -494,7 +497,8 @@ def run_sins_dr(bundle: Bundle, config: SinsDrConfig | dict | None = None,
     did not cover (``rows_without_speed``: the DR holds its position there, so a log whose
     sensor starts late or stops early should be cut to the sensor's span with ``--start`` /
     ``--end``) or covered across a gap (``rows_in_speed_gaps``; the measurement epochs there
-    apply no sample that reads the speed, ``samples_skipped_blind``).
+    apply no sample that reads the speed, ``samples_skipped_blind``; as the speed comes
+    back the DR's position is put on the SINS's, ``dr_reseeds``).
     """
     if init is None:
         raise BadInput("method 'sins-dr' needs an initial state with attitude (--init truth, "
