@@ -188,7 +188,7 @@ def _gap_run(name, seed, start=5.0, end=40.0):
 def test_velocity_aided_filters_are_not_overconfident_across_a_speed_gap(name):
     """The same drive and gap with the filters of ``velocity_aided``. Before session 21 (20
     runs, seeds 100-119, band 2.02-4.16): sins-dr 7.82, dr-kf 14.75, od-velocity-kf 13.18.
-    Now 0.75, 1.81, 1.95 (without a gap 0.66, 1.20, 0.98: the random-walk bias model and the
+    Now 0.75, 1.69, 1.66 (without a gap 0.66, 1.13, 0.96: the random-walk bias model and the
     rows' second-order variance make them conservative on this drive, not overconfident):
     sins-dr's DR restarts at the SINS as the speed comes back (``dr_reseeds``), the rows
     with the mounting are taken at its estimate and carry their bilinear term. What is

@@ -412,7 +412,7 @@ def test_parked_kf_on_the_engine_gives_the_former_filters_result():
 #: so od-kf, ldv-kf and fkf left the former loop's reference on purpose (their port was
 #: checked against it until then, commit 6acb97a). nhc-kf keeps its model; with the former
 #: fixed noise (``conservative``) it must still give the former loop's result.
-AIDED = {"nhc-kf": {"noise_preset": "conservative", "second_order_rows": False}}
+AIDED = {"nhc-kf": {"noise_preset": "conservative"}}
 
 
 @pytest.mark.parametrize("scenario", ["paper003_drive", "paper003_faults"])
