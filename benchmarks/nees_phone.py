@@ -35,6 +35,11 @@ here), so with the defaults:
 
 - ``od-velocity-kf,dr-kf 20``: 2.13, 2.67 (band 2.02-4.16; before, 3.19, 6.87).
 
+Session 21 (the body-frame velocity rows' second order and the rows at the mounting
+estimate, ``second_order_rows``):
+
+- ``od-velocity-kf,dr-kf,sins-dr 20``: 2.14, 2.30, 1.75 (band 2.02-4.16).
+
 Position (``od-velocity-kf``, 20 runs):
 final horizontal error RMS 40.1 m at a median 26.3 m sigma without the walk, 17.5 m at 30.2 m
 with it.
