@@ -205,3 +205,36 @@ def test_velocity_aided_filters_are_not_overconfident_across_a_speed_gap(name):
             assert sol.info["dr_reseeds"] >= 1
     hi = chi2.ppf(0.975, 3 * runs) / runs
     assert np.mean(vals) <= hi, (np.mean(vals), np.round(vals, 2))
+
+
+def test_reseed_dr_position_is_the_copy_transform():
+    """``ErrorStateFilter.reseed_dr_position``: the DR's position becomes the SINS's and its
+    position error the SINS's, ``x' = T x``, ``P' = T P T^T`` with ``T`` the identity whose
+    ``dp_D`` rows copy ``dp``'s (closed form here); a filter without a DR refuses."""
+    from inmotion.estimation import error_model as em
+    from inmotion.estimation.engine import ErrorStateFilter
+    from inmotion.estimation.layout import Layout
+    lay = Layout(["phi", "dv", "dp", "eps", "nabla", "phi_D", "dp_D"])
+    init = NavState(0.0, np.radians(37.0), np.radians(-122.0), 20.0,
+                    np.array([10.0, 5.0, 0.0]), np.array([1.0, 0.0, 0.0, 0.0]))
+    rng = np.random.default_rng(0)
+    L = rng.normal(size=(lay.n, lay.n))
+    P0 = L @ L.T * 1e-6 + np.eye(lay.n) * 1e-8
+    f = ErrorStateFilter(init, lay, em.ErrorModel(lay, em.ProcessNoise()), P0, [])
+    S = f._S
+    S.xd[0:3] += [1e-5, -2e-5, 3.0]                 # the DR off the SINS
+    S.X[0] = rng.normal(size=lay.n)
+    x0 = S.X[0].copy()
+    T = np.eye(lay.n)
+    o, od = lay["dp"], lay["dp_D"]
+    T[od] = 0.0
+    T[od, o] = np.eye(3)
+    f.reseed_dr_position()
+    np.testing.assert_array_equal(S.xd[0:3], S.xs[0:3])
+    np.testing.assert_allclose(S.X[0], T @ x0, atol=0)
+    np.testing.assert_allclose(S.P[0], T @ P0 @ T.T, atol=1e-20)
+    no_dr = Layout(["phi", "dv", "dp", "eps", "nabla"])
+    g = ErrorStateFilter(init, no_dr, em.ErrorModel(no_dr, em.ProcessNoise()),
+                         np.eye(no_dr.n) * 1e-6, [])
+    with pytest.raises(ValueError, match="needs a filter with a DR"):
+        g.reseed_dr_position()
