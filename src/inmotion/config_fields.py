@@ -238,7 +238,8 @@ def second_order_rows(default=True):
         default,
         description="the body-frame velocity rows (NHC, the sensor's or the DR's velocity) "
         "taken at the mounting estimate and with their bilinear term in the attitude and "
-        "velocity errors, its mean and variance from the filter's own covariance "
+        "velocity errors, its variance and its value at the estimate from the filter's own "
+        "estimate and covariance "
         "(estimation.second_order; false: the first-order rows, as before issue 15's session "
         "21)",
     )

@@ -1435,10 +1435,6 @@ LENGTH_MEMORY_MAX = 0.0
 #: velocity's share of the row's second-order mean (:func:`_length_second_order`'s notes,
 #: helper h17small).
 LENGTH_SCALE_WALK = 0.0
-#: with ``second_order_length``, the lateral and vertical displacement rows (all three where
-#: the length row stays first order) take their bilinear term in the attitude and velocity
-#: errors (:func:`inmotion.estimation.second_order.bilinear_rows`; issue 15, session 21)
-CROSS_ROWS_SECOND_ORDER = True
 
 
 @functools.lru_cache(maxsize=None)
@@ -1480,7 +1476,6 @@ def _length_fill(fill, second_order=False, mean_mode=0, var_scale=1.0, memory_ma
     i_phi, i_dv = ms.PHI, ms.DV
     n_st = ms.STATE_PARAMS
     i_t, o_t, o_start = ms.AUX_T, ms.ACC_T, P_START
-    cross_on = bool(CROSS_ROWS_SECOND_ORDER)
 
     def length(xs, xd, aux, acc, data, p, offs, z, H, r):
         m = inner(xs, xd, aux, acc, data, p, offs, z, H, r)
@@ -1502,8 +1497,9 @@ def _length_fill(fill, second_order=False, mean_mode=0, var_scale=1.0, memory_ma
             zz += z[i] * z[i]
         if zz - along * along > (LENGTH_MAX_ANGLE * d) ** 2:
             # slow or stopped, or the first interval after a long coast: no small angle, the
-            # first-order rows stay, each with its bilinear term
-            if second and cross_on:
+            # first-order rows stay, each with its bilinear term in the attitude and velocity
+            # errors (inmotion.estimation.second_order; issue 15, session 21)
+            if second:
                 bilinear_rows(z, H, r, p[p.shape[0] - n_st:], offs[i_dv], 0, 3)
             return m
         dl = np.sqrt(q) - d - along
@@ -1529,9 +1525,9 @@ def _length_fill(fill, second_order=False, mean_mode=0, var_scale=1.0, memory_ma
                 r[1] += min(max(1.0, (aux[i_t] - p[o_start]) / acc[o_t]), mem) * dr
             else:
                 r[1] += vs * dr
-            if cross_on:     # the cross rows' bilinear term
-                bilinear_rows(z, H, r, p[p.shape[0] - n_st:], offs[i_dv], 0, 1)
-                bilinear_rows(z, H, r, p[p.shape[0] - n_st:], offs[i_dv], 2, 3)
+            # the cross rows' bilinear term (the length row's own second order is above)
+            bilinear_rows(z, H, r, p[p.shape[0] - n_st:], offs[i_dv], 0, 1)
+            bilinear_rows(z, H, r, p[p.shape[0] - n_st:], offs[i_dv], 2, 3)
         if sins_along:
             od, om, ol = offs[i_dk], offs[i_mount], offs[i_lever]
             for c in range(H.shape[1]):

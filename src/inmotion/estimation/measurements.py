@@ -374,11 +374,9 @@ def _fill_sins_dr_velocity(xs, xd, aux, acc, data, p, offs, z, H, r):
         # at the mounting estimate (issue 15, session 21; it stays in the state, never fed
         # back): the DR's velocity turned by it, exp([(C_D a) x]) v_D, and z below keeps the
         # innovation the engine forms, z - H x, equal to the prediction there
-        a_n = np.zeros(3)
-        for i in range(3):
-            for j in range(3):
-                a_n[i] += C_D[i, j] * st[ST_MOUNT + j]
-        v = _rotate_vector(a_n, v.copy())
+        a_n = K.qrotate(xd[K.Q0:K.Q3 + 1], (st[ST_MOUNT], st[ST_MOUNT + 1], st[ST_MOUNT + 2]))
+        vr = K.qrotate(K.quat_from_rotvec(a_n), (v[0], v[1], v[2]))
+        v = np.array([vr[0], vr[1], vr[2]])
     V = em.skew(v)
     # dv_D on the mounting angles (eq. 11), formed only with a mount block (sins-dr's where
     # the mounting is not given), column by column, [v x] C_D = [v x C_D[:, j]]: a matrix
@@ -400,22 +398,6 @@ def _fill_sins_dr_velocity(xs, xd, aux, acc, data, p, offs, z, H, r):
     if p[3] != 0.0:          # second order: the filter's [phi_D, dv] at the row's end
         bilinear_rows(z, H, r, st, offs[DV], 0, 3)
     return 3
-
-
-@njit(cache=True)
-def _rotate_vector(a, v):
-    """``exp([a x]) v`` (Rodrigues)."""
-    th = math.sqrt(a[0] * a[0] + a[1] * a[1] + a[2] * a[2])
-    if th < 1e-12:
-        return v
-    k = a / th
-    kv = K.cross((k[0], k[1], k[2]), (v[0], v[1], v[2]))
-    kd = k[0] * v[0] + k[1] * v[1] + k[2] * v[2]
-    c, s_ = math.cos(th), math.sin(th)
-    out = np.empty(3)
-    for i in range(3):
-        out[i] = v[i] * c + kv[i] * s_ + k[i] * kd * (1.0 - c)
-    return out
 
 
 class SinsDrVelocity(Measurement):
@@ -670,27 +652,13 @@ def _with_mount_spread(st, r0, r1, r2):
 
 @njit(cache=True)
 def _rotated_rows(a0, a1, a2, r0, r1, r2):
-    """The rows of ``exp(-[a x]) R`` for ``R``'s rows ``r0, r1, r2`` (Rodrigues)."""
-    th = math.sqrt(a0 * a0 + a1 * a1 + a2 * a2)
-    if th < 1e-12:
-        return r0, r1, r2
-    s_, c_ = math.sin(th) / th, (1.0 - math.cos(th)) / (th * th)
-    # E = exp(-[a x]) = I - s [a x] + c [a x]^2
-    ax = ((0.0, -a2, a1), (a2, 0.0, -a0), (-a1, a0, 0.0))
-    E = np.empty((3, 3))
-    for i in range(3):
-        for j in range(3):
-            sq = 0.0
-            for k in range(3):
-                sq += ax[i][k] * ax[k][j]
-            E[i, j] = (1.0 if i == j else 0.0) - s_ * ax[i][j] + c_ * sq
-    rows = (r0, r1, r2)
-    out = np.empty((3, 3))
-    for i in range(3):
-        for j in range(3):
-            out[i, j] = E[i, 0] * rows[0][j] + E[i, 1] * rows[1][j] + E[i, 2] * rows[2][j]
-    return ((out[0, 0], out[0, 1], out[0, 2]), (out[1, 0], out[1, 1], out[1, 2]),
-            (out[2, 0], out[2, 1], out[2, 2]))
+    """The rows of ``exp(-[a x]) R`` for ``R``'s rows ``r0, r1, r2``: each column of ``R``
+    turned by the quaternion of ``-a``."""
+    q = K.quat_from_rotvec((-a0, -a1, -a2))
+    c0 = K.qrotate(q, (r0[0], r1[0], r2[0]))
+    c1 = K.qrotate(q, (r0[1], r1[1], r2[1]))
+    c2 = K.qrotate(q, (r0[2], r1[2], r2[2]))
+    return (c0[0], c1[0], c2[0]), (c0[1], c1[1], c2[1]), (c0[2], c1[2], c2[2])
 
 
 class Nhc(Measurement):

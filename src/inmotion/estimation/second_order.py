@@ -26,6 +26,7 @@ from __future__ import annotations
 import numpy as np
 
 from .._jit import njit
+from ..core import _kernels as K
 
 __all__ = ["bilinear_moments", "bilinear_rows"]
 
@@ -43,7 +44,7 @@ def bilinear_moments(st, h):
     with ``A = -[h x]``. For a Gaussian (Isserlis): mean ``m_phi^T A m_v + tr(A P_vp)``,
     variance ``tr(A^T P_pp A P_vv) + tr(A P_vp A P_vp)`` plus the mean's cross terms
     ``m_v^T A^T P_pp A m_v + m_phi^T A P_vv A^T m_phi + 2 m_phi^T A P_vp A m_v`` (``P_vp =
-    Cov(dv, phi)``; ``tests/test_aided_kf_second_order.py`` checks both against sampling).
+    Cov(dv, phi)``; ``tests/test_bilinear_rows.py`` checks both against sampling).
 
     With a small velocity error it is nothing (cm/s times arc-minutes). After a long coast (a
     speed-sensor gap) it is not: metres per second times a degree, and its mean is systematic,
@@ -54,10 +55,7 @@ def bilinear_moments(st, h):
     """
     # 3 x 3 products by loops: a matrix product is a BLAS call in numba, whose first use
     # imports scipy (the ahead-of-time run path's cost, issue 13)
-    A = np.zeros((3, 3))          # -[h x]
-    A[0, 1], A[0, 2] = h[2], -h[1]
-    A[1, 0], A[1, 2] = -h[2], h[0]
-    A[2, 0], A[2, 1] = h[1], -h[0]
+    A = -K.skew(h)
     Ppp, Pvv, Pvp = np.empty((3, 3)), np.empty((3, 3)), np.empty((3, 3))
     for a in range(3):
         for b in range(3):
@@ -117,13 +115,12 @@ def bilinear_rows(z, H, r, st, o_dv, a, b):
     mean's covariance part)."""
     if st[6] + st[6 + 7] + st[6 + 14] > MAX_ANGLE_RAD * MAX_ANGLE_RAD:
         return
+    # at the estimate (an open-loop interval's nonzero [phi, dv]): h . (m_phi x m_v)
+    mx = K.cross((st[0], st[1], st[2]), (st[3], st[4], st[5]))
     h = np.empty(3)
     for i in range(a, b):
         for c in range(3):
             h[c] = H[i, o_dv + c]
         _, var = bilinear_moments(st, h)
-        # at the estimate (an open-loop interval's nonzero [phi, dv]): h . (m_phi x m_v)
-        mx = (st[1] * st[5] - st[2] * st[4], st[2] * st[3] - st[0] * st[5],
-              st[0] * st[4] - st[1] * st[3])
         z[i] -= h[0] * mx[0] + h[1] * mx[1] + h[2] * mx[2]
         r[i] += var
