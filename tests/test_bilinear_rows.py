@@ -238,3 +238,15 @@ def test_reseed_dr_position_is_the_copy_transform():
                          np.eye(no_dr.n) * 1e-6, [])
     with pytest.raises(ValueError, match="needs a filter with a DR"):
         g.reseed_dr_position()
+
+
+def test_rows_refuse_a_state_of_the_wrong_size():
+    """``Measurement.rows(state=...)``: the values the engine would hand a measurement that
+    wants its filter's state must be :data:`STATE_PARAMS` long; anything else is named."""
+    from inmotion.estimation.layout import Layout
+    from inmotion.estimation.measurements import STATE_PARAMS, Nhc
+    lay = Layout(["phi", "dv", "mount"])
+    xs = _kernel_state([10.0, 0.0, 0.0], [5.0, 5.0, 0.0])
+    with pytest.raises(ValueError, match=f"nhc: state holds {STATE_PARAMS} values, got shape "
+                                         r"\(42,\)"):
+        Nhc(0.1).rows((xs, xs.copy(), np.zeros(10)), None, lay, state=np.zeros(42))
