@@ -337,3 +337,29 @@ def test_real_mems_rolling_window_matches_the_data_readme():
     assert 28.0 < t0 < 34.0 and 72.0 < t1 < 79.0, (t0, t1)
     roll = np.degrees(b.truth.euler[:, 1])
     assert roll.max() - roll.min() > 60.0
+
+
+@needs_mems
+def test_real_mems_every_kalman_method_with_its_defaults_covers_its_error():
+    """Issue 15 ("on the MEMS log no method reports a sigma smaller than its error by more
+    than 3x"), the Kalman methods with their defaults from the reference and the
+    reproduction's pseudo-odometer (``real.psins_mems_defaults``), throughout and left out
+    while the platform rolls: the final error over the final 1-sigma in East, North and up
+    attitude and in horizontal position at most 3. Session 21 measured 4.8-36x: the filters
+    took the IMU as fixed in the vehicle and the +-32 deg roll as information separating the
+    attitude from the mounting. The importer now writes what the dataset documents: the
+    platform's wandering mounting (``vehicle.mounting_rw_arcmin_sqrt_s``, derived from the
+    README and the file's gyro) and the toolbox demo's noise densities."""
+    from inmotion.io.importers.psins import (MEMS_DEMO_ARW_DEG_SQRT_H,
+                                             MEMS_PLATFORM_RW_ARCMIN_SQRT_S)
+    from inmotion.reproductions.real import HONEST_RATIO, MEMS_DEFAULT_METHODS, \
+        psins_mems_defaults
+    b = import_log("psins", MEMS)
+    assert b.meta["vehicle"]["mounting_rw_arcmin_sqrt_s"] == MEMS_PLATFORM_RW_ARCMIN_SQRT_S
+    assert b.meta["imu"]["gyro"]["arw_deg_sqrt_h"] == MEMS_DEMO_ARW_DEG_SQRT_H
+    out = psins_mems_defaults(b)
+    for label in ("throughout", "out while rolling"):
+        rows = {r["method"]: r for r in out[label]}
+        assert set(rows) == set(MEMS_DEFAULT_METHODS)
+        for name, r in rows.items():
+            assert r["largest_ratio"] <= HONEST_RATIO, (label, name, r)

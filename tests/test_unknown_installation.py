@@ -152,3 +152,50 @@ def test_a_given_mounting_the_filter_estimates_from_zero_sets_the_prior():
     with pytest.raises(BadInput, match="vehicle_mounting_arcmin: not finite"):
         dr_with_spec(DrKfConfig(), {"vehicle_mounting_arcmin": [1.0, float("nan"), 2.0]},
                      "odometer")
+
+
+def test_an_imu_not_fixed_in_its_vehicle_gets_a_mounting_random_walk_from_meta():
+    """Issue 15, session 22: ``meta.vehicle.mounting_rw_arcmin_sqrt_s`` (the PSINS MEMS
+    platform rolls in its vehicle) becomes every mounting-state filter's
+    ``mount_rw_arcmin_sqrt_s`` under ``noise_preset: matched``, with its origin; the
+    configuration wins, the paper preset ignores it, a bad value is refused; and the value
+    reaches the process noise of the mounting states (and only them)."""
+    import pytest
+    from inmotion.align import aided_kf
+    from inmotion.align.dr_kalman import _process_noise
+    from inmotion.errors import BadInput
+    from inmotion.estimation import error_model as em
+    from inmotion.estimation.layout import Layout
+    from inmotion.navigate.sins_dr import SinsDrConfig
+    from inmotion.navigate.sins_dr import config_with_spec as sins_dr_with_spec
+    meta = {"name": "rolling", "vehicle": {"mounting_rw_arcmin_sqrt_s": 64.0}}
+    origin = "meta.vehicle.mounting_rw_arcmin_sqrt_s"
+    for cfg, src in (dr_with_spec(DrKfConfig(), meta, "odometer"),
+                     aided_with_spec(AidedKfConfig(), meta, ("odometer",)),
+                     sins_dr_with_spec(SinsDrConfig(), meta, "odometer")):
+        assert cfg.mount_rw_arcmin_sqrt_s == 64.0 and src["mount_rw_arcmin_sqrt_s"] == origin
+    cfg, src = dr_with_spec(DrKfConfig(mount_rw_arcmin_sqrt_s=1.0), meta, "odometer")
+    assert cfg.mount_rw_arcmin_sqrt_s == 1.0 and src["mount_rw_arcmin_sqrt_s"] == "config"
+    cfg, _ = dr_with_spec(DrKfConfig(noise_preset="paper"), meta, "odometer")
+    assert cfg.mount_rw_arcmin_sqrt_s == 0.0
+    cfg, src = dr_with_spec(DrKfConfig(), {"name": "fixed"}, "odometer")
+    assert cfg.mount_rw_arcmin_sqrt_s == 0.0 and src["mount_rw_arcmin_sqrt_s"] == "default"
+    for bad in (-1.0, "fast", float("nan"), True):
+        with pytest.raises(BadInput, match="mounting_rw_arcmin_sqrt_s"):
+            meta_spec.mounting_rw_from_meta({"vehicle": {"mounting_rw_arcmin_sqrt_s": bad}})
+    # the density on the mounting block's diagonal, [rad^2/s], nothing else changed
+    arcmin = np.pi / 180.0 / 60.0
+    lay = Layout(["phi", "dv", "dp", "eps", "nabla", "mount", "dk"])
+    Q0 = em.ErrorModel(lay, _process_noise(DrKfConfig())).Qc()
+    Q1 = em.ErrorModel(lay, _process_noise(DrKfConfig(mount_rw_arcmin_sqrt_s=64.0))).Qc()
+    m = lay["mount"]
+    np.testing.assert_allclose(np.diag(Q1[m, m]), (64.0 * arcmin) ** 2, rtol=1e-12)
+    D = Q1 - Q0
+    D[m, m] = 0.0
+    assert not D.any()
+    # od-kf's channels carry their own 2-angle mounting block: the walk goes there
+    Q = np.zeros((aided_kf.NSUB, aided_kf.NSUB))
+    o = aided_kf.SUB_LAYOUT["mount"].start
+    aided_kf._add_mount_walk(Q, o, AidedKfConfig(mount_rw_arcmin_sqrt_s=64.0))
+    assert np.flatnonzero(np.diag(Q)).tolist() == [o, o + 1]
+    assert Q[o, o] == pytest.approx((64.0 * arcmin) ** 2, rel=1e-12)

@@ -193,6 +193,16 @@ def mount_sigma_arcmin(default):
     return Field(default, ge=0, description="initial 1-sigma of the mounting angles [arcmin]")
 
 
+def mount_rw_arcmin_sqrt_s(default):
+    """``mount_rw_arcmin_sqrt_s`` (float)."""
+    return Field(
+        default, ge=0,
+        description="random walk of the mounting angles [arcmin/sqrt(s)]: an IMU that is not "
+        "fixed in its vehicle (a rolling platform, a phone in a holder); 0: constants. "
+        "noise_preset matched: meta.yaml's vehicle.mounting_rw_arcmin_sqrt_s where the "
+        "configuration does not set it")
+
+
 def mounting_arcmin(default):
     """``mounting_arcmin`` (Optional[tuple[float, float, float]])."""
     return Field(

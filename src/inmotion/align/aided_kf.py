@@ -456,6 +456,7 @@ class AidedKfConfig(NhcKfConfig):
     ldv_scale_sigma_ppm: float = Field(
         1000.0, ge=0, description="initial 1-sigma of the LDV scale-factor error [ppm]")
     mount_sigma_arcmin: float = cf.mount_sigma_arcmin(30.0)
+    mount_rw_arcmin_sqrt_s: float = cf.mount_rw_arcmin_sqrt_s(0.0)
     lever_sigma_m: float = Field(
         0.05, ge=0, description="initial 1-sigma of the lever-arm error per axis [m]")
     fdi: bool = Field(
@@ -545,7 +546,8 @@ def _noise(cfg) -> em.ProcessNoise:
         gm.update(accel_bias_sigma=cfg.accel_markov_ug * UG,
                   accel_bias_tau=cfg.accel_markov_tau_s)
     return em.ProcessNoise(gyro_arw=np.deg2rad(cfg.gyro_arw_deg_sqrt_h) / 60.0,
-                           accel_vrw=cfg.accel_vrw_ug_sqrt_hz * UG, **gm)
+                           accel_vrw=cfg.accel_vrw_ug_sqrt_hz * UG,
+                           mount_rw=getattr(cfg, "mount_rw_arcmin_sqrt_s", 0.0) * ARCMIN, **gm)
 
 
 def two_part_gyro_bias(cfg) -> bool:
@@ -694,6 +696,14 @@ def _pad(M15, n=NSUB):
     return out
 
 
+def _add_mount_walk(Q, o_mount: int, cfg) -> None:
+    """Add the 2-angle mounting block's random walk (``mount_rw_arcmin_sqrt_s``, an IMU not
+    fixed in its vehicle; 0: constants) to the process noise density ``Q`` at ``o_mount``."""
+    q = (getattr(cfg, "mount_rw_arcmin_sqrt_s", 0.0) * ARCMIN) ** 2
+    for i in range(o_mount, o_mount + 2):
+        Q[i, i] += q
+
+
 def _mount_prior(cfg) -> np.ndarray:
     """The 2-angle mounting block's prior covariance (pitch, yaw) [rad^2]: a sensor channel's
     and the NHC fallback's."""
@@ -768,6 +778,8 @@ def _channel(bundle, name, cfg, beta, P15, Q15, c, C_vb0, thr, ret, t0=0.0, vel_
         i = SUB_LAYOUT["dk"].start
         Q[i, i] += (LENGTH_SCALE_WALK * 1e-6) ** 2
         Q_test[i, i] += (LENGTH_SCALE_WALK * 1e-6) ** 2
+    for M in (Q, Q_test):                 # the channel's own states: no federated 1 / beta
+        _add_mount_walk(M, SUB_LAYOUT["mount"].start, cfg)
     return LocalFilter(P, Q, r_scale=1.0 / beta, P0_test=P_test, Qc_test=Q_test), meas
 
 
@@ -2023,9 +2035,11 @@ def run_aided(bundle: Bundle, cfg, init: NavState, sensors: tuple, *, method: st
     pad = _pad if sensors else (lambda M: M)
     if use_nhc:
         P_nhc = pad(P15)
+        Q_nhc = pad(Q15)
         if sensors:     # the fallback estimates the mounting its rows see (_nhc)
             P_nhc[SUB_LAYOUT["mount"], SUB_LAYOUT["mount"]] = _mount_prior(cfg)
-        locals_.append(LocalFilter(P_nhc, pad(Q15), role="primary" if nhc_only
+            _add_mount_walk(Q_nhc, SUB_LAYOUT["mount"].start, cfg)
+        locals_.append(LocalFilter(P_nhc, Q_nhc, role="primary" if nhc_only
                                    else "fallback"))
         meas.append(_nhc(cfg, C_vb0, len(locals_) - 1, mount=bool(sensors)))
     if two_part_gyro_bias(cfg):         # constant + Gauss-Markov gyro bias (issue 15)
@@ -2236,6 +2250,7 @@ def _smooth_bank(f, res_fwd, bundle, cfg, init, k0, sensors, use_nhc, use_baro, 
             P0[o_c:o_c + k, o_c:o_c + k] = lf.P0[o_sub:o_sub + k, o_sub:o_sub + k]
             P0[:NS, o_c:o_c + k] = lf.P0[:NS, o_sub:o_sub + k]     # init_attitude_cross
             P0[o_c:o_c + k, :NS] = lf.P0[o_sub:o_sub + k, :NS]
+        _add_mount_walk(Q, o_m, cfg)
         if c > 0:
             base = m.params()
             m.fill = _remapped_fill(m.fill, len(base))

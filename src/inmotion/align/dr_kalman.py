@@ -178,6 +178,7 @@ class OdVelocityKfConfig(StopUpdateFields):
     gyro_drift_deg_h: float = cf.gyro_drift_deg_h(0.03)
     accel_bias_ug: float = cf.accel_bias_ug(100.0)
     mount_sigma_arcmin: float = cf.mount_sigma_arcmin(20.0)
+    mount_rw_arcmin_sqrt_s: float = cf.mount_rw_arcmin_sqrt_s(0.0)
     dk_sigma_ppm: float = cf.dk_sigma_ppm(1000.0)
     dk_tau_s: float = cf.dk_tau_s(300.0)
     # noise
@@ -295,7 +296,8 @@ def _process_noise(cfg) -> em.ProcessNoise:
         accel_vrw=cfg.accel_vrw_ug_sqrt_hz * UG,
         gyro_bias_rw=cfg.gyro_bias_rw_deg_h_sqrt_h * DEG_H / 60.0,
         accel_bias_rw=cfg.accel_bias_rw_ug_sqrt_h * UG / 60.0,
-        dk_sigma=cfg.dk_sigma_ppm * 1e-6, dk_tau=cfg.dk_tau_s)
+        dk_sigma=cfg.dk_sigma_ppm * 1e-6, dk_tau=cfg.dk_tau_s,
+        mount_rw=cfg.mount_rw_arcmin_sqrt_s * ARCMIN)
 
 
 def _initial_covariance(lay: Layout, cfg, lat, h):

@@ -387,6 +387,13 @@ def unknown_installation_priors(cfg, meta, scale=None) -> tuple:
       gap, seeds 0-2, they ended 12-21 times their sigma, 424-757 m off; with the prior
       covering it, 2.6-3.7x and 10-23 m; every shipped scenario's mounting is within the
       defaults, 15 arcmin at most);
+    * ``mount_rw_arcmin_sqrt_s`` (where ``cfg`` has it) from ``meta.vehicle.
+      mounting_rw_arcmin_sqrt_s`` (:func:`mounting_rw_from_meta`): an IMU ``meta.yaml`` says is
+      not fixed in its vehicle gets mounting angles that wander (issue 15, session 22: on
+      the PSINS MEMS log, whose platform rolls by +-32 deg in the vehicle, ``dr-kf`` and
+      ``od-velocity-kf`` with constant angles took the roll as information that separates
+      attitude from mounting and ended 5.6-6.9 times their sigma; with the random walk the
+      importer derives from the dataset's README, within 3);
     * ``scale``: ``{sensor: {field: value}}``, each sensor's scale-factor fields set to the
       values given when its spec ``meta['sensors'][sensor]`` states no scale factor
       (:data:`SCALE_SPEC_KEYS`; no spec at all counts as none).
@@ -416,6 +423,11 @@ def unknown_installation_priors(cfg, meta, scale=None) -> tuple:
                                   "estimates from zero")
         upd.update(u)
         src.update(s)
+    if "mount_rw_arcmin_sqrt_s" in type(cfg).model_fields:
+        u, s = fields_not_set(cfg, ("mount_rw_arcmin_sqrt_s",), mounting_rw_from_meta(meta),
+                              "meta.vehicle.mounting_rw_arcmin_sqrt_s")
+        upd.update(u)
+        src.update(s)
     sensors = meta.get("sensors") if isinstance(meta.get("sensors"), dict) else {}
     for name, fields in (scale or {}).items():
         spec = sensors.get(name) if isinstance(sensors.get(name), dict) else {}
@@ -426,6 +438,22 @@ def unknown_installation_priors(cfg, meta, scale=None) -> tuple:
         upd.update(u)
         src.update(s)
     return upd, src
+
+
+def mounting_rw_from_meta(meta) -> dict:
+    """``{"mount_rw_arcmin_sqrt_s": value}`` from ``meta['vehicle']
+    ['mounting_rw_arcmin_sqrt_s']`` (an IMU that turns in its vehicle: the mounting angles a
+    random walk, :func:`unknown_installation_priors`), ``{}`` without one;
+    :class:`~inmotion.errors.BadInput` for a value that is not a finite number >= 0."""
+    veh = meta.get("vehicle") if isinstance(meta, dict) else None
+    if not isinstance(veh, dict) or veh.get("mounting_rw_arcmin_sqrt_s") is None:
+        return {}
+    v = veh["mounting_rw_arcmin_sqrt_s"]
+    if isinstance(v, bool) or not isinstance(v, (int, float)) or not (
+            np.isfinite(v) and v >= 0):
+        raise BadInput(f"meta vehicle.mounting_rw_arcmin_sqrt_s: a finite number >= 0 "
+                       f"[arcmin/sqrt(s)], got {v!r}"[:200])
+    return {"mount_rw_arcmin_sqrt_s": float(v)}
 
 
 def _largest_angle_arcmin(given) -> float:

@@ -186,6 +186,7 @@ class SinsDrConfig(StopUpdateFields):
         UNKNOWN_MOUNTING_SIGMA_ARCMIN, ge=0,
         description="initial 1-sigma of the mounting angles when they are estimated [arcmin] "
                     "(default: an installation nobody surveyed)")
+    mount_rw_arcmin_sqrt_s: float = cf.mount_rw_arcmin_sqrt_s(0.0)
     # priors
     init_tilt_sigma_arcmin: float = Field(
         1.0, gt=0, description="initial 1-sigma of the level (pitch, roll) error [arcmin]")
@@ -304,7 +305,8 @@ def process_noise(cfg: SinsDrConfig) -> em.ProcessNoise:
         accel_vrw=cfg.accel_vrw_ug_sqrt_hz * UG,
         gyro_bias_rw=cfg.gyro_bias_rw_deg_h_sqrt_h * DEG_H / 60.0,
         accel_bias_rw=cfg.accel_bias_rw_ug_sqrt_h * UG / 60.0,
-        dk_sigma=cfg.dk_sigma_ppm * 1e-6, dk_tau=cfg.dk_tau_s)
+        dk_sigma=cfg.dk_sigma_ppm * 1e-6, dk_tau=cfg.dk_tau_s,
+        mount_rw=cfg.mount_rw_arcmin_sqrt_s * ARCMIN)
 
 
 def initial_covariance(lay: Layout, cfg: SinsDrConfig, lat: float, h: float) -> np.ndarray:
