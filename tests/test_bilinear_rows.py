@@ -250,3 +250,32 @@ def test_rows_refuse_a_state_of_the_wrong_size():
     with pytest.raises(ValueError, match=f"nhc: state holds {STATE_PARAMS} values, got shape "
                                          r"\(42,\)"):
         Nhc(0.1).rows((xs, xs.copy(), np.zeros(10)), None, lay, state=np.zeros(42))
+
+
+def test_the_mount_spread_blocks_are_the_linear_transform_of_the_covariance():
+    """``measurements._with_mount_spread`` (scalar code on tuples since session 22, no
+    allocation) against its closed form: ``psi = phi - C_vn^T a`` is ``T [phi, dv, mount]``
+    with ``T = [I, 0, -C_vn^T]``, so ``Cov(psi) = (T P T^T)`` and ``Cov(dv, psi) =
+    P_v,: T^T``; and ``bilinear_rows_blocks`` with ``st``'s own blocks is ``bilinear_rows``
+    bit for bit."""
+    from inmotion.estimation import measurements as ms_mod
+    rng = np.random.default_rng(7)
+    G = rng.normal(size=(9, 9))
+    P = G @ G.T * 1e-4 + np.eye(9) * 1e-6          # [phi, dv, mount]
+    C = expm(skew(rng.normal(size=3)))             # C_vn
+    st = np.zeros(ms_mod.STATE_PARAMS)
+    st[:6] = rng.normal(size=6) * 1e-2
+    st[6:42] = P[:6, :6].ravel()
+    st[ms_mod.ST_MOUNT_COV:ms_mod.ST_MOUNT_COV + 27] = P[6:9, :].ravel()
+    Ppsi, Pvpsi = ms_mod._with_mount_spread(st, tuple(C[0]), tuple(C[1]), tuple(C[2]))
+    T = np.hstack([np.eye(3), np.zeros((3, 3)), -C.T])
+    np.testing.assert_allclose(np.reshape(Ppsi, (3, 3)), T @ P @ T.T, rtol=1e-12, atol=1e-18)
+    np.testing.assert_allclose(np.reshape(Pvpsi, (3, 3)), P[3:6, :] @ T.T, rtol=1e-12,
+                               atol=1e-18)
+    H = rng.normal(size=(3, 12))
+    z1, r1 = np.zeros(3), np.full(3, 1e-2)
+    z2, r2 = z1.copy(), r1.copy()
+    so.bilinear_rows(z1, H, r1, st, 3, 0, 3)
+    so.bilinear_rows_blocks(z2, H, r2, tuple(st[:3]), tuple(st[3:6]), so.cov_block(st, 0, 0),
+                            so.cov_block(st, 3, 3), so.cov_block(st, 3, 0), 3, 0, 3)
+    assert np.array_equal(z1, z2) and np.array_equal(r1, r2) and (r1 > 1e-2).all()

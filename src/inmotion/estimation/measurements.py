@@ -57,7 +57,7 @@ from . import error_model as em
 from .aiding_rows import _displacement_rows, _velocity_rows
 from .layout import DK, DP, DP_D, DV, EPS, LEVER, MOUNT, NABLA, PHI, PHI_D, Layout
 from .nav_ops import dcm_columns, dcm_of_q, euler_ypr, wrap_pi
-from .second_order import bilinear_rows
+from .second_order import bilinear_rows, bilinear_rows_blocks, cov_block
 
 __all__ = ["ACC_SIZE", "accumulator_function", "Compiled", "dispatcher",
            "Measurement", "SinsDrAttitude", "SinsDrVelocity", "SinsDrPosition",
@@ -606,48 +606,62 @@ def _fill_nhc(xs, xd, aux, acc, data, p, offs, z, H, r):
             for i in range(2):
                 for j in range(3):
                     z[i] += H[i, o_mount + j] * st[ST_MOUNT + j]
-            st = _with_mount_spread(st, r0, r1, r2)
-        bilinear_rows(z, H, r, st, o_dv, 0, 2)
+            Ppsi, Pvpsi = _with_mount_spread(st, r0, r1, r2)
+            bilinear_rows_blocks(z, H, r, (st[0], st[1], st[2]), (st[3], st[4], st[5]), Ppsi,
+                                 cov_block(st, 3, 3), Pvpsi, o_dv, 0, 2)
+        else:
+            bilinear_rows(z, H, r, st, o_dv, 0, 2)
     return 2
 
 
 @njit(cache=True)
 def _with_mount_spread(st, r0, r1, r2):
-    """The state values of :func:`~inmotion.estimation.second_order.bilinear_rows` for the NHC
-    rows at the mounting estimate: the vehicle frame's rows ``e . exp(-[a x]) C_vn (v + dv)``
-    hold ``-e . ((C_vn^T a) x dv)`` besides ``e . (phi x dv)``, so the angle of the bilinear
-    term is ``psi = phi - C_vn^T a`` (``C_vn``'s rows ``r0, r1, r2`` as n-frame vectors): its
-    covariance with itself and with ``dv`` from the filter's ``[phi, dv, mount]`` covariance,
-    its mean ``phi``'s (the mounting's mean is where the rows are taken)."""
-    out = st[:42].copy()
-    M = np.empty((3, 3))                 # C_vn^T: column k is row k of C_vn
-    rows = (r0, r1, r2)
-    for k in range(3):
-        for i in range(3):
-            M[i, k] = rows[k][i]
-    Pam = np.empty((3, 9))               # Cov(mount, [phi, dv, mount])
-    for a in range(3):
-        for b in range(9):
-            Pam[a, b] = st[ST_MOUNT_COV + 9 * a + b]
-    A = np.zeros((3, 9))                 # Cov(C^T mount, [phi, dv, mount]), by loops (no BLAS)
-    for i in range(3):
-        for b in range(9):
-            for k in range(3):
-                A[i, b] += M[i, k] * Pam[k, b]
-    Pmm = np.zeros((3, 3))               # Cov(C^T mount)
-    for i in range(3):
-        for j in range(3):
-            for k in range(3):
-                Pmm[i, j] += A[i, 6 + k] * M[j, k]
-    for i in range(3):
-        for j in range(3):
-            # psi-psi: P_pp - P_p,Cm - P_Cm,p + P_Cm,Cm
-            out[6 + 6 * i + j] = (st[6 + 6 * i + j] - A[j, i] - A[i, j] + Pmm[i, j])
-            # psi-dv and dv-psi: P_pv - P_Cm,v
-            pv = st[6 + 6 * i + 3 + j] - A[i, 3 + j]
-            out[6 + 6 * i + 3 + j] = pv
-            out[6 + 6 * (3 + j) + i] = pv
-    return out
+    """The covariance blocks ``(P_psi_psi, P_dv_psi)`` (9-tuples, row by row) of
+    :func:`~inmotion.estimation.second_order.bilinear_rows_blocks` for the NHC rows at the
+    mounting estimate: the vehicle frame's rows ``e . exp(-[a x]) C_vn (v + dv)`` hold
+    ``-e . ((C_vn^T a) x dv)`` besides ``e . (phi x dv)``, so the angle of the bilinear term is
+    ``psi = phi - C_vn^T a`` (``C_vn``'s rows ``r0, r1, r2`` as n-frame vectors): its
+    covariance with itself and with ``dv`` from the filter's ``[phi, dv, mount]`` covariance;
+    its mean is ``phi``'s (the mounting's mean is where the rows are taken). Scalar code on
+    tuples (no allocation: session 22)."""
+    o = ST_MOUNT_COV
+    A0 = _spread_row(st, o, r0[0], r1[0], r2[0])     # Cov(C^T mount, [phi, dv, mount]) rows
+    A1 = _spread_row(st, o, r0[1], r1[1], r2[1])
+    A2 = _spread_row(st, o, r0[2], r1[2], r2[2])
+    c0, c1, c2 = (r0[0], r1[0], r2[0]), (r0[1], r1[1], r2[1]), (r0[2], r1[2], r2[2])
+    Ppsi = (_psi_psi(st, A0, A0, 0, 0, c0), _psi_psi(st, A0, A1, 0, 1, c1),
+            _psi_psi(st, A0, A2, 0, 2, c2), _psi_psi(st, A1, A0, 1, 0, c0),
+            _psi_psi(st, A1, A1, 1, 1, c1), _psi_psi(st, A1, A2, 1, 2, c2),
+            _psi_psi(st, A2, A0, 2, 0, c0), _psi_psi(st, A2, A1, 2, 1, c1),
+            _psi_psi(st, A2, A2, 2, 2, c2))
+    # Cov(dv_j, psi_i) = P_pv[i, j] - A_i[3 + j], row j
+    Pvpsi = (st[9] - A0[3], st[15] - A1[3], st[21] - A2[3],
+             st[10] - A0[4], st[16] - A1[4], st[22] - A2[4],
+             st[11] - A0[5], st[17] - A1[5], st[23] - A2[5])
+    return Ppsi, Pvpsi
+
+
+@njit(cache=True)
+def _spread_row(st, o, m0, m1, m2):
+    """Row ``i`` of ``Cov(C_vn^T mount, [phi, dv, mount])`` (9-tuple), ``m_k`` row ``k`` of
+    ``C_vn``'s ``i``-th entry; the mount's covariance rows at ``st[o:o + 27]``."""
+    return (m0 * st[o] + m1 * st[o + 9] + m2 * st[o + 18],
+            m0 * st[o + 1] + m1 * st[o + 10] + m2 * st[o + 19],
+            m0 * st[o + 2] + m1 * st[o + 11] + m2 * st[o + 20],
+            m0 * st[o + 3] + m1 * st[o + 12] + m2 * st[o + 21],
+            m0 * st[o + 4] + m1 * st[o + 13] + m2 * st[o + 22],
+            m0 * st[o + 5] + m1 * st[o + 14] + m2 * st[o + 23],
+            m0 * st[o + 6] + m1 * st[o + 15] + m2 * st[o + 24],
+            m0 * st[o + 7] + m1 * st[o + 16] + m2 * st[o + 25],
+            m0 * st[o + 8] + m1 * st[o + 17] + m2 * st[o + 26])
+
+
+@njit(cache=True)
+def _psi_psi(st, Ai, Aj, i, j, cj):
+    """``Cov(psi_i, psi_j) = P_pp - P_p,Cm - P_Cm,p + P_Cm,Cm`` (``cj``: column ``j`` of
+    ``C_vn^T``, i.e. entry ``j`` of each row of ``C_vn``)."""
+    return (st[6 + 6 * i + j] - Aj[i] - Ai[j]
+            + (Ai[6] * cj[0] + Ai[7] * cj[1] + Ai[8] * cj[2]))
 
 
 @njit(cache=True)

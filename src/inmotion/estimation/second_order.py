@@ -23,12 +23,11 @@ here and costs the filter its footing where the model is wrong, so it is left ou
 """
 from __future__ import annotations
 
-import numpy as np
 
 from .._jit import njit
 from ..core import _kernels as K
 
-__all__ = ["bilinear_moments", "bilinear_rows"]
+__all__ = ["bilinear_moments", "bilinear_rows", "bilinear_rows_blocks", "cov_block"]
 
 
 @njit(cache=True)
@@ -55,54 +54,68 @@ def bilinear_moments(st, h):
     """
     # 3 x 3 products by loops: a matrix product is a BLAS call in numba, whose first use
     # imports scipy (the ahead-of-time run path's cost, issue 13)
-    A = -K.skew(h)
-    Ppp, Pvv, Pvp = np.empty((3, 3)), np.empty((3, 3)), np.empty((3, 3))
-    for a in range(3):
-        for b in range(3):
-            Ppp[a, b] = st[6 + 6 * a + b]
-            Pvv[a, b] = st[6 + 6 * (3 + a) + 3 + b]
-            Pvp[a, b] = st[6 + 6 * (3 + a) + b]
-    mp, mv = st[0:3], st[3:6]
+    return _moments((st[0], st[1], st[2]), (st[3], st[4], st[5]), cov_block(st, 0, 0),
+                    cov_block(st, 3, 3), cov_block(st, 3, 0), (h[0], h[1], h[2]))
+
+
+# 3 x 3 matrices as 9-tuples, row by row, and 3-vectors as 3-tuples: values on the stack, no
+# allocation in the fills' hot path (issue 13's engine budget: the arrays these helpers made
+# before, ~17 per row, cost the equal workload 0.2 s per hour, session 22)
+
+@njit(cache=True)
+def cov_block(st, r0, c0):
+    """The 3 x 3 block at rows ``r0``, columns ``c0`` of the 6 x 6 covariance in ``st``."""
+    o = 6 + 6 * r0 + c0
+    return (st[o], st[o + 1], st[o + 2], st[o + 6], st[o + 7], st[o + 8],
+            st[o + 12], st[o + 13], st[o + 14])
+
+
+@njit(cache=True)
+def _t(a):
+    """Transpose of a 9-tuple matrix."""
+    return (a[0], a[3], a[6], a[1], a[4], a[7], a[2], a[5], a[8])
+
+
+@njit(cache=True)
+def _mm(a, b):
+    """``a b`` of two 9-tuple matrices (each entry summed over k = 0, 1, 2 in that order)."""
+    return (a[0] * b[0] + a[1] * b[3] + a[2] * b[6], a[0] * b[1] + a[1] * b[4] + a[2] * b[7],
+            a[0] * b[2] + a[1] * b[5] + a[2] * b[8],
+            a[3] * b[0] + a[4] * b[3] + a[5] * b[6], a[3] * b[1] + a[4] * b[4] + a[5] * b[7],
+            a[3] * b[2] + a[4] * b[5] + a[5] * b[8],
+            a[6] * b[0] + a[7] * b[3] + a[8] * b[6], a[6] * b[1] + a[7] * b[4] + a[8] * b[7],
+            a[6] * b[2] + a[7] * b[5] + a[8] * b[8])
+
+
+@njit(cache=True)
+def _mv(a, x):
+    """``a x`` of a 9-tuple matrix and a 3-tuple."""
+    return (a[0] * x[0] + a[1] * x[1] + a[2] * x[2], a[3] * x[0] + a[4] * x[1] + a[5] * x[2],
+            a[6] * x[0] + a[7] * x[1] + a[8] * x[2])
+
+
+@njit(cache=True)
+def _moments(mp, mv, Ppp, Pvv, Pvp, h):
+    """:func:`bilinear_moments` on the blocks: the means ``mp``, ``mv``, the covariances
+    ``Ppp``, ``Pvv``, ``Pvp = Cov(dv, phi)`` (9-tuples) and the row's ``h`` (3-tuple)."""
+    A = (0.0, h[2], -h[1], -h[2], 0.0, h[0], h[1], -h[0], 0.0)      # -[h x]
     AP = _mm(A, Pvp)
     Am = _mv(A, mv)
-    mean = mp[0] * Am[0] + mp[1] * Am[1] + mp[2] * Am[2] + AP[0, 0] + AP[1, 1] + AP[2, 2]
-    t1 = _mm(_mm(_mm(A.T.copy(), Ppp), A), Pvv)
+    mean = mp[0] * Am[0] + mp[1] * Am[1] + mp[2] * Am[2] + AP[0] + AP[4] + AP[8]
+    At = _t(A)
+    t1 = _mm(_mm(_mm(At, Ppp), A), Pvv)
     t2 = _mm(AP, AP)
     PAm = _mv(Ppp, Am)
-    Atm = _mv(A.T.copy(), mp)
+    Atm = _mv(At, mp)
     PvAtm = _mv(Pvv, Atm)
     APAm = _mv(AP, Am)
-    var = t1[0, 0] + t1[1, 1] + t1[2, 2] + t2[0, 0] + t2[1, 1] + t2[2, 2]
-    for i in range(3):
-        var += Am[i] * PAm[i] + Atm[i] * PvAtm[i] + 2.0 * mp[i] * APAm[i]
+    var = t1[0] + t1[4] + t1[8] + t2[0] + t2[4] + t2[8]
+    var += Am[0] * PAm[0] + Atm[0] * PvAtm[0] + 2.0 * mp[0] * APAm[0]
+    var += Am[1] * PAm[1] + Atm[1] * PvAtm[1] + 2.0 * mp[1] * APAm[1]
+    var += Am[2] * PAm[2] + Atm[2] * PvAtm[2] + 2.0 * mp[2] * APAm[2]
     return mean, max(0.0, var)
 
 
-@njit(cache=True)
-def _mm(A, B):
-    """``A B`` of two 3 x 3 arrays, by loops (no BLAS)."""
-    C = np.zeros((3, 3))
-    for i in range(3):
-        for j in range(3):
-            for k in range(3):
-                C[i, j] += A[i, k] * B[k, j]
-    return C
-
-
-@njit(cache=True)
-def _mv(A, x):
-    """``A x`` of a 3 x 3 array and a 3-vector, by loops."""
-    y = np.zeros(3)
-    for i in range(3):
-        for k in range(3):
-            y[i] += A[i, k] * x[k]
-    return y
-
-
-#: the attitude 1-sigma [rad] (root of the trace of its covariance) beyond which the
-#: expansion is not used: the rows stay first order (at 0.1 rad the next terms are a few per
-#: cent of the bilinear one; a filter started with a heading unknown by tens of degrees, as
-#: on the PSINS MEMS log, is far outside it)
 MAX_ANGLE_RAD = 0.1
 
 
@@ -113,14 +126,20 @@ def bilinear_rows(z, H, r, st, o_dv, a, b):
     at the estimate, ``h . (m_phi x m_v)`` (nonzero between feedbacks), out of the innovation;
     nothing beyond :data:`MAX_ANGLE_RAD` of attitude sigma (module docstring: why not the
     mean's covariance part)."""
-    if st[6] + st[6 + 7] + st[6 + 14] > MAX_ANGLE_RAD * MAX_ANGLE_RAD:
+    bilinear_rows_blocks(z, H, r, (st[0], st[1], st[2]), (st[3], st[4], st[5]),
+                         cov_block(st, 0, 0), cov_block(st, 3, 3), cov_block(st, 3, 0), o_dv, a, b)
+
+
+@njit(cache=True)
+def bilinear_rows_blocks(z, H, r, mp, mv, Ppp, Pvv, Pvp, o_dv, a, b):
+    """:func:`bilinear_rows` with the estimate and covariance given as blocks (as
+    :func:`_moments` takes them): the NHC rows at a mounting estimate hand the angle
+    ``phi - C_vn^T a``'s (:func:`inmotion.estimation.measurements._with_mount_spread`)."""
+    if Ppp[0] + Ppp[4] + Ppp[8] > MAX_ANGLE_RAD * MAX_ANGLE_RAD:
         return
-    # at the estimate (an open-loop interval's nonzero [phi, dv]): h . (m_phi x m_v)
-    mx = K.cross((st[0], st[1], st[2]), (st[3], st[4], st[5]))
-    h = np.empty(3)
+    mx = K.cross(mp, mv)
     for i in range(a, b):
-        for c in range(3):
-            h[c] = H[i, o_dv + c]
-        _, var = bilinear_moments(st, h)
+        h = (H[i, o_dv], H[i, o_dv + 1], H[i, o_dv + 2])
+        _, var = _moments(mp, mv, Ppp, Pvv, Pvp, h)
         z[i] -= h[0] * mx[0] + h[1] * mx[1] + h[2] * mx[2]
         r[i] += var
