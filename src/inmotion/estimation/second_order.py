@@ -23,7 +23,6 @@ here and costs the filter its footing where the model is wrong, so it is left ou
 """
 from __future__ import annotations
 
-
 from .._jit import njit
 from ..core import _kernels as K
 
@@ -52,8 +51,9 @@ def bilinear_moments(st, h):
     phone IMU's coast. Taken at their first-order noise, the first samples after the gap put
     it into the tilt and heading (issue 15, session 21).
     """
-    # 3 x 3 products by loops: a matrix product is a BLAS call in numba, whose first use
-    # imports scipy (the ahead-of-time run path's cost, issue 13)
+    # 3 x 3 products written out on tuples (:func:`_mm`): a matrix product is a BLAS call in
+    # numba, whose first use imports scipy (the ahead-of-time run path's cost, issue 13), and
+    # an array per product is an allocation in the fills' hot path
     return _moments((st[0], st[1], st[2]), (st[3], st[4], st[5]), cov_block(st, 0, 0),
                     cov_block(st, 3, 3), cov_block(st, 3, 0), (h[0], h[1], h[2]))
 
@@ -116,6 +116,10 @@ def _moments(mp, mv, Ppp, Pvv, Pvp, h):
     return mean, max(0.0, var)
 
 
+#: the attitude 1-sigma [rad] (root of the trace of its covariance) beyond which the
+#: expansion is not used: the rows stay first order (at 0.1 rad the next terms are a few per
+#: cent of the bilinear one; a filter started with a heading unknown by tens of degrees, as
+#: on the PSINS MEMS log, is far outside it)
 MAX_ANGLE_RAD = 0.1
 
 
