@@ -57,6 +57,42 @@ def parked_003(duration_s=120.0):
     return load_scenario(d)
 
 
+def city_scenario(gyro_deg_h=300.0, gm_deg_h=150.0, tau_s=60.0, rate_hz=20.0) -> dict:
+    """An EMS-like city drive as a scenario dict (issue 15, session 23; ``benchmarks/nees_invariant.py``): 325 s, four 90 deg turns, 5-14 m/s; IMU at ``rate_hz``
+with a gyro bias of a random constant (1-sigma ``gyro_deg_h`` per axis) plus a Gauss-Markov
+wander (``gm_deg_h``, ``tau_s``), accelerometer bias 20 mg, ARW 1 deg/sqrt(h), VRW 500
+ug/sqrt(Hz)."""
+    turn = {"kind": "turn", "angle_deg": 90, "rate_deg_s": 10}
+    segs = [{"kind": "accelerate", "to_speed_m_s": 12.0, "accel_m_s2": 1.0},
+            {"kind": "cruise", "duration_s": 30}, turn,
+            {"kind": "cruise", "duration_s": 40},
+            {"kind": "decelerate", "to_speed_m_s": 5.0, "decel_m_s2": 1.5},
+            {**turn, "angle_deg": -90},
+            {"kind": "accelerate", "to_speed_m_s": 14.0, "accel_m_s2": 1.0},
+            {"kind": "cruise", "duration_s": 60}, {**turn, "rate_deg_s": 8},
+            {"kind": "cruise", "duration_s": 60}, {**turn, "rate_deg_s": 8},
+            {"kind": "cruise", "duration_s": 60}]
+    return {"name": "city_mems", "description": "EMS-like city drive (nees_invariant.py)",
+            "start": {"lat_deg": 43.7, "lon_deg": -79.4, "h_m": 100.0, "heading_deg": 30.0,
+                      "speed_m_s": 5.0},
+            "segments": segs,
+            "imu": {"rate_hz": rate_hz, "constant_errors": "random",
+                    "gyro": {"drift_deg_h": gyro_deg_h, "arw_deg_sqrt_h": 1.0,
+                             "drift_markov_deg_h": gm_deg_h, "drift_markov_tau_s": tau_s},
+                    "accel": {"bias_ug": 20000.0, "vrw_ug_sqrt_hz": 500.0}},
+            "sensors": {"odometer": {"rate_hz": rate_hz, "pulses_per_m": 1000.0}}}
+
+
+def turned_start(truth, psi_rad: float) -> NavState:
+    """The truth's first state with attitude and velocity turned by ``psi_rad`` about the
+    vertical (DESIGN: ENU, heading clockwise from north, so the velocity turns by ``-psi``
+    about up as the heading grows by ``psi``)."""
+    init = NavState.from_truth(truth, euler_error=np.array([0.0, 0.0, psi_rad]))
+    c, s = np.cos(psi_rad), np.sin(psi_rad)
+    init.vel_n = np.array([[c, s, 0.0], [-s, c, 0.0], [0.0, 0.0, 1.0]]) @ init.vel_n
+    return init
+
+
 def drawn_truth(sc, mode, rng, Config, config: dict):
     """``(bundle, config)`` of one run of the scenario ``sc`` whose truth is drawn from the
     filter's priors as its start error is (issue 15, session 16): ``mode`` ``True`` draws the

@@ -411,8 +411,9 @@ def test_parked_kf_on_the_engine_gives_the_former_filters_result():
 #: the forward noise laid across by a turn; noise from meta.yaml; fkf feeds back every 1 s),
 #: so od-kf, ldv-kf and fkf left the former loop's reference on purpose (their port was
 #: checked against it until then, commit 6acb97a). nhc-kf keeps its model; with the former
-#: fixed noise (``conservative``) it must still give the former loop's result.
-AIDED = {"nhc-kf": {"noise_preset": "conservative"}}
+#: fixed noise (``conservative``) and the standard feedback (issue 15's session 23 made the
+#: invariant velocity feedback its default) it must still give the former loop's result.
+AIDED = {"nhc-kf": {"noise_preset": "conservative", "invariant_velocity_error": False}}
 
 
 @pytest.mark.parametrize("scenario", ["paper003_drive", "paper003_faults"])

@@ -308,22 +308,32 @@ def test_real_mems_nhc_kf_without_a_mounting_covers_its_track():
     """The one Kalman method a user can run on the MEMS log as imported (no speed sensor):
     ``nhc-kf`` with its defaults from the reference. The MEMS sits about 4.8 deg off the
     direction of travel (the reference velocity in its axes), which ``meta.yaml`` does not
-    give, so the NHC holds the velocity along the wrong axis and the track turns with it.
-    Before session 20 the attitude sigma was floored but not the track: 216 m off at a 50 m
-    horizontal sigma (4.4x); :func:`inmotion.align.meta_spec.floor_unknown_mounting` now
-    keeps position and velocity at what the unknown mounting leaves (1.9x)."""
+    give, so the NHC holds the velocity along the wrong axis. Before session 20 the attitude
+    sigma was floored but not the track: 216 m off at a 50 m horizontal sigma (4.4x);
+    :func:`inmotion.align.meta_spec.floor_unknown_mounting` keeps position and velocity at
+    what the unknown mounting leaves. With the standard feedback the track turned (210 m,
+    heading -371 arcmin at the 300 arcmin floor); with the invariant velocity feedback, the
+    default since session 23, it does not (38 m at a 123 m sigma, heading -183 arcmin):
+    the standard EKF's heading took information the NHC rows do not hold
+    (:mod:`inmotion.estimation.engine`, "Invariant velocity error")."""
     from inmotion.core.metrics import error_series
     from inmotion.reproductions.real import _init_from_truth
     b = import_log("psins", MEMS)
     run, Config = registry.get("nhc-kf").load()
-    sol = run(b, Config(), _init_from_truth(b, b.imu.t[0]))   # as reproduce real's tables
-    assert any("mounting is not given" in w for w in sol.info["warnings"])
-    e = error_series(sol, b.truth).iloc[-1]
-    sig_h = float(np.hypot(sol.sigma["north"][-1], sol.sigma["east"][-1]))
-    assert e.horizontal_m > 100.0                       # the track did turn
-    assert e.horizontal_m < 3.0 * sig_h, (e.horizontal_m, sig_h)
-    for k in "ENU":
-        assert abs(e[f"phi_{k}_arcmin"]) < 3.0 * np.degrees(sol.sigma[f"phi_{k}"][-1]) * 60.0
+    horizontal = {}
+    for invariant in (True, False):
+        sol = run(b, Config(invariant_velocity_error=invariant),
+                  _init_from_truth(b, b.imu.t[0]))      # as reproduce real's tables
+        assert sol.info["velocity_error"] == ("invariant" if invariant else "standard")
+        assert any("mounting is not given" in w for w in sol.info["warnings"])
+        e = error_series(sol, b.truth).iloc[-1]
+        sig_h = float(np.hypot(sol.sigma["north"][-1], sol.sigma["east"][-1]))
+        horizontal[invariant] = e.horizontal_m
+        assert e.horizontal_m < 3.0 * sig_h, (invariant, e.horizontal_m, sig_h)
+        for k in "ENU":
+            assert abs(e[f"phi_{k}_arcmin"]) < 3.0 * np.degrees(
+                sol.sigma[f"phi_{k}"][-1]) * 60.0, (invariant, k)
+    assert horizontal[False] > 100.0 > 2.0 * horizontal[True], horizontal
 
 
 @needs_mems

@@ -30,6 +30,7 @@ __all__ = [
     "init_position_sigma_m",
     "init_tilt_sigma_deg",
     "init_velocity_sigma_m_s",
+    "invariant_velocity_error",
     "lever_arm_m",
     "measurement_rate_hz",
     "mount_sigma_arcmin",
@@ -170,6 +171,18 @@ def init_tilt_sigma_deg(default):
 def init_velocity_sigma_m_s(default):
     """``init_velocity_sigma_m_s`` (float)."""
     return Field(default, gt=0, description="initial 1-sigma of the velocity error per axis [m/s]")
+
+
+def invariant_velocity_error(default):
+    """``invariant_velocity_error`` (bool)."""
+    return Field(
+        default,
+        description="carry the covariance across each feedback in the right-invariant "
+        "velocity error dv + phi x v (estimation.engine, 'Invariant velocity error'): a "
+        "common turn of attitude and velocity about the vertical, which vehicle constraints "
+        "and a speed cannot see, stays unseen, so the heading sigma does not shrink on "
+        "information the data do not hold (false: the standard error-state EKF, the papers')",
+    )
 
 
 def lever_arm_m(default):

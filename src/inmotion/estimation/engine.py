@@ -294,6 +294,53 @@ switch, at 0.05 in the paper's setting (``isolated_in_fusion:
 false`` in :mod:`inmotion.reproductions.paper003`, Table 1 as printed) it is not measured
 to help: LDV faults detected 7 and 6 of 10 with it against 10 and 9 without.
 
+Invariant velocity error (issue 15, session 23; ``invariant_velocity``). A common turn of the
+whole solution about the vertical (attitude, velocity, and position about any point) changes
+nothing the velocity sensors, the vehicle constraints, a zero-velocity or a height update
+measure (the body-frame velocity ``C_n^b v^n`` is invariant under it; only the Earth rate,
+~15 deg/h, tells it, which gyros of 100 deg/h and worse cannot). In the filter's error state
+that direction is ``phi = psi u``, ``dv = -psi u x v`` (``u`` up, ``v`` the estimate): it
+moves with the estimate. Each feedback moves the linearization point and so the direction,
+and the covariance, which held no information along the old one, gains some along the new
+one: the EKF's false observability (Huang, Mourikis, Roumeliotis 2010 for SLAM; for the INS
+Barrau and Bonnabel 2017, the right-invariant EKF, whose error does not move with the
+estimate). Measured on a simulated city drive with a 300 deg/h gyro (plus 150 deg/h
+Gauss-Markov) and nhc-kf matched to it (``benchmarks/nees_invariant.py``, 5 runs): the heading
+sigma grew to 98-205 arcmin by 60 s, then *fell* to 47-94 arcmin by 120 s (the turns) while
+the errors grew to up to 10 deg, and to up to 41 deg by the end (heading NEES 65.7); started turned by 10 deg
+with its velocity (no measurement here sees that), the sigma fell from 436 to 44-363 arcmin
+at the first 90 deg turn and to 58-116 by 120 s, the error staying 9-11 deg.
+
+The cure used here (on with ``invariant_velocity``): the velocity error ``dv' = dv + phi x v``
+(right-invariant, as Barrau and Bonnabel's), in which that direction is ``phi = psi u, dv' =
+0`` wherever the estimate is. The predict needs nothing: ``F`` with the epoch's specific force
+is the invariant error's ``dv'_dot = -[g x] phi + C_b^n dnabla + [v x] C_b^n deps`` carried
+along the predicted trajectory (``d/dt(phi x v) = phi_dot x v + phi x (f + g)`` and ``[f x]
+phi + phi x f = 0``), and an update's ``H`` is the same in either coordinates at the
+predicted state. The feedback differs in two ways (:func:`_invariant_velocity`,
+:func:`_invariant_velocity_reset`): the velocity is corrected by the invariant retraction,
+``v <- R(phi) (v - dv - phi x v)`` with ``R(phi)`` the rotation the attitude feedback applies
+(a heading correction turns the velocity with it; ``v - dv - phi x dv`` to second order),
+and the covariance is carried across the change ``dV`` of the velocity holding ``P'`` (the
+invariant error's covariance): ``P <- J P J^T``, ``J = I + E``, ``E[dv, phi] = [dV x]``, the
+estimate not fed back alike (9 n flops a feedback). Position is left in its own coordinates
+(a common turn's position part lies in the span of the horizontal position errors, which
+none of these measurements sees either). The covariance transform alone (with the standard
+``v - dv``) was tried first: right on the simulated drive (NEES 3.6), but on the real EMS
+log with an assumed 1000 deg/h spec it ran away to NaN by 300 s (a large ``dV`` times a
+large heading variance fed the next correction); with the retraction it stays bounded.
+Measured with both (same runs): heading NEES 0.83 at 300 deg/h (the sigma grows to 18-22
+deg, which the errors, up to 35 deg, need), 0.61 at 100 deg/h (7.19 without); the 10 deg
+start keeps 435-441 arcmin from 20 s to the end. Real logs, nhc-kf from the reference: PSINS
+MEMS (a mounting 4.8 deg off that nobody gave) horizontal 210 -> 38 m, heading -371 -> -183
+arcmin (at the 300 arcmin floor); comma2k19 heading -105 -> -93 arcmin, horizontal 37 -> 163
+m at a 110 m sigma. On by default in ``nhc-kf`` (``invariant_velocity_error``); off in
+``od-kf`` / ``ldv-kf`` / ``fkf`` and the DR-based filters, where it is not yet shown: with it
+od-kf's speed-gap NEES (``tests/test_bilinear_rows.py``) and the bank's conditioned return
+test (``tests/test_fdi_cascade.py``) failed, and a DR's attitude and position blocks would need
+the same treatment. The smoother's records take the feedback as a shift of the error state,
+so a recorded run (``record``) refuses it.
+
 Test variances (issue 15, :attr:`~inmotion.estimation.measurements.Measurement.test_variance`).
 A measurement may give its rows a variance for the residual test apart from the update's:
 its fill writes them at ``r[dof:dof + m]`` (0: the row's ``r``; the engine hands ``r`` with
@@ -512,7 +559,7 @@ _Const = namedtuple("_Const", "offs offs9 Qc q_dr_m2_s inv_tau_dk inv_tau_b dr_e
                               "with_dr step out_every fb_mask fb_states feedback_every C_bm l_b gates "
                               "params dofs local r_scale isolate return_tests primary fallback "
                               "n_common need_nb has_acc log_nis ws record fuse_isolated pstate "
-                              "pstate_att o_mount3 return_conditioned test_r Qa")
+                              "pstate_att o_mount3 return_conditioned test_r Qa invariant")
 #: the output buffers of one call
 _Out = namedtuple("_Out", "t xs sigma states cov_phi mode local_x local_sig n rec_t rec_phi "
                           "rec_ppred rec_x rec_p rec_fed rec_xs rec_epoch nrec")
@@ -638,6 +685,68 @@ def _feed_back_arrays(xs, ms, xd, md, bias_g, bias_a, fed_back, X, offs, m, fb_s
             fed_back[p] += d
             for l in range(X.shape[0]):
                 X[l, p] -= d
+
+
+@njit(cache=True)
+def _invariant_velocity(xs, x_g, o_phi, o_dv, v_old, v_new):
+    """``v_old`` = the SINS velocity; ``v_new`` = the right-invariant retraction's corrected
+    velocity ``R(phi) (v - dv - phi x v)`` (``R(phi)`` the rotation the attitude feedback
+    applies, ``dv + phi x v`` the invariant velocity error's estimate): a heading correction
+    turns the velocity with the attitude."""
+    p0, p1, p2 = x_g[o_phi], x_g[o_phi + 1], x_g[o_phi + 2]
+    for i in range(3):
+        v_old[i] = xs[K.VE + i]
+    w0 = v_old[0] - x_g[o_dv] - (p1 * v_old[2] - p2 * v_old[1])
+    w1 = v_old[1] - x_g[o_dv + 1] - (p2 * v_old[0] - p0 * v_old[2])
+    w2 = v_old[2] - x_g[o_dv + 2] - (p0 * v_old[1] - p1 * v_old[0])
+    q = K.quat_from_rotvec((p0, p1, p2))
+    r = K.qrotate(q, (w0, w1, w2))
+    for i in range(3):
+        v_new[i] = r[i]
+
+
+@njit(cache=True)
+def _invariant_velocity_reset(P, X, Pa, o_phi, o_dv, dv_fb):
+    """Carry the covariance across a velocity correction in the right-invariant velocity
+    error (``invariant_velocity``, module docstring "Invariant velocity error").
+
+    The velocity error ``dv' = dv + phi x v`` (``v`` the estimate) does not depend on where
+    the estimate is for a common rotation of attitude and velocity about the vertical: the
+    direction the vehicle constraints and a speed cannot see stays unseen. With ``dv' = T(v)
+    dv``, ``T(v) = [[I, 0], [-[v x], I]]`` on ``(phi, dv)``, keeping ``P'`` across the
+    correction ``v -> v + dV`` gives, in the filter's ``(phi, dv)``,
+    ``P <- J P J^T``, ``J = T(v + dV)^-1 T(v) = I + E``, ``E[dv, phi] = [dV x]``; the
+    estimate not fed back moves alike, ``x_dv += dV x x_phi``. ``dV = -dv_fb`` (the fed-back
+    velocity error is subtracted). Each local's ``P`` and, with test covariances, ``Pa``;
+    the ``dv`` rows and columns are averaged with their transposes (exact symmetry)."""
+    a, b, c = -dv_fb[0], -dv_fb[1], -dv_fb[2]
+    if a == 0.0 and b == 0.0 and c == 0.0:
+        return
+    n = P.shape[1]
+    for which in range(2):
+        Q = P if which == 0 else Pa
+        for l in range(Q.shape[0]):
+            for j in range(n):        # rows: P[dv, :] += [dV x] P[phi, :]
+                p0, p1, p2 = Q[l, o_phi, j], Q[l, o_phi + 1, j], Q[l, o_phi + 2, j]
+                Q[l, o_dv, j] += b * p2 - c * p1
+                Q[l, o_dv + 1, j] += c * p0 - a * p2
+                Q[l, o_dv + 2, j] += a * p1 - b * p0
+            for i in range(n):        # columns: P[:, dv] += P[:, phi] [dV x]^T
+                p0, p1, p2 = Q[l, i, o_phi], Q[l, i, o_phi + 1], Q[l, i, o_phi + 2]
+                Q[l, i, o_dv] += b * p2 - c * p1
+                Q[l, i, o_dv + 1] += c * p0 - a * p2
+                Q[l, i, o_dv + 2] += a * p1 - b * p0
+            for k in range(3):
+                r = o_dv + k
+                for j in range(n):
+                    s = 0.5 * (Q[l, r, j] + Q[l, j, r])
+                    Q[l, r, j] = s
+                    Q[l, j, r] = s
+    for l in range(X.shape[0]):
+        x0, x1, x2 = X[l, o_phi], X[l, o_phi + 1], X[l, o_phi + 2]
+        X[l, o_dv] += b * x2 - c * x1
+        X[l, o_dv + 1] += c * x0 - a * x2
+        X[l, o_dv + 2] += a * x1 - b * x0
 
 
 @njit(cache=True)
@@ -1158,6 +1267,9 @@ def _advance(S, C, fills, accs, t, dtheta, dvel, dt, ds, v, dth_dr, rows, qt, qj
     feedback_every, out_every, step, need_nb = C.feedback_every, C.out_every, C.step, C.need_nb
     C_bm, l_b = C.C_bm, C.l_b
     span_on = macc.shape[1] > ACC_SIZE       # return_span: the span's columns (issue 15)
+    invariant = C.invariant and fb_mask[DV] and fb_mask[PHI]
+    v_inv = np.zeros(3)
+    v_pre = np.zeros(3)
     any_isolate = False               # without FDI the global estimate's source is fixed
     for j in range(isolate.shape[0]):
         any_isolate = any_isolate or isolate[j]
@@ -1313,8 +1425,18 @@ def _advance(S, C, fills, accs, t, dtheta, dvel, dt, ds, v, dth_dr, rows, qt, qj
                     x_g[:] = X[mode]
                 else:
                     _global(S, C, mode, x_g, P_g)
+                if invariant:             # the velocity before, and the retraction's velocity
+                    _invariant_velocity(xs, x_g, offs[PHI], offs[DV], v_pre, v_inv)
                 _feed_back_arrays(xs, ms, xd, md, bias_g, bias_a, fed_back, X, offs, fb_mask,
                                   fb_states, with_dr, x_g)
+                if invariant:
+                    for i in range(3):
+                        ms[K.M_V_OLD + i] += v_inv[i] - xs[K.VE + i]
+                        xs[K.VE + i] = v_inv[i]
+                if invariant:
+                    _invariant_velocity_reset(P, X, Pa, offs[PHI], offs[DV],
+                                              (v_pre[0] - xs[K.VE], v_pre[1] - xs[K.VE + 1],
+                                               v_pre[2] - xs[K.VE + 2]))
                 if span_on:
                     _span_feedback(macc, isolate, has_acc, x_g, offs, fb_mask)
         if record or out_now:
@@ -1453,9 +1575,14 @@ class ErrorStateFilter:
                  max_events: int = 100000, max_nis: int = 0, record: bool = False,
                  fuse_isolated: bool = False, phi_order: int = 2,
                  return_conditioned: bool = False, return_span: bool = False,
-                 return_span_max_s: float = math.inf, test_covariance: bool = False):
+                 return_span_max_s: float = math.inf, test_covariance: bool = False,
+                 invariant_velocity: bool = False):
         if phi_order not in (1, 2):
             raise ValueError(f"phi_order must be 1 or 2, got {phi_order!r}")
+        if invariant_velocity and record:
+            raise ValueError("the smoother's records take the feedback as a shift of the "
+                             "error state; the invariant velocity feedback is not one "
+                             "(invariant_velocity with record)")
         for name in ("phi", "dv", "dp"):
             if name not in layout:
                 raise ValueError(f"the filter needs block {name!r} in the layout")
@@ -1568,6 +1695,7 @@ class ErrorStateFilter:
             o_mount3=(int(layout["mount"].start) if "mount" in layout
                       and layout["mount"].stop - layout["mount"].start == 3 else -1),
             return_conditioned=bool(return_conditioned),
+            invariant=bool(invariant_velocity),
             test_r=per_meas(lambda m: getattr(m, "test_variance", False), False, np.bool_),
             Qa=stack_qc("Qc_test") if test_covariance else np.zeros((0, n, n)))
         # the fill and accumulator functions (numba functions, compiled or loaded at first use
