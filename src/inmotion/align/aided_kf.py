@@ -558,11 +558,8 @@ def _noise(cfg) -> em.ProcessNoise:
 def invariant_feedback(cfg) -> bool:
     """Whether the filter feeds back in the right-invariant velocity error
     (``invariant_velocity_error``; :mod:`inmotion.estimation.engine`, "Invariant velocity
-    error"): as configured, except with ``smooth`` (the smoother's records take the feedback
-    as a shift of the error state: there the standard feedback, as ``info['velocity_error']``
-    says)."""
-    return bool(getattr(cfg, "invariant_velocity_error", False)) and not bool(
-        getattr(cfg, "smooth", False))
+    error"), as ``info['velocity_error']`` says."""
+    return bool(getattr(cfg, "invariant_velocity_error", False))
 
 
 def two_part_gyro_bias(cfg) -> bool:
@@ -2296,7 +2293,8 @@ def _smooth_bank(f, res_fwd, bundle, cfg, init, k0, sensors, use_nhc, use_baro, 
         meas += _stop_measurements(cfg, t_ep, 0)
     fc = ErrorStateFilter(init, lay, em.ErrorModel(lay, _noise(cfg)), [LocalFilter(P0, Q)],
                           meas, step_rows=f.step, feedback_every=fuse_every // meas_every,
-                          out_every=out_every, n_common=NS, record=True)
+                          out_every=out_every, n_common=NS, record=True,
+                          invariant_velocity=invariant_feedback(cfg))
     accept = {name: (lambda t, iv=isol[c]: ~_in_any(t, iv)) for c, name in enumerate(sensors)}
     if use_nhc:
         accept["nhc"] = (lambda t: np.logical_and.reduce(

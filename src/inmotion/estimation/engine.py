@@ -338,8 +338,10 @@ m at a 110 m sigma. On by default in ``nhc-kf`` (``invariant_velocity_error``); 
 ``od-kf`` / ``ldv-kf`` / ``fkf`` and the DR-based filters, where it is not yet shown: with it
 od-kf's speed-gap NEES (``tests/test_bilinear_rows.py``) and the bank's conditioned return
 test (``tests/test_fdi_cascade.py``) failed, and a DR's attitude and position blocks would need
-the same treatment. The smoother's records take the feedback as a shift of the error state,
-so a recorded run (``record``) refuses it.
+the same treatment. The smoother undoes the reset as it undoes the shift of the standard
+feedback (:func:`~inmotion.estimation.smoother.rts_backward`: the smoothed ``x``, ``P``
+through ``J^-1``, ``dV`` read from the recorded feedback, which then holds the velocity change
+made).
 
 Test variances (issue 15, :attr:`~inmotion.estimation.measurements.Measurement.test_variance`).
 A measurement may give its rows a variance for the residual test apart from the update's:
@@ -1433,6 +1435,9 @@ def _advance(S, C, fills, accs, t, dtheta, dvel, dt, ds, v, dth_dr, rows, qt, qj
                     for i in range(3):
                         ms[K.M_V_OLD + i] += v_inv[i] - xs[K.VE + i]
                         xs[K.VE + i] = v_inv[i]
+                        # the accumulated feedback holds the velocity change made (the
+                        # smoother's fb = -dV, from which it undoes the reset)
+                        fed_back[offs[DV] + i] += v_pre[i] - v_inv[i] - x_g[offs[DV] + i]
                 if invariant:
                     _invariant_velocity_reset(P, X, Pa, offs[PHI], offs[DV],
                                               (v_pre[0] - xs[K.VE], v_pre[1] - xs[K.VE + 1],
@@ -1579,10 +1584,6 @@ class ErrorStateFilter:
                  invariant_velocity: bool = False):
         if phi_order not in (1, 2):
             raise ValueError(f"phi_order must be 1 or 2, got {phi_order!r}")
-        if invariant_velocity and record:
-            raise ValueError("the smoother's records take the feedback as a shift of the "
-                             "error state; the invariant velocity feedback is not one "
-                             "(invariant_velocity with record)")
         for name in ("phi", "dv", "dp"):
             if name not in layout:
                 raise ValueError(f"the filter needs block {name!r} in the layout")
@@ -1666,6 +1667,8 @@ class ErrorStateFilter:
         if with_dr:                     # the DR position random walk (dp_D's diagonal)
             q_pattern[layout["dp_D"], layout["dp_D"]] = True
         ws = make_workspace(model.F_pattern(), q_pattern, phi_order)
+        #: whether the feedback is the invariant velocity one (module docstring)
+        self.invariant_velocity = bool(invariant_velocity)
         self._C = _Const(
             offs=offs, offs9=offs9, Qc=Qc,
             q_dr_m2_s=float(dr_position_m2_s), inv_tau_dk=1.0 / model.noise.dk_tau,

@@ -17,7 +17,11 @@ Gelb 1974 sec. 5.3), in that frame::
     x_k-1|N = x_k-1|k-1 + A_k-1 (x_k|N + fb_k - Phi_k x_k-1|k-1)
     P_k-1|N = P_k-1|k-1 + A_k-1 (P_k|N - P_k|k-1) A_k-1^T
 
-from ``x_N|N``, ``P_N|N``. The smoothed navigation state of epoch ``k`` is the corrected
+from ``x_N|N``, ``P_N|N``. With the engine's invariant velocity feedback (issue 15, session
+23; :mod:`inmotion.estimation.engine`, "Invariant velocity error") the reset is ``x <- J (x -
+fb_k)``, ``P <- J P J^T`` with ``J`` known from the recorded velocity change, and the backward
+pass takes ``x_k|N``, ``P_k|N`` through ``J^-1`` before adding ``fb_k`` (:func:`rts_backward`).
+The smoothed navigation state of epoch ``k`` is the corrected
 forward state with ``x_k|N`` applied as the filter's feedback would apply it; the smoothed
 sensor states are the accumulated feedback plus ``x_k|N``.
 
@@ -91,7 +95,30 @@ def _pinv_times(Pp, B):
 
 
 @njit(cache=True)
-def rts_backward(x, P, Phi, P_pred, fb, xs_out, Ps_out):
+def _undo_invariant_reset(x, P, o_phi, o_dv, a, b, c):
+    """``x <- J^-1 x``, ``P <- J^-1 P J^-T`` in place, ``J^-1 = I - E``, ``E[dv, phi] = [dV
+    x]``, ``dV = (a, b, c)`` (:func:`rts_backward`); nothing for ``dV = 0``."""
+    if a == 0.0 and b == 0.0 and c == 0.0:
+        return
+    n = x.shape[0]
+    x0, x1, x2 = x[o_phi], x[o_phi + 1], x[o_phi + 2]
+    x[o_dv] -= b * x2 - c * x1
+    x[o_dv + 1] -= c * x0 - a * x2
+    x[o_dv + 2] -= a * x1 - b * x0
+    for j in range(n):
+        p0, p1, p2 = P[o_phi, j], P[o_phi + 1, j], P[o_phi + 2, j]
+        P[o_dv, j] -= b * p2 - c * p1
+        P[o_dv + 1, j] -= c * p0 - a * p2
+        P[o_dv + 2, j] -= a * p1 - b * p0
+    for i in range(n):
+        p0, p1, p2 = P[i, o_phi], P[i, o_phi + 1], P[i, o_phi + 2]
+        P[i, o_dv] -= b * p2 - c * p1
+        P[i, o_dv + 1] -= c * p0 - a * p2
+        P[i, o_dv + 2] -= a * p1 - b * p0
+
+
+@njit(cache=True)
+def rts_backward(x, P, Phi, P_pred, fb, xs_out, Ps_out, o_phi=-1, o_dv=-1):
     """The backward pass of the module docstring over epochs ``0 .. N-1``.
 
     Parameters
@@ -100,6 +127,12 @@ def rts_backward(x, P, Phi, P_pred, fb, xs_out, Ps_out):
     Phi, P_pred : (N, n, n) the transition into epoch ``k`` and ``P_k|k-1`` (entry 0 unused)
     fb : (N, n) the feedback applied at epoch ``k`` (zeros without feedback)
     xs_out, Ps_out : (N, n), (N, n, n) written with ``x_k|N``, ``P_k|N``
+    o_phi, o_dv : with the engine's invariant velocity feedback, the offsets of ``phi`` and
+        ``dv`` (-1: the standard feedback). Its reset is ``x <- J (x - fb)``, ``P <- J P
+        J^T`` with ``J = I + E``, ``E[dv, phi] = [dV x]``, ``dV = -fb[dv]`` (the velocity
+        change the feedback made; :func:`inmotion.estimation.engine._invariant_velocity_reset`):
+        the smoothed ``x_k|N``, ``P_k|N`` go back through ``J^-1 = I - E`` before the
+        feedback is added back, as the shift alone does for the standard feedback
 
     The gain is ``A^T = P_k|k-1^+ Phi_k P_k-1|k-1`` with the pseudo-inverse of the
     correlation form of ``P_k|k-1`` (eigenvalues below :data:`PINV_RCOND` of the largest
@@ -134,9 +167,14 @@ def rts_backward(x, P, Phi, P_pred, fb, xs_out, Ps_out):
             for j in range(n):
                 AT[i, j] /= d[i]
         A = np.ascontiguousarray(AT.T)
-        innov = xs_out[k] + fb[k] - Ph @ np.ascontiguousarray(x[k - 1])
+        xk = xs_out[k].copy()
+        Psk = np.ascontiguousarray(Ps_out[k]).copy()
+        if o_phi >= 0:
+            _undo_invariant_reset(xk, Psk, o_phi, o_dv, -fb[k, o_dv], -fb[k, o_dv + 1],
+                                  -fb[k, o_dv + 2])
+        innov = xk + fb[k] - Ph @ np.ascontiguousarray(x[k - 1])
         xs_out[k - 1] = x[k - 1] + A @ innov
-        dP = np.ascontiguousarray(Ps_out[k]) - np.ascontiguousarray(P_pred[k])
+        dP = Psk - np.ascontiguousarray(P_pred[k])
         Pn = Pk + A @ dP @ AT
         Ps_out[k - 1] = 0.5 * (Pn + Pn.T)
 
@@ -175,6 +213,7 @@ class ForwardRecord:
         self._files = None                  # field -> open file, once on disk
         self.paths = {}
         self._parts = []                    # in memory: the appended chunks
+        self.invariant = (-1, -1)           # see for_filter
 
     @property
     def on_disk(self) -> bool:
@@ -188,6 +227,10 @@ class ForwardRecord:
         with ``P0``, the start state, epoch 0. ``kw``: the constructor's."""
         n = filt.layout.n
         rec = cls(n, int(epochs) + 1, **kw)
+        #: (o_phi, o_dv) when the filter feeds back in the invariant velocity error, else
+        #: (-1, -1) (:func:`rts_backward`)
+        rec.invariant = ((int(filt.layout["phi"].start), int(filt.layout["dv"].start))
+                         if filt.invariant_velocity else (-1, -1))
         P0 = filt.covariance()
         rec.append({"t": [filt.t], "phi": np.eye(n)[None], "p_pred": P0[None], "x": filt.x[None],
                     "p": P0[None], "fb": np.zeros((1, n)), "fed": np.zeros((1, n)),
@@ -347,7 +390,8 @@ def smooth_record(record: ForwardRecord, layout, rows=None) -> dict:
                 p_last = P[-1].copy()
             x[-1], P[-1] = x_next, P_next
         xs_out, Ps_out = xs_buf[:b - a], Ps_buf[:b - a]
-        rts_backward(x, P, blk["phi"], blk["p_pred"], blk["fb"], xs_out, Ps_out)
+        rts_backward(x, P, blk["phi"], blk["p_pred"], blk["fb"], xs_out, Ps_out,
+                     *record.invariant)
         if p_last is not None:
             P[-1] = p_last
         sel = np.flatnonzero((rows >= a) & (rows < b))

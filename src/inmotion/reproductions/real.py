@@ -189,8 +189,7 @@ NOT_DONE = [
     "od-kf, ldv-kf, fkf and the DR-based filters keep the standard feedback (session 23): "
     "with the invariant one od-kf's speed-gap NEES (tests/test_bilinear_rows.py) and the "
     "bank's conditioned return test (tests/test_fdi_cascade.py) failed, and a DR's "
-    "attitude and position blocks would need the same treatment; not investigated yet. A "
-    "smoothed run keeps the standard feedback (the smoother takes the feedback as a shift)",
+    "attitude and position blocks would need the same treatment; not investigated yet",
 ]
 OBSERVABILITY = {
     "level attitude (pitch, roll)": "observable from gravity: the specific force minus the "
