@@ -70,14 +70,14 @@ def test_bilinear_term_is_the_rotation_s_second_order():
     assert max(means) > 20.0 * third      # the term is what matters at this size
 
 
-def _gap_nees(seed, start=5.0, end=40.0):
+def _gap_nees(seed, start=5.0, end=40.0, gap=True):
     from inmotion.io.importers.comma2k19 import PHONE_IMU_SPEC
     from inmotion.reproductions.real import comma_like_scenario
     b = simulate(load_scenario(comma_like_scenario()), np.random.default_rng(seed))
     b.meta = {**b.meta, "imu": {"rate_hz": 100.0, **PHONE_IMU_SPEC}}
     t0 = float(b.imu.t[0])
-    cut = Bundle(b.imu, b.meta, odometer=b.odometer.dropout(t0 + start, t0 + end),
-                 truth=b.truth)
+    odo = b.odometer.dropout(t0 + start, t0 + end) if gap else b.odometer
+    cut = Bundle(b.imu, b.meta, odometer=odo, truth=b.truth)
     run, Config = registry.get("od-kf").load()
     sol = run(cut, Config(), NavState.from_truth(b.truth))
     last = error_series(sol, b.truth).iloc[-1]
@@ -93,11 +93,18 @@ def test_od_kf_across_a_speed_gap_is_consistent():
     per second and the tilt a degree or two, and the first samples after the gap carry their
     product. Without the term: 10.65 over 20 runs (seeds 100-119; one run at 50), the second
     sample after the gap moving the tilt by an arc-degree the wrong way. With it (measured,
-    seeds 100-119): 2.99; seeds 100-109 here."""
+    seeds 100-119): 2.99. The phone spec's gyro wander (150 deg/h) is three times the
+    simulated one (50), so od-kf is conservative on this drive: without the gap its NEES is
+    0.73 (seeds 100-109), and 2.99 was in the band only by the gap's overconfidence on top.
+    With the invariant velocity feedback (session 23, od-kf's default) the gap leaves it
+    where it is: 0.87 against 0.75 without the gap (seeds 100-109 here). The test: not above
+    the band, and the gap moves the mean by less than half."""
     runs = 10
     vals = [_gap_nees(100 + s) for s in range(runs)]
-    lo, hi = chi2.ppf(0.025, 3 * runs) / runs, chi2.ppf(0.975, 3 * runs) / runs
-    assert lo <= np.mean(vals) <= hi, (np.mean(vals), np.round(vals, 2))
+    ref = [_gap_nees(100 + s, gap=False) for s in range(runs)]
+    hi = chi2.ppf(0.975, 3 * runs) / runs
+    assert np.mean(vals) <= hi, (np.mean(vals), np.round(vals, 2))
+    assert abs(np.mean(vals) / np.mean(ref) - 1.0) < 0.5, (np.mean(vals), np.mean(ref))
 
 
 def _kernel_state(euler_deg, vel):

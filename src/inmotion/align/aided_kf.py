@@ -443,10 +443,13 @@ class AidedKfConfig(NhcKfConfig):
         description="sensor measurement: displacement (body-frame increment) or velocity (n "
                     "frame, eq. 23-24)")
     main_period_s: float = Field(1.0, gt=0, description="feedback period")
-    #: off here (issue 15, session 23, measured): with a speed sensor and the bank's FDI the
-    #: invariant feedback made od-kf's speed-gap NEES, the conditioned return test and the
-    #: fine stage started from a coarse heading worse (tests named in the note); nhc-kf only
-    invariant_velocity_error: bool = cf.invariant_velocity_error(False)
+    #: on (issue 15, session 23, measured): od-kf on the simulated city drive (100 deg/h gyro,
+    #: ``benchmarks/nees_invariant.py od-kf``) heading NEES 3.12 -> 1.24; across a 35 s
+    #: odometer gap on the phone drive 0.87 against 0.75 without the gap (standard: 3.16, in
+    #: the band only by the gap's overconfidence on a conservative spec). Off in ``fkf``
+    #: (:class:`FkfConfig`) and in a two-stage method's fine stage
+    #: (:func:`inmotion.align.multiplex.fine_config_from_coarse`)
+    invariant_velocity_error: bool = cf.invariant_velocity_error(True)
     mounting_from_meta: bool = Field(False, description="nominal mounting from meta; the "
                                      "mount states estimate the rest (paper: all of it)")
     od_noise_m_s: list[float] = Field(
@@ -487,6 +490,10 @@ class FkfConfig(AidedKfConfig):
                     "the matched noise leaves the sub-filters open loop on a SINS still "
                     "degrees off in heading: on a 4 deg/s turn drive the fused heading then ends "
                     "5-7 times its sigma off (issue 15)")
+    #: off (issue 15, session 23): with the invariant feedback the conditioned return test's
+    #: statistic after a fault averaged 3.7 against the 1.5 its model gives
+    #: (``tests/test_fdi_cascade.py``); not investigated yet
+    invariant_velocity_error: bool = cf.invariant_velocity_error(False)
     beta_od: float = Field(
         0.5, gt=0, le=1,
         description="information-sharing factor of the odometer sub-filter")
