@@ -566,7 +566,7 @@ def invariant_feedback(cfg) -> bool:
     """Whether the filter feeds back in the right-invariant velocity error
     (``invariant_velocity_error``; :mod:`inmotion.estimation.engine`, "Invariant velocity
     error"), as ``info['velocity_error']`` says."""
-    return bool(getattr(cfg, "invariant_velocity_error", False))
+    return bool(cfg.invariant_velocity_error)
 
 
 def two_part_gyro_bias(cfg) -> bool:

@@ -524,7 +524,7 @@ from .layout import DP, DP_D, DV, EPS, KERNEL_BLOCKS, NABLA, PHI, PHI_D, Layout
 from .measurements import (ACC_BAD, ACC_D, ACC_DP, ACC_FN, ACC_SIZE, ACC_T, ACC_W, ST_MOUNT,
                            ST_MOUNT_COV, STATE_PARAMS, AUX_FB, AUX_SIZE, AUX_T, AUX_WIB, AUX_WNB, Measurement,
                            accumulator_function, dispatcher, fill_function)
-from .nav_ops import compensated_row, correct_nav, dcm_of_q
+from .nav_ops import compensated_row, correct_nav, dcm_of_q, velocity_shear
 from .predict import borrowed, make_workspace, predict_kernel_call
 
 __all__ = ["ErrorStateFilter", "LocalFilter", "FEEDBACK_BLOCKS", "MAX_MEASUREMENTS",
@@ -723,34 +723,12 @@ def _invariant_velocity_reset(P, X, Pa, o_phi, o_dv, dv_fb):
     estimate not fed back moves alike, ``x_dv += dV x x_phi``. ``dV = -dv_fb`` (the fed-back
     velocity error is subtracted). Each local's ``P`` and, with test covariances, ``Pa``;
     the ``dv`` rows and columns are averaged with their transposes (exact symmetry)."""
-    a, b, c = -dv_fb[0], -dv_fb[1], -dv_fb[2]
-    if a == 0.0 and b == 0.0 and c == 0.0:
-        return
-    n = P.shape[1]
-    for which in range(2):
-        Q = P if which == 0 else Pa
-        for l in range(Q.shape[0]):
-            for j in range(n):        # rows: P[dv, :] += [dV x] P[phi, :]
-                p0, p1, p2 = Q[l, o_phi, j], Q[l, o_phi + 1, j], Q[l, o_phi + 2, j]
-                Q[l, o_dv, j] += b * p2 - c * p1
-                Q[l, o_dv + 1, j] += c * p0 - a * p2
-                Q[l, o_dv + 2, j] += a * p1 - b * p0
-            for i in range(n):        # columns: P[:, dv] += P[:, phi] [dV x]^T
-                p0, p1, p2 = Q[l, i, o_phi], Q[l, i, o_phi + 1], Q[l, i, o_phi + 2]
-                Q[l, i, o_dv] += b * p2 - c * p1
-                Q[l, i, o_dv + 1] += c * p0 - a * p2
-                Q[l, i, o_dv + 2] += a * p1 - b * p0
-            for k in range(3):
-                r = o_dv + k
-                for j in range(n):
-                    s = 0.5 * (Q[l, r, j] + Q[l, j, r])
-                    Q[l, r, j] = s
-                    Q[l, j, r] = s
-    for l in range(X.shape[0]):
-        x0, x1, x2 = X[l, o_phi], X[l, o_phi + 1], X[l, o_phi + 2]
-        X[l, o_dv] += b * x2 - c * x1
-        X[l, o_dv + 1] += c * x0 - a * x2
-        X[l, o_dv + 2] += a * x1 - b * x0
+    dV = (-dv_fb[0], -dv_fb[1], -dv_fb[2])
+    none = np.zeros(0)
+    for l in range(P.shape[0]):
+        velocity_shear(P[l], X[l], o_phi, o_dv, dV, 1.0)
+    for l in range(Pa.shape[0]):
+        velocity_shear(Pa[l], none, o_phi, o_dv, dV, 1.0)
 
 
 @njit(cache=True)
@@ -1440,10 +1418,9 @@ def _advance(S, C, fills, accs, t, dtheta, dvel, dt, ds, v, dth_dr, rows, qt, qj
                         # the accumulated feedback holds the velocity change made (the
                         # smoother's fb = -dV, from which it undoes the reset)
                         fed_back[offs[DV] + i] += v_pre[i] - v_inv[i] - x_g[offs[DV] + i]
-                if invariant:
                     _invariant_velocity_reset(P, X, Pa, offs[PHI], offs[DV],
-                                              (v_pre[0] - xs[K.VE], v_pre[1] - xs[K.VE + 1],
-                                               v_pre[2] - xs[K.VE + 2]))
+                                              (v_pre[0] - v_inv[0], v_pre[1] - v_inv[1],
+                                               v_pre[2] - v_inv[2]))
                 if span_on:
                     _span_feedback(macc, isolate, has_acc, x_g, offs, fb_mask)
         if record or out_now:

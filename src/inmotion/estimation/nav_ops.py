@@ -17,7 +17,7 @@ from .._jit import njit
 from ..core import _kernels as K
 
 __all__ = ["dcm_of_q", "dcm_columns", "compensated_row", "euler_ypr", "wrap_pi", "correct_nav",
-           "corrected_sins"]
+           "corrected_sins", "velocity_shear"]
 
 
 @njit(cache=True)
@@ -103,3 +103,36 @@ def corrected_sins(out, xs, x, offs):
     if nonzero:
         correct_nav(out, np.zeros(K.NMEM), x[o_phi:o_phi + 3], x[o_dv:o_dv + 3],
                      x[o_dp:o_dp + 3], True)
+
+
+@njit(cache=True)
+def velocity_shear(P, x, o_phi, o_dv, dV, sign):
+    """``x <- J x``, ``P <- J P J^T`` in place with ``J = I + sign E``, ``E[dv, phi] = [dV x]``
+    (``sign`` +1 or -1; ``J^-1 = I - E``): the covariance of the invariant velocity feedback
+    carried across the velocity change ``dV`` (:mod:`inmotion.estimation.engine`, "Invariant
+    velocity error"; the smoother undoes it with ``sign = -1``). ``x`` may be empty (length
+    0: left alone). The ``dv`` rows and columns are averaged with their transposes (exact
+    symmetry). Nothing for ``dV = 0``."""
+    a, b, c = sign * dV[0], sign * dV[1], sign * dV[2]
+    if a == 0.0 and b == 0.0 and c == 0.0:
+        return
+    d = (a, b, c)
+    n = P.shape[0]
+    for j in range(n):                  # rows: P[dv, :] += [d x] P[phi, :]
+        w = K.cross(d, (P[o_phi, j], P[o_phi + 1, j], P[o_phi + 2, j]))
+        for k in range(3):
+            P[o_dv + k, j] += w[k]
+    for i in range(n):                  # columns: P[:, dv] += P[:, phi] [d x]^T
+        w = K.cross(d, (P[i, o_phi], P[i, o_phi + 1], P[i, o_phi + 2]))
+        for k in range(3):
+            P[i, o_dv + k] += w[k]
+    for k in range(3):
+        r = o_dv + k
+        for j in range(n):
+            m = 0.5 * (P[r, j] + P[j, r])
+            P[r, j] = m
+            P[j, r] = m
+    if x.shape[0]:
+        w = K.cross(d, (x[o_phi], x[o_phi + 1], x[o_phi + 2]))
+        for k in range(3):
+            x[o_dv + k] += w[k]

@@ -48,7 +48,7 @@ import numpy as np
 from .._jit import njit
 from ..core import _kernels as K
 from .layout import DP, DV, PHI
-from .nav_ops import correct_nav
+from .nav_ops import correct_nav, velocity_shear
 
 __all__ = ["rts_backward", "ForwardRecord", "RECORD_FIELDS", "MEMORY_BUDGET_BYTES",
            "smooth_record", "smooth_at_outputs"]
@@ -98,23 +98,7 @@ def _pinv_times(Pp, B):
 def _undo_invariant_reset(x, P, o_phi, o_dv, a, b, c):
     """``x <- J^-1 x``, ``P <- J^-1 P J^-T`` in place, ``J^-1 = I - E``, ``E[dv, phi] = [dV
     x]``, ``dV = (a, b, c)`` (:func:`rts_backward`); nothing for ``dV = 0``."""
-    if a == 0.0 and b == 0.0 and c == 0.0:
-        return
-    n = x.shape[0]
-    x0, x1, x2 = x[o_phi], x[o_phi + 1], x[o_phi + 2]
-    x[o_dv] -= b * x2 - c * x1
-    x[o_dv + 1] -= c * x0 - a * x2
-    x[o_dv + 2] -= a * x1 - b * x0
-    for j in range(n):
-        p0, p1, p2 = P[o_phi, j], P[o_phi + 1, j], P[o_phi + 2, j]
-        P[o_dv, j] -= b * p2 - c * p1
-        P[o_dv + 1, j] -= c * p0 - a * p2
-        P[o_dv + 2, j] -= a * p1 - b * p0
-    for i in range(n):
-        p0, p1, p2 = P[i, o_phi], P[i, o_phi + 1], P[i, o_phi + 2]
-        P[i, o_dv] -= b * p2 - c * p1
-        P[i, o_dv + 1] -= c * p0 - a * p2
-        P[i, o_dv + 2] -= a * p1 - b * p0
+    velocity_shear(P, x, o_phi, o_dv, (a, b, c), -1.0)
 
 
 @njit(cache=True)
