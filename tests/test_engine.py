@@ -44,8 +44,9 @@ def traj1():
 
 
 #: the references were made with the first-order rows (``second_order_rows: false``, the
-#: body-frame velocity rows before issue 15's session 21)
-FIRST = {"second_order_rows": False}
+#: body-frame velocity rows before issue 15's session 21) and the standard feedback (the
+#: invariant velocity feedback, these filters' default since issue 15's session 24)
+FIRST = {"second_order_rows": False, "invariant_velocity_error": False}
 CASES = {
     "dr-kf": (dr_kalman.run_dr_kf, FIRST, {}),
     "dr-kf-open": (dr_kalman.run_dr_kf, {"closed_loop": False, **FIRST}, {}),

@@ -1,8 +1,11 @@
 """The invariant velocity feedback (issue 15, session 23; :mod:`inmotion.estimation.engine`,
 "Invariant velocity error"): its covariance transform and retraction against closed forms, and
 on simulated truth the heading the standard EKF claimed to learn from NHC rows that cannot see
-it."""
+it; session 24: the velocity-aided filters of papers 000 and 002 too."""
+import functools
+
 import numpy as np
+import pytest
 from scipy.spatial.transform import Rotation
 
 from consistency_mc import ARCMIN, city_scenario, turned_start
@@ -91,26 +94,34 @@ def test_the_smoother_undoes_the_reset_exactly():
     np.testing.assert_allclose(X1[0], x, rtol=1e-12, atol=1e-12)
 
 
-def _both_feedbacks(runs=5, **config):
-    """``(invariant, bundle, solution)``: nhc-kf with either feedback (and ``config``) over
-    ``runs`` city drives with a 100 deg/h gyro (plus 50 deg/h, 60 s Gauss-Markov), seeds
-    100 ..., started from the truth."""
+@functools.lru_cache(maxsize=1)
+def _city_drives(runs=5):
+    """``runs`` city drives with a 100 deg/h gyro (plus 50 deg/h, 60 s Gauss-Markov), seeds
+    100 ..."""
     sc = load_scenario(city_scenario(100.0, 50.0, 60.0))
-    run, Config = registry.get("nhc-kf").load()
-    for k in range(runs):
-        b = simulate(sc, np.random.default_rng(100 + k))
+    return tuple(simulate(sc, np.random.default_rng(100 + k)) for k in range(runs))
+
+
+def _both_feedbacks(method="nhc-kf", **config):
+    """``(invariant, bundle, solution)``: ``method`` with either feedback (and ``config``)
+    over the five city drives of :func:`_city_drives`, started from the truth."""
+    run, Config = registry.get(method).load()
+    for b in _city_drives():
         for invariant in (True, False):
             yield invariant, b, run(b, Config(invariant_velocity_error=invariant, **config),
                                     NavState.from_truth(b.truth))
 
 
-def test_smoothed_heading_with_a_poor_gyro_is_in_its_band():
+@pytest.mark.parametrize("method, above", [("nhc-kf", 2.0), ("sins-dr", 1.3)])
+def test_smoothed_heading_with_a_poor_gyro_is_in_its_band(method, above):
     """Forward-backward over the city drive (100 deg/h gyro, 5 runs): with the invariant
     feedback (the smoother undoing its reset) the smoothed attitude NEES at 60, 120 and 200 s
-    lies in the 95 % band of chi-square with 15 degrees of freedom over 5 (measured 2.71,
-    3.06, 4.39); with the standard feedback it leaves it (5.89, 10.45, 14.53)."""
+    lies in the 95 % band of chi-square with 15 degrees of freedom over 5 (1.25-5.49;
+    measured nhc-kf 2.71, 3.06, 4.39; sins-dr, ``process --smooth``'s navigator, 2.66, 2.27,
+    2.15); with the standard feedback it leaves it by ``above`` times its top at the worst
+    (nhc-kf 5.89, 10.45, 14.53; sins-dr 5.92, 6.54, 8.06)."""
     nees = {True: [], False: []}
-    for invariant, b, sol in _both_feedbacks(smooth=True):
+    for invariant, b, sol in _both_feedbacks(method, smooth=True):
         assert sol.info["velocity_error"] == ("invariant" if invariant else "standard")
         e = error_series(sol, b.truth)
         t = np.asarray(sol.t) - sol.t[0]
@@ -123,7 +134,7 @@ def test_smoothed_heading_with_a_poor_gyro_is_in_its_band():
     lo, hi = chi2.isf(0.975, 15) / 5, chi2.isf(0.025, 15) / 5
     inv, std = np.mean(nees[True], axis=0), np.mean(nees[False], axis=0)
     assert np.all((lo < inv) & (inv < hi)), inv
-    assert np.max(std) > 2.0 * hi, std
+    assert np.max(std) > above * hi, std
 
 
 def _heading(sol, truth):
@@ -159,15 +170,21 @@ def test_a_turn_of_the_whole_start_stays_unseen():
                                                                         phi[i120])
 
 
-def test_heading_nees_with_a_poor_gyro_is_in_its_band():
+@pytest.mark.parametrize("method, above", [("nhc-kf", 2.0), ("od-velocity-kf", 1.5),
+                                           ("sins-dr", 1.5), ("dr-kf", None)])
+def test_heading_nees_with_a_poor_gyro_is_in_its_band(method, above):
     """Five runs of the city drive with a 100 deg/h gyro (plus 50 deg/h, 60 s Gauss-Markov),
-    nhc-kf matched to it: the final heading NEES mean lies in the 95 % band of chi-square with
-    5 degrees of freedom over 5 (measured 0.61), where the standard EKF's is far above it
-    (measured 7.19)."""
+    the method matched to it: the final heading NEES mean lies in the 95 % band of chi-square
+    with 5 degrees of freedom over 5 (0.17-2.57), where the standard EKF's is above it by
+    ``above`` times its top (measured, invariant / standard: nhc-kf 0.61 / 7.19,
+    od-velocity-kf 0.80 / 5.23, sins-dr 0.43 / 6.25). dr-kf, whose SINS-minus-DR attitude
+    rows tie the heading to the DR's, is in the band with either (2.04 / 2.02)."""
     nees = {True: [], False: []}
-    for invariant, b, sol in _both_feedbacks():
+    for invariant, b, sol in _both_feedbacks(method):
+        assert sol.info["velocity_error"] == ("invariant" if invariant else "standard")
         _, phi, sig = _heading(sol, b.truth)
         nees[invariant].append((phi[-1] / sig[-1]) ** 2)
     lo, hi = chi2.isf(0.975, 5) / 5, chi2.isf(0.025, 5) / 5
     assert lo < np.mean(nees[True]) < hi, nees[True]
-    assert np.mean(nees[False]) > 2.0 * hi, nees[False]
+    if above is not None:
+        assert np.mean(nees[False]) > above * hi, nees[False]

@@ -495,8 +495,11 @@ def test_sins_dr_estimates_a_mounting_nobody_gave(seed):
     the unknown installation's 300 arcmin prior. Against simulated truth the angles come out
     within 3 sigma (measured over seeds 0-9: pitch within 4 arcmin at a 7 arcmin sigma, yaw
     within 22 at 45) and the attitude and position within 3 sigma. Paper 002's 22 states on
-    the same drives: heading 3.3-3.6x its (floored, 300 arcmin) sigma, 129-145 m off at
-    about 25 m (5-6x): asserted too, so the test fails if the block stops mattering."""
+    the same drives, with the invariant velocity feedback (the default since issue 15's
+    session 24): honest (final error within 0.73 of its sigma, seeds 0-2; asserted within 3x) but 43-72 m off
+    after the minute where the mounting block ends 4.5-11 m off; asserted (at least 3x), so
+    the test fails if the block stops mattering. With the standard feedback the mounting
+    turned its heading 27-28 deg (5.5x its floored 300 arcmin sigma), 205-207 m off."""
     from inmotion.align.meta_spec import UNKNOWN_MOUNTING_SIGMA_ARCMIN
     from inmotion.reproductions.real import SIM_MOUNT_ARCMIN
     b, init = _phone_drive_without_mounting(seed)
@@ -513,7 +516,12 @@ def test_sins_dr_estimates_a_mounting_nobody_gave(seed):
     paper = run_sins_dr(b, {"estimate_mounting": False}, init)
     assert "mount_x" not in paper.info["layout"]
     assert any(w.startswith("the vehicle's mounting is not given") for w in paper.info["warnings"])
-    assert _final_ratios(paper, b.truth).max() > 3.0
+    assert np.all(_final_ratios(paper, b.truth) < 3.0), _final_ratios(paper, b.truth)
+    assert (error_series(paper, b.truth).horizontal_m.iloc[-1]
+            > 3.0 * error_series(sol, b.truth).horizontal_m.iloc[-1])
+    standard = run_sins_dr(b, {"estimate_mounting": False, "invariant_velocity_error": False},
+                           init)
+    assert _final_ratios(standard, b.truth).max() > 3.0
 
 
 @pytest.mark.parametrize("seed", [0, 1, 2])

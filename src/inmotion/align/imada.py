@@ -127,7 +127,9 @@ def _multistage(bundle, config, init, high_model, method, progress) -> Solution:
     for k in range(2, config.levels + 1):
         if progress is not None:
             progress((k - 1) / config.levels)
-        lev = ad.run_level(inp, high_model, C_fixed=lev.C0, **_level_kw(config))
+        C0 = lev.C0
+        del lev                   # its series (one row a second) go before the next level's
+        lev = ad.run_level(inp, high_model, C_fixed=C0, **_level_kw(config))
         info.append(ad.level_info(lev, _MODEL_NAMES[high_model]))
     if progress is not None:
         progress(1.0)

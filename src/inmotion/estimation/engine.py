@@ -335,12 +335,17 @@ start keeps 435-441 arcmin from 20 s to the end. Real logs, nhc-kf from the refe
 MEMS (a mounting 4.8 deg off that nobody gave) horizontal 210 -> 38 m, heading -371 -> -183
 arcmin (at the 300 arcmin floor); comma2k19 heading -105 -> -93 arcmin, horizontal 37 -> 163
 m at a 110 m sigma. On by default in ``nhc-kf``, ``od-kf`` and ``ldv-kf``
-(``invariant_velocity_error``; od-kf on the same drive: heading NEES 3.12 -> 1.24); off in
+(``invariant_velocity_error``; od-kf on the same drive: heading NEES 3.12 -> 1.24) and, since
+session 24, in the velocity-aided filters of papers 000 and 002 (``od-velocity-kf`` 5.23 ->
+0.80, ``sins-dr`` 6.25 -> 0.43, ``dr-kf`` 2.02 -> 2.04, the same drive and runs). Their DR
+needs nothing of its own: it has no velocity state (its velocity is the speed along its
+attitude, which the common turn turns with the SINS's), its attitude block ``phi_D`` takes
+the turn as ``phi`` does, and its position, as the SINS's, lies in the span of the common
+translations that only the difference of the two positions sees. Off in
 ``fkf`` (with it the bank's conditioned return test, ``tests/test_fdi_cascade.py``, failed: its
 statistic after a fault 3.7 against 1.5 modelled), in a two-stage method's fine stage (from the
 PSINS MEMS log's unresolved coarse heading fine-mux ended 3.5 times its sigma off in level, 0.6
-standard) and in the DR-based filters, whose DR attitude and position blocks would need
-the same treatment. The smoother undoes the reset as it undoes the shift of the standard
+standard). The smoother undoes the reset as it undoes the shift of the standard
 feedback (:func:`~inmotion.estimation.smoother.rts_backward`: the smoothed ``x``, ``P``
 through ``J^-1``, ``dV`` read from the recorded feedback, which then holds the velocity change
 made).

@@ -286,13 +286,16 @@ class VelocityAidedRun:
         epochs per feedback
     smooth : forward-backward: record the forward pass and return the Rauch-Tung-Striebel
         smoothed outputs (:mod:`inmotion.estimation.smoother`)
+    invariant_velocity : feed back in the right-invariant velocity error
+        (:class:`~inmotion.estimation.engine.ErrorStateFilter`, module docstring "Invariant
+        velocity error"; the DR blocks keep theirs: the DR has no velocity state)
     """
 
     def __init__(self, init: NavState, layout: Layout, model: em.ErrorModel, P0, *, use: dict,
                  noise: dict, gates: dict, step_rows: int, meas_every: int = 1,
                  out_every: int = 1, C_bm=None, lever_arm_b=None, nhc_mount: bool = True,
                  closed_loop: bool = True, feedback_every: int = 1, smooth: bool = False,
-                 stops_s=(), second_order: bool = True):
+                 stops_s=(), second_order: bool = True, invariant_velocity: bool = False):
         for name in ("phi", "dv", "dp", "eps", "nabla"):
             if name not in layout:
                 raise ValueError(f"the velocity-aided filter needs block {name!r} in the layout")
@@ -306,7 +309,8 @@ class VelocityAidedRun:
             step_rows=step_rows, feedback="closed" if closed_loop else "open",
             feedback_every=feedback_every, out_every=out_every, dr_mounting=C_bm,
             dr_lever_arm_m=lever_arm_b,
-            dr_position_m2_s=float(noise.get("dr_position_m2_s", 0.0)), record=smooth)
+            dr_position_m2_s=float(noise.get("dr_position_m2_s", 0.0)), record=smooth,
+            invariant_velocity=invariant_velocity)
         self.smooth = bool(smooth)
         #: the sensor's forward axis ``u_b = C_m^b [0, 1, 0]`` and lever arm ``l_b`` in b:
         #: the ``sensor_velocity`` samples are lever-arm corrected with them (:func:`imu_point_speed`)
