@@ -343,8 +343,8 @@ attitude, which the common turn turns with the SINS's), its attitude block ``phi
 the turn as ``phi`` does, and its position, as the SINS's, lies in the span of the common
 translations that only the difference of the two positions sees. Off in
 ``fkf`` (with it the bank's conditioned return test, ``tests/test_fdi_cascade.py``, failed: its
-LDV statistic's mean after the fault 2.69, 3.68, 2.53 over its three seeds against 2.53,
-2.70, 2.71 standard, model 1.50, limit 3.0: one seed of three, not resolved), in a two-stage method's fine stage (from the
+LDV statistic's mean after the fault over seeds 300-311 3.12 against 2.38 standard, model
+1.50, higher on 8 of 12 seeds: not resolved; :class:`inmotion.align.aided_kf.FkfConfig`), in a two-stage method's fine stage (from the
 PSINS MEMS log's unresolved coarse heading fine-mux ended 3.5 times its sigma off in level, 0.6
 standard). The smoother undoes the reset as it undoes the shift of the standard
 feedback (:func:`~inmotion.estimation.smoother.rts_backward`: the smoothed ``x``, ``P``
