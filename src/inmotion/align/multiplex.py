@@ -276,19 +276,15 @@ def _cover_cross(tilt_deg: float, head_deg: float, cross: dict, base) -> tuple:
     return float(np.degrees(t)), float(np.degrees(h))
 
 
-def fine_config_from_coarse(cls, fine: dict, meta, lat: float, window_s: float,
-                            emap: Optional[dict] = None, channel: Optional[str] = None,
-                            rate_hz: float = 0.0, sensors=(), cross: bool = False):
-    """``(config, envelope, warnings)``: the fine method's configuration with the coarse
-    envelope as its attitude prior (fields ``fine`` does not set; module docstring).
-    ``emap``: the window's error map (:func:`coarse_fault_tolerant`), whose terms
-    (:func:`window_envelope` with the fine configuration's priors, ``channel``'s spec at
-    ``rate_hz``) are added in quadrature to the IMU's envelope. ``cross`` (with a map and a
-    resolvable heading): the prior also carries the coarse attitude error's covariance with
-    the accelerometer bias and the mounting of every channel of ``sensors``
-    (:func:`attitude_cross`, ``init_attitude_cross``), the attitude 1-sigma raised where
-    needed for it to fit (:func:`_cover_cross`)."""
-    base, _ = ak.config_with_spec(ak._config(fine, cls), meta)
+def coarse_window_envelope(base, meta, lat: float, window_s: float,
+                           emap: Optional[dict] = None, channel: Optional[str] = None,
+                           rate_hz: float = 0.0) -> dict:
+    """The coarse stage's 1-sigma envelope (:func:`coarse_envelope`'s keys): the IMU's terms
+    from ``base`` (a fine configuration with the bundle's spec) over ``window_s`` and, with
+    the window's error map ``emap``, the window's own terms (:func:`window_envelope`: the
+    mounting, the speed's scale factor, lever arm, constraint violation and noise at the
+    fine configuration's priors; the accelerometer bias through the map) in quadrature
+    (``imu``, ``window``)."""
     env = coarse_envelope(base.gyro_drift_deg_h, base.accel_bias_ug, lat, window_s)
     window = window_envelope(emap, base, meta, channel, rate_hz)
     if window is not None and "imu_bias" in window:
@@ -307,6 +303,35 @@ def fine_config_from_coarse(cls, fine: dict, meta, lat: float, window_s: float,
         env["heading_limit_deg"] = head
         env["resolvable"] = bool(head <= UNRESOLVED_HEADING_DEG)
         env["heading_deg"] = head if env["resolvable"] else None
+    return env
+
+
+def standalone_coarse_envelope(bundle: Bundle, lat: float, window_s: float, emap: dict,
+                               channel: str) -> dict:
+    """:func:`coarse_window_envelope` for a coarse alignment run on its own (issue 15,
+    session 24): the priors of the fine method ``fine-mux`` would run on the bundle
+    (:func:`auto_fine_method`, with the bundle's spec), so the envelope is the one
+    ``fine-mux`` hands its fine stage for the same window."""
+    cls = FINE_METHODS[auto_fine_method(bundle)][1]
+    base, _ = ak.config_with_spec(ak._config({}, cls), bundle.meta)
+    return coarse_window_envelope(base, bundle.meta, lat, window_s, emap, channel,
+                                  _rate_hz(bundle, channel))
+
+
+def fine_config_from_coarse(cls, fine: dict, meta, lat: float, window_s: float,
+                            emap: Optional[dict] = None, channel: Optional[str] = None,
+                            rate_hz: float = 0.0, sensors=(), cross: bool = False):
+    """``(config, envelope, warnings)``: the fine method's configuration with the coarse
+    envelope as its attitude prior (fields ``fine`` does not set; module docstring).
+    ``emap``: the window's error map (:func:`coarse_fault_tolerant`), whose terms
+    (:func:`window_envelope` with the fine configuration's priors, ``channel``'s spec at
+    ``rate_hz``) are added in quadrature to the IMU's envelope. ``cross`` (with a map and a
+    resolvable heading): the prior also carries the coarse attitude error's covariance with
+    the accelerometer bias and the mounting of every channel of ``sensors``
+    (:func:`attitude_cross`, ``init_attitude_cross``), the attitude 1-sigma raised where
+    needed for it to fit (:func:`_cover_cross`)."""
+    base, _ = ak.config_with_spec(ak._config(fine, cls), meta)
+    env = coarse_window_envelope(base, meta, lat, window_s, emap, channel, rate_hz)
     # the standard feedback (issue 15, session 23, measured): started from a coarse
     # attitude, on the PSINS MEMS log with its unresolved heading (45 deg off) the invariant
     # velocity feedback ended 3.5 times its sigma off in level, the standard 0.6
