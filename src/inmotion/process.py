@@ -79,7 +79,7 @@ from . import registry
 from .core import earth, rotations
 from .align import meta_spec
 from .core.bundle import Bundle
-from .core.stillness import STILL_READ_ROWS, still_start  # noqa: F401 (re-exported)
+from .core.stillness import still_start
 from .core.solution import NavState, Solution
 from .errors import BadInput
 

@@ -7,13 +7,10 @@ from typing import Optional
 
 import numpy as np
 
+from ..errors import BadInput
 from .bundle import Bundle
 
-__all__ = ["STILL_READ_ROWS", "still_start"]
-
-
-#: IMU rows :func:`still_start` reads at a time
-STILL_READ_ROWS = 65536
+__all__ = ["still_start"]
 
 
 def still_start(bundle: Bundle, t0: float, accel_m_s2: float = 0.15, gyro_deg_s: float = 0.25,
@@ -24,40 +21,49 @@ def still_start(bundle: Bundle, t0: float, accel_m_s2: float = 0.15, gyro_deg_s:
     with the mean of the blocks before them; the vehicle is still while every block stays
     within ``accel_m_s2`` and ``gyro_deg_s`` of it (driving off shows at once in the forward
     specific force, a turn in the rate; block means average the engine's vibration away).
+    Returns the end of the last still block when a later one departs (None when the second
+    already does, or with fewer than three blocks), the end of the last whole block when
+    none departs.
 
-    The IMU rows are read a block of :data:`STILL_READ_ROWS` at a time (a bundle read in
-    chunks: :meth:`Bundle.load_window`) until a block departs, not the whole log.
+    The IMU rows after ``t0`` are taken as the bundle yields them (a bundle read in chunks:
+    :meth:`~inmotion.io.bundle_stream.BundleStream.imu_rows_in_window`, its window's rows a
+    chunk at a time; in memory: :meth:`Bundle.imu_rows_after`) until a block departs: the
+    rows are neither loaded as a window nor read past the departure.
     """
-    imu = bundle.imu
-    t_all = imu.t
-    k0 = int(np.searchsorted(t_all, t0 + 1e-9))
-    t = t_all[k0:]
-    if len(t) < 4:
+    after = getattr(bundle, "imu_rows_in_window", bundle.imu_rows_after)
+    try:
+        n_rows, period, pieces, _ = after(t0)
+    except BadInput:
         return None
-    dt = np.diff(t_all[k0 - 1:] if k0 > 0 else np.r_[t[0] - imu.dt, t])
-    del t_all
-    n = max(1, int(round(block_s / float(np.median(dt)))))
-    nb = len(t) // n
-    if nb < 3:
+    n = max(1, int(round(block_s / period)))
+    if n_rows // n < 3:
         return None
-    T = dt[:nb * n].reshape(nb, n).sum(1)
-    f, w = np.empty((nb, 3)), np.empty((nb, 3))
-    per = max(1, STILL_READ_ROWS // n)                # blocks read at a time
-    end, j = None, 1
-    for a in range(0, nb, per):
-        b = min(a + per, nb)
-        rows = bundle.load_window(float(t[a * n]), float(t[b * n - 1])).imu
-        f[a:b] = rows.dvel.reshape(b - a, n, 3).sum(1) / T[a:b, None]
-        w[a:b] = rows.dtheta.reshape(b - a, n, 3).sum(1) / T[a:b, None]
-        while j < b:
-            fm, wm = f[:j].mean(0), w[:j].mean(0)
-            if (np.abs(f[j] - fm).max() > accel_m_s2
-                    or np.degrees(np.abs(w[j] - wm).max()) > gyro_deg_s):
-                end = j
-                break
+    f_sum, w_sum = np.zeros(3), np.zeros(3)
+    j = 0                                   # whole blocks taken as still so far
+    t_end = None                            # end [s] of the last of them
+    rest = None                             # rows of a block not yet whole: (t, dth, dvl)
+    t_prev = float(t0)                      # end of the interval before the next row
+    for tp, dth, dvl in pieces:
+        if rest is not None:
+            tp, dth, dvl = (np.concatenate([a, b]) for a, b in zip(rest, (tp, dth, dvl)))
+        k = len(tp) // n
+        rest = (tp[k * n:], dth[k * n:], dvl[k * n:])
+        if k == 0:
+            continue
+        ends = tp[n - 1:k * n:n]
+        starts = np.r_[t_prev, ends[:-1]]
+        if j == 0 and not 0.0 < tp[0] - t_prev < 2.0 * period:
+            starts[0] = tp[0] - period      # no row interval before the first row
+        T = ends - starts
+        f = dvl[:k * n].reshape(k, n, 3).sum(1) / T[:, None]
+        w = dth[:k * n].reshape(k, n, 3).sum(1) / T[:, None]
+        t_prev = float(ends[-1])
+        for i in range(k):
+            if j > 0 and (np.abs(f[i] - f_sum / j).max() > accel_m_s2
+                          or np.degrees(np.abs(w[i] - w_sum / j).max()) > gyro_deg_s):
+                return t_end if j > 1 else None
+            f_sum += f[i]
+            w_sum += w[i]
             j += 1
-        if end is not None:
-            break
-    if end is None:
-        return float(t[nb * n - 1])
-    return float(t[end * n - 1]) if end > 1 else None
+            t_end = float(ends[i])
+    return t_end if j >= 3 else None
