@@ -96,35 +96,8 @@ def run_coarse_inertial(bundle: Bundle, config: CoarseInertialConfig,
                          levels_info=[ad.level_info(lev, name)],
                          meta=bundle.meta)
     emap = ad.window_error_map(inp, lev, config.lowpass_time_constant_s) if moving else None
-    if emap is not None and sol.info.get("envelope") is not None:
-        _with_window_terms(sol, bundle, inp, emap)
+    if emap is not None:
+        from .multiplex import add_window_terms
+        add_window_terms(sol, bundle, inp, emap)
     return (sol, emap) if error_map else sol
 
-
-def _with_window_terms(sol, bundle: Bundle, inp, emap: dict) -> None:
-    """``info['envelope']`` with the window's own terms beside the IMU's (issue 15, session
-    24; :func:`inmotion.align.multiplex.standalone_coarse_envelope`, the envelope
-    ``fine-mux`` hands its fine stage for the same window), and the warning redone on it.
-    Measured on paper 003's drive (window 1-120 s, seeds 3-8): heading errors 2.7-31.6
-    arcmin against the IMU's envelope alone of 1.5 arcmin (up to 21 times it: the speed's
-    lever arm, scale factor, the IMU's mounting and the vehicle constraint's violation were
-    left out of it); with the window's terms 52-53 arcmin (mean (e / sigma)^2 0.14, level
-    0.18: conservative here, the scenario's 15 arcmin mounting and 500 ppm scale factor
-    lying inside the 30 arcmin and 1000 ppm priors; drawn from them, ``fine-mux``'s coarse
-    stage: ``benchmarks/coarse_window_nees.py``)."""
-    from .multiplex import standalone_coarse_envelope
-    old = sol.info["envelope"]
-    env = standalone_coarse_envelope(bundle, inp.lat0, float(sol.t[-1] - inp.t0), emap,
-                                     inp.sensor)
-    env["source"] = old.get("source")
-    sol.info["envelope"] = env
-    prefix = "coarse-inertial: "
-    warnings = [w for w in sol.info.get("warnings") or []
-                if w != prefix + (ad.envelope_warning(old, inp.lat0) or "")]
-    w = ad.envelope_warning(env, inp.lat0)
-    if w:
-        warnings.append(prefix + w)
-    if warnings:
-        sol.info["warnings"] = warnings
-    else:
-        sol.info.pop("warnings", None)

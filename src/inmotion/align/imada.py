@@ -108,9 +108,47 @@ def _single(bundle, config, init, model, method) -> Solution:
     inp = ad.prepare(bundle, init, sensor=config.velocity_sensor, moving=True,
                      min_window_s=config.min_window_s, v0_fit_s=config.initial_speed_fit_s)
     lev = ad.run_level(inp, model, **_level_kw(config))
-    return ad.to_solution(inp, lev, method=method, config=config,
-                          levels_info=[ad.level_info(lev, _MODEL_NAMES[model])],
-                          meta=bundle.meta)
+    sol = ad.to_solution(inp, lev, method=method, config=config,
+                         levels_info=[ad.level_info(lev, _MODEL_NAMES[model])],
+                         meta=bundle.meta)
+    _window_terms(sol, bundle, inp, lev, config)
+    return sol
+
+
+#: the final level's vector models whose answer :func:`~inmotion.align.
+#: attitude_determination.window_error_map` linearises (issue 15, session 24, checked by
+#: finite differences on paper 003's drive, windows 60 / 120 / 300 s, a 30 arcmin yaw
+#: mounting's heading: imada-vb 400 / -35 / -18.2 arcmin against the map's 392 / -46 /
+#: -18.1; imada-dual, oba and mimada-dual alike; pitch within 0.2 arcmin). Not ``MODEL_VN``
+#: (imada-vn, mimada): its ``v^n`` from the running answer takes the mounting another way
+#: (finite difference 233-410 arcmin against the map's -29), so their envelope keeps the
+#: IMU's terms only, with a warning (120 s windows of paper 003's drive, seeds 3-8: heading
+#: 4-41 arcmin mimada, 57-162 imada-vn, against 1.5; the others, with the window's terms, a
+#: mean (e / sigma)^2 of 0.09-0.18 at a 46-47 arcmin envelope)
+WINDOW_MAP_MODELS = (ov.MODEL_VB, ov.MODEL_DUAL, ov.MODEL_VB_EARTH)
+
+
+def _window_terms(sol, bundle, inp, lev, config) -> None:
+    """The window's own terms in the envelope of a method run on its own
+    (:func:`inmotion.align.multiplex.add_window_terms`) where the error map holds: a final
+    level of :data:`WINDOW_MAP_MODELS`, centred vectors (the map's derivation) and no
+    fading memory (its weights)."""
+    if sol.info.get("envelope") is None:
+        return
+    if (lev.model not in WINDOW_MAP_MODELS or not config.center_vectors
+            or config.fading_time_constant_s):
+        sol.info["envelope"]["window"] = None
+        sol.info["warnings"] = [*(sol.info.get("warnings") or []), (
+            f"{sol.info.get('method')}: the envelope holds the IMU's terms only: the "
+            "window's (the IMU's mounting, the speed's scale factor and lever arm, the "
+            "vehicle constraint's violation) are not linearised for these vectors (V^n from "
+            "the running answer, or uncentred / fading ones); on paper 003's simulated drive "
+            "(120 s) imada-vn and mimada ended 4-162 arcmin off in heading against its 1.5. "
+            "For an envelope that holds them use imada-vb, imada-dual, mimada-dual, oba or "
+            "coarse-inertial")]
+        return
+    from .multiplex import add_window_terms
+    add_window_terms(sol, bundle, inp, ad.window_error_map(inp, lev, None))
 
 
 def _level_kw(config) -> dict:
@@ -133,8 +171,10 @@ def _multistage(bundle, config, init, high_model, method, progress) -> Solution:
         info.append(ad.level_info(lev, _MODEL_NAMES[high_model]))
     if progress is not None:
         progress(1.0)
-    return ad.to_solution(inp, lev, method=method, config=config, levels_info=info,
-                          meta=bundle.meta)
+    sol = ad.to_solution(inp, lev, method=method, config=config, levels_info=info,
+                         meta=bundle.meta)
+    _window_terms(sol, bundle, inp, lev, config)
+    return sol
 
 
 def run_imada_vb(bundle: Bundle, config: ImadaConfig, init: Optional[NavState] = None,
