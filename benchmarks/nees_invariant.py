@@ -16,7 +16,7 @@ velocity priors widened to cover it: a consistent filter keeps its heading sigma
 Usage (from the repository root)::
 
     PYTHONPATH=src:tests OPENBLAS_NUM_THREADS=1 python benchmarks/nees_invariant.py [METHOD] [--runs R]
-        [--gyro 300,150,60] [--turned DEG] [--config JSON]
+        [--gyro 300,150,60] [--turned DEG] [--config JSON] [--ldv]
 
 Measured (session 23, seeds 100-104, nhc-kf):
 
@@ -28,6 +28,11 @@ Measured (session 23, seeds 100-104, nhc-kf):
 - ``--turned 10 --runs 4 --gyro 30,15,60``: standard: sigma 436 arcmin at 20 s (of the 591
   prior) -> 44-363 at 60 s (the first turn), 58-116 at 120 s, with the error 545-685 (NEES
   20.7); invariant: 435-441 from 20 s to the end (NEES 0.90).
+
+Measured (session 24, ``--gyro 100,50,60``, seeds 100-104; standard with
+``'{"invariant_velocity_error": false}'`` / invariant, the default): od-velocity-kf 5.23 /
+0.80, sins-dr 6.25 / 0.43, dr-kf 2.02 / 2.04; with ``--ldv``: ldv-kf 3.57 / 0.70, fkf 5.94 /
+3.06 (fkf keeps the standard feedback: ``aided_kf.FkfConfig``).
 """
 from __future__ import annotations
 
@@ -54,8 +59,15 @@ def main(argv=None):
                     help="constant deg/h, Gauss-Markov deg/h, tau s")
     ap.add_argument("--turned", type=float, default=0.0, help="start turned by DEG")
     ap.add_argument("--config", default="{}", help="JSON added to the configuration")
+    ap.add_argument("--ldv", action="store_true",
+                    help="an LDV beside the odometer (20 Hz distance, 500 ppm, 0.01 m/s): "
+                         "for ldv-kf and fkf")
     a = ap.parse_args(argv)
-    sc = load_scenario(city_scenario(*[float(x) for x in a.gyro.split(",")]))
+    d = city_scenario(*[float(x) for x in a.gyro.split(",")])
+    if a.ldv:
+        d["sensors"]["ldv"] = {"rate_hz": 20.0, "output": "distance",
+                               "scale_factor_sigma_ppm": 500.0, "noise_m_s": 0.01}
+    sc = load_scenario(d)
     run, Config = registry.get(a.method).load()
     nees = []
     for k in range(a.runs):
