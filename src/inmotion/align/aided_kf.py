@@ -638,6 +638,24 @@ def _with_gm_block(lay, locals_, cfg):
     return out, new
 
 
+def _gm_outputs(res: dict, lay, n_sensors: int):
+    """``(x, sigma)`` (R, 3) of the Gauss-Markov gyro bias ``eps_gm`` at the output rows: the
+    global estimate's where it has one, and where the bank's global estimate is fused (only
+    the common block is: NaN there) the sensor sub-filters' own estimates fused per axis as
+    eq. 36 fuses the common block (``x = sum(x_l / s_l^2) / sum(1 / s_l^2)``; every
+    sub-filter holds the one gyro's bias, its ``1 / beta`` share in ``s_l``), so a fused
+    ``fkf`` reports it too (issue 15, session 24: it was empty in fused mode)."""
+    g = lay["eps_gm"]
+    x, s = res["states"][:, g].copy(), res["sigma"][:, g].copy()
+    lx, ls = res.get("local_x"), res.get("local_sigma")
+    gap = np.isnan(x).any(axis=1)
+    if gap.any() and lx is not None and n_sensors > 0:
+        info = 1.0 / ls[gap][:, :n_sensors, g] ** 2
+        x[gap] = (lx[gap][:, :n_sensors, g] * info).sum(1) / info.sum(1)
+        s[gap] = 1.0 / np.sqrt(info.sum(1))
+    return x, s
+
+
 def _bias_prior(cfg):
     """1-sigma priors of the gyro drift [rad/s] and accelerometer bias [m/s^2]: the constant
     and, where its correlation time is set, the Gauss-Markov part (root sum of squares)."""
@@ -2133,11 +2151,11 @@ def run_aided(bundle: Bundle, cfg, init: NavState, sensors: tuple, *, method: st
                                    "gauss-markov" if cfg.gyro_markov_tau_s is not None
                                    else "constant")
     if "eps_gm" in lay and extra is None:    # the GM part's estimate and sigma, deg/h
+        x_gm, s_gm = _gm_outputs(res, lay, len(sensors))
         for i, a in enumerate("xyz"):
-            j = lay["eps_gm"].start + i
-            for key, arr, v0 in ((f"eps_gm_{a}", res["states"], 0.0),
-                                 (f"sigma_eps_gm_{a}", res["sigma"], cfg.gyro_markov_deg_h)):
-                sol.states[key] = np.concatenate([[v0 * DEG_H], arr[:, j]])
+            for key, arr, v0 in ((f"eps_gm_{a}", x_gm, 0.0),
+                                 (f"sigma_eps_gm_{a}", s_gm, cfg.gyro_markov_deg_h)):
+                sol.states[key] = np.concatenate([[v0 * DEG_H], arr[:, i]])
                 sol.state_units[key] = StateUnit("deg_h", 1.0 / DEG_H)
     sol.info["residual_test_weights"] = weights
     sol.info["nis"] = {k: residual_test_nis(v, weights.get(k)) if k in weights else v
