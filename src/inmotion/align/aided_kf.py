@@ -594,13 +594,6 @@ def _noise(cfg) -> em.ProcessNoise:
                            mount_rw=getattr(cfg, "mount_rw_arcmin_sqrt_s", 0.0) * ARCMIN, **gm)
 
 
-def invariant_feedback(cfg) -> bool:
-    """Whether the filter feeds back in the right-invariant velocity error
-    (``invariant_velocity_error``; :mod:`inmotion.estimation.engine`, "Invariant velocity
-    error"), as ``info['velocity_error']`` says."""
-    return bool(cfg.invariant_velocity_error)
-
-
 def two_part_gyro_bias(cfg) -> bool:
     """Whether the gyro bias is modelled as a constant plus a Gauss-Markov part, two error
     states per axis (``eps`` and ``eps_gm``, :mod:`inmotion.estimation.error_model`): when
@@ -2133,7 +2126,7 @@ def run_aided(bundle: Bundle, cfg, init: NavState, sensors: tuple, *, method: st
                          and cfg.measurement == "displacement",
                          return_span_max_s=float(getattr(cfg, "return_span_max_s", 10.0)),
                          test_covariance=test_covariance_on(cfg),
-                         invariant_velocity=invariant_feedback(cfg))
+                         invariant_velocity=cfg.invariant_velocity_error)
     res = _feed(f, bundle, k0, sensors, meas_every, use_nhc, use_baro,
                 None if smooth and bank else progress,
                 ForwardRecord.for_filter(f, n_ep) if smooth and not bank else None,
@@ -2146,7 +2139,7 @@ def run_aided(bundle: Bundle, cfg, init: NavState, sensors: tuple, *, method: st
     sol = _solution(res, f, init, cfg, method, sensors, thr_ch, time.perf_counter() - t_wall,
                     P15)
     sol.info["config_source"] = cfg_source
-    sol.info["velocity_error"] = "invariant" if invariant_feedback(cfg) else "standard"
+    sol.info["velocity_error"] = f.velocity_error
     sol.info["gyro_bias_model"] = ("constant + gauss-markov" if "eps_gm" in lay else
                                    "gauss-markov" if cfg.gyro_markov_tau_s is not None
                                    else "constant")
@@ -2351,7 +2344,7 @@ def _smooth_bank(f, res_fwd, bundle, cfg, init, k0, sensors, use_nhc, use_baro, 
     fc = ErrorStateFilter(init, lay, em.ErrorModel(lay, _noise(cfg)), [LocalFilter(P0, Q)],
                           meas, step_rows=f.step, feedback_every=fuse_every // meas_every,
                           out_every=out_every, n_common=NS, record=True,
-                          invariant_velocity=invariant_feedback(cfg))
+                          invariant_velocity=cfg.invariant_velocity_error)
     accept = {name: (lambda t, iv=isol[c]: ~_in_any(t, iv)) for c, name in enumerate(sensors)}
     if use_nhc:
         accept["nhc"] = (lambda t: np.logical_and.reduce(

@@ -247,14 +247,17 @@ def envelope_warning(env: dict, lat: float) -> Optional[str]:
 
 
 def to_solution(inp: Inputs, level: Level, *, method: str, config, levels_info: list,
-                meta=None) -> Solution:
+                meta=None, window_envelope=None) -> Solution:
     """The :class:`Solution` of the final level, with the start/end attitude and the quality
     figure (the q-method's relative eigenvalue gap ``(lambda_1 - lambda_2) / lambda_1``).
 
     With the bundle's ``meta`` stating the IMU's drift and bias, ``info['envelope']`` holds the
     1-sigma envelope of the result (:func:`coarse_envelope`, over the window) and, when the
     heading cannot be resolved, ``info['warnings']`` says so (issue 15: never a confident
-    heading the sensors could not give)."""
+    heading the sensors could not give). ``window_envelope``: a callable of the window's
+    length [s] giving the envelope with the window's own terms beside the IMU's (a method
+    run on its own, :func:`inmotion.align.multiplex.standalone_window_envelope`), used in
+    place of the IMU's alone (its ``source`` kept)."""
     run = level.run
     euler = rotations.euler_from_dcm(level.C_nb)
     info = {
@@ -271,8 +274,11 @@ def to_solution(inp: Inputs, level: Level, *, method: str, config, levels_info: 
         "initial_speed_m_s": inp.speed0,
         "levels": levels_info,
     }
-    env = envelope_from_meta(meta, inp.lat0, float(run.t[-1] - inp.t0))
+    window_s = float(run.t[-1] - inp.t0)
+    env = envelope_from_meta(meta, inp.lat0, window_s)
     if env is not None:
+        if window_envelope is not None:
+            env = {**window_envelope(window_s), "source": env["source"]}
         info["envelope"] = env
         warning = envelope_warning(env, inp.lat0)
         if warning:

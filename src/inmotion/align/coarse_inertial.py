@@ -34,6 +34,7 @@ component is the bias or drift resolved in ``n``.
 """
 from __future__ import annotations
 
+import functools
 from typing import Literal, Optional
 
 from pydantic import BaseModel, ConfigDict, Field
@@ -92,12 +93,15 @@ def run_coarse_inertial(bundle: Bundle, config: CoarseInertialConfig,
                        output_interval_s=config.output_interval_s,
                        lowpass_time_constant_s=config.lowpass_time_constant_s)
     name = "coarse-inertial-moving" if moving else "coarse-inertial-parked"
+    # in motion the window's own terms join the envelope (issue 15, session 24); the map is
+    # made once, where asked for (``error_map``) or an envelope is reported
+    emap = functools.cache(lambda: ad.window_error_map(inp, lev, config.lowpass_time_constant_s))
+    window = None
+    if moving:
+        from .multiplex import standalone_window_envelope
+        window = standalone_window_envelope(bundle, inp, emap)
     sol = ad.to_solution(inp, lev, method="coarse-inertial", config=config,
                          levels_info=[ad.level_info(lev, name)],
-                         meta=bundle.meta)
-    emap = ad.window_error_map(inp, lev, config.lowpass_time_constant_s) if moving else None
-    if emap is not None:
-        from .multiplex import add_window_terms
-        add_window_terms(sol, bundle, inp, emap)
-    return (sol, emap) if error_map else sol
+                         meta=bundle.meta, window_envelope=window)
+    return (sol, emap() if moving else None) if error_map else sol
 

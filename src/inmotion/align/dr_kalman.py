@@ -447,7 +447,7 @@ def _engine_solution(filt: VelocityAidedRun, out: dict, cfg, method: str, sensor
             "nis_mean_per_dof": nis / max(dof, 1), "nis": filt.filter.nis_summary(),
             "wall_time_s": wall}
     info["smoothed"] = bool(cfg.smooth)
-    info["velocity_error"] = "invariant" if cfg.invariant_velocity_error else "standard"
+    info["velocity_error"] = filt.filter.velocity_error
     info["samples_skipped_blind"] = filt.samples_skipped_blind
     info["dr_reseeds"] = filt.dr_reseeds
     sol = _pack(filt.layout, filt.init, cfg, info, out["t"], xs[:, 0:3], xs[:, 3:6],

@@ -108,11 +108,7 @@ def _single(bundle, config, init, model, method) -> Solution:
     inp = ad.prepare(bundle, init, sensor=config.velocity_sensor, moving=True,
                      min_window_s=config.min_window_s, v0_fit_s=config.initial_speed_fit_s)
     lev = ad.run_level(inp, model, **_level_kw(config))
-    sol = ad.to_solution(inp, lev, method=method, config=config,
-                         levels_info=[ad.level_info(lev, _MODEL_NAMES[model])],
-                         meta=bundle.meta)
-    _window_terms(sol, bundle, inp, lev, config)
-    return sol
+    return _solution(bundle, inp, lev, config, method, [ad.level_info(lev, _MODEL_NAMES[model])])
 
 
 #: the final level's vector models whose answer :func:`~inmotion.align.
@@ -128,15 +124,20 @@ def _single(bundle, config, init, model, method) -> Solution:
 WINDOW_MAP_MODELS = (ov.MODEL_VB, ov.MODEL_DUAL, ov.MODEL_VB_EARTH)
 
 
-def _window_terms(sol, bundle, inp, lev, config) -> None:
-    """The window's own terms in the envelope of a method run on its own
-    (:func:`inmotion.align.multiplex.add_window_terms`) where the error map holds: a final
-    level of :data:`WINDOW_MAP_MODELS`, centred vectors (the map's derivation) and no
-    fading memory (its weights)."""
-    if sol.info.get("envelope") is None:
-        return
-    if (lev.model not in WINDOW_MAP_MODELS or not config.center_vectors
-            or config.fading_time_constant_s):
+def _solution(bundle, inp, lev, config, method, levels_info) -> Solution:
+    """:func:`~inmotion.align.attitude_determination.to_solution` of the final level, its
+    envelope with the window's own terms (:func:`inmotion.align.multiplex.
+    standalone_window_envelope`) where the error map holds: a final level of
+    :data:`WINDOW_MAP_MODELS`, centred vectors (the map's derivation) and no fading memory
+    (its weights); elsewhere the IMU's terms, and a warning says so."""
+    from .multiplex import standalone_window_envelope
+    mapped = (lev.model in WINDOW_MAP_MODELS and config.center_vectors
+              and not config.fading_time_constant_s)
+    window = (standalone_window_envelope(bundle, inp, lambda: ad.window_error_map(inp, lev))
+              if mapped else None)
+    sol = ad.to_solution(inp, lev, method=method, config=config, levels_info=levels_info,
+                         meta=bundle.meta, window_envelope=window)
+    if not mapped and sol.info.get("envelope") is not None:
         sol.info["envelope"]["window"] = None
         sol.info["warnings"] = [*(sol.info.get("warnings") or []), (
             f"{sol.info.get('method')}: the envelope holds the IMU's terms only: the "
@@ -146,9 +147,7 @@ def _window_terms(sol, bundle, inp, lev, config) -> None:
             "(120 s) imada-vn and mimada ended 4-162 arcmin off in heading against its 1.5. "
             "For an envelope that holds them use imada-vb, imada-dual, mimada-dual, oba or "
             "coarse-inertial")]
-        return
-    from .multiplex import add_window_terms
-    add_window_terms(sol, bundle, inp, ad.window_error_map(inp, lev, None))
+    return sol
 
 
 def _level_kw(config) -> dict:
@@ -171,10 +170,7 @@ def _multistage(bundle, config, init, high_model, method, progress) -> Solution:
         info.append(ad.level_info(lev, _MODEL_NAMES[high_model]))
     if progress is not None:
         progress(1.0)
-    sol = ad.to_solution(inp, lev, method=method, config=config, levels_info=info,
-                         meta=bundle.meta)
-    _window_terms(sol, bundle, inp, lev, config)
-    return sol
+    return _solution(bundle, inp, lev, config, method, info)
 
 
 def run_imada_vb(bundle: Bundle, config: ImadaConfig, init: Optional[NavState] = None,

@@ -97,8 +97,8 @@ from ..core.bundle import Bundle, SpeedData
 from ..core.solution import NavState, Solution
 from ..errors import BadInput
 from . import aided_kf as ak
-from .attitude_determination import (UNRESOLVED_HEADING_DEG, coarse_envelope, envelope_warning,
-                                     initial_position, window_terms)
+from .attitude_determination import (UNRESOLVED_HEADING_DEG, coarse_envelope, initial_position,
+                                     window_terms)
 from .meta_spec import _constraint_violation_sigmas
 from .coarse_inertial import CoarseInertialConfig, run_coarse_inertial
 from .velocity_source import initial_speed, speed_on_imu_times
@@ -318,13 +318,13 @@ def standalone_coarse_envelope(bundle: Bundle, lat: float, window_s: float, emap
                                   _rate_hz(bundle, channel))
 
 
-def add_window_terms(sol: Solution, bundle: Bundle, inp, emap: dict) -> None:
-    """A coarse alignment run on its own: ``info['envelope']`` (the IMU's terms, from
-    ``meta``; nothing without one) with the window's own terms beside them
-    (:func:`standalone_coarse_envelope`: the envelope ``fine-mux`` hands its fine stage for
-    the same window, ``emap`` the final level's
-    :func:`~inmotion.align.attitude_determination.window_error_map`), and the envelope's
-    warning redone on it (issue 15, session 24).
+def standalone_window_envelope(bundle: Bundle, inp, emap):
+    """For a coarse alignment run on its own (issue 15, session 24): the callable
+    :func:`inmotion.align.attitude_determination.to_solution` takes as ``window_envelope``,
+    the envelope of :func:`standalone_coarse_envelope` (the one ``fine-mux`` hands its fine
+    stage for the same window) for a window of the given length. ``emap``: the final level's
+    :func:`~inmotion.align.attitude_determination.window_error_map`, or a callable making it
+    (it is made only where the bundle states its IMU and an envelope is reported).
 
     Measured on paper 003's drive (window 1-120 s, seeds 3-8), ``coarse-inertial``: heading
     errors 2.7-31.6 arcmin against the IMU's envelope alone of 1.5 arcmin (up to 21 times
@@ -333,23 +333,10 @@ def add_window_terms(sol: Solution, bundle: Bundle, inp, emap: dict) -> None:
     sigma)^2 0.14, level 0.18: conservative here, the scenario's 15 arcmin mounting and 500
     ppm scale factor lying inside the 30 arcmin and 1000 ppm priors; drawn from them,
     ``fine-mux``'s coarse stage: ``benchmarks/coarse_window_nees.py``)."""
-    old = sol.info.get("envelope")
-    if old is None:
-        return
-    env = standalone_coarse_envelope(bundle, inp.lat0, float(sol.t[-1] - inp.t0), emap,
-                                     inp.sensor)
-    env["source"] = old.get("source")
-    sol.info["envelope"] = env
-    prefix = f"{sol.info.get('method', 'coarse')}: "
-    warnings = [w for w in sol.info.get("warnings") or []
-                if w != prefix + (envelope_warning(old, inp.lat0) or "")]
-    w = envelope_warning(env, inp.lat0)
-    if w:
-        warnings.append(prefix + w)
-    if warnings:
-        sol.info["warnings"] = warnings
-    else:
-        sol.info.pop("warnings", None)
+    def envelope(window_s: float) -> dict:
+        m = emap() if callable(emap) else emap
+        return standalone_coarse_envelope(bundle, inp.lat0, window_s, m, inp.sensor)
+    return envelope
 
 
 def fine_config_from_coarse(cls, fine: dict, meta, lat: float, window_s: float,

@@ -1654,6 +1654,8 @@ class ErrorStateFilter:
         ws = make_workspace(model.F_pattern(), q_pattern, phi_order)
         #: whether the feedback is the invariant velocity one (module docstring)
         self.invariant_velocity = bool(invariant_velocity)
+        #: ``info['velocity_error']`` of the methods: ``invariant`` or ``standard``
+        self.velocity_error = "invariant" if self.invariant_velocity else "standard"
         self._C = _Const(
             offs=offs, offs9=offs9, Qc=Qc,
             q_dr_m2_s=float(dr_position_m2_s), inv_tau_dk=1.0 / model.noise.dk_tau,

@@ -451,7 +451,7 @@ def _solution(filt: VelocityAidedRun, out: dict, cfg: SinsDrConfig, sensor: str,
              "east": sig["dp_lon"] * (r_n + h) * np.cos(lat), "h": sig["dp_h"], "dk": sig["dk"]}
     info = {"method": "sins-dr", "mode": cfg.mode, "config": cfg.model_dump(mode="json"),
             "velocity_sensor": sensor, "layout": list(lay.names),
-            "velocity_error": "invariant" if cfg.invariant_velocity_error else "standard",
+            "velocity_error": filt.filter.velocity_error,
             "filter_step_rows": filt.step, "measurement_every_filter_steps": filt.meas_every,
             "measurements": filt.counts(), "nis": filt.filter.nis_summary(),
             "timing": {"run_s": wall},
