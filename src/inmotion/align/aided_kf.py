@@ -2596,20 +2596,17 @@ def run_nhc_kf(bundle: Bundle, config: NhcKfConfig | dict | None = None,
 def _start_stop(bundle: Bundle, init: NavState):
     """``([t0, t1], origin)``: the stop ``nhc-kf`` takes at a still start of its window
     (``detect_start_stop``), or ``(None, None)``."""
-    from ..core.stillness import still_start
+    from ..core.stillness import BLOCK_S, still_start
     if float(np.linalg.norm(init.vel_n)) >= START_STOP_MAX_SPEED_M_S:
         return None, None
-    t = bundle.imu.t
-    k0 = start_row(t, init.t)
-    t0, t_end = float(t[k0]), float(t[-1])
-    del t
+    t0, t_end = float(init.t), float(bundle.imu.t[-1])
     motion = bundle.meta.get("motion") if isinstance(bundle.meta, dict) else None
     if isinstance(motion, dict) and motion.get("parked"):
         return [t0, t_end], "detected: meta.yaml motion: parked (the whole window a stop)"
     t1 = still_start(bundle, t0)
     if t1 is None:
         return None, None
-    moves = t1 < t_end
+    moves = t1 < t_end - BLOCK_S          # (still to the end: the last whole block's end)
     stop = [t0, t1 - START_STOP_MARGIN_S if moves else t1]
     if stop[1] - t0 < MIN_START_STOP_S:
         return None, None

@@ -10,11 +10,14 @@ import numpy as np
 from ..errors import BadInput
 from .bundle import Bundle
 
-__all__ = ["still_start"]
+__all__ = ["BLOCK_S", "still_start"]
+
+#: the length [s] of the blocks whose means :func:`still_start` compares
+BLOCK_S = 0.25
 
 
 def still_start(bundle: Bundle, t0: float, accel_m_s2: float = 0.15, gyro_deg_s: float = 0.25,
-                block_s: float = 0.25) -> Optional[float]:
+                block_s: float = BLOCK_S) -> Optional[float]:
     """End [s] of the still period at the start of a drive with no velocity sensor, or None.
 
     The IMU alone: the 0.25 s block means of the specific force and the rate are compared
