@@ -39,13 +39,13 @@ def test_federated_fusion_equals_centralized_estimate():
         P[i, :n, :n] = Pl
         P[i, n:, n:] = np.eye(2)
     xk, Pk = np.zeros(n), np.zeros((n, n))
-    assert federated.fuse_kernel(X, P, np.array([True, True]), n, xk, Pk)
+    assert federated.fuse_kernel(X, P, np.array([True, True]), n, xk, Pk, np.ones(2))
     np.testing.assert_allclose(xk, xc, rtol=1e-9, atol=1e-12)
     np.testing.assert_allclose(Pk, Pc, rtol=1e-9, atol=1e-12)
     # one filter alone: the fusion returns it unchanged
-    assert federated.fuse_kernel(X, P, np.array([False, True]), n, xk, Pk)
+    assert federated.fuse_kernel(X, P, np.array([False, True]), n, xk, Pk, np.ones(2))
     np.testing.assert_allclose(xk, locals_[1][0])
-    assert not federated.fuse_kernel(X, P, np.array([False, False]), n, xk, Pk)
+    assert not federated.fuse_kernel(X, P, np.array([False, False]), n, xk, Pk, np.ones(2))
 
 
 def test_share_rejects_bad_beta():

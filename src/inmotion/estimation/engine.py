@@ -569,7 +569,7 @@ _Const = namedtuple("_Const", "offs offs9 Qc q_dr_m2_s inv_tau_dk inv_tau_b dr_e
                               "with_dr step out_every fb_mask fb_states feedback_every C_bm l_b gates "
                               "params dofs local r_scale isolate return_tests primary fallback "
                               "n_common need_nb has_acc log_nis ws record fuse_isolated pstate "
-                              "pstate_att o_mount3 return_conditioned test_r Qa invariant")
+                              "pstate_att o_mount3 return_conditioned test_r Qa invariant fuse_w")
 #: the output buffers of one call
 _Out = namedtuple("_Out", "t xs sigma states cov_phi mode local_x local_sig n rec_t rec_phi "
                           "rec_ppred rec_x rec_p rec_fed rec_xs rec_epoch nrec")
@@ -649,7 +649,7 @@ def _global(S, C, mode, x_g, P_g):
     elif k >= 2:
         xc = np.empty(nc)
         Pc = np.empty((nc, nc))
-        fuse_kernel(S.X, S.P, use, nc, xc, Pc)
+        fuse_kernel(S.X, S.P, use, nc, xc, Pc, C.fuse_w)
         x_g[:] = np.nan
         P_g[:, :] = np.nan
         x_g[:nc] = xc
@@ -830,7 +830,11 @@ def _condition_on_healthy(S, C, l, Xc, Pc):
         return False
     xh = np.empty(nc)
     Ph = np.empty((nc, nc))
-    fuse_kernel(S.X, S.P, use, nc, xh, Ph)
+    fuse_kernel(S.X, S.P, use, nc, xh, Ph, C.fuse_w)
+    if C.fuse_w[l] != 1.0:        # sharing at the fusion: the copy's side of the bound
+        for a in range(Pc.shape[0]):
+            for b in range(Pc.shape[0]):
+                Pc[a, b] /= C.fuse_w[l]
     Sm = np.ascontiguousarray(Pc[:nc, :nc]) + Ph
     Si = np.linalg.inv(0.5 * (Sm + Sm.T))
     PcT = np.ascontiguousarray(Pc[:, :nc])
@@ -1473,6 +1477,9 @@ class LocalFilter:
     P0 : (n, n) initial covariance;  Qc : (n, n) continuous process noise (default: the
         model's)
     r_scale : float, noise scale of shared measurements on this filter (``1 / beta``)
+    fuse_weight : float, the weight of this filter's information in the fusion (``beta``
+        where the sharing is taken at the fusion, :mod:`inmotion.estimation.federated`;
+        1: eq. 36 as printed)
     role : ``"primary"`` (fused when healthy) or ``"fallback"`` (the global estimate only
         when no primary is healthy)
     P0_test, Qc_test : (n, n) the test covariance's start and process noise (the engine's
@@ -1481,7 +1488,7 @@ class LocalFilter:
     """
 
     def __init__(self, P0, Qc=None, *, r_scale: float = 1.0, role: str = "primary",
-                 P0_test=None, Qc_test=None):
+                 P0_test=None, Qc_test=None, fuse_weight: float = 1.0):
         if role not in ("primary", "fallback"):
             raise ValueError(f"role must be 'primary' or 'fallback', got {role!r}")
         self.P0 = np.array(P0, dtype=float)
@@ -1489,6 +1496,9 @@ class LocalFilter:
         self.P0_test = self.P0 if P0_test is None else np.array(P0_test, dtype=float)
         self.Qc_test = self.Qc if Qc_test is None else np.array(Qc_test, dtype=float)
         self.r_scale = float(r_scale)
+        if not 0.0 < fuse_weight <= 1.0:
+            raise ValueError(f"fuse_weight must be in (0, 1], got {fuse_weight}")
+        self.fuse_weight = float(fuse_weight)
         self.role = role
 
 
@@ -1686,6 +1696,7 @@ class ErrorStateFilter:
                       and layout["mount"].stop - layout["mount"].start == 3 else -1),
             return_conditioned=bool(return_conditioned),
             invariant=bool(invariant_velocity),
+            fuse_w=np.array([lf.fuse_weight for lf in locals_]),
             test_r=per_meas(lambda m: getattr(m, "test_variance", False), False, np.bool_),
             Qa=stack_qc("Qc_test") if test_covariance else np.zeros((0, n, n)))
         # the fill and accumulator functions (numba functions, compiled or loaded at first use

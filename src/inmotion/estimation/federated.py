@@ -33,6 +33,25 @@ holds for the linear model; the engine's local filters are extended ones, where 
 left over is measured (``align.aided_kf``'s docstring: fkf's final-attitude NEES tracks the
 single-channel ldv-kf's, run by run). Only the common states are fused; the
 states private to one local filter (a sensor's scale factor, mounting, lever arm) stay there.
+
+Sharing at the fusion (issue 15, session 25; ``fkf``'s ``information_sharing: fusion``).
+The same bound can be taken at the fusion instead of in the sub-filters: each local runs
+with the full ``P(0)``, ``Q`` and ``R`` (it is then the single-sensor filter of its channel)
+and eq. 36 weighs its information by ``beta_i``::
+
+    P_g = (sum_i beta_i P_ii^-1)^-1,     X_g = P_g sum_i beta_i P_ii^-1 X_i
+
+This is covariance intersection with fixed weights (Julier and Uhlmann 1997): for
+``sum_i beta_i = 1`` and locals whose ``P_ii`` bound their errors, ``P_g`` bounds the fused
+error whatever the locals' cross-covariances (``[[P_11, P_12], [P_21, P_22]] <=
+diag(P_11 / beta_1, P_22 / beta_2)`` for any joint covariance with those diagonal blocks,
+the same inequality as above, here on the locals' covariances rather than on ``Q`` and
+``P(0)``). In the linear model both give one bound at the start (``beta_i (P / beta_i)^-1
+= P^-1``); they differ in the sub-filters: with the sharing in them each sub-filter's gain
+is that of a filter whose ``Q`` and ``P(0)`` are ``1 / beta_i`` times the true ones, larger
+steps that an extended filter linearised about a heading several degrees off takes at the
+cost of its accuracy (measured in ``align.aided_kf``: ``FkfConfig.information_sharing``);
+with the sharing at the fusion each sub-filter keeps its own channel's gains.
 """
 from __future__ import annotations
 
@@ -43,20 +62,23 @@ from .._jit import njit
 __all__ = ["fuse", "fuse_kernel", "share"]
 
 
-def fuse(xs, Ps):
+def fuse(xs, Ps, weights=None):
     """Global estimate of eq. 36 from local estimates of the same state.
 
     Parameters
     ----------
     xs : sequence of (n,) local estimates;  Ps : sequence of (n, n) their covariances
+    weights : sequence of the locals' information weights (default 1 each: eq. 36 as
+        printed; ``beta_i``: the sharing taken at the fusion, module docstring)
 
     Returns
     -------
     x_g : (n,);  P_g : (n, n)
     """
-    info = sum(np.linalg.inv(P) for P in Ps)
+    w = [1.0] * len(Ps) if weights is None else [float(v) for v in weights]
+    info = sum(wi * np.linalg.inv(P) for wi, P in zip(w, Ps))
     P_g = np.linalg.inv(info)
-    x_g = P_g @ sum(np.linalg.solve(P, x) for x, P in zip(xs, Ps))
+    x_g = P_g @ sum(wi * np.linalg.solve(P, x) for wi, x, P in zip(w, xs, Ps))
     return x_g, 0.5 * (P_g + P_g.T)
 
 
@@ -68,11 +90,13 @@ def share(P, beta: float):
 
 
 @njit(cache=True)
-def fuse_kernel(X, P, use, n, x_g, P_g):
-    """Eq. 36 over the leading ``n`` states of the local filters ``i`` with ``use[i]``.
+def fuse_kernel(X, P, use, n, x_g, P_g, w):
+    """Eq. 36 over the leading ``n`` states of the local filters ``i`` with ``use[i]``, each
+    local's information weighted by ``w[i]`` (1: eq. 36 as printed; ``beta_i``: the sharing
+    at the fusion, module docstring).
 
-    ``X`` (L, N) local states, ``P`` (L, N, N) covariances; writes ``x_g`` (n,) and ``P_g``
-    (n, n). Returns False when no filter is in use (outputs untouched).
+    ``X`` (L, N) local states, ``P`` (L, N, N) covariances, ``w`` (L,); writes ``x_g`` (n,)
+    and ``P_g`` (n, n). Returns False when no filter is in use (outputs untouched).
     """
     info = np.zeros((n, n))
     vec = np.zeros(n)
@@ -83,6 +107,8 @@ def fuse_kernel(X, P, use, n, x_g, P_g):
         any_used = True
         Pi = np.ascontiguousarray(P[i, :n, :n])
         Ii = np.linalg.inv(0.5 * (Pi + Pi.T))
+        if w[i] != 1.0:
+            Ii = w[i] * Ii
         info += Ii
         vec += Ii @ np.ascontiguousarray(X[i, :n])
     if not any_used:
