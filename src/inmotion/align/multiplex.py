@@ -356,6 +356,8 @@ def fine_config_from_coarse(cls, fine: dict, meta, lat: float, window_s: float,
     # the standard feedback (issue 15, session 23, measured): started from a coarse
     # attitude, on the PSINS MEMS log with its unresolved heading (45 deg off) the invariant
     # velocity feedback ended 3.5 times its sigma off in level, the standard 0.6
+    # and (session 25) the sharing in the sub-filters with it: the sharing at the fusion
+    # (fkf's default) needs the invariant feedback (FkfConfig.information_sharing)
     upd = {"init_velocity_from_attitude": True, "invariant_velocity_error": False,
            "init_tilt_sigma_deg": max(env["level_deg"], base.init_tilt_sigma_deg),
            "init_heading_sigma_deg": (max(env["heading_deg"], base.init_heading_sigma_deg)
@@ -369,6 +371,8 @@ def fine_config_from_coarse(cls, fine: dict, meta, lat: float, window_s: float,
         upd.update({"init_attitude_cross": X, "init_tilt_sigma_deg": tilt,
                     "init_heading_sigma_deg": head})
         env["attitude_cross"] = X
+    if "information_sharing" in cls.model_fields:
+        upd["information_sharing"] = "sub-filters"
     upd = {k: v for k, v in upd.items() if k not in (fine or {})}
     warnings = []
     if not env["resolvable"]:

@@ -817,7 +817,15 @@ def _condition_on_healthy(S, C, l, Xc, Pc):
     The locals' errors are taken as uncorrelated: the ``1 / beta`` sharing makes their
     block-diagonal an upper bound of the joint covariance (eq. 33-35,
     :mod:`inmotion.estimation.federated`), so the conditioned ``Pc`` bounds the error of
-    ``Xc``. Returns False (copy untouched) when no other primary is healthy."""
+    ``Xc``. Returns False (copy untouched) when no other primary is healthy.
+
+    With the sharing at the fusion (``C.fuse_w[l] < 1``, :mod:`inmotion.estimation.federated`)
+    the bound is covariance intersection's: the copy's covariance is taken ``/ w_l`` and the
+    healthy estimate's is the weighted fusion's; when no other primary is healthy the copy is
+    conditioned on the fallback (the vehicle-constraint filter, which keeps its updates), its
+    covariance ``/ (1 - w_l)`` (issue 15, session 25: at 0.05 on paper 003's drive both
+    channels isolated at once were tested against their frozen masked copies and one drive of
+    20 latched both for 270 s; with the fallback none does)."""
     nc = C.n_common
     L = S.X.shape[0]
     use = np.zeros(L, dtype=np.bool_)
@@ -826,11 +834,21 @@ def _condition_on_healthy(S, C, l, Xc, Pc):
         use[i] = i != l and C.primary[i] and _local_healthy(S, C, i)
         if use[i]:
             k += 1
-    if k == 0:
-        return False
     xh = np.empty(nc)
     Ph = np.empty((nc, nc))
-    fuse_kernel(S.X, S.P, use, nc, xh, Ph, C.fuse_w)
+    if k == 0:
+        fb = -1
+        for i in range(L):
+            if C.fallback[i]:
+                fb = i
+        if fb < 0 or C.fuse_w[l] >= 1.0:
+            return False
+        for a in range(nc):
+            xh[a] = S.X[fb, a]
+            for b in range(nc):
+                Ph[a, b] = S.P[fb, a, b] / (1.0 - C.fuse_w[l])
+    else:
+        fuse_kernel(S.X, S.P, use, nc, xh, Ph, C.fuse_w)
     if C.fuse_w[l] != 1.0:        # sharing at the fusion: the copy's side of the bound
         for a in range(Pc.shape[0]):
             for b in range(Pc.shape[0]):

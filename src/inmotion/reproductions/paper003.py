@@ -106,9 +106,12 @@ PAPER_IMU = {"gyro_drift_deg_h": 0.005, "gyro_arw_deg_sqrt_h": 0.0005, "accel_bi
 #: consistent on fine sensors where the paper's form is overconfident): this reproduction tests
 #: the paper's own claim, so every fine filter here runs the paper's form
 PAPER_ROWS_FORM = {"exact_attitude_columns": False, "second_order_length": False}
+#: (the sharing in the sub-filters, eq. 33-35, and the standard feedback: fkf's defaults since
+#: issue 15, session 25, are the sharing at the fusion with the invariant feedback)
 PAPER_FKF = {"measurement": "displacement", "beta_od": 0.5, "beta_ldv": 0.5,
-             "main_period_s": 10.0, "fdi": True, "isolated_in_fusion": False, **PAPER_IMU,
-             **PAPER_ROWS_FORM}
+             "main_period_s": 10.0, "fdi": True, "isolated_in_fusion": False,
+             "information_sharing": "sub-filters", "invariant_velocity_error": False,
+             **PAPER_IMU, **PAPER_ROWS_FORM}
 #: false-alarm rates of the residual test: ours (1e-3 per test) and the paper's (sec. 4.3)
 FDI_RATES = (1e-3, 0.05)
 #: the fault experiment's return test (``fkf``'s ``return_test``, issue 15): an isolated
