@@ -32,7 +32,16 @@ Measured (session 23, seeds 100-104, nhc-kf):
 Measured (session 24, ``--gyro 100,50,60``, seeds 100-104; standard with
 ``'{"invariant_velocity_error": false}'`` / invariant, the default): od-velocity-kf 5.23 /
 0.80, sins-dr 6.25 / 0.43, dr-kf 2.02 / 2.04; with ``--ldv``: ldv-kf 3.57 / 0.70, fkf 5.94 /
-3.06 (fkf keeps the standard feedback: ``aided_kf.FkfConfig``).
+3.06 (fkf then kept the standard feedback).
+
+Measured (session 25, ``fkf --ldv``, ``--runs 10``, seeds 100-109; band 0.32-2.05): the
+sharing in the sub-filters (``'{"information_sharing": "sub-filters"}'``, standard feedback)
+1.12 at ``--gyro 30,15,60``, 5.1 at ``60,30,60``, 5.94 (5 runs) at ``100,50,60``; with the
+invariant feedback 0.84, 1.75, 4.63; ldv-kf alone 1.91 and od-kf 2.00 at ``100,50,60``, ldv-kf
+with the sub-filters' ``1 / beta`` forced on it 3.48 (0.43 at ``30,15,60``: conservative, as the
+linear theory says). fkf's default since, the sharing at the fusion with the invariant
+feedback: 2.03 at ``100,50,60`` (0.95 over the first 5), 0.90 at ``30,15,60``; with the
+standard feedback 20.4.
 """
 from __future__ import annotations
 

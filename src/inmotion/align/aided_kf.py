@@ -16,6 +16,12 @@
     sub-filter 2 with the LDV, sharing factors ``beta_od``, ``beta_ldv`` (main 0, non-reset),
     global fusion (eq. 36) and feedback every ``main_period_s``; chi-square residual FDI per
     channel (eq. 40-42, false-alarm rate ``false_alarm_rate``) and reconfiguration of Table 1.
+    The sharing is taken at the fusion by default (``information_sharing``, session 25: the
+    sub-filters run as their channels' own filters, eq. 36 weighs each by its ``beta``;
+    :mod:`inmotion.estimation.federated`), in the sub-filters as paper 003 prints it (eq.
+    33-35) on request and in its reproduction; where this docstring speaks of the ``1 /
+    beta`` in the sub-filters (their ``Q``, ``P(0)``, the shared rows' noise, the residual
+    test's weights) it is that setting's.
 
 All four run on the package's one error-state engine
 (:class:`inmotion.estimation.engine.ErrorStateFilter`) as a bank of local filters on the one
