@@ -175,9 +175,11 @@ def _observation(acc, has_dk, has_nabla, has_eps, has_dv0, has_w):
 @numba.njit(cache=True)
 def _update(x, P, q, obs_y, beta_n, wie_n, D_i, S, Wm, Wc, scale, a, f, R, eta,
             adaptive_r, c_fade, R_min, R_max, hinf_mode, gamma_fixed, k0, gamma_min,
-            gamma_max, margin, hinf_w):
+            gamma_max, margin, hinf_w, cv2, q_ib):
     """Measurement update (eq. 34-38, 42-45, 50-59). Also returns the innovation ``e`` and
-    its NIS ``e^T Py^-1 e`` (``Py`` with the R the update used)."""
+    its NIS ``e^T Py^-1 e`` (``Py`` with the R the update used). ``cv2`` (2,): the variances
+    of the vehicle's lateral and vertical velocity (``UsqueConfig.constraint_noise_m_s``,
+    zeros: none), added to ``R`` along the body's x and z axes resolved in i by ``q_ib``."""
     chi = _sigma(x, P, scale)
     chi_q = _quats(chi, q, a, f)
     Z = _h(chi_q, chi, beta_n, wie_n, D_i, S)
@@ -190,6 +192,12 @@ def _update(x, P, q, obs_y, beta_n, wie_n, D_i, S, Wm, Wc, scale, a, f, R, eta,
     if adaptive_r:
         R, eta = _adapt_noise(R, eta, e, np.diag(Py0) + R, c_fade, R_min, R_max)
     Rm = np.diag(R)
+    if cv2[0] > 0.0 or cv2[1] > 0.0:
+        ux = kn.qrotate((q_ib[0], q_ib[1], q_ib[2], q_ib[3]), (1.0, 0.0, 0.0))
+        uz = kn.qrotate((q_ib[0], q_ib[1], q_ib[2], q_ib[3]), (0.0, 0.0, 1.0))
+        for r in range(3):
+            for c in range(3):
+                Rm[r, c] += cv2[0] * ux[r] * ux[c] + cv2[1] * uz[r] * uz[c]
     Py = Py0 + Rm
     n = Pxy.shape[0]
     rhs = np.empty((Py.shape[0], n + 1))          # one solve for the gain and the NIS
@@ -229,7 +237,7 @@ def run_epochs(acc, dtheta, dvel, dt_rows, speed, epochs, slot, x, P, q, Q, Wm, 
                f, R, eta, adaptive_r, c_fade, R_min, R_max, hinf_mode, gamma_fixed, k0,
                gamma_min, gamma_max, margin, hinf_w, has_dk, has_nabla, has_eps, has_dv0,
                has_w, arw2_dt, vrw2_dt, out_q_in, out_q_ib, out_lla, out_P, out_R, out_gamma,
-               out_x):
+               out_x, cv2):
     """The filter epochs of one block of IMU rows. ``epochs[j]`` is the row (in the block)
     of update ``j``; row 0 is the block's start (the run's start, or the previous block's last
     epoch: ``acc`` holds the accumulator there, updated in place). Epoch ``j`` is written to
@@ -258,7 +266,8 @@ def run_epochs(acc, dtheta, dvel, dt_rows, speed, epochs, slot, x, P, q, Q, Wm, 
         x, P, q = _predict(x, P, q, dq_n, Wm, Wc, scale, Qk, a, f)
         x, P, q, R, eta, gamma, hit, e, nis = _update(
             x, P, q, y, beta_n, wie_n, D_i, S, Wm, Wc, scale, a, f, R, eta, adaptive_r,
-            c_fade, R_min, R_max, hinf_mode, gamma_fixed, k0, gamma_min, gamma_max, margin, hinf_w)
+            c_fade, R_min, R_max, hinf_mode, gamma_fixed, k0, gamma_min, gamma_max, margin, hinf_w,
+            cv2, q_ib)
         hits += hit
         nis_sum += nis
         r = slot[j]
@@ -288,6 +297,8 @@ def run_vector_epochs(y, beta_n, q_n0n, slot, x, P, q, Q, Wm, Wc, scale, a, f, R
     ``slot[j - 1]`` (none when negative). Returns ``(floor hits, NIS sum, x, P, q, R,
     eta)``: as :func:`run_epochs`."""
     zero3 = np.zeros(3)
+    no_cv = np.zeros(2)                  # the paper's model: no constraint noise term
+    unit_q = np.array([1.0, 0.0, 0.0, 0.0])
     S = np.zeros((3, 0))
     hits = 0
     nis_sum = 0.0
@@ -296,7 +307,8 @@ def run_vector_epochs(y, beta_n, q_n0n, slot, x, P, q, Q, Wm, Wc, scale, a, f, R
         x, P, q = _predict(x, P, q, dq_n, Wm, Wc, scale, Q, a, f)
         x, P, q, R, eta, gamma, hit, e, nis = _update(
             x, P, q, y[j], beta_n[j], zero3, zero3, S, Wm, Wc, scale, a, f, R, eta, adaptive_r,
-            c_fade, R_min, R_max, hinf_mode, gamma_fixed, k0, gamma_min, gamma_max, margin, hinf_w)
+            c_fade, R_min, R_max, hinf_mode, gamma_fixed, k0, gamma_min, gamma_max, margin, hinf_w,
+            no_cv, unit_q)
         hits += hit
         nis_sum += nis
         r = slot[j - 1]
