@@ -4,7 +4,6 @@ measurement's noise and in ``w``'s start, and a start outside the paper's prior 
 Paper 003's drive (navigation-grade IMU, an LDV giving distance at 100 Hz, the vehicle's
 measured side slip and bounce), cut to 120 s; its installation errors (the IMU's mounting,
 the LDV's lever arm and beam misalignment), which the family has no states for, zeroed."""
-import copy
 import functools
 
 import numpy as np
