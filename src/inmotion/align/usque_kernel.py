@@ -139,9 +139,9 @@ def _observation(acc, has_dk, has_nabla, has_eps, has_dv0, has_w):
     present)."""
     q_ib = acc[model.Q_IB:model.Q_IB + 4].copy()
     q_n0n = acc[model.Q_N0N:model.Q_N0N + 4].copy()
-    u_i = kn.dcm_from_quat(q_ib) @ np.array([0.0, acc[model.V_PREV], 0.0])
-    V_i = u_i.copy()
-    V_i[1] -= acc[model.V0]
+    e_s = acc[model.E_S:model.E_S + 3].copy()
+    u_i = kn.dcm_from_quat(q_ib) @ (acc[model.V_PREV] * e_s)
+    V_i = u_i - acc[model.V0] * e_s
     beta_n = kn.dcm_from_quat(q_n0n).T @ acc[model.BETA_N0:model.BETA_N0 + 3]
     lat = acc[model.LAT]
     wie_n = np.array([0.0, model.kn.OMEGA_IE * math.cos(lat), model.kn.OMEGA_IE * math.sin(lat)])
@@ -164,7 +164,8 @@ def _observation(acc, has_dk, has_nabla, has_eps, has_dv0, has_w):
         S[:, c:c + 3] = J
         c += 3
     if has_dv0:
-        S[1, c] = -1.0
+        for r in range(3):
+            S[r, c] = -e_s[r]
         c += 1
     if has_w:
         for r in range(3):

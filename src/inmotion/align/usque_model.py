@@ -147,7 +147,9 @@ JF_I = 37       #: 9, int [(C_b^i f^b) x] B dtau [m/s * s], row-major (gyro-drif
 V_LAG = 46      #: the LDV speed one row before the current one [m/s] (dk's column)
 V0_COL = 47     #: the LDV speed at the first row after the start [m/s] (dk's column)
 N_ROWS = 48     #: rows accumulated
-SIZE = 49
+E_S = 49        #: 3, the unit vector in b along which the vehicle moves (meta's mounting)
+LEVER = 52      #: 3, the speed sensor's lever arm in b [m]
+SIZE = 55
 
 
 class ACC:
@@ -156,9 +158,10 @@ class ACC:
     LAT, LON, H, DTH_PREV, DV_PREV, V_PREV, V0, SIZE = (LAT, LON, H, DTH_PREV, DV_PREV,
                                                         V_PREV, V0, SIZE)
     B_I, JF_I, V_LAG, V0_COL, N_ROWS = B_I, JF_I, V_LAG, V0_COL, N_ROWS
+    E_S, LEVER = E_S, LEVER
 
 
-def new_accumulator(lat, lon, h, v0):
+def new_accumulator(lat, lon, h, v0, e_s=(0.0, 1.0, 0.0), lever=(0.0, 0.0, 0.0)):
     """A fresh accumulator at the start: identity rotations, zero integrals.
 
     Parameters
@@ -167,8 +170,17 @@ def new_accumulator(lat, lon, h, v0):
         Initial position.
     v0 : float, m/s
         LDV speed at the start time.
+    e_s : (3,)
+        The unit vector in b along which the vehicle moves, ``C_v^b [0, 1, 0]`` for the IMU's
+        mounting in the vehicle (default: b's forward axis, paper 001's calibrated LDV): the
+        body velocity is ``v e_s``.
+    lever : (3,) m
+        The speed sensor's lever arm in b: its reading less ``e_s . (omega x lever)`` is the
+        vehicle's speed at the IMU (issue 15, session 25).
     """
     a = np.zeros(ACC.SIZE)
+    a[ACC.E_S:ACC.E_S + 3] = e_s
+    a[ACC.LEVER:ACC.LEVER + 3] = lever
     a[ACC.Q_IB] = 1.0
     a[ACC.Q_N0N] = 1.0
     a[ACC.LAT], a[ACC.LON], a[ACC.H] = lat, lon, h
@@ -209,6 +221,11 @@ def _dcm_t(q):
 @numba.njit(cache=True)
 def _step(acc, dth, dv, dt, v, q_bn):
     """Advance the accumulator over one IMU row (see the module docstring)."""
+    e_s = _vec(acc, E_S)
+    lev = _vec(acc, LEVER)
+    if lev[0] != 0.0 or lev[1] != 0.0 or lev[2] != 0.0:      # the sensor's lever arm
+        w = kn.cross((dth[0] / dt, dth[1] / dt, dth[2] / dt), lev)
+        v = v - (e_s[0] * w[0] + e_s[1] * w[1] + e_s[2] * w[2])
     q_ib = _quat(acc, Q_IB)
     dth_p = _vec(acc, DTH_PREV)
     dv_p = _vec(acc, DV_PREV)
@@ -229,10 +246,11 @@ def _step(acc, dth, dv, dt, v, q_bn):
         for c in range(3):
             acc[JF_I + 3 * c + r] += cb[c]
     # displacement in i (trapezoid)
-    u_old = kn.qrotate(q_ib, (0.0, acc[V_PREV], 0.0))
+    vp = acc[V_PREV]
+    u_old = kn.qrotate(q_ib, (e_s[0] * vp, e_s[1] * vp, e_s[2] * vp))
     C_old = _dcm_t(q_ib)
     q_ib = kn.qnormalize(kn.qmul(q_ib, kn.quat_from_rotvec(kn.coning_rotvec(dth, dth_p))))
-    u_new = kn.qrotate(q_ib, (0.0, v, 0.0))
+    u_new = kn.qrotate(q_ib, (e_s[0] * v, e_s[1] * v, e_s[2] * v))
     d = _vec(acc, D_I)
     _put(acc, D_I, (d[0] + 0.5 * dt * (u_old[0] + u_new[0]),
                         d[1] + 0.5 * dt * (u_old[1] + u_new[1]),
@@ -243,7 +261,7 @@ def _step(acc, dth, dv, dt, v, q_bn):
         acc[B_I + r] += 0.5 * dt * (C_old[r] + C_new[r])
     # navigation frame: velocity from the current attitude estimate, rates, gravity (eq. 19)
     lat, h = acc[LAT], acc[H]
-    vn = kn.qrotate(q_bn, (0.0, v, 0.0))
+    vn = kn.qrotate(q_bn, (e_s[0] * v, e_s[1] * v, e_s[2] * v))
     wie = kn.omega_ie_n(lat)
     wen = kn.omega_en_n(lat, h, vn)
     win = (wie[0] + wen[0], wie[1] + wen[1], wie[2] + wen[2])
@@ -306,8 +324,9 @@ def observation(acc):
     q_ib = acc[ACC.Q_IB:ACC.Q_IB + 4].copy()
     q_n0n = acc[ACC.Q_N0N:ACC.Q_N0N + 4].copy()
     C_ib = kn.dcm_from_quat(q_ib)
-    u_i = C_ib @ np.array([0.0, acc[ACC.V_PREV], 0.0])
-    V_i = u_i - np.array([0.0, acc[ACC.V0], 0.0])
+    e_s = acc[ACC.E_S:ACC.E_S + 3]
+    u_i = C_ib @ (acc[ACC.V_PREV] * e_s)
+    V_i = u_i - acc[ACC.V0] * e_s
     V_col = dk_column(acc, C_ib)
     beta_n = kn.dcm_from_quat(q_n0n).T @ acc[ACC.BETA_N0:ACC.BETA_N0 + 3]
     lat = acc[ACC.LAT]
@@ -316,7 +335,7 @@ def observation(acc):
     return dict(y=V_i - acc[ACC.ALPHA_F:ACC.ALPHA_F + 3], beta_n=beta_n,
                 D_i=acc[ACC.D_I:ACC.D_I + 3].copy(), V_i=V_col, B=B, J=J,
                 wie_n=np.array([0.0, kn.OMEGA_IE * np.cos(lat), kn.OMEGA_IE * np.sin(lat)]),
-                q_ib=q_ib, q_n0n=q_n0n)
+                q_ib=q_ib, q_n0n=q_n0n, e_s=e_s.copy())
 
 
 @numba.njit(cache=True)
@@ -329,9 +348,8 @@ def dk_column(acc, C_ib):
     ``E[n^T n] = sigma_v^2`` at every update: an errors-in-variables bias of ``dk`` of about
     ``sigma_v^2 / v^2`` (900 ppm for 0.3 m/s at 10 m/s), which made the matched filter
     overconfident on paper 001's test 2 (``benchmarks/nees_usque.py``)."""
-    u = C_ib @ np.array([0.0, acc[V_LAG], 0.0])
-    u[1] -= acc[V0_COL]
-    return u
+    e = acc[E_S:E_S + 3]
+    return C_ib @ (acc[V_LAG] * e) - acc[V0_COL] * e
 
 
 def sensitivity(obs, blocks):
@@ -341,7 +359,7 @@ def sensitivity(obs, blocks):
     ``dv0`` -> ``[0, -1, 0]``; ``w`` (the integrated IMU noise, module docstring) -> ``I``.
     """
     cols = {"dk": obs["V_i"][:, None], "nabla": -obs["B"], "eps": obs["J"],
-            "dv0": np.array([[0.0], [-1.0], [0.0]]), "w": np.eye(3)}
+            "dv0": -obs["e_s"][:, None], "w": np.eye(3)}
     if not blocks:
         return np.zeros((3, 0))
     return np.hstack([cols[name] for name in blocks])
@@ -361,9 +379,9 @@ def add_integrated_noise(Q, acc, i_w, arw2_dt, vrw2_dt):
     i), ``i_w`` the index of ``w_x`` (the attitude is at 0-2). Returns a new array.
     """
     Qk = Q.copy()
-    a0 = acc[ALPHA_F] + 0.0
-    a1 = acc[ALPHA_F + 1] + acc[V0]
-    a2 = acc[ALPHA_F + 2] + 0.0
+    a0 = acc[ALPHA_F] + acc[V0] * acc[E_S]
+    a1 = acc[ALPHA_F + 1] + acc[V0] * acc[E_S + 1]
+    a2 = acc[ALPHA_F + 2] + acc[V0] * acc[E_S + 2]
     Ax = np.array([[0.0, -a2, a1], [a2, 0.0, -a0], [-a1, a0, 0.0]])
     AAt = Ax @ Ax.T
     for r in range(3):
