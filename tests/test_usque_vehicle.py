@@ -154,3 +154,16 @@ def test_a_malformed_installation_is_bad_input():
     meta = {**b.meta, "vehicle_mounting_arcmin": [1.0, 2.0]}
     with pytest.raises(BadInput, match="vehicle_mounting_arcmin"):
         usque.run(Bundle(b.imu, meta, ldv=b.ldv, truth=b.truth), usque.UsqueConfig())
+
+
+@pytest.mark.parametrize("method", ["usque", "ldv-kf"])
+def test_a_malformed_lever_arm_is_bad_input(method):
+    """``meta_spec.stated_installation``, the one reader of the installation ``meta.yaml``
+    states (the USQUE family, the paper 003 filters, the coarse window's terms)."""
+    from inmotion import registry
+    b = _bundles()[0]
+    meta = {**b.meta, "lever_arms_m": {"ldv": [0.3, float("nan"), 0.0]}}
+    run, Config = registry.get(method).load()
+    with pytest.raises(BadInput, match=r"lever_arms_m\.ldv must be three finite numbers"):
+        run(Bundle(b.imu, meta, ldv=b.ldv, truth=b.truth), Config(),
+            NavState.from_truth(b.truth, t=1.0))

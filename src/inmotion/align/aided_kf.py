@@ -630,7 +630,7 @@ from .meta_spec import (SIM_CONSTRAINT_MAX_DRIFT_DEG_H, SIM_CONSTRAINT_PER_FORWA
                         interval_end_alpha, note_unknown_mounting,
                         markov_mean_sigma, markov_sample_white_equivalent_sigma,
                         markov_white_equivalent_sigma, nhc_noise_from_meta,
-                        quantization_end_factor, sensor_noise_from_meta,
+                        quantization_end_factor, sensor_noise_from_meta, stated_installation,
                         unknown_installation_priors, unknown_mounting_warning,
                         vehicle_constraint_noise)
 
@@ -849,7 +849,8 @@ def _channel(bundle, name, cfg, beta, P15, Q15, c, C_vb0, thr, ret, t0=0.0, vel_
     ``phi`` on ``s``, ``X P_s^-1``, is the joint's, and the residual ``P15 / beta - X P_s^-1
     X^T`` is at least the joint's ``/ beta`` (the federated bound on the shared states; the
     sensor states are the channel's own, not fused)."""
-    lever = np.asarray(bundle.meta.get("lever_arms_m", {}).get(name, [0.0, 0.0, 0.0]), float)
+    lever = stated_installation(bundle.meta, name)[1]
+    lever = np.zeros(3) if lever is None else lever
     short = sensor_short(name)
     P = _pad(P15 / beta)
     P[SUB_LAYOUT["dk"], SUB_LAYOUT["dk"]] = (getattr(cfg, f"{short}_scale_sigma_ppm") * 1e-6) ** 2
@@ -2056,8 +2057,7 @@ def _warnings(f, sensors, cfg, cfg_source, meta, res, speeds=None) -> list:
                     f"{FINE_SENSOR_HEADING_DEG:g} deg heading error at {v:.1f} m/s: on such a "
                     "sensor the sigma has been measured overconfident after turns; "
                     "linearization_floor: auto (the default) or true adds the floor")
-    gyro = float(np.hypot(cfg.gyro_drift_deg_h, cfg.gyro_markov_deg_h
-                          if cfg.gyro_markov_tau_s is not None else 0.0))
+    gyro = _bias_prior(cfg)[0] / DEG_H
     if (len(sensors) > 1 and getattr(cfg, "information_sharing", None) == "sub-filters"
             and gyro > FKF_SUBFILTER_GYRO_DEG_H):
         out.append(f"fkf with a {gyro:.0f} deg/h gyro and the sharing in the sub-filters "
@@ -2161,7 +2161,8 @@ def run_aided(bundle: Bundle, cfg, init: NavState, sensors: tuple, *, method: st
     ret = max(1, int(round(getattr(cfg, "return_after_s", 1.0) / (meas_every * t_ep))))
     A = np.zeros(3)
     if cfg.mounting_from_meta:
-        A = np.asarray(bundle.meta.get("vehicle_mounting_arcmin", [0.0, 0.0, 0.0]), float) * ARCMIN
+        given = stated_installation(bundle.meta)[0]
+        A = np.zeros(3) if given is None else given * ARCMIN
     C_vb0 = rotations.mounting_dcm(A)
     locals_, meas = [], []
     for c, s_ in enumerate(sensors):

@@ -123,6 +123,30 @@ def nhc_noise_from_meta(meta, interval_s: float):
     return None if out is None else max(out)
 
 
+def stated_installation(meta, sensor=None) -> tuple:
+    """``(mounting_arcmin, lever_arm_m)`` as ``meta.yaml`` states them: the IMU's mounting in
+    the vehicle ``vehicle_mounting_arcmin`` and ``sensor``'s lever arm in b
+    ``lever_arms_m[sensor]``, each a (3,) array or None where ``meta`` gives none;
+    :class:`~inmotion.errors.BadInput` for a value that is not three finite numbers."""
+    meta = meta if isinstance(meta, dict) else {}
+    arms = meta.get("lever_arms_m")
+    out = []
+    for where, v in (("vehicle_mounting_arcmin", meta.get("vehicle_mounting_arcmin")),
+                     (f"lever_arms_m.{sensor}",
+                      arms.get(sensor) if isinstance(arms, dict) and sensor else None)):
+        if v is None:
+            out.append(None)
+            continue
+        try:
+            a = np.asarray(v, float)
+        except (TypeError, ValueError):
+            a = None
+        if a is None or a.shape != (3,) or not np.all(np.isfinite(a)):
+            raise BadInput(f"{where} must be three finite numbers, got {v!r}", file="meta.yaml")
+        out.append(a)
+    return tuple(out)
+
+
 def _constraint_violation_sigmas(meta, f, interval_s: float):
     """``(f(lateral), f(vertical))``, ``f(sigma, tau, interval_s)`` of the Gauss-Markov
     figures of ``meta['vehicle']['constraint_violation']``, or None without one or when both

@@ -157,7 +157,8 @@ def window_envelope(emap: Optional[dict], base, meta, channel: Optional[str],
     if noise is None:
         noise = (getattr(base, f"{short}_noise_m_s", None) or [0.0, 0.0, 0.0])[1]
     rate = float(sens.get("rate_hz") or rate_hz or 0.0)
-    lever = (meta.get("lever_arms_m") or {}).get(channel) or [0.0, 0.0, 0.0]
+    lever = ak.stated_installation(meta, channel)[1]
+    lever = np.zeros(3) if lever is None else lever
     P = window_terms(
         emap, mount_sigma_rad=np.radians(float(getattr(base, "mount_sigma_arcmin", 30.0)) / 60),
         scale_sigma=float(getattr(base, f"{short}_scale_sigma_ppm", 3000.0)) * 1e-6,

@@ -593,28 +593,20 @@ def resolve_noise(config: UsqueConfig, meta, dt_update_s: float) -> tuple:
         elif getattr(config, state):          # asked for: keep the configured prior
             del upd[f]
             src[f] = f"default ({src[f]} gives 0)"
-    if "constraint_noise_m_s" in set_:
-        src["constraint_noise_m_s"] = "config"
-    else:
-        from .meta_spec import _constraint_violation_sigmas, markov_sample_white_equivalent_sigma
-        cv = _constraint_violation_sigmas(meta, markov_sample_white_equivalent_sigma,
-                                          dt_update_s)
+    from .meta_spec import _constraint_violation_sigmas, markov_sample_white_equivalent_sigma
+    for f, of_gm, what in (
+            ("constraint_noise_m_s", markov_sample_white_equivalent_sigma,
+             "white equivalent of its samples at the update interval"),
+            ("constraint_start_m_s", lambda sig, tau, T: sig, "its 1-sigma")):
+        if f in set_:
+            src[f] = "config"
+            continue
+        cv = _constraint_violation_sigmas(meta, of_gm, dt_update_s)
         if cv is not None:
-            upd["constraint_noise_m_s"] = (float(cv[0]), float(cv[1]))
-            src["constraint_noise_m_s"] = ("meta.vehicle.constraint_violation (white "
-                                           "equivalent of its samples at the update interval)")
+            upd[f] = (float(cv[0]), float(cv[1]))
+            src[f] = f"meta.vehicle.constraint_violation ({what})"
         else:
-            src["constraint_noise_m_s"] = "none (no meta.vehicle.constraint_violation)"
-    if "constraint_start_m_s" in set_:
-        src["constraint_start_m_s"] = "config"
-    else:
-        from .meta_spec import _constraint_violation_sigmas
-        cv = _constraint_violation_sigmas(meta, lambda sig, tau, T: sig, dt_update_s)
-        if cv is not None:
-            upd["constraint_start_m_s"] = (float(cv[0]), float(cv[1]))
-            src["constraint_start_m_s"] = "meta.vehicle.constraint_violation (its 1-sigma)"
-        else:
-            src["constraint_start_m_s"] = "none (no meta.vehicle.constraint_violation)"
+            src[f] = "none (no meta.vehicle.constraint_violation)"
     if "k0" in set_:
         src["k0"] = "config"
     else:            # memory ~ dt (1 + k0)^2 (module docstring, "Gamma for the matched noise")
@@ -942,27 +934,14 @@ def _installation(meta, sensor: str) -> tuple:
     (:mod:`inmotion.sim.sensors`) and is not taken. Measured on paper 003's drive (10 / 15
     arcmin mounting, the LDV 1.2 m ahead; 120 s, heading 0 deg, seeds 3-8): without it the
     level ended 1-2 arcmin off at a 0.2 arcmin sigma and the heading 54-58 at 2.1."""
-    meta = meta if isinstance(meta, dict) else {}
-    A = meta.get("vehicle_mounting_arcmin")
+    from .meta_spec import stated_installation
+    A, lever = stated_installation(meta, sensor)
     e_s = np.array([0.0, 1.0, 0.0])
-    info = {"mounting_arcmin": None, "lever_arm_m": None}
-    if A is not None:
-        A = np.asarray(A, float)
-        if A.shape != (3,) or not np.all(np.isfinite(A)):
-            raise BadInput(f"vehicle_mounting_arcmin must be three finite angles, got {A!r}",
-                           file="meta.yaml")
-        if np.any(A != 0.0):
-            e_s = rotations.mounting_dcm(A * _DEG / 60.0) @ e_s
-        info["mounting_arcmin"] = A.tolist()
-    lever = np.zeros(3)
-    arms = meta.get("lever_arms_m")
-    if isinstance(arms, dict) and arms.get(sensor) is not None:
-        lever = np.asarray(arms[sensor], float)
-        if lever.shape != (3,) or not np.all(np.isfinite(lever)):
-            raise BadInput(f"lever_arms_m.{sensor} must be three finite numbers, got "
-                           f"{arms[sensor]!r}", file="meta.yaml")
-        info["lever_arm_m"] = lever.tolist()
-    return e_s, lever, info
+    if A is not None and np.any(A != 0.0):
+        e_s = rotations.mounting_dcm(A * _DEG / 60.0) @ e_s
+    info = {"mounting_arcmin": None if A is None else A.tolist(),
+            "lever_arm_m": None if lever is None else lever.tolist()}
+    return e_s, np.zeros(3) if lever is None else lever, info
 
 
 def _unknown_mounting(sol: Solution, meta) -> None:

@@ -42,9 +42,8 @@ def _samples(name: str, sensor: SpeedData) -> tuple[np.ndarray, np.ndarray]:
     else:
         if len(sensor.t) < 2:
             raise BadInput("needs at least two distance increments", file=name)
-        dt = np.diff(sensor.t)
-        t = sensor.t[1:] - 0.5 * dt
-        v = sensor.ds[1:] / dt
+        t = speed_times(sensor)[1:]
+        v = sensor.speed()[1:]
     bad = ~np.isfinite(v)
     if bad.any():
         i = int(np.argmax(bad))
