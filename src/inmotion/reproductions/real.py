@@ -97,7 +97,8 @@ NOT_DONE = [
     "comma2k19: the lever arm states of od-kf are estimated but not reported (no reference for "
     "them: the reference gives the camera's pose only)",
     "comma2k19 od-kf yaw mounting (issue 15 target: within 0.2 deg of the reference-derived "
-    "-0.81 deg): NOT met, and not reliably within reach of 60 s of this drive. Constant + "
+    "-0.81 deg): NOT met, and met by the same filter on only half of simulated drives "
+    "whose car slips as this one does (below). Constant + "
     "Gauss-Markov gyro bias in one pass (two states per axis, spec in meta.imu): -0.51 deg "
     "(sigma 0.26, covers the error); constant gyro bias: -0.08 (sigma 0.17, overconfident); "
     "one Gauss-Markov state: -0.52 (sigma 0.26). Why (session 26, measured): the simulated "
@@ -1436,8 +1437,8 @@ def _miss_against_slip(comma: dict, err_deg: float) -> str:
         return "no simulated check with the car's side slip in this run"
     rms = slip["models"][HEADLINE_MODEL]["yaw_error_rms_deg"]
     return (f"the miss here, {abs(err_deg):.2f} deg, is {abs(err_deg) / rms:.1f} times "
-            "that RMS, the error a correct estimator makes on such a drive once the car slips "
-            "as this one does (table below)")
+            "that RMS, the error the same single pass makes, its sigma covering it, on "
+            "simulated drives whose car slips as this one does (table below)")
 
 
 def _measured_slip_point(sim: dict):
