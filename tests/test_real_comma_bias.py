@@ -170,8 +170,9 @@ def test_comma_like_scenario_slip():
     cv = rr.comma_like_scenario(0.5)["vehicle"]["constraint_violation"]
     assert cv["lateral_sigma_m_s"] == pytest.approx(0.5 * rr.COMMA_MEASURED_SLIP["lateral_sigma_m_s"])
     assert cv["vertical_tau_s"] == rr.COMMA_MEASURED_SLIP["vertical_tau_s"]
-    with pytest.raises(BadInput):
-        rr.comma_like_scenario(-1.0)
+    for bad in (-1.0, float("nan")):
+        with pytest.raises(BadInput, match="slip_scale must be a finite number >= 0"):
+            rr.comma_like_scenario(bad)
 
 
 @needs_comma
